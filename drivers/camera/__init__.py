@@ -1,0 +1,1 @@
+"""Camera drivers: every source delivers :class:`drivers.camera.frame.Frame` objects."""

@@ -1,0 +1,2 @@
+"""Laser rangefinder drivers; every one delivers
+:class:`drivers.rangefinder.reading.RangeReading`."""

@@ -1,0 +1,1 @@
+"""One module per ``snrmon`` subcommand; each defines ``register(subparsers)``."""

@@ -1,0 +1,64 @@
+"""``snrmon bench``: speed and memory figures of this machine (see ``benchmarks/``)."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import pkgutil
+import platform
+import sys
+
+import benchmarks
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="measure throughput, latency and memory on this machine")
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=10.0,
+        metavar="S",
+        help="seconds of sustained acquisition (an hour is the soak test)",
+    )
+    p.add_argument(
+        "--only",
+        default="",
+        metavar="KEYS",
+        help="comma-separated benchmark keys to run (default: all)",
+    )
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.duration <= 0:
+        raise ValueError(f"--duration must be positive, got {args.duration}")
+    only = {k.strip() for k in args.only.split(",") if k.strip()}
+    result: dict = {
+        "machine": {
+            "python": platform.python_version(),
+            "processor": platform.processor() or platform.machine(),
+        }
+    }
+    for info in sorted(pkgutil.iter_modules(benchmarks.__path__), key=lambda m: m.name):
+        if not info.name.startswith("bench_"):
+            continue
+        module = importlib.import_module(f"benchmarks.{info.name}")
+        key = getattr(module, "KEY", info.name.removeprefix("bench_"))
+        if only and key not in only:
+            continue
+        if not args.json:
+            print(f"running {key} ...", file=sys.stderr, flush=True)
+        figures = module.run(args.duration)
+        existing = result.setdefault(key, {})
+        existing.update(figures)
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        for key, figures in result.items():
+            print(f"[{key}]")
+            for name, value in figures.items():
+                shown = f"{value:.4g}" if isinstance(value, float) else value
+                print(f"  {name:32s} {shown}")
+    return 0
