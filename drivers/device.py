@@ -51,7 +51,8 @@ class DeviceState(StrEnum):
 class DeviceStatus:
     """A snapshot of a device's health, safe to hand to any thread.
 
-    ``last_reading_age_s`` is ``None`` until the first reading.
+    ``last_reading_age_s`` is ``None`` until the first reading. ``dropped`` counts readings the
+    device itself says it lost (for cameras: gaps in the camera's own frame counter).
     """
 
     name: str
@@ -61,6 +62,7 @@ class DeviceStatus:
     parse_errors: int = 0
     checksum_errors: int = 0
     reconnects: int = 0
+    dropped: int = 0
     last_error: str = ""
 
 
