@@ -24,10 +24,11 @@ reading in a queue or a ring) and must not raise. Status changes go to status su
 from __future__ import annotations
 
 import logging
+import queue
 import threading
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import Generic, TypeVar
@@ -71,7 +72,9 @@ class Device(ABC, Generic[R]):
 
     Args:
         name: the device's name in status lines and recordings.
-        stale_after_s: no reading for this long while streaming -> ``stale``.
+        stale_after_s: no reading for this long while streaming -> ``stale``; ``None`` disables
+            the watchdog (event-driven devices such as a hand-held rangefinder that speaks only
+            when fired).
         reopen_after_s: stale for this long -> close and reopen the link (counts a reconnect).
         backoff_s: (first, max) delay between reconnect attempts; doubles each failure.
         max_attempts: consecutive failed connects before ``failed``; ``None`` retries forever.
@@ -81,7 +84,7 @@ class Device(ABC, Generic[R]):
         self,
         name: str,
         *,
-        stale_after_s: float = 2.0,
+        stale_after_s: float | None = 2.0,
         reopen_after_s: float = 1.0,
         backoff_s: tuple[float, float] = (0.1, 2.0),
         max_attempts: int | None = None,
@@ -154,6 +157,20 @@ class Device(ABC, Generic[R]):
             self._status_subscribers.append(callback)
         return lambda: self._unsubscribe(self._status_subscribers, callback)
 
+    def iter_readings(self, timeout_s: float | None = None) -> Iterator[R]:
+        """Yield readings as they arrive (the device must be open); stops after ``timeout_s``
+        without a reading, or never when ``None``. Close the generator to unsubscribe."""
+        q: queue.Queue[R] = queue.Queue()
+        unsubscribe = self.subscribe(q.put)
+        try:
+            while True:
+                try:
+                    yield q.get(timeout=timeout_s)
+                except queue.Empty:
+                    return
+        finally:
+            unsubscribe()
+
     def status(self) -> DeviceStatus:
         """The current status, with the age of the last reading computed now."""
         with self._lock:
@@ -184,7 +201,21 @@ class Device(ABC, Generic[R]):
     def _count(self, counter: str, error: str = "") -> None:
         with self._lock:
             value = getattr(self._status, counter) + 1
-        self._set(**{counter: value, "last_error": error or self._status.last_error})
+            last_error = error or self._status.last_error
+        self._set(**{counter: value, "last_error": last_error})
+
+    def _count_error(self, exc: ParseError) -> None:
+        """Count a bad line without interrupting a batch (checksum errors separately)."""
+        if isinstance(exc, ChecksumError):
+            self._count("checksum_errors", str(exc))
+        else:
+            self._count("parse_errors", str(exc))
+
+    def _mark_alive(self) -> None:
+        """The device spoke (an acknowledgement, a status reply) without giving a reading: feed
+        the watchdog but do not count a reading."""
+        with self._lock:
+            self._last_reading_ns = time.monotonic_ns()
 
     def _publish(self, reading: R) -> None:
         now = time.monotonic_ns()
@@ -207,6 +238,11 @@ class Device(ABC, Generic[R]):
             self._set(state=DeviceState.CONNECTING)
             try:
                 self._connect()
+            except (ValueError, TypeError) as exc:
+                # A configuration the link layer rejects (bad URL, bad baud rate) cannot heal
+                # by retrying.
+                self._set(state=DeviceState.FAILED, last_error=f"cannot open: {exc}")
+                return
             except OSError as exc:
                 failures += 1
                 self._set(last_error=f"cannot open: {exc}")
@@ -224,6 +260,8 @@ class Device(ABC, Generic[R]):
             # The watchdog counts from the (re)open, not from a reading before it.
             self._stream(time.monotonic_ns())
             self._disconnect()
+            # A short pause before reopening keeps a link that fails at once from spinning.
+            self._stop.wait(self.backoff_s[0])
         self._disconnect()
 
     def _stream(self, opened_ns: int) -> None:
@@ -232,13 +270,17 @@ class Device(ABC, Generic[R]):
             try:
                 for reading in self._read():
                     self._publish(reading)
-            except ChecksumError as exc:
-                self._count("checksum_errors", str(exc))
             except ParseError as exc:
-                self._count("parse_errors", str(exc))
+                self._count_error(exc)
             except OSError as exc:
                 self._set(state=DeviceState.DISCONNECTED, last_error=f"link lost: {exc}")
                 return
+            except Exception as exc:  # a driver bug: report it and reopen rather than die
+                log.exception("reader of %s failed", self.name)
+                self._set(state=DeviceState.DISCONNECTED, last_error=f"driver error: {exc!r}")
+                return
+            if self.stale_after_s is None:
+                continue
             with self._lock:
                 last = self._last_reading_ns
             since = max(last or 0, opened_ns)

@@ -7,3 +7,12 @@ class ParseError(ValueError):
 
 class ChecksumError(ParseError):
     """A sentence whose checksum does not match its contents."""
+
+
+class ConfigError(ValueError):
+    """A device configuration that cannot work (unknown kind, bad URL, bad baud rate); the
+    message names the table key and the value."""
+
+
+class MissingDependencyError(ImportError):
+    """An optional backend whose package is not installed; the message says what to install."""
