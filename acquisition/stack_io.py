@@ -1,0 +1,177 @@
+"""Frame stacks from files, for ``snrmon measure`` and replay of other tools' recordings.
+
+Sources (chosen by the file name's suffix):
+
+* ``.npy``: an array (N, H, W) or one frame (H, W) -> (1, H, W); loaded memory-mapped.
+* ``.tif``/``.tiff``: a multi-page TIFF, every page a frame, 16-bit kept (OpenCV
+  ``IMREAD_UNCHANGED``); colour pages keep their first channel.
+* ``.png``: one frame (H, W); colour keeps the first channel.
+* a raw binary file ``FILE`` with a JSON descriptor ``FILE.json`` beside it (``FILE.json`` may be
+  given instead of ``FILE``)::
+
+      {"shape": [N, H, W], "dtype": "uint16", "fps": 60, "byte_order": "little"}
+
+  ``shape`` and ``dtype`` (a numpy name: uint8, uint16, int16, uint32, int32, float32, float64)
+  are required; ``byte_order`` is "little" (default) or "big"; ``fps`` is informational. Frames
+  are C-ordered, rows then columns, no header; the file size must match exactly.
+* video (``.mp4 .avi .mkv .mov .mpg .mpeg .wmv .m4v``) through OpenCV: 8-bit frames (the camera's
+  AGC'd output, not radiometric counts), first channel of each.
+
+Bad input is a ValueError (wrong shape, dtype, size, descriptor) or OSError (missing, unreadable)
+with one message naming the file and the value.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+VIDEO_SUFFIXES = frozenset({".mp4", ".avi", ".mkv", ".mov", ".mpg", ".mpeg", ".wmv", ".m4v"})
+RAW_DTYPES = frozenset({"uint8", "uint16", "int16", "uint32", "int32", "float32", "float64"})
+
+
+def _as_stack(array: np.ndarray, path: Path) -> np.ndarray:
+    if array.ndim == 2:
+        array = array[None]
+    if array.ndim != 3:
+        raise ValueError(
+            f"{path}: expected a stack (N,H,W) or a frame (H,W), got shape {array.shape}"
+        )
+    if 0 in array.shape:
+        raise ValueError(f"{path}: empty stack, shape {array.shape}")
+    if array.dtype.kind not in "uif":
+        raise ValueError(f"{path}: pixels must be integers or floats, got dtype {array.dtype}")
+    return array
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    return image[..., 0] if image.ndim == 3 else image
+
+
+def _raw_paths(path: Path) -> tuple[Path, Path]:
+    if path.suffix == ".json":
+        return path.with_suffix(""), path
+    return path, path.with_name(path.name + ".json")
+
+
+def _raw_descriptor(path: Path) -> tuple[Path, tuple[int, int, int], np.dtype]:
+    data, desc_path = _raw_paths(path)
+    try:
+        desc = json.loads(desc_path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{desc_path}: not valid JSON ({exc.msg})") from None
+    if not isinstance(desc, dict):
+        raise ValueError(f"{desc_path}: descriptor must be a JSON object")
+    shape = desc.get("shape")
+    if (
+        not isinstance(shape, list)
+        or len(shape) not in (2, 3)
+        or not all(isinstance(v, int) and v > 0 for v in shape)
+    ):
+        raise ValueError(
+            f"{desc_path}: shape must be [N, H, W] or [H, W] positive ints, got {shape}"
+        )
+    if len(shape) == 2:
+        shape = [1, *shape]
+    name = desc.get("dtype")
+    if name not in RAW_DTYPES:
+        raise ValueError(f"{desc_path}: dtype must be one of {sorted(RAW_DTYPES)}, got {name!r}")
+    order = desc.get("byte_order", "little")
+    if order not in ("little", "big"):
+        raise ValueError(f"{desc_path}: byte_order must be 'little' or 'big', got {order!r}")
+    dtype = np.dtype(name).newbyteorder("<" if order == "little" else ">")
+    expected = int(np.prod(shape)) * dtype.itemsize
+    size = data.stat().st_size
+    if size != expected:
+        what = "truncated" if size < expected else "too long"
+        raise ValueError(
+            f"{data}: raw file {what}: {size} bytes, but shape {shape} {name} needs {expected}"
+        )
+    return data, tuple(shape), dtype  # type: ignore[return-value]
+
+
+def _is_raw(path: Path) -> bool:
+    _, desc = _raw_paths(path)
+    return desc.is_file() and path.suffix not in (".npy", ".tif", ".tiff", ".png")
+
+
+def _open_video(path: Path) -> cv2.VideoCapture:
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        raise OSError(f"{path}: OpenCV cannot open this video")
+    return cap
+
+
+def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
+    """Frames (H, W) of a stack file one by one, without loading the whole file where the
+    format allows (npy and raw are memory-mapped, TIFF read page by page, video decoded)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in VIDEO_SUFFIXES:
+        if not path.is_file():
+            raise OSError(f"{path}: no such file")
+        cap = _open_video(path)
+        try:
+            while True:
+                ok, image = cap.read()
+                if not ok:
+                    return
+                yield _grey(image)
+        finally:
+            cap.release()
+    elif suffix in (".tif", ".tiff"):
+        if not path.is_file():
+            raise OSError(f"{path}: no such file")
+        pages = cv2.imcount(str(path))
+        if pages <= 0:
+            raise ValueError(f"{path}: OpenCV cannot read this TIFF")
+        for i in range(pages):
+            ok, mats = cv2.imreadmulti(str(path), i, 1, flags=cv2.IMREAD_UNCHANGED)
+            if not ok or not mats:
+                raise ValueError(f"{path}: cannot read TIFF page {i}")
+            yield _grey(mats[0])
+    else:
+        yield from load_stack(path)
+
+
+def load_stack(path: str | Path) -> np.ndarray:
+    """The frames of ``path`` as an array (N, H, W) (see the module docstring for formats)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if _is_raw(path):
+        data, shape, dtype = _raw_descriptor(path)
+        return _as_stack(np.memmap(data, dtype=dtype, mode="r", shape=shape), data)
+    if not path.is_file():
+        raise OSError(f"{path}: no such file")
+    if suffix == ".npy":
+        try:
+            array = np.load(path, mmap_mode="r", allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
+        return _as_stack(array, path)
+    if suffix in (".tif", ".tiff"):
+        ok, mats = cv2.imreadmulti(str(path), flags=cv2.IMREAD_UNCHANGED)
+        if not ok or not mats:
+            raise ValueError(f"{path}: OpenCV cannot read this TIFF")
+        shapes = {m.shape[:2] for m in mats}
+        if len(shapes) != 1:
+            raise ValueError(f"{path}: TIFF pages differ in size: {sorted(shapes)}")
+        return _as_stack(np.stack([_grey(m) for m in mats]), path)
+    if suffix == ".png":
+        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        if image is None:
+            raise ValueError(f"{path}: OpenCV cannot read this PNG")
+        return _as_stack(_grey(image), path)
+    if suffix in VIDEO_SUFFIXES:
+        frames = list(iter_stack(path))
+        if not frames:
+            raise ValueError(f"{path}: the video holds no frames OpenCV can decode")
+        return _as_stack(np.stack(frames), path)
+    raise ValueError(
+        f"{path}: unknown stack format {suffix or '(no suffix)'!r}; expected .npy, .tif/.tiff, "
+        f".png, a video, or a raw file with {path.name}.json beside it"
+    )
