@@ -1,0 +1,160 @@
+"""``snrmon measure``: paper Eq. (4) peak SNR on every frame of a stack file, with statistics.
+
+JSON contract (``--json``), on stdout::
+
+    {"n": N, "snr_mean": float, "snr_std": float,
+     "frames": [{"index": i, "peak_x": int, "peak_y": int, "peak": float, "bg_mean": float,
+                 "bg_std": float, "snr": float, "flags": [str, ...]}, ...]}
+
+``snr_mean``/``snr_std`` (sample std, ddof=1) are over all frames whose SNR is defined (finite),
+flagged or not; a value that is not a finite number (an undefined SNR) is written as ``null``.
+The readable table adds the running mean/std over the last ``--window`` valid frames.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+import numpy as np
+
+from acquisition.background import parse_rect, validate_rect
+from acquisition.peak_snr import FLAG_NAMES, PeakSnrMeter
+from acquisition.stack_io import load_stack
+from acquisition.stack_snr import StackSnr, measure_stack
+from snrmon.cli import UsageError
+
+
+def _point(text: str) -> tuple[int, int]:
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        return int(parts[0]), int(parts[1])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--at must be X,Y (two integers), got {text!r}") from None
+
+
+def _odd(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1 or value % 2 == 0:
+        raise argparse.ArgumentTypeError(f"must be an odd positive integer, got {text!r}")
+    return value
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "measure",
+        help="peak-pixel SNR (paper Eq. 4) of a target in a stack file",
+        description=(
+            "Per frame: the brightest pixel in a search window centred on X,Y; the box centred on "
+            "it; SNR = (peak - mean(rim)) / std(rim), sample std (ddof=1). X is the column, Y the "
+            "row, zero-based. STACK: .npy (N,H,W) or (H,W), multi-page TIFF, PNG, a raw file "
+            "with FILE.json beside it, or a video (8-bit)."
+        ),
+    )
+    p.add_argument("stack", metavar="STACK", help="the frames")
+    p.add_argument("--at", type=_point, required=True, metavar="X,Y", help="operator's point")
+    p.add_argument("--search", type=_odd, default=11, metavar="N", help="search window (11)")
+    p.add_argument("--box", type=_odd, default=7, metavar="N", help="box size, odd (7)")
+    p.add_argument(
+        "--background",
+        default="rim",
+        metavar="rim|X0,Y0,X1,Y1",
+        help="background pixels: the box rim (default) or a clear-sky rectangle, corners included",
+    )
+    p.add_argument("--detrend", action="store_true", help="remove a plane from the background")
+    p.add_argument("--window", type=int, default=100, metavar="N", help="running window (100)")
+    p.add_argument("--saturation", type=float, default=None, metavar="DN", help="saturation level")
+    p.add_argument("--json", action="store_true", help="print the JSON contract on stdout")
+    # A tracker (--track) plugs in at _measure_frames: same meter, a moving point per frame.
+    p.set_defaults(func=run)
+
+
+def _meter(args: argparse.Namespace, shape: tuple[int, int]) -> PeakSnrMeter:
+    if args.box < 3:
+        raise UsageError(f"--box must be an odd integer >= 3, got {args.box}")
+    if args.window < 1:
+        raise UsageError(f"--window must be a positive integer, got {args.window}")
+    background = None
+    if args.background != "rim":
+        background = validate_rect(parse_rect(args.background), shape)
+    x, y = args.at
+    rows, cols = shape
+    if not (0 <= x < cols and 0 <= y < rows):
+        raise UsageError(
+            f"--at {x},{y} is off the {cols}x{rows} image (x must be 0..{cols - 1}, "
+            f"y 0..{rows - 1})"
+        )
+    return PeakSnrMeter(
+        window=args.window,
+        search_px=args.search,
+        box_px=args.box,
+        background=background,
+        detrend=args.detrend,
+        saturation_dn=args.saturation,
+    )
+
+
+def _measure_frames(args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrMeter) -> StackSnr:
+    """The operator's point stays fixed (no tracking): the vectorised stack path."""
+    return measure_stack(stack, args.at, meter=meter)
+
+
+def _num(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
+
+def _summary(snr: np.ndarray) -> tuple[float, float]:
+    finite = snr[np.isfinite(snr)]
+    mean = float(finite.mean()) if finite.size else math.nan
+    std = float(finite.std(ddof=1)) if finite.size > 1 else math.nan
+    return mean, std
+
+
+def run(args: argparse.Namespace) -> int:
+    stack = load_stack(args.stack)
+    meter = _meter(args, stack.shape[1:])
+    result = _measure_frames(args, stack, meter)
+    mean, std = _summary(result.snr)
+    if args.json:
+        frames = [
+            {
+                "index": i,
+                "peak_x": r.peak_x,
+                "peak_y": r.peak_y,
+                "peak": _num(r.peak),
+                "bg_mean": _num(r.bg_mean),
+                "bg_std": _num(r.bg_std),
+                "snr": _num(r.snr),
+                "flags": [f for f in FLAG_NAMES if f in r.flags],
+            }
+            for i, r in enumerate(result.to_list())
+        ]
+        out = {"n": len(result), "snr_mean": _num(mean), "snr_std": _num(std), "frames": frames}
+        json.dump(out, sys.stdout, allow_nan=False)
+        sys.stdout.write("\n")
+        return 0
+    print(
+        f"{'frame':>6} {'x':>5} {'y':>5} {'peak':>10} {'bg_mean':>10} {'bg_std':>8} "
+        f"{'snr':>8}  flags"
+    )
+    for i, r in enumerate(result.to_list()):
+        flags = ",".join(f for f in FLAG_NAMES if f in r.flags)
+        print(
+            f"{i:6d} {r.peak_x:5d} {r.peak_y:5d} {r.peak:10.2f} {r.bg_mean:10.2f} "
+            f"{r.bg_std:8.3f} {r.snr:8.3f}  {flags}"
+        )
+    finite = int(np.isfinite(result.snr).sum())
+    print(f"all frames: n={len(result)} (defined {finite})  SNR mean {mean:.3f}  std {std:.3f}")
+    running = meter.running
+    print(
+        f"running, last {running.count} valid of window {running.window}: "
+        f"SNR mean {running.mean:.3f}  std {running.std:.3f}"
+    )
+    return 0
