@@ -1,0 +1,125 @@
+"""Import of DJI flight-log CSV exports (AirData; PhantomHelp/TXTlogToCSVtool) as GpsFix lists.
+
+DJI's own ``.txt`` flight records are encrypted; users export CSV. Column names (notes 2.5):
+
+* AirData: ``time(millisecond)``, ``datetime(utc)``, ``latitude``, ``longitude``,
+  ``altitude_above_seaLevel(feet|meters)``, ``height_above_takeoff(feet|meters)``, ...
+* PhantomHelp verbose: ``CUSTOM.updateTime``, ``OSD.latitude``, ``OSD.longitude``,
+  ``OSD.height [m]`` or ``[ft]`` (height above take-off).
+
+The unit is read from the header, never assumed; height above take-off is not MSL and is left
+out of the fix rather than mislabelled. The files may hold NUL bytes and Latin-1 text.
+For a replay the fix's ``t_host_ns`` is the log's own time since its first row (ns), so the
+track can be re-timed onto a session clock.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import re
+from datetime import UTC, datetime
+from pathlib import Path
+
+from drivers.errors import ParseError
+from drivers.gps.fix import GpsFix
+
+_UNIT_TO_M = {"feet": 0.3048, "ft": 0.3048, "meters": 1.0, "metres": 1.0, "m": 1.0}
+_UNIT = re.compile(r"^(?P<name>.+?)\s*[\(\[](?P<unit>[A-Za-z]+)[\)\]]$")
+
+
+def _columns(header: list[str]) -> dict[str, tuple[int, float]]:
+    """name (without unit) -> (index, factor to SI); the factor is 1 for unit-less columns."""
+    cols: dict[str, tuple[int, float]] = {}
+    for i, h in enumerate(header):
+        h = h.strip()
+        m = _UNIT.match(h)
+        if m and m["unit"].lower() in _UNIT_TO_M:
+            cols[m["name"].strip()] = (i, _UNIT_TO_M[m["unit"].lower()])
+        elif m and m["name"].strip() == "altitude_above_seaLevel":
+            continue  # an unknown unit: refused by the caller, never guessed
+        else:
+            cols[h] = (i, 1.0)
+    return cols
+
+
+def _time(text: str, where: str) -> datetime:
+    for fmt in ("%Y-%m-%d %H:%M:%S.%f", "%Y-%m-%d %H:%M:%S", "%Y/%m/%d %H:%M:%S.%f",
+                "%Y/%m/%d %H:%M:%S"):  # fmt: skip
+        try:
+            return datetime.strptime(text.strip(), fmt).replace(tzinfo=UTC)
+        except ValueError:
+            continue
+    raise ParseError(f"{where}: time {text!r} is not YYYY-MM-DD HH:MM:SS[.fff]")
+
+
+def read_dji_csv(path: str | Path) -> list[GpsFix]:
+    """Every row with a position, in file order.
+
+    Raises:
+        ParseError: a header without latitude/longitude columns, or a row that does not decode
+            (the message names the file, the line and the value).
+    """
+    path = Path(path)
+    text = path.read_bytes().replace(b"\x00", b"").decode("latin-1")
+    rows = csv.reader(io.StringIO(text))
+    header = next(rows, None)
+    if header is None:
+        raise ParseError(f"{path}: empty file")
+    cols = _columns(header)
+
+    def col(*names: str) -> tuple[int, float] | None:
+        return next((cols[n] for n in names if n in cols), None)
+
+    lat_c, lon_c = col("latitude", "OSD.latitude"), col("longitude", "OSD.longitude")
+    if lat_c is None or lon_c is None:
+        raise ParseError(f"{path}: no latitude/longitude columns in header {header[:6]}...")
+    msl_c = col("altitude_above_seaLevel")
+    if msl_c is None and "altitude_above_seaLevel" in "".join(header):
+        raise ParseError(f"{path}: altitude_above_seaLevel column without a known unit: {header}")
+    utc_c = col("datetime(utc)", "CUSTOM.updateTime")
+    ms_c = col("time(millisecond)")
+    fixes: list[GpsFix] = []
+    t0: datetime | None = None
+    for lineno, row in enumerate(rows, start=2):
+        if not row or all(not c.strip() for c in row):
+            continue
+        where = f"{path}:{lineno}"
+
+        def num(c: tuple[int, float] | None, what: str, row=row, where=where) -> float | None:
+            if c is None or c[0] >= len(row) or row[c[0]].strip() == "":
+                return None
+            try:
+                v = float(row[c[0]])
+            except ValueError:
+                raise ParseError(f"{where}: {what} {row[c[0]]!r} is not a number") from None
+            if not math.isfinite(v):
+                raise ParseError(f"{where}: {what} {row[c[0]]!r} is not finite")
+            return v * c[1]
+
+        lat, lon = num(lat_c, "latitude"), num(lon_c, "longitude")
+        if lat is None or lon is None or (lat == 0.0 and lon == 0.0):
+            continue  # DJI writes 0,0 before the first satellite fix
+        if abs(lat) > 90 or abs(lon) > 180:
+            raise ParseError(f"{where}: position {lat}, {lon} out of range")
+        utc = _time(row[utc_c[0]], where) if utc_c is not None and row[utc_c[0]].strip() else None
+        if ms_c is not None and num(ms_c, "time") is not None:
+            t_ns = round(num(ms_c, "time") * 1e6)
+        elif utc is not None:
+            t0 = t0 or utc
+            t_ns = round((utc - t0).total_seconds() * 1e9)
+        else:
+            t_ns = len(fixes)
+        fixes.append(
+            GpsFix(
+                t_host_ns=t_ns,
+                utc=utc,
+                lat_deg=lat,
+                lon_deg=lon,
+                alt_msl_m=num(msl_c, "altitude"),
+                fix_quality=1,
+                raw=",".join(row),
+            )
+        )
+    return fixes
