@@ -1,0 +1,142 @@
+"""Serial and telemetry device configuration: a TOML table -> a device instance, validated.
+
+Example (``devices.toml``)::
+
+    [gps]
+    protocol = "nmea"          # nmea | gpsd | mavlink
+    port = "/dev/ttyUSB0"      # pyserial URL; gpsd: "host:port"; mavlink: "udpin:0.0.0.0:14550"
+    baud = 38400
+    allow_no_checksum = ["POLYN"]
+    stale_after_s = 1.0
+
+    [lrf]
+    protocol = "trupulse"      # trupulse | ldm
+    port = "socket://192.168.1.20:4001"
+    baud = 4800
+    remote = true
+
+Every key is checked: an unknown key, a wrong type or a bad value raises one
+:class:`drivers.errors.ConfigError` naming the table, the key and the value.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from drivers.device import Device
+from drivers.errors import ConfigError
+from drivers.serialport import SERIAL_BAUD_RATES
+
+GPS_PROTOCOLS = ("nmea", "gpsd", "mavlink")
+LRF_PROTOCOLS = ("trupulse", "ldm")
+PROTOCOLS = GPS_PROTOCOLS + LRF_PROTOCOLS
+
+_COMMON = {
+    "protocol": str,
+    "port": str,
+    "name": str,
+    "stale_after_s": (int, float),
+    "reopen_after_s": (int, float),
+}
+_EXTRA: dict[str, dict[str, Any]] = {
+    "nmea": {"baud": int, "allow_no_checksum": (bool, list), "max_line_bytes": int},
+    "gpsd": {"device_path": str},
+    "mavlink": {"baud": int},
+    "trupulse": {"baud": int, "remote": bool},
+    "ldm": {"baud": int, "output_format": str, "averaging": int, "track": bool},
+}
+
+
+def split_host_port(text: str, default_port: int, what: str) -> tuple[str, int]:
+    """``host:port``, ``gpsd://host:port`` or ``host`` -> (host, port)."""
+    text = text.removeprefix("gpsd://").removeprefix("tcp://")
+    host, sep, port = text.rpartition(":")
+    if not sep:
+        return text or "127.0.0.1", default_port
+    if not port.isdigit() or not 0 < int(port) < 65536:
+        raise ConfigError(f"{what}: port {port!r} in {text!r} is not 1..65535")
+    return host or "127.0.0.1", int(port)
+
+
+def device_from_config(table: dict[str, Any], name: str = "device") -> Device:
+    """Build the device a table describes (see the module docstring)."""
+    where = f"[{name}]"
+    if not isinstance(table, dict):
+        raise ConfigError(f"{where}: expected a table, got {type(table).__name__}")
+    protocol = table.get("protocol")
+    if protocol not in PROTOCOLS:
+        raise ConfigError(f"{where} protocol: {protocol!r} is not one of {', '.join(PROTOCOLS)}")
+    allowed = {**_COMMON, **_EXTRA[protocol]}
+    for key, value in table.items():
+        if key not in allowed:
+            raise ConfigError(
+                f"{where}: unknown key {key!r} for protocol {protocol!r} "
+                f"(known: {', '.join(sorted(allowed))})"
+            )
+        types = allowed[key]
+        if not isinstance(value, types) or (types is int and isinstance(value, bool)):
+            raise ConfigError(f"{where} {key}: {value!r} has the wrong type")
+    port = table.get("port")
+    if not port and protocol != "gpsd":
+        raise ConfigError(f"{where} port: missing (a path or URL such as /dev/ttyUSB0)")
+    baud = table.get("baud")
+    if baud is not None and baud not in SERIAL_BAUD_RATES:
+        raise ConfigError(f"{where} baud: {baud} is not a standard rate {SERIAL_BAUD_RATES}")
+    kw: dict[str, Any] = {"name": table.get("name", name)}
+    for key in ("stale_after_s", "reopen_after_s"):
+        if key in table:
+            if table[key] <= 0:
+                raise ConfigError(f"{where} {key}: {table[key]} must be positive")
+            kw[key] = float(table[key])
+    if baud is not None:
+        kw["baudrate"] = baud
+    try:
+        return _build(protocol, port or "", table, kw, where)
+    except ConfigError:
+        raise
+    except ValueError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+
+
+def _build(protocol: str, port: str, table: dict, kw: dict, where: str) -> Device:
+    # Imported here so that a config naming one protocol does not import the others.
+    if protocol == "nmea":
+        from drivers.gps.nmea_device import NmeaGpsDevice
+
+        allow = table.get("allow_no_checksum", False)
+        if isinstance(allow, list) and not all(isinstance(a, str) for a in allow):
+            raise ConfigError(f"{where} allow_no_checksum: {allow!r} must be addresses")
+        if "max_line_bytes" in table:
+            kw["max_line_bytes"] = table["max_line_bytes"]
+        return NmeaGpsDevice(port, allow_no_checksum=allow, **kw)
+    if protocol == "gpsd":
+        from drivers.gps.gpsd import GpsdDevice
+
+        host, tcp_port = split_host_port(port, 2947, f"{where} port")
+        return GpsdDevice(host, tcp_port, device_path=table.get("device_path"), **kw)
+    if protocol == "mavlink":
+        from drivers.gps.mavlink import MavlinkGpsDevice
+
+        return MavlinkGpsDevice(port, **kw)
+    if protocol == "trupulse":
+        from drivers.rangefinder.trupulse import TruPulseDevice
+
+        return TruPulseDevice(port, remote=table.get("remote", False), **kw)
+    from drivers.rangefinder.ldm import LdmDevice
+
+    for key in ("output_format", "averaging", "track"):
+        if key in table:
+            kw[key] = table[key]
+    return LdmDevice(port, **kw)
+
+
+def devices_from_toml(path: str | Path) -> dict[str, Device]:
+    """Every table of a TOML file as a device, keyed by table name."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    return {name: device_from_config(t, name) for name, t in data.items()}
