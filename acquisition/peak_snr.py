@@ -191,8 +191,11 @@ def measure_core(stack: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> _Core
     box_out = (peak_x < hb) | (peak_x > cols - 1 - hb) | (peak_y < hb) | (peak_y > rows - 1 - hb)
     dy, dx = cfg.offsets
     if cfg.background is None:
-        r = np.clip(peak_y[:, None] + dy, 0, rows - 1)
-        c = np.clip(peak_x[:, None] + dx, 0, cols - 1)
+        r = peak_y[:, None] + dy
+        c = peak_x[:, None] + dx
+        if box_out.any():  # keep the gather in the image; those frames are undefined anyway
+            r = np.clip(r, 0, rows - 1)
+            c = np.clip(c, 0, cols - 1)
         values = stack[frames[:, None], r, c].astype(np.float64)
     else:
         x0, y0, x1, y1 = cfg.background
@@ -215,12 +218,17 @@ def measure_core(stack: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> _Core
     peak[~np.isfinite(peak)] = np.nan
     sat = cfg.saturation_dn
     if sat is None and stack.dtype.kind in "ui":
-        sat = float(np.iinfo(stack.dtype).max)
+        sat = _dtype_max(stack.dtype)
     bits = np.where(undefined, _BIT[FLAG_UNDEFINED], 0)
     bits |= np.where(box_out, _BIT[FLAG_EDGE], 0) | (_BIT[FLAG_EDGE] if clipped else 0)
     if sat is not None:
         bits |= np.where(peak >= sat, _BIT[FLAG_SATURATED], 0)
     return _Core(peak_x, peak_y, peak, bg_mean, bg_std, gradient, snr, bits.astype(np.uint8))
+
+
+@functools.lru_cache(maxsize=16)
+def _dtype_max(dtype: np.dtype) -> float:
+    return float(np.iinfo(dtype).max)
 
 
 def is_contaminated(bg_std: float, gradient: float, reference: float | None, cfg) -> bool:
