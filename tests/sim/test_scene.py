@@ -1,0 +1,166 @@
+"""Scene renderer: reproducibility, drone energy, truth, phases, blackbody, clouds, confusers."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+from scipy.special import ndtr
+
+from sim.drone import GaussianSpread, drone_patch
+from sim.example_scenes import lwir_example_scene, mwir_example_scene
+from sim.feed import FlightCameraFeed
+from sim.flight import FlightConfig, FlightPlan
+from sim.scene import SceneRenderer, TargetState
+from sim.sky import CloudConfig, Confuser
+
+SMALL = {"width_px": 256, "height_px": 192}
+
+
+def gaussian_average_pvf(sigma: float, fill_factor: float, n: int = 2001) -> float:
+    """Average PVF of a Gaussian PSF (independent quadrature over one axis, squared)."""
+    a = np.sqrt(fill_factor)
+    d = (np.arange(n) + 0.5) / n - 0.5
+    one_axis = (ndtr((a / 2 - d) / sigma) - ndtr((-a / 2 - d) / sigma)).mean()
+    return float(one_axis**2)
+
+
+def test_same_seed_same_frames_other_seed_other_frames():
+    config = mwir_example_scene(**SMALL, clouds=CloudConfig(contrast_e=1e5, hole_radius_px=40))
+    target = TargetState(120.3, 90.8, 5e4, 0.6)
+    a = SceneRenderer(config, 7)
+    b = pickle.loads(pickle.dumps(SceneRenderer(config, 7)))
+    c = SceneRenderer(config, 8)
+    for k in (0, 1, 5):
+        fa = a.render(k, k / 60, target)
+        assert np.array_equal(fa, b.render(k, k / 60, target))
+        assert not np.array_equal(fa, c.render(k, k / 60, target))
+    # Frames depend on (seed, index), not on call order.
+    assert np.array_equal(a.render(1, 1 / 60, target), b.render(1, 1 / 60, target))
+
+
+@pytest.mark.parametrize("size_px", [0.0, 0.6, 3.0, 9.0])
+def test_drone_energy_is_the_configured_electrons_times_the_active_area_share(size_px):
+    spread = GaussianSpread(0.8, 0.8)
+    patch = drone_patch(spread, 50.37, 40.81, size_px, 1e5)
+    total = float(patch.electrons.sum())
+    # Over a uniform phase average the active area collects FF of the energy; at one phase the
+    # share varies, but a window much bigger than the PSF holds all of it, so bounds are tight.
+    assert 0.55 * 1e5 < total <= 1e5
+    # Averaged over phases the captured share is the fill factor (energy not on active area is
+    # lost in the gaps), for any source size.
+    rng = np.random.default_rng(1)
+    shares = [
+        drone_patch(spread, 50 + rng.random(), 40 + rng.random(), size_px, 1.0).electrons.sum()
+        for _ in range(400)
+    ]
+    assert np.mean(shares) == pytest.approx(0.8, rel=0.01)
+
+
+def test_truth_snr_over_uniform_phases_is_the_average_pvf_snr():
+    config = mwir_example_scene(**SMALL, fpn_enabled=False)
+    r = SceneRenderer(config, 3)
+    rng = np.random.default_rng(9)
+    total_e = 4e4
+    snrs = [
+        r.truth_for(
+            k, 0.0, TargetState(100 + rng.random(), 80 + rng.random(), total_e, 0.0)
+        ).truth_snr
+        for k in range(2000)
+    ]
+    expected = total_e * gaussian_average_pvf(0.8, 0.8) / config.temporal_noise_e
+    assert np.mean(snrs) == pytest.approx(expected, rel=0.02)
+
+
+def test_measured_peak_minus_background_matches_truth_without_noise_bias():
+    config = mwir_example_scene(**SMALL, fpn_enabled=False)
+    r = SceneRenderer(config, 4)
+    target = TargetState(130.2, 70.6, 2e5, 0.5)
+    r._prepare()
+    diffs = []
+    for k in range(200):
+        frame, truth = r.render_with_truth(k, 0.0, target)
+        diffs.append(
+            frame[truth.peak_row, truth.peak_col]
+            - (r.static_dn[truth.peak_row, truth.peak_col] - 0.5)
+        )
+    # Standard error of the mean here is ~0.6 DN.
+    assert np.mean(diffs) == pytest.approx(truth.peak_signal_dn, abs=2.0)
+    # The drone's own shot noise widens the peak pixel's noise beyond the sky's.
+    assert np.std(diffs) > config.temporal_noise_dn
+
+
+def test_flight_drift_makes_truth_snr_approach_the_average_pvf_prediction():
+    config = lwir_example_scene(fpn_enabled=False)
+    flight = FlightConfig(seed=2)
+    feed = FlightCameraFeed(config, flight, fps=30.0, seed=1)
+    plan = FlightPlan(flight)
+    t0, _, planned = plan.stop_windows()[4]  # 393 m, unresolved in the LWIR
+    first = int(np.ceil(t0 * 30))
+    truths = [feed.truth(k) for k in range(first, first + 100)]
+    assert not truths[0].resolved
+    sigma_t = truths[0].size_px / 2
+    pvf = gaussian_average_pvf(np.hypot(config.psf_sigma_px, sigma_t), config.fill_factor)
+    expected = config.target.electrons_at(planned) * pvf / config.temporal_noise_e
+    assert np.mean([t.truth_snr for t in truths]) == pytest.approx(expected, rel=0.10)
+
+
+def test_resolved_drone_is_an_extended_box_with_a_flat_top():
+    spread = GaussianSpread(0.5, 1.0)
+    patch = drone_patch(spread, 20.0, 20.0, 9.0, 81.0)
+    row = patch.electrons[patch.electrons.shape[0] // 2]
+    inner = row[len(row) // 2 - 2 : len(row) // 2 + 3]
+    assert np.allclose(inner, 1.0, atol=1e-3)  # a box of 9x9 px carrying 1 e-/px^2
+    assert spread.is_resolved(9.0) and not spread.is_resolved(0.9)
+
+
+def test_blackbody_mode_is_uniform_through_the_same_fixed_pattern():
+    config = mwir_example_scene(**SMALL, blackbody_e=3e5, sky_gradient_e_per_px=(0, 60))
+    r = SceneRenderer(config, 5)
+    frames = np.stack([r.render(k, 0.0, TargetState(100, 100, 1e6, 0.5)) for k in range(32)])
+    mean = frames.astype(float).mean(axis=0)
+    expected_dn = config.dn_offset + 3e5 / config.gain_e_per_dn
+    assert mean.mean() == pytest.approx(expected_dn, abs=1.0)
+    sky = SceneRenderer(mwir_example_scene(**SMALL), 5)
+    sky._prepare()
+    # Same seed -> same offsets; the drone and the sky gradient are absent.
+    assert np.corrcoef((mean - mean.mean()).ravel(), sky.fpn.offset_dn.ravel())[0, 1] > 0.8
+    assert r.truth_for(0, 0.0, TargetState(100, 100, 1e6, 0.5)) is None
+    assert config.temporal_noise_dn < mwir_example_scene().temporal_noise_dn
+
+
+def test_clouds_leave_a_clear_hole_around_the_line_of_sight_and_drift():
+    config = mwir_example_scene(
+        fpn_enabled=False,
+        clouds=CloudConfig(contrast_e=2e5, hole_radius_px=100, cover=0.8),
+    )
+    r = SceneRenderer(config, 6)
+    frame = r.render(0, 10.0, None).astype(float)
+    r._prepare()
+    cx, cy = r.clouds.hole_centre_px(10.0)
+    hole = frame[int(cy) - 30 : int(cy) + 30, int(cx) - 30 : int(cx) + 30]
+    sky_level = r.static_dn[int(cy), int(cx)] - 0.5
+    assert abs(hole.mean() - sky_level) < 3.0
+    assert frame.max() - sky_level > 0.5 * 2e5 / config.gain_e_per_dn  # clouds elsewhere
+    assert r.clouds.offset_px(0.0) != r.clouds.offset_px(20.0)
+
+
+def test_confuser_crosses_as_a_bright_moving_blob():
+    bird = Confuser(
+        t_start_s=1.0,
+        duration_s=2.0,
+        x0_px=20,
+        y0_px=50,
+        vx_px_per_s=40,
+        vy_px_per_s=0,
+        total_e=5e5,
+    )
+    config = mwir_example_scene(**SMALL, fpn_enabled=False, confusers=(bird,))
+    r = SceneRenderer(config, 7)
+    before = r.render(0, 0.5, None)
+    during = r.render(1, 2.0, None)
+    later = r.render(2, 2.5, None)
+    assert during[50, 60] - before[50, 60] > 100
+    assert later[50, 80] - before[50, 80] > 100
+    assert abs(int(later[50, 60]) - int(before[50, 60])) < 60
