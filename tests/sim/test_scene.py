@@ -164,3 +164,79 @@ def test_confuser_crosses_as_a_bright_moving_blob():
     assert during[50, 60] - before[50, 60] > 100
     assert later[50, 80] - before[50, 80] > 100
     assert abs(int(later[50, 60]) - int(before[50, 60])) < 60
+
+
+def _fake_model(monkeypatch):
+    """Stand-ins for model.detector/noise/snr with simple known numbers (tests the adapter's
+    wiring only; the real model is exercised below when it is installed)."""
+    import sys
+    import types
+
+    calls = {}
+    det = types.ModuleType("model.detector")
+    det.background_electrons = lambda sensor, t: 2000.0 * t
+    noise = types.ModuleType("model.noise")
+    noise.temporal_noise_e = lambda sensor, t: 1000.0
+    snr = types.ModuleType("model.snr")
+
+    def contrast(sensor, target, range_m, *, size, background_temp_k, **kw):
+        calls["size"], calls["bg"] = size, background_temp_k
+        return 1e5 * (100.0 / range_m) ** 2
+
+    snr.target_contrast_electrons = contrast
+    for name, mod in (("model.detector", det), ("model.noise", noise), ("model.snr", snr)):
+        monkeypatch.setitem(sys.modules, name, mod)
+    return calls
+
+
+def test_scene_config_from_model_uses_the_models_chain(monkeypatch):
+    import types
+
+    from sim.from_model import blackbody_scene, scene_config_from_model
+
+    calls = _fake_model(monkeypatch)
+    sensor = types.SimpleNamespace(
+        name="mwir",
+        width_px=1280,
+        height_px=720,
+        gain_e_per_dn=140.0,
+        dn_offset=1000.0,
+        ifov_rad=5e-4,
+        fill_factor=0.8,
+        bit_depth=14,
+        band_um=(3.45, 5.25),
+        f_number=2.3,
+        pitch_um=8.0,
+    )
+    target = types.SimpleNamespace(small_m=0.157, large_m=0.238)
+    config = scene_config_from_model(sensor, target, size="large", sky_temp_k=250.0)
+    assert calls == {"size": "large", "bg": 250.0}
+    assert config.sky_e == 5e5
+    assert config.temporal_noise_e == pytest.approx(1000.0)
+    assert config.target.size_m == 0.238
+    assert config.target.electrons_at(200.0) == pytest.approx(2.5e4, rel=1e-6)
+    assert config.psf_sigma_px == pytest.approx(0.42 * 4.35 * 2.3 / 8.0)
+    assert blackbody_scene(config, sensor, 300.0).blackbody_e == 6e5
+    with pytest.raises(ValueError, match="size"):
+        scene_config_from_model(sensor, target, size="medium")
+
+
+def test_truth_snr_with_the_real_model_approaches_its_average_pvf_snr():
+    presets = pytest.importorskip("model.presets", reason="model/ not written yet")
+    pytest.importorskip("model.snr", reason="model/ not written yet")
+    from sim.from_model import scene_config_from_model
+
+    sensor = presets.load_sensor("mwir")
+    target = presets.load_target("uav1")
+    config = scene_config_from_model(sensor, target, psf_sigma_px=0.8, fpn_enabled=False)
+    feed = FlightCameraFeed(config, FlightConfig(seed=3), fps=60.0, seed=2)
+    t0, _, planned = FlightPlan(FlightConfig(seed=3)).stop_windows()[-1]  # 508 m
+    first = int(np.ceil(t0 * 60))
+    truths = [feed.truth(k) for k in range(first, first + 300)]
+    sigma = np.hypot(0.8, truths[0].size_px / 2)
+    expected = (
+        config.target.electrons_at(planned)
+        * gaussian_average_pvf(sigma, config.fill_factor)
+        / config.temporal_noise_e
+    )
+    assert np.mean([t.truth_snr for t in truths]) == pytest.approx(expected, rel=0.10)
