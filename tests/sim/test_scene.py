@@ -240,3 +240,21 @@ def test_truth_snr_with_the_real_model_approaches_its_average_pvf_snr():
         / config.temporal_noise_e
     )
     assert np.mean([t.truth_snr for t in truths]) == pytest.approx(expected, rel=0.10)
+
+
+def _fixed_window_fractions(dx, dy, target_sigma_px):
+    """A fixed 7x7 window of fractions, as model.pvf.pixel_energy_fractions returns."""
+    from sim.drone import gaussian_fractions_1d
+
+    s = np.hypot(0.8, target_sigma_px)
+    return np.outer(gaussian_fractions_1d(3, dy, s, 0.8), gaussian_fractions_1d(3, dx, s, 0.8))
+
+
+def test_tabulated_spread_reproduces_its_function_at_the_phase_grid():
+    from sim.drone import TabulatedSpread
+
+    fn = _fixed_window_fractions
+    tab = pickle.loads(pickle.dumps(TabulatedSpread(fn, GaussianSpread(0.8, 0.8), phases=8)))
+    got = drone_patch(tab, 10.0 + 1 / 16, 5.0 - 3 / 16, 0.5, 1000.0).electrons
+    assert np.allclose(got, 1000.0 * fn(1 / 16, -3 / 16, 0.25), rtol=1e-5)
+    assert tab.is_resolved(3.0) and tab.fractions(0.1, 0.2, 3.0).shape[0] > 7
