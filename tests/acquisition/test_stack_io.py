@@ -1,0 +1,82 @@
+"""Loading frame stacks: npy, multi-page TIFF, PNG, raw + JSON descriptor, video; bad input."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from acquisition.stack_io import iter_stack, load_stack
+
+
+@pytest.fixture
+def stack():
+    return np.random.default_rng(1).integers(0, 65535, (4, 9, 11)).astype(np.uint16)
+
+
+def test_npy_stack_and_single_frame(tmp_path, stack):
+    np.save(tmp_path / "s.npy", stack)
+    np.save(tmp_path / "f.npy", stack[0])
+    np.testing.assert_array_equal(load_stack(tmp_path / "s.npy"), stack)
+    assert load_stack(tmp_path / "f.npy").shape == (1, 9, 11)
+    assert [f.shape for f in iter_stack(tmp_path / "s.npy")] == [(9, 11)] * 4
+
+
+def test_npy_wrong_shape_and_missing_file(tmp_path):
+    np.save(tmp_path / "bad.npy", np.zeros((2, 3, 4, 5)))
+    with pytest.raises(ValueError, match=r"bad.npy: expected .*got shape \(2, 3, 4, 5\)"):
+        load_stack(tmp_path / "bad.npy")
+    with pytest.raises(OSError, match=r"nope\.npy: no such file"):
+        load_stack(tmp_path / "nope.npy")
+    (tmp_path / "junk.npy").write_bytes(b"not numpy")
+    with pytest.raises(ValueError, match=r"junk\.npy: not a readable \.npy"):
+        load_stack(tmp_path / "junk.npy")
+
+
+def test_multipage_tiff_keeps_16_bits(tmp_path, stack):
+    path = str(tmp_path / "s.tif")
+    assert cv2.imwritemulti(path, list(stack))
+    loaded = load_stack(path)
+    assert loaded.dtype == np.uint16
+    np.testing.assert_array_equal(loaded, stack)
+    np.testing.assert_array_equal(np.stack(list(iter_stack(path))), stack)
+
+
+@pytest.mark.parametrize("order", ["little", "big"])
+def test_raw_with_json_descriptor(tmp_path, stack, order):
+    raw = tmp_path / "rec.bin"
+    raw.write_bytes(stack.astype("<u2" if order == "little" else ">u2").tobytes())
+    desc = {"shape": [4, 9, 11], "dtype": "uint16", "fps": 60, "byte_order": order}
+    (tmp_path / "rec.bin.json").write_text(json.dumps(desc))
+    np.testing.assert_array_equal(load_stack(raw), stack)
+    np.testing.assert_array_equal(load_stack(tmp_path / "rec.bin.json"), stack)
+
+
+def test_raw_truncated_or_bad_descriptor(tmp_path, stack):
+    raw = tmp_path / "rec.bin"
+    raw.write_bytes(stack.tobytes()[:-2])
+    (tmp_path / "rec.bin.json").write_text(json.dumps({"shape": [4, 9, 11], "dtype": "uint16"}))
+    with pytest.raises(ValueError, match=r"rec.bin: raw file truncated: 790 bytes"):
+        load_stack(raw)
+    (tmp_path / "rec.bin.json").write_text(json.dumps({"shape": [4, 9, 11], "dtype": "int8"}))
+    with pytest.raises(ValueError, match=r"dtype must be one of .* got 'int8'"):
+        load_stack(raw)
+    (tmp_path / "rec.bin.json").write_text("{shape")
+    with pytest.raises(ValueError, match=r"rec\.bin\.json: not valid JSON"):
+        load_stack(raw)
+
+
+def test_unknown_format(tmp_path):
+    (tmp_path / "x.dat").write_bytes(b"1234")
+    with pytest.raises(ValueError, match=r"x.dat: unknown stack format '.dat'"):
+        load_stack(tmp_path / "x.dat")
+
+
+def test_real_video_gives_8_bit_grey_frames(shared_data):
+    path = shared_data / "ir_small_targets" / "videos" / "IR_DRONE_151.mp4"
+    frames = load_stack(path)
+    assert frames.shape == (301, 256, 320) and frames.dtype == np.uint8
+    first = next(iter_stack(path))
+    np.testing.assert_array_equal(first, frames[0])
