@@ -409,10 +409,16 @@ class SessionRecorder:
             return False
 
     def _fail(self, exc: BaseException) -> None:
-        flushed = sum(self._writer.frames_flushed.values()) if self._writer else 0
+        w = self._w
         with self._lock:
-            self._error = self._error or _describe(exc, self.path, flushed)
+            if self._state == "failed":
+                return
+            self._error = _describe(exc, self.path, sum(w.frames_flushed.values()))
             self._state = "failed"
+            for cam, n in w.frames_written.items():  # written but never flushed: not in the file
+                lost = n - w.frames_flushed[cam]
+                if lost:
+                    self._dropped[cam][STOPPED] = self._dropped[cam].get(STOPPED, 0) + lost
 
     def _close(self) -> None:
         writer, self._writer = self._writer, None
@@ -421,11 +427,7 @@ class SessionRecorder:
         try:
             writer.close()
         except Exception as exc:  # the file keeps what was flushed; report, don't raise
-            with self._lock:
-                self._error = self._error or _describe(
-                    exc, self.path, sum(writer.frames_flushed.values())
-                )
-                self._state = "failed"
+            self._fail(exc)
 
     def _bytes_on_disk(self) -> int:
         try:
