@@ -1,0 +1,319 @@
+"""One camera's path through the console: device -> ring -> measurement (every frame) -> recorder.
+
+Threads (DESIGN "The data that flows", anchors (b) item 5):
+
+- the camera device's own reader thread copies each frame into a preallocated
+  :class:`acquisition.ring.FrameRing` and returns at once (the producer never waits);
+- this pipeline's measurement thread pops EVERY frame from its ring reader in order, runs
+  Eq. (4) (with the tracker once an ROI is set), folds the SNR into the 100-frame running
+  statistics, and hands the frame and its measurement to the recorder's queue (which never
+  blocks: a recorder backlog is counted as frames dropped by the recorder);
+- a display takes only the newest frame with :meth:`CameraPipeline.latest_frame` on its own
+  timer, and numbers only from :meth:`CameraPipeline.status` and :meth:`CameraPipeline.series`.
+
+Every statistic is computed here, in the processing thread, never in a viewer.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from acquisition.peak_snr import PeakSnr, PeakSnrConfig, PeakSnrMeter
+from acquisition.ring import FrameRing, RingFrame
+from acquisition.status import CameraStatus, FrameAccounting
+from drivers.camera.frame import Frame
+from drivers.device import Device
+
+log = logging.getLogger(__name__)
+
+RangeLookup = Callable[[int], tuple[float | None, str]]
+"""``range_at(t_host_ns) -> (range_m or None, source)``: the session's range for a frame time."""
+
+
+@dataclass(frozen=True, slots=True)
+class Measurement:
+    """One measured frame as the listeners (recorder, stop table, charts) receive it."""
+
+    camera: str
+    seq: int
+    counter: int
+    t_host_ns: int
+    result: PeakSnr
+    track_state: str
+    snr_mean: float
+    snr_std: float
+    snr_n: int
+    range_m: float | None
+    range_source: str
+
+
+class CameraPipeline:
+    """Acquisition, measurement and recording of one camera (no Qt).
+
+    Args:
+        name: the camera's name ("mwir", "lwir").
+        device: the camera driver (any :class:`drivers.device.Device` of :class:`Frame`).
+        shape: (rows, columns) of its frames.
+        ring_capacity: frames held for the slowest consumer (default 2 s at 60 fps).
+        config: the Eq. (4) settings.
+        window: frames in the running statistics (the paper's 100).
+        range_at: the session's range lookup for a frame's host time.
+        tracker_factory: ``(config, x, y) -> tracker`` with ``update(pixels) -> (PeakSnr,
+            state: str, centre_xy)``; None keeps the search window where the operator clicked.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        device: Device[Frame],
+        shape: tuple[int, int],
+        *,
+        ring_capacity: int = 120,
+        config: PeakSnrConfig | None = None,
+        window: int = 100,
+        range_at: RangeLookup | None = None,
+        tracker_factory: Callable | None = None,
+        series_length: int = 2000,
+    ) -> None:
+        self.name = name
+        self.device = device
+        self.shape = (int(shape[0]), int(shape[1]))
+        self.ring = FrameRing(ring_capacity, *self.shape, name=name)
+        self.meter = PeakSnrMeter(config, window=window)
+        self.range_at = range_at
+        self.tracker_factory = tracker_factory
+        self._reader = self.ring.reader("measurement")
+        self._lock = threading.Lock()
+        self._roi: tuple[int, int] | None = None
+        self._roi_pending: tuple[int, int] | None = None
+        self._tracker = None
+        self._track_state = "idle"
+        self._listeners: list[Callable[[Measurement, RingFrame], None]] = []
+        self._recorder = None
+        self._measured = 0
+        self._wrong_shape = 0
+        self._last: Measurement | None = None
+        self._latency_ns: deque[int] = deque(maxlen=1000)
+        self._series: deque[tuple[int, float, float, float, float | None]] = deque(
+            maxlen=series_length
+        )
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._unsubscribe: Callable[[], None] | None = None
+
+    # ------------------------------------------------------------------ control
+    def start(self) -> None:
+        """Open the device and start the measurement thread."""
+        self._stop.clear()
+        self._unsubscribe = self.device.subscribe(self._on_frame)
+        self._thread = threading.Thread(target=self._run, name=f"measure-{self.name}", daemon=True)
+        self._thread.start()
+        self.device.open()
+
+    def stop(self) -> None:
+        """Close the device, then let the measurement thread drain what is in the ring."""
+        self.device.close()
+        if self._unsubscribe is not None:
+            self._unsubscribe()
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(10.0)
+        self._reader.close()
+
+    def set_roi(self, x: int, y: int) -> None:
+        """The operator's click: centre the search window at column ``x``, row ``y``.
+
+        Applied by the measurement thread before its next frame, so a measurement never mixes
+        two ROIs. The running statistics restart: they belong to one target position.
+        """
+        h, w = self.shape
+        if not (0 <= x < w and 0 <= y < h):
+            raise ValueError(f"ROI ({x}, {y}) is outside the {self.name} image ({w} x {h})")
+        with self._lock:
+            self._roi_pending = (int(x), int(y))
+
+    def clear_roi(self) -> None:
+        with self._lock:
+            self._roi_pending = None
+            self._roi = None
+            self._tracker = None
+            self._track_state = "idle"
+
+    def cue(self, x: float, y: float) -> None:
+        """A projected GPS position for the tracker to reacquire a lost target near."""
+        tracker = self._tracker
+        if tracker is not None and hasattr(tracker, "cue"):
+            tracker.cue(x, y)
+
+    def add_listener(self, callback: Callable[[Measurement, RingFrame], None]) -> None:
+        """``callback(measurement, frame)`` on the measurement thread after every frame."""
+        with self._lock:
+            self._listeners.append(callback)
+
+    def attach_recorder(self, recorder) -> None:
+        """Record every frame from now on (and its measurement) into ``recorder``."""
+        with self._lock:
+            self._recorder = recorder
+
+    def detach_recorder(self) -> None:
+        with self._lock:
+            self._recorder = None
+
+    # ------------------------------------------------------------------ reading
+    def latest_frame(self) -> RingFrame | None:
+        """The newest frame (a copy), for a display; never waits."""
+        return self.ring.peek_last()
+
+    def series(self) -> np.ndarray:
+        """The recent per-frame record for charts: rows of (t_host_ns, snr, running mean,
+        running std, range_m or NaN)."""
+        with self._lock:
+            rows = list(self._series)
+        arr = np.array(rows, dtype=float) if rows else np.empty((0, 5))
+        return arr
+
+    def status(self) -> CameraStatus:
+        dev = self.device.status()
+        ring = self.ring.stats()
+        reader = self._reader.stats()
+        with self._lock:
+            last = self._last
+            measured = self._measured
+            roi = self._roi
+            state = self._track_state
+            lat = np.array(self._latency_ns, dtype=float)
+            rec = self._recorder
+        recorded = 0
+        dropped_rec = 0
+        if rec is not None:
+            st = rec.status()
+            recorded = int(st.frames_written.get(self.name, 0))
+            dropped_rec = int(sum(st.dropped.get(self.name, {}).values()))
+        frames = FrameAccounting(
+            received=ring.pushed,
+            measured=measured,
+            recorded=recorded,
+            dropped_by_camera=dev.dropped,
+            dropped_by_ring=reader.overruns,
+            dropped_by_recorder=dropped_rec,
+        )
+        fps = getattr(self.device, "measured_fps", None)
+        fps = fps() if callable(fps) else 0.0
+        p50, p99 = (np.percentile(lat, [50, 99]) / 1e6) if lat.size else (np.nan, np.nan)
+        return CameraStatus(
+            name=self.name,
+            device=dev,
+            frames=frames,
+            fps=float(fps or 0.0),
+            roi_xy=roi,
+            track_state=state,
+            last=last.result if last else None,
+            snr_mean=last.snr_mean if last else float("nan"),
+            snr_std=last.snr_std if last else float("nan"),
+            snr_n=last.snr_n if last else 0,
+            range_m=last.range_m if last else None,
+            range_source=last.range_source if last else "",
+            latency_ms_p50=float(p50),
+            latency_ms_p99=float(p99),
+        )
+
+    # ------------------------------------------------------------------ threads
+    def _on_frame(self, frame: Frame) -> None:
+        # Device thread: one copy into the ring, nothing else.
+        if frame.pixels.shape != self.shape:
+            with self._lock:
+                self._wrong_shape += 1
+            log.warning(
+                "%s: frame of shape %s dropped, expected %s",
+                self.name,
+                frame.pixels.shape,
+                self.shape,
+            )
+            return
+        self.ring.push(frame)
+
+    def _run(self) -> None:
+        while True:
+            item = self._reader.pop_next(timeout=0.1)
+            if item is None:
+                if self._stop.is_set() and self._reader.lag == 0:
+                    return
+                continue
+            try:
+                self._process(item)
+            except Exception:  # a measurement bug must not stop acquisition
+                log.exception("%s: measurement failed on frame %d", self.name, item.counter)
+
+    def _process(self, item: RingFrame) -> None:
+        with self._lock:
+            pending, self._roi_pending = self._roi_pending, None
+            recorder = self._recorder
+            listeners = list(self._listeners)
+        if pending is not None:
+            self._apply_roi(pending)
+        index = recorder.add_frame(self.name, item) if recorder is not None else None
+        roi = self._roi
+        if roi is None:
+            with self._lock:
+                self._measured += 1
+            return
+        if self._tracker is not None:
+            result, state, centre = self._tracker.update(item.pixels)
+        else:
+            result, state, centre = self.meter.measure(item.pixels, roi), "fixed", roi
+        running = self.meter.running if self._tracker is None else self._tracker_running()
+        range_m, source = self.range_at(item.t_host_ns) if self.range_at else (None, "")
+        m = Measurement(
+            self.name,
+            item.seq,
+            item.counter,
+            item.t_host_ns,
+            result,
+            str(state),
+            running.mean,
+            running.std,
+            running.count,
+            range_m,
+            source,
+        )
+        if recorder is not None:
+            recorder.add_peak_snr(self.name, index, item.counter, item.t_host_ns, result)
+        latency = time.monotonic_ns() - item.t_host_ns
+        with self._lock:
+            self._measured += 1
+            self._last = m
+            self._track_state = str(state)
+            self._roi = (int(np.rint(centre[0])), int(np.rint(centre[1])))
+            self._latency_ns.append(latency)
+            self._series.append(
+                (
+                    item.t_host_ns,
+                    result.snr,
+                    m.snr_mean,
+                    m.snr_std,
+                    np.nan if range_m is None else range_m,
+                )
+            )
+        for cb in listeners:
+            try:
+                cb(m, item)
+            except Exception:
+                log.exception("%s: measurement listener failed", self.name)
+
+    def _apply_roi(self, roi: tuple[int, int]) -> None:
+        self.meter.reset()
+        self._roi = roi
+        self._tracker = (
+            self.tracker_factory(self.meter, *roi) if self.tracker_factory is not None else None
+        )
+        self._track_state = "tracking" if self._tracker is not None else "fixed"
+
+    def _tracker_running(self):
+        return getattr(self._tracker, "running", self.meter.running)
