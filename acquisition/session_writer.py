@@ -79,7 +79,10 @@ class SessionWriter:
         compression: str | None,
         flush_interval_s: float,
     ) -> h5py.File:
-        f = h5py.File(self.path, "w", libver="latest")
+        # chunks of 64 KiB and more start on a page boundary, so a frame is whole pages
+        f = h5py.File(
+            self.path, "w", libver="latest", alignment_threshold=65536, alignment_interval=4096
+        )
         try:
             ref = self.clock.reference
             f.attrs.update(
