@@ -1,0 +1,107 @@
+"""The SNR-versus-range table, built live stop by stop (paper section 7, Figs. 7-10).
+
+Each row is one stop and one camera: the stop's rangefinder and GPS ranges, the mean and sample
+std of the peak SNR over the first 100 consecutive valid frames
+(:func:`acquisition.stops.summarise_stop`), and the model's curves at that range. Stops are found
+by :class:`acquisition.stops.StopDetector` (or marked by the operator); because a stop's start is
+backdated to when the hover began, the table keeps a short history of each camera's measurements
+and takes a stop's frames from it. A row is frozen once it is complete or its stop has ended.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from acquisition.peak_snr import PeakSnr
+from acquisition.stops import Stop, StopDetector, summarise_stop
+
+Predictor = Callable[[str, float], dict[str, float]]
+"""``predict(camera, range_m) -> {"small": snr, "large": ..., "small_corrected": ..., ...}``."""
+
+
+@dataclass(frozen=True)
+class StopRow:
+    camera: str
+    stop: int
+    manual: bool
+    t_start_ns: int
+    t_end_ns: int | None
+    lrf_range_m: float | None
+    gps_range_m: float | None
+    n_frames: int
+    complete: bool
+    snr_mean: float
+    snr_std: float
+    model_snr: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def range_m(self) -> float | None:
+        """The stop's range: the rangefinder's when it has one, else the GPS slant range."""
+        return self.lrf_range_m if self.lrf_range_m is not None else self.gps_range_m
+
+
+class StopTable:
+    """Collects each camera's measurements and summarises them per stop (thread-safe)."""
+
+    def __init__(
+        self,
+        detector: StopDetector,
+        cameras: list[str],
+        *,
+        frames_per_stop: int = 100,
+        history_frames: int = 4000,
+        predictor: Predictor | None = None,
+    ) -> None:
+        self.detector = detector
+        self.cameras = list(cameras)
+        self.n = frames_per_stop
+        self.predictor = predictor
+        self._lock = threading.Lock()
+        self._recent: dict[str, deque[tuple[int, PeakSnr]]] = {
+            c: deque(maxlen=history_frames) for c in self.cameras
+        }
+        self._frozen: dict[tuple[int, str], StopRow] = {}
+
+    def add(self, camera: str, t_host_ns: int, result: PeakSnr) -> None:
+        """One measured frame of ``camera`` (called on its measurement thread)."""
+        with self._lock:
+            self._recent[camera].append((int(t_host_ns), result))
+
+    def rows(self) -> list[StopRow]:
+        """Every stop so far x every camera, in stop order."""
+        with self._lock:
+            stops = self.detector.stops
+            out = []
+            for stop in stops:
+                for cam in self.cameras:
+                    key = (stop.index, cam)
+                    row = self._frozen.get(key)
+                    if row is None:
+                        row = self._row(stop, cam)
+                        if row.complete or stop.t_end_ns is not None:
+                            self._frozen[key] = row
+                    out.append(row)
+            return out
+
+    def _row(self, stop: Stop, camera: str) -> StopRow:
+        frames = [r for t, r in self._recent[camera] if stop.contains(t)]
+        summary = summarise_stop(frames, self.n)
+        rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
+        model = self.predictor(camera, rng) if (self.predictor and rng) else {}
+        return StopRow(
+            camera=camera,
+            stop=stop.index,
+            manual=stop.manual,
+            t_start_ns=stop.t_start_ns,
+            t_end_ns=stop.t_end_ns,
+            lrf_range_m=stop.lrf_range_m,
+            gps_range_m=stop.gps_range_m,
+            n_frames=summary.n_frames,
+            complete=summary.complete,
+            snr_mean=summary.snr_mean,
+            snr_std=summary.snr_std,
+            model_snr=model,
+        )
