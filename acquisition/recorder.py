@@ -301,14 +301,25 @@ class SessionRecorder:
                 self._queue.put(item)
 
     def attach_reader(self, camera: str, reader: Reader) -> None:
-        """Feed ``camera`` from a ring reader on a pump thread until ``stop()`` (frames the reader
-        loses are its own overruns, counted by the ring)."""
+        """Feed ``camera`` from a ring reader on a pump thread. On ``stop()`` the pump takes what
+        was pushed up to then and closes the reader (the recorder owns it from now on). Frames
+        the reader loses are its own overruns, counted by the ring."""
 
         def pump() -> None:
-            while self._state == "recording" or (reader.lag > 0 and self._state == "stopping"):
-                item = reader.pop_next(timeout=0.1)
-                if item is not None:
-                    self.add_frame(camera, item)
+            end_seq = None  # frames pushed when stop() began: drain up to there, then leave
+            try:
+                while self._state in ("recording", "stopping"):
+                    if end_seq is None and self._state != "recording":
+                        end_seq = reader.ring.pushed
+                    if end_seq is not None and reader.lag == 0:
+                        return
+                    item = reader.pop_next(timeout=0.05)
+                    if item is not None:
+                        self.add_frame(camera, item)
+                        if end_seq is not None and item.seq >= end_seq - 1:
+                            return
+            finally:
+                reader.close()
 
         t = threading.Thread(target=pump, name=f"recorder-pump-{camera}", daemon=True)
         self._pumps.append((t, reader))

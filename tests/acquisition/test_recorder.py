@@ -162,10 +162,26 @@ def test_ring_reader_feeds_the_recorder(tmp_path: Path) -> None:
     frames = make_frames("mwir", 40, 4)
     for fr in frames:
         ring.push(fr)
-    summary = rec.stop()
-    assert summary.frames_written == {"mwir": 40}
+    assert wait_for(lambda: rec.status().frames_written["mwir"] == 40)
+    keep_pushing = threading.Event()
+    keep_pushing.set()
+
+    def camera() -> None:  # acquisition goes on while the recording stops
+        i = 40
+        while keep_pushing.is_set():
+            ring.push(Frame(frames[0].pixels, "mwir", 600 + i, 10**9 + i))
+            i += 1
+
+    t = threading.Thread(target=camera)
+    t.start()
+    summary = rec.stop(timeout=10)
+    keep_pushing.clear()
+    t.join(5)
+    assert summary.state == "stopped" and summary.frames_written["mwir"] >= 40
+    assert ring.stats().readers == []  # the pump closed its reader
     with open_session(tmp_path / "s.h5") as s:
-        np.testing.assert_array_equal(s.cameras["mwir"].frames[()], [f.pixels for f in frames])
+        np.testing.assert_array_equal(s.cameras["mwir"].frames[:40], [f.pixels for f in frames])
+        assert (np.diff(s.cameras["mwir"].counter) > 0).all()
 
 
 def test_backlog_overflow_drops_with_reason_and_accounting_sums(
