@@ -16,6 +16,7 @@ Every statistic is computed here, in the processing thread, never in a viewer.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 import time
@@ -25,9 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.peak_snr import PeakSnr, PeakSnrConfig, PeakSnrMeter
+from acquisition.peak_snr import RUNNING_EXCLUDED, PeakSnr, PeakSnrConfig, PeakSnrMeter
 from acquisition.ring import FrameRing, RingFrame
 from acquisition.status import CameraStatus, FrameAccounting
+from acquisition.tracker import Tracker, TrackerConfig
 from drivers.camera.frame import Frame
 from drivers.device import Device
 
@@ -65,8 +67,10 @@ class CameraPipeline:
         config: the Eq. (4) settings.
         window: frames in the running statistics (the paper's 100).
         range_at: the session's range lookup for a frame's host time.
-        tracker_factory: ``(config, x, y) -> tracker`` with ``update(pixels) -> (PeakSnr,
-            state: str, centre_xy)``; None keeps the search window where the operator clicked.
+        track: follow the drone from the click with :class:`acquisition.tracker.Tracker`;
+            False keeps the search window where the operator clicked.
+        tracker_config: the tracker's gate and thresholds (its Eq. 4 settings come from
+            ``config``).
     """
 
     def __init__(
@@ -79,7 +83,8 @@ class CameraPipeline:
         config: PeakSnrConfig | None = None,
         window: int = 100,
         range_at: RangeLookup | None = None,
-        tracker_factory: Callable | None = None,
+        track: bool = True,
+        tracker_config: TrackerConfig | None = None,
         series_length: int = 2000,
     ) -> None:
         self.name = name
@@ -88,7 +93,8 @@ class CameraPipeline:
         self.ring = FrameRing(ring_capacity, *self.shape, name=name)
         self.meter = PeakSnrMeter(config, window=window)
         self.range_at = range_at
-        self.tracker_factory = tracker_factory
+        self.track = track
+        self.tracker_config = tracker_config or TrackerConfig()
         self._reader = self.ring.reader("measurement")
         self._lock = threading.Lock()
         self._roi: tuple[int, int] | None = None
@@ -265,10 +271,14 @@ class CameraPipeline:
                 self._measured += 1
             return
         if self._tracker is not None:
-            result, state, centre = self._tracker.update(item.pixels)
+            step = self._tracker.update(item.pixels)
+            result, state = step.peak_snr, step.state.value
+            centre = (step.window_x, step.window_y)
+            if not (result.flags & RUNNING_EXCLUDED):
+                self.meter.running.push(result.snr)
         else:
             result, state, centre = self.meter.measure(item.pixels, roi), "fixed", roi
-        running = self.meter.running if self._tracker is None else self._tracker_running()
+        running = self.meter.running
         range_m, source = self.range_at(item.t_host_ns) if self.range_at else (None, "")
         m = Measurement(
             self.name,
@@ -310,10 +320,17 @@ class CameraPipeline:
     def _apply_roi(self, roi: tuple[int, int]) -> None:
         self.meter.reset()
         self._roi = roi
-        self._tracker = (
-            self.tracker_factory(self.meter, *roi) if self.tracker_factory is not None else None
-        )
+        self._tracker = None
+        if self.track:
+            m = self.meter.config
+            cfg = dataclasses.replace(
+                self.tracker_config,
+                search_px=m.search_px,
+                box_px=m.box_px,
+                background=m.background,
+                detrend=m.detrend,
+                saturation_dn=m.saturation_dn,
+                ddof=m.ddof,
+            )
+            self._tracker = Tracker(roi, cfg)
         self._track_state = "tracking" if self._tracker is not None else "fixed"
-
-    def _tracker_running(self):
-        return getattr(self._tracker, "running", self.meter.running)

@@ -64,7 +64,7 @@ class Session:
         shapes: dict[str, tuple[int, int]] | None = None,
         gps: Device | None = None,
         lrf: Device | None = None,
-        tracker_factory: Callable | None = None,
+        track: bool = True,
         clock: ClockMap | None = None,
         stop_config: StopConfig | None = None,
         predictor: Predictor | None = None,
@@ -89,7 +89,7 @@ class Session:
                 config=config.measurement,
                 window=config.window,
                 range_at=self.range_at,
-                tracker_factory=tracker_factory,
+                track=track,
             )
             pipe.add_listener(self._on_measurement)
             self.pipelines[cam.name] = pipe

@@ -1,0 +1,63 @@
+"""The model's prediction at a measured range, for the stop table and the live charts.
+
+The four curves of paper Figs. 7-10 (small/large characteristic dimension, uncorrected
+diffraction-limited point target / corrected real PSF and finite size) are computed once per
+camera on a dense logarithmic range grid by :func:`model.snr.predict` and interpolated in
+log-range, so a lookup per frame costs microseconds and every number still comes from
+:mod:`model`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+CURVES = ("small", "large", "small_corrected", "large_corrected")
+
+
+class ModelPredictor:
+    """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
+    "large_corrected", "resolved_small"}`` for each camera's sensor preset and one target."""
+
+    def __init__(
+        self,
+        sensors: dict[str, str],
+        target: str,
+        *,
+        ranges_m: np.ndarray | None = None,
+        **predict_options,
+    ) -> None:
+        from model.presets import load_sensor, load_target
+        from model.snr import predict
+
+        self.target = load_target(target)
+        self.ranges_m = (
+            np.geomspace(10.0, 5000.0, 600) if ranges_m is None else np.asarray(ranges_m, float)
+        )
+        self._log_r = np.log(self.ranges_m)
+        self.curves: dict[str, dict[str, np.ndarray]] = {}
+        for camera, sensor_name in sensors.items():
+            sensor = load_sensor(sensor_name)
+            p = predict(sensor, self.target, self.ranges_m, **predict_options)
+            self.curves[camera] = {
+                "small": np.asarray(p.snr_small, float),
+                "large": np.asarray(p.snr_large, float),
+                "small_corrected": np.asarray(p.snr_small_corrected, float),
+                "large_corrected": np.asarray(p.snr_large_corrected, float),
+                "resolved_small": np.asarray(p.resolved_small, float),
+            }
+
+    def __call__(self, camera: str, range_m: float) -> dict[str, float]:
+        curves = self.curves.get(camera)
+        if curves is None or range_m is None or not range_m > 0:
+            return {}
+        x = np.log(range_m)
+        out = {name: float(np.interp(x, self._log_r, curves[name])) for name in CURVES}
+        # The resolved/unresolved switch is a step, not something to interpolate.
+        i = int(np.clip(np.searchsorted(self._log_r, x), 0, len(self._log_r) - 1))
+        out["resolved_small"] = float(curves["resolved_small"][i])
+        return out
+
+    def curve(self, camera: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """The four curves of ``camera`` as (ranges_m, snr) pairs, for plotting."""
+        c = self.curves.get(camera, {})
+        return {name: (self.ranges_m, c[name]) for name in CURVES if name in c}

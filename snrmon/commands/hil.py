@@ -1,0 +1,109 @@
+"""``snrmon hil``: the simulated collection day through the real console code (issue 5).
+
+Simulated cameras (shared-memory frame rings written by separate processes), an NMEA GPS and an
+LDM rangefinder (pseudo-terminals) fly the paper's stops; the ordinary Session measures, tracks,
+detects the stops and builds the SNR-versus-range table, printed with the simulator's truth and
+the model's prediction beside each measurement.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+from snrmon.cli import UsageError
+
+
+def _floats(text: str, what: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise UsageError(f"{what} must be comma-separated numbers, got {text!r}") from None
+    if not values or any(not (math.isfinite(v) and v > 0) for v in values):
+        raise UsageError(f"{what} must be positive numbers, got {text!r}")
+    return values
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("hil", help="run the simulated field test through the real console")
+    p.add_argument("--headless", action="store_true", help="no window (always true for now)")
+    p.add_argument("--seed", type=int, default=0, help="seed of every simulated device")
+    p.add_argument("--speed", default="1", help="flight time per wall-clock second (e.g. 2)")
+    p.add_argument(
+        "--stops",
+        default="37,126,199,336,393,451,508",
+        metavar="M,M,...",
+        help="hover ranges in metres",
+    )
+    p.add_argument("--camera", default="mwir,lwir", help="cameras to simulate")
+    p.add_argument("--target", default="uav1", help="target preset or TOML file")
+    p.add_argument("--hover-s", type=float, default=7.0, help="hover time per stop (flight s)")
+    p.add_argument("--fpn", action="store_true", help="add fixed-pattern noise to the frames")
+    p.add_argument(
+        "--no-track",
+        action="store_true",
+        help="keep the search window where clicked (re-clicked at every stop)",
+    )
+    p.add_argument("--out", metavar="FILE.h5", help="record the run into a session file")
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from acquisition.prediction import ModelPredictor
+    from snrmon.hil import HilOptions, HilRig
+
+    if args.speed == "max":
+        raise UsageError("--speed max is not implemented yet; give a number such as 4")
+    speed = _floats(args.speed, "--speed")[0]
+    cameras = tuple(c.strip() for c in args.camera.split(",") if c.strip())
+    unknown = [c for c in cameras if c not in ("mwir", "lwir")]
+    if unknown or not cameras:
+        raise UsageError(f"--camera must name mwir and/or lwir, got {args.camera!r}")
+    opts = HilOptions(
+        seed=args.seed,
+        speed=speed,
+        stops_m=_floats(args.stops, "--stops"),
+        cameras=cameras,
+        target=args.target,
+        hover_s=args.hover_s,
+        fpn=args.fpn,
+        track=not args.no_track,
+        out=args.out,
+    )
+    predictor = ModelPredictor({c: c for c in cameras}, args.target)
+    rig = HilRig(opts, predictor=predictor)
+    with rig:
+        if not args.json:
+            print(
+                f"simulated flight: {len(opts.stops_m)} stops, "
+                f"{rig.plan.duration_s / speed:.0f} s at speed {speed:g}",
+                file=sys.stderr,
+            )
+        result = rig.run()
+    if not opts.track:
+        result["note"] = "tracking off: the simulator re-clicked the drone at every stop"
+    if args.json:
+        print(json.dumps(result, allow_nan=True))
+        return 0
+    print(
+        f"{'camera':6s} {'plan_m':>7s} {'lrf_m':>7s} {'gps_m':>7s} {'n':>4s} "
+        f"{'SNR':>7s} {'std':>6s} {'truth':>7s} {'model_s':>8s} {'model_sc':>8s}"
+    )
+    for s in result["stops"]:
+        m = s["model_snr"]
+        print(
+            f"{s['camera']:6s} {s['planned_range_m']:7.0f} {_f(s['lrf_range_m'])} "
+            f"{_f(s['gps_range_m'])} {s['n_frames']:4d} {s['measured_snr_mean']:7.2f} "
+            f"{s['measured_snr_std']:6.2f} {s['truth_snr']:7.2f} "
+            f"{m.get('small', math.nan):8.2f} {m.get('small_corrected', math.nan):8.2f}"
+        )
+    for cam, f in result["frames"].items():
+        print(f"{cam}: {f['received']} frames received, {f['dropped']} dropped")
+    return 0
+
+
+def _f(v: float | None) -> str:
+    return f"{v:7.1f}" if v is not None else f"{'-':>7s}"

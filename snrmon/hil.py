@@ -1,0 +1,225 @@
+"""Hardware-in-loop wiring: simulated devices on real interfaces feeding a real Session.
+
+The CLI's job is to wire packages together; this module does it for ``snrmon hil`` and
+``snrmon demo``. The simulators come from :mod:`sim` (camera processes writing shared-memory
+frame rings, NMEA GPS and an LDM rangefinder on pseudo-terminals); the console side is the
+ordinary :class:`acquisition.session.Session`, which opens those devices by name and path
+exactly as it would open real ones. The flight clock: the serial simulators follow
+``(monotonic - t0) * speed``; each camera process takes frame ``n`` at ``n / fps`` of the flight
+and runs at ``fps * speed`` (the cameras start within about a second of ``t0``).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections import defaultdict
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from acquisition.session import Session
+from acquisition.session_config import session_config_from_dict
+from acquisition.stops import StopConfig, summarise_stop
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class HilOptions:
+    seed: int = 0
+    speed: float = 1.0
+    stops_m: tuple[float, ...] = (37.0, 126.0, 199.0, 336.0, 393.0, 451.0, 508.0)
+    cameras: tuple[str, ...] = ("mwir", "lwir")
+    target: str = "uav1"
+    size: str = "small"
+    hover_s: float = 7.0
+    transit_mps: float = 8.0
+    sky_temp_k: float = 280.0
+    fpn: bool = False
+    track: bool = True
+    out: str | None = None
+
+
+@dataclass
+class CameraRig:
+    name: str
+    sensor: object
+    feed: object
+    producer: object
+    fps: float
+    log: list = field(default_factory=list)  # (t_host_ns, counter, PeakSnr)
+
+
+class HilRig:
+    """Builds and runs the simulated collection against a Session (context manager)."""
+
+    def __init__(self, opts: HilOptions, *, predictor=None) -> None:
+        from model.presets import load_sensor, load_target
+        from sim.devices.ldm_sim import LdmSimulator
+        from sim.devices.nmea_sim import NmeaSimulator
+        from sim.devices.shm_camera import ShmProducer
+        from sim.feed import FlightCameraFeed
+        from sim.flight import FlightConfig, FlightPlan
+        from sim.from_model import scene_config_from_model
+
+        if opts.speed <= 0:
+            raise ValueError(f"speed must be positive, got {opts.speed}")
+        self.opts = opts
+        target = load_target(opts.target)
+        self.flight_config = FlightConfig(
+            stops_m=tuple(opts.stops_m),
+            hover_s=opts.hover_s,
+            speed_mps=opts.transit_mps,
+            seed=opts.seed,
+        )
+        self.plan = FlightPlan(self.flight_config)
+        self.t0 = time.monotonic()
+        tag = f"{os.getpid()}-{opts.seed}"
+        self.cameras: dict[str, CameraRig] = {}
+        for i, cam in enumerate(opts.cameras):
+            sensor = load_sensor(cam)
+            scene = scene_config_from_model(
+                sensor, target, size=opts.size, sky_temp_k=opts.sky_temp_k
+            )
+            if not opts.fpn:
+                scene = replace(scene, fpn_enabled=False)
+            feed = FlightCameraFeed(scene, self.flight_config, fps=sensor.fps, seed=opts.seed + i)
+            producer = ShmProducer(
+                f"snrmon-{cam}-{tag}",
+                sensor.width_px,
+                sensor.height_px,
+                feed,
+                fps=sensor.fps * opts.speed,
+                slots=16,
+            )
+            self.cameras[cam] = CameraRig(cam, sensor, feed, producer, float(sensor.fps))
+        self.gps_sim = NmeaSimulator(
+            lambda _t: self.plan.position(self.flight_time()), rate_hz=10.0, baud=38400
+        )
+        self.lrf_sim = LdmSimulator(
+            lambda _t: self.plan.range_m(self.flight_time()), rate_hz=10.0, tracking=True
+        )
+        site = self.flight_config.site
+        config = session_config_from_dict(
+            {
+                "target": opts.target,
+                "site": {"lat_deg": site.lat_deg, "lon_deg": site.lon_deg, "alt_m": site.alt_m},
+                "cameras": {
+                    c: {"source": "shm", "address": r.producer.name, "sensor": c}
+                    for c, r in self.cameras.items()
+                },
+                "gps": {"protocol": "nmea", "port": self.gps_sim.path, "baud": 38400},
+                "lrf": {"protocol": "ldm", "port": self.lrf_sim.path, "baud": 9600},
+            }
+        )
+        self.session = Session(
+            config,
+            track=opts.track,
+            predictor=predictor,
+            stop_config=StopConfig(),
+        )
+        self.session.add_measurement_listener(self._on_measurement)
+        self._clicked: set[tuple[str, int]] = set()
+
+    # ------------------------------------------------------------------ clock and truth
+    def flight_time(self) -> float:
+        return (time.monotonic() - self.t0) * self.opts.speed
+
+    def truth_pixel(self, camera: str) -> tuple[float, float] | None:
+        """Where the drone is now in ``camera`` (what the operator would click on)."""
+        target = self.cameras[camera].feed.target_at(self.flight_time())
+        return None if target is None else (target.x_px, target.y_px)
+
+    def _on_measurement(self, m, frame) -> None:
+        self.cameras[m.camera].log.append((m.t_host_ns, m.counter, m.result))
+
+    # ------------------------------------------------------------------ run
+    def __enter__(self) -> HilRig:
+        for rig in self.cameras.values():
+            rig.producer.start()
+        self.gps_sim.start()
+        self.lrf_sim.start()
+        self.t0 = time.monotonic()
+        self.session.start()
+        if self.opts.out:
+            self.session.start_recording(self.opts.out)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        try:
+            self.session.stop()
+        finally:
+            for rig in self.cameras.values():
+                rig.producer.stop()
+            self.gps_sim.stop()
+            self.lrf_sim.stop()
+
+    def step(self) -> bool:
+        """Do what the operator would do now; False once the flight is over."""
+        t = self.flight_time()
+        stop_idx = self.plan.truth(t).stop_index
+        if stop_idx is not None:
+            for cam in self.cameras:
+                # The operator clicks the drone once at the first stop; without tracking the
+                # simulator clicks again at every stop (and the report says so).
+                key = (cam, 0 if self.opts.track else stop_idx)
+                if key not in self._clicked:
+                    xy = self.truth_pixel(cam)
+                    if xy is not None:
+                        self.session.set_roi(cam, int(np.rint(xy[0])), int(np.rint(xy[1])))
+                        self._clicked.add(key)
+        return t < self.plan.duration_s
+
+    def run(self, progress=None) -> dict:
+        while self.step():
+            if progress is not None:
+                progress(self)
+            time.sleep(0.05)  # the operator's pace, not synchronisation
+        return self.result()
+
+    # ------------------------------------------------------------------ results
+    def result(self) -> dict:
+        planned = np.array(self.opts.stops_m, float)
+        stops = []
+        for row in self.session.stops():
+            rig = self.cameras[row.camera]
+            frames = [
+                (c, r)
+                for t, c, r in rig.log
+                if row.t_start_ns <= t and (row.t_end_ns is None or t < row.t_end_ns)
+            ]
+            summary = summarise_stop([r for _, r in frames], 100)
+            truth = float("nan")
+            if summary.first is not None:
+                counters = [c for c, _ in frames[summary.frames]]
+                values = [rig.feed.truth(c) for c in counters]
+                values = [v.truth_snr for v in values if v is not None]
+                truth = float(np.mean(values)) if values else float("nan")
+            model = dict(row.model_snr)
+            resolved = bool(model.pop("resolved_small", 0.0))
+            rng = row.range_m
+            plan = float(planned[np.argmin(np.abs(planned - rng))]) if rng else float("nan")
+            stops.append(
+                {
+                    "camera": row.camera,
+                    "planned_range_m": plan,
+                    "lrf_range_m": row.lrf_range_m,
+                    "gps_range_m": row.gps_range_m,
+                    "n_frames": row.n_frames,
+                    "measured_snr_mean": row.snr_mean,
+                    "measured_snr_std": row.snr_std,
+                    "truth_snr": truth,
+                    "model_snr": model,
+                    "resolved": resolved,
+                }
+            )
+        frames = defaultdict(dict)
+        for name, pipe in self.session.pipelines.items():
+            acc = pipe.status().frames
+            frames[name] = {
+                "received": acc.received,
+                "dropped": acc.dropped_by_camera + acc.dropped_by_ring,
+            }
+        return {"seed": self.opts.seed, "stops": stops, "frames": dict(frames)}
