@@ -152,3 +152,53 @@ def test_cli_geo_pixel_bad_site_is_one_line(capsys):
                  "0.016,8,1280,720", "--target", "1,2,3"])  # fmt: skip
     err = capsys.readouterr().err
     assert code != 0 and "--site" in err and len(err.strip().splitlines()) == 1
+
+
+def test_agrees_with_the_simulated_flight_camera():
+    # The simulator renders the drone where its own pinhole puts it; the GPS cue must land on
+    # the same pixel (same az/el convention, roll 0, IFOV = pitch / f).
+    flight = pytest.importorskip("sim.flight")
+    plan = flight.FlightPlan(flight.FlightConfig(azimuth_deg=40.0, elevation_deg=8.0, seed=3))
+    s = plan.config.site
+    site = Site(s.lat_deg, s.lon_deg, s.alt_m)
+    cam_sim = flight.CameraPointing(8e-6 / 0.016, 1280, 720)
+    for t_s in (5.0, 30.0, 77.7, 140.0):
+        truth = plan.truth(t_s)
+        p = project_to_pixel(
+            site, Pointing(40.0, 8.0, 0.0), MWIR, truth.lat_deg, truth.lon_deg, truth.alt_m
+        )
+        x_sim, y_sim = cam_sim.pixel_of(truth)
+        assert (p.x, p.y) == (pytest.approx(x_sim, abs=1e-3), pytest.approx(y_sim, abs=1e-3))
+        assert p.range_m == pytest.approx(truth.range_m, abs=1e-4)
+
+
+def _load_sensor_or_skip():
+    try:
+        from model.presets import load_sensor
+    except ImportError:
+        pytest.skip("model.presets.load_sensor not available yet")
+    return load_sensor
+
+
+@pytest.mark.parametrize(
+    "name,f_m,pitch_m,w,h", [("mwir", 0.016, 8e-6, 1280, 720), ("lwir", 0.0167, 17e-6, 640, 480)]
+)
+def test_cli_with_sensor_preset(name, f_m, pitch_m, w, h, capsys):
+    # Paper Table 1 through the model's presets: the axis at the centre, 1 degree off at
+    # f tan(1 deg) / pitch pixels.
+    load_sensor = _load_sensor_or_skip()
+    cam = CameraIntrinsics.from_sensor(load_sensor(name))
+    assert (cam.focal_length_m, cam.pitch_m, cam.width_px, cam.height_px) == (
+        pytest.approx(f_m),
+        pytest.approx(pitch_m),
+        w,
+        h,
+    )
+    lat, lon, alt = _target(SITE, Pointing(40.0, 8.0, 0.0), 1.0, 0.0, 200.0)
+    code = main(["geo", "pixel", "--site", "32.38,-106.48,1200", "--pointing", "40,8,0",
+                 "--sensor", name, "--target", f"{float(lat)!r},{float(lon)!r},{float(alt)!r}",
+                 "--json"])  # fmt: skip
+    assert code == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["x"] == pytest.approx((w - 1) / 2 + f_m * math.tan(math.radians(1.0)) / pitch_m)
+    assert out["y"] == pytest.approx((h - 1) / 2, abs=1e-4)
