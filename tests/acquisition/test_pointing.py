@@ -18,8 +18,8 @@ MWIR = CameraIntrinsics(0.016, 8e-6, 1280, 720)
 
 
 def _pairs(truth: Pointing, n: int, noise_px: float, seed: int):
-    """Close-range GPS positions spread over the field of view (30-80 m, +-14 deg across, +-8 deg up), their true
-    pixels plus Gaussian tracking noise."""
+    """Close-range GPS positions spread over the field of view (30-80 m, +-14 deg across,
+    +-8 deg up), their true pixels plus Gaussian tracking noise."""
     rng = np.random.default_rng(seed)
     r, u, f = camera_axes(*np.radians([truth.az_deg, truth.el_deg, truth.roll_deg]))
     pairs = []
