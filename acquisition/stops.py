@@ -6,7 +6,8 @@ range (:func:`acquisition.geo.gps_slant_range_m`), and takes the operator's manu
 
 Detection rules (every number is a :class:`StopConfig` field):
 
-- Each source (``lrf``, ``gps``) keeps its readings of the last ``steady_s`` seconds.
+- Each source (``lrf``, ``gps``) keeps its readings of the last ``steady_s`` seconds, and the
+  last one before them (so a slow source still spans the whole time).
 - A source is *steady* when its window spans at least ``coverage`` x ``steady_s`` seconds, holds
   at least ``min_readings`` readings, and at least ``steady_fraction`` of them lie within its
   tolerance (``lrf_tolerance_m`` / ``gps_tolerance_m``) of the window's median: one outlier shot
@@ -159,7 +160,9 @@ class StopDetector:
         win = self._windows[source]
         win.append((t_ns, float(range_m)))
         horizon = t_ns - round(self.config.steady_s * 1e9)
-        while win and win[0][0] < horizon:
+        # Keep the last reading at or before the horizon too: a slow source (a rangefinder shot
+        # per second) then still spans the whole steady time.
+        while len(win) > 1 and win[1][0] <= horizon:
             win.popleft()
         if self._open is not None:
             return self._extend(source, t_ns, float(range_m))

@@ -84,6 +84,18 @@ def test_finds_the_paper_stops(sources, seed):
     assert [s.index for s in stops] == list(range(len(PAPER_STOPS_M)))
 
 
+def test_a_one_shot_per_second_rangefinder_finds_the_stops():
+    lrf, _, hovers = _series(6, lrf_hz=1.0, outliers=False)
+    rng = np.random.default_rng(6)
+    lrf = [(t + int(rng.uniform(-0.2, 0.2) * S), r) for t, r in lrf]  # irregular trigger
+    stops = detect_stops(lrf)
+    assert len(stops) == len(PAPER_STOPS_M)
+    for stop, (t0, _, planned) in zip(stops, hovers, strict=True):
+        # A transit shot within tolerance + noise of the hover counts: up to ~0.5 s early.
+        assert t0 - 0.5 <= stop.t_start_ns / S <= t0 + 1.3  # one shot per second
+        assert stop.lrf_range_m == pytest.approx(planned, abs=0.4)
+
+
 def test_a_short_pause_is_not_a_stop():
     # 2 s still, shorter than the 3 s steadiness: no stop.
     t = np.arange(0.0, 12.0, 0.1)
