@@ -16,7 +16,6 @@ Every statistic is computed here, in the processing thread, never in a viewer.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import threading
 import time
@@ -26,10 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.peak_snr import RUNNING_EXCLUDED, PeakSnr, PeakSnrConfig, PeakSnrMeter
+from acquisition.frame_measurer import FrameMeasurer
+from acquisition.peak_snr import PeakSnr, PeakSnrConfig
 from acquisition.ring import FrameRing, RingFrame
 from acquisition.status import CameraStatus, FrameAccounting
-from acquisition.tracker import Tracker, TrackerConfig
+from acquisition.tracker import TrackerConfig
 from drivers.camera.frame import Frame
 from drivers.device import Device
 
@@ -91,15 +91,16 @@ class CameraPipeline:
         self.device = device
         self.shape = (int(shape[0]), int(shape[1]))
         self.ring = FrameRing(ring_capacity, *self.shape, name=name)
-        self.meter = PeakSnrMeter(config, window=window)
+        self.measurer = FrameMeasurer(
+            config, window=window, track=track, tracker_config=tracker_config
+        )
         self.range_at = range_at
-        self.track = track
-        self.tracker_config = tracker_config or TrackerConfig()
         self._reader = self.ring.reader("measurement")
         self._lock = threading.Lock()
         self._roi: tuple[int, int] | None = None
         self._roi_pending: tuple[int, int] | None = None
-        self._tracker = None
+        self._clear_pending = False
+        self._cue_pending: tuple[float, float] | None = None
         self._track_state = "idle"
         self._listeners: list[Callable[[Measurement, RingFrame], None]] = []
         self._recorder = None
@@ -148,15 +149,12 @@ class CameraPipeline:
     def clear_roi(self) -> None:
         with self._lock:
             self._roi_pending = None
-            self._roi = None
-            self._tracker = None
-            self._track_state = "idle"
+            self._clear_pending = True
 
     def cue(self, x: float, y: float) -> None:
         """A projected GPS position for the tracker to reacquire a lost target near."""
-        tracker = self._tracker
-        if tracker is not None and hasattr(tracker, "cue"):
-            tracker.cue(x, y)
+        with self._lock:
+            self._cue_pending = (float(x), float(y))
 
     def add_listener(self, callback: Callable[[Measurement, RingFrame], None]) -> None:
         """``callback(measurement, frame)`` on the measurement thread after every frame."""
@@ -260,77 +258,59 @@ class CameraPipeline:
     def _process(self, item: RingFrame) -> None:
         with self._lock:
             pending, self._roi_pending = self._roi_pending, None
+            clear, self._clear_pending = self._clear_pending, False
+            cue, self._cue_pending = self._cue_pending, None
             recorder = self._recorder
             listeners = list(self._listeners)
+        if clear:
+            self.measurer.clear_roi()
         if pending is not None:
-            self._apply_roi(pending)
+            self.measurer.set_roi(*pending)
+            if recorder is not None:
+                # Recorded at the frame it took effect on, so a replay applies it there too.
+                recorder.add_event(
+                    "roi_set",
+                    camera=self.name,
+                    payload={"x": pending[0], "y": pending[1], "counter": item.counter},
+                    t_host_ns=item.t_host_ns,
+                )
+        if cue is not None:
+            self.measurer.cue(*cue)
         index = recorder.add_frame(self.name, item) if recorder is not None else None
-        roi = self._roi
-        if roi is None:
+        fr = self.measurer.measure(item.pixels)
+        if fr is None:
             with self._lock:
                 self._measured += 1
+                self._roi = None
+                self._track_state = "idle"
             return
-        if self._tracker is not None:
-            step = self._tracker.update(item.pixels)
-            result, state = step.peak_snr, step.state.value
-            centre = (step.window_x, step.window_y)
-            if not (result.flags & RUNNING_EXCLUDED):
-                self.meter.running.push(result.snr)
-        else:
-            result, state, centre = self.meter.measure(item.pixels, roi), "fixed", roi
-        running = self.meter.running
         range_m, source = self.range_at(item.t_host_ns) if self.range_at else (None, "")
         m = Measurement(
             self.name,
             item.seq,
             item.counter,
             item.t_host_ns,
-            result,
-            str(state),
-            running.mean,
-            running.std,
-            running.count,
+            fr.result,
+            fr.state,
+            fr.snr_mean,
+            fr.snr_std,
+            fr.snr_n,
             range_m,
             source,
         )
         if recorder is not None:
-            recorder.add_peak_snr(self.name, index, item.counter, item.t_host_ns, result)
+            recorder.add_peak_snr(self.name, index, item.counter, item.t_host_ns, fr.result)
         latency = time.monotonic_ns() - item.t_host_ns
         with self._lock:
             self._measured += 1
             self._last = m
-            self._track_state = str(state)
-            self._roi = (int(np.rint(centre[0])), int(np.rint(centre[1])))
+            self._track_state = fr.state
+            self._roi = fr.window_xy
             self._latency_ns.append(latency)
-            self._series.append(
-                (
-                    item.t_host_ns,
-                    result.snr,
-                    m.snr_mean,
-                    m.snr_std,
-                    np.nan if range_m is None else range_m,
-                )
-            )
+            rng = np.nan if range_m is None else range_m
+            self._series.append((item.t_host_ns, fr.result.snr, fr.snr_mean, fr.snr_std, rng))
         for cb in listeners:
             try:
                 cb(m, item)
             except Exception:
                 log.exception("%s: measurement listener failed", self.name)
-
-    def _apply_roi(self, roi: tuple[int, int]) -> None:
-        self.meter.reset()
-        self._roi = roi
-        self._tracker = None
-        if self.track:
-            m = self.meter.config
-            cfg = dataclasses.replace(
-                self.tracker_config,
-                search_px=m.search_px,
-                box_px=m.box_px,
-                background=m.background,
-                detrend=m.detrend,
-                saturation_dn=m.saturation_dn,
-                ddof=m.ddof,
-            )
-            self._tracker = Tracker(roi, cfg)
-        self._track_state = "tracking" if self._tracker is not None else "fixed"

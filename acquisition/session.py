@@ -11,6 +11,7 @@ and the latest frame per camera.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import shutil
 import threading
@@ -161,7 +162,8 @@ class Session:
     def set_roi(self, camera: str, x: int, y: int) -> None:
         """The operator clicked the drone at column ``x``, row ``y`` of ``camera``."""
         self.pipeline(camera).set_roi(x, y)
-        self._event("roi_set", camera=camera, payload={"x": int(x), "y": int(y)})
+        # The pipeline records "roi_set" at the frame the click takes effect on.
+        self._event("roi_clicked", camera=camera, payload={"x": int(x), "y": int(y)})
 
     def mark_stop(self) -> None:
         """The operator says the drone is hovering at a stop now."""
@@ -195,8 +197,10 @@ class Session:
         for pipe in self.pipelines.values():
             pipe.attach_recorder(rec)
             roi = pipe.status().roi_xy
-            if roi is not None:  # the ROI in force is part of the record
-                rec.add_event("roi_set", camera=pipe.name, payload={"x": roi[0], "y": roi[1]})
+            if roi is not None:  # the track in force is part of the record (replayed from here)
+                rec.add_event(
+                    "roi_set", camera=pipe.name, payload={"x": roi[0], "y": roi[1], "resumed": True}
+                )
 
     def stop_recording(self):
         """Finish the file; returns the recorder's summary (None when not recording)."""
@@ -329,5 +333,6 @@ class Session:
     def _config_record(self) -> dict[str, Any]:
         return {
             "session": self.config.raw,
+            "stop_detection": dataclasses.asdict(self.stop_detector.config),
             "host_free_bytes": shutil.disk_usage(".").free,
         }
