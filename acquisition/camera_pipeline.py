@@ -101,6 +101,7 @@ class CameraPipeline:
         self._roi_pending: tuple[int, int] | None = None
         self._clear_pending = False
         self._cue_pending: tuple[float, float] | None = None
+        self._gps_xy: tuple[float, float] | None = None
         self._track_state = "idle"
         self._listeners: list[Callable[[Measurement, RingFrame], None]] = []
         self._recorder = None
@@ -155,6 +156,7 @@ class CameraPipeline:
         """A projected GPS position for the tracker to reacquire a lost target near."""
         with self._lock:
             self._cue_pending = (float(x), float(y))
+            self._gps_xy = (float(x), float(y))
 
     def add_listener(self, callback: Callable[[Measurement, RingFrame], None]) -> None:
         """``callback(measurement, frame)`` on the measurement thread after every frame."""
@@ -191,6 +193,7 @@ class CameraPipeline:
             last = self._last
             measured = self._measured
             roi = self._roi
+            gps_xy = self._gps_xy
             state = self._track_state
             lat = np.array(self._latency_ns, dtype=float)
             rec = self._recorder
@@ -217,6 +220,7 @@ class CameraPipeline:
             frames=frames,
             fps=float(fps or 0.0),
             roi_xy=roi,
+            gps_xy=gps_xy,
             track_state=state,
             last=last.result if last else None,
             snr_mean=last.snr_mean if last else float("nan"),

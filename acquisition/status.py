@@ -38,6 +38,7 @@ class CameraStatus:
     frames: FrameAccounting
     fps: float = 0.0
     roi_xy: tuple[int, int] | None = None
+    gps_xy: tuple[float, float] | None = None  # the drone's GPS position projected (px)
     track_state: str = "idle"
     last: PeakSnr | None = None
     snr_mean: float = float("nan")

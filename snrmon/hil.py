@@ -107,7 +107,17 @@ class HilRig:
                 "target": opts.target,
                 "site": {"lat_deg": site.lat_deg, "lon_deg": site.lon_deg, "alt_m": site.alt_m},
                 "cameras": {
-                    c: {"source": "shm", "address": r.producer.name, "sensor": c}
+                    c: {
+                        "source": "shm",
+                        "address": r.producer.name,
+                        "sensor": c,
+                        # The cameras look along the flight's line of sight (boresight offset 0).
+                        "pointing_deg": [
+                            self.flight_config.azimuth_deg,
+                            self.flight_config.elevation_deg,
+                            0.0,
+                        ],
+                    }
                     for c, r in self.cameras.items()
                 },
                 "gps": {"protocol": "nmea", "port": self.gps_sim.path, "baud": 38400},
