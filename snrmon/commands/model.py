@@ -1,0 +1,255 @@
+"""``snrmon model``: the sensor model from the command line (paper Eqs. 1-3, sections 8-9).
+
+Subcommands and their ``--json`` contracts (stdout):
+
+* ``snr --sensor S --target T --ranges R1,R2,... [--atmosphere default|none|FILE]
+  [--background-temp-c T] [--spatial-noise E|Kx|none|low|medium|high]`` -> a list, one object
+  per range: ``{"range_m", "resolved_small", "resolved_large", "snr_small", "snr_large",
+  "snr_small_corrected", "snr_large_corrected", "signal_e": {curve: e}, "noise_e":
+  {"background", "lens", "dark", "read", "temporal", "spatial"}, "transmission", "pvf": {curve:
+  average PVF or null where resolved}, "uncertainty": {corrected curve: [lower, upper]}}``;
+  curves are small, large, small_corrected, large_corrected.
+* ``pvf --psf airy|gaussian|airy+gaussian ...`` -> ``{"average_pvf", "ensquared_energy"}``.
+* ``radiance --band L1,L2 --temp-k T`` -> ``{"radiance_w_m2_sr", "photon_radiance",
+  "d_radiance_dt", "d_photon_radiance_dt"}`` (SI, per steradian; photons s^-1 m^-2 sr^-1).
+* ``netd --sensor S`` -> ``{"netd_mk", "temporal_noise_e", "temporal_noise_dn"}`` (noise against
+  a 290 K sky unless ``--background-temp-c``; NETD at the sensor's 300 K reference).
+* ``plot --sensor S --target T -o FILE.png`` -> the four curves with the Fig. 12 band.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import numpy as np
+
+from snrmon.cli import UsageError
+
+ZERO_C_K = 273.15
+NOISE_REFERENCE_SKY_K = 290.0
+
+
+def _floats(text: str, what: str) -> list[float]:
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise UsageError(f"{what} must be comma-separated numbers, got {text!r}") from None
+    if not values or any(not math.isfinite(v) for v in values):
+        raise UsageError(f"{what} must be comma-separated finite numbers, got {text!r}")
+    return values
+
+
+def _band(text: str) -> tuple[float, float]:
+    v = _floats(text, "--band")
+    if len(v) != 2 or not 0 < v[0] < v[1]:
+        raise UsageError(f"--band must be L1,L2 in um with 0 < L1 < L2, got {text!r}")
+    return v[0], v[1]
+
+
+def _ranges(text: str) -> list[float]:
+    v = _floats(text, "--ranges")
+    for r in v:
+        if r <= 0:
+            raise UsageError(f"--ranges: range must be > 0 m, got {r:g}")
+    return v
+
+
+def _bg_k(args) -> float | None:
+    if args.background_temp_c is None:
+        return None
+    t = args.background_temp_c + ZERO_C_K
+    if not t > 0:
+        raise UsageError(f"--background-temp-c must be above -273.15, got {args.background_temp_c}")
+    return t
+
+
+def _atmosphere(args, sensor):
+    from model.atmosphere import resolve_atmosphere
+    from model.presets import load_atmosphere
+
+    spec = args.atmosphere
+    if spec in ("default", "none"):
+        return resolve_atmosphere(spec, sensor.band_um)
+    try:
+        return resolve_atmosphere(float(spec), sensor.band_um)
+    except ValueError as exc:
+        if "transmission" in str(exc):
+            raise
+    return load_atmosphere(spec, sensor.band_um, args.atmosphere_path_m)
+
+
+def _emit(args, obj, table: str) -> int:
+    print(json.dumps(obj, indent=None if args.json else 2) if args.json else table)
+    return 0
+
+
+def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
+    p.add_argument("--sensor", required=True, metavar="mwir|lwir|FILE", help="sensor preset")
+    if target:
+        p.add_argument("--target", required=True, metavar="uav1|uav2|FILE", help="target preset")
+        p.add_argument("--atmosphere", default="default", metavar="default|none|TAU|FILE",
+                       help="built-in US Std 1976 fit (default), none, a constant "
+                       "transmission, or a TOML/tape7/CSV file")  # fmt: skip
+        p.add_argument("--atmosphere-path-m", type=float, default=None, metavar="M",
+                       help="path length of a tape7/CSV spectrum")  # fmt: skip
+        p.add_argument("--spatial-noise", default=None, metavar="E|Kx|CLUTTER",
+                       help="spatial noise: electrons, K x temporal, or a clutter category "
+                       "none/low/medium/high")  # fmt: skip
+    p.add_argument("--background-temp-c", type=float, default=None, metavar="T",
+                   help="measured background (sky) temperature, C")  # fmt: skip
+    p.add_argument("--json", action="store_true", help="JSON on stdout")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("model", help="the sensor model: SNR vs range, PVF, radiance, NETD, plots",
+                       description=__doc__.split("\n\n")[0])  # fmt: skip
+    msub = p.add_subparsers(dest="model_command", metavar="SUBCOMMAND")
+    p.set_defaults(func=lambda a: (p.print_help(), 2)[1])
+
+    s = msub.add_parser("snr", help="the four SNR curves at given ranges (Eqs. 1-3)")
+    _add_common(s)
+    s.add_argument("--ranges", type=str, default="37,126,199,336,393,451,508", metavar="R,...")
+    s.set_defaults(func=run_snr)
+
+    v = msub.add_parser("pvf", help="average PVF and ensquared energy of a PSF")
+    v.add_argument("--psf", required=True, choices=("airy", "gaussian", "airy+gaussian"))
+    v.add_argument("--f-number", type=float, default=None)
+    v.add_argument("--pitch-um", type=float, default=None)
+    g = v.add_mutually_exclusive_group()
+    g.add_argument("--wavelength-um", type=float, default=None)
+    g.add_argument("--band", type=str, default=None, metavar="L1,L2")
+    v.add_argument("--sigma-px", type=float, default=None)
+    v.add_argument("--fill-factor", type=float, default=1.0, help="area fill factor (1.0)")
+    v.add_argument("--target-size-px", type=float, default=0.0, metavar="D",
+                   help="Gaussian target of sigma D/2 convolved with the PSF")  # fmt: skip
+    v.add_argument("--json", action="store_true")
+    v.set_defaults(func=run_pvf)
+
+    r = msub.add_parser("radiance", help="blackbody band radiance and its derivative")
+    r.add_argument("--band", required=True, metavar="L1,L2")
+    r.add_argument("--temp-k", required=True, type=float)
+    r.add_argument("--json", action="store_true")
+    r.set_defaults(func=run_radiance)
+
+    n = msub.add_parser("netd", help="the model's NETD and temporal noise of a sensor")
+    _add_common(n, target=False)
+    n.set_defaults(func=run_netd)
+
+    pl = msub.add_parser("plot", help="SNR vs range figure like Figs. 7-10")
+    _add_common(pl)
+    pl.add_argument("--max-range-m", type=float, default=600.0)
+    pl.add_argument("-o", "--output", required=True, metavar="FILE.png")
+    pl.set_defaults(func=run_plot)
+
+
+def _load(args):
+    from model.presets import load_sensor, load_target
+
+    sensor = load_sensor(args.sensor)
+    target = load_target(args.target) if getattr(args, "target", None) else None
+    return sensor, target
+
+
+def run_snr(args) -> int:
+    from model.snr import predict
+
+    sensor, target = _load(args)
+    pred = predict(sensor, target, _ranges(args.ranges), atmosphere=_atmosphere(args, sensor),
+                   background_temp_k=_bg_k(args), spatial_noise=args.spatial_noise)  # fmt: skip
+    records = pred.to_records()
+    head = f"{'range_m':>8} {'res_s':>5} {'res_l':>5} {'small':>9} {'large':>9} {'small_c':>9} "
+    head += f"{'large_c':>9} {'tau':>6}"
+    title = (
+        f"{sensor.name} / {target.name}, atmosphere {pred.atmosphere_name}, background "
+        f"{pred.background_temp_k:.2f} K, temporal noise {pred.noise.temporal:.4g} e-"
+    )
+    lines = [title, head]
+    for rec in records:
+        lines.append(
+            f"{rec['range_m']:8.1f} {rec['resolved_small']!s:>5} {rec['resolved_large']!s:>5} "
+            f"{rec['snr_small']:9.3f} {rec['snr_large']:9.3f} {rec['snr_small_corrected']:9.3f} "
+            f"{rec['snr_large_corrected']:9.3f} {rec['transmission']:6.3f}"
+        )
+    return _emit(args, records, "\n".join(lines))
+
+
+def run_pvf(args) -> int:
+    from model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf
+    from model.pvf import average_pvf, ensquared_energy
+
+    airy = None
+    if args.psf in ("airy", "airy+gaussian"):
+        if args.f_number is None or args.pitch_um is None:
+            raise UsageError(f"--psf {args.psf} needs --f-number and --pitch-um")
+        if args.wavelength_um is not None:
+            airy = AiryPsf.monochromatic(args.f_number, args.pitch_um, args.wavelength_um)
+        elif args.band is not None:
+            airy = AiryPsf.polychromatic(args.f_number, args.pitch_um, _band(args.band))
+        else:
+            raise UsageError(f"--psf {args.psf} needs --wavelength-um or --band")
+    if args.psf in ("gaussian", "airy+gaussian") and args.sigma_px is None:
+        raise UsageError(f"--psf {args.psf} needs --sigma-px")
+    if args.psf == "airy":
+        psf = airy
+    elif args.psf == "gaussian":
+        psf = GaussianPsf(args.sigma_px)
+    else:
+        psf = AiryGaussianPsf(airy, args.sigma_px)
+    if args.target_size_px < 0:
+        raise UsageError(f"--target-size-px must be >= 0, got {args.target_size_px}")
+    st = 0.5 * args.target_size_px
+    out = {
+        "average_pvf": average_pvf(psf, args.fill_factor, st),
+        "ensquared_energy": ensquared_energy(psf, args.fill_factor, st),
+    }
+    return _emit(args, out, "\n".join(f"{k}: {v:.6f}" for k, v in out.items()))
+
+
+def run_radiance(args) -> int:
+    from model import radiometry as rad
+
+    band = _band(args.band)
+    if not (args.temp_k > 0 and math.isfinite(args.temp_k)):
+        raise UsageError(f"--temp-k must be > 0, got {args.temp_k}")
+    out = {
+        "radiance_w_m2_sr": rad.band_radiance(band, args.temp_k),
+        "photon_radiance": rad.band_photon_radiance(band, args.temp_k),
+        "d_radiance_dt": rad.band_radiance_dt(band, args.temp_k),
+        "d_photon_radiance_dt": rad.band_photon_radiance_dt(band, args.temp_k),
+    }
+    return _emit(args, out, "\n".join(f"{k}: {v:.6g}" for k, v in out.items()))
+
+
+def run_netd(args) -> int:
+    from model.noise import model_netd_mk, temporal_noise_e
+
+    sensor, _ = _load(args)
+    bg = _bg_k(args) or NOISE_REFERENCE_SKY_K
+    noise = temporal_noise_e(sensor, bg)
+    out = {
+        "netd_mk": model_netd_mk(sensor),
+        "temporal_noise_e": noise,
+        "temporal_noise_dn": noise / sensor.gain_e_per_dn,
+    }
+    table = "\n".join(f"{k}: {v:.4g}" for k, v in out.items())
+    table += f"\n(spec NETD {sensor.netd_mk:g} mK; noise against a {bg:.2f} K background)"
+    return _emit(args, out, table)
+
+
+def run_plot(args) -> int:
+    from model.plot import plot_prediction
+    from model.snr import predict
+
+    sensor, target = _load(args)
+    if not args.max_range_m > 10:
+        raise UsageError(f"--max-range-m must be > 10, got {args.max_range_m}")
+    if not str(args.output).lower().endswith((".png", ".pdf", ".svg")):
+        raise UsageError(f"-o must end in .png, .pdf or .svg, got {args.output!r}")
+    ranges = np.linspace(10.0, args.max_range_m, 500)
+    pred = predict(sensor, target, ranges, atmosphere=_atmosphere(args, sensor),
+                   background_temp_k=_bg_k(args), spatial_noise=args.spatial_noise)  # fmt: skip
+    path = plot_prediction(pred, args.output)
+    print(path)
+    return 0
