@@ -9,6 +9,11 @@ JSON contract (``--json``), on stdout::
 ``snr_mean``/``snr_std`` (sample std, ddof=1) are over all frames whose SNR is defined (finite),
 flagged or not; a value that is not a finite number (an undefined SNR) is written as ``null``.
 The readable table adds the running mean/std over the last ``--window`` valid frames.
+
+``--track`` runs :func:`acquisition.tracker.track_stack` from ``--at`` (motion gate, LOST state;
+see docs/tracking.md) instead of keeping the window fixed. The contract is the same, the frames
+carry the tracker's flags (``lost``, ``gps_cued``) and each frame gains ``"track_state"``
+(``"tracking"``, ``"lost"`` or ``"gps_cued"``: the state after that frame).
 """
 
 from __future__ import annotations
@@ -21,9 +26,11 @@ import sys
 import numpy as np
 
 from acquisition.background import parse_rect, validate_rect
-from acquisition.peak_snr import FLAG_NAMES, PeakSnrMeter
+from acquisition.peak_snr import FLAG_NAMES, RUNNING_EXCLUDED, PeakSnr, PeakSnrMeter
+from acquisition.running_stats import RunningSnr
 from acquisition.stack_io import load_stack
 from acquisition.stack_snr import StackSnr, measure_stack
+from acquisition.tracker import TrackerConfig, TrackStep, track_stack
 from snrmon.cli import UsageError
 
 
@@ -72,7 +79,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--window", type=int, default=100, metavar="N", help="running window (100)")
     p.add_argument("--saturation", type=float, default=None, metavar="DN", help="saturation level")
     p.add_argument("--json", action="store_true", help="print the JSON contract on stdout")
-    # A tracker (--track) plugs in at _measure_frames: same meter, a moving point per frame.
+    p.add_argument(
+        "--track",
+        action="store_true",
+        help="follow the peak from --at with the gated tracker (adds track_state per frame)",
+    )
     p.set_defaults(func=run)
 
 
@@ -106,6 +117,23 @@ def _measure_frames(args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrM
     return measure_stack(stack, args.at, meter=meter)
 
 
+def _track_frames(
+    args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrMeter
+) -> tuple[list[PeakSnr], list[TrackStep]]:
+    """The window follows the peak (acquisition.tracker); the meter's settings carry over."""
+    c = meter.config
+    config = TrackerConfig(
+        search_px=c.search_px,
+        box_px=c.box_px,
+        background=c.background,
+        detrend=c.detrend,
+        saturation_dn=c.saturation_dn,
+        ddof=c.ddof,
+    )
+    steps = track_stack(stack, args.at, config)
+    return [s.peak_snr for s in steps], steps
+
+
 def _num(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
@@ -120,11 +148,22 @@ def _summary(snr: np.ndarray) -> tuple[float, float]:
 def run(args: argparse.Namespace) -> int:
     stack = load_stack(args.stack)
     meter = _meter(args, stack.shape[1:])
-    result = _measure_frames(args, stack, meter)
-    mean, std = _summary(result.snr)
+    steps: list[TrackStep] | None = None
+    if getattr(args, "track", False):
+        results, steps = _track_frames(args, stack, meter)
+        running = RunningSnr(args.window)
+        for r in results:
+            if not r.flags & RUNNING_EXCLUDED:
+                running.push(r.snr)
+    else:
+        stack_result = _measure_frames(args, stack, meter)
+        results, running = stack_result.to_list(), meter.running
+    snr = np.array([r.snr for r in results], dtype=float)
+    mean, std = _summary(snr)
     if args.json:
-        frames = [
-            {
+        frames = []
+        for i, r in enumerate(results):
+            frame = {
                 "index": i,
                 "peak_x": r.peak_x,
                 "peak_y": r.peak_y,
@@ -134,25 +173,27 @@ def run(args: argparse.Namespace) -> int:
                 "snr": _num(r.snr),
                 "flags": [f for f in FLAG_NAMES if f in r.flags],
             }
-            for i, r in enumerate(result.to_list())
-        ]
-        out = {"n": len(result), "snr_mean": _num(mean), "snr_std": _num(std), "frames": frames}
+            if steps is not None:
+                frame["track_state"] = steps[i].state.value
+            frames.append(frame)
+        out = {"n": len(results), "snr_mean": _num(mean), "snr_std": _num(std), "frames": frames}
         json.dump(out, sys.stdout, allow_nan=False)
         sys.stdout.write("\n")
         return 0
+    state_head = f" {'state':>9}" if steps is not None else ""
     print(
         f"{'frame':>6} {'x':>5} {'y':>5} {'peak':>10} {'bg_mean':>10} {'bg_std':>8} "
-        f"{'snr':>8}  flags"
+        f"{'snr':>8}{state_head}  flags"
     )
-    for i, r in enumerate(result.to_list()):
+    for i, r in enumerate(results):
         flags = ",".join(f for f in FLAG_NAMES if f in r.flags)
+        state = f" {steps[i].state.value:>9}" if steps is not None else ""
         print(
             f"{i:6d} {r.peak_x:5d} {r.peak_y:5d} {r.peak:10.2f} {r.bg_mean:10.2f} "
-            f"{r.bg_std:8.3f} {r.snr:8.3f}  {flags}"
+            f"{r.bg_std:8.3f} {r.snr:8.3f}{state}  {flags}"
         )
-    finite = int(np.isfinite(result.snr).sum())
-    print(f"all frames: n={len(result)} (defined {finite})  SNR mean {mean:.3f}  std {std:.3f}")
-    running = meter.running
+    finite = int(np.isfinite(snr).sum())
+    print(f"all frames: n={len(results)} (defined {finite})  SNR mean {mean:.3f}  std {std:.3f}")
     print(
         f"running, last {running.count} valid of window {running.window}: "
         f"SNR mean {running.mean:.3f}  std {running.std:.3f}"
