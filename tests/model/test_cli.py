@@ -1,0 +1,96 @@
+"""``snrmon model``: JSON contracts and one-line errors."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from snrmon.cli import main
+
+FIX = Path(__file__).with_name("fixtures")
+
+
+def _run(capsys, *argv):
+    code = main(["model", *argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_snr_json(capsys):
+    code, out, _ = _run(capsys, "snr", "--sensor", "mwir", "--target", "uav1",
+                        "--ranges", "37,126,199,336,393,451,508", "--json")  # fmt: skip
+    assert code == 0
+    recs = json.loads(out)
+    assert [r["range_m"] for r in recs] == [37, 126, 199, 336, 393, 451, 508]
+    assert recs[3]["resolved_small"] is False and recs[3]["resolved_large"] is True
+    assert recs[6]["snr_small_corrected"] < recs[6]["snr_small"]
+    assert set(recs[0]["noise_e"]) == {"background", "lens", "dark", "read", "temporal", "spatial"}
+    assert 0.6 < recs[6]["transmission"] < 0.7
+
+
+def test_snr_with_background_and_modtran_file(capsys):
+    tape = str(FIX / "tape7_radiance.txt")
+    code, out, _ = _run(capsys, "snr", "--sensor", "lwir", "--target", "uav2", "--ranges", "393",
+                        "--atmosphere", tape, "--atmosphere-path-m", "1000",
+                        "--background-temp-c", "29.5", "--json")  # fmt: skip
+    assert code == 0
+    rec = json.loads(out)[0]
+    assert rec["transmission"] == pytest.approx(0.7 ** (393 / 1000), rel=1e-6)
+
+
+def test_pvf_radiance_netd_json(capsys):
+    code, out, _ = _run(capsys, "pvf", "--psf", "airy", "--f-number", "1.25", "--pitch-um", "17",
+                        "--wavelength-um", "10", "--fill-factor", "0.9", "--json")  # fmt: skip
+    assert code == 0 and json.loads(out)["average_pvf"] == pytest.approx(0.4654, abs=5e-4)
+    code, out, _ = _run(capsys, "pvf", "--psf", "gaussian", "--sigma-px", "0.8",
+                        "--fill-factor", "0.8", "--target-size-px", "1", "--json")  # fmt: skip
+    assert json.loads(out)["average_pvf"] == pytest.approx(0.1602 * 0.762, abs=2e-3)
+    code, out, _ = _run(capsys, "radiance", "--band", "8,12", "--temp-k", "300", "--json")
+    r = json.loads(out)
+    assert r["radiance_w_m2_sr"] == pytest.approx(38.50042, rel=1e-6)
+    assert set(r) == {
+        "radiance_w_m2_sr",
+        "photon_radiance",
+        "d_radiance_dt",
+        "d_photon_radiance_dt",
+    }
+    code, out, _ = _run(capsys, "netd", "--sensor", "mwir", "--json")
+    n = json.loads(out)
+    assert abs(n["netd_mk"] / 41 - 1) < 0.2 and n["temporal_noise_dn"] == pytest.approx(
+        6.6, rel=0.05
+    )
+
+
+def test_plot_writes_a_png(capsys, tmp_path):
+    png = tmp_path / "fig.png"
+    code, _, _ = _run(capsys, "plot", "--sensor", "lwir", "--target", "uav1", "-o", str(png))
+    assert code == 0 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["snr", "--sensor", "swir", "--target", "uav1"], "unknown sensor 'swir'"),
+        (["snr", "--sensor", "mwir", "--target", "uav7"], "unknown target 'uav7'"),
+        (["snr", "--sensor", "mwir", "--target", "uav1", "--ranges", "100,-3"], "-3"),
+        (["radiance", "--band", "12,8", "--temp-k", "300"], "--band"),
+        (["pvf", "--psf", "airy", "--f-number", "2"], "--pitch-um"),
+        (["snr", "--sensor", "mwir", "--target", "uav1", "--atmosphere", "BAD_TAPE7"], "-9999"),
+        (["snr", "--sensor", "BAD_TOML", "--target", "uav1"], "malformed TOML"),
+        (["snr", "--sensor", "SWIR_TOML", "--target", "uav1"], "outside the built-in"),
+    ],
+)
+def test_bad_input_is_one_line(capsys, tmp_path, argv, needle):
+    tape = tmp_path / "bad.tp7"
+    tape.write_text(" FREQ TOT_TRANS\n 2000.0 0.5\n")
+    toml = tmp_path / "bad.toml"
+    toml.write_text("[sensor\n")
+    swir = tmp_path / "swir.toml"
+    text = (Path(__file__).parents[2] / "model" / "presets" / "mwir.toml").read_text()
+    swir.write_text(text.replace("band_um = [3.45, 5.25]", "band_um = [1.0, 1.7]"))
+    subst = {"BAD_TAPE7": str(tape), "BAD_TOML": str(toml), "SWIR_TOML": str(swir)}
+    argv = [subst.get(a, a) for a in argv]
+    argv += ["--atmosphere-path-m", "100"] if "BAD_TAPE7" in str(argv) or str(tape) in argv else []
+    code, out, err = _run(capsys, *argv)
+    assert code != 0 and out == ""
+    assert len(err.strip().splitlines()) == 1 and needle in err

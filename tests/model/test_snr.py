@@ -1,0 +1,127 @@
+"""Eqs. 2-3, the resolved/unresolved rule, the four curves, the Fig. 12 band, and the hooks the
+scene simulator uses (its truth must equal the model's SNR)."""
+
+import numpy as np
+import pytest
+
+from model.detector import background_electrons
+from model.noise import temporal_noise_e
+from model.presets import load_sensor, load_target
+from model.psf import GaussianPsf
+from model.pvf import average_pvf, pixel_energy_fractions
+from model.radiometry import band_nodes, spectral_photon_radiance
+from model.snr import detection_range_m, predict, target_contrast_electrons
+from model.target import Target
+
+MW, LW = load_sensor("mwir"), load_sensor("lwir")
+UAV1, UAV2 = load_target("uav1"), load_target("uav2")
+PAPER_RANGES = [37, 126, 199, 336, 393, 451, 508]
+
+
+def test_transition_range_uav1_small_mwir():
+    p = predict(MW, UAV1, PAPER_RANGES)
+    assert 314 <= p.transition_range_small_m <= 350
+    assert list(p.resolved_small) == [True, True, True, False, False, False, False]
+    assert list(p.resolved_large) == [True] * 6 + [False]
+    # the paper's unresolved MWIR ranges (section 4) are unresolved for the small dimension
+    assert not p.resolved_small[3:].any()
+
+
+def test_eq2_point_signal_by_hand():
+    # physics.md worked example: 5 K contrast, tau 0.8, 15.7 cm target, 290 K background
+    s = MW.__class__(**{**MW.__dict__, "t_int_s": 0.005})
+    t = Target("bb", 0.157, 0.157, {"mwir": 295.0 - 273.15})
+    e199 = target_contrast_electrons(s, t, 199.0, atmosphere=0.8, background_temp_k=290.0)
+    e508 = target_contrast_electrons(s, t, 508.0, atmosphere=0.8, background_temp_k=290.0)
+    assert e199 == pytest.approx(3.37e5, rel=0.01)
+    assert e508 == pytest.approx(5.17e4, rel=0.01)
+    wl, w = band_nodes((3.45, 5.25), 48)
+    dlq = spectral_photon_radiance(wl, 295.0) - spectral_photon_radiance(wl, 290.0)
+    by_hand = s.aperture_area_m2 * 0.005 * 0.8 * np.sum(w * 0.8 * 0.9 * 0.6 * dlq)
+    assert e199 == pytest.approx(by_hand * 0.157**2 / 199.0**2, rel=1e-12)
+
+
+def test_four_curves_unresolved_use_pvf_and_eq3():
+    p = predict(MW, UAV1, PAPER_RANGES, spatial_noise="2x")
+    i = 6  # 508 m: both dimensions unresolved
+    pt = target_contrast_electrons(MW, UAV1, 508.0)
+    pvf0 = average_pvf(MW.diffraction_psf(), 0.8)
+    assert p.signal_e["small"][i] == pytest.approx(pt * pvf0, rel=1e-9)
+    assert p.pvf["small"][i] == pytest.approx(pvf0)
+    d_px = 0.157 / (508.0 * MW.ifov_rad)
+    assert p.pvf["small_corrected"][i] == pytest.approx(
+        average_pvf(MW.corrected_psf(), 0.8, 0.5 * d_px), abs=1e-6
+    )
+    assert p.noise.spatial == pytest.approx(2 * p.noise.temporal)
+    assert p.snr_small[i] == pytest.approx(p.signal_e["small"][i] / (5**0.5 * p.noise.temporal))
+    assert np.isnan(p.pvf["small"][0]) and p.snr_small[0] == p.snr_small_corrected[0]
+    assert (p.snr_small_corrected[3:] < p.snr_small[3:]).all()
+    assert (p.snr_large >= p.snr_small).all()
+
+
+def test_mwir_corrected_pvf_is_0082_for_a_point_and_drops_with_size():
+    psf = MW.corrected_psf()
+    assert isinstance(psf, GaussianPsf) and psf.sigma_px == pytest.approx(1.183, abs=2e-3)
+    p = predict(MW, UAV1, [400.0, 4000.0, 40000.0])
+    assert p.pvf["small_corrected"][2] == pytest.approx(0.082, abs=2e-4)
+    assert p.pvf["small_corrected"][0] < p.pvf["small_corrected"][1] < 0.082
+
+
+def test_background_correction_and_atmosphere_move_the_signal_the_right_way():
+    cold = predict(LW, UAV1, [300.0], background_temp_k=280.0).snr_small[0]
+    warm = predict(LW, UAV1, [300.0], background_temp_k=306.65).snr_small[0]  # 33.5 C sky
+    assert cold > 3 * warm > 0
+    clear = predict(MW, UAV1, [400.0], atmosphere="none").snr_small[0]
+    hazy = predict(MW, UAV1, [400.0], atmosphere="default").snr_small[0]
+    assert hazy / clear == pytest.approx(predict(MW, UAV1, [400.0]).transmission[0], rel=1e-9)
+
+
+def test_uncertainty_band_surrounds_corrected_curves_and_path_term_is_amplified():
+    p = predict(MW, UAV1, PAPER_RANGES)
+    c = p.snr_small_corrected
+    assert (p.lower["small_corrected"] < c).all() and (c < p.upper["small_corrected"]).all()
+    u = p.relative_uncertainty["small_corrected"]
+    assert u[-1] > u[0]  # MTF and size-blur terms only once unresolved
+    warm = predict(LW, UAV1, [300.0], background_temp_k=306.65).relative_uncertainty
+    assert warm["small_corrected"][0] > 0.5  # 5 % of a large background vs a small contrast
+
+
+def test_detection_range_is_where_the_curve_crosses_the_threshold():
+    r = detection_range_m(MW, UAV1, 5.0)
+    above = predict(MW, UAV1, [r * 0.999]).snr_small_corrected[0]
+    below = predict(MW, UAV1, [r * 1.001]).snr_small_corrected[0]
+    assert above >= 5.0 > below
+    assert detection_range_m(MW, UAV1, 1e9) == 0.0
+
+
+def test_simulator_hooks_reproduce_the_model_snr():
+    # render the unresolved drone with the model's own fractions at random phases: the mean
+    # peak-pixel signal over phases / temporal noise = the model's corrected SNR (Eqs. 2-3)
+    rng = np.random.default_rng(7)
+    r = 451.0
+    p = predict(MW, UAV1, [r], background_temp_k=285.0)
+    e = target_contrast_electrons(MW, UAV1, r, background_temp_k=285.0)
+    st = 0.5 * 0.157 / (r * MW.ifov_rad)
+    psf = MW.corrected_psf()
+    mids = [
+        pixel_energy_fractions(
+            psf, *rng.uniform(-0.5, 0.5, 2), fill_factor=0.8, target_sigma_px=st
+        )[3, 3]
+        for _ in range(4000)
+    ]
+    sim_snr = e * np.mean(mids) / temporal_noise_e(MW, 285.0)
+    assert sim_snr == pytest.approx(p.snr_small_corrected[0], rel=0.01)
+    assert background_electrons(MW, 285.0) > temporal_noise_e(MW, 285.0) ** 2 - 100.0**2 - 1
+
+
+def test_to_records_shape_and_bad_ranges():
+    recs = predict(LW, UAV2, [126.0, 393.0]).to_records()
+    assert len(recs) == 2
+    assert set(recs[0]) >= {
+        "range_m", "resolved_small", "resolved_large", "snr_small", "snr_large",
+        "snr_small_corrected", "snr_large_corrected", "signal_e", "noise_e", "transmission", "pvf",
+    }  # fmt: skip
+    assert set(recs[0]["noise_e"]) == {"background", "lens", "dark", "read", "temporal", "spatial"}
+    assert recs[0]["pvf"]["small"] is None and recs[1]["pvf"]["small"] > 0.3
+    with pytest.raises(ValueError, match="range"):
+        predict(MW, UAV1, [100.0, -5.0])
