@@ -36,6 +36,8 @@ class HilOptions:
     size: str = "small"
     hover_s: float = 7.0
     transit_mps: float = 8.0
+    start_range_m: float = 10.0
+    real_psf: bool = False
     sky_temp_k: float = 280.0
     fpn: bool = False
     track: bool = True
@@ -68,10 +70,15 @@ class HilRig:
             raise ValueError(f"speed must be positive, got {opts.speed}")
         self.opts = opts
         target = load_target(opts.target)
+        if predictor is None:
+            from acquisition.prediction import ModelPredictor
+
+            predictor = ModelPredictor({c: c for c in opts.cameras}, opts.target)
         self.flight_config = FlightConfig(
             stops_m=tuple(opts.stops_m),
             hover_s=opts.hover_s,
             speed_mps=opts.transit_mps,
+            start_range_m=opts.start_range_m,
             seed=opts.seed,
         )
         self.plan = FlightPlan(self.flight_config)
@@ -80,8 +87,12 @@ class HilRig:
         self.cameras: dict[str, CameraRig] = {}
         for i, cam in enumerate(opts.cameras):
             sensor = load_sensor(cam)
+            # Diffraction-limited optics by default (the model's uncorrected PSF); the real,
+            # wider PSF of the corrected curves on request. Its wings reach the 7x7 rim, which
+            # makes Eq. (4) read low at high SNR (docs/measurement.md).
+            psf = sensor.corrected_psf() if opts.real_psf else sensor.diffraction_psf()
             scene = scene_config_from_model(
-                sensor, target, size=opts.size, sky_temp_k=opts.sky_temp_k
+                sensor, target, size=opts.size, sky_temp_k=opts.sky_temp_k, psf=psf
             )
             if not opts.fpn:
                 scene = replace(scene, fpn_enabled=False)

@@ -40,6 +40,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--camera", default="mwir,lwir", help="cameras to simulate")
     p.add_argument("--target", default="uav1", help="target preset or TOML file")
     p.add_argument("--hover-s", type=float, default=7.0, help="hover time per stop (flight s)")
+    p.add_argument("--transit-mps", type=float, default=8.0, help="transit speed between stops")
+    p.add_argument(
+        "--real-psf",
+        action="store_true",
+        help="render with the sensor's real (corrected) PSF, not the diffraction limit",
+    )
     p.add_argument("--fpn", action="store_true", help="add fixed-pattern noise to the frames")
     p.add_argument(
         "--no-track",
@@ -52,7 +58,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.prediction import ModelPredictor
     from snrmon.hil import HilOptions, HilRig
 
     if args.speed == "max":
@@ -69,12 +74,13 @@ def run(args: argparse.Namespace) -> int:
         cameras=cameras,
         target=args.target,
         hover_s=args.hover_s,
+        transit_mps=args.transit_mps,
+        real_psf=args.real_psf,
         fpn=args.fpn,
         track=not args.no_track,
         out=args.out,
     )
-    predictor = ModelPredictor({c: c for c in cameras}, args.target)
-    rig = HilRig(opts, predictor=predictor)
+    rig = HilRig(opts)
     with rig:
         if not args.json:
             print(
