@@ -1,0 +1,63 @@
+"""``snrmon report``: the SNR-versus-range report of a session file (PDF or PNG) and its CSV.
+
+The session is replayed through the live measurement (a tqdm bar on stderr shows the frames),
+stops are rebuilt, and the pages of :mod:`acquisition.report_plot` are written; ``--csv`` writes
+the stop table with :data:`acquisition.report_data.CSV_COLUMNS`. See docs/report.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from snrmon.cli import UsageError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "report",
+        help="SNR-versus-range report of a session (Figs. 6, 7-10, 12) as PDF or PNG, and a CSV",
+    )
+    p.add_argument("file", metavar="FILE.h5", help="a snrmon session file")
+    p.add_argument("-o", "--output", required=True, metavar="REPORT.pdf|png", help="report file")
+    p.add_argument("--csv", metavar="TABLE.csv", help="also write the stop table as CSV")
+    p.add_argument("--target", metavar="T", help="target preset or TOML (default: the session's)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from acquisition.report_data import report_data, write_csv
+    from acquisition.report_plot import FORMATS, render_report
+
+    src, out = Path(args.file), Path(args.output)
+    if out.suffix.lower() not in FORMATS:
+        raise UsageError(f"-o {out}: the report must end in .pdf or .png")
+    if not src.is_file():
+        raise UsageError(f"session file {src} does not exist")
+    for dest in filter(None, (out, Path(args.csv) if args.csv else None)):
+        if not dest.parent.is_dir():
+            raise UsageError(f"cannot write {dest}: folder {dest.parent} does not exist")
+    bar = None
+    if not args.quiet:
+        from tqdm import tqdm
+
+        bar = tqdm(total=0, unit="frame", desc="replay", file=sys.stderr, leave=False)
+
+    def progress(done: int, total: int) -> None:
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    try:
+        data = report_data(src, target=args.target, progress=progress if bar else None)
+    finally:
+        if bar is not None:
+            bar.close()
+    render_report(data, out)
+    print(f"report: {out} ({len(data.rows)} stop rows)", file=sys.stderr)
+    if args.csv:
+        write_csv(data.csv_rows, args.csv)
+        print(f"table: {args.csv}", file=sys.stderr)
+    return 0
