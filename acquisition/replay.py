@@ -24,6 +24,7 @@ from acquisition.session_config import session_config_from_dict
 from acquisition.session_file import SessionFile, open_session
 from acquisition.stop_table import Predictor, StopRow, StopTable
 from acquisition.stops import StopConfig, StopDetector
+from acquisition.tracker import TrackerConfig
 
 
 @dataclass
@@ -48,6 +49,13 @@ class ReplayResult:
         return self.recording_seconds / self.seconds if self.seconds > 0 else math.inf
 
 
+def crop_half_px(config: PeakSnrConfig, tracker: TrackerConfig) -> int:
+    """Half-size of the square around the track that holds every pixel the measurement may read
+    on the next frame: the search window, the tracker's gate or GPS-cue square, plus the box."""
+    reach = max(config.search_px // 2, tracker.gate_px, tracker.cue_radius_px)
+    return reach + config.box_px // 2 + 2
+
+
 def _same(a: float, b: float) -> bool:
     return (a == b) or (math.isnan(a) and math.isnan(b))
 
@@ -64,12 +72,18 @@ def replay_session(
     path: str | Path,
     *,
     speed: float | None = None,
+    fast: bool = False,
     track: bool = True,
     predictor: Predictor | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> ReplayResult:
     """Measure every recorded frame again; ``speed`` paces to the recorded times (1 = real
-    time), None runs as fast as the disk allows."""
+    time), None runs as fast as the disk allows.
+
+    ``fast`` reads from the file only a square around the track (:func:`crop_half_px`) and
+    pastes it into a full-size buffer at its place, so the measurement code and its results are
+    unchanged (it never reads outside that square) while the disk reads a few kB per frame.
+    """
     with open_session(path) as f:
         config, window, site = _settings(f)
         rois: dict[str, list[tuple[int, int, int]]] = {}
@@ -104,6 +118,9 @@ def replay_session(
                 span_ns = max(span_ns, int(cam.t_host_ns[-1] - cam.t_host_ns[0]))
             t0_rec = int(cam.t_host_ns[0]) if cam.n_frames else 0
             wall0 = time.monotonic()
+            shape = cam.frames.shape[1:]
+            buffer = np.zeros(shape, cam.frames.dtype) if fast else None
+            half = crop_half_px(config, measurer.tracker_config)
             for i in range(cam.n_frames):
                 t = int(cam.t_host_ns[i])
                 while events and events[0][0] <= t:
@@ -114,7 +131,22 @@ def replay_session(
                     delay = due - time.monotonic()
                     if delay > 0:
                         time.sleep(delay)  # pacing to the recorded clock, not synchronisation
-                fr = measurer.measure(cam.frames[i])
+                if buffer is not None and measurer.roi is not None:
+                    x, y = measurer.roi
+                    y0, y1 = max(y - half, 0), min(y + half + 1, shape[0])
+                    x0, x1 = max(x - half, 0), min(x + half + 1, shape[1])
+                    buffer[y0:y1, x0:x1] = cam.frames[i, y0:y1, x0:x1]
+                    if config.background is not None:  # the clear-sky rectangle too
+                        bx0, by0, bx1, by1 = config.background
+                        buffer[by0 : by1 + 1, bx0 : bx1 + 1] = cam.frames[
+                            i, by0 : by1 + 1, bx0 : bx1 + 1
+                        ]
+                    pixels = buffer
+                elif measurer.roi is None:
+                    pixels = None  # nothing to measure: do not read the frame at all
+                else:
+                    pixels = cam.frames[i]
+                fr = measurer.measure(pixels) if pixels is not None else None
                 done += 1
                 if progress is not None and done % 50 == 0:
                     progress(done, total)
