@@ -39,21 +39,20 @@ def run(args: argparse.Namespace) -> int:
     for dest in filter(None, (out, Path(args.csv) if args.csv else None)):
         if not dest.parent.is_dir():
             raise UsageError(f"cannot write {dest}: folder {dest.parent} does not exist")
-    bar = None
-    if not args.quiet:
-        from tqdm import tqdm
-
-        bar = tqdm(total=0, unit="frame", desc="replay", file=sys.stderr, leave=False)
+    bars = []  # made at the first frame, so an unreadable file leaves no bar on stderr
 
     def progress(done: int, total: int) -> None:
-        bar.total = total
-        bar.n = done
-        bar.refresh()
+        if not bars:
+            from tqdm import tqdm
+
+            bars.append(tqdm(total=total, unit="frame", desc="replay", file=sys.stderr))
+        bars[0].n = done
+        bars[0].refresh()
 
     try:
-        data = report_data(src, target=args.target, progress=progress if bar else None)
+        data = report_data(src, target=args.target, progress=None if args.quiet else progress)
     finally:
-        if bar is not None:
+        for bar in bars:
             bar.close()
     render_report(data, out)
     print(f"report: {out} ({len(data.rows)} stop rows)", file=sys.stderr)

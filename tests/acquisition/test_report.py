@@ -1,0 +1,174 @@
+"""``snrmon report`` on a simulated session: the CSV's columns and values, Fig. 6/12 data, and
+the PDF and PNG renderings."""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from acquisition.prediction import CURVES, ModelPredictor
+from acquisition.report_data import BUDGET_TERMS, CSV_COLUMNS, report_data
+from acquisition.report_plot import PAGE_IN, PNG_DPI
+from snrmon.cli import main
+from tests.acquisition.session_factory import SPOT_XY, write_session
+
+RANGES_M = (120.0, 240.0)
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    return write_session(tmp_path_factory.mktemp("report") / "s.h5", ranges_m=RANGES_M)
+
+
+@pytest.fixture(scope="module")
+def data(session):
+    return report_data(session.path)
+
+
+@pytest.fixture(scope="module")
+def outputs(session, tmp_path_factory):
+    out = tmp_path_factory.mktemp("out")
+    pdf, png, table = out / "r.pdf", out / "r.png", out / "t.csv"
+    assert main(["report", str(session.path), "-o", str(pdf), "--csv", str(table)]) == 0
+    assert main(["report", str(session.path), "-o", str(png), "--quiet"]) == 0
+    with table.open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    return pdf, png, rows
+
+
+def _eq4(frame: np.ndarray) -> tuple[float, float, float, float]:
+    """Eq. 4 written out: brightest pixel of the 11x11 window at the spot, 7x7 box rim."""
+    x0, y0 = SPOT_XY
+    win = frame[y0 - 5 : y0 + 6, x0 - 5 : x0 + 6].astype(float)
+    dy, dx = np.unravel_index(np.argmax(win), win.shape)
+    y, x = y0 - 5 + dy, x0 - 5 + dx
+    box = frame[y - 3 : y + 4, x - 3 : x + 4].astype(float)
+    rim = np.concatenate([box[0], box[-1], box[1:-1, 0], box[1:-1, -1]])
+    assert rim.size == 24
+    return (
+        float(frame[y, x]),
+        rim.mean(),
+        rim.std(ddof=1),
+        (frame[y, x] - rim.mean()) / rim.std(ddof=1),
+    )
+
+
+def test_csv_has_exactly_the_columns(outputs):
+    _, _, rows = outputs
+    assert tuple(rows[0]) == CSV_COLUMNS
+    assert CSV_COLUMNS[:7] == ("camera", "stop", "lrf_range_m", "gps_range_m", "n_frames",
+                               "snr_mean", "snr_std")  # fmt: skip
+    assert [c for c in CSV_COLUMNS if c.startswith("model_")] == [f"model_{c}" for c in CURVES]
+    assert [c for c in CSV_COLUMNS if c.startswith("ratio_")] == [f"ratio_{c}" for c in CURVES]
+    # Two planned stops x two cameras.
+    assert sorted((r[0], r[1]) for r in rows[1:]) == [
+        ("lwir", "0"), ("lwir", "1"), ("mwir", "0"), ("mwir", "1")
+    ]  # fmt: skip
+
+
+def test_csv_values_match_an_independent_computation(session, data, outputs):
+    _, _, rows = outputs
+    header = rows[0]
+    predictor = ModelPredictor({"mwir": "mwir", "lwir": "lwir"}, "uav1")
+    t_start = {(r.camera, r.stop): r.t_start_ns for r in data.rows}
+    for values in rows[1:]:
+        row = dict(zip(header, values, strict=True))
+        cam, stop = row["camera"], int(row["stop"])
+        lrf = float(row["lrf_range_m"])
+        assert lrf == pytest.approx(RANGES_M[stop], abs=0.15)  # median of 0.1 m noisy shots
+        assert int(row["n_frames"]) == 100
+        first = int(np.searchsorted(session.frame_t_ns, t_start[(cam, stop)]))
+        snr = np.array([_eq4(f)[3] for f in session.frames[cam][first : first + 100]])
+        assert float(row["snr_mean"]) == pytest.approx(snr.mean(), rel=1e-12)
+        assert float(row["snr_std"]) == pytest.approx(snr.std(ddof=1), rel=1e-12)
+        model = predictor(cam, lrf)
+        for c in CURVES:
+            assert float(row[f"model_{c}"]) == pytest.approx(model[c], rel=1e-12)
+            assert float(row[f"ratio_{c}"]) == pytest.approx(snr.mean() / model[c], rel=1e-12)
+    # The synthetic spot falls as 1/R^2: 4x the contrast at half the range.
+    means = {(r[0], r[1]): float(r[5]) for r in rows[1:]}
+    assert 3.0 < means[("mwir", "0")] / means[("mwir", "1")] < 5.0
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="replay_session feeds all rangefinder readings before any GPS fix, so the stop "
+    "detector closes each stop before the GPS stream arrives and gps_range_m stays None",
+)
+def test_csv_gps_range_is_the_planned_range(outputs):
+    _, _, rows = outputs
+    for values in rows[1:]:
+        assert values[3] != "" and float(values[3]) == pytest.approx(
+            RANGES_M[int(values[1])], abs=0.5
+        )
+
+
+def test_fig6_series_are_the_stop_summary_frames(session, data):
+    assert len(data.series) == 4
+    by_key = {(r.camera, r.stop): r for r in data.rows}
+    for s in data.series:
+        row = by_key[(s.camera, s.stop)]
+        assert len(s.snr) == len(s.peak) == len(s.bg_mean) == len(s.bg_std) == 100
+        assert s.snr.mean() == pytest.approx(row.snr_mean, rel=1e-12)
+        assert np.all(np.diff(s.t_s) > 0) and s.t_s[0] >= 0
+        first = int(np.searchsorted(session.frame_t_ns, row.t_start_ns))
+        expect = np.array([_eq4(f) for f in session.frames[s.camera][first : first + 100]])
+        np.testing.assert_allclose(s.peak, expect[:, 0], rtol=0, atol=0)
+        np.testing.assert_allclose(s.bg_mean, expect[:, 1], rtol=1e-12)
+        np.testing.assert_allclose(s.bg_std, expect[:, 2], rtol=1e-12)
+
+
+def test_budget_and_curves_are_the_models(data):
+    from model.presets import load_sensor, load_target
+    from model.snr import predict
+
+    for cam, budgets in data.budgets.items():
+        assert [b.range_m for b in budgets] == sorted(
+            r.range_m for r in data.rows if r.camera == cam
+        )
+        p = predict(load_sensor(cam), load_target("uav1"), [b.range_m for b in budgets])
+        for i, b in enumerate(budgets):
+            assert tuple(b.terms) == BUDGET_TERMS
+            assert b.total == pytest.approx(p.relative_uncertainty["small_corrected"][i], rel=1e-12)
+            assert b.total == pytest.approx(
+                math.sqrt(sum(v**2 for v in b.terms.values())), rel=1e-12
+            )
+            assert b.resolved == bool(p.resolved_small[i])
+        m = data.models[cam]
+        assert m.transition_small_m == pytest.approx(p.transition_range_small_m)
+        assert m.ranges_m[0] <= min(RANGES_M) and m.ranges_m[-1] >= max(RANGES_M)
+    # Points for the Figs. 7-10 markers: one per stop, error bar = the stop's std.
+    pts = data.measured["lwir"]
+    assert pts.range_m.tolist() == pytest.approx(list(RANGES_M), abs=0.15)
+    assert np.all(pts.snr_std > 0)
+
+
+def test_pdf_and_png_render(outputs):
+    pdf, png, _ = outputs
+    head = pdf.read_bytes()
+    assert head[:5] == b"%PDF-" and len(head) > 20_000
+    # summary, one Figs. 7-10 page for two cameras, Fig. 12, one Fig. 6 page per stop
+    assert b"/Count 5" in head
+    img = cv2.imread(str(png))
+    assert img is not None
+    page_h, page_w = round(PAGE_IN[1] * PNG_DPI), round(PAGE_IN[0] * PNG_DPI)
+    assert img.shape == (5 * page_h, page_w, 3)
+    assert img.std() > 10  # drawn, not blank
+
+
+def test_missing_file_and_bad_output_are_one_line_errors(tmp_path, session, capsys):
+    assert main(["report", str(tmp_path / "none.h5"), "-o", str(tmp_path / "r.pdf")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "none.h5" in err[0] and "does not exist" in err[0]
+    assert main(["report", str(session.path), "-o", str(tmp_path / "r.svg")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and ".pdf or .png" in err[0]
+    junk = tmp_path / "junk.h5"
+    junk.write_bytes(b"not hdf5")
+    assert main(["report", str(junk), "-o", str(tmp_path / "r.pdf")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "junk.h5" in err[0]
