@@ -124,6 +124,12 @@ class Calibration:
     def mean_offset_dn(self) -> float:
         return float(np.mean(self.offset_dn[self.good]))
 
+    @functools.cached_property
+    def _safe_resp(self) -> np.ndarray:
+        # dead pixels may have ~0 responsivity; their values are replaced after the division
+        r = self.responsivity
+        return np.where(self.good & (r > 0), r, np.float32(self.mean_responsivity))
+
     def _check_shape(self, frame: np.ndarray) -> None:
         if frame.shape[-2:] != self.shape:
             raise ValueError(
@@ -136,7 +142,7 @@ class Calibration:
         ``window`` (row0, row1, col0, col1), half-open, computes only that part of the frame."""
         self._check_shape(frame)
         sl = np.s_[:, :] if window is None else np.s_[window[0] : window[1], window[2] : window[3]]
-        lq = (np.asarray(frame[sl], np.float32) - self.offset_dn[sl]) / self.responsivity[sl]
+        lq = (np.asarray(frame[sl], np.float32) - self.offset_dn[sl]) / self._safe_resp[sl]
         return _fill_bad(lq.astype(np.float32), self.bad[sl])
 
     def correct(self, frame: np.ndarray, window: Window | None = None) -> np.ndarray:

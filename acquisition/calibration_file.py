@@ -58,7 +58,7 @@ def save_calibration(cal: Calibration, path: str | Path) -> Path:
     p = Path(path)
     if p.suffix.lower() != ".npz":
         raise ValueError(f"calibration file must end in .npz, got {p}")
-    np.savez_compressed(p, **{k: getattr(cal, k) for k in _MAPS})
+    np.savez(p, **{k: getattr(cal, k) for k in _MAPS})
     lines = [
         "# snrmon radiometric calibration (maps in the .npz beside this file)",
         "[calibration]",
