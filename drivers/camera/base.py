@@ -1,0 +1,57 @@
+"""What every camera driver shares on top of :class:`drivers.device.Device`: the negotiated
+format, drop counting from the camera's own counter, and the measured frame rate."""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+
+from drivers.camera.counter import FrameCounterGaps
+from drivers.camera.format import CameraFormat
+from drivers.camera.frame import Frame
+from drivers.device import Device
+
+log = logging.getLogger(__name__)
+
+
+class CameraDevice(Device[Frame]):
+    """A :class:`Device` that delivers :class:`Frame` objects.
+
+    Subclasses call :meth:`_negotiated` from ``_connect`` once the camera agreed a format, and
+    :meth:`_account` for each frame's counter before publishing it. Gaps in the counter are added
+    to ``status().dropped``.
+    """
+
+    def __init__(
+        self, name: str, *, counter_modulus: int | None = None, zero_skipped: bool = False, **kw
+    ) -> None:
+        super().__init__(name, **kw)
+        self.format: CameraFormat | None = None
+        self._gaps = FrameCounterGaps(counter_modulus, zero_skipped=zero_skipped)
+        self._arrivals: deque[int] = deque(maxlen=121)
+
+    def _negotiated(self, fmt: CameraFormat) -> None:
+        """Record and report the format the camera agreed to at start-up."""
+        if fmt != self.format:
+            log.info("camera %s negotiated %s", self.name, fmt)
+        self.format = fmt
+        self._gaps.reset()
+        self._arrivals.clear()
+
+    def _account(self, counter: int) -> None:
+        """Count the frames missing before ``counter`` (camera or link drops)."""
+        self._arrivals.append(time.monotonic_ns())
+        missing = self._gaps.update(counter)
+        if missing:
+            self._set(
+                dropped=self.status().dropped + missing,
+                last_error=f"{missing} frame(s) missing before counter {counter}",
+            )
+
+    def measured_fps(self) -> float | None:
+        """Frame rate over the last (up to) 120 frames received, ``None`` before two frames."""
+        arrivals = list(self._arrivals)
+        if len(arrivals) < 2 or arrivals[-1] == arrivals[0]:
+            return None
+        return (len(arrivals) - 1) / ((arrivals[-1] - arrivals[0]) / 1e9)
