@@ -93,15 +93,25 @@ def replay_session(
                 rois.setdefault(e["camera"], []).append((e["t_host_ns"], int(p["x"]), int(p["y"])))
         stop_settings = f.config.get("stop_detection") if isinstance(f.config, dict) else None
         detector = StopDetector(StopConfig(**stop_settings) if stop_settings else None)
-        # The range streams go first: the detector only needs them in time order per source.
-        for r in f.rangefinder:
-            if r["status"] == b"ok" and np.isfinite(r["range_m"]) and r["range_m"] > 0:
-                detector.add_range(int(r["t_host_ns"]), float(r["range_m"]), "lrf")
+        # Both range streams in time order: a stop's GPS range is the median of the fixes
+        # that arrive while it is open.
+        readings: list[tuple[int, float, str]] = [
+            (int(r["t_host_ns"]), float(r["range_m"]), "lrf")
+            for r in f.rangefinder
+            if r["status"] == b"ok" and np.isfinite(r["range_m"]) and r["range_m"] > 0
+        ]
         if site is not None:
-            for g in f.gps:
-                if g["fix_quality"] > 0 and np.isfinite(g["alt_msl_m"]):
-                    rng = slant_range_m(site, g["lat_deg"], g["lon_deg"], g["alt_msl_m"])
-                    detector.add_range(int(g["t_host_ns"]), rng, "gps")
+            readings += [
+                (
+                    int(g["t_host_ns"]),
+                    slant_range_m(site, g["lat_deg"], g["lon_deg"], g["alt_msl_m"]),
+                    "gps",
+                )
+                for g in f.gps
+                if g["fix_quality"] > 0 and np.isfinite(g["alt_msl_m"])
+            ]
+        for t, rng, source in sorted(readings):
+            detector.add_range(t, rng, source)
         table = StopTable(detector, list(f.cameras), history_frames=10**7, predictor=predictor)
         out: dict[str, CameraReplay] = {}
         t_start = time.monotonic()

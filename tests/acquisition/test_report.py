@@ -94,11 +94,6 @@ def test_csv_values_match_an_independent_computation(session, data, outputs):
     assert 3.0 < means[("mwir", "0")] / means[("mwir", "1")] < 5.0
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="replay_session feeds all rangefinder readings before any GPS fix, so the stop "
-    "detector closes each stop before the GPS stream arrives and gps_range_m stays None",
-)
 def test_csv_gps_range_is_the_planned_range(outputs):
     _, _, rows = outputs
     for values in rows[1:]:

@@ -1,0 +1,92 @@
+"""``snrmon record`` on simulated devices: a session config naming a shared-memory camera and
+pty rangefinder/GPS, a fixed duration, and a file that opens with the recorded streams."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from acquisition.session_file import open_session
+from sim.devices.ldm_sim import LdmSimulator
+from sim.devices.nmea_sim import NmeaSimulator
+from sim.devices.shm_camera import ShmProducer
+from snrmon.cli import main
+from tests.helpers import H, SpotOnNoise, W
+
+
+def test_record_writes_a_session_from_a_config(tmp_path, capsys):
+    name = f"snrmon-rec-{time.monotonic_ns() % 10**9}"
+    producer = ShmProducer(name, W, H, SpotOnNoise(3), fps=60.0, slots=16)
+    producer.start()
+    lrf = LdmSimulator(lambda t: 200.0, rate_hz=10.0, tracking=True).start()
+    gps = NmeaSimulator(lambda t: (32.3810, -106.4790, 1250.0), rate_hz=10.0).start()
+    config = tmp_path / "session.toml"
+    config.write_text(
+        f"""
+[site]
+lat_deg = 32.38
+lon_deg = -106.48
+alt_m = 1200.0
+
+[cameras.cam]
+source = "shm"
+address = "{name}"
+width_px = {W}
+height_px = {H}
+
+[lrf]
+protocol = "ldm"
+port = "{lrf.path}"
+
+[gps]
+protocol = "nmea"
+port = "{gps.path}"
+baud = 38400
+"""
+    )
+    out = tmp_path / "rec.h5"
+    try:
+        code = main(
+            ["record", "--config", str(config), "--out", str(out), "--duration", "2",
+             "--roi", "cam:64,41"]
+        )  # fmt: skip
+    finally:
+        producer.stop()
+        lrf.stop()
+        gps.stop()
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "MB written" in captured.err
+    with open_session(out) as f:
+        n = f.cameras["cam"].n_frames
+        assert 60 <= n <= 200  # about two seconds at 60 fps
+        assert len(f.rangefinder) >= 10 and len(f.gps) >= 10
+        meas = f.cameras["cam"].measurements
+        assert (meas["peak_x"] == 64).mean() > 0.95
+    assert f"cam {n} frames" in captured.out
+
+
+def test_record_refuses_to_overwrite(tmp_path, capsys):
+    out = tmp_path / "x.h5"
+    out.write_bytes(b"")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[cameras.a]\nsource = "shm"\n')
+    assert main(["record", "--config", str(cfg), "--out", str(out)]) == 2
+    assert "already exists" in capsys.readouterr().err
+
+
+def test_record_bad_config_is_one_line(tmp_path, capsys):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[cameras.a]\nsource = "firewire"\n')
+    assert main(["record", "--config", str(cfg), "--out", str(tmp_path / "o.h5")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "firewire" in err
+
+
+@pytest.mark.parametrize("duration", ["0", "-1"])
+def test_record_duration_must_be_positive(tmp_path, capsys, duration):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[cameras.a]\nsource = "shm"\n')
+    args = ["record", "--config", str(cfg), "--out", str(tmp_path / "o.h5"), "--duration"]
+    assert main([*args, duration]) == 2
