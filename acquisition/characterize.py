@@ -15,8 +15,8 @@ Per frame, in a square ROI around the tracked position:
    the minimum-area rotated box), both times the pixel footprint range x IFOV [m];
 5. with a calibration: mean apparent temperature of the target pixels (the outline eroded by
    ``erode_px`` so pixels the edge and the PSF mix with sky do not pull it down), their std
-   sigma_target, the background temperature (radiance mean of the ROI outside the dilated
-   outline), and RSS delta-T = sqrt((T_target - T_bg)^2 + sigma_target^2).
+   sigma_target, the background temperature (radiance mean of the ROI's border ring, outside
+   the dilated outline), and RSS delta-T = sqrt((T_target - T_bg)^2 + sigma_target^2).
 
 Frames are summarised by the mean and sample std of each quantity. :func:`target_toml` writes
 the result as a target file ``model.presets.load_target`` reads.
@@ -192,7 +192,11 @@ def characterize_frame(
         temps = temperature_of(calibration.band_um, lq[inner > 0], calibration.qe_curve)
         temp = float(np.mean(temps))
         sig = float(np.std(temps, ddof=1)) if temps.size > 1 else 0.0
-        outside = cv2.dilate(mask, np.ones((7, 7), np.uint8)) == 0
+        # the border ring, as for the threshold: blades and other parts removed from the
+        # outline must not count as sky
+        outside = _ring(mask.shape, cfg.ring_px) & (
+            cv2.dilate(mask, np.ones((7, 7), np.uint8)) == 0
+        )
         bgk = float(temperature_of(calibration.band_um, float(np.mean(lq[outside]))))
         rss = math.hypot(temp - bgk, sig)
     return FrameTarget(

@@ -1,0 +1,109 @@
+"""``snrmon characterize``: drone dimensions and temperature from a recorded close stop
+(paper section 3, issue 9).
+
+    snrmon characterize FILE.h5 --camera mwir --stop 1 [--calibration CAL.npz] [--json]
+                        [--frames 100] [--method otsu|ksigma] [--target-out T.toml]
+
+The session is replayed (``acquisition.replay.replay_session`` without the tracker, whose
+point-target tests reject a resolved drone: the same measurement and stop table as live);
+the stop's range (rangefinder, else GPS) and the measured peak of each of its frames give the
+ROI; ``acquisition.characterize`` segments the drone. JSON contract: ``{"camera",
+"stop", "range_m", "n_frames", "small_m", "small_m_std", "large_m", "large_m_std",
+"mean_temp_c", "mean_temp_c_std", "background_temp_c", "background_temp_c_std",
+"rss_delta_t_k", "rss_delta_t_k_std", "method"}``; temperatures are null without a calibration.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from acquisition.calibration_file import load_calibration
+from acquisition.characterize import CharacterizeConfig, characterize_frames, target_toml
+from acquisition.peak_snr import FLAG_EDGE, FLAG_LOST
+from acquisition.replay import replay_session
+from acquisition.session_file import open_session
+from model.presets import load_sensor
+from snrmon.cli import UsageError
+
+# A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
+# stop; only a frame without a trustworthy position is skipped.
+_NO_POSITION = frozenset({FLAG_LOST, FLAG_EDGE})
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("characterize", help="drone size and temperature from a close stop")
+    p.add_argument("file", help="session file (.h5)")
+    p.add_argument("--camera", required=True)
+    p.add_argument("--stop", type=int, required=True, help="stop number as in the stop table")
+    p.add_argument("--calibration", help="calibration .npz of this camera (for temperatures)")
+    p.add_argument("--sensor", help="sensor preset/TOML (default: the session's, else --camera)")
+    p.add_argument("--frames", type=int, default=100, help="frames of the stop to use (100)")
+    p.add_argument("--method", choices=("otsu", "ksigma"), default="otsu")
+    p.add_argument("--roi-px", type=int, default=32, help="ROI half size [px] (32)")
+    p.add_argument("--target-out", help="write a target TOML (needs --calibration)")
+    p.add_argument("--target-name", default="characterized")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=run)
+
+
+def _sensor_name(path: str, camera: str) -> str:
+    with open_session(path) as f:
+        cams = (f.config.get("session") or {}).get("cameras") or {}
+        return str((cams.get(camera) or {}).get("sensor", camera))
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.frames < 1:
+        raise UsageError(f"--frames must be >= 1, got {args.frames}")
+    sensor = load_sensor(args.sensor or _sensor_name(args.file, args.camera))
+    # track=False: the tracker's point-target tests (brightness, rim contamination) declare a
+    # resolved drone LOST; at a hover the search window around the click holds it.
+    replay = replay_session(args.file, track=False)
+    if args.camera not in replay.cameras:
+        raise UsageError(f"camera {args.camera!r} not in {args.file} ({', '.join(replay.cameras)})")
+    rows = [r for r in replay.stops if r.camera == args.camera]
+    row = next((r for r in rows if r.stop == args.stop), None)
+    if row is None:
+        known = ", ".join(str(r.stop) for r in rows) or "none"
+        raise UsageError(f"no stop {args.stop} for {args.camera} in {args.file} (stops: {known})")
+    range_m = row.lrf_range_m if row.lrf_range_m is not None else row.gps_range_m
+    if range_m is None:
+        raise UsageError(f"stop {args.stop} has no range (no rangefinder or GPS readings)")
+    rep = replay.cameras[args.camera]
+    end = row.t_end_ns if row.t_end_ns is not None else np.iinfo(np.int64).max
+    picks = [
+        (t, (r.peak_x, r.peak_y))
+        for t, r in zip(rep.t_host_ns, rep.results, strict=True)
+        if row.t_start_ns <= t < end and not (r.flags & _NO_POSITION)
+    ][: args.frames]
+    if not picks:
+        raise UsageError(f"stop {args.stop} holds no tracked frames of {args.camera}")
+    with open_session(args.file) as f:
+        cam = f.cameras[args.camera]
+        cal = None
+        if args.calibration:
+            cal = load_calibration(args.calibration, sensor, frame_shape=cam.frames.shape[1:])
+        index = np.searchsorted(cam.t_host_ns, [t for t, _ in picks])
+        pairs = ((cam.frames[int(i)], at) for i, (_, at) in zip(index, picks, strict=True))
+        result = characterize_frames(
+            pairs,
+            camera=args.camera,
+            range_m=float(range_m),
+            ifov_rad=sensor.ifov_rad,
+            calibration=cal,
+            config=CharacterizeConfig(roi_half_px=args.roi_px, method=args.method),
+        )
+    out = {"stop": args.stop, **result.as_dict()}
+    if args.target_out:
+        Path(args.target_out).write_text(target_toml(result, args.target_name))
+        out["target_file"] = args.target_out
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    for key, value in out.items():
+        print(f"{key:>22}: {value:.4g}" if isinstance(value, float) else f"{key:>22}: {value}")
+    return 0

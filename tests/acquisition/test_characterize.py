@@ -1,0 +1,190 @@
+"""Target characterization (paper section 3) on a simulated resolved drone at 37 m, directly
+and through ``snrmon characterize`` on a recorded session.
+
+The drone is a cross of two bars (0.30 m x 0.10 m) at 36.7 C with thin 2 cm "blades" at the
+bar ends, against a 260 K sky (tests/acquisition/calibration_scene.py: built from sim's pieces
+because sim's resolved drone is ONE pixel-aligned square of set contrast electrons, for which
+sqrt(area) == sqrt(box area), so small and large could not be told apart). Truth: small =
+sqrt(area) = 0.2236 m, large = sqrt(box) = 0.30 m. The cross is aligned with the pixel axes, so
+the upright bounding box is the true box; a rotated drone needs ``box="rotated"``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from acquisition.calibration import BlackbodyCapture, calibrate_sensor
+from acquisition.calibration_file import save_calibration
+from acquisition.characterize import (
+    CharacterizeConfig,
+    characterize_frame,
+    characterize_frames,
+    target_toml,
+)
+from acquisition.recorder import SessionRecorder
+from drivers.camera.frame import Frame
+from drivers.rangefinder.reading import RangeReading
+from model.presets import load_target
+from snrmon.cli import main
+from tests.acquisition.calibration_scene import camera, cross_drone, rect_electrons
+
+SKY_K, DRONE_K, RANGE_M = 260.0, 309.85, 37.0
+SPAN_M, ARM_M = 0.30, 0.10
+XC, YC = 64, 48
+
+
+@pytest.fixture(scope="module")
+def cam():
+    return camera("mwir", shape=(96, 128), seed=21)
+
+
+@pytest.fixture(scope="module")
+def cal(cam):
+    caps = [BlackbodyCapture(t, cam.blackbody(t, 24, seed=i)) for i, t in enumerate((283.0, 318.0))]
+    return calibrate_sensor(caps, cam.sensor)
+
+
+def drone_scene(cam, range_m=RANGE_M, dx=0.3, dy=0.6, blades=True):
+    e, area, box = cross_drone(
+        cam, range_m=range_m, xc=XC + dx, yc=YC + dy, span_m=SPAN_M, arm_m=ARM_M,
+        temp_k=DRONE_K, sky_temp_k=SKY_K,
+    )  # fmt: skip
+    if blades:  # 2 cm x 12 cm blades beyond each end of the horizontal bar, as warm as the body
+        px = range_m * cam.sensor.ifov_rad
+        de = cam.electrons(DRONE_K) - cam.electrons(SKY_K)
+        half = SPAN_M / 2 / px
+        rects = [(XC + dx + s * (half + 0.07 / px), YC + dy, 0.12 / px, 0.02 / px, de)
+                 for s in (-1, 1)]  # fmt: skip
+        e = e + rect_electrons(cam.shape, rects, cam.config.psf_sigma_px, cam.sensor.fill_factor)
+    return e, math.sqrt(area), math.sqrt(box)
+
+
+def test_recovers_dimensions_within_10pct_and_temperature_within_half_a_kelvin(cam, cal):
+    e, small, large = drone_scene(cam)
+    frames = cam.frames(e, 30, seed=5)
+    res = characterize_frames(
+        ((f, (XC, YC)) for f in frames),
+        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
+    )  # fmt: skip
+    assert res.n_frames == 30
+    assert res.small_m == pytest.approx(small, rel=0.10)
+    assert res.large_m == pytest.approx(large, rel=0.10)
+    assert res.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
+    assert res.background_temp_c == pytest.approx(SKY_K - 273.15, abs=0.1)
+    assert res.rss_delta_t_k == pytest.approx(DRONE_K - SKY_K, abs=0.5)
+    assert 0 < res.small_m_std < 0.02 * res.small_m
+
+
+def test_blades_are_removed_by_the_opening_and_kept_without_it(cam, cal):
+    e, _, large = drone_scene(cam)
+    frame = cam.frames(e, 1, seed=9)[0]
+    kw = dict(range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal)
+    opened = characterize_frame(frame, (XC, YC), **kw)
+    raw = characterize_frame(frame, (XC, YC), config=CharacterizeConfig(open_px=1), **kw)
+    assert opened.large_m == pytest.approx(large, rel=0.05)
+    assert raw.large_m > 1.3 * large  # the blades widen the box when not opened away
+
+
+def test_rss_delta_t_includes_the_target_spread(cam, cal):
+    # a hot hub (20 K above the body) in the middle of the cross: sigma_target > 0
+    e, _, _ = drone_scene(cam, blades=False)
+    px = RANGE_M * cam.sensor.ifov_rad
+    de = cam.electrons(DRONE_K + 20.0) - cam.electrons(DRONE_K)
+    e = e + rect_electrons(cam.shape, [(XC + 0.3, YC + 0.6, 0.08 / px, 0.08 / px, de)],
+                           cam.config.psf_sigma_px, cam.sensor.fill_factor)  # fmt: skip
+    r = characterize_frame(
+        cam.frames(e, 1, seed=3)[0], (XC, YC),
+        range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
+    )  # fmt: skip
+    assert r.sigma_target_k > 5.0
+    assert r.rss_delta_t_k == pytest.approx(math.hypot(r.temp_k - r.background_k, r.sigma_target_k))
+    assert r.rss_delta_t_k > r.temp_k - r.background_k + 0.3
+
+
+def test_target_toml_is_read_by_the_model(cam, cal, tmp_path):
+    e, _, _ = drone_scene(cam)
+    res = characterize_frames(
+        ((f, (XC, YC)) for f in cam.frames(e, 5, seed=1)),
+        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
+    )  # fmt: skip
+    path = tmp_path / "uav_today.toml"
+    path.write_text(target_toml(res, "uav_today"))
+    t = load_target(str(path))
+    assert t.small_m == pytest.approx(res.small_m, abs=1e-4)
+    assert t.temp_k("mwir") == pytest.approx(res.mean_temp_c + 273.15, abs=1e-3)
+    with pytest.raises(ValueError, match="no temperature for band 'lwir'"):
+        t.temp_k("lwir")
+
+
+def test_bad_inputs_are_one_clear_error(cam, cal):
+    frame = cam.frames(cam.electrons(SKY_K), 1, seed=2)[0]
+    with pytest.raises(ValueError, match=r"ROI of \+-32 px around \(5, 5\) leaves the 128x96"):
+        characterize_frame(frame, (5, 5), range_m=RANGE_M, ifov_rad=1e-3)
+    with pytest.raises(ValueError, match="no target segmented in any frame of 'mwir'"):
+        characterize_frames([(frame, (XC, YC))], camera="mwir", range_m=37.0, ifov_rad=5e-4)
+    with pytest.raises(ValueError, match="calibration is for camera 'mwir', not 'lwir'"):
+        characterize_frames([], camera="lwir", range_m=37.0, ifov_rad=5e-4, calibration=cal)
+    with pytest.raises(ValueError, match="segmentation method must be one of"):
+        CharacterizeConfig(method="watershed")
+
+
+def _record(cam, path, fps=20.0):
+    plan = [(0.0, 6.0, RANGE_M), (9.0, 12.0, 60.0)]
+    t_end = 12.0
+    rec = SessionRecorder(
+        path,
+        config={"session": {"cameras": {"mwir": {"source": "shm", "sensor": "mwir"}}}},
+        cameras={"mwir": cam.shape},
+        flush_interval_s=0.2,
+        fsync=False,
+    )
+    t0 = 10**12
+    knots_t = [p for a, b, _ in plan for p in (a, b)]
+    knots_r = [r for _, _, r in plan for r in (r, r)]
+    rec.add_event("roi_set", camera="mwir", payload={"x": XC, "y": YC}, t_host_ns=t0)
+    rng = np.random.default_rng(4)
+    for i in range(int(t_end * fps)):
+        t = i / fps
+        r = float(np.interp(t, knots_t, knots_r))
+        e, _, _ = drone_scene(cam, range_m=r, dx=0.3 + 0.2 * math.sin(t), dy=0.6)
+        frame = cam.frames(e, 1, seed=1000 + i)[0]
+        rec.add_frame("mwir", Frame(frame, "mwir", i, t0 + int(t * 1e9)))
+    for t in np.arange(0.0, t_end, 0.5):
+        r = float(np.interp(t, knots_t, knots_r)) + rng.normal(0, 0.1)
+        rec.add_range(RangeReading(t0 + int(t * 1e9), r, raw=f"{r:.1f}"))
+    rec.stop()
+
+
+def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys):
+    session = tmp_path / "s.h5"
+    _record(cam, session)
+    cal_path = save_calibration(cal, tmp_path / "mwir.npz")
+    target = tmp_path / "t.toml"
+    argv = ["characterize", str(session), "--camera", "mwir", "--calibration", str(cal_path),
+            "--json", "--target-out", str(target)]  # fmt: skip
+    rc = main([*argv, "--stop", "99"])
+    assert rc != 0
+    assert "no stop 99 for mwir" in capsys.readouterr().err
+    stop = json.loads(_stops_json(session))[0]
+    assert main([*argv, "--stop", str(stop)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("small_m", "large_m", "mean_temp_c", "rss_delta_t_k", "n_frames", "small_m_std"):
+        assert key in out
+    _, small, large = drone_scene(cam)
+    assert out["range_m"] == pytest.approx(RANGE_M, abs=0.5)
+    assert out["n_frames"] >= 50
+    assert out["small_m"] == pytest.approx(small, rel=0.10)
+    assert out["large_m"] == pytest.approx(large, rel=0.10)
+    assert out["mean_temp_c"] == pytest.approx(DRONE_K - 273.15, abs=0.5)
+    assert load_target(str(target)).large_m == pytest.approx(out["large_m"], abs=1e-4)
+
+
+def _stops_json(session) -> str:
+    from acquisition.replay import replay_session
+
+    rows = replay_session(session).stops
+    return json.dumps([r.stop for r in rows if r.camera == "mwir" and r.lrf_range_m < 45])
