@@ -3,6 +3,8 @@ model's electrons; tests/acquisition/calibration_scene.py says why the scene is 
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -169,3 +171,20 @@ def test_non_monotonic_response_is_refused(cam):
 def test_wrong_frame_size_is_refused(cal):
     with pytest.raises(ValueError, match=r"is for 128x96 frames, got 64x48"):
         cal.correct(np.zeros((48, 64), np.uint16))
+
+
+def test_snrmon_calibrate_writes_the_file_and_reports(cam, tmp_path, capsys):
+    from snrmon.cli import main
+
+    for name, t in (("a", 288.15), ("b", 313.15)):
+        np.save(tmp_path / f"{name}.npy", cam.blackbody(t, 8, seed=int(t)))
+    out = tmp_path / "cal.npz"
+    argv = ["calibrate", "--camera", "mwir", "-o", str(out), "--json"]
+    bb = ["--blackbody", f"{tmp_path / 'a.npy'}:15", "--blackbody", f"{tmp_path / 'b.npy'}:40"]
+    assert main([*argv, *bb]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert out.is_file() and (tmp_path / "cal.toml").is_file()
+    assert report["netd_table_mk"] == 41.0
+    assert [round(r["temp_k"], 2) for r in report["temperatures"]] == [288.15, 313.15]
+    assert main([*argv, *bb[:2]]) != 0
+    assert ">= 2 distinct temperatures" in capsys.readouterr().err
