@@ -77,7 +77,7 @@ class ShmCamera(CameraDevice):
         reuse_buffers: 0 (default) copies each frame into a new array, which consumers may keep
             forever; ``N >= 2`` copies round-robin into N preallocated arrays, so a consumer may
             hold a frame only while fewer than N newer frames arrived.
-        **device_kw: passed to :class:`drivers.device.Device` (``stale_after_s`` ...).
+        **kw: passed to :class:`drivers.device.Device` (``stale_after_s`` ...).
     """
 
     def __init__(
