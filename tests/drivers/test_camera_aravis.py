@@ -176,3 +176,11 @@ def test_16_bit_frame_ids_wrap_without_false_drops(seq, dropped):
     for c in seq:
         gaps.update(c)
     assert gaps.dropped == dropped
+
+
+@pytest.mark.integration
+def test_discovery_lists_the_fake_camera(fake_gv):
+    from drivers.camera.aravis import list_aravis_cameras
+
+    cams = list_aravis_cameras()
+    assert any(c.address == "127.0.0.1" and c.serial == "SNRMTEST" for c in cams), cams
