@@ -25,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.frame_measurer import FrameMeasurer
+from acquisition.frame_correction import FrameCorrector
+from acquisition.frame_measurer import FrameMeasurer, crop_half_px
 from acquisition.peak_snr import PeakSnr, PeakSnrConfig
 from acquisition.ring import FrameRing, RingFrame
 from acquisition.status import CameraStatus, FrameAccounting
@@ -54,6 +55,8 @@ class Measurement:
     snr_n: int
     range_m: float | None
     range_source: str
+    snr_mean_raw: float = float("nan")  # the same track on raw frames, while a correction is on
+    snr_std_raw: float = float("nan")
 
 
 class CameraPipeline:
@@ -94,6 +97,15 @@ class CameraPipeline:
         self.measurer = FrameMeasurer(
             config, window=window, track=track, tracker_config=tracker_config
         )
+        # The same track on raw frames, measured while a correction is on, so the console
+        # reports the SNR with and without the background reference (issue 5).
+        self.raw_measurer = FrameMeasurer(
+            config, window=window, track=track, tracker_config=tracker_config
+        )
+        self.corrector = FrameCorrector(
+            self.shape, crop_half_px(self.measurer.meter.config, self.measurer.tracker_config)
+        )
+        self._reference_pending: int | None = None
         self.range_at = range_at
         self._reader = self.ring.reader("measurement")
         self._lock = threading.Lock()
@@ -157,6 +169,18 @@ class CameraPipeline:
         with self._lock:
             self._cue_pending = (float(x), float(y))
             self._gps_xy = (float(x), float(y))
+
+    def capture_reference(self, n_frames: int = 64) -> None:
+        """Average the next ``n_frames`` frames (clear sky, no drone) into the background
+        reference that removes the fixed-pattern noise before Eq. (4)."""
+        if int(n_frames) < 2:
+            raise ValueError(f"a background reference needs at least 2 frames, got {n_frames}")
+        with self._lock:
+            self._reference_pending = int(n_frames)
+
+    def clear_reference(self) -> None:
+        with self._lock:
+            self._reference_pending = 0
 
     def add_listener(self, callback: Callable[[Measurement, RingFrame], None]) -> None:
         """``callback(measurement, frame)`` on the measurement thread after every frame."""
@@ -226,6 +250,10 @@ class CameraPipeline:
             snr_mean=last.snr_mean if last else float("nan"),
             snr_std=last.snr_std if last else float("nan"),
             snr_n=last.snr_n if last else 0,
+            snr_mean_raw=last.snr_mean_raw if last else float("nan"),
+            snr_std_raw=last.snr_std_raw if last else float("nan"),
+            reference_frames=self.corrector.reference_frames,
+            fixed_pattern_dn=self.corrector.fixed_pattern_dn,
             range_m=last.range_m if last else None,
             range_source=last.range_source if last else "",
             latency_ms_p50=float(p50),
@@ -264,12 +292,32 @@ class CameraPipeline:
             pending, self._roi_pending = self._roi_pending, None
             clear, self._clear_pending = self._clear_pending, False
             cue, self._cue_pending = self._cue_pending, None
+            reference, self._reference_pending = self._reference_pending, None
             recorder = self._recorder
             listeners = list(self._listeners)
+        corrector = self.corrector
+        if reference == 0:
+            corrector.clear_reference()
+        elif reference is not None:
+            corrector.start_reference(reference)
+        if corrector.capturing:
+            done = corrector.feed(item.pixels, item.counter)
+            if done is not None:
+                if self.measurer.roi is not None:  # the raw track starts where the track is
+                    self.raw_measurer.set_roi(*self.measurer.roi)
+                if recorder is not None:
+                    recorder.add_event(
+                        "background_reference",
+                        camera=self.name,
+                        payload=done,
+                        t_host_ns=item.t_host_ns,
+                    )
         if clear:
             self.measurer.clear_roi()
+            self.raw_measurer.clear_roi()
         if pending is not None:
             self.measurer.set_roi(*pending)
+            self.raw_measurer.set_roi(*pending)
             if recorder is not None:
                 # Recorded at the frame it took effect on, so a replay applies it there too.
                 recorder.add_event(
@@ -280,8 +328,10 @@ class CameraPipeline:
                 )
         if cue is not None:
             self.measurer.cue(*cue)
+            self.raw_measurer.cue(*cue)
         index = recorder.add_frame(self.name, item) if recorder is not None else None
-        fr = self.measurer.measure(item.pixels)
+        fr = self.measurer.measure(corrector.apply(item.pixels, self.measurer.roi))
+        raw = self.raw_measurer.measure(item.pixels) if corrector.active else None
         if fr is None:
             with self._lock:
                 self._measured += 1
@@ -301,6 +351,8 @@ class CameraPipeline:
             fr.snr_n,
             range_m,
             source,
+            raw.snr_mean if raw is not None else float("nan"),
+            raw.snr_std if raw is not None else float("nan"),
         )
         if recorder is not None:
             recorder.add_peak_snr(self.name, index, item.counter, item.t_host_ns, fr.result)

@@ -15,6 +15,13 @@ from acquisition.peak_snr import RUNNING_EXCLUDED, PeakSnr, PeakSnrConfig, PeakS
 from acquisition.tracker import Tracker, TrackerConfig
 
 
+def crop_half_px(config: PeakSnrConfig, tracker: TrackerConfig) -> int:
+    """Half-size of the square around the track that holds every pixel the measurement may read
+    on the next frame: the search window, the tracker's gate or GPS-cue square, plus the box."""
+    reach = max(config.search_px // 2, tracker.gate_px, tracker.cue_radius_px)
+    return reach + config.box_px // 2 + 2
+
+
 @dataclass(frozen=True, slots=True)
 class FrameResult:
     """Eq. (4) on one frame, the track state and the running statistics after it."""

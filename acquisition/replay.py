@@ -17,14 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.frame_measurer import FrameMeasurer
+from acquisition.frame_correction import FrameCorrector
+from acquisition.frame_measurer import FrameMeasurer, crop_half_px
 from acquisition.geo import Site, slant_range_m
 from acquisition.peak_snr import PeakSnr, PeakSnrConfig, flags_from_bits
 from acquisition.session_config import session_config_from_dict
 from acquisition.session_file import SessionFile, open_session
 from acquisition.stop_table import Predictor, StopRow, StopTable
 from acquisition.stops import StopConfig, StopDetector
-from acquisition.tracker import TrackerConfig
 
 
 @dataclass
@@ -49,11 +49,17 @@ class ReplayResult:
         return self.recording_seconds / self.seconds if self.seconds > 0 else math.inf
 
 
-def crop_half_px(config: PeakSnrConfig, tracker: TrackerConfig) -> int:
-    """Half-size of the square around the track that holds every pixel the measurement may read
-    on the next frame: the search window, the tracker's gate or GPS-cue square, plus the box."""
-    reach = max(config.search_px // 2, tracker.gate_px, tracker.cue_radius_px)
-    return reach + config.box_px // 2 + 2
+def _frames_between(cam, first_counter: int, last_counter: int) -> tuple[np.ndarray, np.ndarray]:
+    """The recorded frames (and their counters) whose camera counters run from ``first`` to
+    ``last`` (inclusive)."""
+    idx = np.flatnonzero((cam.counter >= first_counter) & (cam.counter <= last_counter))
+    if idx.size < 2:
+        raise ValueError(
+            f"{cam.name}: the background reference frames {first_counter}..{last_counter} are "
+            "not in the recording, so the corrected measurement cannot be replayed"
+        )
+    lo, hi = int(idx[0]), int(idx[-1]) + 1
+    return cam.frames[lo:hi], cam.counter[lo:hi]
 
 
 def _same(a: float, b: float) -> bool:
@@ -73,7 +79,7 @@ def replay_session(
     *,
     speed: float | None = None,
     fast: bool = False,
-    track: bool = True,
+    track: bool | None = None,
     predictor: Predictor | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> ReplayResult:
@@ -83,14 +89,24 @@ def replay_session(
     ``fast`` reads from the file only a square around the track (:func:`crop_half_px`) and
     pastes it into a full-size buffer at its place, so the measurement code and its results are
     unchanged (it never reads outside that square) while the disk reads a few kB per frame.
+    ``track`` None follows the recording (tracking on or off as it was live).
     """
     with open_session(path) as f:
         config, window, site = _settings(f)
+        if track is None:
+            track = bool(f.config.get("track", True)) if isinstance(f.config, dict) else True
         rois: dict[str, list[tuple[int, int, int]]] = {}
+        references: dict[str, list[tuple[int, int, int]]] = {}
         for e in f.event_list():
-            if e["kind"] == "roi_set" and e["camera"] in f.cameras:
-                p = e["payload"]
+            if e["camera"] not in f.cameras:
+                continue
+            p = e["payload"]
+            if e["kind"] == "roi_set":
                 rois.setdefault(e["camera"], []).append((e["t_host_ns"], int(p["x"]), int(p["y"])))
+            elif e["kind"] == "background_reference":
+                references.setdefault(e["camera"], []).append(
+                    (e["t_host_ns"], int(p["first_counter"]), int(p["last_counter"]))
+                )
         stop_settings = f.config.get("stop_detection") if isinstance(f.config, dict) else None
         detector = StopDetector(StopConfig(**stop_settings) if stop_settings else None)
         # Both range streams in time order: a stop's GPS range is the median of the fixes
@@ -123,6 +139,9 @@ def replay_session(
             out[name] = rep
             measurer = FrameMeasurer(config, window=window, track=track)
             events = sorted(rois.get(name, []))
+            half = crop_half_px(config, measurer.tracker_config)
+            corrector = FrameCorrector(cam.frames.shape[1:], half)
+            refs = sorted(references.get(name, []))
             recorded = {int(m["frame_index"]): m for m in cam.measurements if m["frame_index"] >= 0}
             if cam.n_frames:
                 span_ns = max(span_ns, int(cam.t_host_ns[-1] - cam.t_host_ns[0]))
@@ -130,9 +149,11 @@ def replay_session(
             wall0 = time.monotonic()
             shape = cam.frames.shape[1:]
             buffer = np.zeros(shape, cam.frames.dtype) if fast else None
-            half = crop_half_px(config, measurer.tracker_config)
             for i in range(cam.n_frames):
                 t = int(cam.t_host_ns[i])
+                while refs and refs[0][0] <= t:
+                    _, first, last = refs.pop(0)
+                    corrector.set_reference(*_frames_between(cam, first, last))
                 while events and events[0][0] <= t:
                     _, x, y = events.pop(0)
                     measurer.set_roi(x, y)
@@ -156,6 +177,8 @@ def replay_session(
                     pixels = None  # nothing to measure: do not read the frame at all
                 else:
                     pixels = cam.frames[i]
+                if pixels is not None:
+                    pixels = corrector.apply(pixels, measurer.roi)
                 fr = measurer.measure(pixels) if pixels is not None else None
                 done += 1
                 if progress is not None and done % 50 == 0:

@@ -71,6 +71,7 @@ class Session:
         predictor: Predictor | None = None,
     ) -> None:
         self.config = config
+        self.track = track
         self.clock = clock or ClockMap()
         self._lock = threading.Lock()
         self.lrf_range = ScalarHistory(max_gap_ns=int(config.lrf_fresh_s * 1e9))
@@ -169,6 +170,12 @@ class Session:
         self.pipeline(camera).set_roi(x, y)
         # The pipeline records "roi_set" at the frame the click takes effect on.
         self._event("roi_clicked", camera=camera, payload={"x": int(x), "y": int(y)})
+
+    def capture_reference(self, camera: str, n_frames: int = 64) -> None:
+        """Average the next ``n_frames`` of ``camera`` (clear sky, no drone in view) into the
+        background reference that removes its fixed-pattern noise before Eq. (4)."""
+        self.pipeline(camera).capture_reference(n_frames)
+        self._event("reference_requested", camera=camera, payload={"n_frames": int(n_frames)})
 
     def mark_stop(self) -> None:
         """The operator says the drone is hovering at a stop now."""
@@ -354,5 +361,6 @@ class Session:
         return {
             "session": self.config.raw,
             "stop_detection": dataclasses.asdict(self.stop_detector.config),
+            "track": self.track,
             "host_free_bytes": shutil.disk_usage(".").free,
         }

@@ -44,6 +44,10 @@ class CameraStatus:
     snr_mean: float = float("nan")
     snr_std: float = float("nan")
     snr_n: int = 0
+    snr_mean_raw: float = float("nan")  # without the background reference, while one is on
+    snr_std_raw: float = float("nan")
+    reference_frames: int = 0  # frames in the background reference (0: none)
+    fixed_pattern_dn: float = float("nan")  # spatial std of the reference
     range_m: float | None = None
     range_source: str = ""
     model_snr: dict[str, float] = field(default_factory=dict)

@@ -14,16 +14,21 @@ NOISE_DN = 6.0
 
 
 class SpotOnNoise:
-    """Picklable render callable: a Gaussian spot (sigma 0.7 px) on 1000 DN of white noise."""
+    """Picklable render callable: a Gaussian spot (sigma 0.7 px) on 1000 DN of white noise,
+    optionally over a fixed pattern of ``fpn_dn`` and appearing only from frame ``spot_from``."""
 
-    def __init__(self, seed: int) -> None:
+    def __init__(self, seed: int, *, fpn_dn: float = 0.0, spot_from: int = 0) -> None:
         self.seed = seed
+        self.spot_from = spot_from
         yy, xx = np.mgrid[0:H, 0:W]
         self.spot = AMPLITUDE_DN * np.exp(-((xx - SPOT_X) ** 2 + (yy - SPOT_Y) ** 2) / (2 * 0.7**2))
+        # A fixed per-pixel offset pattern (fixed-pattern noise), the same in every frame.
+        self.fpn = np.random.default_rng([seed, 999]).normal(0.0, fpn_dn, (H, W)) if fpn_dn else 0
 
     def __call__(self, counter: int) -> np.ndarray:
         rng = np.random.default_rng([self.seed, counter])
-        frame = 1000.0 + self.spot + rng.normal(0.0, NOISE_DN, (H, W))
+        spot = self.spot if counter >= self.spot_from else 0.0
+        frame = 1000.0 + self.fpn + spot + rng.normal(0.0, NOISE_DN, (H, W))
         return np.clip(np.rint(frame), 0, 65535).astype(np.uint16)
 
 

@@ -20,7 +20,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="read only the pixels around the track from the file (same results, far faster)",
     )
-    p.add_argument("--no-track", action="store_true", help="keep each window where clicked")
+    p.add_argument(
+        "--track",
+        choices=("recorded", "on", "off"),
+        default="recorded",
+        help="follow the drone as the recording did (default), or force tracking on/off",
+    )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
 
@@ -30,7 +35,12 @@ def run(args: argparse.Namespace) -> int:
 
     if args.speed is not None and not args.speed > 0:
         raise UsageError(f"--speed must be positive, got {args.speed}")
-    result = replay_session(args.file, speed=args.speed, fast=args.fast, track=not args.no_track)
+    result = replay_session(
+        args.file,
+        speed=args.speed,
+        fast=args.fast,
+        track={"recorded": None, "on": True, "off": False}[args.track],
+    )
     stops = [
         {
             "camera": r.camera,

@@ -98,6 +98,38 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     assert any(r.complete and r.lrf_range_m == pytest.approx(150.0, abs=0.01) for r in replay.stops)
 
 
+def test_background_reference_removes_fixed_pattern_and_replays_exactly(tmp_path):
+    name = f"snrmon-fpn-{time.monotonic_ns() % 10**9}"
+    producer = ShmProducer(
+        name, W, H, SpotOnNoise(11, fpn_dn=15.0, spot_from=10**9), fps=60.0, slots=16
+    )
+    producer.start()
+    config = session_config_from_dict(
+        {"cameras": {"cam": {"source": "shm", "address": name, "width_px": W, "height_px": H}}}
+    )
+    session = Session(config, track=False)
+    path = tmp_path / "fpn.h5"
+    try:
+        session.start()
+        session.start_recording(path)
+        session.capture_reference("cam", 32)
+        wait_until(lambda: session.status().cameras["cam"].reference_frames == 32, 10, "reference")
+        session.set_roi("cam", 64, 41)
+        wait_until(lambda: session.status().cameras["cam"].snr_n >= 60, 10, "60 measured frames")
+        session.stop_recording()
+        st = session.status().cameras["cam"]
+    finally:
+        session.stop()
+        producer.stop()
+    # The reference holds the 15 DN pattern (plus the temporal noise averaged over 32 frames).
+    assert st.fixed_pattern_dn == pytest.approx(math.hypot(15.0, NOISE_DN / math.sqrt(32)), rel=0.1)
+    # No spot in these frames: the corrected rim std is the temporal noise (x sqrt(1 + 1/32)
+    # for the noise left in the reference), the raw one carries the pattern.
+    assert st.last.bg_std == pytest.approx(NOISE_DN * math.sqrt(1 + 1 / 32), rel=0.35)
+    replay = replay_session(path).cameras["cam"]
+    assert replay.compared >= 60 and replay.identical == replay.compared
+
+
 def test_camera_lost_raises_an_alarm_and_clears_when_it_returns(rig):
     session, producer, _ = rig
     session.pipelines["cam"].device.stale_after_s = 0.3
