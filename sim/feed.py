@@ -17,7 +17,11 @@ from sim.scene import FrameTruth, SceneConfig, SceneRenderer, TargetState
 
 
 class FlightCameraFeed:
-    """A camera of ``scene`` on the flight ``flight``, at ``fps`` frames per second."""
+    """A camera of ``scene`` on the flight ``flight``, at ``fps`` frames per second.
+
+    ``t0_s`` is the flight time of frame 0 (negative for a pre-roll before take-off);
+    ``launch_s``, when given, is when the drone appears: earlier frames show empty sky.
+    """
 
     def __init__(
         self,
@@ -28,6 +32,7 @@ class FlightCameraFeed:
         seed: int,
         boresight_offset_px: tuple[float, float] = (0.0, 0.0),
         t0_s: float = 0.0,
+        launch_s: float | None = None,
     ):
         if not fps > 0:
             raise ValueError(f"fps must be > 0, got {fps}")
@@ -36,6 +41,7 @@ class FlightCameraFeed:
         self.scene = scene
         self.fps = float(fps)
         self.t0_s = float(t0_s)
+        self.launch_s = launch_s
         self.plan = FlightPlan(flight)
         self.pointing = CameraPointing(
             scene.ifov_rad, scene.width_px, scene.height_px, boresight_offset_px
@@ -50,6 +56,8 @@ class FlightCameraFeed:
         """The drone as this camera sees it at ``t_s`` (None in blackbody mode)."""
         if self.scene.target is None or self.scene.blackbody_e is not None:
             return None
+        if self.launch_s is not None and t_s < self.launch_s:
+            return None  # not yet in the sky: the frames an operator takes a sky reference on
         truth = self.plan.truth(t_s)
         x, y = self.pointing.pixel_of(truth)
         return TargetState(

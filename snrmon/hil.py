@@ -38,6 +38,8 @@ class HilOptions:
     transit_mps: float = 8.0
     start_range_m: float = 10.0
     real_psf: bool = False
+    preroll_s: float = 5.0  # empty sky before launch (with fpn: the background reference)
+    reference_frames: int = 64
     sky_temp_k: float = 280.0
     fpn: bool = False
     track: bool = True
@@ -52,6 +54,7 @@ class CameraRig:
     producer: object
     fps: float
     log: list = field(default_factory=list)  # (t_host_ns, counter, PeakSnr)
+    raw_log: list = field(default_factory=list)  # (t_host_ns, raw running mean, std)
 
 
 class HilRig:
@@ -82,6 +85,8 @@ class HilRig:
             seed=opts.seed,
         )
         self.plan = FlightPlan(self.flight_config)
+        # With fixed-pattern noise the console needs a sky reference before launch.
+        self.preroll_s = opts.preroll_s if opts.fpn else 0.0
         self.t0 = time.monotonic()
         tag = f"{os.getpid()}-{opts.seed}"
         self.cameras: dict[str, CameraRig] = {}
@@ -96,7 +101,14 @@ class HilRig:
             )
             if not opts.fpn:
                 scene = replace(scene, fpn_enabled=False)
-            feed = FlightCameraFeed(scene, self.flight_config, fps=sensor.fps, seed=opts.seed + i)
+            feed = FlightCameraFeed(
+                scene,
+                self.flight_config,
+                fps=sensor.fps,
+                seed=opts.seed + i,
+                t0_s=-self.preroll_s,
+                launch_s=0.0,
+            )
             producer = ShmProducer(
                 f"snrmon-{cam}-{tag}",
                 sensor.width_px,
@@ -106,12 +118,8 @@ class HilRig:
                 slots=16,
             )
             self.cameras[cam] = CameraRig(cam, sensor, feed, producer, float(sensor.fps))
-        self.gps_sim = NmeaSimulator(
-            lambda _t: self.plan.position(self.flight_time()), rate_hz=10.0, baud=38400
-        )
-        self.lrf_sim = LdmSimulator(
-            lambda _t: self.plan.range_m(self.flight_time()), rate_hz=10.0, tracking=True
-        )
+        self.gps_sim = NmeaSimulator(self._gps_position, rate_hz=10.0, baud=38400)
+        self.lrf_sim = LdmSimulator(self._lrf_range, rate_hz=10.0, tracking=True)
         site = self.flight_config.site
         config = session_config_from_dict(
             {
@@ -146,7 +154,16 @@ class HilRig:
 
     # ------------------------------------------------------------------ clock and truth
     def flight_time(self) -> float:
-        return (time.monotonic() - self.t0) * self.opts.speed
+        """Seconds since launch on the flight's clock (negative during the pre-roll)."""
+        return (time.monotonic() - self.t0) * self.opts.speed - self.preroll_s
+
+    def _gps_position(self, _t_s: float):
+        t = self.flight_time()
+        return None if t < 0 else self.plan.position(t)  # no fix before launch
+
+    def _lrf_range(self, _t_s: float) -> float | None:
+        t = self.flight_time()
+        return None if t < 0 else self.plan.range_m(t)  # no target before launch
 
     def truth_pixel(self, camera: str) -> tuple[float, float] | None:
         """Where the drone is now in ``camera`` (what the operator would click on)."""
@@ -154,7 +171,9 @@ class HilRig:
         return None if target is None else (target.x_px, target.y_px)
 
     def _on_measurement(self, m, frame) -> None:
-        self.cameras[m.camera].log.append((m.t_host_ns, m.counter, m.result))
+        rig = self.cameras[m.camera]
+        rig.log.append((m.t_host_ns, m.counter, m.result))
+        rig.raw_log.append((m.t_host_ns, m.snr_mean_raw, m.snr_std_raw))
 
     # ------------------------------------------------------------------ run
     def __enter__(self) -> HilRig:
@@ -164,6 +183,9 @@ class HilRig:
         self.lrf_sim.start()
         self.t0 = time.monotonic()
         self.session.start()
+        if self.opts.fpn:
+            for cam in self.cameras:
+                self.session.capture_reference(cam, self.opts.reference_frames)
         if self.opts.out:
             self.session.start_recording(self.opts.out)
         return self
@@ -201,8 +223,27 @@ class HilRig:
         return self.result()
 
     # ------------------------------------------------------------------ results
+    def _raw_stats(self) -> dict:
+        """Per stop and camera, the SNR of the same track measured on raw frames (no
+        background reference): the console reports both when a reference is on."""
+        out = {}
+        for row in self.session.stops():
+            rows = [
+                m
+                for m in self.cameras[row.camera].raw_log
+                if row.t_start_ns <= m[0] and (row.t_end_ns is None or m[0] < row.t_end_ns)
+            ]
+            if rows:
+                _, mean, std = rows[-1]
+                out[(row.camera, row.stop)] = {
+                    "measured_snr_mean_raw": mean,
+                    "measured_snr_std_raw": std,
+                }
+        return out
+
     def result(self) -> dict:
         planned = np.array(self.opts.stops_m, float)
+        raw = self._raw_stats() if self.opts.fpn else {}
         stops = []
         for row in self.session.stops():
             rig = self.cameras[row.camera]
@@ -231,6 +272,7 @@ class HilRig:
                     "n_frames": row.n_frames,
                     "measured_snr_mean": row.snr_mean,
                     "measured_snr_std": row.snr_std,
+                    **raw.get((row.camera, row.stop), {}),
                     "truth_snr": truth,
                     "model_snr": model,
                     "resolved": resolved,

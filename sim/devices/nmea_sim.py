@@ -65,11 +65,20 @@ def gga_rmc(
     return sentence(gga), sentence(rmc)
 
 
+def no_fix(utc: datetime, *, talker: str = "GP") -> tuple[bytes, bytes]:
+    """One epoch of a receiver without a fix: empty position fields, quality 0, RMC void."""
+    hms = utc.strftime("%H%M%S") + f".{utc.microsecond // 10000:02d}"
+    gga = f"{talker}GGA,{hms},,,,,0,00,99.9,,M,,M,,"
+    rmc = f"{talker}RMC,{hms},V,,,,,,,{utc.strftime('%d%m%y')},,,N"
+    return sentence(gga), sentence(rmc)
+
+
 class NmeaSimulator(LineSimulator):
     """GGA+RMC at ``rate_hz`` from ``position(t_s)``.
 
     Args:
-        position: ``position(t_s) -> (lat_deg, lon_deg, alt_m)``; default a fixed point.
+        position: ``position(t_s) -> (lat_deg, lon_deg, alt_m)``, or None while the receiver
+            has no fix; default a fixed point.
         rate_hz: epochs per second (10 for a drone GPS).
         baud: line speed; a :class:`BaudBudgetWarning` is issued when the rate does not fit
             (10 Hz GGA+RMC is about 1.5 kB/s: at least 19200 baud).
@@ -113,7 +122,10 @@ class NmeaSimulator(LineSimulator):
         self.epochs += 1
         t_epoch = k * self.tick_period_s
         utc = self.start_utc + timedelta(seconds=round(t_epoch, 2))
-        lat, lon, alt = self.position(t_epoch)
+        pos = self.position(t_epoch)
+        if pos is None:
+            return list(no_fix(utc, talker=self.talker))
+        lat, lon, alt = pos
         if not (math.isfinite(lat) and math.isfinite(lon) and math.isfinite(alt)):
             raise ValueError(f"position provider returned {lat}, {lon}, {alt} at t={t_epoch}")
         return list(

@@ -96,14 +96,15 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(
         f"{'camera':6s} {'plan_m':>7s} {'lrf_m':>7s} {'gps_m':>7s} {'n':>4s} "
-        f"{'SNR':>7s} {'std':>6s} {'truth':>7s} {'model_s':>8s} {'model_sc':>8s}"
+        f"{'SNR':>7s} {'std':>6s} {'raw':>7s} {'truth':>7s} {'model_s':>8s} {'model_sc':>8s}"
     )
     for s in result["stops"]:
         m = s["model_snr"]
         print(
             f"{s['camera']:6s} {s['planned_range_m']:7.0f} {_f(s['lrf_range_m'])} "
             f"{_f(s['gps_range_m'])} {s['n_frames']:4d} {s['measured_snr_mean']:7.2f} "
-            f"{s['measured_snr_std']:6.2f} {s['truth_snr']:7.2f} "
+            f"{s['measured_snr_std']:6.2f} {s.get('measured_snr_mean_raw', math.nan):7.2f} "
+            f"{s['truth_snr']:7.2f} "
             f"{m.get('small', math.nan):8.2f} {m.get('small_corrected', math.nan):8.2f}"
         )
     for cam, f in result["frames"].items():
