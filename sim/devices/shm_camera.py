@@ -207,6 +207,9 @@ def _produce(
 ) -> None:
     """Body of the producer process (top level so that spawn can import it)."""
     writer = ShmFrameWriter(name, width, height, slots, fps=fps)
+    # A killed console (SIGKILL, a test runner's timeout) never sets ``stop``: watch the parent
+    # so the camera process does not outlive it, rendering into a ring no one reads.
+    parent = os.getppid()
     ready.set()
     counter = first_counter
     period_ns = round(1e9 / fps) if fps else 0
@@ -214,6 +217,8 @@ def _produce(
     k = 0
     try:
         while not stop.is_set():
+            if os.getppid() != parent:
+                break
             if max_frames is not None and written.value >= max_frames:
                 done.set()
                 stop.wait()
