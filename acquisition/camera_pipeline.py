@@ -106,6 +106,7 @@ class CameraPipeline:
             self.shape, crop_half_px(self.measurer.meter.config, self.measurer.tracker_config)
         )
         self._reference_pending: int | None = None
+        self.sky = None  # apparent sky temperature of the background, with a calibration
         self.range_at = range_at
         self._reader = self.ring.reader("measurement")
         self._lock = threading.Lock()
@@ -169,6 +170,16 @@ class CameraPipeline:
         with self._lock:
             self._cue_pending = (float(x), float(y))
             self._gps_xy = (float(x), float(y))
+
+    def set_calibration(self, calibration) -> None:
+        """Apply a radiometric calibration (:class:`acquisition.calibration.Calibration`) to
+        the measured window from the next frame on, and follow the apparent sky temperature
+        of the background pixels (issue 9). Call before ``start``."""
+        from acquisition.sky_temperature import SkyTemperature
+
+        self.corrector.calibration = calibration
+        box = self.measurer.meter.config.box_px
+        self.sky = SkyTemperature(self.name, calibration, box_px=box, maxlen=600)
 
     def capture_reference(self, n_frames: int = 64) -> None:
         """Average the next ``n_frames`` frames (clear sky, no drone) into the background
@@ -253,6 +264,7 @@ class CameraPipeline:
             snr_mean_raw=last.snr_mean_raw if last else float("nan"),
             snr_std_raw=last.snr_std_raw if last else float("nan"),
             reference_frames=self.corrector.reference_frames,
+            sky_temp_k=self.sky.mean_temp_k(last=100) if self.sky is not None else float("nan"),
             fixed_pattern_dn=self.corrector.fixed_pattern_dn,
             range_m=last.range_m if last else None,
             range_source=last.range_source if last else "",
@@ -356,6 +368,8 @@ class CameraPipeline:
         )
         if recorder is not None:
             recorder.add_peak_snr(self.name, index, item.counter, item.t_host_ns, fr.result)
+        if self.sky is not None:
+            self.sky.add(item.t_host_ns, item.pixels, fr.result)
         latency = time.monotonic_ns() - item.t_host_ns
         with self._lock:
             self._measured += 1

@@ -30,21 +30,37 @@ class ModelPredictor:
         from model.snr import predict
 
         self.target = load_target(target)
+        self._predict = predict
+        self._options = dict(predict_options)
+        self.sensors = {}
+        self.background_temp_k: dict[str, float | None] = {}
         self.ranges_m = (
             np.geomspace(10.0, 5000.0, 600) if ranges_m is None else np.asarray(ranges_m, float)
         )
         self._log_r = np.log(self.ranges_m)
         self.curves: dict[str, dict[str, np.ndarray]] = {}
         for camera, sensor_name in sensors.items():
-            sensor = load_sensor(sensor_name)
-            p = predict(sensor, self.target, self.ranges_m, **predict_options)
-            self.curves[camera] = {
-                "small": np.asarray(p.snr_small, float),
-                "large": np.asarray(p.snr_large, float),
-                "small_corrected": np.asarray(p.snr_small_corrected, float),
-                "large_corrected": np.asarray(p.snr_large_corrected, float),
-                "resolved_small": np.asarray(p.resolved_small, float),
-            }
+            self.sensors[camera] = load_sensor(sensor_name)
+            self._compute(camera, predict_options.get("background_temp_k"))
+
+    def set_background(self, camera: str, temp_k: float | None) -> None:
+        """Recompute ``camera``'s curves for a measured background (sky) temperature: the
+        paper's path-radiance correction (sections 8-9); None returns to the model's own."""
+        if camera in self.sensors:
+            self._compute(camera, temp_k)
+
+    def _compute(self, camera: str, background_temp_k: float | None) -> None:
+        options = {**self._options, "background_temp_k": background_temp_k}
+        p = self._predict(self.sensors[camera], self.target, self.ranges_m, **options)
+        self.background_temp_k[camera] = background_temp_k
+        curves = {
+            "small": np.asarray(p.snr_small, float),
+            "large": np.asarray(p.snr_large, float),
+            "small_corrected": np.asarray(p.snr_small_corrected, float),
+            "large_corrected": np.asarray(p.snr_large_corrected, float),
+            "resolved_small": np.asarray(p.resolved_small, float),
+        }
+        self.curves = {**self.curves, camera: curves}  # swapped whole: readers never see half
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
         curves = self.curves.get(camera)

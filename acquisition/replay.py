@@ -97,12 +97,15 @@ def replay_session(
             track = bool(f.config.get("track", True)) if isinstance(f.config, dict) else True
         rois: dict[str, list[tuple[int, int, int]]] = {}
         references: dict[str, list[tuple[int, int, int]]] = {}
+        calibrations: dict[str, str] = {}
         for e in f.event_list():
             if e["camera"] not in f.cameras:
                 continue
             p = e["payload"]
             if e["kind"] == "roi_set":
                 rois.setdefault(e["camera"], []).append((e["t_host_ns"], int(p["x"]), int(p["y"])))
+            elif e["kind"] == "calibration" and "path" in p:
+                calibrations[e["camera"]] = p["path"]
             elif e["kind"] == "background_reference":
                 references.setdefault(e["camera"], []).append(
                     (e["t_host_ns"], int(p["first_counter"]), int(p["last_counter"]))
@@ -141,6 +144,13 @@ def replay_session(
             events = sorted(rois.get(name, []))
             half = crop_half_px(config, measurer.tracker_config)
             corrector = FrameCorrector(cam.frames.shape[1:], half)
+            if name in calibrations:
+                from acquisition.calibration_file import load_calibration
+
+                # The recording keeps raw frames; the live measurement ran on calibrated ones.
+                corrector.calibration = load_calibration(
+                    calibrations[name], frame_shape=tuple(cam.frames.shape[1:])
+                )
             refs = sorted(references.get(name, []))
             recorded = {int(m["frame_index"]): m for m in cam.measurements if m["frame_index"] >= 0}
             if cam.n_frames:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import shutil
 import threading
 import time
@@ -99,7 +100,11 @@ class Session:
                 track=track,
             )
             pipe.add_listener(self._on_measurement)
+            if cam.calibration:
+                pipe.set_calibration(self._calibration(cam, shape))
             self.pipelines[cam.name] = pipe
+        self.predictor = predictor
+        self._sky_checked: dict[str, int] = {}
         self.stop_detector = StopDetector(stop_config)
         self.stop_table = StopTable(
             self.stop_detector, list(self.pipelines), frames_per_stop=100, predictor=predictor
@@ -121,6 +126,15 @@ class Session:
 
         sensor = load_sensor(cam.sensor)
         return int(sensor.height_px), int(sensor.width_px)
+
+    @staticmethod
+    def _calibration(cam, shape: tuple[int, int]):
+        from acquisition.calibration_file import load_calibration
+        from model.presets import load_sensor
+
+        # Checked against the camera's sensor (camera, band, integration time) and frame size:
+        # a calibration of another camera or band is refused, nothing applied.
+        return load_calibration(cam.calibration, load_sensor(cam.sensor), frame_shape=shape)
 
     @staticmethod
     def _serial_device(table: dict | None, name: str) -> Device | None:
@@ -208,6 +222,15 @@ class Session:
             self._recorder = rec
         for pipe in self.pipelines.values():
             pipe.attach_recorder(rec)
+            cal = pipe.corrector.calibration
+            if cal is not None:
+                from acquisition.calibration_file import calibration_metadata
+
+                meta = calibration_metadata(cal)
+                meta["path"] = next(
+                    c.calibration for c in self.config.cameras if c.name == pipe.name
+                )
+                rec.add_event("calibration", camera=pipe.name, payload=meta)
             roi = pipe.status().roi_xy
             if roi is not None:  # the track in force is part of the record (replayed from here)
                 rec.add_event(
@@ -301,8 +324,25 @@ class Session:
                 },
             )
 
+    def _follow_sky(self, camera: str, t_ns: int) -> None:
+        """With a calibration, the model's background input follows the measured sky
+        temperature (paper sections 8-9), re-evaluated at most every 2 s, on a 0.5 K change."""
+        pipe = self.pipelines[camera]
+        predictor = self.predictor
+        if pipe.sky is None or not hasattr(predictor, "set_background"):
+            return
+        last = self._sky_checked.get(camera, 0)
+        if t_ns - last < 2_000_000_000:
+            return
+        self._sky_checked[camera] = t_ns
+        temp = pipe.sky.mean_temp_k(last=100)
+        current = predictor.background_temp_k.get(camera)
+        if math.isfinite(temp) and (current is None or abs(temp - current) > 0.5):
+            predictor.set_background(camera, temp)
+
     def _on_measurement(self, m: Measurement, frame: RingFrame) -> None:
         self.stop_table.add(m.camera, m.t_host_ns, m.result)
+        self._follow_sky(m.camera, m.t_host_ns)
         with self._lock:
             listeners = list(self._measurement_listeners)
         for cb in listeners:

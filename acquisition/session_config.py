@@ -19,6 +19,7 @@ Example (``session.toml``)::
     address = "snrmon-mwir"         # shm ring name | V4L2 index or path | Aravis camera id
     sensor = "mwir"                 # model preset or a sensor TOML file
     pointing_deg = [40.0, 8.0, 0.0] # azimuth (clockwise from north), elevation, roll
+    calibration = "mwir-cal.npz"    # optional: snrmon calibrate output, applied before Eq. 4
 
     [gps]                           # drivers.config table (nmea | gpsd | mavlink)
     protocol = "nmea"
@@ -56,6 +57,7 @@ class CameraConfig:
     width_px: int | None = None
     height_px: int | None = None
     pointing: Pointing | None = None
+    calibration: str | None = None  # calibration file (npz + TOML sidecar), issue 9
 
 
 @dataclass(frozen=True)
@@ -84,7 +86,9 @@ def _camera(name: str, table: dict) -> CameraConfig:
     if not isinstance(table, dict):
         raise ValueError(f"{where} must be a table, got {table!r}")
     _check_keys(
-        table, {"source", "address", "sensor", "width_px", "height_px", "pointing_deg"}, where
+        table,
+        {"source", "address", "sensor", "width_px", "height_px", "pointing_deg", "calibration"},
+        where,
     )
     source = table.get("source", "shm")
     if source not in CAMERA_SOURCES:
@@ -103,6 +107,7 @@ def _camera(name: str, table: dict) -> CameraConfig:
         width_px=table.get("width_px"),
         height_px=table.get("height_px"),
         pointing=pointing,
+        calibration=str(table["calibration"]) if "calibration" in table else None,
     )
 
 

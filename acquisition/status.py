@@ -48,6 +48,7 @@ class CameraStatus:
     snr_std_raw: float = float("nan")
     reference_frames: int = 0  # frames in the background reference (0: none)
     fixed_pattern_dn: float = float("nan")  # spatial std of the reference
+    sky_temp_k: float = float("nan")  # apparent background temperature (with a calibration)
     range_m: float | None = None
     range_source: str = ""
     model_snr: dict[str, float] = field(default_factory=dict)

@@ -1,0 +1,103 @@
+"""A calibrated camera in a live Session (issue 9): the calibration is applied before Eq. (4),
+the sky's apparent temperature is followed live, recorded, and the replay is exact."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from acquisition.calibration import BlackbodyCapture, calibrate_sensor
+from acquisition.calibration_file import save_calibration
+from acquisition.replay import replay_session
+from acquisition.session import Session
+from acquisition.session_config import session_config_from_dict
+from acquisition.session_file import open_session
+from sim.devices.shm_camera import ShmProducer
+from tests.acquisition.calibration_scene import camera
+from tests.helpers import wait_until
+
+SKY_K = 280.0
+
+
+class CalibratedSky:
+    """Picklable render callable: the calibration scene's camera looking at a 280 K sky."""
+
+    def __init__(self, seed: int) -> None:
+        self.cam = camera("mwir", shape=(96, 128), seed=7)
+        self.sky_e = self.cam.electrons(SKY_K)
+        self.seed = seed
+
+    def __call__(self, counter: int) -> np.ndarray:
+        return self.cam.frames(self.sky_e, 1, seed=self.seed * 100_000 + counter)[0]
+
+
+@pytest.fixture
+def calibration_file(tmp_path):
+    cam = camera("mwir", shape=(96, 128), seed=7)
+    caps = [
+        BlackbodyCapture(t, cam.blackbody(t, 16, seed=i))
+        for i, t in enumerate((283.15, 303.15, 323.15))
+    ]
+    cal = calibrate_sensor(caps, cam.sensor)
+    return save_calibration(cal, tmp_path / "mwir-cal.npz")
+
+
+def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
+    tmp_path, calibration_file
+):
+    name = f"snrmon-cal-{time.monotonic_ns() % 10**9}"
+    producer = ShmProducer(name, 128, 96, CalibratedSky(1), fps=60.0, slots=16)
+    producer.start()
+    config = session_config_from_dict(
+        {
+            "cameras": {
+                "mwir": {
+                    "source": "shm",
+                    "address": name,
+                    "sensor": "mwir",
+                    "width_px": 128,
+                    "height_px": 96,
+                    "calibration": str(calibration_file),
+                }
+            }
+        }
+    )
+    session = Session(config, track=False)
+    path = tmp_path / "cal.h5"
+    try:
+        session.start()
+        session.start_recording(path)
+        session.set_roi("mwir", 60, 50)
+        wait_until(lambda: session.status().cameras["mwir"].snr_n >= 50, 10, "50 frames")
+        session.stop_recording()
+        st = session.status().cameras["mwir"]
+    finally:
+        session.stop()
+        producer.stop()
+    assert st.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
+    with open_session(path) as f:
+        (event,) = [e for e in f.event_list() if e["kind"] == "calibration"]
+        assert event["camera"] == "mwir" and event["payload"]["path"] == str(calibration_file)
+    replay = replay_session(path).cameras["mwir"]
+    assert replay.compared >= 50 and replay.identical == replay.compared
+
+
+def test_a_calibration_of_another_camera_is_refused(tmp_path, calibration_file):
+    config = session_config_from_dict(
+        {
+            "cameras": {
+                "lwir": {
+                    "source": "shm",
+                    "address": "nothing",
+                    "sensor": "lwir",
+                    "width_px": 128,
+                    "height_px": 96,
+                    "calibration": str(calibration_file),
+                }
+            }
+        }
+    )
+    with pytest.raises(ValueError, match="mwir"):
+        Session(config)
