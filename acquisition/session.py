@@ -105,9 +105,14 @@ class Session:
             self.pipelines[cam.name] = pipe
         self.predictor = predictor
         self._sky_checked: dict[str, int] = {}
+        self._table_checked = 0
         self.stop_detector = StopDetector(stop_config)
         self.stop_table = StopTable(
-            self.stop_detector, list(self.pipelines), frames_per_stop=100, predictor=predictor
+            self.stop_detector,
+            list(self.pipelines),
+            frames_per_stop=100,
+            predictor=predictor,
+            on_final=self._record_row,
         )
         self.gps = gps if gps is not None else self._serial_device(config.gps, "gps")
         self.lrf = lrf if lrf is not None else self._serial_device(config.lrf, "lrf")
@@ -239,6 +244,7 @@ class Session:
 
     def stop_recording(self):
         """Finish the file; returns the recorder's summary (None when not recording)."""
+        self.stops()  # rows final by now go into the file
         with self._lock:
             rec, self._recorder = self._recorder, None
         if rec is None:
@@ -324,6 +330,17 @@ class Session:
                 },
             )
 
+    def _record_row(self, row: StopRow) -> None:
+        """A final stop-table row goes into the recording (called under the session lock)."""
+        rec = self._recorder
+        if rec is not None:
+            payload = dataclasses.asdict(row)
+            payload = {
+                k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                for k, v in payload.items()
+            }
+            rec.add_event("stop_summary", camera=row.camera, payload=payload)
+
     def _follow_sky(self, camera: str, t_ns: int) -> None:
         """With a calibration, the model's background input follows the measured sky
         temperature (paper sections 8-9), re-evaluated at most every 2 s, on a 0.5 K change."""
@@ -343,6 +360,11 @@ class Session:
     def _on_measurement(self, m: Measurement, frame: RingFrame) -> None:
         self.stop_table.add(m.camera, m.t_host_ns, m.result)
         self._follow_sky(m.camera, m.t_host_ns)
+        if m.t_host_ns - self._table_checked > 1_000_000_000:
+            # Rows become final here even when no display asks for the table, so they are
+            # recorded as they complete.
+            self._table_checked = m.t_host_ns
+            self.stops()
         with self._lock:
             listeners = list(self._measurement_listeners)
         for cb in listeners:

@@ -54,7 +54,9 @@ class StopTable:
         frames_per_stop: int = 100,
         history_frames: int = 4000,
         predictor: Predictor | None = None,
+        on_final: Callable[[StopRow], None] | None = None,
     ) -> None:
+        self.on_final = on_final
         self.detector = detector
         self.cameras = list(cameras)
         self.n = frames_per_stop
@@ -71,7 +73,8 @@ class StopTable:
             self._recent[camera].append((int(t_host_ns), result))
 
     def rows(self) -> list[StopRow]:
-        """Every stop so far x every camera, in stop order."""
+        """Every stop so far x every camera, in stop order. A row is final once it has its
+        100 frames or its stop ended; ``on_final(row)`` is called once for each."""
         with self._lock:
             stops = self.detector.stops
             out = []
@@ -83,6 +86,8 @@ class StopTable:
                         row = self._row(stop, cam)
                         if row.complete or stop.t_end_ns is not None:
                             self._frozen[key] = row
+                            if self.on_final is not None:
+                                self.on_final(row)
                     out.append(row)
             return out
 

@@ -87,6 +87,10 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     assert len(f.rangefinder) > 0 and len(f.gps) > 0
     kinds = [e["kind"] for e in f.event_list()]
     assert "roi_set" in kinds
+    # The live stop table is part of the record: the completed row, as the console showed it.
+    (summary_event,) = [e for e in f.event_list() if e["kind"] == "stop_summary"]
+    assert summary_event["payload"]["n_frames"] == 100
+    assert summary_event["payload"]["snr_mean"] == row.snr_mean
     f.close()
 
     # Replay through the same measurement reproduces every recorded per-frame SNR exactly,
