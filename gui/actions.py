@@ -1,0 +1,76 @@
+"""Every operator action as a QAction with its shortcut and tooltip, and the menus they live in.
+
+One table (:data:`ACTIONS`) is the single source for the menus, the shortcuts and docs/console.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from PySide6.QtGui import QAction, QKeySequence
+from PySide6.QtWidgets import QMainWindow, QMenuBar
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    key: str
+    text: str
+    shortcut: str
+    tip: str
+    menu: str
+    slot: str  # the window's method called with no argument
+
+
+ACTIONS: tuple[ActionSpec, ...] = (
+    ActionSpec("record_start", "Start &recording...", "Ctrl+R",
+               "Record everything from now into a new HDF5 session file", "&Session",
+               "start_recording"),
+    ActionSpec("record_stop", "S&top recording", "Ctrl+Shift+R",
+               "Finish the session file (it stays readable even after a crash)", "&Session",
+               "stop_recording"),
+    ActionSpec("mark_stop", "&Mark stop", "M",
+               "The drone is hovering at a stop now: start a stop-table row", "&Session",
+               "mark_stop"),
+    ActionSpec("note", "Add &note...", "N", "Write a timestamped note into the record",
+               "&Session", "add_note"),
+    ActionSpec("screenshot", "Save &screenshot...", "Ctrl+Shift+S",
+               "Save the whole window as a PNG", "&Session", "save_screenshot"),
+    ActionSpec("quit", "&Quit", "Ctrl+Q", "Close the console (recording is finished first)",
+               "&Session", "close"),
+    ActionSpec("auto_levels", "&Auto levels", "A",
+               "Robust display levels (0.5 / 99.9 percentiles, DN) on every camera", "&View",
+               "auto_levels"),
+    ActionSpec("reset_zoom", "Reset &zoom", "Z", "Show each whole image again", "&View",
+               "reset_zoom"),
+    ActionSpec("reload_model", "Reload model &curves", "Ctrl+L",
+               "Ask the model for the SNR-versus-range curves again", "&View",
+               "reload_curves"),
+    ActionSpec("fullscreen", "&Full screen", "F11", "Toggle full screen", "&View",
+               "toggle_fullscreen"),
+    ActionSpec("shortcuts", "&Keyboard shortcuts", "F1", "List every action and its key",
+               "&Help", "show_shortcuts"),
+)  # fmt: skip
+
+
+def install_actions(window: QMainWindow, menubar: QMenuBar) -> dict[str, QAction]:
+    """Create the actions, connect each to ``window.<slot>()``, put them in menus."""
+    menus: dict[str, object] = {}
+    actions: dict[str, QAction] = {}
+    for spec in ACTIONS:
+        action = QAction(spec.text, window)
+        action.setShortcut(QKeySequence(spec.shortcut))
+        action.setToolTip(f"{spec.tip} ({spec.shortcut})")
+        action.setStatusTip(spec.tip)
+        slot = getattr(window, spec.slot)
+        action.triggered.connect(lambda _checked=False, s=slot: s())
+        if spec.menu not in menus:
+            menus[spec.menu] = menubar.addMenu(spec.menu)
+        menus[spec.menu].addAction(action)
+        window.addAction(action)  # shortcuts work even with the menu bar hidden
+        actions[spec.key] = action
+    return actions
+
+
+def shortcuts_text() -> str:
+    """Every action and its key, one per line."""
+    return "\n".join(f"{s.shortcut:<14} {s.text.replace('&', '')}: {s.tip}" for s in ACTIONS)

@@ -1,0 +1,78 @@
+"""The QApplication and :func:`run_console`, the one entry the CLI uses to show the console.
+
+``run_console`` does not start or stop the session: the caller owns its lifetime (``with
+session: run_console(session, ...)``), so the same session can outlive a closed window.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from pathlib import Path
+
+from PySide6.QtCore import QEventLoop, QSettings, QTimer
+from PySide6.QtWidgets import QApplication
+
+from acquisition.session import Session
+from gui.main_window import ConsoleWindow
+from gui.range_plot import CurveSource
+from gui.theme import apply_dark_theme, configure_pyqtgraph
+
+
+def console_application(*, headless: bool = False) -> QApplication:
+    """The process's QApplication (created once; offscreen when ``headless``), dark-themed."""
+    app = QApplication.instance()
+    if app is None:
+        if headless:
+            os.environ["QT_QPA_PLATFORM"] = "offscreen"
+        app = QApplication(sys.argv[:1])
+        app.setOrganizationName("snrmon")
+        app.setApplicationName("console")
+    configure_pyqtgraph()
+    apply_dark_theme(app)
+    return app
+
+
+def run_console(
+    session: Session,
+    *,
+    curves: CurveSource | None = None,
+    headless: bool = False,
+    duration_s: float | None = None,
+    screenshot: str | Path | None = None,
+    settings: QSettings | None = None,
+) -> int:
+    """Show the console on a started ``session`` until the window closes; returns 0.
+
+    Args:
+        curves: ``curves(camera) -> {name: (ranges_m, snr)}`` (or ``(ranges_m, low, high)``
+            for a band) from the model; None draws no model.
+        headless: run offscreen (no display needed); only effective before the first
+            QApplication of the process exists.
+        duration_s: close the window after this many seconds (None: until the operator quits).
+        screenshot: save the whole window to this PNG just before it closes.
+        settings: QSettings to use (default: the user's snrmon/console settings).
+    """
+    if duration_s is not None and not duration_s > 0:
+        raise ValueError(f"duration must be positive seconds, got {duration_s}")
+    console_application(headless=headless)
+    window = ConsoleWindow(session, curves=curves, settings=settings)
+    if screenshot is not None:
+        window.screenshot_path = Path(screenshot)
+    window.show()
+    if duration_s is not None:
+        QTimer.singleShot(round(duration_s * 1000), window.close)
+    # Ctrl-C in the terminal closes the window cleanly; the idle timer lets Python see it.
+    previous = signal.signal(signal.SIGINT, lambda *_: window.close())
+    tick = QTimer()
+    tick.timeout.connect(lambda: None)
+    tick.start(200)
+    loop = QEventLoop()
+    window.closed.connect(loop.quit)
+    try:
+        loop.exec()
+    finally:
+        tick.stop()
+        signal.signal(signal.SIGINT, previous)
+    return 0

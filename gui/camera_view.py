@@ -1,0 +1,170 @@
+"""One camera's live image: levels (histogram control and robust auto-levels), zoom and pan, the
+operator's click that sets the ROI, and the measurement's geometry drawn on the image.
+
+The view never receives frames: the main window's timer hands it the newest
+:class:`acquisition.ring.RingFrame` it peeked, and the view skips a frame it has already shown.
+Drawn on the image (paper Fig. 4): the search window centred on the ROI, the box centred on the
+measured peak, and the inner edge of its one-pixel rim (the rim pixels lie between the two).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import QPoint, QPointF, QRectF, Qt, Signal
+from PySide6.QtWidgets import QGraphicsRectItem, QVBoxLayout, QWidget
+
+from acquisition.peak_snr import PeakSnrConfig
+from acquisition.ring import RingFrame
+from acquisition.status import CameraStatus
+from gui.levels import robust_levels
+
+
+def _rect_item(colour: str, width: float = 1.5, style=Qt.PenStyle.SolidLine) -> QGraphicsRectItem:
+    item = QGraphicsRectItem()
+    pen = pg.mkPen(colour, width=width, style=style)
+    pen.setCosmetic(True)  # constant on-screen width at any zoom
+    item.setPen(pen)
+    item.setZValue(10)
+    item.setVisible(False)
+    return item
+
+
+def pixel_at(x_view: float, y_view: float) -> tuple[int, int]:
+    """The (column, row) of the pixel under an image coordinate; pixel (c, r) spans
+    ``[c, c+1) x [r, r+1)`` in a row-major pyqtgraph ImageItem at the origin."""
+    return math.floor(x_view), math.floor(y_view)
+
+
+def square_around(cx: int, cy: int, size_px: int) -> QRectF:
+    """The outline of a ``size_px`` square of pixels centred on pixel (cx, cy)."""
+    half = size_px // 2
+    return QRectF(cx - half, cy - half, size_px, size_px)
+
+
+class CameraView(QWidget):
+    """Image, histogram/levels control and overlays of one camera.
+
+    Signals:
+        roi_clicked(camera, x, y): the operator clicked pixel column ``x``, row ``y``.
+    """
+
+    roi_clicked = Signal(str, int, int)
+
+    def __init__(
+        self,
+        camera: str,
+        shape: tuple[int, int],
+        config: PeakSnrConfig,
+        parent: QWidget | None = None,
+    ) -> None:
+        super().__init__(parent)
+        self.camera = camera
+        self.shape = shape
+        self.config = config
+        self.auto_levels = True
+        self.frames_shown = 0
+        self._last_seq: int | None = None
+        self._levels_every = 3  # percentiles on every 3rd shown frame: plenty for a display
+
+        self.graphics = pg.GraphicsLayoutWidget()
+        self.view = self.graphics.addViewBox(lockAspect=True, invertY=True, enableMenu=False)
+        self.image = pg.ImageItem(axisOrder="row-major")
+        self.view.addItem(self.image)
+        self.histogram = pg.HistogramLUTItem(image=self.image)
+        self.histogram.sigLevelsChanged.connect(self._levels_dragged)
+        self.graphics.addItem(self.histogram)
+        self.search_rect = _rect_item("#4aa3ff", style=Qt.PenStyle.DashLine)
+        self.box_rect = _rect_item("#ffd34d")
+        self.rim_inner_rect = _rect_item("#ffd34d", width=1.0, style=Qt.PenStyle.DotLine)
+        self.peak_rect = _rect_item("#ff4040", width=1.0)
+        for item in (self.search_rect, self.box_rect, self.rim_inner_rect, self.peak_rect):
+            self.view.addItem(item)
+        h, w = shape
+        self.image.setImage(np.zeros((h, w), np.uint16), autoLevels=False, levels=(0, 1))
+        self.view.setRange(QRectF(0, 0, w, h), padding=0.0)
+        self.graphics.scene().sigMouseClicked.connect(self._scene_clicked)
+        self.setToolTip(
+            f"{camera}: click the drone to set the ROI; wheel = zoom, drag = pan. "
+            "Levels in DN (drag the histogram handles, or A for auto-levels)."
+        )
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.addWidget(self.graphics)
+
+    # ------------------------------------------------------------------ frames
+    def show_frame(self, frame: RingFrame | None) -> bool:
+        """Draw ``frame`` if it is new; returns whether anything was drawn."""
+        if frame is None or frame.seq == self._last_seq:
+            return False
+        self._last_seq = frame.seq
+        pixels = frame.pixels
+        if self.auto_levels and (self.frames_shown % self._levels_every == 0):
+            lo, hi = robust_levels(pixels)
+            self._set_levels_quietly(lo, hi)
+        self.image.setImage(pixels, autoLevels=False, levels=self.histogram.getLevels())
+        self.frames_shown += 1
+        return True
+
+    def _set_levels_quietly(self, lo: float, hi: float) -> None:
+        self.histogram.sigLevelsChanged.disconnect(self._levels_dragged)
+        try:
+            self.histogram.setLevels(lo, hi)
+        finally:
+            self.histogram.sigLevelsChanged.connect(self._levels_dragged)
+
+    def _levels_dragged(self, *_: object) -> None:
+        # The operator took the levels by hand: auto-levels stays off until asked again.
+        self.auto_levels = False
+
+    def set_auto_levels(self, on: bool = True) -> None:
+        self.auto_levels = on
+        self.frames_shown -= self.frames_shown % self._levels_every  # recompute on next frame
+
+    def reset_zoom(self) -> None:
+        h, w = self.shape
+        self.view.setRange(QRectF(0, 0, w, h), padding=0.0)
+
+    # ------------------------------------------------------------------ overlays
+    def show_status(self, status: CameraStatus) -> None:
+        """Draw the search window at the ROI and the box and rim at the measured peak."""
+        roi = status.roi_xy
+        self.search_rect.setVisible(roi is not None)
+        if roi is not None:
+            self.search_rect.setRect(square_around(roi[0], roi[1], self.config.search_px))
+        last = status.last
+        has_peak = roi is not None and last is not None
+        for item in (self.box_rect, self.rim_inner_rect, self.peak_rect):
+            item.setVisible(has_peak)
+        if has_peak:
+            box = self.config.box_px
+            self.box_rect.setRect(square_around(last.peak_x, last.peak_y, box))
+            self.rim_inner_rect.setRect(square_around(last.peak_x, last.peak_y, box - 2))
+            self.peak_rect.setRect(square_around(last.peak_x, last.peak_y, 1))
+
+    # ------------------------------------------------------------------ clicks
+    def _scene_clicked(self, event) -> None:
+        if event.button() != Qt.MouseButton.LeftButton or event.double():
+            return
+        pos = event.scenePos()
+        if not self.view.sceneBoundingRect().contains(pos):
+            return
+        self.click_at_scene(pos)
+        event.accept()
+
+    def click_at_scene(self, scene_pos: QPointF) -> tuple[int, int] | None:
+        """Map a scene position to a pixel and emit :attr:`roi_clicked` if it is on the image."""
+        pt = self.view.mapSceneToView(scene_pos)
+        x, y = pixel_at(pt.x(), pt.y())
+        h, w = self.shape
+        if not (0 <= x < w and 0 <= y < h):
+            return None
+        self.roi_clicked.emit(self.camera, x, y)
+        return x, y
+
+    def viewport_pos_of_pixel(self, x: int, y: int) -> QPoint:
+        """Where pixel (x, y)'s centre is in the graphics widget's viewport (for tests/tools)."""
+        scene = self.view.mapViewToScene(QPointF(x + 0.5, y + 0.5))
+        return self.graphics.mapFromScene(scene)

@@ -1,0 +1,41 @@
+"""Robust display levels for an infrared frame (display only; never a measurement).
+
+A single hot pixel or the sun's glint must not flatten the sky into one grey, so the levels are
+percentiles rather than the minimum and maximum; they are taken on a decimated view so the cost
+stays well under a millisecond for a 1280 x 720 frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+DEFAULT_PERCENTILES = (0.5, 99.9)
+
+
+def robust_levels(
+    pixels: np.ndarray,
+    percentiles: tuple[float, float] = DEFAULT_PERCENTILES,
+    max_samples: int = 40_000,
+) -> tuple[float, float]:
+    """(low, high) display levels: ``percentiles`` of a strided sample of ``pixels``.
+
+    The stride keeps at most about ``max_samples`` pixels. NaNs are ignored. ``high`` is always
+    above ``low`` (a flat frame gets a one-DN window) so a levels control never divides by zero.
+    """
+    lo_p, hi_p = percentiles
+    if not 0.0 <= lo_p < hi_p <= 100.0:
+        raise ValueError(f"percentiles must satisfy 0 <= low < high <= 100, got {percentiles}")
+    if pixels.size == 0:
+        raise ValueError("cannot take display levels of an empty frame")
+    step = max(1, int(np.ceil(np.sqrt(pixels.size / max_samples))))
+    sample = pixels[::step, ::step] if pixels.ndim == 2 else pixels.ravel()[:: step * step]
+    sample = np.asarray(sample, dtype=np.float32)
+    if np.issubdtype(pixels.dtype, np.floating):
+        sample = sample[np.isfinite(sample)]
+        if sample.size == 0:
+            return 0.0, 1.0
+    lo, hi = np.percentile(sample, [lo_p, hi_p])
+    lo, hi = float(lo), float(hi)
+    if hi <= lo:
+        hi = lo + 1.0
+    return lo, hi

@@ -1,0 +1,353 @@
+"""The console's main window: one panel per camera, status, stop table, SNR-versus-range plots.
+
+Threading (anchors (c): acq4#595, PyMoDAQ#79, bluesky#1222): the window never receives frames
+or measurements through signals. Its own timers, on the GUI thread, peek the newest frame of each
+camera (~30 Hz) and read the session's status, series and stop table (5 Hz / 1 Hz); every number
+shown was computed by the session's processing threads. Qt objects are touched only here.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import QByteArray, QSettings, Qt, QTimer, Signal
+from PySide6.QtWidgets import (
+    QApplication,
+    QDockWidget,
+    QFileDialog,
+    QHBoxLayout,
+    QInputDialog,
+    QLabel,
+    QMainWindow,
+    QMessageBox,
+    QScrollArea,
+    QSplitter,
+    QTabWidget,
+    QVBoxLayout,
+    QWidget,
+)
+
+from acquisition.session import Session, SessionStatus
+from gui.actions import install_actions, shortcuts_text
+from gui.alarms import AlarmBanner
+from gui.camera_view import CameraView
+from gui.range_plot import CurveSource, RangePlot
+from gui.roi_inset import RoiInset
+from gui.status_panel import StatusPanel
+from gui.stop_table_view import StopTableView
+from gui.strip_chart import StripChart
+from gui.theme import configure_pyqtgraph
+
+FRAME_INTERVAL_MS = 33
+STATUS_INTERVAL_MS = 200
+TABLE_INTERVAL_MS = 1000
+
+
+class CameraPanel(QWidget):
+    """Header, live image, box inset and strip chart of one camera."""
+
+    def __init__(self, name: str, shape: tuple[int, int], config) -> None:
+        super().__init__()
+        self.name = name
+        self.header = QLabel(name.upper())
+        self.header.setStyleSheet("font-weight: bold;")
+        self.view = CameraView(name, shape, config)
+        self.inset = RoiInset(name, config.box_px)
+        self.inset.setFixedWidth(220)
+        self.chart = StripChart(name)
+        bottom = QHBoxLayout()
+        bottom.addWidget(self.inset)
+        bottom.addWidget(self.chart, 1)
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(2, 2, 2, 2)
+        lay.addWidget(self.header)
+        lay.addWidget(self.view, 3)
+        lay.addLayout(bottom, 2)
+
+
+def model_at_range(curve: tuple, range_m: float | None) -> float | None:
+    """A model curve's value at ``range_m``, read off the curve the model computed (linear
+    between its samples; None outside its range, never extrapolated)."""
+    if range_m is None or not math.isfinite(range_m) or len(curve) != 2:
+        return None
+    r, s = np.asarray(curve[0], float), np.asarray(curve[1], float)
+    if r.size == 0 or not (r.min() <= range_m <= r.max()):
+        return None
+    order = np.argsort(r)
+    return float(np.interp(range_m, r[order], s[order]))
+
+
+class ConsoleWindow(QMainWindow):
+    """The operator console on a (started) :class:`Session`.
+
+    Args:
+        session: the session to display and command; the caller starts and stops it.
+        curves: ``curves(camera) -> {name: (ranges_m, snr)}`` from the model, or None.
+        settings: where geometry and last choices are kept (default: the user's snrmon settings).
+    """
+
+    closed = Signal()
+
+    def __init__(
+        self,
+        session: Session,
+        *,
+        curves: CurveSource | None = None,
+        settings: QSettings | None = None,
+    ) -> None:
+        configure_pyqtgraph()
+        super().__init__()
+        self.session = session
+        self.curves_source = curves
+        self.settings = settings or QSettings("snrmon", "console")
+        self.screenshot_path: Path | None = None
+        self.last_status: SessionStatus | None = None
+        self.messages: list[str] = []
+        self._curves: dict[str, dict] = {}
+        self._pixels: dict[str, np.ndarray] = {}
+        self.setWindowTitle("snrmon console")
+
+        self.banner = AlarmBanner()
+        self.panels: dict[str, CameraPanel] = {}
+        splitter = QSplitter(Qt.Orientation.Horizontal)
+        for name, pipe in session.pipelines.items():
+            panel = CameraPanel(name, pipe.shape, session.config.measurement)
+            panel.view.roi_clicked.connect(self.set_roi)
+            self.panels[name] = panel
+            splitter.addWidget(panel)
+        central = QWidget()
+        lay = QVBoxLayout(central)
+        lay.setContentsMargins(2, 2, 2, 2)
+        lay.addWidget(self.banner)
+        lay.addWidget(splitter, 1)
+        self.setCentralWidget(central)
+
+        self.status_panel = StatusPanel(list(session.pipelines))
+        scroll = QScrollArea()
+        scroll.setWidget(self.status_panel)
+        scroll.setWidgetResizable(True)
+        self._dock("status", "Status", scroll, Qt.DockWidgetArea.RightDockWidgetArea)
+        self.range_tabs = QTabWidget()
+        self.range_plots = {name: RangePlot(name) for name in session.pipelines}
+        for name, plot in self.range_plots.items():
+            self.range_tabs.addTab(plot, f"SNR vs range: {name}")
+        self._dock("range", "SNR vs range", self.range_tabs, Qt.DockWidgetArea.RightDockWidgetArea)
+        self.stop_table = StopTableView()
+        self._dock("stops", "Stops", self.stop_table, Qt.DockWidgetArea.BottomDockWidgetArea)
+
+        self.actions_by_key = install_actions(self, self.menuBar())
+        view_menu = self.menuBar().addMenu("&Panels")
+        for dock in self.findChildren(QDockWidget):
+            view_menu.addAction(dock.toggleViewAction())
+        self.statusBar().showMessage("ready: click a drone to set its ROI")
+
+        self.reload_curves()
+        self._restore_settings()
+        self._timers = []
+        for interval, slot in (
+            (FRAME_INTERVAL_MS, self.refresh_frames),
+            (STATUS_INTERVAL_MS, self.refresh_status),
+            (TABLE_INTERVAL_MS, self.refresh_stops),
+        ):
+            timer = QTimer(self)
+            timer.setTimerType(Qt.TimerType.PreciseTimer)
+            timer.timeout.connect(slot)
+            timer.start(interval)
+            self._timers.append(timer)
+
+    def _dock(self, key: str, title: str, widget: QWidget, area) -> QDockWidget:
+        dock = QDockWidget(title, self)
+        dock.setObjectName(f"dock_{key}")  # saveState needs names
+        dock.setWidget(widget)
+        self.addDockWidget(area, dock)
+        return dock
+
+    # ------------------------------------------------------------------ settings
+    def _restore_settings(self) -> None:
+        geometry = self.settings.value("window/geometry")
+        if isinstance(geometry, QByteArray) and not geometry.isEmpty():
+            self.restoreGeometry(geometry)
+        else:
+            self.resize(1600, 1000)
+        state = self.settings.value("window/state")
+        if isinstance(state, QByteArray) and not state.isEmpty():
+            self.restoreState(state)
+        tab = self.settings.value("view/range_tab", 0, type=int)
+        self.range_tabs.setCurrentIndex(min(int(tab), self.range_tabs.count() - 1))
+
+    def save_settings(self) -> None:
+        self.settings.setValue("window/geometry", self.saveGeometry())
+        self.settings.setValue("window/state", self.saveState())
+        self.settings.setValue("view/range_tab", self.range_tabs.currentIndex())
+        self.settings.sync()
+
+    # ------------------------------------------------------------------ refresh (GUI thread)
+    def refresh_frames(self) -> None:
+        """Show the newest frame of each camera (a camera with nothing new is skipped)."""
+        for name, panel in self.panels.items():
+            frame = self.session.pipelines[name].latest_frame()
+            if panel.view.show_frame(frame):
+                self._pixels[name] = frame.pixels
+
+    def refresh_status(self) -> None:
+        st = self.session.status()
+        self.last_status = st
+        now_ns = time.monotonic_ns()
+        self.banner.show_alarms(st.alarms, now_ns / 1e9)
+        self.status_panel.show_status(st)
+        for name, panel in self.panels.items():
+            cs = st.cameras[name]
+            panel.view.show_status(cs)
+            panel.inset.show_box(self._pixels.get(name), cs)
+            panel.chart.show_series(self.session.pipelines[name].series(), now_ns)
+            mname, msnr = self._model_now(name, cs)
+            panel.chart.show_model(mname, msnr)
+            self.range_plots[name].show_live(cs.range_m, cs.snr_mean, cs.snr_std)
+            snr = f"{cs.snr_mean:.2f} +/- {cs.snr_std:.2f}" if cs.snr_n else "--"
+            panel.header.setText(
+                f"{name.upper()}   {cs.fps:.1f} fps   {cs.track_state}   SNR(100) {snr}"
+            )
+        recording = st.recording.state == "recording"
+        self.actions_by_key["record_start"].setEnabled(not recording)
+        self.actions_by_key["record_stop"].setEnabled(recording)
+
+    def _model_now(self, camera: str, cs) -> tuple[str, float | None]:
+        # The session's own prediction when it gives one, else read off the first model curve.
+        if cs.model_snr:
+            name, value = next(iter(cs.model_snr.items()))
+            return name, value
+        curves = self._curves.get(camera) or {}
+        for name, curve in curves.items():
+            if len(curve) == 2:
+                return name, model_at_range(curve, cs.range_m)
+        return "", None
+
+    def refresh_stops(self) -> None:
+        rows = self.session.stops()
+        self.stop_table.show_rows(rows)
+        for plot in self.range_plots.values():
+            plot.show_stops(rows)
+
+    def reload_curves(self) -> None:
+        """Ask the injected model source for each camera's curves (not per frame: may be slow)."""
+        self._curves = {}
+        for name, plot in self.range_plots.items():
+            curves = None
+            if self.curves_source is not None:
+                try:
+                    curves = self.curves_source(name)
+                except (ValueError, OSError, KeyError) as exc:
+                    self.report(f"model curves for {name}: {exc}")
+            self._curves[name] = dict(curves or {})
+            try:
+                plot.set_curves(curves)
+            except ValueError as exc:
+                self.report(str(exc))
+
+    # ------------------------------------------------------------------ commands
+    def report(self, message: str) -> None:
+        """An operator-facing message (status bar and the message log)."""
+        self.messages.append(message)
+        self.statusBar().showMessage(message, 10_000)
+
+    def set_roi(self, camera: str, x: int, y: int) -> None:
+        try:
+            self.session.set_roi(camera, x, y)
+        except ValueError as exc:
+            self.report(str(exc))
+            return
+        self.report(f"{camera}: ROI set at column {x}, row {y}")
+
+    def start_recording(self, path: str | Path | None = None) -> bool:
+        """Start recording into ``path`` (asks with a file dialog when None)."""
+        if path is None:
+            folder = self.settings.value("recording/dir", str(Path.cwd()))
+            stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+            chosen, _ = QFileDialog.getSaveFileName(
+                self, "Record session", str(Path(folder) / f"session-{stamp}.h5"),
+                "Session files (*.h5)",
+            )  # fmt: skip
+            if not chosen:
+                return False
+            path = chosen
+        path = Path(path)
+        try:
+            self.session.start_recording(path)
+        except (ValueError, OSError) as exc:
+            self.report(f"recording not started: {exc}")
+            return False
+        self.settings.setValue("recording/dir", str(path.parent))
+        self.report(f"recording to {path}")
+        self.refresh_status()
+        return True
+
+    def stop_recording(self) -> None:
+        summary = self.session.stop_recording()
+        self.report("recording stopped" if summary is not None else "not recording")
+        self.refresh_status()
+
+    def mark_stop(self) -> None:
+        try:
+            self.session.mark_stop()
+        except ValueError as exc:
+            self.report(f"stop not marked: {exc}")
+            return
+        self.report("stop marked")
+        self.refresh_stops()
+
+    def add_note(self, text: str | None = None) -> None:
+        if text is None:
+            text, ok = QInputDialog.getText(self, "Note", "Note for the record:")
+            if not ok:
+                return
+        if text.strip():
+            self.session.add_note(text.strip())
+            self.report(f"note: {text.strip()}")
+
+    def auto_levels(self) -> None:
+        for panel in self.panels.values():
+            panel.view.set_auto_levels(True)
+
+    def reset_zoom(self) -> None:
+        for panel in self.panels.values():
+            panel.view.reset_zoom()
+
+    def toggle_fullscreen(self) -> None:
+        self.showNormal() if self.isFullScreen() else self.showFullScreen()
+
+    def show_shortcuts(self) -> None:
+        box = QMessageBox(QMessageBox.Icon.Information, "Keyboard shortcuts", shortcuts_text(),
+                          parent=self)  # fmt: skip
+        box.setModal(False)
+        box.open()
+
+    def save_screenshot(self, path: str | Path | None = None) -> Path | None:
+        """Save the whole window as a PNG (asks for a file name when None)."""
+        if path is None:
+            chosen, _ = QFileDialog.getSaveFileName(
+                self, "Save screenshot", "snrmon-console.png", "PNG (*.png)"
+            )
+            if not chosen:
+                return None
+            path = chosen
+        path = Path(path)
+        QApplication.processEvents()  # GUI thread: let pending paints land before grabbing
+        if not self.grab().save(str(path), "PNG"):
+            self.report(f"screenshot not saved: cannot write {path}")
+            return None
+        return path
+
+    def closeEvent(self, event) -> None:  # noqa: N802 (Qt's name)
+        if self.screenshot_path is not None:
+            self.save_screenshot(self.screenshot_path)
+        for timer in self._timers:
+            timer.stop()
+        if self.session.status().recording.state == "recording":
+            self.session.stop_recording()
+        self.save_settings()
+        super().closeEvent(event)
+        self.closed.emit()

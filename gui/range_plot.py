@@ -1,0 +1,114 @@
+"""SNR versus range for one camera (paper Figs. 7-10): the model's curves, its uncertainty band,
+the measured stops with +/- one std error bars, and the live 100-frame point at the current range.
+
+The curves come from an injected callable (:data:`CurveSource`), never computed here:
+``curves(camera) -> {name: (ranges_m, snr)}``; an entry ``(ranges_m, snr_low, snr_high)`` is drawn
+as a shaded band (the model's uncertainty) instead of a line.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtWidgets import QVBoxLayout, QWidget
+
+from acquisition.stop_table import StopRow
+from gui.theme import CAMERA_COLORS, MODEL_COLORS
+
+Curves = Mapping[str, Sequence[np.ndarray]]
+CurveSource = Callable[[str], Curves | None]
+"""``curves(camera) -> {name: (ranges_m, snr)} | {name: (ranges_m, low, high)} | None``."""
+
+
+class RangePlot(QWidget):
+    """The SNR-versus-range plot of one camera."""
+
+    def __init__(self, camera: str, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.camera = camera
+        self.plot = pg.PlotWidget()
+        self.plot.setLabel("left", "peak SNR")
+        self.plot.setLabel("bottom", "range", units="m")
+        self.plot.showGrid(x=True, y=True, alpha=0.25)
+        self.plot.addLegend(offset=(-5, 5), labelTextSize="8pt")
+        self.curve_items: dict[str, pg.GraphicsObject] = {}
+        colour = CAMERA_COLORS.get(camera, "#ffffff")
+        self.errors = pg.ErrorBarItem(x=np.array([]), y=np.array([]), pen=pg.mkPen(colour))
+        self.plot.addItem(self.errors)
+        self.stops = self.plot.plot(
+            pen=None, symbol="s", symbolSize=8, symbolBrush=colour, symbolPen="k",
+            name="stops (mean +/- std)",
+        )  # fmt: skip
+        self.live_errors = pg.ErrorBarItem(x=np.array([]), y=np.array([]), pen=pg.mkPen("#ffffff"))
+        self.plot.addItem(self.live_errors)
+        self.live = self.plot.plot(
+            pen=None, symbol="star", symbolSize=14, symbolBrush="#ffffff", name="live (100 frames)"
+        )
+        self.setToolTip(
+            f"{camera}: peak SNR (dimensionless) versus range (m). Lines: the model's curves; "
+            "shaded: the model's uncertainty; squares: measured stops, mean +/- 1 std over 100 "
+            "frames; star: the live 100-frame mean at the current range."
+        )
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.addWidget(self.plot)
+
+    def set_curves(self, curves: Curves | None) -> None:
+        """Replace the model curves (None or empty draws none)."""
+        for item in self.curve_items.values():
+            self.plot.removeItem(item)
+        self.curve_items = {}
+        for i, (name, data) in enumerate((curves or {}).items()):
+            colour = MODEL_COLORS[i % len(MODEL_COLORS)]
+            arrays = [np.asarray(a, dtype=float) for a in data]
+            if len(arrays) == 2:
+                pen = pg.mkPen(colour, width=2)
+                item = self.plot.plot(arrays[0], arrays[1], pen=pen, name=name)
+            elif len(arrays) == 3:
+                lo = pg.PlotDataItem(arrays[0], arrays[1], pen=pg.mkPen(colour, width=0.5))
+                hi = pg.PlotDataItem(arrays[0], arrays[2], pen=pg.mkPen(colour, width=0.5))
+                c = pg.mkColor(colour)
+                c.setAlpha(45)
+                item = pg.FillBetweenItem(lo, hi, brush=pg.mkBrush(c))
+                self.plot.addItem(item)
+                self.plot.addItem(lo)
+                self.plot.addItem(hi)
+                self.curve_items[name + " low"] = lo
+                self.curve_items[name + " high"] = hi
+            else:
+                raise ValueError(
+                    f"model curve {name!r} of {self.camera}: expected (ranges_m, snr) or "
+                    f"(ranges_m, low, high), got {len(arrays)} arrays"
+                )
+            self.curve_items[name] = item
+
+    def show_stops(self, rows: list[StopRow]) -> None:
+        """The stops of this camera that have a range and at least one valid frame."""
+        pts = [
+            (r.range_m, r.snr_mean, r.snr_std)
+            for r in rows
+            if r.camera == self.camera and r.range_m is not None and math.isfinite(r.snr_mean)
+        ]
+        if not pts:
+            self.stops.setData([], [])
+            self.errors.setData(x=np.array([]), y=np.array([]))
+            return
+        x, y, s = (np.array(v, dtype=float) for v in zip(*pts, strict=True))
+        s = np.nan_to_num(s)
+        self.stops.setData(x, y)
+        self.errors.setData(x=x, y=y, height=2 * s, beam=0.0)
+
+    def show_live(self, range_m: float | None, snr_mean: float, snr_std: float) -> None:
+        """The live running mean +/- std at the current range (hidden when either is unknown)."""
+        if range_m is None or not math.isfinite(snr_mean) or not math.isfinite(range_m):
+            self.live.setData([], [])
+            self.live_errors.setData(x=np.array([]), y=np.array([]))
+            return
+        std = snr_std if math.isfinite(snr_std) else 0.0
+        self.live.setData([range_m], [snr_mean])
+        self.live_errors.setData(
+            x=np.array([range_m]), y=np.array([snr_mean]), height=np.array([2 * std]), beam=0.0
+        )

@@ -1,0 +1,120 @@
+"""The enlarged box around the measured peak with its pixel values, like the paper's Fig. 5.
+
+Each cell is one pixel of the displayed frame, shaded between the box's own minimum and maximum,
+with its value in DN; the rim pixels (the background of Eq. 4) are outlined, the peak is marked.
+Below, the session's numbers for its last measured frame: peak, background mean and std, SNR.
+The inset cuts pixels out of the frame; it computes no statistic.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from PySide6.QtCore import QRectF, Qt
+from PySide6.QtGui import QColor, QFont, QPainter, QPen
+from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
+
+from acquisition.status import CameraStatus
+
+
+def box_pixels(pixels: np.ndarray, cx: int, cy: int, box_px: int) -> np.ndarray:
+    """The ``box_px`` square of ``pixels`` centred on column ``cx``, row ``cy`` as float, NaN
+    where it leaves the image."""
+    half = box_px // 2
+    out = np.full((box_px, box_px), np.nan)
+    h, w = pixels.shape
+    r0, c0 = cy - half, cx - half
+    rs, re = max(r0, 0), min(r0 + box_px, h)
+    cs, ce = max(c0, 0), min(c0 + box_px, w)
+    if rs < re and cs < ce:
+        out[rs - r0 : re - r0, cs - c0 : ce - c0] = pixels[rs:re, cs:ce]
+    return out
+
+
+class _BoxGrid(QWidget):
+    def __init__(self) -> None:
+        super().__init__()
+        self.values: np.ndarray | None = None
+        self.setMinimumSize(150, 150)
+        self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)
+
+    def set_values(self, values: np.ndarray | None) -> None:
+        self.values = values
+        self.update()
+
+    def paintEvent(self, _event) -> None:  # noqa: N802 (Qt's name)
+        p = QPainter(self)
+        p.fillRect(self.rect(), QColor("#1e1f22"))
+        v = self.values
+        if v is None:
+            p.setPen(QColor("#7a7c80"))
+            p.drawText(self.rect(), Qt.AlignmentFlag.AlignCenter, "click the drone\nto set the ROI")
+            return
+        n = v.shape[0]
+        side = min(self.width(), self.height())
+        cell = side / n
+        x0 = (self.width() - side) / 2
+        y0 = (self.height() - side) / 2
+        finite = v[np.isfinite(v)]
+        lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+        span = hi - lo if hi > lo else 1.0
+        font = QFont()
+        font.setPixelSize(max(7, int(cell * 0.28)))
+        p.setFont(font)
+        for r in range(n):
+            for c in range(n):
+                rect = QRectF(x0 + c * cell, y0 + r * cell, cell, cell)
+                val = v[r, c]
+                if not math.isfinite(val):
+                    p.fillRect(rect, QColor("#000000"))
+                    continue
+                g = int(40 + 200 * (val - lo) / span)
+                p.fillRect(rect, QColor(g, g, g))
+                p.setPen(QColor("#000000") if g > 140 else QColor("#ffffff"))
+                p.drawText(rect, Qt.AlignmentFlag.AlignCenter, f"{val:.0f}")
+        rim_pen = QPen(QColor("#ffd34d"), 2)
+        p.setPen(rim_pen)
+        p.setBrush(Qt.BrushStyle.NoBrush)
+        p.drawRect(QRectF(x0 + 1, y0 + 1, side - 2, side - 2))
+        p.drawRect(QRectF(x0 + cell, y0 + cell, side - 2 * cell, side - 2 * cell))
+        p.setPen(QPen(QColor("#ff4040"), 2))
+        mid = n // 2
+        p.drawRect(QRectF(x0 + mid * cell, y0 + mid * cell, cell, cell))
+
+
+class RoiInset(QWidget):
+    """The box around the last measured peak of one camera, enlarged, with values."""
+
+    def __init__(self, camera: str, box_px: int, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.camera = camera
+        self.box_px = box_px
+        self.grid = _BoxGrid()
+        self.numbers = QLabel("")
+        self.numbers.setTextFormat(Qt.TextFormat.PlainText)
+        self.numbers.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        self.setToolTip(
+            f"{camera}: the {box_px}x{box_px} box centred on the measured peak (pixel values in "
+            f"DN of the displayed frame). Outlined band = the {4 * (box_px - 1)} rim pixels, the "
+            "background of Eq. 4; red = the peak."
+        )
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(2, 2, 2, 2)
+        lay.addWidget(self.grid, 1)
+        lay.addWidget(self.numbers)
+
+    def show_box(self, pixels: np.ndarray | None, status: CameraStatus) -> None:
+        """Cut the box around ``status.last``'s peak out of ``pixels`` and show the numbers."""
+        last = status.last
+        if pixels is None or last is None or status.roi_xy is None:
+            self.grid.set_values(None)
+            self.numbers.setText("no measurement")
+            return
+        self.grid.set_values(box_pixels(pixels, last.peak_x, last.peak_y, self.box_px))
+        flags = ", ".join(sorted(last.flags)) or "none"
+        self.numbers.setText(
+            f"peak ({last.peak_x}, {last.peak_y}) = {last.peak:.0f} DN\n"
+            f"rim mean {last.bg_mean:.1f} DN, std {last.bg_std:.2f} DN\n"
+            f"SNR {last.snr:.2f}   flags: {flags}"
+        )

@@ -1,0 +1,189 @@
+"""The console on a real Session fed by a simulated shared-memory camera (offscreen, pytest-qt).
+
+The camera is the real path: a producer process writes a frame ring, ``ShmCamera`` reads it, the
+session measures every frame; the console only peeks and displays.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import uuid
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QSettings, Qt
+from PySide6.QtGui import QImage
+
+from acquisition.session import Session
+from acquisition.session_config import session_config_from_dict
+from acquisition.session_file import open_session
+from drivers.camera.shm import ShmCamera
+from gui.app import console_application, run_console
+from gui.main_window import ConsoleWindow
+from sim.devices.shm_camera import ShmProducer
+
+W, H = 160, 128
+SPOT_X, SPOT_Y = 100, 60
+SKY_DN, NOISE_DN, SPOT_DN = 1000.0, 8.0, 400.0
+
+
+class SpotOnNoise:
+    """Picklable render: a Gaussian spot (sigma 0.8 px) at (SPOT_X, SPOT_Y) on seeded noise."""
+
+    def __init__(self, seed: int = 7) -> None:
+        self.seed = seed
+        yy, xx = np.mgrid[0:H, 0:W]
+        self.spot = SPOT_DN * np.exp(-((xx - SPOT_X) ** 2 + (yy - SPOT_Y) ** 2) / (2 * 0.8**2))
+
+    def __call__(self, counter: int) -> np.ndarray:
+        rng = np.random.default_rng([self.seed, counter])
+        frame = SKY_DN + self.spot + rng.normal(0.0, NOISE_DN, (H, W))
+        return np.clip(np.rint(frame), 0, 65535).astype(np.uint16)
+
+
+def curves(camera: str) -> dict:
+    """Stand-in model curves (the GUI draws what it is given; the model computes them)."""
+    r = np.linspace(100.0, 3000.0, 30)
+    return {"small": (r, 5e4 / r), "band": (r, 4e4 / r, 6e4 / r)}
+
+
+@pytest.fixture
+def rig():
+    name = f"snrmon-guitest-{uuid.uuid4().hex[:10]}"
+    producer = ShmProducer(name, W, H, SpotOnNoise(), fps=60.0)
+    producer.start()
+    config = session_config_from_dict(
+        {"cameras": {"mwir": {"source": "shm", "address": name, "width_px": W, "height_px": H}}}
+    )
+    camera = ShmCamera("mwir", name, stale_after_s=0.5)
+    session = Session(config, cameras={"mwir": camera}, shapes={"mwir": (H, W)})
+    session.start()
+    try:
+        yield session, producer
+    finally:
+        session.stop()
+        producer.close()
+
+
+@pytest.fixture
+def window(qtbot, rig, tmp_path):
+    console_application(headless=True)
+    session, _ = rig
+    settings = QSettings(str(tmp_path / "console.ini"), QSettings.Format.IniFormat)
+    win = ConsoleWindow(session, curves=curves, settings=settings)
+    qtbot.addWidget(win)
+    win.resize(1400, 900)
+    win.show()
+    qtbot.waitUntil(lambda: win.panels["mwir"].view.frames_shown > 3, timeout=10_000)
+    return win
+
+
+def _click_pixel(qtbot, win: ConsoleWindow, x: int, y: int) -> None:
+    view = win.panels["mwir"].view
+    pos = view.viewport_pos_of_pixel(x, y)
+    qtbot.mouseClick(view.graphics.viewport(), Qt.MouseButton.LeftButton, pos=pos)
+
+
+def test_click_on_the_spot_sets_the_roi_and_feeds_the_chart(qtbot, window, rig):
+    session, _ = rig
+    _click_pixel(qtbot, window, SPOT_X, SPOT_Y)
+    qtbot.waitUntil(
+        lambda: session.status().cameras["mwir"].roi_xy == (SPOT_X, SPOT_Y), timeout=5000
+    )
+    chart = window.panels["mwir"].chart
+    qtbot.waitUntil(lambda: chart.points_drawn >= 20, timeout=10_000)
+    last = session.status().cameras["mwir"].last
+    assert (last.peak_x, last.peak_y) == (SPOT_X, SPOT_Y)
+    # a 400 DN spot (~ 400 * 0.46 in the peak pixel after noise) on 8 DN noise: SNR well above 5
+    assert last.snr > 5.0
+    # the inset shows the box centred on that peak, cut from the displayed frame
+    qtbot.waitUntil(lambda: window.panels["mwir"].inset.grid.values is not None, timeout=5000)
+    box = window.panels["mwir"].inset.grid.values
+    assert box.shape == (7, 7) and np.nanargmax(box) == 24  # the centre cell is the brightest
+
+
+def test_click_off_the_image_sets_no_roi(qtbot, window, rig):
+    session, _ = rig
+    view = window.panels["mwir"].view
+    view.view.setRange(xRange=(-200, W + 200), yRange=(-200, H + 200), padding=0)
+    qtbot.wait(50)  # let the new range reach the scene transform (not a synchronisation)
+    assert view.click_at_scene(view.view.mapViewToScene(view.view.mapToView(
+        view.view.boundingRect().topLeft()))) is None  # fmt: skip
+    assert session.status().cameras["mwir"].roi_xy is None
+
+
+def test_recording_from_the_console_creates_a_session_file(qtbot, window, tmp_path):
+    path = tmp_path / "run.h5"
+    assert window.start_recording(path)
+    assert not window.actions_by_key["record_start"].isEnabled()
+    qtbot.waitUntil(
+        lambda: window.session.status().cameras["mwir"].frames.recorded >= 30, timeout=10_000
+    )
+    window.actions_by_key["record_stop"].trigger()
+    assert window.actions_by_key["record_start"].isEnabled()
+    with open_session(path) as f:
+        assert f.complete
+        assert f.cameras["mwir"].n_frames >= 30
+        assert f.cameras["mwir"].frame(0).shape == (H, W)
+
+
+def test_marked_stop_fills_the_stop_table(qtbot, window):
+    window.set_roi("mwir", SPOT_X, SPOT_Y)
+    window.mark_stop()
+    qtbot.waitUntil(lambda: window.stop_table.rowCount() == 1, timeout=5000)
+    assert window.stop_table.item(0, 0).text() == "0 M"
+    assert window.stop_table.item(0, 1).text() == "mwir"
+    qtbot.waitUntil(lambda: int(window.stop_table.item(0, 4).text()) > 0, timeout=10_000)
+
+
+def test_alarm_when_the_camera_stops_and_cleared_when_it_returns(qtbot, window, rig):
+    _, producer = rig
+    banner = window.banner
+    assert not banner.isVisible()
+    producer.pause()
+    qtbot.waitUntil(lambda: "mwir" in banner.tracker.active, timeout=10_000)
+    assert banner.isVisible() and banner.text().startswith("ALARM") and "mwir" in banner.text()
+    producer.resume()
+    qtbot.waitUntil(lambda: not banner.tracker.active, timeout=15_000)
+    assert banner.isVisible() and banner.text().startswith("BACK") and "mwir" in banner.text()
+    assert [m.split()[0] for _, m in banner.tracker.log] == ["LOST", "BACK"]
+
+
+def _check_png(path) -> None:
+    img = QImage(str(path))
+    assert not img.isNull() and img.width() >= 800 and img.height() >= 500
+    small = img.scaled(200, 120)
+    colours = {small.pixel(x, y) for x in range(200) for y in range(120)}
+    assert len(colours) > 50, "the screenshot is (nearly) uniform"
+
+
+def test_screenshot_of_the_main_window(qtbot, window, tmp_path):
+    window.set_roi("mwir", SPOT_X, SPOT_Y)
+    qtbot.waitUntil(lambda: window.panels["mwir"].chart.points_drawn >= 30, timeout=10_000)
+    window.refresh_status()
+    path = window.save_screenshot(tmp_path / "console.png")
+    assert path is not None and path.stat().st_size > 20_000
+    _check_png(path)
+    out_dir = os.environ.get("SNRMON_SCREENSHOT_DIR")
+    if out_dir:
+        os.makedirs(out_dir, exist_ok=True)
+        shutil.copy(path, os.path.join(out_dir, "console.png"))
+
+
+def test_run_console_headless_for_a_duration_saves_a_screenshot(qtbot, rig, tmp_path):
+    session, _ = rig
+    session.set_roi("mwir", SPOT_X, SPOT_Y)
+    png = tmp_path / "run.png"
+    settings = QSettings(str(tmp_path / "run.ini"), QSettings.Format.IniFormat)
+    rc = run_console(
+        session, curves=curves, headless=True, duration_s=1.0, screenshot=png, settings=settings
+    )
+    assert rc == 0
+    _check_png(png)
+    assert settings.value("window/geometry") is not None  # layout remembered
+
+
+def test_run_console_refuses_a_bad_duration(rig):
+    with pytest.raises(ValueError, match="duration"):
+        run_console(rig[0], duration_s=0)
