@@ -14,6 +14,8 @@ per-frame path (N = 1) and the stack path run the very same reductions and agree
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 Rect = tuple[int, int, int, int]
@@ -23,14 +25,23 @@ def rim_offsets(box_px: int) -> tuple[np.ndarray, np.ndarray]:
     """(dy, dx) of the rim pixels of an odd ``box_px`` square box, relative to its centre.
 
     The rim is the outer ring of the box (24 pixels for 7x7: 4*(box_px-1)), listed in row-major
-    order. ``box_px`` must be odd and >= 3.
+    order. ``box_px`` must be odd and >= 3. The arrays are shared (cached): do not modify them.
     """
     if box_px < 3 or box_px % 2 != 1:
         raise ValueError(f"box size must be an odd integer >= 3, got {box_px}")
+    return _rim_offsets(int(box_px))
+
+
+@functools.lru_cache(maxsize=16)
+def _rim_offsets(box_px: int) -> tuple[np.ndarray, np.ndarray]:
+    # Called twice per measured frame (validation and the rim itself): built once per size.
     h = box_px // 2
     dy, dx = np.mgrid[-h : h + 1, -h : h + 1]
     on_rim = (np.abs(dy) == h) | (np.abs(dx) == h)
-    return dy[on_rim].astype(np.intp), dx[on_rim].astype(np.intp)
+    dy, dx = dy[on_rim].astype(np.intp), dx[on_rim].astype(np.intp)
+    dy.flags.writeable = False
+    dx.flags.writeable = False
+    return dy, dx
 
 
 def parse_rect(text: str) -> Rect:
