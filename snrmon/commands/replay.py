@@ -12,7 +12,18 @@ from snrmon.cli import UsageError
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("replay", help="measure a recorded session again and rebuild its stops")
-    p.add_argument("file", metavar="FILE.h5", help="a snrmon session file")
+    p.add_argument(
+        "file",
+        metavar="FILE",
+        help="a snrmon session file (.h5), or another tool's recording (multi-page TIFF, raw "
+        "file with FILE.json, video, .npy) measured from --at",
+    )
+    p.add_argument(
+        "--at",
+        metavar="X,Y",
+        help="where the drone is in the first frame (needed for recordings that are not "
+        "snrmon sessions: they carry no ROI events)",
+    )
     pace = p.add_mutually_exclusive_group()
     pace.add_argument("--speed", type=float, help="pace to the recorded clock (1 = real time)")
     pace.add_argument(
@@ -30,9 +41,43 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def _is_session(path: str) -> bool:
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.exists():
+        raise UsageError(f"{path} does not exist")
+    with p.open("rb") as fh:
+        return fh.read(8) == b"\x89HDF\r\n\x1a\n"
+
+
+def _replay_foreign(args: argparse.Namespace) -> int:
+    """Another tool's recording: no ROI events, no range streams. The same tracked Eq. (4)
+    measurement as ``snrmon measure --track`` from the operator's ``--at``."""
+    from snrmon.commands import measure
+
+    if args.at is None:
+        raise UsageError(f"{args.file} is not a snrmon session: give --at X,Y (the drone's pixel)")
+    ns = argparse.Namespace(
+        stack=args.file,
+        at=measure._point(args.at),
+        search=11,
+        box=7,
+        background="rim",
+        detrend=False,
+        window=100,
+        saturation=None,
+        json=args.json,
+        track=args.track != "off",
+    )
+    return measure.run(ns)
+
+
 def run(args: argparse.Namespace) -> int:
     from acquisition.replay import replay_session
 
+    if not _is_session(args.file):
+        return _replay_foreign(args)
     if args.speed is not None and not args.speed > 0:
         raise UsageError(f"--speed must be positive, got {args.speed}")
     result = replay_session(
