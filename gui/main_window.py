@@ -137,7 +137,9 @@ class ConsoleWindow(QMainWindow):
             self.range_tabs.addTab(plot, f"SNR vs range: {name}")
         self._dock("range", "SNR vs range", self.range_tabs, Qt.DockWidgetArea.RightDockWidgetArea)
         self.stop_table = StopTableView()
-        self._dock("stops", "Stops", self.stop_table, Qt.DockWidgetArea.BottomDockWidgetArea)
+        bottom = Qt.DockWidgetArea.BottomDockWidgetArea
+        stops = self._dock("stops", "Stops", self.stop_table, bottom)
+        self.resizeDocks([stops], [150], Qt.Orientation.Vertical)  # the images need the height
 
         self.actions_by_key = install_actions(self, self.menuBar())
         view_menu = self.menuBar().addMenu("&Panels")
