@@ -1,0 +1,135 @@
+"""The console under full load, offscreen: frames shown per second per camera, event-loop latency
+(p50/p99 lateness of a 10 ms timer, the delay any UI action would wait), and frames dropped.
+
+Both simulated cameras at their full rates (MWIR 1280x720 at 60 fps, LWIR 640x480 at 30 fps)
+through the real shared-memory ring and ShmCamera, measurement on (ROI on the spot) and
+recording on (HDF5 into a temporary directory), with the console's own timers drawing.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+KEY = "gui"
+
+CAMERAS = {"mwir": (1280, 720, 60.0), "lwir": (640, 480, 30.0)}
+
+
+class SpotBank:
+    """Picklable render: cycles through 16 precomputed noisy frames with a spot at the centre,
+    so that rendering costs a copy and the benchmark measures the console, not the simulator."""
+
+    def __init__(self, width: int, height: int, seed: int = 3) -> None:
+        self.width, self.height, self.seed = width, height, seed
+        self._bank: np.ndarray | None = None
+
+    def __call__(self, counter: int) -> np.ndarray:
+        if self._bank is None:
+            rng = np.random.default_rng(self.seed)
+            yy, xx = np.mgrid[0 : self.height, 0 : self.width]
+            cx, cy = self.width // 2, self.height // 2
+            spot = 300.0 * np.exp(-((xx - cx) ** 2 + (yy - cy) ** 2) / (2 * 0.8**2))
+            bank = 1000.0 + spot + rng.normal(0.0, 8.0, (16, self.height, self.width))
+            self._bank = np.clip(np.rint(bank), 0, 65535).astype(np.uint16)
+        return self._bank[counter % 16]
+
+    def __getstate__(self) -> dict:
+        return {"width": self.width, "height": self.height, "seed": self.seed, "_bank": None}
+
+
+def run(duration_s: float) -> dict:
+    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+    from PySide6.QtCore import QEventLoop, QSettings, Qt, QTimer
+
+    from acquisition.session import Session
+    from acquisition.session_config import session_config_from_dict
+    from drivers.camera.shm import ShmCamera
+    from gui.app import console_application
+    from gui.main_window import ConsoleWindow
+    from sim.devices.shm_camera import ShmProducer
+
+    console_application(headless=True)
+    tag = uuid.uuid4().hex[:8]
+    rings = {cam: f"snrmon-benchgui-{cam}-{tag}" for cam in CAMERAS}
+    producers = [
+        ShmProducer(rings[c], w, h, SpotBank(w, h), fps=fps, slots=16)
+        for c, (w, h, fps) in CAMERAS.items()
+    ]
+    table = {
+        c: {"source": "shm", "address": rings[c], "width_px": w, "height_px": h}
+        for c, (w, h, _) in CAMERAS.items()
+    }
+    config = session_config_from_dict({"cameras": table})
+    devices = {c: ShmCamera(c, rings[c]) for c in CAMERAS}
+    shapes = {c: (h, w) for c, (w, h, _) in CAMERAS.items()}
+    with tempfile.TemporaryDirectory() as tmp:
+        for p in producers:
+            p.start()
+        session = Session(config, cameras=devices, shapes=shapes)
+        session.start()
+        window = None
+        try:
+            settings = QSettings(str(Path(tmp) / "bench.ini"), QSettings.Format.IniFormat)
+            window = ConsoleWindow(session, settings=settings)
+            window.resize(1600, 1000)
+            window.show()
+            for c, (w, h, _) in CAMERAS.items():
+                session.set_roi(c, w // 2, h // 2)
+            session.start_recording(Path(tmp) / "bench.h5")
+            loop = QEventLoop()
+            QTimer.singleShot(1000, loop.quit)  # warm-up: rings attached, first frames drawn
+            loop.exec()
+            shown0 = {c: p.view.frames_shown for c, p in window.panels.items()}
+            before = session.status().cameras
+            late_ms: list[float] = []
+            last = [time.perf_counter()]
+
+            def tick() -> None:
+                now = time.perf_counter()
+                late_ms.append((now - last[0]) * 1e3 - 10.0)
+                last[0] = now
+
+            probe = QTimer()
+            probe.setTimerType(Qt.TimerType.PreciseTimer)
+            probe.timeout.connect(tick)
+            t0 = time.perf_counter()
+            probe.start(10)
+            QTimer.singleShot(round(duration_s * 1000), loop.quit)
+            loop.exec()
+            probe.stop()
+            elapsed = time.perf_counter() - t0
+            after = session.status().cameras
+            session.stop_recording()
+        finally:
+            if window is not None:
+                window.close()
+            session.stop()
+            for p in producers:
+                p.close()
+    figures: dict = {"duration_s": round(elapsed, 2)}
+    for c in CAMERAS:
+        fa, fb = after[c].frames, before[c].frames
+        figures[f"{c}_shown_fps"] = round(
+            (window.panels[c].view.frames_shown - shown0[c]) / elapsed, 1
+        )
+        figures[f"{c}_camera_fps"] = round((fa.received - fb.received) / elapsed, 1)
+        figures[f"{c}_dropped"] = (
+            (fa.dropped_by_camera - fb.dropped_by_camera)
+            + (fa.dropped_by_ring - fb.dropped_by_ring)
+            + (fa.dropped_by_recorder - fb.dropped_by_recorder)
+        )
+    lat = np.array(late_ms[1:] or [np.nan])
+    figures["event_loop_late_ms_p50"] = round(float(np.percentile(lat, 50)), 2)
+    figures["event_loop_late_ms_p99"] = round(float(np.percentile(lat, 99)), 2)
+    figures["event_loop_late_ms_max"] = round(float(np.max(lat)), 2)
+    return figures
+
+
+if __name__ == "__main__":
+    print(run(5.0))
