@@ -110,14 +110,7 @@ def background_stats(
         ``(mean, std, gradient)`` each ``(N,)``; ``gradient`` is |(gx, gy)| in DN per pixel.
     """
     n = values.shape[1]
-    mean = values.sum(axis=1) / n
-    dev = values - mean[:, None]
-    dxf = dx.astype(np.float64)
-    dyf = dy.astype(np.float64)
-    sxx = float((dxf * dxf).sum())
-    syy = float((dyf * dyf).sum())
-    gx = (dev * dxf).sum(axis=1) / sxx if sxx > 0 else np.zeros_like(mean)
-    gy = (dev * dyf).sum(axis=1) / syy if syy > 0 else np.zeros_like(mean)
+    mean, dev, gx, gy, dxf, dyf = _plane_fit(values, dy, dx)
     if detrend:
         dev = dev - gx[:, None] * dxf - gy[:, None] * dyf
     std = np.sqrt((dev * dev).sum(axis=1) / (n - ddof))
@@ -126,6 +119,13 @@ def background_stats(
 
 def detrended(values: np.ndarray, dy: np.ndarray, dx: np.ndarray) -> np.ndarray:
     """``values`` (N, n) with their least-squares plane (mean and x/y slopes) removed."""
+    _, dev, gx, gy, dxf, dyf = _plane_fit(values, dy, dx)
+    return dev - gx[:, None] * dxf - gy[:, None] * dyf
+
+
+def _plane_fit(values: np.ndarray, dy: np.ndarray, dx: np.ndarray):
+    """Mean, deviations from it, and the plane slopes gx, gy (offsets about the centre: the
+    normal equations decouple), with the offsets as float64."""
     mean = values.sum(axis=1) / values.shape[1]
     dev = values - mean[:, None]
     dxf = dx.astype(np.float64)
@@ -134,4 +134,4 @@ def detrended(values: np.ndarray, dy: np.ndarray, dx: np.ndarray) -> np.ndarray:
     syy = float((dyf * dyf).sum())
     gx = (dev * dxf).sum(axis=1) / sxx if sxx > 0 else np.zeros_like(mean)
     gy = (dev * dyf).sum(axis=1) / syy if syy > 0 else np.zeros_like(mean)
-    return dev - gx[:, None] * dxf - gy[:, None] * dyf
+    return mean, dev, gx, gy, dxf, dyf

@@ -18,6 +18,7 @@ from collections.abc import Collection
 from dataclasses import dataclass, field
 from datetime import UTC, date, datetime, time, timedelta
 
+from drivers.checksum import xor_checksum
 from drivers.errors import ChecksumError, ParseError
 from drivers.gps.fix import GpsFix
 
@@ -29,12 +30,7 @@ _NUMBER = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)$")
 _HMS = re.compile(r"^(\d{2})(\d{2})(\d{2})(\.\d+)?$")
 
 
-def nmea_checksum(body: str) -> int:
-    """XOR of every character between ``$`` and ``*``."""
-    value = 0
-    for ch in body.encode("ascii"):
-        value ^= ch
-    return value
+nmea_checksum = xor_checksum  # the name NMEA users look for
 
 
 @dataclass(frozen=True, slots=True)

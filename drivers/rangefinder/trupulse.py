@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 
+from drivers.checksum import xor_checksum
 from drivers.errors import ChecksumError, ParseError
 from drivers.rangefinder.reading import RangeReading, RangeStatus
 from drivers.serialport import SerialLineDevice
@@ -22,13 +23,6 @@ from drivers.serialport import SerialLineDevice
 UNIT_TO_M = {"M": 1.0, "F": 0.3048, "Y": 0.9144}
 _VALUE = re.compile(r"^-?\d+\.(\d{1,2})$")
 _ERROR = re.compile(r"^\$E(\d\d)$")
-
-
-def _checksum(body: str) -> int:
-    value = 0
-    for ch in body.encode("ascii"):
-        value ^= ch
-    return value
 
 
 def _value(text: str, what: str) -> tuple[float, int | None]:
@@ -71,9 +65,9 @@ def parse_trupulse(line: bytes | str, t_host_ns: int) -> RangeReading | None:
     body, given = text[1:star], text[star + 1 :]
     if len(given) != 2 or any(c not in "0123456789ABCDEFabcdef" for c in given):
         raise ChecksumError(f"TruPulse: malformed checksum {given!r} in {text[:60]!r}")
-    if int(given, 16) != _checksum(body):
+    if int(given, 16) != xor_checksum(body):
         raise ChecksumError(
-            f"TruPulse: checksum {given} != computed {_checksum(body):02X} in {text[:60]!r}"
+            f"TruPulse: checksum {given} != computed {xor_checksum(body):02X} in {text[:60]!r}"
         )
     f = body.split(",")
     if f[0] != "PLTIT" or len(f) < 2:
