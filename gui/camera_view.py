@@ -71,9 +71,16 @@ class CameraView(QWidget):
 
         self.graphics = pg.GraphicsLayoutWidget()
         self.view = self.graphics.addViewBox(lockAspect=True, invertY=True, enableMenu=False)
-        self.image = pg.ImageItem(axisOrder="row-major")
+        # autoDownsample: a 1280x720 frame is mapped at the resolution it is shown at, not
+        # pixel for pixel (the LUT pass is most of the drawing cost).
+        self.image = pg.ImageItem(axisOrder="row-major", autoDownsample=True)
         self.view.addItem(self.image)
         self.histogram = pg.HistogramLUTItem(image=self.image)
+        # The histogram item recomputes and replots the image histogram on every new frame;
+        # at 30 frames/s on two cameras that is a large share of the GUI thread. Refresh it
+        # every few frames instead (show_frame).
+        self.image.sigImageChanged.disconnect(self.histogram.imageChanged)
+        self._histogram_every = 15
         self.histogram.sigLevelsChanged.connect(self._levels_dragged)
         self.graphics.addItem(self.histogram)
         self.search_rect = _rect_item("#4aa3ff", style=Qt.PenStyle.DashLine)
@@ -105,6 +112,8 @@ class CameraView(QWidget):
             lo, hi = robust_levels(pixels)
             self._set_levels_quietly(lo, hi)
         self.image.setImage(pixels, autoLevels=False, levels=self.histogram.getLevels())
+        if self.frames_shown % self._histogram_every == 0:
+            self.histogram.imageChanged()
         self.frames_shown += 1
         return True
 
