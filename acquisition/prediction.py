@@ -60,6 +60,10 @@ class ModelPredictor:
             "large_corrected": np.asarray(p.snr_large_corrected, float),
             "resolved_small": np.asarray(p.resolved_small, float),
         }
+        for name in ("small_corrected", "large_corrected"):  # the Fig. 12 band
+            if name in p.lower and name in p.upper:
+                curves[f"{name}_lower"] = np.asarray(p.lower[name], float)
+                curves[f"{name}_upper"] = np.asarray(p.upper[name], float)
         self.curves = {**self.curves, camera: curves}  # swapped whole: readers never see half
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
@@ -73,7 +77,12 @@ class ModelPredictor:
         out["resolved_small"] = float(curves["resolved_small"][i])
         return out
 
-    def curve(self, camera: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        """The four curves of ``camera`` as (ranges_m, snr) pairs, for plotting."""
+    def curve(self, camera: str) -> dict[str, tuple]:
+        """The four curves of ``camera`` as (ranges_m, snr) pairs, for plotting, and the
+        uncertainty band of each corrected curve as (ranges_m, lower, upper)."""
         c = self.curves.get(camera, {})
-        return {name: (self.ranges_m, c[name]) for name in CURVES if name in c}
+        out: dict[str, tuple] = {name: (self.ranges_m, c[name]) for name in CURVES if name in c}
+        for name in ("small_corrected", "large_corrected"):
+            if f"{name}_lower" in c:
+                out[f"{name} band"] = (self.ranges_m, c[f"{name}_lower"], c[f"{name}_upper"])
+        return out

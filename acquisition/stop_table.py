@@ -36,6 +36,7 @@ class StopRow:
     snr_mean: float
     snr_std: float
     model_snr: dict[str, float] = field(default_factory=dict)
+    resolved: bool | None = None  # the model's verdict for the small dimension at this range
 
     @property
     def range_m(self) -> float | None:
@@ -95,7 +96,8 @@ class StopTable:
         frames = [r for t, r in self._recent[camera] if stop.contains(t)]
         summary = summarise_stop(frames, self.n)
         rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
-        model = self.predictor(camera, rng) if (self.predictor and rng) else {}
+        model = dict(self.predictor(camera, rng)) if (self.predictor and rng) else {}
+        resolved = model.pop("resolved_small", None)
         return StopRow(
             camera=camera,
             stop=stop.index,
@@ -109,4 +111,5 @@ class StopTable:
             snr_mean=summary.snr_mean,
             snr_std=summary.snr_std,
             model_snr=model,
+            resolved=None if resolved is None else bool(resolved),
         )

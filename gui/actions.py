@@ -33,6 +33,10 @@ ACTIONS: tuple[ActionSpec, ...] = (
                "mark_stop"),
     ActionSpec("note", "Add &note...", "N", "Write a timestamped note into the record",
                "&Session", "add_note"),
+    ActionSpec("reference", "Capture &background reference", "B",
+               "Average the next 64 frames of every camera (clear sky, no drone in view) into "
+               "the fixed-pattern reference removed before Eq. 4; the raw SNR stays shown",
+               "&Session", "capture_reference"),
     ActionSpec("screenshot", "Save &screenshot...", "Ctrl+Shift+S",
                "Save the whole window as a PNG", "&Session", "save_screenshot"),
     ActionSpec("quit", "&Quit", "Ctrl+Q", "Close the console (recording is finished first)",

@@ -58,6 +58,8 @@ def run_console(
         raise ValueError(f"duration must be positive seconds, got {duration_s}")
     console_application(headless=headless)
     window = ConsoleWindow(session, curves=curves, settings=settings)
+    if headless:
+        window.resize(1600, 1000)  # offscreen there is no screen to size to: a laptop's
     if screenshot is not None:
         window.screenshot_path = Path(screenshot)
     window.show()

@@ -210,6 +210,10 @@ class ConsoleWindow(QMainWindow):
             panel.chart.show_model(mname, msnr)
             self.range_plots[name].show_live(cs.range_m, cs.snr_mean, cs.snr_std)
             snr = f"{cs.snr_mean:.2f} +/- {cs.snr_std:.2f}" if cs.snr_n else "--"
+            if cs.reference_frames and cs.snr_mean_raw == cs.snr_mean_raw:  # not NaN
+                snr += f" (raw {cs.snr_mean_raw:.2f}, FPN {cs.fixed_pattern_dn:.1f} DN)"
+            if cs.sky_temp_k == cs.sky_temp_k:
+                snr += f"   sky {cs.sky_temp_k - 273.15:.1f} C"
             panel.header.setText(
                 f"{name.upper()}   {cs.fps:.1f} fps   {cs.track_state}   SNR(100) {snr}"
             )
@@ -300,6 +304,11 @@ class ConsoleWindow(QMainWindow):
             return
         self.report("stop marked")
         self.refresh_stops()
+
+    def capture_reference(self, n_frames: int = 64) -> None:
+        for name in self.panels:
+            self.session.capture_reference(name, n_frames)
+        self.report(f"capturing a {n_frames}-frame background reference on every camera")
 
     def add_note(self, text: str | None = None) -> None:
         if text is None:

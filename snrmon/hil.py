@@ -12,6 +12,7 @@ and runs at ``fps * speed`` (the cameras start within about a second of ``t0``).
 from __future__ import annotations
 
 import logging
+import math
 import os
 import time
 from collections import defaultdict
@@ -77,6 +78,7 @@ class HilRig:
             from acquisition.prediction import ModelPredictor
 
             predictor = ModelPredictor({c: c for c in opts.cameras}, opts.target)
+        self.predictor = predictor
         self.flight_config = FlightConfig(
             stops_m=tuple(opts.stops_m),
             hover_s=opts.hover_s,
@@ -259,8 +261,6 @@ class HilRig:
                 values = [rig.feed.truth(c) for c in counters]
                 values = [v.truth_snr for v in values if v is not None]
                 truth = float(np.mean(values)) if values else float("nan")
-            model = dict(row.model_snr)
-            resolved = bool(model.pop("resolved_small", 0.0))
             rng = row.range_m
             plan = float(planned[np.argmin(np.abs(planned - rng))]) if rng else float("nan")
             stops.append(
@@ -274,8 +274,8 @@ class HilRig:
                     "measured_snr_std": row.snr_std,
                     **raw.get((row.camera, row.stop), {}),
                     "truth_snr": truth,
-                    "model_snr": model,
-                    "resolved": resolved,
+                    "model_snr": row.model_snr,
+                    "resolved": bool(row.resolved),
                 }
             )
         frames = defaultdict(dict)
@@ -286,3 +286,35 @@ class HilRig:
                 "dropped": acc.dropped_by_camera + acc.dropped_by_ring,
             }
         return {"seed": self.opts.seed, "stops": stops, "frames": dict(frames)}
+
+
+def _f(v: float | None) -> str:
+    return f"{v:7.1f}" if v is not None else f"{'-':>7s}"
+
+
+def format_row(s: dict) -> str:
+    """One stop of :meth:`HilRig.result` as a table line."""
+    m = s["model_snr"]
+    return (
+        f"{s['camera']:6s} {s['planned_range_m']:7.0f} {_f(s['lrf_range_m'])} "
+        f"{_f(s['gps_range_m'])} {s['n_frames']:4d} {s['measured_snr_mean']:7.2f} "
+        f"{s['measured_snr_std']:6.2f} {s.get('measured_snr_mean_raw', math.nan):7.2f} "
+        f"{s['truth_snr']:7.2f} "
+        f"{m.get('small', math.nan):8.2f} {m.get('small_corrected', math.nan):8.2f}"
+    )
+
+
+TABLE_HEADER = (
+    f"{'camera':6s} {'plan_m':>7s} {'lrf_m':>7s} {'gps_m':>7s} {'n':>4s} "
+    f"{'SNR':>7s} {'std':>6s} {'raw':>7s} {'truth':>7s} {'model_s':>8s} {'model_sc':>8s}"
+)
+
+
+def format_result(result: dict) -> str:
+    """The per-stop table of a HIL run: measured 100-frame SNR beside truth and model."""
+    lines = [TABLE_HEADER, *(format_row(s) for s in result["stops"])]
+    lines += [
+        f"{cam}: {f['received']} frames received, {f['dropped']} dropped"
+        for cam, f in result["frames"].items()
+    ]
+    return "\n".join(lines)

@@ -1,91 +1,139 @@
-"""``snrmon demo`` (INTERIM): Eq. (4) on a seeded example stack with a known truth.
+"""``snrmon demo``: the operator console on the simulated collection day (hardware in loop).
 
-A flat sky with white Gaussian temporal noise and a point target of known flux whose centre
-drifts sub-pixel; the target is a Gaussian PSF (sigma 0.8 px, paper section 5) integrated over
-each pixel. The truth per frame is the noise-free peak-pixel signal over the noise sigma, i.e.
-what a perfect measurement would report. To be replaced by the simulated field test.
+The simulated MWIR and LWIR cameras, rangefinder and GPS of ``snrmon hil`` speak their real
+protocols over real interfaces; the console is the real one. A simulated operator clicks the
+drone at the first stop and the console tracks it from there. On a machine with no display (or
+with ``--headless``) the same session runs offscreen: the stop table is printed as it fills, a
+screenshot of the whole window is saved at the end, and with ``--out`` the session is recorded
+and ``--report`` renders the report from that recording.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import sys
+import threading
+from pathlib import Path
 
-import numpy as np
-from scipy.special import ndtr
-
-from acquisition.peak_snr import FLAG_NAMES
-from acquisition.stack_snr import measure_stack
-
-SKY_DN = 1000.0
-NOISE_DN = 6.6  # the paper's measured MWIR temporal noise
-PSF_SIGMA_PX = 0.8
+from snrmon.cli import UsageError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("demo", help="interim example: the measurement on a generated stack")
-    p.add_argument("--seed", type=int, default=1, help="random seed (1)")
-    p.add_argument("--frames", type=int, default=100, help="frames (100)")
-    p.add_argument("--snr", type=float, default=10.0, help="target's mean true peak SNR (10)")
-    p.add_argument("--headless", action="store_true", help="accepted; this demo has no GUI")
+    p = sub.add_parser("demo", help="the console on the simulated field test (no hardware)")
+    p.add_argument("--headless", action="store_true", help="offscreen, print the stop table")
+    p.add_argument(
+        "--duration",
+        type=float,
+        metavar="S",
+        help="close after S seconds (default: when the flight is over)",
+    )
+    p.add_argument(
+        "--screenshot",
+        type=Path,
+        metavar="FILE.png",
+        help="save the window at the end (headless default: out/demo.png)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of every simulated device")
+    p.add_argument("--speed", type=float, default=1.0, help="flight time per wall second")
+    p.add_argument(
+        "--stops",
+        default="37,126,199,336,393,451,508",
+        metavar="M,M,...",
+        help="hover ranges in metres (the paper's by default)",
+    )
+    p.add_argument("--out", type=Path, metavar="FILE.h5", help="record the session")
+    p.add_argument(
+        "--report",
+        type=Path,
+        metavar="FILE.pdf|png",
+        help="render the report from the recording at the end (needs --out)",
+    )
     p.set_defaults(func=run)
 
 
-def _pixel_fractions(centre: float, size: int) -> np.ndarray:
-    edges = np.arange(size + 1) - 0.5
-    return np.diff(ndtr((edges - centre) / PSF_SIGMA_PX))
+def _has_display() -> bool:
+    if os.environ.get("QT_QPA_PLATFORM", "") == "offscreen":
+        return False
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-def example_stack(
-    seed: int, frames: int, mean_snr: float, size: int = 41
-) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
-    """(stack uint16 (N,size,size), true per-frame peak SNR, click point (x, y))."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(frames)
-    c = size // 2
-    cx = c + 0.6 * np.sin(2 * np.pi * t / 37.0)
-    cy = c + 0.4 * np.cos(2 * np.pi * t / 53.0)
-    shapes = np.stack(
-        [
-            np.outer(_pixel_fractions(y, size), _pixel_fractions(x, size))
-            for x, y in zip(cx, cy, strict=True)
-        ]
-    )
-    peak_fraction = shapes.reshape(frames, -1).max(axis=1)
-    flux = mean_snr * NOISE_DN / peak_fraction.mean()
-    clean = SKY_DN + flux * shapes
-    noisy = clean + rng.normal(0.0, NOISE_DN, clean.shape)
-    truth = flux * peak_fraction / NOISE_DN
-    return np.clip(np.rint(noisy), 0, 65535).astype(np.uint16), truth, (c + 1, c - 1)
+def _operate(rig, done: threading.Event, printed: set, verbose: bool) -> None:
+    """The simulated operator: clicks the drone at the first stop (HilRig.step) and, headless,
+    prints each stop-table row once it is final."""
+    from snrmon.hil import format_row
+
+    while not done.is_set():
+        if not rig.step():
+            done.set()
+        if verbose:
+            for row in rig.result()["stops"]:
+                key = (row["camera"], row["planned_range_m"], row["lrf_range_m"])
+                if row["n_frames"] >= 100 and key not in printed:
+                    printed.add(key)
+                    print(format_row(row), flush=True)
+        done.wait(0.5)  # the operator's pace
 
 
 def run(args: argparse.Namespace) -> int:
-    print("snrmon demo: INTERIM example (a generated stack), until the simulated field test exists")
-    if args.headless:
-        print("note: --headless accepted and ignored (this example has no GUI)")
-    if args.frames < 2:
-        raise ValueError(f"--frames must be at least 2, got {args.frames}")
-    stack, truth, at = example_stack(args.seed, args.frames, args.snr)
-    print(
-        f"seed {args.seed}: {args.frames} frames {stack.shape[2]}x{stack.shape[1]}, sky {SKY_DN:g}"
-        f" DN, noise {NOISE_DN} DN, Gaussian PSF sigma {PSF_SIGMA_PX} px drifting sub-pixel;"
-        f" click at x={at[0]}, y={at[1]}"
+    from gui.app import run_console
+    from snrmon.commands.hil import _floats
+    from snrmon.hil import TABLE_HEADER, HilOptions, HilRig, format_result
+
+    if args.report is not None and args.out is None:
+        raise UsageError("--report renders from a recording: give --out FILE.h5 too")
+    if args.out is not None and args.out.exists():
+        raise UsageError(f"{args.out} already exists (a session file is never overwritten)")
+    if not args.speed > 0:
+        raise UsageError(f"--speed must be positive, got {args.speed}")
+    headless = args.headless or not _has_display()
+    screenshot = args.screenshot
+    if screenshot is None and headless:
+        screenshot = Path("out") / "demo.png"
+    if screenshot is not None:
+        screenshot.parent.mkdir(parents=True, exist_ok=True)
+    opts = HilOptions(
+        seed=args.seed,
+        speed=args.speed,
+        stops_m=_floats(args.stops, "--stops"),
+        transit_mps=12.0,
+        out=str(args.out) if args.out else None,
     )
-    result = measure_stack(stack, at).to_list()
-    print(
-        f"{'frame':>5} {'x':>3} {'y':>3} {'peak':>7} {'bg_mean':>8} {'bg_std':>6} {'snr':>6} "
-        f"{'truth':>6}"
-    )
-    for i, r in enumerate(result):
-        flags = ",".join(f for f in FLAG_NAMES if f in r.flags)
+    rig = HilRig(opts)
+    duration = args.duration or rig.plan.duration_s / args.speed + 3.0
+    if headless:
         print(
-            f"{i:5d} {r.peak_x:3d} {r.peak_y:3d} {r.peak:7.1f} {r.bg_mean:8.2f} {r.bg_std:6.2f} "
-            f"{r.snr:6.2f} {truth[i]:6.2f} {flags}"
+            f"snrmon demo: simulated flight of {len(opts.stops_m)} stops, {duration:.0f} s, "
+            "console offscreen; stops as they complete:",
+            flush=True,
         )
-    snr = np.array([r.snr for r in result])
-    print(f"measured SNR: mean {np.nanmean(snr):.3f}  std {np.nanstd(snr, ddof=1):.3f}")
-    print(f"true SNR:     mean {truth.mean():.3f}  std {truth.std(ddof=1):.3f}")
-    print(
-        f"ratio measured/true {np.nanmean(snr) / truth.mean():.3f} (Eq. 4 reads high: the 24-pixel "
-        "sample std adds ~3.4%, the brightest of several noisy pixels adds more)"
-    )
+        print(TABLE_HEADER, flush=True)
+    done = threading.Event()
+    printed: set = set()
+    with rig:
+        operator = threading.Thread(
+            target=_operate, args=(rig, done, printed, headless), name="operator", daemon=True
+        )
+        operator.start()
+        try:
+            run_console(
+                rig.session,
+                curves=rig.predictor.curve,
+                headless=headless,
+                duration_s=duration,
+                screenshot=screenshot,
+            )
+        finally:
+            done.set()
+            operator.join(5.0)
+        result = rig.result()
+    print(format_result(result))
+    if screenshot is not None:
+        print(f"screenshot: {screenshot}", file=sys.stderr)
+    if args.report is not None:
+        from acquisition.report_data import report_data
+        from acquisition.report_plot import render_report
+
+        render_report(report_data(args.out, target=opts.target), args.report)
+        print(f"report: {args.report}", file=sys.stderr)
     return 0

@@ -58,7 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from snrmon.hil import HilOptions, HilRig
+    from snrmon.hil import HilOptions, HilRig, format_result
 
     if args.speed == "max":
         raise UsageError("--speed max is not implemented yet; give a number such as 4")
@@ -94,23 +94,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result, allow_nan=True))
         return 0
-    print(
-        f"{'camera':6s} {'plan_m':>7s} {'lrf_m':>7s} {'gps_m':>7s} {'n':>4s} "
-        f"{'SNR':>7s} {'std':>6s} {'raw':>7s} {'truth':>7s} {'model_s':>8s} {'model_sc':>8s}"
-    )
-    for s in result["stops"]:
-        m = s["model_snr"]
-        print(
-            f"{s['camera']:6s} {s['planned_range_m']:7.0f} {_f(s['lrf_range_m'])} "
-            f"{_f(s['gps_range_m'])} {s['n_frames']:4d} {s['measured_snr_mean']:7.2f} "
-            f"{s['measured_snr_std']:6.2f} {s.get('measured_snr_mean_raw', math.nan):7.2f} "
-            f"{s['truth_snr']:7.2f} "
-            f"{m.get('small', math.nan):8.2f} {m.get('small_corrected', math.nan):8.2f}"
-        )
-    for cam, f in result["frames"].items():
-        print(f"{cam}: {f['received']} frames received, {f['dropped']} dropped")
+    print(format_result(result))
     return 0
-
-
-def _f(v: float | None) -> str:
-    return f"{v:7.1f}" if v is not None else f"{'-':>7s}"
