@@ -23,15 +23,17 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("snrmon gui --replay: replay is not yet available in the console")
     if args.config is None:
         raise UsageError("snrmon gui needs --config FILE.toml (or --replay FILE.h5)")
+    from acquisition.prediction import ModelPredictor
     from acquisition.session import Session
     from acquisition.session_config import load_session_config
     from gui.app import run_console
 
     config = load_session_config(args.config)
-    with Session(config) as session:
+    predictor = ModelPredictor({c.name: c.sensor for c in config.cameras}, config.target)
+    with Session(config, predictor=predictor) as session:
         return run_console(
             session,
-            curves=None,  # model curves: to be wired when model.snr exists (not yet in the tree)
+            curves=predictor.curve,
             headless=args.headless,
             duration_s=args.duration,
             screenshot=args.screenshot,
