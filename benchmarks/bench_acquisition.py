@@ -20,6 +20,7 @@ from pathlib import Path
 import psutil
 
 KEY = "acquisition"
+TOP_LEVEL = True  # reports {"acquisition": ..., "replay": ...}
 
 
 def _rss_mb(proc: psutil.Process) -> float:
@@ -82,7 +83,7 @@ def run(duration_s: float) -> dict:
         return sum(c.n_frames for c in r.cameras.values()) / r.seconds if r.seconds else 0.0
 
     return {
-        **acquisition,
+        "acquisition": acquisition,
         "replay": {
             "fps": fps(full),
             "realtime_factor": full.realtime_factor,

@@ -51,8 +51,12 @@ def run(args: argparse.Namespace) -> int:
         if not args.json:
             print(f"running {key} ...", file=sys.stderr, flush=True)
         figures = module.run(args.duration)
-        existing = result.setdefault(key, {})
-        existing.update(figures)
+        if getattr(module, "TOP_LEVEL", False):
+            # A module that reports several top-level sections (acquisition and replay).
+            for section, values in figures.items():
+                result.setdefault(section, {}).update(values)
+        else:
+            result.setdefault(key, {}).update(figures)
     if args.json:
         print(json.dumps(result, indent=2))
     else:

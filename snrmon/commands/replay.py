@@ -96,6 +96,7 @@ def run(args: argparse.Namespace) -> int:
             "measured_snr_mean": r.snr_mean,
             "measured_snr_std": r.snr_std,
             "model_snr": r.model_snr,
+            "resolved": r.resolved,
         }
         for r in result.stops
     ]
