@@ -71,10 +71,15 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     # GPS slant range from the site: 1250-1200 m up, ~150 m horizontally.
     assert st.gps_range_m == pytest.approx(math.hypot(50.0, 147.8), rel=0.02)
 
-    # Every frame is accounted for; the camera ran at its rate without drops.
-    acc = cam.frames
+    # Every frame is accounted for: after the stop the measurement thread has drained the ring,
+    # so received = measured + dropped by the ring; the recorder wrote what it was given.
+    session.stop()
+    acc = session.status().cameras["cam"].frames
     assert acc.dropped_by_camera == 0 and acc.dropped_by_ring == 0
-    assert acc.measured <= acc.received
+    assert acc.received == acc.measured + acc.dropped_by_ring
+    assert summary.frames_received["cam"] == summary.frames_written["cam"] + sum(
+        summary.dropped["cam"].values()
+    )
 
     # The recording holds the frames, the per-frame measurements, the raw streams and the ROI.
     f = open_session(path)
