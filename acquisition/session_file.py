@@ -119,6 +119,26 @@ class SessionFile:
         self.close()
 
 
+def append_event(
+    path: str | os.PathLike, kind: str, *, camera: str = "", payload: dict | None = None
+) -> None:
+    """Add an event to a finished session file (an analysis result such as a target
+    characterization belongs to the session it was made from). The file must not be open for
+    writing elsewhere; ``t_host_ns`` and ``utc_ns`` are -1: the event was not live."""
+    text = json.dumps(dict(payload or {}), sort_keys=True)
+    if len(text.encode()) > schema.PAYLOAD_BYTES or len(kind.encode()) > schema.NAME_BYTES:
+        raise ValueError(f"event {kind!r} too long for the session's event fields")
+    row = np.array(
+        [(-1, -1, kind.encode(), schema.text_field(camera, schema.NAME_BYTES), text.encode())],
+        dtype=schema.EVENT_DTYPE,
+    )
+    with h5py.File(path, "r+") as f:
+        ds = f[schema.EVENTS]
+        n = ds.shape[0]
+        ds.resize((n + 1,))
+        ds[n] = row[0]
+
+
 def open_session(path: str | os.PathLike, *, repair: bool = False) -> SessionFile:
     """Open a session file read-only, recovering a crashed one (see the module docstring)."""
     p = Path(path)

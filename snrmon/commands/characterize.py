@@ -25,7 +25,7 @@ from acquisition.calibration_file import load_calibration
 from acquisition.characterize import CharacterizeConfig, characterize_frames, target_toml
 from acquisition.peak_snr import FLAG_EDGE, FLAG_LOST
 from acquisition.replay import replay_session
-from acquisition.session_file import open_session
+from acquisition.session_file import append_event, open_session
 from model.presets import load_sensor
 from snrmon.cli import UsageError
 
@@ -47,6 +47,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target-out", help="write a target TOML (needs --calibration)")
     p.add_argument("--target-name", default="characterized")
     p.add_argument("--json", action="store_true")
+    p.add_argument(
+        "--no-record",
+        action="store_true",
+        help="do not add the result to the session file as a target_characterized event",
+    )
     p.set_defaults(func=run)
 
 
@@ -101,6 +106,9 @@ def run(args: argparse.Namespace) -> int:
     if args.target_out:
         Path(args.target_out).write_text(target_toml(result, args.target_name))
         out["target_file"] = args.target_out
+    if not args.no_record:
+        # The characterization belongs to the session it was measured from.
+        append_event(args.file, "target_characterized", camera=args.camera, payload=out)
     if args.json:
         print(json.dumps(out))
         return 0

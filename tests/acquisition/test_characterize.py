@@ -181,6 +181,13 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     assert out["large_m"] == pytest.approx(large, rel=0.10)
     assert out["mean_temp_c"] == pytest.approx(DRONE_K - 273.15, abs=0.5)
     assert load_target(str(target)).large_m == pytest.approx(out["large_m"], abs=1e-4)
+    # The result is recorded in the session it was measured from.
+    from acquisition.session_file import open_session
+
+    with open_session(session) as f:
+        (event,) = [e for e in f.event_list() if e["kind"] == "target_characterized"]
+    assert event["camera"] == "mwir"
+    assert event["payload"]["small_m"] == pytest.approx(out["small_m"])
 
 
 def _stops_json(session) -> str:
