@@ -14,7 +14,8 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev,mavlink,compress]'
 	@# Aravis (GigE/USB3 Vision) needs PyGObject, which builds only where gobject-introspection
 	@# headers are installed (.ci/run installs them); without it the Aravis tests skip.
-	-$(BIN)/python -m pip install --quiet -e '.[aravis]' 2>/dev/null || echo 'PyGObject not built: Aravis tests will skip'
+	-$(BIN)/python -m pip install --quiet -e '.[aravis]' > $(VENV)/aravis-install.log 2>&1 \
+		|| echo 'PyGObject not built (see $(VENV)/aravis-install.log): Aravis tests will skip'
 	touch $(STAMP)
 
 setup: $(STAMP)
