@@ -206,11 +206,14 @@ class SceneRenderer:
             scene = np.full(shape, c.blackbody_e, np.float32)
         sigma = c.temporal_noise_dn
         if c.fpn_enabled:
+            # The pattern is the camera's, defined on the clear sky: a blackbody capture goes
+            # through the very same gain and offset maps (what a calibration must recover).
+            sky_sigma_dn = math.sqrt(c.floor_noise_e**2 + c.sky_e) / c.gain_e_per_dn
             self.fpn: FixedPattern = fixed_pattern(
                 shape,
-                spatial_noise_dn=c.fpn_multiple * sigma,
+                spatial_noise_dn=c.fpn_multiple * sky_sigma_dn,
                 gain_fraction=c.fpn_gain_fraction,
-                signal_dn=c.scene_e / c.gain_e_per_dn,
+                signal_dn=c.sky_e / c.gain_e_per_dn,
                 seed=self.seed,
             )
         else:

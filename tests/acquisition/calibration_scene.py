@@ -1,10 +1,10 @@
 """Test scenes for calibration and characterization, built from sim's public pieces.
 
-Why not ``sim.scene.SceneRenderer`` + ``sim.from_model.blackbody_scene`` directly: the renderer
-derives its fixed-pattern maps from the scene level it renders (``fixed_pattern(signal_dn=
-scene_e / gain)``, spatial std a multiple of that scene's temporal noise), so a blackbody capture
-at each temperature gets a DIFFERENT gain/offset map -- no camera does that, and no calibration
-can recover it. Here ONE ``sim.noise.FixedPattern`` (made as the renderer makes it for the sky)
+Why not ``sim.scene.SceneRenderer`` + ``sim.from_model.blackbody_scene`` directly: these scenes
+need a drone of a set TEMPERATURE and shape (sim renders set contrast electrons in one square),
+and they were written when the renderer still derived its fixed pattern from the level it
+renders (fixed since: tests/sim/test_scene.py checks blackbody captures share the camera's
+maps). Here ONE ``sim.noise.FixedPattern`` (made as the renderer makes it for the sky)
 is used for every capture; electrons are the model's (``model.detector.background_electrons``),
 noise is sim's Eq. 1 shot + floor noise, quantisation is ``sim.noise.quantize_dn``. The drone is
 a set of pixel-axis-aligned rectangles (a cross) at a set temperature, each a box convolved with

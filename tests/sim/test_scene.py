@@ -258,3 +258,22 @@ def test_tabulated_spread_reproduces_its_function_at_the_phase_grid():
     got = drone_patch(tab, 10.0 + 1 / 16, 5.0 - 3 / 16, 0.5, 1000.0).electrons
     assert np.allclose(got, 1000.0 * fn(1 / 16, -3 / 16, 0.25), rtol=1e-5)
     assert tab.is_resolved(3.0) and tab.fractions(0.1, 0.2, 3.0).shape[0] > 7
+
+
+def test_blackbody_captures_share_the_cameras_fixed_pattern():
+    """A calibration needs the same gain/offset maps at every blackbody temperature: the pattern
+    belongs to the camera (defined on the sky), not to the level being rendered."""
+    import dataclasses
+
+    from sim.example_scenes import mwir_example_scene
+    from sim.scene import SceneRenderer
+
+    base = mwir_example_scene(width_px=64, height_px=48)
+    cold = SceneRenderer(dataclasses.replace(base, blackbody_e=base.sky_e * 0.5), seed=4)
+    hot = SceneRenderer(dataclasses.replace(base, blackbody_e=base.sky_e * 2.0), seed=4)
+    sky = SceneRenderer(base, seed=4)
+    for r in (cold, hot, sky):
+        r._prepare()  # built lazily on the first frame
+    for r in (cold, hot):
+        assert np.array_equal(r.fpn.gain, sky.fpn.gain)
+        assert np.array_equal(r.fpn.offset_dn, sky.fpn.offset_dn)
