@@ -49,7 +49,7 @@ class ReplayResult:
         return self.recording_seconds / self.seconds if self.seconds > 0 else math.inf
 
 
-def _frames_between(cam, first_counter: int, last_counter: int) -> tuple[np.ndarray, np.ndarray]:
+def frames_between(cam, first_counter: int, last_counter: int) -> tuple[np.ndarray, np.ndarray]:
     """The recorded frames (and their counters) whose camera counters run from ``first`` to
     ``last`` (inclusive)."""
     idx = np.flatnonzero((cam.counter >= first_counter) & (cam.counter <= last_counter))
@@ -74,6 +74,83 @@ def _settings(f: SessionFile) -> tuple[PeakSnrConfig, int, Site | None]:
     return PeakSnrConfig(), 100, None
 
 
+@dataclass
+class RecordedEvents:
+    """The operator's recorded events per camera, in time order: ROI clicks (t_ns, x, y),
+    background references (t_ns, first counter, last counter) and calibration file paths."""
+
+    rois: dict[str, list[tuple[int, int, int]]] = field(default_factory=dict)
+    references: dict[str, list[tuple[int, int, int]]] = field(default_factory=dict)
+    calibrations: dict[str, str] = field(default_factory=dict)
+
+
+def recorded_events(f: SessionFile) -> RecordedEvents:
+    """The events a replay applies, parsed once from the file (the replay and the console's
+    replay player share this, so both apply the same events at the same frames)."""
+    out = RecordedEvents()
+    for e in f.event_list():
+        if e["camera"] not in f.cameras:
+            continue
+        p = e["payload"]
+        if e["kind"] == "roi_set":
+            out.rois.setdefault(e["camera"], []).append((e["t_host_ns"], int(p["x"]), int(p["y"])))
+        elif e["kind"] == "calibration" and "path" in p:
+            out.calibrations[e["camera"]] = p["path"]
+        elif e["kind"] == "background_reference":
+            out.references.setdefault(e["camera"], []).append(
+                (e["t_host_ns"], int(p["first_counter"]), int(p["last_counter"]))
+            )
+    for lists in (out.rois, out.references):
+        for k in lists:
+            lists[k].sort()
+    return out
+
+
+def recorded_track(f: SessionFile) -> bool:
+    """Whether the recording's measurement followed the drone (tracking on) or stayed put."""
+    return bool(f.config.get("track", True)) if isinstance(f.config, dict) else True
+
+
+def recorded_stop_detector(f: SessionFile) -> StopDetector:
+    """A stop detector with the recording's own settings (the defaults when it has none)."""
+    stop_settings = f.config.get("stop_detection") if isinstance(f.config, dict) else None
+    return StopDetector(StopConfig(**stop_settings) if stop_settings else None)
+
+
+def range_readings(f: SessionFile, site: Site | None) -> list[tuple[int, float, str]]:
+    """The recorded ranges in time order as (t_host_ns, range_m, source): every valid
+    rangefinder reading ("lrf") and, with a site, every GPS fix's slant range ("gps")."""
+    readings: list[tuple[int, float, str]] = [
+        (int(r["t_host_ns"]), float(r["range_m"]), "lrf")
+        for r in f.rangefinder
+        if r["status"] == b"ok" and np.isfinite(r["range_m"]) and r["range_m"] > 0
+    ]
+    if site is not None:
+        readings += [
+            (int(g["t_host_ns"]), slant_range_m(site, g["lat_deg"], g["lon_deg"], g["alt_msl_m"]),
+             "gps")
+            for g in f.gps
+            if g["fix_quality"] > 0 and np.isfinite(g["alt_msl_m"])
+        ]  # fmt: skip
+    return sorted(readings)
+
+
+def camera_corrector(
+    f: SessionFile, name: str, half_px: int, events: RecordedEvents
+) -> FrameCorrector:
+    """The frame correction the live measurement ran with: the recording keeps raw frames, so
+    a recorded calibration is loaded and applied again (references are set as they come)."""
+    cam = f.cameras[name]
+    corrector = FrameCorrector(cam.frames.shape[1:], half_px)
+    if name in events.calibrations:
+        from acquisition.calibration_file import load_calibration
+
+        corrector.calibration = load_calibration(
+            events.calibrations[name], frame_shape=tuple(cam.frames.shape[1:])
+        )
+    return corrector
+
+
 def replay_session(
     path: str | Path,
     *,
@@ -94,42 +171,13 @@ def replay_session(
     with open_session(path) as f:
         config, window, site = _settings(f)
         if track is None:
-            track = bool(f.config.get("track", True)) if isinstance(f.config, dict) else True
-        rois: dict[str, list[tuple[int, int, int]]] = {}
-        references: dict[str, list[tuple[int, int, int]]] = {}
-        calibrations: dict[str, str] = {}
-        for e in f.event_list():
-            if e["camera"] not in f.cameras:
-                continue
-            p = e["payload"]
-            if e["kind"] == "roi_set":
-                rois.setdefault(e["camera"], []).append((e["t_host_ns"], int(p["x"]), int(p["y"])))
-            elif e["kind"] == "calibration" and "path" in p:
-                calibrations[e["camera"]] = p["path"]
-            elif e["kind"] == "background_reference":
-                references.setdefault(e["camera"], []).append(
-                    (e["t_host_ns"], int(p["first_counter"]), int(p["last_counter"]))
-                )
-        stop_settings = f.config.get("stop_detection") if isinstance(f.config, dict) else None
-        detector = StopDetector(StopConfig(**stop_settings) if stop_settings else None)
+            track = recorded_track(f)
+        parsed = recorded_events(f)
+        rois, references = parsed.rois, parsed.references
+        detector = recorded_stop_detector(f)
         # Both range streams in time order: a stop's GPS range is the median of the fixes
         # that arrive while it is open.
-        readings: list[tuple[int, float, str]] = [
-            (int(r["t_host_ns"]), float(r["range_m"]), "lrf")
-            for r in f.rangefinder
-            if r["status"] == b"ok" and np.isfinite(r["range_m"]) and r["range_m"] > 0
-        ]
-        if site is not None:
-            readings += [
-                (
-                    int(g["t_host_ns"]),
-                    slant_range_m(site, g["lat_deg"], g["lon_deg"], g["alt_msl_m"]),
-                    "gps",
-                )
-                for g in f.gps
-                if g["fix_quality"] > 0 and np.isfinite(g["alt_msl_m"])
-            ]
-        for t, rng, source in sorted(readings):
+        for t, rng, source in range_readings(f, site):
             detector.add_range(t, rng, source)
         table = StopTable(detector, list(f.cameras), history_frames=10**7, predictor=predictor)
         out: dict[str, CameraReplay] = {}
@@ -143,14 +191,7 @@ def replay_session(
             measurer = FrameMeasurer(config, window=window, track=track)
             events = sorted(rois.get(name, []))
             half = crop_half_px(config, measurer.tracker_config)
-            corrector = FrameCorrector(cam.frames.shape[1:], half)
-            if name in calibrations:
-                from acquisition.calibration_file import load_calibration
-
-                # The recording keeps raw frames; the live measurement ran on calibrated ones.
-                corrector.calibration = load_calibration(
-                    calibrations[name], frame_shape=tuple(cam.frames.shape[1:])
-                )
+            corrector = camera_corrector(f, name, half, parsed)
             refs = sorted(references.get(name, []))
             recorded = {int(m["frame_index"]): m for m in cam.measurements if m["frame_index"] >= 0}
             if cam.n_frames:
@@ -163,7 +204,7 @@ def replay_session(
                 t = int(cam.t_host_ns[i])
                 while refs and refs[0][0] <= t:
                     _, first, last = refs.pop(0)
-                    corrector.set_reference(*_frames_between(cam, first, last))
+                    corrector.set_reference(*frames_between(cam, first, last))
                 while events and events[0][0] <= t:
                     _, x, y = events.pop(0)
                     measurer.set_roi(x, y)

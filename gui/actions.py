@@ -19,6 +19,7 @@ class ActionSpec:
     tip: str
     menu: str
     slot: str  # the window's method called with no argument
+    replay: bool = False  # only in replay mode
 
 
 ACTIONS: tuple[ActionSpec, ...] = (
@@ -51,16 +52,36 @@ ACTIONS: tuple[ActionSpec, ...] = (
                "reload_curves"),
     ActionSpec("fullscreen", "&Full screen", "F11", "Toggle full screen", "&View",
                "toggle_fullscreen"),
+    ActionSpec("replay_play", "&Play / pause", "Space",
+               "Play the recording at the chosen speed (x real time), or pause it", "&Replay",
+               "replay_toggle", True),
+    ActionSpec("replay_step", "&Step one frame", "Right",
+               "Show and measure the next recorded frame (pauses)", "&Replay", "replay_step",
+               True),
+    ActionSpec("replay_back", "Step &back one frame", "Left",
+               "Seek to the previous recorded frame (the measurement restarts there)", "&Replay",
+               "replay_back", True),
+    ActionSpec("replay_home", "Go to s&tart", "Home", "Seek to the first recorded frame",
+               "&Replay", "replay_home", True),
+    ActionSpec("replay_faster", "&Faster", "]", "Next replay speed up (x real time)",
+               "&Replay", "replay_faster", True),
+    ActionSpec("replay_slower", "S&lower", "[", "Next replay speed down (x real time)",
+               "&Replay", "replay_slower", True),
     ActionSpec("shortcuts", "&Keyboard shortcuts", "F1", "List every action and its key",
                "&Help", "show_shortcuts"),
 )  # fmt: skip
 
 
-def install_actions(window: QMainWindow, menubar: QMenuBar) -> dict[str, QAction]:
-    """Create the actions, connect each to ``window.<slot>()``, put them in menus."""
+def install_actions(
+    window: QMainWindow, menubar: QMenuBar, *, replay: bool = False
+) -> dict[str, QAction]:
+    """Create the actions, connect each to ``window.<slot>()``, put them in menus; the
+    replay actions only when ``replay``."""
     menus: dict[str, object] = {}
     actions: dict[str, QAction] = {}
     for spec in ACTIONS:
+        if spec.replay and not replay:
+            continue
         action = QAction(spec.text, window)
         action.setShortcut(QKeySequence(spec.shortcut))
         action.setToolTip(f"{spec.tip} ({spec.shortcut})")

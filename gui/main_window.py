@@ -36,6 +36,7 @@ from gui.actions import install_actions, shortcuts_text
 from gui.alarms import AlarmBanner
 from gui.camera_view import CameraView
 from gui.range_plot import CurveSource, RangePlot
+from gui.replay_bar import ReplayBar
 from gui.roi_inset import RoiInset
 from gui.status_panel import StatusPanel
 from gui.stop_table_view import StopTableView
@@ -141,7 +142,13 @@ class ConsoleWindow(QMainWindow):
         stops = self._dock("stops", "Stops", self.stop_table, bottom)
         self.resizeDocks([stops], [150], Qt.Orientation.Vertical)  # the images need the height
 
-        self.actions_by_key = install_actions(self, self.menuBar())
+        self.replay = bool(getattr(session, "is_replay", False))
+        self.shown_counter: dict[str, int] = {}
+        self.actions_by_key = install_actions(self, self.menuBar(), replay=self.replay)
+        self.replay_bar: ReplayBar | None = None
+        if self.replay:
+            self.replay_bar = ReplayBar(session, self.actions_by_key, self)
+            self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.replay_bar)
         view_menu = self.menuBar().addMenu("&Panels")
         for dock in self.findChildren(QDockWidget):
             view_menu.addAction(dock.toggleViewAction())
@@ -194,11 +201,15 @@ class ConsoleWindow(QMainWindow):
             frame = self.session.pipelines[name].latest_frame()
             if panel.view.show_frame(frame):
                 self._pixels[name] = frame.pixels
+                self.shown_counter[name] = frame.counter
+        if self.replay_bar is not None:
+            self.replay_bar.show_position()
 
     def refresh_status(self) -> None:
         st = self.session.status()
         self.last_status = st
-        now_ns = time.monotonic_ns()
+        # A replay's "now" is the recorded time of its shown frame.
+        now_ns = self.session.now_ns() if self.replay else time.monotonic_ns()
         self.banner.show_alarms(st.alarms, now_ns / 1e9)
         self.status_panel.show_status(st)
         for name, panel in self.panels.items():
@@ -306,8 +317,12 @@ class ConsoleWindow(QMainWindow):
         self.refresh_stops()
 
     def capture_reference(self, n_frames: int = 64) -> None:
-        for name in self.panels:
-            self.session.capture_reference(name, n_frames)
+        try:
+            for name in self.panels:
+                self.session.capture_reference(name, n_frames)
+        except ValueError as exc:
+            self.report(f"no background reference: {exc}")
+            return
         self.report(f"capturing a {n_frames}-frame background reference on every camera")
 
     def add_note(self, text: str | None = None) -> None:
@@ -316,8 +331,31 @@ class ConsoleWindow(QMainWindow):
             if not ok:
                 return
         if text.strip():
-            self.session.add_note(text.strip())
+            try:
+                self.session.add_note(text.strip())
+            except ValueError as exc:
+                self.report(f"note not added: {exc}")
+                return
             self.report(f"note: {text.strip()}")
+
+    # ------------------------------------------------------------------ replay controls
+    def replay_toggle(self) -> None:
+        self.session.toggle_play()
+
+    def replay_step(self) -> None:
+        self.session.step()
+
+    def replay_back(self) -> None:
+        self.session.seek(max(self.session.position().index - 1, 0))
+
+    def replay_home(self) -> None:
+        self.session.seek(0)
+
+    def replay_faster(self) -> None:
+        self.replay_bar.change_speed(up=True)
+
+    def replay_slower(self) -> None:
+        self.replay_bar.change_speed(up=False)
 
     def auto_levels(self) -> None:
         for panel in self.panels.values():

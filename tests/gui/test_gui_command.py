@@ -1,5 +1,5 @@
 """``snrmon gui``: a session TOML on a simulated shm camera runs headless and saves a screenshot;
-replay and a missing config are one-line errors."""
+a recording replays headless; a missing file or config is a one-line error."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from PySide6.QtGui import QImage
 
 from sim.devices.shm_camera import ShmProducer
 from snrmon.cli import main
+from tests.acquisition.session_factory import write_session
 from tests.gui.test_console import H, SpotOnNoise, W
 
 
@@ -27,10 +28,21 @@ def test_gui_command_headless_runs_the_config_and_saves_a_screenshot(qtbot, tmp_
     assert not img.isNull() and img.width() > 400
 
 
-def test_gui_replay_is_refused_in_one_line(capsys):
-    assert main(["gui", "--replay", "x.h5"]) == 2
+def test_gui_replay_missing_file_is_one_line(capsys, tmp_path):
+    missing = tmp_path / "x.h5"
+    assert main(["gui", "--replay", str(missing)]) != 0
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["snrmon gui: snrmon gui --replay: replay is not yet available in the console"]
+    assert len(err) == 1 and str(missing) in err[0]
+
+
+def test_gui_replay_runs_headless_with_the_model_and_saves_a_screenshot(tmp_path):
+    rec = write_session(tmp_path / "flight.h5", cameras=("mwir",), hover_s=4.0)
+    shot = tmp_path / "replay.png"
+    code = main(["gui", "--replay", str(rec.path), "--headless", "--duration", "1.5",
+                 "--screenshot", str(shot)])  # fmt: skip
+    assert code == 0
+    img = QImage(str(shot))
+    assert not img.isNull() and img.width() > 400
 
 
 def test_gui_missing_config_names_the_file(capsys, tmp_path):

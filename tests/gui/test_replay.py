@@ -1,0 +1,112 @@
+"""Replay in the console: a recorded session file played through ReplayPlayer (offscreen).
+
+The file is written by the real recorder (tests/acquisition/session_factory.write_session): one
+Gaussian spot on seeded noise at known ranges, with the operator's click recorded.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QSettings
+
+from acquisition.frame_measurer import FrameMeasurer
+from acquisition.replay_player import ReplayPlayer
+from gui.app import console_application
+from gui.main_window import ConsoleWindow
+from tests.acquisition.session_factory import SPOT_XY, write_session
+
+
+def curves(camera: str) -> dict:
+    r = np.linspace(50.0, 400.0, 30)
+    return {"small": (r, 6e5 / r**2)}
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    path = tmp_path_factory.mktemp("replay") / "flight.h5"
+    return write_session(path, cameras=("mwir",), ranges_m=(120.0, 240.0), hover_s=6.0)
+
+
+@pytest.fixture
+def player(recording):
+    with ReplayPlayer(recording.path) as p:
+        yield p
+
+
+@pytest.fixture
+def window(qtbot, player, tmp_path):
+    console_application(headless=True)
+    settings = QSettings(str(tmp_path / "console.ini"), QSettings.Format.IniFormat)
+    win = ConsoleWindow(player, curves=curves, settings=settings)
+    qtbot.addWidget(win)
+    win.resize(1400, 900)
+    win.show()
+    return win
+
+
+def _shown(qtbot, win, counter: int) -> None:
+    qtbot.waitUntil(lambda: win.shown_counter.get("mwir") == counter, timeout=5000)
+
+
+def test_step_and_seek_move_the_shown_frame_exactly(qtbot, window, player, recording):
+    assert window.replay_bar is not None and window.replay_bar.isVisible()
+    assert window.actions_by_key["replay_play"].shortcut().toString() == "Space"
+    window.actions_by_key["replay_step"].trigger()
+    _shown(qtbot, window, 0)
+    for _ in range(3):
+        window.replay_step()
+    _shown(qtbot, window, 3)
+    assert player.position().index == 3
+    player.seek(150)
+    _shown(qtbot, window, 150)
+    frame = player.pipelines["mwir"].latest_frame()
+    np.testing.assert_array_equal(frame.pixels, recording.frames["mwir"][150])
+    window.replay_back()
+    _shown(qtbot, window, 149)
+    # after the seek the track restarts at the recorded peak: the spot
+    qtbot.waitUntil(lambda: player.status().cameras["mwir"].last is not None, timeout=5000)
+    last = player.status().cameras["mwir"].last
+    assert (last.peak_x, last.peak_y) == SPOT_XY
+    qtbot.waitUntil(lambda: "  150 / " in window.replay_bar.label.text(), timeout=5000)  # 1-based
+
+
+def test_play_fills_the_chart_and_the_stop_table(qtbot, window, player):
+    player.set_speed(40.0)
+    window.replay_toggle()
+    chart = window.panels["mwir"].chart
+    qtbot.waitUntil(lambda: chart.points_drawn >= 50, timeout=10_000)
+    qtbot.waitUntil(lambda: not player.position().playing, timeout=20_000)  # the end
+    assert player.position().index == player.position().length - 1
+    window.refresh_stops()
+    rows = player.stops()
+    assert [round(r.range_m) for r in rows] == [120, 240]
+    assert all(r.n_frames > 50 for r in rows)
+    assert rows[0].snr_mean > 2 * rows[1].snr_mean  # (240/120)^2 fainter at the second stop
+    assert window.stop_table.rowCount() >= 2
+
+
+def test_click_remeasures_the_shown_frame_and_recording_is_refused(
+    qtbot, window, player, recording
+):
+    for _ in range(5):
+        window.replay_step()
+    _shown(qtbot, window, 4)
+    window.set_roi("mwir", 48, 34)
+    assert player.wait_idle()
+    # the same frame measured by the same class at that click, outside the console
+    expected = FrameMeasurer(player.config.measurement, window=player.config.window)
+    expected.set_roi(48, 34)
+    want = expected.measure(recording.frames["mwir"][4]).result
+    assert player.status().cameras["mwir"].last == want
+    assert not window.start_recording(window.settings.fileName() + ".h5")
+    assert "not available in replay" in window.messages[-1]
+    window.mark_stop()
+    assert "not available in replay" in window.messages[-1]
+
+
+def test_bad_seek_and_speed_are_refused(player):
+    with pytest.raises(ValueError, match="frame index"):
+        player.seek(10**6)
+    with pytest.raises(ValueError, match="speed"):
+        player.set_speed(0.0)
