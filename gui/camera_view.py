@@ -4,7 +4,8 @@ operator's click that sets the ROI, and the measurement's geometry drawn on the 
 The view never receives frames: the main window's timer hands it the newest
 :class:`acquisition.ring.RingFrame` it peeked, and the view skips a frame it has already shown.
 Drawn on the image (paper Fig. 4): the search window centred on the ROI, the box centred on the
-measured peak, and the inner edge of its one-pixel rim (the rim pixels lie between the two).
+measured peak, and the inner edge of its one-pixel rim (the rim pixels lie between the two); and
+a cyan cross where the drone's GPS position projects into the camera (hidden with no projection).
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ from acquisition.peak_snr import PeakSnrConfig
 from acquisition.ring import RingFrame
 from acquisition.status import CameraStatus
 from gui.levels import robust_levels
+
+GPS_COLOR = "#00e5ff"  # cyan: distinct from the ROI blue, box yellow and peak red
 
 
 def _rect_item(colour: str, width: float = 1.5, style=Qt.PenStyle.SolidLine) -> QGraphicsRectItem:
@@ -89,6 +92,13 @@ class CameraView(QWidget):
         self.peak_rect = _rect_item("#ff4040", width=1.0)
         for item in (self.search_rect, self.box_rect, self.rim_inner_rect, self.peak_rect):
             self.view.addItem(item)
+        self.gps_marker = pg.ScatterPlotItem(
+            symbol="+", size=16, pen=pg.mkPen(GPS_COLOR, width=2), brush=None, pxMode=True
+        )
+        self.gps_marker.setZValue(11)
+        self.gps_marker.setToolTip("GPS: the drone's GPS position projected into this camera")
+        self.gps_marker.setVisible(False)
+        self.view.addItem(self.gps_marker)
         h, w = shape
         self.image.setImage(np.zeros((h, w), np.uint16), autoLevels=False, levels=(0, 1))
         self.view.setRange(QRectF(0, 0, w, h), padding=0.0)
@@ -138,7 +148,9 @@ class CameraView(QWidget):
 
     # ------------------------------------------------------------------ overlays
     def show_status(self, status: CameraStatus) -> None:
-        """Draw the search window at the ROI and the box and rim at the measured peak."""
+        """Draw the search window at the ROI, the box and rim at the measured peak, and the
+        GPS cross at the projected drone position."""
+        self.show_gps(status.gps_xy)
         roi = status.roi_xy
         self.search_rect.setVisible(roi is not None)
         if roi is not None:
@@ -152,6 +164,14 @@ class CameraView(QWidget):
             self.box_rect.setRect(square_around(last.peak_x, last.peak_y, box))
             self.rim_inner_rect.setRect(square_around(last.peak_x, last.peak_y, box - 2))
             self.peak_rect.setRect(square_around(last.peak_x, last.peak_y, 1))
+
+    def show_gps(self, xy: tuple[float, float] | None) -> None:
+        """The GPS cross at image coordinates ``xy`` (pixel centres on integers, as
+        :func:`acquisition.geo.project_enu` gives them); hidden for None or NaN."""
+        ok = xy is not None and all(math.isfinite(v) for v in xy)
+        self.gps_marker.setVisible(ok)
+        if ok:
+            self.gps_marker.setData([xy[0] + 0.5], [xy[1] + 0.5])  # pixel c spans [c, c+1)
 
     # ------------------------------------------------------------------ clicks
     def _scene_clicked(self, event) -> None:

@@ -110,3 +110,17 @@ def test_bad_seek_and_speed_are_refused(player):
         player.seek(10**6)
     with pytest.raises(ValueError, match="speed"):
         player.set_speed(0.0)
+
+
+def test_gps_cross_is_drawn_at_the_projection_and_hidden_without_one(qtbot, window):
+    from acquisition.status import CameraStatus, FrameAccounting
+    from drivers.device import DeviceStatus
+
+    view = window.panels["mwir"].view
+    cs = CameraStatus("mwir", DeviceStatus("mwir"), FrameAccounting(), gps_xy=(12.0, 7.5))
+    view.show_status(cs)
+    assert view.gps_marker.isVisible()
+    xs, ys = view.gps_marker.getData()
+    assert (xs[0], ys[0]) == (12.5, 8.0)  # the centre of pixel (12, 7.5) in image coordinates
+    view.show_status(CameraStatus("mwir", DeviceStatus("mwir"), FrameAccounting()))
+    assert not view.gps_marker.isVisible()
