@@ -30,6 +30,7 @@ from acquisition.frame_measurer import FrameMeasurer, crop_half_px
 from acquisition.peak_snr import PeakSnr, PeakSnrConfig
 from acquisition.ring import FrameRing, RingFrame
 from acquisition.status import CameraStatus, FrameAccounting
+from acquisition.track_noise import TrackNoise
 from acquisition.tracker import TrackerConfig
 from drivers.camera.frame import Frame
 from drivers.device import Device
@@ -105,6 +106,7 @@ class CameraPipeline:
         self.corrector = FrameCorrector(
             self.shape, crop_half_px(self.measurer.meter.config, self.measurer.tracker_config)
         )
+        self.noise = self._track_noise(self.measurer.meter.config)  # section 6, ~4 Hz
         self._reference_pending: int | None = None
         self.sky = None  # apparent sky temperature of the background, with a calibration
         self.range_at = range_at
@@ -128,6 +130,14 @@ class CameraPipeline:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._unsubscribe: Callable[[], None] | None = None
+
+    def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
+        kw = {"box_px": cfg.box_px, "detrend": cfg.detrend, "ddof": cfg.ddof}
+        try:
+            return TrackNoise(self.shape, background=cfg.background, **kw)
+        except ValueError as exc:  # a rectangle off this image: noise around the track instead
+            log.warning("%s: clear-sky rectangle not used for the noise: %s", self.name, exc)
+            return TrackNoise(self.shape, **kw)
 
     # ------------------------------------------------------------------ control
     def start(self) -> None:
@@ -249,6 +259,7 @@ class CameraPipeline:
         fps = getattr(self.device, "measured_fps", None)
         fps = fps() if callable(fps) else 0.0
         p50, p99 = (np.percentile(lat, [50, 99]) / 1e6) if lat.size else (np.nan, np.nan)
+        noise_total, noise_temporal, noise_spatial = self.noise.figures()
         return CameraStatus(
             name=self.name,
             device=dev,
@@ -270,6 +281,9 @@ class CameraPipeline:
             range_source=last.range_source if last else "",
             latency_ms_p50=float(p50),
             latency_ms_p99=float(p99),
+            noise_total_dn=noise_total,
+            noise_temporal_dn=noise_temporal,
+            noise_spatial_dn=noise_spatial,
         )
 
     # ------------------------------------------------------------------ threads
@@ -344,6 +358,8 @@ class CameraPipeline:
         index = recorder.add_frame(self.name, item) if recorder is not None else None
         fr = self.measurer.measure(corrector.apply(item.pixels, self.measurer.roi))
         raw = self.raw_measurer.measure(item.pixels) if corrector.active else None
+        peak_xy = None if fr is None else (fr.result.peak_x, fr.result.peak_y)
+        self.noise.update(item.pixels, item.t_host_ns, peak_xy)  # raw pixels: the camera's FPN
         if fr is None:
             with self._lock:
                 self._measured += 1

@@ -54,6 +54,11 @@ class CameraStatus:
     model_snr: dict[str, float] = field(default_factory=dict)
     latency_ms_p50: float = float("nan")
     latency_ms_p99: float = float("nan")
+    # Section 6 noise of the background around the track (acquisition.track_noise), DN:
+    # temporal = std(frame - previous) / sqrt(2); spatial = sqrt(total^2 - temporal^2).
+    noise_total_dn: float = float("nan")
+    noise_temporal_dn: float = float("nan")
+    noise_spatial_dn: float = float("nan")
 
 
 @dataclass(frozen=True, slots=True)
