@@ -50,6 +50,12 @@ ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("reload_model", "Reload model &curves", "Ctrl+L",
                "Ask the model for the SNR-versus-range curves again", "&View",
                "reload_curves"),
+    ActionSpec("model_options", "Model &options...", "Ctrl+M",
+               "Target preset, curves shown (small/large, uncorrected/corrected) and the "
+               "model's background temperature (K)", "&View", "model_options"),
+    ActionSpec("noise_panel", "&Noise panel", "Ctrl+Shift+N",
+               "Show or hide total, temporal and spatial noise (DN) per camera", "&View",
+               "toggle_noise_panel"),
     ActionSpec("fullscreen", "&Full screen", "F11", "Toggle full screen", "&View",
                "toggle_fullscreen"),
     ActionSpec("replay_play", "&Play / pause", "Space",

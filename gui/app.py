@@ -38,6 +38,7 @@ def run_console(
     session: Session,
     *,
     curves: CurveSource | None = None,
+    predictor=None,
     headless: bool = False,
     duration_s: float | None = None,
     screenshot: str | Path | None = None,
@@ -47,7 +48,9 @@ def run_console(
 
     Args:
         curves: ``curves(camera) -> {name: (ranges_m, snr)}`` (or ``(ranges_m, low, high)``
-            for a band) from the model; None draws no model.
+            for a band) from the model; None draws no model. Only used without a predictor.
+        predictor: the :class:`acquisition.prediction.ModelPredictor` the model options
+            rebuild (default: ``session.predictor``).
         headless: run offscreen (no display needed); only effective before the first
             QApplication of the process exists.
         duration_s: close the window after this many seconds (None: until the operator quits).
@@ -57,7 +60,7 @@ def run_console(
     if duration_s is not None and not duration_s > 0:
         raise ValueError(f"duration must be positive seconds, got {duration_s}")
     console_application(headless=headless)
-    window = ConsoleWindow(session, curves=curves, settings=settings)
+    window = ConsoleWindow(session, curves=curves, predictor=predictor, settings=settings)
     if headless:
         window.resize(1600, 1000)  # offscreen there is no screen to size to: a laptop's
     if screenshot is not None:

@@ -9,7 +9,6 @@ shown was computed by the session's processing threads. Qt objects are touched o
 from __future__ import annotations
 
 import datetime as _dt
-import math
 import time
 from pathlib import Path
 
@@ -19,9 +18,7 @@ from PySide6.QtWidgets import (
     QApplication,
     QDockWidget,
     QFileDialog,
-    QHBoxLayout,
     QInputDialog,
-    QLabel,
     QMainWindow,
     QMessageBox,
     QScrollArea,
@@ -32,15 +29,16 @@ from PySide6.QtWidgets import (
 )
 
 from acquisition.session import Session, SessionStatus
+from gui import model_curves as mc
 from gui.actions import install_actions, shortcuts_text
 from gui.alarms import AlarmBanner
-from gui.camera_view import CameraView
+from gui.camera_panel import CameraPanel, model_at_range
+from gui.model_dialog import ModelOptionsDialog
+from gui.noise_panel import NoisePanel
 from gui.range_plot import CurveSource, RangePlot
 from gui.replay_bar import ReplayBar
-from gui.roi_inset import RoiInset
 from gui.status_panel import StatusPanel
 from gui.stop_table_view import StopTableView
-from gui.strip_chart import StripChart
 from gui.theme import configure_pyqtgraph
 
 FRAME_INTERVAL_MS = 33
@@ -48,46 +46,15 @@ STATUS_INTERVAL_MS = 200
 TABLE_INTERVAL_MS = 1000
 
 
-class CameraPanel(QWidget):
-    """Header, live image, box inset and strip chart of one camera."""
-
-    def __init__(self, name: str, shape: tuple[int, int], config) -> None:
-        super().__init__()
-        self.name = name
-        self.header = QLabel(name.upper())
-        self.header.setStyleSheet("font-weight: bold;")
-        self.view = CameraView(name, shape, config)
-        self.inset = RoiInset(name, config.box_px)
-        self.inset.setFixedWidth(220)
-        self.chart = StripChart(name)
-        bottom = QHBoxLayout()
-        bottom.addWidget(self.inset)
-        bottom.addWidget(self.chart, 1)
-        lay = QVBoxLayout(self)
-        lay.setContentsMargins(2, 2, 2, 2)
-        lay.addWidget(self.header)
-        lay.addWidget(self.view, 3)
-        lay.addLayout(bottom, 2)
-
-
-def model_at_range(curve: tuple, range_m: float | None) -> float | None:
-    """A model curve's value at ``range_m``, read off the curve the model computed (linear
-    between its samples; None outside its range, never extrapolated)."""
-    if range_m is None or not math.isfinite(range_m) or len(curve) != 2:
-        return None
-    r, s = np.asarray(curve[0], float), np.asarray(curve[1], float)
-    if r.size == 0 or not (r.min() <= range_m <= r.max()):
-        return None
-    order = np.argsort(r)
-    return float(np.interp(range_m, r[order], s[order]))
-
-
 class ConsoleWindow(QMainWindow):
     """The operator console on a (started) :class:`Session`.
 
     Args:
         session: the session to display and command; the caller starts and stops it.
-        curves: ``curves(camera) -> {name: (ranges_m, snr)}`` from the model, or None.
+        curves: ``curves(camera) -> {name: (ranges_m, snr)}`` from the model, or None; used
+            only when there is no predictor (a stand-in, or until the model options apply).
+        predictor: the :class:`acquisition.prediction.ModelPredictor` (default: the
+            session's); the model options dialog rebuilds it and hands it to the session.
         settings: where geometry and last choices are kept (default: the user's snrmon settings).
     """
 
@@ -98,12 +65,15 @@ class ConsoleWindow(QMainWindow):
         session: Session,
         *,
         curves: CurveSource | None = None,
+        predictor=None,
         settings: QSettings | None = None,
     ) -> None:
         configure_pyqtgraph()
         super().__init__()
         self.session = session
         self.curves_source = curves
+        self.model: mc.ModelCurves | None = mc.model_for_session(session, predictor)
+        self.model_dialog: ModelOptionsDialog | None = None
         self.settings = settings or QSettings("snrmon", "console")
         self.screenshot_path: Path | None = None
         self.last_status: SessionStatus | None = None
@@ -137,6 +107,9 @@ class ConsoleWindow(QMainWindow):
         for name, plot in self.range_plots.items():
             self.range_tabs.addTab(plot, f"SNR vs range: {name}")
         self._dock("range", "SNR vs range", self.range_tabs, Qt.DockWidgetArea.RightDockWidgetArea)
+        self.noise_panel = NoisePanel(list(session.pipelines))
+        dock = self._dock("noise", "Noise", self.noise_panel, Qt.DockWidgetArea.RightDockWidgetArea)
+        self.toggle_noise_panel = dock.toggleViewAction().trigger  # the Ctrl+Shift+N action
         self.stop_table = StopTableView()
         bottom = Qt.DockWidgetArea.BottomDockWidgetArea
         stops = self._dock("stops", "Stops", self.stop_table, bottom)
@@ -212,8 +185,11 @@ class ConsoleWindow(QMainWindow):
         now_ns = self.session.now_ns() if self.replay else time.monotonic_ns()
         self.banner.show_alarms(st.alarms, now_ns / 1e9)
         self.status_panel.show_status(st)
+        self.noise_panel.show_status(st)
         for name, panel in self.panels.items():
             cs = st.cameras[name]
+            if self.model is not None and self.model.follow_sky(name, cs.sky_temp_k):
+                self._draw_curves(name)
             panel.view.show_status(cs)
             panel.inset.show_box(self._pixels.get(name), cs)
             panel.chart.show_series(self.session.pipelines[name].series(), now_ns)
@@ -250,20 +226,42 @@ class ConsoleWindow(QMainWindow):
             plot.show_stops(rows)
 
     def reload_curves(self) -> None:
-        """Ask the injected model source for each camera's curves (not per frame: may be slow)."""
-        self._curves = {}
-        for name, plot in self.range_plots.items():
-            curves = None
-            if self.curves_source is not None:
-                try:
-                    curves = self.curves_source(name)
-                except (ValueError, OSError, KeyError) as exc:
-                    self.report(f"model curves for {name}: {exc}")
-            self._curves[name] = dict(curves or {})
+        """Ask the model (or the injected source) for each camera's curves (not per frame)."""
+        for name in self.range_plots:
+            self._draw_curves(name)
+
+    def _draw_curves(self, name: str) -> None:
+        source = self.model.curves if self.model is not None else self.curves_source
+        curves = None
+        if source is not None:
             try:
-                plot.set_curves(curves)
-            except ValueError as exc:
-                self.report(str(exc))
+                curves = source(name)
+            except (ValueError, OSError, KeyError) as exc:
+                self.report(f"model curves for {name}: {exc}")
+        self._curves[name] = dict(curves or {})
+        try:
+            self.range_plots[name].set_curves(curves)
+        except ValueError as exc:
+            self.report(str(exc))
+
+    def model_options(self) -> ModelOptionsDialog:
+        """Open the model options dialog (non-modal)."""
+        if self.model_dialog is None:
+            options = self.model.options if self.model else mc.default_options(self.session)
+            self.model_dialog = ModelOptionsDialog(options, self.apply_model_options, self)
+        self.model_dialog.show()
+        return self.model_dialog
+
+    def apply_model_options(self, options: mc.ModelOptions) -> str | None:
+        """Rebuild the model, hand it to the session, redraw; the refusal's message or None."""
+        try:
+            self.model = mc.applied_model(self.model, self.session, options)
+        except (ValueError, OSError, KeyError) as exc:
+            self.report(message := f"model options refused: {exc}")
+            return message
+        self.reload_curves()
+        self.report(f"model: {mc.describe(options)}")
+        return None
 
     # ------------------------------------------------------------------ commands
     def report(self, message: str) -> None:

@@ -1,0 +1,174 @@
+"""Which model curves the console draws, and from which predictors (no Qt; no number made here).
+
+Two :class:`acquisition.prediction.ModelPredictor` on the same sensors, target and options:
+
+* ``own``: the model's own background temperature (or the operator's, from the model options);
+  the session never touches it;
+* ``sky``: handed to the session (its stop table's model values) and set to each camera's
+  measured sky temperature (``CameraStatus.sky_temp_k``, with a calibration): the paper's
+  path-radiance correction (sections 8-9). The session follows the sky on it too; both apply
+  the same value.
+
+:meth:`ModelCurves.curves` returns what :class:`gui.range_plot.RangePlot` draws: the chosen
+curves of ``own`` under their model names, and, where the sky is known, the same curves of
+``sky`` labelled ``"<name> @ sky <T> K"``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from acquisition.prediction import CURVES, ModelPredictor
+
+CURVE_LABELS = {
+    "small": "small, uncorrected",
+    "large": "large, uncorrected",
+    "small_corrected": "small, corrected",
+    "large_corrected": "large, corrected",
+}
+SKY_STEP_K = 0.5  # a smaller change of the measured sky does not redraw the curves
+
+
+@dataclass(frozen=True)
+class ModelOptions:
+    """The operator's model choices: target preset, curves shown, background temperature."""
+
+    target: str = "uav1"
+    shown: tuple[str, ...] = CURVES
+    background_temp_k: float | None = None  # None: the model's own
+
+    def __post_init__(self) -> None:
+        unknown = [c for c in self.shown if c not in CURVES]
+        if unknown:
+            raise ValueError(f"unknown model curve {unknown[0]!r} (known: {', '.join(CURVES)})")
+
+
+def parse_background_temp(text: str) -> float | None:
+    """The background temperature field: empty = the model's own (None), else kelvin > 0."""
+    text = text.strip()
+    if not text:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(
+            f"background temperature must be a number of kelvin (or empty), got {text!r}"
+        ) from None
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"background temperature must be > 0 K, got {text!r}")
+    return value
+
+
+def sky_label(name: str, temp_k: float) -> str:
+    return f"{name} @ sky {temp_k:.1f} K"
+
+
+class ModelCurves:
+    """The console's model: build, swap and read the predictors for ``sensors`` ({camera:
+    sensor preset}). ``session_predictor``, if given, becomes the ``sky`` predictor (the one
+    the session already holds), so the first build costs one predictor, not two."""
+
+    def __init__(
+        self,
+        sensors: dict[str, str],
+        options: ModelOptions,
+        *,
+        session_predictor: ModelPredictor | None = None,
+    ) -> None:
+        self.sensors = dict(sensors)
+        self.options = options
+        self.own = self._build(options)
+        self.sky = session_predictor if session_predictor is not None else self._build(options)
+        self.sky_temp_k: dict[str, float] = {}
+
+    def _build(self, options: ModelOptions) -> ModelPredictor:
+        return ModelPredictor(
+            self.sensors, options.target, background_temp_k=options.background_temp_k
+        )
+
+    def apply(self, options: ModelOptions) -> None:
+        """Rebuild both predictors for ``options`` (a ValueError from the model leaves the
+        current ones in place)."""
+        own, sky = self._build(options), self._build(options)
+        for camera, temp in self.sky_temp_k.items():
+            sky.set_background(camera, temp)
+        self.own, self.sky, self.options = own, sky, options
+
+    def follow_sky(self, camera: str, temp_k: float) -> bool:
+        """Set ``camera``'s measured sky temperature; True when its curves changed."""
+        if not math.isfinite(temp_k):
+            return False
+        last = self.sky_temp_k.get(camera)
+        if last is not None and abs(temp_k - last) <= SKY_STEP_K:
+            return False
+        self.sky_temp_k[camera] = temp_k
+        self.sky.set_background(camera, temp_k)
+        return True
+
+    def curves(self, camera: str) -> dict[str, tuple]:
+        """The chosen curves of ``camera`` (and their uncertainty bands), own then sky."""
+        out: dict[str, tuple] = {}
+        sources = [(self.own, None)]
+        if camera in self.sky_temp_k:
+            sources.append((self.sky, self.sky_temp_k[camera]))
+        for predictor, temp in sources:
+            data = predictor.curve(camera)
+            for name in self.options.shown:
+                for key in (name, f"{name} band"):
+                    if key in data:
+                        out[key if temp is None else sky_label(key, temp)] = data[key]
+        return out
+
+
+def session_sensors(session) -> dict[str, str]:
+    """{camera: sensor preset} of a Session or ReplayPlayer (its config names them)."""
+    return {c.name: c.sensor for c in getattr(session.config, "cameras", ())}
+
+
+def model_for_session(session, predictor=None) -> ModelCurves | None:
+    """The console's model on ``session``'s sensors and target, reusing ``predictor`` (or the
+    session's own) as the sky/session predictor; None when there is no predictor to follow."""
+    predictor = predictor if predictor is not None else getattr(session, "predictor", None)
+    if not (hasattr(predictor, "curve") and hasattr(predictor, "set_background")):
+        return None
+    options = ModelOptions(target=str(getattr(session.config, "target", "uav1")))
+    model = ModelCurves(session_sensors(session), options, session_predictor=predictor)
+    hand_to_session(session, model.sky)
+    return model
+
+
+def hand_to_session(session, predictor: ModelPredictor) -> None:
+    """Make ``predictor`` the session's (its stop table's model values, its sky following)."""
+    set_predictor = getattr(session, "set_predictor", None)  # ReplayPlayer
+    if callable(set_predictor):
+        set_predictor(predictor)
+        return
+    session.predictor = predictor
+    table = getattr(session, "stop_table", None)
+    if table is not None:
+        table.predictor = predictor
+
+
+def default_options(session) -> ModelOptions:
+    return ModelOptions(target=str(getattr(session.config, "target", "uav1")))
+
+
+def applied_model(model: ModelCurves | None, session, options: ModelOptions) -> ModelCurves:
+    """``model`` rebuilt for ``options`` (a new one when None) and handed to ``session``; a
+    ValueError (nothing changed) for options the model refuses."""
+    if model is None:
+        sensors = session_sensors(session)
+        if not sensors:
+            raise ValueError("the session names no camera sensor presets: no model to build")
+        model = ModelCurves(sensors, options)
+    else:
+        model.apply(options)
+    hand_to_session(session, model.sky)
+    return model
+
+
+def describe(options: ModelOptions) -> str:
+    bg = options.background_temp_k
+    background = "the model's own" if bg is None else f"{bg:g} K"
+    return f"target {options.target}, background {background}, curves {', '.join(options.shown)}"

@@ -1,0 +1,109 @@
+"""The model options dialog: target preset, which curves are shown, background temperature.
+
+It only collects choices into a :class:`gui.model_curves.ModelOptions` and hands them to the
+window's ``apply(options) -> error message | None``; the window rebuilds the predictors. A bad
+entry is refused with its message shown in the dialog, which stays open.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QDialog,
+    QDialogButtonBox,
+    QFormLayout,
+    QLabel,
+    QLineEdit,
+    QVBoxLayout,
+    QWidget,
+)
+
+from acquisition.prediction import CURVES
+from gui.model_curves import CURVE_LABELS, ModelOptions, parse_background_temp
+
+TARGET_CHOICES = ("uav1", "uav2")  # the model's target presets; a target TOML path also works
+
+
+class ModelOptionsDialog(QDialog):
+    """Non-modal: Apply keeps it open, OK applies and closes, Cancel closes."""
+
+    def __init__(
+        self,
+        options: ModelOptions,
+        apply: Callable[[ModelOptions], str | None],
+        parent: QWidget | None = None,
+    ) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Model options")
+        self._apply = apply
+        self.target = QComboBox()
+        self.target.setEditable(True)
+        self.target.addItems(list(TARGET_CHOICES))
+        self.target.setCurrentText(options.target)
+        self.target.setToolTip(
+            "Target preset of the model (uav1: DJI Phantom 4 Pro, uav2: DJI Inspire 1), "
+            "or the path of a target TOML file"
+        )
+        self.shown: dict[str, QCheckBox] = {}
+        form = QFormLayout()
+        form.addRow("target", self.target)
+        for name in CURVES:
+            box = QCheckBox(CURVE_LABELS[name])
+            box.setChecked(name in options.shown)
+            box.setToolTip(
+                "Uncorrected: diffraction-limited PSF, point target; corrected: real PSF and "
+                "finite target size (paper Figs. 7-10); corrected curves carry their "
+                "uncertainty band"
+            )
+            self.shown[name] = box
+            form.addRow("" if len(self.shown) > 1 else "curves", box)
+        self.background = QLineEdit(
+            "" if options.background_temp_k is None else f"{options.background_temp_k:g}"
+        )
+        self.background.setPlaceholderText("the model's own")
+        self.background.setToolTip(
+            "Background (sky) temperature of the model in K; empty: the model's own. With a "
+            "calibration the curves at the measured sky are drawn as well."
+        )
+        form.addRow("background (K)", self.background)
+        self.error = QLabel("")
+        self.error.setStyleSheet("color: #ff6060;")
+        self.error.setWordWrap(True)
+        buttons = QDialogButtonBox(
+            QDialogButtonBox.StandardButton.Ok
+            | QDialogButtonBox.StandardButton.Apply
+            | QDialogButtonBox.StandardButton.Cancel
+        )
+        self.apply_button = buttons.button(QDialogButtonBox.StandardButton.Apply)
+        self.apply_button.clicked.connect(self.apply)
+        buttons.accepted.connect(self._ok)
+        buttons.rejected.connect(self.reject)
+        lay = QVBoxLayout(self)
+        lay.addLayout(form)
+        lay.addWidget(self.error)
+        lay.addWidget(buttons)
+
+    def options(self) -> ModelOptions:
+        """The choices as entered (ValueError for a bad background temperature)."""
+        shown = tuple(name for name, box in self.shown.items() if box.isChecked())
+        return ModelOptions(
+            target=self.target.currentText().strip(),
+            shown=shown,
+            background_temp_k=parse_background_temp(self.background.text()),
+        )
+
+    def apply(self) -> bool:
+        """Hand the choices to the window; show why when they are refused."""
+        try:
+            message = self._apply(self.options())
+        except ValueError as exc:
+            message = str(exc)
+        self.error.setText(message or "")
+        return message is None
+
+    def _ok(self) -> None:
+        if self.apply():
+            self.accept()

@@ -1,0 +1,137 @@
+"""Model options and the noise panel of the console (offscreen, pytest-qt).
+
+The curves drawn must be ModelPredictor's own numbers for the chosen target, curves and
+background; a bad background temperature is refused with a message and changes nothing; the
+noise panel shows the processing side's section 6 figures.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import uuid
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QSettings, Qt
+
+from acquisition.prediction import ModelPredictor
+from acquisition.session import Session
+from acquisition.session_config import session_config_from_dict
+from drivers.camera.shm import ShmCamera
+from gui.app import console_application
+from gui.main_window import ConsoleWindow
+from gui.model_curves import ModelOptions
+from sim.devices.shm_camera import ShmProducer
+from tests.gui.test_console import NOISE_DN, SPOT_X, SPOT_Y, H, SpotOnNoise, W
+
+
+@pytest.fixture
+def window(qtbot, tmp_path):
+    name = f"snrmon-modeltest-{uuid.uuid4().hex[:10]}"
+    producer = ShmProducer(name, W, H, SpotOnNoise(), fps=60.0)
+    producer.start()
+    config = session_config_from_dict(
+        {"cameras": {"mwir": {"source": "shm", "address": name, "width_px": W, "height_px": H}}}
+    )
+    predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
+    session = Session(
+        config,
+        cameras={"mwir": ShmCamera("mwir", name)},
+        shapes={"mwir": (H, W)},
+        predictor=predictor,
+    )
+    session.start()
+    console_application(headless=True)
+    settings = QSettings(str(tmp_path / "console.ini"), QSettings.Format.IniFormat)
+    win = ConsoleWindow(session, curves=predictor.curve, settings=settings)
+    qtbot.addWidget(win)
+    win.show()
+    try:
+        yield win
+    finally:
+        win.close()
+        session.stop()
+        producer.close()
+
+
+def _drawn(win: ConsoleWindow, name: str) -> tuple[np.ndarray, np.ndarray]:
+    return win.range_plots["mwir"].curve_items[name].getData()
+
+
+def test_applying_model_options_redraws_the_predictors_curves(window):
+    plot = window.range_plots["mwir"]
+    assert {"small", "large", "small_corrected", "large_corrected"} <= set(plot.curve_items)
+    uav1 = ModelPredictor({"mwir": "mwir"}, "uav1").curve("mwir")
+    x, y = _drawn(window, "small_corrected")
+    np.testing.assert_allclose(y, uav1["small_corrected"][1])
+
+    options = ModelOptions(target="uav2", shown=("small_corrected",), background_temp_k=280.0)
+    assert window.apply_model_options(options) is None
+    want = ModelPredictor({"mwir": "mwir"}, "uav2", background_temp_k=280.0).curve("mwir")
+    names = {n for n in plot.curve_items if not n.endswith((" low", " high"))}
+    assert names == {"small_corrected", "small_corrected band"}
+    x, y = _drawn(window, "small_corrected")
+    np.testing.assert_allclose(x, want["small_corrected"][0])
+    np.testing.assert_allclose(y, want["small_corrected"][1])
+    assert not np.allclose(y, uav1["small_corrected"][1])  # another target, another curve
+    _, lo = _drawn(window, "small_corrected band low")
+    np.testing.assert_allclose(lo, want["small_corrected band"][1])
+    # the session's stop table now asks the same model
+    assert window.session.predictor is window.model.sky
+    assert window.session.stop_table.predictor is window.model.sky
+    assert window.model.sky.background_temp_k["mwir"] == 280.0
+
+
+def test_the_dialog_refuses_a_bad_temperature_with_a_message(qtbot, window):
+    dialog = window.model_options()
+    before = _drawn(window, "small")[1].copy()
+    for bad, why in (("warm", "number of kelvin"), ("-5", "> 0 K"), ("nan", "> 0 K")):
+        dialog.background.setText(bad)
+        dialog.target.setCurrentText("uav2")
+        qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+        assert why in dialog.error.text() and repr(bad) in dialog.error.text()
+        np.testing.assert_array_equal(_drawn(window, "small")[1], before)
+    dialog.target.setCurrentText("uav9")  # the model refuses an unknown target
+    dialog.background.setText("")
+    qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+    assert "uav9" in dialog.error.text() and "model options refused" in window.messages[-1]
+    dialog.target.setCurrentText("uav2")
+    dialog.shown["large"].setChecked(False)
+    qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+    assert dialog.error.text() == ""
+    assert "large" not in window.range_plots["mwir"].curve_items
+    want = ModelPredictor({"mwir": "mwir"}, "uav2").curve("mwir")["small"][1]
+    np.testing.assert_allclose(_drawn(window, "small")[1], want)
+
+
+def test_a_measured_sky_adds_the_curves_at_that_background(window, monkeypatch):
+    session = window.session
+    real_status = session.status
+
+    def with_sky():
+        st = real_status()
+        cams = {n: dataclasses.replace(c, sky_temp_k=255.0) for n, c in st.cameras.items()}
+        return dataclasses.replace(st, cameras=cams)
+
+    monkeypatch.setattr(session, "status", with_sky)  # as a calibrated camera would report
+    window.refresh_status()
+    plot = window.range_plots["mwir"]
+    sky = ModelPredictor({"mwir": "mwir"}, "uav1", background_temp_k=255.0).curve("mwir")
+    own = ModelPredictor({"mwir": "mwir"}, "uav1").curve("mwir")
+    np.testing.assert_allclose(_drawn(window, "small_corrected @ sky 255.0 K")[1],
+                               sky["small_corrected"][1])  # fmt: skip
+    np.testing.assert_allclose(_drawn(window, "small_corrected")[1], own["small_corrected"][1])
+    assert not np.allclose(sky["small_corrected"][1], own["small_corrected"][1])
+    assert "large @ sky 255.0 K" in plot.curve_items
+
+
+def test_noise_panel_shows_the_rendered_temporal_noise(qtbot, window):
+    window.set_roi("mwir", SPOT_X, SPOT_Y)
+    label = window.noise_panel.labels[("mwir", "noise_temporal_dn")]
+    qtbot.waitUntil(lambda: label.text() != "--", timeout=10_000)
+    # 8 DN rendered noise (+ rounding), no fixed pattern: 10 % is > 5 sigma for 1632 pixels
+    assert float(label.text()) == pytest.approx((NOISE_DN**2 + 1 / 12) ** 0.5, rel=0.10)
+    spatial = float(window.noise_panel.labels[("mwir", "noise_spatial_dn")].text())
+    # no pattern: total^2 - temporal^2 is noise of ~3 DN^2 (1 sigma) around 0; 16 DN^2 is 5 sigma
+    assert spatial < 0.5 * NOISE_DN
+    assert "sqrt(2)" in label.toolTip() and "DN" in label.toolTip()
