@@ -57,6 +57,13 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     path = tmp_path / "session.h5"
     session.start_recording(path)
     wait_until(lambda: any(r.complete for r in session.stops()), 20.0, "a complete stop")
+    # Replay rebuilds the stop from the recorded range stream alone, which starts when the
+    # recording does, a little after the live detector's first reading: record one more second
+    # so that the replayed stop also has its 100 frames.
+    measured = session.status().cameras["cam"].frames.measured
+    wait_until(
+        lambda: session.status().cameras["cam"].frames.measured >= measured + 60, 10.0, "1 s more"
+    )
     summary = session.stop_recording()
     st = session.status()
     cam = st.cameras["cam"]
