@@ -6,7 +6,6 @@ replay driven by the recorded ROI events reproduces the recorded per-frame SNR e
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,17 +62,7 @@ class FrameMeasurer:
         self.roi = (int(x), int(y))
         self.tracker = None
         if self.track:
-            m = self.meter.config
-            cfg = dataclasses.replace(
-                self.tracker_config,
-                search_px=m.search_px,
-                box_px=m.box_px,
-                background=m.background,
-                detrend=m.detrend,
-                saturation_dn=m.saturation_dn,
-                ddof=m.ddof,
-            )
-            self.tracker = Tracker(self.roi, cfg)
+            self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
 
     def clear_roi(self) -> None:
         self.roi = None

@@ -356,7 +356,19 @@ def measure_peak_snr(
     rectangle outside it, an even box) is a ValueError; conditions of the data are flags.
     """
     cfg = PeakSnrConfig(search_px, box_px, background, detrend, saturation_dn, ddof)
-    return _measure_one(pixels, at_xy, cfg, fixed_reference=reference_noise)
+    return peak_snr_with(pixels, at_xy, cfg, reference_noise=reference_noise)
+
+
+def peak_snr_with(
+    pixels: np.ndarray,
+    at_xy: tuple[float, float],
+    config: PeakSnrConfig,
+    *,
+    reference_noise: float | None = None,
+) -> PeakSnr:
+    """:func:`measure_peak_snr` with every setting from ``config``, the contamination factors
+    included: the one entry point for callers that hold a configuration (the tracker)."""
+    return _measure_one(pixels, at_xy, config, fixed_reference=reference_noise)
 
 
 def _measure_one(pixels, at_xy, cfg, *, extra_bits=0, **state) -> PeakSnr:

@@ -8,8 +8,9 @@ search to find it again, as the paper's operators did (section 7).
 
 Per frame (:meth:`Tracker.update`):
 
-1. Measure Eq. (4) with :func:`acquisition.peak_snr.measure_peak_snr` in the normal search window
-   (``search_px``, default 11) centred on the window centre = the last accepted peak.
+1. Measure Eq. (4) with :func:`acquisition.peak_snr.peak_snr_with` and the measurement's own
+   :class:`~acquisition.peak_snr.PeakSnrConfig` (one source of the Eq. 4 settings) in the search
+   window (``search_px``, default 11) centred on the window centre = the last accepted peak.
 2. Judge the candidate, in this order: SNR undefined -> ``undefined``; peak farther than
    ``gate_px`` from the last accepted peak (Chebyshev distance, max(|dx|, |dy|)) -> ``gate``; peak
    contrast (peak - bg_mean) above ``brightness_factor`` x the median contrast of the last
@@ -32,8 +33,9 @@ Per frame (:meth:`Tracker.update`):
    accepted frames make it TRACKING again.
 
 The first frame after a click has no gate (the operator's click is the prior). When the window
-never moves, every output is bit-identical to :func:`measure_peak_snr` at that point with the same
-``reference_noise``: the tracker calls it, and only adds ``lost``/``gps_cued``.
+never moves, every output is bit-identical to :func:`~acquisition.peak_snr.peak_snr_with` at that
+point with the same configuration and ``reference_noise``: the tracker calls it, and only adds
+``lost``/``gps_cued``.
 
 The rim-contamination reference (``reference_noise``): ``"recent"`` (default) keeps the same
 recent-noise median as :class:`acquisition.peak_snr.PeakSnrMeter`, fed with the tracker's output
@@ -52,7 +54,6 @@ from enum import Enum
 
 import numpy as np
 
-from acquisition.background import Rect
 from acquisition.peak_snr import (
     FLAG_GPS_CUED,
     FLAG_LOST,
@@ -60,7 +61,8 @@ from acquisition.peak_snr import (
     RUNNING_EXCLUDED,
     NoiseReference,
     PeakSnr,
-    measure_peak_snr,
+    PeakSnrConfig,
+    peak_snr_with,
     pixel_of,
 )
 
@@ -75,14 +77,10 @@ class TrackState(Enum):
 
 @dataclass(frozen=True)
 class TrackerConfig:
-    """Every number of the tracker (module docstring) and of its Eq. (4) measurement."""
+    """Every number of the tracker (module docstring). The Eq. (4) settings it measures with
+    (search window, box, background, contamination test) are a :class:`PeakSnrConfig`, given
+    to :class:`Tracker` beside this, so that tracking and fixed-point measurement share them."""
 
-    search_px: int = 11
-    box_px: int = 7
-    background: Rect | None = None
-    detrend: bool = False
-    saturation_dn: float | None = None
-    ddof: int = 1
     gate_px: int = 3
     lost_snr: float = 3.0
     lost_frames: int = 10
@@ -93,8 +91,6 @@ class TrackerConfig:
     cue_max_age_frames: int = 60
     reacquire_snr: float = 5.0
     confirm_frames: int = 5
-    reference_frames: int = 25
-    reference_min_frames: int = 5
 
     def __post_init__(self) -> None:
         for name in ("gate_px", "cue_radius_px"):
@@ -114,7 +110,6 @@ class TrackerConfig:
             v = getattr(self, name)
             if math.isnan(v) or (name == "brightness_factor" and v <= 1):
                 raise ValueError(f"tracker {name} must be a number (factor > 1), got {v}")
-        # The measurement validates its own settings (search window, box, ddof, rectangle).
 
 
 @dataclass(frozen=True, slots=True)
@@ -151,12 +146,17 @@ class Tracker:
         at_xy: tuple[float, float],
         config: TrackerConfig | None = None,
         *,
+        measurement: PeakSnrConfig | None = None,
         reference_noise: float | str | None = "recent",
         **settings,
     ) -> None:
         if config is not None and settings:
             raise ValueError("give either config or settings, not both")
         self.config = config if config is not None else TrackerConfig(**settings)
+        self.measurement = measurement if measurement is not None else PeakSnrConfig()
+        # One configuration per window size the tracker searches (normal, gate, cue square),
+        # built once: each keeps its cached background offsets.
+        self._configs: dict[int, PeakSnrConfig] = {self.measurement.search_px: self.measurement}
         if not (reference_noise is None or reference_noise == "recent") and (
             isinstance(reference_noise, str) or not math.isfinite(reference_noise)
         ):
@@ -164,9 +164,9 @@ class Tracker:
                 f"reference_noise must be 'recent', a number (DN) or None, got {reference_noise!r}"
             )
         self._fixed_reference = reference_noise
-        cfg = self.config
-        self._reference = NoiseReference(cfg.reference_frames, cfg.reference_min_frames)
-        self._contrasts: deque[float] = deque(maxlen=cfg.brightness_frames)
+        m = self.measurement
+        self._reference = NoiseReference(m.reference_frames, m.reference_min_frames)
+        self._contrasts: deque[float] = deque(maxlen=self.config.brightness_frames)
         self._cue: tuple[float, float] | None = None
         self._cue_age = 0
         self.click(at_xy)
@@ -225,18 +225,12 @@ class Tracker:
         return step
 
     def _measure(self, pixels, at, search_px, ref) -> PeakSnr:
-        c = self.config
-        return measure_peak_snr(
-            pixels,
-            at,
-            search_px=search_px,
-            box_px=c.box_px,
-            background=c.background,
-            detrend=c.detrend,
-            saturation_dn=c.saturation_dn,
-            ddof=c.ddof,
-            reference_noise=ref,
-        )
+        cfg = self._configs.get(search_px)
+        if cfg is None:
+            cfg = self._configs[search_px] = dataclasses.replace(
+                self.measurement, search_px=search_px
+            )
+        return peak_snr_with(pixels, at, cfg, reference_noise=ref)
 
     def _judge(self, m: PeakSnr, *, gated: bool, min_snr: float) -> str:
         if not math.isfinite(m.snr):
@@ -264,7 +258,7 @@ class Tracker:
     def _follow(self, pixels, ref) -> TrackStep:
         c = self.config
         at = self._window
-        size = c.search_px
+        size = self.measurement.search_px
         m = self._measure(pixels, at, size, ref)
         reason = self._judge(m, gated=True, min_snr=c.lost_snr)
         if reason == "gate":
@@ -310,8 +304,9 @@ class Tracker:
                 self._misses += 1
                 return self._step(m, (cx, cy), size, reason, {FLAG_LOST})
         self._misses += 1
-        m = self._measure(pixels, self._window, c.search_px, ref)
-        return self._step(m, self._window, c.search_px, "no_cue", {FLAG_LOST})
+        size = self.measurement.search_px
+        m = self._measure(pixels, self._window, size, ref)
+        return self._step(m, self._window, size, "no_cue", {FLAG_LOST})
 
     def _accept(self, m: PeakSnr) -> None:
         self._window = (m.peak_x, m.peak_y)
@@ -330,6 +325,7 @@ def track_stack(
     at_xy: tuple[float, float],
     config: TrackerConfig | None = None,
     *,
+    measurement: PeakSnrConfig | None = None,
     cues: Iterable[tuple[float, float] | None] | None = None,
     reference_noise: float | str | None = "recent",
 ) -> list[TrackStep]:
@@ -337,7 +333,7 @@ def track_stack(
     ``cues``: per frame, a projected GPS position given before that frame, or None."""
     if stack.ndim != 3:
         raise ValueError(f"a stack must be 3-D (frames, rows, columns), got shape {stack.shape}")
-    tracker = Tracker(at_xy, config, reference_noise=reference_noise)
+    tracker = Tracker(at_xy, config, measurement=measurement, reference_noise=reference_noise)
     cue_list = list(cues) if cues is not None else [None] * len(stack)
     if len(cue_list) != len(stack):
         raise ValueError(f"{len(cue_list)} cues for {len(stack)} frames")

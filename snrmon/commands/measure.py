@@ -30,7 +30,7 @@ from acquisition.peak_snr import FLAG_NAMES, RUNNING_EXCLUDED, PeakSnr, PeakSnrM
 from acquisition.running_stats import RunningSnr
 from acquisition.stack_io import load_stack
 from acquisition.stack_snr import StackSnr, measure_stack
-from acquisition.tracker import TrackerConfig, TrackStep, track_stack
+from acquisition.tracker import TrackStep, track_stack
 from snrmon.cli import UsageError
 
 
@@ -121,16 +121,7 @@ def _track_frames(
     args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrMeter
 ) -> tuple[list[PeakSnr], list[TrackStep]]:
     """The window follows the peak (acquisition.tracker); the meter's settings carry over."""
-    c = meter.config
-    config = TrackerConfig(
-        search_px=c.search_px,
-        box_px=c.box_px,
-        background=c.background,
-        detrend=c.detrend,
-        saturation_dn=c.saturation_dn,
-        ddof=c.ddof,
-    )
-    steps = track_stack(stack, args.at, config)
+    steps = track_stack(stack, args.at, measurement=meter.config)
     return [s.peak_snr for s in steps], steps
 
 

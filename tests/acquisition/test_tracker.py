@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.peak_snr import PeakSnrMeter, measure_peak_snr
+from acquisition.peak_snr import (
+    FLAG_RIM_CONTAMINATED,
+    PeakSnrConfig,
+    PeakSnrMeter,
+    measure_peak_snr,
+)
 from acquisition.tracker import Tracker, TrackerConfig, TrackState, track_stack
 
 ROWS, COLS = 100, 120
@@ -155,6 +160,23 @@ def test_stationary_window_with_recent_noise_reference_matches_the_meter():
     stack = _stationary(seed=6)
     meter = PeakSnrMeter()
     steps = track_stack(stack, (40, 30))
+    for frame, s in zip(stack, steps, strict=True):
+        assert s.peak_snr == meter.measure(frame, (40, 30))
+
+
+def test_tracker_measures_with_the_whole_measurement_config():
+    # One source of the Eq. (4) settings: a tightened contamination test flags frames in
+    # tracking exactly as it does in the fixed-point meter (the factors used to be dropped).
+    stack = _stationary(seed=6)
+    strict = PeakSnrConfig(contamination_std_factor=1.02, contamination_gradient_factor=1.5)
+    meter = PeakSnrMeter(strict)
+    steps = track_stack(stack, (40, 30), measurement=strict)
+    flagged = [FLAG_RIM_CONTAMINATED in s.peak_snr.flags for s in steps]
+    assert any(flagged) and not all(flagged)
+    default_flags = [
+        FLAG_RIM_CONTAMINATED in s.peak_snr.flags for s in track_stack(stack, (40, 30))
+    ]
+    assert flagged != default_flags
     for frame, s in zip(stack, steps, strict=True):
         assert s.peak_snr == meter.measure(frame, (40, 30))
 
