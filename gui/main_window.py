@@ -33,7 +33,7 @@ from gui import model_curves as mc
 from gui.actions import install_actions, shortcuts_text
 from gui.alarms import AlarmBanner
 from gui.camera_panel import CameraPanel, model_at_range
-from gui.model_dialog import ModelOptionsDialog
+from gui.model_dialog import ModelOptionsDialog, save_model_options, saved_model_options
 from gui.noise_panel import NoisePanel
 from gui.range_plot import CurveSource, RangePlot
 from gui.replay_bar import ReplayBar
@@ -160,6 +160,19 @@ class ConsoleWindow(QMainWindow):
             self.restoreState(state)
         tab = self.settings.value("view/range_tab", 0, type=int)
         self.range_tabs.setCurrentIndex(min(int(tab), self.range_tabs.count() - 1))
+        self._restore_model_options()
+
+    def _restore_model_options(self) -> None:
+        """The model options applied last time (target, curves, background)."""
+        if self.model is None:
+            return
+        try:
+            options = saved_model_options(self.settings)
+        except ValueError as exc:
+            self.report(f"saved model options ignored: {exc}")
+            return
+        if options is not None and options != self.model.options:
+            self.apply_model_options(options)
 
     def save_settings(self) -> None:
         self.settings.setValue("window/geometry", self.saveGeometry())
@@ -260,6 +273,7 @@ class ConsoleWindow(QMainWindow):
             self.report(message := f"model options refused: {exc}")
             return message
         self.reload_curves()
+        save_model_options(self.settings, options)
         self.report(f"model: {mc.describe(options)}")
         return None
 

@@ -135,3 +135,24 @@ def test_noise_panel_shows_the_rendered_temporal_noise(qtbot, window):
     # no pattern: total^2 - temporal^2 is noise of ~3 DN^2 (1 sigma) around 0; 16 DN^2 is 5 sigma
     assert spatial < 0.5 * NOISE_DN
     assert "sqrt(2)" in label.toolTip() and "DN" in label.toolTip()
+
+
+def test_model_options_are_remembered_for_the_next_start(qtbot, window):
+    options = ModelOptions(
+        target="uav2", shown=("small", "large_corrected"), background_temp_k=262.5
+    )
+    assert window.apply_model_options(options) is None
+    # A new console on the same settings (the next start) draws the same model.
+    again = ConsoleWindow(window.session, settings=window.settings)
+    qtbot.addWidget(again)
+    assert again.model.options == options
+    want = ModelPredictor({"mwir": "mwir"}, "uav2", background_temp_k=262.5).curve("mwir")
+    _, y = again.range_plots["mwir"].curve_items["large_corrected"].getData()
+    np.testing.assert_allclose(y, want["large_corrected"][1])
+    assert "small_corrected" not in again.range_plots["mwir"].curve_items
+    # A damaged entry is reported by name and the model's defaults stay.
+    window.settings.setValue("model/background_temp_k", "warm")
+    third = ConsoleWindow(window.session, settings=window.settings)
+    qtbot.addWidget(third)
+    assert any("saved model options ignored" in m and "'warm'" in m for m in third.messages)
+    assert third.model.options == ModelOptions()
