@@ -25,8 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from acquisition.camera_analysis import CameraAnalysis
 from acquisition.frame_correction import FrameCorrector
-from acquisition.frame_measurer import FrameMeasurer, crop_half_px
+from acquisition.frame_measurer import FrameMeasurer
 from acquisition.peak_snr import PeakSnr, PeakSnrConfig
 from acquisition.ring import FrameRing, RingFrame
 from acquisition.status import CameraStatus, FrameAccounting
@@ -95,20 +96,10 @@ class CameraPipeline:
         self.device = device
         self.shape = (int(shape[0]), int(shape[1]))
         self.ring = FrameRing(ring_capacity, *self.shape, name=name)
-        self.measurer = FrameMeasurer(
-            config, window=window, track=track, tracker_config=tracker_config
+        self.analysis = CameraAnalysis(
+            name, self.shape, config, window=window, track=track, tracker_config=tracker_config
         )
-        # The same track on raw frames, measured while a correction is on, so the console
-        # reports the SNR with and without the background reference (issue 5).
-        self.raw_measurer = FrameMeasurer(
-            config, window=window, track=track, tracker_config=tracker_config
-        )
-        self.corrector = FrameCorrector(
-            self.shape, crop_half_px(self.measurer.meter.config, self.measurer.tracker_config)
-        )
-        self.noise = self._track_noise(self.measurer.meter.config)  # section 6, ~4 Hz
         self._reference_pending: int | None = None
-        self.sky = None  # apparent sky temperature of the background, with a calibration
         self.range_at = range_at
         self._reader = self.ring.reader("measurement")
         self._lock = threading.Lock()
@@ -131,13 +122,22 @@ class CameraPipeline:
         self._thread: threading.Thread | None = None
         self._unsubscribe: Callable[[], None] | None = None
 
-    def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
-        kw = {"box_px": cfg.box_px, "detrend": cfg.detrend, "ddof": cfg.ddof}
-        try:
-            return TrackNoise(self.shape, background=cfg.background, **kw)
-        except ValueError as exc:  # a rectangle off this image: noise around the track instead
-            log.warning("%s: clear-sky rectangle not used for the noise: %s", self.name, exc)
-            return TrackNoise(self.shape, **kw)
+    @property
+    def measurer(self) -> FrameMeasurer:
+        return self.analysis.measurer
+
+    @property
+    def corrector(self) -> FrameCorrector:
+        return self.analysis.corrector
+
+    @property
+    def noise(self) -> TrackNoise:
+        return self.analysis.noise
+
+    @property
+    def sky(self):
+        """The apparent sky temperature series (with a calibration), else None."""
+        return self.analysis.sky
 
     # ------------------------------------------------------------------ control
     def start(self) -> None:
@@ -185,11 +185,7 @@ class CameraPipeline:
         """Apply a radiometric calibration (:class:`acquisition.calibration.Calibration`) to
         the measured window from the next frame on, and follow the apparent sky temperature
         of the background pixels (issue 9). Call before ``start``."""
-        from acquisition.sky_temperature import SkyTemperature
-
-        self.corrector.calibration = calibration
-        box = self.measurer.meter.config.box_px
-        self.sky = SkyTemperature(self.name, calibration, box_px=box, maxlen=600)
+        self.analysis.set_calibration(calibration)
 
     def capture_reference(self, n_frames: int = 64) -> None:
         """Average the next ``n_frames`` frames (clear sky, no drone) into the background
@@ -259,7 +255,7 @@ class CameraPipeline:
         fps = getattr(self.device, "measured_fps", None)
         fps = fps() if callable(fps) else 0.0
         p50, p99 = (np.percentile(lat, [50, 99]) / 1e6) if lat.size else (np.nan, np.nan)
-        noise_total, noise_temporal, noise_spatial = self.noise.figures()
+        fig = self.analysis.figures()
         return CameraStatus(
             name=self.name,
             device=dev,
@@ -274,16 +270,16 @@ class CameraPipeline:
             snr_n=last.snr_n if last else 0,
             snr_mean_raw=last.snr_mean_raw if last else float("nan"),
             snr_std_raw=last.snr_std_raw if last else float("nan"),
-            reference_frames=self.corrector.reference_frames,
-            sky_temp_k=self.sky.mean_temp_k(last=100) if self.sky is not None else float("nan"),
-            fixed_pattern_dn=self.corrector.fixed_pattern_dn,
+            reference_frames=fig.reference_frames,
+            sky_temp_k=fig.sky_temp_k,
+            fixed_pattern_dn=fig.fixed_pattern_dn,
             range_m=last.range_m if last else None,
             range_source=last.range_source if last else "",
             latency_ms_p50=float(p50),
             latency_ms_p99=float(p99),
-            noise_total_dn=noise_total,
-            noise_temporal_dn=noise_temporal,
-            noise_spatial_dn=noise_spatial,
+            noise_total_dn=fig.noise_total_dn,
+            noise_temporal_dn=fig.noise_temporal_dn,
+            noise_spatial_dn=fig.noise_spatial_dn,
         )
 
     # ------------------------------------------------------------------ threads
@@ -321,29 +317,15 @@ class CameraPipeline:
             reference, self._reference_pending = self._reference_pending, None
             recorder = self._recorder
             listeners = list(self._listeners)
-        corrector = self.corrector
+        analysis = self.analysis
         if reference == 0:
-            corrector.clear_reference()
+            analysis.clear_reference()
         elif reference is not None:
-            corrector.start_reference(reference)
-        if corrector.capturing:
-            done = corrector.feed(item.pixels, item.counter)
-            if done is not None:
-                if self.measurer.roi is not None:  # the raw track starts where the track is
-                    self.raw_measurer.set_roi(*self.measurer.roi)
-                if recorder is not None:
-                    recorder.add_event(
-                        "background_reference",
-                        camera=self.name,
-                        payload=done,
-                        t_host_ns=item.t_host_ns,
-                    )
+            analysis.start_reference(reference)
         if clear:
-            self.measurer.clear_roi()
-            self.raw_measurer.clear_roi()
+            analysis.clear_roi()
         if pending is not None:
-            self.measurer.set_roi(*pending)
-            self.raw_measurer.set_roi(*pending)
+            analysis.set_roi(*pending)
             if recorder is not None:
                 # Recorded at the frame it took effect on, so a replay applies it there too.
                 recorder.add_event(
@@ -353,13 +335,17 @@ class CameraPipeline:
                     t_host_ns=item.t_host_ns,
                 )
         if cue is not None:
-            self.measurer.cue(*cue)
-            self.raw_measurer.cue(*cue)
+            analysis.cue(*cue)
         index = recorder.add_frame(self.name, item) if recorder is not None else None
-        fr = self.measurer.measure(corrector.apply(item.pixels, self.measurer.roi))
-        raw = self.raw_measurer.measure(item.pixels) if corrector.active else None
-        peak_xy = None if fr is None else (fr.result.peak_x, fr.result.peak_y)
-        self.noise.update(item.pixels, item.t_host_ns, peak_xy)  # raw pixels: the camera's FPN
+        out = analysis.analyze(item.pixels, item.counter, item.t_host_ns)
+        if out.reference_done is not None and recorder is not None:
+            recorder.add_event(
+                "background_reference",
+                camera=self.name,
+                payload=out.reference_done,
+                t_host_ns=item.t_host_ns,
+            )
+        fr = out.result
         if fr is None:
             with self._lock:
                 self._measured += 1
@@ -379,13 +365,11 @@ class CameraPipeline:
             fr.snr_n,
             range_m,
             source,
-            raw.snr_mean if raw is not None else float("nan"),
-            raw.snr_std if raw is not None else float("nan"),
+            out.snr_mean_raw,
+            out.snr_std_raw,
         )
         if recorder is not None:
             recorder.add_peak_snr(self.name, index, item.counter, item.t_host_ns, fr.result)
-        if self.sky is not None:
-            self.sky.add(item.t_host_ns, item.pixels, fr.result)
         latency = time.monotonic_ns() - item.t_host_ns
         with self._lock:
             self._measured += 1

@@ -23,7 +23,8 @@ from pathlib import Path
 from typing import Any
 
 from acquisition.camera_pipeline import CameraPipeline, Measurement
-from acquisition.geo import CameraIntrinsics, fix_position, gps_slant_range_m, project_to_pixel
+from acquisition.geo import gps_slant_range_m
+from acquisition.gps_cue import GpsProjector
 from acquisition.history import ScalarHistory
 from acquisition.recorder import SessionRecorder
 from acquisition.ring import RingFrame
@@ -82,12 +83,8 @@ class Session:
         self._recorder: SessionRecorder | None = None
         self._measurement_listeners: list[Callable[[Measurement, RingFrame], None]] = []
         self.pipelines: dict[str, CameraPipeline] = {}
-        self._intrinsics: dict[str, CameraIntrinsics] = {}
+        self.projector = GpsProjector(config)
         for cam in config.cameras:
-            if cam.pointing is not None:
-                from model.presets import load_sensor  # focal length, pitch and format
-
-                self._intrinsics[cam.name] = CameraIntrinsics.from_sensor(load_sensor(cam.sensor))
             device = (cameras or {}).get(cam.name) or camera_device(cam)
             shape = (shapes or {}).get(cam.name) or self._shape_of(cam)
             pipe = CameraPipeline(
@@ -293,23 +290,15 @@ class Session:
                 except ValueError:
                     log.warning("GPS fix out of order dropped from the history")
                 self._stop_input(lambda: self.stop_detector.add_fix(fix, site))
-            self._cue_cameras(fix, site)
+            self._cue_cameras(fix)
         if rec is not None:
             rec.add_gps(fix)
 
-    def _cue_cameras(self, fix: GpsFix, site) -> None:
+    def _cue_cameras(self, fix: GpsFix) -> None:
         """Project the drone's GPS position into every pointed camera: the tracker uses it to
         reacquire a lost drone (paper section 4), the display draws it as a marker."""
-        pos = fix_position(fix)
-        if pos is None:
-            return
-        for cam in self.config.cameras:
-            intrinsics = self._intrinsics.get(cam.name)
-            if cam.pointing is None or intrinsics is None:
-                continue
-            p = project_to_pixel(site, cam.pointing, intrinsics, *pos)
-            if p.in_view:
-                self.pipelines[cam.name].cue(p.x, p.y)
+        for name, (x, y) in self.projector.pixels(fix).items():
+            self.pipelines[name].cue(x, y)
 
     def _stop_input(self, feed: Callable[[], object]) -> None:
         with self._lock:
