@@ -135,19 +135,24 @@ def range_readings(f: SessionFile, site: Site | None) -> list[tuple[int, float, 
     return sorted(readings)
 
 
+def recorded_calibration(f: SessionFile, name: str, events: RecordedEvents):
+    """The calibration the live measurement of ``name`` ran with (loaded again from its
+    recorded path), or None."""
+    if name not in events.calibrations:
+        return None
+    from acquisition.calibration_file import load_calibration
+
+    shape = tuple(f.cameras[name].frames.shape[1:])
+    return load_calibration(events.calibrations[name], frame_shape=shape)
+
+
 def camera_corrector(
     f: SessionFile, name: str, half_px: int, events: RecordedEvents
 ) -> FrameCorrector:
     """The frame correction the live measurement ran with: the recording keeps raw frames, so
     a recorded calibration is loaded and applied again (references are set as they come)."""
-    cam = f.cameras[name]
-    corrector = FrameCorrector(cam.frames.shape[1:], half_px)
-    if name in events.calibrations:
-        from acquisition.calibration_file import load_calibration
-
-        corrector.calibration = load_calibration(
-            events.calibrations[name], frame_shape=tuple(cam.frames.shape[1:])
-        )
+    corrector = FrameCorrector(f.cameras[name].frames.shape[1:], half_px)
+    corrector.calibration = recorded_calibration(f, name, events)
     return corrector
 
 

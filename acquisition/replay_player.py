@@ -4,11 +4,14 @@ The console drives a live :class:`acquisition.session.Session` through a small s
 (``pipelines[name]`` with ``shape``, ``latest_frame()``, ``series()``, ``status()``; the session's
 ``status()``, ``stops()``, ``config.measurement``, ``set_roi``); the player offers the same
 surface on a recording, so the same window shows a replay. One worker thread reads the recorded
-frames of every camera in recorded time order (one merged *timeline*) and measures each through
-:class:`acquisition.frame_measurer.FrameMeasurer`, with the recorded ROI clicks, background
-references and calibration applied as :func:`acquisition.replay.replay_session` applies them
-(the helpers are shared). The recorded rangefinder and GPS streams feed the stop detector and
-the per-frame range as the replay reaches their times, so the stop table fills as it would live.
+frames of every camera in recorded time order (one merged *timeline*) and analyses each with the
+live pipeline's :class:`acquisition.camera_analysis.CameraAnalysis` (Eq. 4 with the track, the
+raw-frame SNR beside a correction, the section 6 noise, the sky temperature), with the recorded
+ROI clicks, background references and calibration applied as
+:func:`acquisition.replay.replay_session` applies them (the helpers are shared). The recorded
+rangefinder and GPS streams feed the stop detector and the per-frame range as the replay reaches
+their times, so the stop table fills as it would live; each recorded GPS fix is shown in the
+status and projected into the pointed cameras (the GPS cross, and the cue of a lost track).
 
 Controls (any thread): :meth:`play`, :meth:`pause`, :meth:`step` (one timeline entry: one frame
 of one camera), :meth:`seek` (a timeline index), :meth:`set_speed` (x real time, paced by the
@@ -22,30 +25,27 @@ from __future__ import annotations
 
 import threading
 import time
-from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from acquisition.frame_measurer import FrameMeasurer, crop_half_px
+from acquisition.gps_cue import GpsProjector, fix_from_record
 from acquisition.history import ScalarHistory
 from acquisition.replay import (
-    RecordedEvents,
-    camera_corrector,
-    frames_between,
     range_readings,
     recorded_events,
     recorded_stop_detector,
     recorded_track,
 )
+from acquisition.replay_camera import ReplayCamera, ReplayCameraState
 from acquisition.ring import RingFrame
 from acquisition.session import SessionStatus
 from acquisition.session_config import SessionConfig, session_config_from_dict
-from acquisition.session_file import CameraRecord, SessionFile, open_session
-from acquisition.status import CameraStatus, FrameAccounting, RecordingStatus
+from acquisition.session_file import open_session
+from acquisition.status import RecordingStatus
 from acquisition.stop_table import Predictor, StopRow, StopTable
-from drivers.device import DeviceState, DeviceStatus
+from drivers.gps.fix import GpsFix
 
 NOT_IN_REPLAY = "not available in replay"
 
@@ -61,50 +61,6 @@ class ReplayPosition:
     duration_s: float
     playing: bool
     speed: float
-
-
-class ReplayCamera:
-    """One recorded camera as the console sees a live pipeline (state set by the worker)."""
-
-    def __init__(self, name: str, record: CameraRecord, fps: float, series_length: int) -> None:
-        self.name = name
-        self.record = record
-        self.shape = tuple(int(v) for v in record.frames.shape[1:])
-        self.fps = fps
-        self._lock = threading.Lock()
-        self._latest: RingFrame | None = None
-        self._series: deque[tuple[int, float, float, float, float]] = deque(maxlen=series_length)
-        self._status = CameraStatus(
-            name, DeviceStatus(name, DeviceState.STREAMING), FrameAccounting()
-        )
-
-    def latest_frame(self) -> RingFrame | None:
-        with self._lock:
-            return self._latest
-
-    def series(self) -> np.ndarray:
-        """Rows of (t_host_ns, snr, running mean, running std, range_m or NaN), as live."""
-        with self._lock:
-            rows = list(self._series)
-        return np.array(rows, dtype=float) if rows else np.empty((0, 5))
-
-    def status(self) -> CameraStatus:
-        with self._lock:
-            return self._status
-
-
-class _CameraState:
-    """The worker's measurement state for one camera (rebuilt on a seek)."""
-
-    def __init__(self, f: SessionFile, name: str, config: SessionConfig, track: bool,
-                 events: RecordedEvents) -> None:  # fmt: skip
-        self.measurer = FrameMeasurer(config.measurement, window=config.window, track=track)
-        half = crop_half_px(self.measurer.meter.config, self.measurer.tracker_config)
-        self.corrector = camera_corrector(f, name, half, events)
-        self.rois = list(events.rois.get(name, []))
-        self.refs = list(events.references.get(name, []))
-        self.read = 0
-        self.measured = 0
 
 
 class ReplayPlayer:
@@ -139,6 +95,8 @@ class ReplayPlayer:
         self.predictor = predictor
         self._events = recorded_events(f)
         self._readings = range_readings(f, self.config.site)
+        self._projector = GpsProjector(self.config)
+        self._fixes = np.sort(f.gps[:], order="t_host_ns") if len(f.gps) else None
         names = list(f.cameras)
         self.pipelines: dict[str, ReplayCamera] = {}
         for name, cam in f.cameras.items():
@@ -280,7 +238,7 @@ class ReplayPlayer:
             lrf_range_m=lrf[1] if lrf else None,
             lrf_age_s=(now - lrf[0]) / 1e9 if lrf else None,
             gps=None,
-            gps_fix=None,
+            gps_fix=self._last_fix,
             gps_range_m=gps[1] if gps else None,
             recording=RecordingStatus(state="replay", path=str(self.path)),
             extra={"replay": self.position()},
@@ -306,7 +264,7 @@ class ReplayPlayer:
         """Fresh measurement, stop table and range histories for a replay from ``target``."""
         f = self._file
         self._states = {
-            n: _CameraState(f, n, self.config, self.track, self._events) for n in self._names
+            n: ReplayCameraState(f, n, self.config, self.track, self._events) for n in self._names
         }
         self._detector = recorded_stop_detector(f)
         self._table = StopTable(self._detector, self._names, history_frames=10**6,
@@ -315,35 +273,41 @@ class ReplayPlayer:
         self._lrf_history = ScalarHistory(maxlen=4096, max_gap_ns=gap)
         self._gps_history = ScalarHistory(maxlen=4096)
         self._reading_pos = 0
+        self._fix_pos = 0
+        self._last_fix: GpsFix | None = None
         t_target = int(self._t[target])
         self._feed_ranges(t_target - 1)
         for name, st in self._states.items():
-            cam = f.cameras[name]
-            last_click = None
-            while st.rois and st.rois[0][0] < t_target:
-                last_click = st.rois.pop(0)
-            while st.refs and st.refs[0][0] < t_target:
-                _, first, last = st.refs.pop(0)
-                st.corrector.set_reference(*frames_between(cam, first, last))
+            meas = st.record.measurements
+            last_click = st.apply_events(t_target, before=True)
             if last_click is not None:
                 x, y = last_click[1], last_click[2]
-                meas = cam.measurements
                 before = meas[(meas["t_host_ns"] >= last_click[0]) & (meas["t_host_ns"] < t_target)]
                 if before.size:  # where the recorded track was when the seek cut it
                     x, y = int(before["peak_x"][-1]), int(before["peak_y"][-1])
-                st.measurer.set_roi(x, y)
-            pipe = self.pipelines[name]
-            with pipe._lock:
-                pipe._series.clear()
-                pipe._latest = None
+                st.analysis.set_roi(x, y)
+            self.pipelines[name].clear()
 
     def _feed_ranges(self, t_ns: int) -> None:
+        """The recorded ranges and GPS fixes up to ``t_ns``, as they arrived live."""
         readings = self._readings
         while self._reading_pos < len(readings) and readings[self._reading_pos][0] <= t_ns:
             t, rng, source = readings[self._reading_pos]
             self._reading_pos += 1
             self._detector.add_range(t, rng, source)
             (self._lrf_history if source == "lrf" else self._gps_history).append(t, rng)
+        fixes = self._fixes
+        fix = None
+        while fixes is not None and self._fix_pos < len(fixes):
+            if int(fixes["t_host_ns"][self._fix_pos]) > t_ns:
+                break
+            fix = fix_from_record(fixes[self._fix_pos])
+            self._fix_pos += 1
+        if fix is not None:  # only the newest cues: the tracker uses the latest position
+            self._last_fix = fix
+            where = self._projector.pixels(fix)
+            for name, st in self._states.items():
+                st.cue(where.get(name))
 
     def _range_at(self, t_ns: int) -> tuple[float | None, str]:
         r = self._lrf_history.value_at(t_ns)
@@ -356,51 +320,23 @@ class ReplayPlayer:
         """Read and measure timeline entry ``k`` (worker thread)."""
         t, name, i = int(self._t[k]), self._names[self._cam[k]], int(self._idx[k])
         self._feed_ranges(t)
-        st, pipe = self._states[name], self.pipelines[name]
-        cam = pipe.record
-        while st.refs and st.refs[0][0] <= t:
-            _, first, last = st.refs.pop(0)
-            st.corrector.set_reference(*frames_between(cam, first, last))
-        while st.rois and st.rois[0][0] <= t:
-            _, x, y = st.rois.pop(0)
-            st.measurer.set_roi(x, y)
-        pixels = np.asarray(cam.frames[i])
-        frame = RingFrame(pixels, i, int(cam.counter[i]), t, None, name)
+        st = self._states[name]
+        click = st.apply_events(t)
+        if click is not None:
+            st.analysis.set_roi(click[1], click[2])
+        cam = st.record
+        frame = RingFrame(np.asarray(cam.frames[i]), i, int(cam.counter[i]), t, None, name)
         st.read += 1
-        with pipe._lock:
-            pipe._latest = frame
+        self.pipelines[name].show(frame)
         self._measure(name, frame)
 
     def _measure(self, name: str, frame: RingFrame) -> None:
         st, pipe = self._states[name], self.pipelines[name]
-        fr = None
-        if st.measurer.roi is not None:
-            fr = st.measurer.measure(st.corrector.apply(frame.pixels, st.measurer.roi))
-        st.measured += 1
         range_m, source = self._range_at(frame.t_host_ns)
-        if fr is not None:
-            self._table.add(name, frame.t_host_ns, fr.result)
-        frames = FrameAccounting(received=st.read, measured=st.measured)
-        with pipe._lock:
-            if fr is not None:
-                rng = np.nan if range_m is None else range_m
-                pipe._series.append((frame.t_host_ns, fr.result.snr, fr.snr_mean, fr.snr_std, rng))
-            pipe._status = CameraStatus(
-                name=name,
-                device=DeviceStatus(name, DeviceState.STREAMING, readings=st.read),
-                frames=frames,
-                fps=pipe.fps,
-                roi_xy=fr.window_xy if fr else None,
-                track_state=fr.state if fr else "idle",
-                last=fr.result if fr else None,
-                snr_mean=fr.snr_mean if fr else float("nan"),
-                snr_std=fr.snr_std if fr else float("nan"),
-                snr_n=fr.snr_n if fr else 0,
-                reference_frames=st.corrector.reference_frames,
-                fixed_pattern_dn=st.corrector.fixed_pattern_dn,
-                range_m=range_m,
-                range_source=source,
-            )
+        status, row, result = st.measure(frame, range_m, source, pipe.fps)
+        if result is not None:
+            self._table.add(name, frame.t_host_ns, result)
+        pipe.publish(status, row)
 
     def _next_job(self) -> tuple[str, object] | None:
         """Wait for something to do; returns the job (under the condition's lock)."""
@@ -455,7 +391,7 @@ class ReplayPlayer:
                     k = arg
                 else:
                     name, x, y = arg
-                    self._states[name].measurer.set_roi(x, y)
+                    self._states[name].analysis.set_roi(x, y)
                     frame = self.pipelines[name].latest_frame()
                     if frame is not None:
                         self._measure(name, frame)

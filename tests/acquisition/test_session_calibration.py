@@ -3,6 +3,7 @@ the sky's apparent temperature is followed live, recorded, and the replay is exa
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 from acquisition.calibration import BlackbodyCapture, calibrate_sensor
 from acquisition.calibration_file import save_calibration
 from acquisition.replay import replay_session
+from acquisition.replay_player import ReplayPlayer
 from acquisition.session import Session
 from acquisition.session_config import session_config_from_dict
 from acquisition.session_file import open_session
@@ -82,6 +84,14 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
         assert event["camera"] == "mwir" and event["payload"]["path"] == str(calibration_file)
     replay = replay_session(path).cameras["mwir"]
     assert replay.compared >= 50 and replay.identical == replay.compared
+    # The console's replay follows the sky from the recorded frames through the recorded
+    # calibration, and measures the raw frames beside the corrected ones, as live.
+    with ReplayPlayer(path) as player:
+        player.step(player.position().length)
+        assert player.wait_idle(30.0)
+        cs = player.status().cameras["mwir"]
+    assert cs.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
+    assert math.isfinite(cs.snr_mean_raw) and cs.snr_n >= 50
 
 
 def test_a_calibration_of_another_camera_is_refused(tmp_path, calibration_file):

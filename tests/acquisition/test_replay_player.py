@@ -1,0 +1,131 @@
+"""The console's replay shows what the live console showed: the same per-frame analysis.
+
+A recording written with the real recorder holds a sky with fixed-pattern noise, a background
+reference captured over its first 32 frames, the operator's click, a drone from frame 40 on and
+GPS fixes from a pointed camera. Played through :class:`ReplayPlayer`, its status must equal
+what :class:`CameraAnalysis` (the live pipeline's class) gives on the same frames and commands:
+the corrected and raw running SNR, the fixed-pattern figure, the section 6 noise; the GPS fix
+and its projection into the camera must be the recorded fix's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pymap3d
+import pytest
+
+from acquisition.camera_analysis import CameraAnalysis, FrameAnalysis
+from acquisition.geo import CameraIntrinsics, Pointing, Site, project_to_pixel
+from acquisition.peak_snr import PeakSnrConfig
+from acquisition.recorder import SessionRecorder
+from acquisition.replay_player import ReplayPlayer
+from drivers.camera.frame import Frame
+from drivers.gps.fix import GpsFix
+from model.presets import load_sensor
+
+SHAPE = (48, 64)
+N, REF_FRAMES, DRONE_FROM = 100, 32, 40
+SPOT = (30, 22)
+T0_NS, DT_NS = 10**12, 16_666_667
+SITE = {"lat_deg": 32.38, "lon_deg": -106.48, "alt_m": 1200.0}
+POINTING = (2.0, 1.0, 0.0)  # az, el, roll (deg): the drone due north, a little off the axis
+FPN_DN, NOISE_DN = 12.0, 5.0
+
+
+def _frames(seed: int = 3) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    fpn = rng.normal(0.0, FPN_DN, SHAPE)
+    yy, xx = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1]]
+    spot = 90.0 * np.exp(-((xx - SPOT[0]) ** 2 + (yy - SPOT[1]) ** 2) / (2 * 0.8**2))
+    stack = 1000.0 + fpn + rng.normal(0.0, NOISE_DN, (N, *SHAPE))
+    stack[DRONE_FROM:] += spot
+    return np.rint(stack).astype(np.uint16)
+
+
+def _fix(k: int) -> GpsFix:
+    lat, lon, alt = pymap3d.enu2geodetic(0.0, 150.0 + 0.5 * k, 3.0, *SITE.values())
+    return GpsFix(T0_NS + k * 100_000_000 + 5, None, float(lat), float(lon), float(alt), None,
+                  1, 11, 0.7, f"$GPGGA,{k}")  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    path = tmp_path_factory.mktemp("replay_player") / "session.h5"
+    frames = _frames()
+    config = {
+        "session": {
+            "site": SITE,
+            "cameras": {"mwir": {"source": "shm", "sensor": "mwir",
+                                 "pointing_deg": list(POINTING)}},
+        },
+        "track": True,
+    }  # fmt: skip
+    rec = SessionRecorder(path, config=config, cameras={"mwir": SHAPE}, fsync=False)
+    t = [T0_NS + i * DT_NS for i in range(N)]
+    # What the live pipeline records: the reference when its last frame arrives, the click at
+    # the frame it took effect on.
+    rec.add_event("background_reference", camera="mwir", t_host_ns=t[REF_FRAMES - 1],
+                  payload={"n_frames": REF_FRAMES, "first_counter": 0,
+                           "last_counter": REF_FRAMES - 1})  # fmt: skip
+    rec.add_event("roi_set", camera="mwir", t_host_ns=t[DRONE_FROM],
+                  payload={"x": SPOT[0] + 1, "y": SPOT[1], "counter": DRONE_FROM})  # fmt: skip
+    for i in range(N):
+        rec.add_frame("mwir", Frame(frames[i], "mwir", i, t[i]))
+    for k in range(17):
+        rec.add_gps(_fix(k))
+    rec.stop()
+    return path, frames, t
+
+
+def _live(frames: np.ndarray, t: list[int]) -> tuple[CameraAnalysis, FrameAnalysis]:
+    """The live pipeline's analysis of the same frames with the same commands."""
+    a = CameraAnalysis("mwir", SHAPE, PeakSnrConfig())
+    a.start_reference(REF_FRAMES)
+    for i in range(N):
+        if i == DRONE_FROM:
+            a.set_roi(SPOT[0] + 1, SPOT[1])
+        out = a.analyze(frames[i], i, t[i])
+    return a, out
+
+
+def test_replay_status_is_the_live_analysis(recording):
+    path, frames, t = recording
+    live, last = _live(frames, t)
+    with ReplayPlayer(path) as player:
+        player.step(player.position().length)
+        assert player.wait_idle(30.0)
+        st = player.status()
+    cs = st.cameras["mwir"]
+    assert cs.snr_n == last.result.snr_n == N - DRONE_FROM
+    assert cs.last == last.result.result
+    assert (cs.snr_mean, cs.snr_std) == (last.result.snr_mean, last.result.snr_std)
+    assert (cs.snr_mean_raw, cs.snr_std_raw) == (last.snr_mean_raw, last.snr_std_raw)
+    # The reference removes the fixed pattern: the raw track reads lower, as live.
+    assert cs.snr_mean_raw < 0.7 * cs.snr_mean
+    fig = live.figures()
+    assert cs.reference_frames == REF_FRAMES
+    assert cs.fixed_pattern_dn == fig.fixed_pattern_dn == pytest.approx(FPN_DN, rel=0.1)
+    assert (cs.noise_total_dn, cs.noise_temporal_dn, cs.noise_spatial_dn) == (
+        fig.noise_total_dn, fig.noise_temporal_dn, fig.noise_spatial_dn
+    )  # fmt: skip
+    assert cs.noise_temporal_dn == pytest.approx(NOISE_DN, rel=0.15)
+    assert cs.noise_spatial_dn == pytest.approx(FPN_DN, rel=0.2)
+
+
+def test_replay_shows_the_recorded_gps_fix_and_its_projection(recording):
+    path = recording[0]
+    with ReplayPlayer(path) as player:
+        player.seek(60)  # frame 60 at 1.0 s: the fix of k = 10 is the newest
+        assert player.wait_idle(30.0)
+        st = player.status()
+    fix = st.gps_fix
+    assert fix == _fix(10)
+    want = project_to_pixel(
+        Site(**SITE), Pointing(*POINTING), CameraIntrinsics.from_sensor(load_sensor("mwir")),
+        fix.lat_deg, fix.lon_deg, fix.alt_msl_m,
+    )  # fmt: skip
+    assert want.in_view
+    assert st.cameras["mwir"].gps_xy == (want.x, want.y)
+    assert st.gps_range_m == pytest.approx(math.hypot(155.0, 3.0), abs=0.05)
