@@ -58,66 +58,89 @@ class CameraRig:
     raw_log: list = field(default_factory=list)  # (t_host_ns, raw running mean, std)
 
 
+def flight_config_of(opts: HilOptions):
+    """The simulated flight (:class:`sim.flight.FlightConfig`) of the options."""
+    from sim.flight import FlightConfig
+
+    return FlightConfig(
+        stops_m=tuple(opts.stops_m),
+        hover_s=opts.hover_s,
+        speed_mps=opts.transit_mps,
+        start_range_m=opts.start_range_m,
+        seed=opts.seed,
+    )
+
+
+def camera_feeds(opts: HilOptions, flight_config, preroll_s: float) -> dict:
+    """{camera: (sensor preset, :class:`sim.feed.FlightCameraFeed`)}: each camera's renderer
+    of the flight, from the model's sensor and target presets."""
+    from model.presets import load_sensor, load_target
+    from sim.feed import FlightCameraFeed
+    from sim.from_model import scene_config_from_model
+
+    target = load_target(opts.target)
+    out = {}
+    for i, cam in enumerate(opts.cameras):
+        sensor = load_sensor(cam)
+        # Diffraction-limited optics by default (the model's uncorrected PSF); the real, wider
+        # PSF of the corrected curves on request. Its wings reach the 7x7 rim, which makes
+        # Eq. (4) read low at high SNR (docs/measurement.md).
+        psf = sensor.corrected_psf() if opts.real_psf else sensor.diffraction_psf()
+        scene = scene_config_from_model(
+            sensor, target, size=opts.size, sky_temp_k=opts.sky_temp_k, psf=psf
+        )
+        if not opts.fpn:
+            scene = replace(scene, fpn_enabled=False)
+        feed = FlightCameraFeed(
+            scene, flight_config, fps=sensor.fps, seed=opts.seed + i, t0_s=-preroll_s,
+            launch_s=0.0,
+        )  # fmt: skip
+        out[cam] = (sensor, feed)
+    return out
+
+
+def stop_config_at(speed: float) -> StopConfig:
+    """The stop detector's rules on a flight run at ``speed`` x real time: "steady for 3 s"
+    means 3 s of the flight, so 3 / speed s of the host clock the detector runs on."""
+    default = StopConfig()
+    return replace(default, steady_s=default.steady_s / speed)
+
+
 class HilRig:
     """Builds and runs the simulated collection against a Session (context manager)."""
 
     def __init__(self, opts: HilOptions, *, predictor=None) -> None:
-        from model.presets import load_sensor, load_target
         from sim.devices.ldm_sim import LdmSimulator
         from sim.devices.nmea_sim import NmeaSimulator
         from sim.devices.shm_camera import ShmProducer
-        from sim.feed import FlightCameraFeed
-        from sim.flight import FlightConfig, FlightPlan
-        from sim.from_model import scene_config_from_model
+        from sim.flight import FlightPlan
 
         if opts.speed <= 0:
             raise ValueError(f"speed must be positive, got {opts.speed}")
         self.opts = opts
-        target = load_target(opts.target)
         if predictor is None:
             from acquisition.prediction import ModelPredictor
 
             predictor = ModelPredictor({c: c for c in opts.cameras}, opts.target)
         self.predictor = predictor
-        self.flight_config = FlightConfig(
-            stops_m=tuple(opts.stops_m),
-            hover_s=opts.hover_s,
-            speed_mps=opts.transit_mps,
-            start_range_m=opts.start_range_m,
-            seed=opts.seed,
-        )
+        self.flight_config = flight_config_of(opts)
         self.plan = FlightPlan(self.flight_config)
         # With fixed-pattern noise the console needs a sky reference before launch.
         self.preroll_s = opts.preroll_s if opts.fpn else 0.0
         self.t0 = time.monotonic()
         tag = f"{os.getpid()}-{opts.seed}"
         self.cameras: dict[str, CameraRig] = {}
-        for i, cam in enumerate(opts.cameras):
-            sensor = load_sensor(cam)
-            # Diffraction-limited optics by default (the model's uncorrected PSF); the real,
-            # wider PSF of the corrected curves on request. Its wings reach the 7x7 rim, which
-            # makes Eq. (4) read low at high SNR (docs/measurement.md).
-            psf = sensor.corrected_psf() if opts.real_psf else sensor.diffraction_psf()
-            scene = scene_config_from_model(
-                sensor, target, size=opts.size, sky_temp_k=opts.sky_temp_k, psf=psf
-            )
-            if not opts.fpn:
-                scene = replace(scene, fpn_enabled=False)
-            feed = FlightCameraFeed(
-                scene,
-                self.flight_config,
-                fps=sensor.fps,
-                seed=opts.seed + i,
-                t0_s=-self.preroll_s,
-                launch_s=0.0,
-            )
+        feeds = camera_feeds(opts, self.flight_config, self.preroll_s)
+        for cam, (sensor, feed) in feeds.items():
             producer = ShmProducer(
                 f"snrmon-{cam}-{tag}",
                 sensor.width_px,
                 sensor.height_px,
                 feed,
                 fps=sensor.fps * opts.speed,
-                slots=16,
+                # A quarter of a second of frames at any speed: the console may stall that
+                # long (GIL, disk) without the camera overrunning its ring.
+                slots=max(16, math.ceil(16 * opts.speed)),
             )
             self.cameras[cam] = CameraRig(cam, sensor, feed, producer, float(sensor.fps))
         self.gps_sim = NmeaSimulator(self._gps_position, rate_hz=10.0, baud=38400)
@@ -149,7 +172,7 @@ class HilRig:
             config,
             track=opts.track,
             predictor=predictor,
-            stop_config=StopConfig(),
+            stop_config=stop_config_at(opts.speed),
         )
         self.session.add_measurement_listener(self._on_measurement)
         self._clicked: set[tuple[str, int]] = set()

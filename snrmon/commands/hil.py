@@ -12,6 +12,7 @@ import argparse
 import json
 import math
 import sys
+from dataclasses import replace
 
 from snrmon.cli import UsageError
 
@@ -30,7 +31,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("hil", help="run the simulated field test through the real console")
     p.add_argument("--headless", action="store_true", help="no window (always true for now)")
     p.add_argument("--seed", type=int, default=0, help="seed of every simulated device")
-    p.add_argument("--speed", default="1", help="flight time per wall-clock second (e.g. 2)")
+    p.add_argument(
+        "--speed",
+        default="1",
+        help="flight time per wall-clock second (e.g. 2), or max: the fastest this machine "
+        "sustains without dropping frames (measured before the flight, printed on stderr)",
+    )
     p.add_argument(
         "--stops",
         default="37,126,199,336,393,451,508",
@@ -60,9 +66,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from snrmon.hil import HilOptions, HilRig, format_result
 
-    if args.speed == "max":
-        raise UsageError("--speed max is not implemented yet; give a number such as 4")
-    speed = _floats(args.speed, "--speed")[0]
+    speed = 1.0 if args.speed == "max" else _floats(args.speed, "--speed")[0]
     cameras = tuple(c.strip() for c in args.camera.split(",") if c.strip())
     unknown = [c for c in cameras if c not in ("mwir", "lwir")]
     if unknown or not cameras:
@@ -80,6 +84,13 @@ def run(args: argparse.Namespace) -> int:
         track=not args.no_track,
         out=args.out,
     )
+    if args.speed == "max":
+        from snrmon.hil_speed import max_speed
+
+        choice = max_speed(opts)
+        print(choice.describe(), file=sys.stderr)
+        speed = choice.speed
+        opts = replace(opts, speed=speed)
     rig = HilRig(opts)
     with rig:
         if not args.json:
