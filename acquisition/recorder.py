@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import errno
 import json
-import math
 import os
 import queue
 import shutil
@@ -37,6 +36,7 @@ from acquisition import session_schema as S  # noqa: N812
 from acquisition.peak_snr import PeakSnr, flags_to_bits
 from acquisition.ring import Reader
 from acquisition.session_writer import SessionWriter, frame_filter
+from acquisition.stream_rows import gps_row, range_row
 from acquisition.timebase import ClockMap
 from drivers.gps.fix import GpsFix
 from drivers.rangefinder.reading import RangeReading
@@ -78,10 +78,6 @@ class RecorderSummary:
     duration_s: float
     error: str | None = None
     extra: dict = field(default_factory=dict)
-
-
-def _nan(v: float | None) -> float:
-    return math.nan if v is None else float(v)
 
 
 def _describe(exc: BaseException, path: Path, frames: int) -> str:
@@ -240,40 +236,11 @@ class SessionRecorder:
 
     def add_range(self, reading: RangeReading) -> None:
         """Queue one raw rangefinder reading."""
-        row = (
-            reading.t_host_ns,
-            0,
-            _nan(reading.range_m),
-            S.text_field(str(reading.status), S.NAME_BYTES),
-            _nan(reading.horizontal_m),
-            _nan(reading.azimuth_deg),
-            _nan(reading.inclination_deg),
-            -1 if reading.quality is None else int(reading.quality),
-            S.text_field(reading.raw, S.RAW_BYTES),
-        )
-        self._put(("stream", S.RANGEFINDER, row))
+        self._put(("stream", S.RANGEFINDER, range_row(reading)))
 
     def add_gps(self, fix: GpsFix) -> None:
         """Queue one raw GPS fix."""
-        fix_utc = -1
-        if fix.utc is not None:
-            u = fix.utc if fix.utc.tzinfo else fix.utc.replace(tzinfo=UTC)
-            d = u - datetime(1970, 1, 1, tzinfo=UTC)
-            fix_utc = (d.days * 86400 + d.seconds) * 10**9 + d.microseconds * 1000
-        row = (
-            fix.t_host_ns,
-            0,
-            fix_utc,
-            _nan(fix.lat_deg),
-            _nan(fix.lon_deg),
-            _nan(fix.alt_msl_m),
-            _nan(fix.alt_ellipsoid_m),
-            int(fix.fix_quality),
-            -1 if fix.sats is None else int(fix.sats),
-            _nan(fix.hdop),
-            S.text_field(fix.raw, S.GPS_RAW_BYTES),
-        )
-        self._put(("stream", S.GPS, row))
+        self._put(("stream", S.GPS, gps_row(fix)))
 
     def add_event(
         self,

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.gps_cue import GpsProjector, fix_from_record
+from acquisition.gps_cue import GpsProjector
 from acquisition.history import ScalarHistory
 from acquisition.replay import (
     range_readings,
@@ -45,6 +45,7 @@ from acquisition.session_config import SessionConfig, session_config_from_dict
 from acquisition.session_file import open_session
 from acquisition.status import RecordingStatus
 from acquisition.stop_table import Predictor, StopRow, StopTable
+from acquisition.stream_rows import fix_from_row
 from drivers.gps.fix import GpsFix
 
 NOT_IN_REPLAY = "not available in replay"
@@ -301,7 +302,7 @@ class ReplayPlayer:
         while fixes is not None and self._fix_pos < len(fixes):
             if int(fixes["t_host_ns"][self._fix_pos]) > t_ns:
                 break
-            fix = fix_from_record(fixes[self._fix_pos])
+            fix = fix_from_row(fixes[self._fix_pos])
             self._fix_pos += 1
         if fix is not None:  # only the newest cues: the tracker uses the latest position
             self._last_fix = fix
