@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from PySide6.QtCore import QByteArray, QSettings, Qt, QTimer, Signal
+from PySide6.QtCore import QSettings, Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QApplication,
     QDockWidget,
@@ -33,13 +33,14 @@ from gui import model_curves as mc
 from gui.actions import install_actions, shortcuts_text
 from gui.alarms import AlarmBanner
 from gui.camera_panel import CameraPanel, model_at_range
-from gui.model_dialog import ModelOptionsDialog, save_model_options, saved_model_options
+from gui.model_dialog import ModelOptionsDialog
 from gui.noise_panel import NoisePanel
 from gui.range_plot import CurveSource, RangePlot
 from gui.replay_bar import ReplayBar
 from gui.status_panel import StatusPanel
 from gui.stop_table_view import StopTableView
 from gui.theme import configure_pyqtgraph
+from gui.window_settings import restore_window, save_model_options, save_window
 
 FRAME_INTERVAL_MS = 33
 STATUS_INTERVAL_MS = 200
@@ -128,7 +129,7 @@ class ConsoleWindow(QMainWindow):
         self.statusBar().showMessage("ready: click a drone to set its ROI")
 
         self.reload_curves()
-        self._restore_settings()
+        restore_window(self)
         self._timers = []
         for interval, slot in (
             (FRAME_INTERVAL_MS, self.refresh_frames),
@@ -149,36 +150,8 @@ class ConsoleWindow(QMainWindow):
         return dock
 
     # ------------------------------------------------------------------ settings
-    def _restore_settings(self) -> None:
-        geometry = self.settings.value("window/geometry")
-        if isinstance(geometry, QByteArray) and not geometry.isEmpty():
-            self.restoreGeometry(geometry)
-        else:
-            self.resize(1600, 1000)
-        state = self.settings.value("window/state")
-        if isinstance(state, QByteArray) and not state.isEmpty():
-            self.restoreState(state)
-        tab = self.settings.value("view/range_tab", 0, type=int)
-        self.range_tabs.setCurrentIndex(min(int(tab), self.range_tabs.count() - 1))
-        self._restore_model_options()
-
-    def _restore_model_options(self) -> None:
-        """The model options applied last time (target, curves, background)."""
-        if self.model is None:
-            return
-        try:
-            options = saved_model_options(self.settings)
-        except ValueError as exc:
-            self.report(f"saved model options ignored: {exc}")
-            return
-        if options is not None and options != self.model.options:
-            self.apply_model_options(options)
-
     def save_settings(self) -> None:
-        self.settings.setValue("window/geometry", self.saveGeometry())
-        self.settings.setValue("window/state", self.saveState())
-        self.settings.setValue("view/range_tab", self.range_tabs.currentIndex())
-        self.settings.sync()
+        save_window(self)
 
     # ------------------------------------------------------------------ refresh (GUI thread)
     def refresh_frames(self) -> None:

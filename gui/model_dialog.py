@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from PySide6.QtCore import QSettings
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
@@ -26,28 +25,6 @@ from acquisition.prediction import CURVES
 from gui.model_curves import CURVE_LABELS, ModelOptions, parse_background_temp
 
 TARGET_CHOICES = ("uav1", "uav2")  # the model's target presets; a target TOML path also works
-
-
-def save_model_options(settings: QSettings, options: ModelOptions) -> None:
-    """Remember the applied choices for the next start (plain strings: INI-safe)."""
-    settings.setValue("model/target", options.target)
-    settings.setValue("model/shown", ",".join(options.shown))
-    bg = options.background_temp_k
-    settings.setValue("model/background_temp_k", "" if bg is None else repr(bg))
-
-
-def saved_model_options(settings: QSettings) -> ModelOptions | None:
-    """The choices remembered by :func:`save_model_options`; None when there are none.
-    A damaged entry is a ValueError naming it (the window reports it and keeps the default)."""
-    target = settings.value("model/target", None)
-    if target is None:
-        return None
-    shown = str(settings.value("model/shown", ""))
-    return ModelOptions(
-        target=str(target),
-        shown=tuple(n for n in shown.split(",") if n),
-        background_temp_k=parse_background_temp(str(settings.value("model/background_temp_k", ""))),
-    )
 
 
 class ModelOptionsDialog(QDialog):
