@@ -1,6 +1,10 @@
 """The console under full load, offscreen: frames shown per second per camera, event-loop latency
 (p50/p99 lateness of a 10 ms timer, the delay any UI action would wait), and frames dropped.
 
+``<camera>_shown_fps`` counts the distinct frames handed to the view; ``<camera>_painted_fps``
+the distinct frames its image item actually painted (two frames handed over between two paints
+count as one painted).
+
 Both simulated cameras at their full rates (MWIR 1280x720 at 60 fps, LWIR 640x480 at 30 fps)
 through the real shared-memory ring and ShmCamera, measurement on (ROI on the spot) and
 recording on (HDF5 into a temporary directory), with the console's own timers drawing.
@@ -86,6 +90,7 @@ def run(duration_s: float) -> dict:
             QTimer.singleShot(1000, loop.quit)  # warm-up: rings attached, first frames drawn
             loop.exec()
             shown0 = {c: p.view.frames_shown for c, p in window.panels.items()}
+            painted0 = {c: p.view.image.frames_painted for c, p in window.panels.items()}
             before = session.status().cameras
             late_ms: list[float] = []
             last = [time.perf_counter()]
@@ -117,6 +122,9 @@ def run(duration_s: float) -> dict:
         fa, fb = after[c].frames, before[c].frames
         figures[f"{c}_shown_fps"] = round(
             (window.panels[c].view.frames_shown - shown0[c]) / elapsed, 1
+        )
+        figures[f"{c}_painted_fps"] = round(
+            (window.panels[c].view.image.frames_painted - painted0[c]) / elapsed, 1
         )
         figures[f"{c}_camera_fps"] = round((fa.received - fb.received) / elapsed, 1)
         figures[f"{c}_dropped"] = (

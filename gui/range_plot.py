@@ -4,6 +4,10 @@ the measured stops with +/- one std error bars, and the live 100-frame point at 
 The curves come from an injected callable (:data:`CurveSource`), never computed here:
 ``curves(camera) -> {name: (ranges_m, snr)}``; an entry ``(ranges_m, snr_low, snr_high)`` is drawn
 as a shaded band (the model's uncertainty) instead of a line.
+
+The status timer calls :meth:`RangePlot.show_live` 5 times a second; an unchanged live point or
+stop list is not set again (each ``setData`` repaints the whole plot, ~7 ms with its axes), and
+the axes are cached as pixmaps (:func:`gui.strip_chart.cache_axes`).
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import pyqtgraph as pg
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
 from acquisition.stop_table import StopRow
+from gui.strip_chart import cache_axes
 from gui.theme import CAMERA_COLORS, MODEL_COLORS
 
 Curves = Mapping[str, Sequence[np.ndarray]]
@@ -47,6 +52,9 @@ class RangePlot(QWidget):
         self.live = self.plot.plot(
             pen=None, symbol="star", symbolSize=14, symbolBrush="#ffffff", name="live (100 frames)"
         )
+        cache_axes(self.plot)
+        self._stops_shown: list[tuple[float, float, float]] = []
+        self._live_shown: tuple[float, float, float] | None = None
         self.setToolTip(
             f"{camera}: peak SNR (dimensionless) versus range (m). Lines: the model's curves; "
             "shaded: the model's uncertainty; squares: measured stops, mean +/- 1 std over 100 "
@@ -92,6 +100,9 @@ class RangePlot(QWidget):
             for r in rows
             if r.camera == self.camera and r.range_m is not None and math.isfinite(r.snr_mean)
         ]
+        if pts == self._stops_shown:
+            return
+        self._stops_shown = pts
         if not pts:
             self.stops.setData([], [])
             self.errors.setData(x=np.array([]), y=np.array([]))
@@ -104,10 +115,17 @@ class RangePlot(QWidget):
     def show_live(self, range_m: float | None, snr_mean: float, snr_std: float) -> None:
         """The live running mean +/- std at the current range (hidden when either is unknown)."""
         if range_m is None or not math.isfinite(snr_mean) or not math.isfinite(range_m):
+            live = None
+        else:
+            live = (range_m, snr_mean, snr_std if math.isfinite(snr_std) else 0.0)
+        if live == self._live_shown:  # (None at first: nothing is drawn yet either)
+            return
+        self._live_shown = live
+        if live is None:
             self.live.setData([], [])
             self.live_errors.setData(x=np.array([]), y=np.array([]))
             return
-        std = snr_std if math.isfinite(snr_std) else 0.0
+        std = live[2]
         self.live.setData([range_m], [snr_mean])
         self.live_errors.setData(
             x=np.array([range_m]), y=np.array([snr_mean]), height=np.array([2 * std]), beam=0.0

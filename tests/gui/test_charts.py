@@ -1,0 +1,77 @@
+"""The strip chart's and the range plot's cheap drawing items show the session's numbers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gui.range_plot import RangePlot
+from gui.strip_chart import WINDOW_S, StripChart
+
+
+def _series(n: int, now_ns: int) -> np.ndarray:
+    rng = np.random.default_rng(11)
+    t = now_ns - (np.arange(n)[::-1] * 1e9 / 60.0)
+    snr = 12.0 + rng.normal(0.0, 1.0, n)
+    snr[5] = np.nan  # an invalid frame is not drawn
+    mean = np.full(n, 12.0)
+    mean[:100] = np.nan  # no running mean before 100 frames
+    std = np.full(n, 0.5)
+    return np.column_stack([t, snr, mean, std, np.full(n, np.nan)])
+
+
+def test_strip_chart_draws_the_points_the_mean_and_its_band(qtbot):
+    chart = StripChart("mwir")
+    qtbot.addWidget(chart)
+    now = 10**12
+    series = _series(2400, now)  # 40 s at 60 fps: the first 10 s fall outside the window
+    chart.show_series(series, now)
+    t_s = (series[:, 0] - now) / 1e9
+    keep = (t_s >= -WINDOW_S) & np.isfinite(series[:, 1])
+    x, y = chart.snr_curve.points()
+    np.testing.assert_allclose(x, t_s[keep])
+    np.testing.assert_allclose(y, series[keep, 1])
+    assert chart.points_drawn == keep.sum()
+    bx, by = chart.band.getData()
+    assert by.min() == pytest.approx(11.5) and by.max() == pytest.approx(12.5)
+    assert bx.min() >= -WINDOW_S and len(bx) == 2 * len(chart.mean_curve.getData()[0])
+    # the view's auto-range takes in every point
+    (_, _), (y0, y1) = chart.plot.getPlotItem().getViewBox().childrenBounds()
+    assert y0 <= y.min() and y1 >= y.max()
+    chart.show_series(np.empty((0, 5)), now)
+    assert chart.points_drawn == 0 and len(chart.snr_curve.points()[0]) == 0
+
+
+def test_strip_chart_model_line_follows_and_hides(qtbot):
+    chart = StripChart("lwir")
+    qtbot.addWidget(chart)
+    chart.show_model("small", 9.5)
+    assert chart.model_line.isVisible() and chart.model_line.value() == pytest.approx(9.5)
+    chart.show_model("small", 9.5)  # unchanged: still shown
+    assert chart.model_line.isVisible()
+    chart.show_model("small", float("nan"))
+    assert not chart.model_line.isVisible()
+    chart.show_model("small", 7.0)
+    assert chart.model_line.isVisible() and chart.model_line.value() == pytest.approx(7.0)
+
+
+def _n_live(plot: RangePlot) -> int:
+    x, _ = plot.live.getData()
+    return 0 if x is None else len(x)
+
+
+def test_range_plot_live_point_follows_changes_and_hides(qtbot):
+    plot = RangePlot("mwir")
+    qtbot.addWidget(plot)
+    plot.show_live(None, float("nan"), float("nan"))
+    assert _n_live(plot) == 0
+    plot.show_live(200.0, 12.0, 1.0)
+    plot.show_live(200.0, 12.0, 1.0)  # the same again changes nothing
+    x, y = plot.live.getData()
+    assert list(x) == [200.0] and list(y) == [12.0]
+    plot.show_live(250.0, 11.0, float("nan"))  # an unknown std draws no error bar
+    x, y = plot.live.getData()
+    assert list(x) == [250.0] and list(y) == [11.0]
+    assert plot.live_errors.opts["height"][0] == 0.0
+    plot.show_live(None, 11.0, 1.0)
+    assert _n_live(plot) == 0

@@ -1,0 +1,121 @@
+"""Display levels and the camera view's cheap drawing path: robust levels on a strided sample,
+the levels dead band, the block mean that replaces pyqtgraph's downsampling, and what is painted.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyqtgraph as pg
+import pytest
+from PySide6.QtGui import QImage
+
+from acquisition.peak_snr import PeakSnrConfig
+from acquisition.ring import RingFrame
+from gui.camera_view import CameraView, DisplayImageItem, block_mean
+from gui.levels import levels_moved, robust_levels
+
+
+def _sky(h: int, w: int, seed: int = 1) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.clip(np.rint(rng.normal(1000.0, 8.0, (h, w))), 0, 65535).astype(np.uint16)
+
+
+def _frame(pixels: np.ndarray, seq: int) -> RingFrame:
+    return RingFrame(pixels=pixels, seq=seq, counter=seq, t_host_ns=0, t_device_ns=None)
+
+
+# ---------------------------------------------------------------------- levels
+def test_robust_levels_ignore_a_hot_spot_and_match_the_full_frame_percentiles():
+    sky = _sky(720, 1280)
+    sky[300:304, 600:604] = 60000  # a glint: 16 of 921 600 pixels
+    lo, hi = robust_levels(sky)
+    full_lo, full_hi = np.percentile(sky, [0.5, 99.9])
+    assert hi < 1100  # the glint did not stretch the window
+    assert abs(lo - full_lo) <= 2.0 and abs(hi - full_hi) <= 3.0  # strided sample ~ whole frame
+
+
+def test_robust_levels_flat_frame_and_bad_input():
+    assert robust_levels(np.full((8, 8), 500, np.uint16)) == (500.0, 501.0)
+    with pytest.raises(ValueError, match="percentiles"):
+        robust_levels(_sky(8, 8), percentiles=(99.0, 1.0))
+    with pytest.raises(ValueError, match="empty"):
+        robust_levels(np.zeros((0, 4), np.uint16))
+
+
+def test_levels_moved_only_beyond_the_tolerance_of_the_shown_window():
+    shown = (1000.0, 1100.0)  # a 100 DN window, 3 % = 3 DN
+    assert not levels_moved(shown, (1002.0, 1097.5))
+    assert levels_moved(shown, (1004.0, 1100.0))
+    assert levels_moved(shown, (1000.0, 1096.0))
+    assert levels_moved((5.0, 5.0), (5.0, 5.0))  # a degenerate window is always replaced
+    with pytest.raises(ValueError, match="tolerance"):
+        levels_moved(shown, shown, tolerance=-0.1)
+
+
+# ---------------------------------------------------------------------- block mean
+def test_block_mean_is_the_rounded_mean_of_whole_blocks():
+    rng = np.random.default_rng(4)
+    img = rng.integers(0, 4000, (37, 50), dtype=np.uint16)  # neither axis divisible by 3 or 4
+    out = block_mean(img, 4, 3)
+    assert out.shape == (12, 12) and out.dtype == np.uint16
+    want = img[:36, :48].reshape(12, 3, 12, 4).mean(axis=(1, 3))
+    assert np.max(np.abs(out.astype(float) - want)) <= 0.5
+    assert block_mean(img, 1, 1) is img
+
+
+# ---------------------------------------------------------------------- drawing
+def _gray(qimage: QImage) -> np.ndarray:
+    q = qimage.convertToFormat(QImage.Format.Format_Grayscale8)
+    buf = np.frombuffer(q.constBits(), np.uint8, q.sizeInBytes())
+    return buf.reshape(q.height(), q.bytesPerLine())[:, : q.width()].copy()
+
+
+LO, HI = 980.0, 1030.0
+
+
+@pytest.mark.parametrize("factors", [(1, 1), (2, 2), (3, 2)])
+def test_display_item_draws_what_pyqtgraph_draws(qtbot, monkeypatch, factors):
+    """Same levels, same downsampling factors: the fast path's picture equals pyqtgraph's own,
+    up to the block mean being rounded to a whole DN (0.5 DN = 2.6 grey steps in a 50 DN window)
+    and one step of truncation; without downsampling, pixel for pixel."""
+    sky = _sky(96, 160)
+    sky[40, 70] = 1400  # a point target must survive the downsampling like pyqtgraph's
+    images = []
+    for cls in (pg.ImageItem, DisplayImageItem):
+        item = cls(axisOrder="row-major", autoDownsample=True)
+        monkeypatch.setattr(item, "_computeDownsampleFactors", lambda f=factors: f)
+        item.setImage(sky, autoLevels=False, levels=(LO, HI))
+        item.render()
+        images.append(_gray(item.qimage))
+    ref, fast = images
+    assert fast.shape == ref.shape == (96 // factors[1], 160 // factors[0])
+    grey_per_dn = 255.0 / (HI - LO)
+    tolerance = 0 if factors == (1, 1) else int(np.ceil(0.5 * grey_per_dn)) + 1
+    assert np.max(np.abs(fast.astype(int) - ref.astype(int))) <= tolerance
+    # the point target is the brightest shown pixel in both pictures
+    spot = (40 // factors[1], 70 // factors[0])
+    assert fast[spot] == fast.max() and ref[spot] == ref.max()
+
+
+def test_view_counts_painted_frames_and_keeps_levels_within_the_dead_band(qtbot):
+    view = CameraView("mwir", (96, 160), PeakSnrConfig())
+    qtbot.addWidget(view)
+    view.resize(400, 300)
+    view.show()
+    qtbot.waitExposed(view)
+    sky = _sky(96, 160)
+    assert view.show_frame(_frame(sky, 0))
+    assert not view.show_frame(_frame(sky, 0))  # the same frame again is not drawn
+    qtbot.waitUntil(lambda: view.image.frames_painted == 1, timeout=2000)
+    first = view.histogram.getLevels()
+    assert first == pytest.approx(robust_levels(sky))
+    # a sky 1 DN warmer: within the dead band, the shown levels stay
+    for seq in range(1, 4):
+        view.show_frame(_frame(sky + 1, seq))
+    assert view.histogram.getLevels() == pytest.approx(first)
+    # a sky 40 DN warmer: far outside it, the levels follow
+    for seq in range(4, 7):
+        view.show_frame(_frame(sky + 40, seq))
+    assert view.histogram.getLevels()[0] == pytest.approx(first[0] + 40, abs=1.0)
+    qtbot.waitUntil(lambda: view.image.frames_painted >= 2, timeout=2000)
+    assert view.image.frames_painted <= view.frames_shown == 7
