@@ -49,31 +49,35 @@ class DotsItem(pg.GraphicsObject):
         self._size_px = size_px
         self._xy = np.empty((0, 2))
         self._poly = QPolygonF()
+        self._bounds: tuple[np.ndarray, np.ndarray] | None = None
 
     def set_points(self, x: np.ndarray, y: np.ndarray) -> None:
         """Replace the points (finite values only; the caller filters)."""
         self.prepareGeometryChange()
         self._xy = np.column_stack([x, y]).astype(float)
         self._poly = fn.create_qpolygonf(len(self._xy))
+        self._bounds = None
         if len(self._xy):
             fn.ndarray_from_qpolygonf(self._poly)[:] = self._xy
+            # min/max once here: Qt asks for the bounding rect several times a repaint
+            self._bounds = (self._xy.min(axis=0), self._xy.max(axis=0))
         self.update()
 
     def points(self) -> tuple[np.ndarray, np.ndarray]:
         return self._xy[:, 0].copy(), self._xy[:, 1].copy()
 
     def dataBounds(self, ax: int, frac: float = 1.0, orthoRange=None):  # noqa: N802 (pyqtgraph)
-        if not len(self._xy):
+        if self._bounds is None:
             return None, None
-        return float(self._xy[:, ax].min()), float(self._xy[:, ax].max())
+        return float(self._bounds[0][ax]), float(self._bounds[1][ax])
 
     def pixelPadding(self) -> float:  # noqa: N802 (pyqtgraph's name)
         return self._size_px / 2
 
     def boundingRect(self) -> QRectF:  # noqa: N802 (Qt's name)
-        if not len(self._xy):
+        if self._bounds is None:
             return QRectF()
-        (x0, y0), (x1, y1) = self._xy.min(axis=0), self._xy.max(axis=0)
+        (x0, y0), (x1, y1) = self._bounds
         px, py = self.pixelVectors()
         pad_x = 0.0 if px is None else px.length() * self._size_px
         pad_y = 0.0 if py is None else py.length() * self._size_px
