@@ -11,13 +11,23 @@ import signal
 import sys
 from pathlib import Path
 
-from PySide6.QtCore import QEventLoop, QSettings, QTimer
+from PySide6.QtCore import QEventLoop, QSettings, QTimer, qInstallMessageHandler
 from PySide6.QtWidgets import QApplication
 
 from acquisition.session import Session
 from gui.main_window import ConsoleWindow
 from gui.range_plot import CurveSource
 from gui.theme import apply_dark_theme, configure_pyqtgraph
+
+# The offscreen platform warns on every dock and window resize that it cannot pass size hints
+# to a window manager it does not have: dozens of lines a minute that bury the stop table.
+_OFFSCREEN_NOISE = ("This plugin does not support propagateSizeHints()",)
+
+
+def _offscreen_messages(_mode, _context, message: str) -> None:
+    """Qt's messages on stderr, less the offscreen platform's own noise."""
+    if message not in _OFFSCREEN_NOISE:
+        print(message, file=sys.stderr)
 
 
 def console_application(*, headless: bool = False) -> QApplication:
@@ -26,6 +36,8 @@ def console_application(*, headless: bool = False) -> QApplication:
     if app is None:
         if headless:
             os.environ["QT_QPA_PLATFORM"] = "offscreen"
+        if os.environ.get("QT_QPA_PLATFORM") == "offscreen":
+            qInstallMessageHandler(_offscreen_messages)
         app = QApplication(sys.argv[:1])
         app.setOrganizationName("snrmon")
         app.setApplicationName("console")

@@ -18,7 +18,11 @@ COLUMNS = (
     ("SNR mean", "Mean peak SNR over the stop's frames (Eq. 4)"),
     ("SNR std", "Sample std of the peak SNR over the stop's frames"),
     ("model", "The model's SNR at the stop's range, per curve"),
-    ("state", "complete (100 frames) / collecting / ended short"),
+    (
+        "state",
+        "complete (100 frames) / collecting / ended short; 'resolved' where the model calls the "
+        "small dimension resolved: the 7x7 box lies on the drone and Eq. (4) reads low there",
+    ),
 )
 
 
@@ -35,6 +39,8 @@ def row_texts(r: StopRow) -> list[str]:
         state = "ended short"
     else:
         state = "collecting"
+    if r.resolved:
+        state += ", resolved"
     return [
         f"{r.stop}{' M' if r.manual else ''}",
         r.camera,

@@ -49,3 +49,12 @@ def test_gui_missing_config_names_the_file(capsys, tmp_path):
     missing = tmp_path / "nope.toml"
     assert main(["gui", "--config", str(missing)]) == 1
     assert str(missing) in capsys.readouterr().err
+
+
+def test_offscreen_noise_is_dropped_and_other_qt_messages_kept(capsys):
+    from gui.app import _offscreen_messages
+
+    _offscreen_messages(None, None, "This plugin does not support propagateSizeHints()")
+    _offscreen_messages(None, None, "QPainter::begin: Paint device returned engine == 0")
+    err = capsys.readouterr().err
+    assert err == "QPainter::begin: Paint device returned engine == 0\n"

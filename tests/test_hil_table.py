@@ -1,0 +1,59 @@
+"""The HIL/demo stop table says which rows are not the paper's points, and why."""
+
+from __future__ import annotations
+
+import math
+
+from snrmon.hil import TABLE_HEADER, format_result, format_row
+
+
+def _stop(**kw) -> dict:
+    row = {
+        "camera": "mwir",
+        "planned_range_m": 336.0,
+        "lrf_range_m": 336.0,
+        "gps_range_m": 335.9,
+        "n_frames": 100,
+        "complete": True,
+        "measured_snr_mean": 102.74,
+        "measured_snr_std": 18.22,
+        "truth_snr": 107.74,
+        "model_snr": {"small": 124.51, "small_corrected": 33.75},
+        "resolved": False,
+    }
+    row.update(kw)
+    return row
+
+
+def test_unresolved_complete_row_is_a_point():
+    line = format_row(_stop())
+    assert line.split()[-1] == "point"
+    assert "102.74" in line and "124.51" in line
+    assert len(line.split()) == len(TABLE_HEADER.split())
+
+
+def test_resolved_short_row_is_marked_both():
+    line = format_row(
+        _stop(
+            planned_range_m=37.0,
+            n_frames=20,
+            complete=False,
+            resolved=True,
+            measured_snr_mean=2.47,
+            truth_snr=720.8,
+        )
+    )
+    assert line.split()[-1] == "resolved,short"
+    assert " 20 " in line
+
+
+def test_table_explains_the_marks_and_counts_drops():
+    text = format_result(
+        {"stops": [_stop(resolved=True)], "frames": {"mwir": {"received": 600, "dropped": 0}}}
+    )
+    lines = text.splitlines()
+    assert lines[0] == TABLE_HEADER
+    assert lines[1].endswith("resolved")
+    assert "Eq. (4) reads low" in text
+    assert lines[-1] == "mwir: 600 frames received, 0 dropped"
+    assert math.isnan(float(lines[1].split()[7]))  # no raw (uncorrected) SNR without --fpn
