@@ -28,6 +28,15 @@ CurveSource = Callable[[str], Curves | None]
 """``curves(camera) -> {name: (ranges_m, snr)} | {name: (ranges_m, low, high)} | None``."""
 
 
+MIN_SPAN_M = 600.0
+
+
+def x_span_m(ranges_m: Sequence[float]) -> float:
+    """The range axis' extent: 1.25 x the farthest range, up to the next 100 m, >= 600 m."""
+    far = max((r for r in ranges_m if math.isfinite(r)), default=0.0)
+    return max(MIN_SPAN_M, 100.0 * math.ceil(1.25 * far / 100.0))
+
+
 class RangePlot(QWidget):
     """The SNR-versus-range plot of one camera."""
 
@@ -52,6 +61,16 @@ class RangePlot(QWidget):
         self.live = self.plot.plot(
             pen=None, symbol="star", symbolSize=14, symbolBrush="#ffffff", name="live (100 frames)"
         )
+        # The model's curves run to several km; the stops of a day sit within the first few
+        # hundred metres. Show 0 to 1.25 x the farthest measured range (at least 600 m, the
+        # paper's 508 m stop with room), y fitted to what is in view, until the operator zooms.
+        self._x_span_m = MIN_SPAN_M
+        self._operator_zoomed = False
+        view = self.plot.getViewBox()
+        view.setXRange(0.0, self._x_span_m, padding=0.0)
+        view.setAutoVisible(y=True)
+        view.enableAutoRange(axis="y")
+        view.sigRangeChangedManually.connect(self._zoomed)
         cache_axes(self.plot)
         self._stops_shown: list[tuple[float, float, float]] = []
         self._live_shown: tuple[float, float, float] | None = None
@@ -63,6 +82,15 @@ class RangePlot(QWidget):
         lay = QVBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)
         lay.addWidget(self.plot)
+
+    def _zoomed(self, *_args) -> None:
+        self._operator_zoomed = True
+
+    def _follow(self, ranges_m: Sequence[float]) -> None:
+        span = x_span_m(ranges_m)
+        if span > self._x_span_m and not self._operator_zoomed:
+            self._x_span_m = span
+            self.plot.getViewBox().setXRange(0.0, span, padding=0.0)
 
     def set_curves(self, curves: Curves | None) -> None:
         """Replace the model curves (None or empty draws none)."""
@@ -108,6 +136,7 @@ class RangePlot(QWidget):
             self.errors.setData(x=np.array([]), y=np.array([]))
             return
         x, y, s = (np.array(v, dtype=float) for v in zip(*pts, strict=True))
+        self._follow(x.tolist())
         s = np.nan_to_num(s)
         self.stops.setData(x, y)
         self.errors.setData(x=x, y=y, height=2 * s, beam=0.0)
@@ -126,6 +155,7 @@ class RangePlot(QWidget):
             self.live_errors.setData(x=np.array([]), y=np.array([]))
             return
         std = live[2]
+        self._follow([range_m])
         self.live.setData([range_m], [snr_mean])
         self.live_errors.setData(
             x=np.array([range_m]), y=np.array([snr_mean]), height=np.array([2 * std]), beam=0.0

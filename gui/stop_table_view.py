@@ -21,7 +21,8 @@ COLUMNS = (
     (
         "state",
         "complete (100 frames) / collecting / ended short; 'resolved' where the model calls the "
-        "small dimension resolved: the 7x7 box lies on the drone and Eq. (4) reads low there",
+        "small dimension resolved (wider than a pixel): at 37 m the drone covers the 7x7 box "
+        "and Eq. (4) reads far low",
     ),
 )
 

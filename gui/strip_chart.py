@@ -121,7 +121,10 @@ class StripChart(QWidget):
         dash = pg.mkPen(MODEL_COLORS[0], width=2, style=Qt.PenStyle.DashLine)
         self.model_line = pg.InfiniteLine(
             angle=0, movable=False, pen=dash,
-            label="model {value:.1f}", labelOpts={"position": 0.08, "color": MODEL_COLORS[0]},
+            label="model {value:.1f}",
+            # Left-aligned just above the line: centred (pyqtgraph's default for a horizontal
+            # line) near the left edge, the label's first characters fell off the plot.
+            labelOpts={"position": 0.02, "anchors": [(0, 1), (0, 1)], "color": MODEL_COLORS[0]},
         )  # fmt: skip
         self.model_line.setVisible(False)
         self.plot.addItem(self.model_line)

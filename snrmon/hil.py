@@ -346,8 +346,8 @@ def format_row(s: dict) -> str:
 
 
 def _target_note(s: dict) -> str:
-    """``resolved`` where the model calls the small dimension resolved (Eq. 4's 7x7 box lies
-    on or beside the drone there, so the row is not one of the paper's points); ``short`` when
+    """``resolved`` where the model calls the small dimension resolved (wider than a pixel; at
+    37 m the drone covers the 7x7 box and Eq. (4) reads far low), else ``point``; ``short`` when
     the stop gave fewer than 100 consecutive valid frames (the track was lost)."""
     notes = ["resolved" if s.get("resolved") else "point"]
     if not s.get("complete", True):
@@ -361,10 +361,10 @@ TABLE_HEADER = (
 )
 
 TABLE_FOOTNOTE = (
-    "target: the model's verdict for the small dimension at the stop's range. On 'resolved'\n"
-    "rows the drone covers the 7x7 box, its rim is on the drone and Eq. (4) reads low (the\n"
-    "paper reports only the unresolved stops: MWIR 199-508 m, LWIR 126-393 m); 'short': fewer\n"
-    "than 100 consecutive valid frames, the tracker lost the drone (at 37 m it fills the box)."
+    "target: the model's verdict for the small dimension at the stop's range ('resolved': the\n"
+    "drone spans more than a pixel). Once it reaches the rim of the 7x7 box (37 m) the rim lies\n"
+    "on the drone and Eq. (4) reads far low; the paper's points are MWIR 199-508 m and LWIR\n"
+    "126-393 m. 'short': fewer than 100 consecutive valid frames (the tracker lost the drone)."
 )
 
 

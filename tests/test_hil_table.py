@@ -54,6 +54,6 @@ def test_table_explains_the_marks_and_counts_drops():
     lines = text.splitlines()
     assert lines[0] == TABLE_HEADER
     assert lines[1].endswith("resolved")
-    assert "Eq. (4) reads low" in text
+    assert "Eq. (4) reads far low" in text
     assert lines[-1] == "mwir: 600 frames received, 0 dropped"
     assert math.isnan(float(lines[1].split()[7]))  # no raw (uncorrected) SNR without --fpn

@@ -75,3 +75,47 @@ def test_range_plot_live_point_follows_changes_and_hides(qtbot):
     assert plot.live_errors.opts["height"][0] == 0.0
     plot.show_live(None, 11.0, 1.0)
     assert _n_live(plot) == 0
+
+
+def _x_range(plot: RangePlot) -> list[float]:
+    return plot.plot.getViewBox().viewRange()[0]
+
+
+def _row(rng_m: float, snr: float):
+    from acquisition.stop_table import StopRow
+
+    return StopRow("mwir", 0, False, 0, 1, rng_m, rng_m, 100, True, snr, 1.0)
+
+
+def test_range_plot_shows_the_stops_not_the_model_s_kilometres(qtbot):
+    plot = RangePlot("mwir")
+    qtbot.addWidget(plot)
+    km = np.linspace(37.0, 5000.0, 200)
+    plot.set_curves({"small": (km, 5e4 / km)})
+    assert _x_range(plot) == pytest.approx([0.0, 600.0])
+    plot.show_stops([_row(199.0, 380.0), _row(508.0, 57.0)])
+    assert _x_range(plot) == pytest.approx([0.0, 700.0])  # 1.25 x 508 -> 700
+    plot.show_live(760.0, 9.0, 1.0)
+    assert _x_range(plot) == pytest.approx([0.0, 1000.0])
+    plot.plot.getViewBox().sigRangeChangedManually.emit([True, True])  # the operator zooms
+    plot.show_live(1500.0, 3.0, 1.0)
+    assert _x_range(plot) == pytest.approx([0.0, 1000.0])
+
+
+def test_strip_chart_model_label_lies_inside_the_plot(qtbot):
+    chart = StripChart("mwir")
+    qtbot.addWidget(chart)
+    chart.resize(500, 300)
+    chart.show()
+    qtbot.waitExposed(chart)
+    chart.show_series(_series(600, 10**12), 10**12)
+    chart.show_model("small", 12.0)
+    view = chart.plot.getPlotItem().getViewBox()
+    label = chart.model_line.label
+
+    def inside() -> bool:  # the label is placed once the view has laid out its range
+        rect = label.mapRectToScene(label.boundingRect())
+        return view.mapRectToScene(view.boundingRect()).contains(rect)
+
+    qtbot.waitUntil(inside, timeout=2000)
+    assert label.toPlainText() == "model (small) 12.0"
