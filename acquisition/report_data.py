@@ -1,4 +1,7 @@
-"""Every number of the SNR-versus-range report, computed from a session file (paper sections 7-9).
+"""Every number of the SNR-versus-range report, from a session file or a live session (paper
+sections 7-9). From a file (:func:`report_data`) the session is replayed through the live
+measurement; live (:func:`live_report_data`, the headless demo's end-of-flight report) the stop
+table's own rows and the frames each summarised are used as measured.
 
 - Fig. 6: per stop and camera, the 100-frame series of peak value, background (rim) mean,
   background std and peak SNR: the frames :func:`acquisition.stops.summarise_stop` chose (the
@@ -32,7 +35,7 @@ from acquisition.prediction import CURVES, ModelPredictor
 from acquisition.replay import ReplayResult, replay_session
 from acquisition.session_config import session_config_from_dict
 from acquisition.session_file import open_session
-from acquisition.stop_table import StopRow
+from acquisition.stop_table import StopRow, StopTable
 from acquisition.stops import summarise_stop
 
 CSV_COLUMNS: tuple[str, ...] = (
@@ -127,7 +130,7 @@ class ReportData:
     models: dict[str, ModelCurves]
     budgets: dict[str, list[BudgetAtRange]]
     csv_rows: list[dict[str, object]]
-    replay_seconds: float
+    replay_seconds: float | None  # None: measured live, not replayed
     recording_seconds: float
 
 
@@ -205,8 +208,12 @@ def stop_series(replay: ReplayResult, row: StopRow, n: int = 100) -> StopSeries:
     )
     stream = cam.results[lo:hi]
     run = summarise_stop(stream, n).frames
-    frames = stream[run]
-    times = np.asarray(cam.t_host_ns[lo:hi][run], dtype=np.int64)
+    return run_series(row, cam.t_host_ns[lo:hi][run], stream[run])
+
+
+def run_series(row: StopRow, t_host_ns, frames) -> StopSeries:
+    """Fig. 6 data of one stop row from the frames of its summary run (host times in ns)."""
+    times = np.asarray(t_host_ns, dtype=np.int64)
 
     def arr(name: str) -> np.ndarray:
         return np.array([getattr(m, name) for m in frames], dtype=float)
@@ -319,23 +326,62 @@ def report_data(
     predictor = ModelPredictor(sensors, target_name)
     replay = replay_session(path, predictor=predictor, progress=progress)
     rows = replay.stops
+    return assemble_report(
+        path,
+        sensors,
+        target_name,
+        rows,
+        [stop_series(replay, r, frames_per_stop) for r in rows],
+        seconds=replay.recording_seconds,
+        replay_seconds=replay.seconds,
+    )
+
+
+def live_report_data(
+    table: StopTable, sensors: dict[str, str], target: str, *, name: str, seconds: float
+) -> ReportData:
+    """The report of a session still in memory, from its stop table: the rows as the console
+    measured them and, for Fig. 6, the frames each row summarised. Nothing is replayed, so no
+    recording is needed (``replay_seconds`` None); ``name`` labels it in place of a file."""
+    rows = [r for r in table.rows() if r.camera in sensors]
+    runs = table.runs()
+    series = []
+    for r in rows:
+        run = runs.get((r.stop, r.camera))
+        if run is not None:  # a row still collecting has no final run yet
+            series.append(run_series(r, [t for t, _ in run], [m for _, m in run]))
+    return assemble_report(Path(name), sensors, target, rows, series, seconds=seconds)
+
+
+def assemble_report(
+    path: Path,
+    sensors: dict[str, str],
+    target: str,
+    rows: list[StopRow],
+    series: list[StopSeries],
+    *,
+    seconds: float,
+    replay_seconds: float | None = None,
+) -> ReportData:
+    """Figs. 7-10 and 12 and the CSV for measured stop rows: the model at the sensors' presets
+    and the target, over a range grid that holds every stop."""
     stop_ranges = [r.range_m for r in rows if r.range_m is not None]
     grid = model_range_grid(stop_ranges)
-    cameras = list(replay.cameras)
+    cameras = list(dict.fromkeys([*sensors, *(r.camera for r in rows)]))
     budgets = {}
     for c in cameras:
         ranges = sorted({r.range_m for r in rows if r.camera == c and r.range_m is not None})
-        budgets[c] = uncertainty_budget(c, sensors[c], target_name, ranges)
+        budgets[c] = uncertainty_budget(c, sensors[c], target, ranges)
     return ReportData(
         path=path,
-        target=target_name,
+        target=target,
         sensors=sensors,
         rows=rows,
-        series=[stop_series(replay, r, frames_per_stop) for r in rows],
+        series=series,
         measured={c: measured_points(rows, c) for c in cameras},
-        models={c: model_curves(c, sensors[c], target_name, grid) for c in cameras},
+        models={c: model_curves(c, sensors[c], target, grid) for c in cameras},
         budgets=budgets,
         csv_rows=csv_rows(rows),
-        replay_seconds=replay.seconds,
-        recording_seconds=replay.recording_seconds,
+        replay_seconds=replay_seconds,
+        recording_seconds=seconds,
     )

@@ -57,8 +57,12 @@ def summary_page(data: ReportData):
     lines = [
         f"session: {data.path.name}",
         f"target: {data.target}    sensors: {sensors}",
-        f"recording {data.recording_seconds:.1f} s, replayed in {data.replay_seconds:.1f} s; "
-        f"{len({r.stop for r in data.rows})} stops",
+        (
+            f"recording {data.recording_seconds:.1f} s, replayed in {data.replay_seconds:.1f} s"
+            if data.replay_seconds is not None
+            else f"live session of {data.recording_seconds:.1f} s, as measured (not replayed)"
+        )
+        + f"; {len({r.stop for r in data.rows})} stops",
         "SNR = (peak - mean(rim)) / std(rim) per frame (Eq. 4), mean and sample std over the "
         "first 100 consecutive valid frames of each stop.",
         "ratio = measured mean / model at the stop's range (rangefinder, else GPS).",

@@ -67,6 +67,9 @@ class StopTable:
             c: deque(maxlen=history_frames) for c in self.cameras
         }
         self._frozen: dict[tuple[int, str], StopRow] = {}
+        # The frames each final row summarised (paper Fig. 6), kept because the history
+        # deque forgets them within a minute.
+        self._runs: dict[tuple[int, str], list[tuple[int, PeakSnr]]] = {}
 
     def add(self, camera: str, t_host_ns: int, result: PeakSnr) -> None:
         """One measured frame of ``camera`` (called on its measurement thread)."""
@@ -84,21 +87,29 @@ class StopTable:
                     key = (stop.index, cam)
                     row = self._frozen.get(key)
                     if row is None:
-                        row = self._row(stop, cam)
+                        row, run = self._row(stop, cam)
                         if row.complete or stop.t_end_ns is not None:
                             self._frozen[key] = row
+                            self._runs[key] = run
                             if self.on_final is not None:
                                 self.on_final(row)
                     out.append(row)
             return out
 
-    def _row(self, stop: Stop, camera: str) -> StopRow:
-        frames = [r for t, r in self._recent[camera] if stop.contains(t)]
-        summary = summarise_stop(frames, self.n)
+    def runs(self) -> dict[tuple[int, str], list[tuple[int, PeakSnr]]]:
+        """``{(stop, camera): [(t_host_ns, PeakSnr), ...]}``: the frames each final row's
+        statistics were taken from, in order (the first ``frames_per_stop`` consecutive valid
+        frames, or the longest run of a stop that ended short)."""
+        with self._lock:
+            return {k: list(v) for k, v in self._runs.items()}
+
+    def _row(self, stop: Stop, camera: str) -> tuple[StopRow, list[tuple[int, PeakSnr]]]:
+        entries = [(t, r) for t, r in self._recent[camera] if stop.contains(t)]
+        summary = summarise_stop([r for _, r in entries], self.n)
         rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
         model = dict(self.predictor(camera, rng)) if (self.predictor and rng) else {}
         resolved = model.pop("resolved_small", None)
-        return StopRow(
+        row = StopRow(
             camera=camera,
             stop=stop.index,
             manual=stop.manual,
@@ -113,3 +124,4 @@ class StopTable:
             model_snr=model,
             resolved=None if resolved is None else bool(resolved),
         )
+        return row, entries[summary.frames]

@@ -3,9 +3,10 @@
 The simulated MWIR and LWIR cameras, rangefinder and GPS of ``snrmon hil`` speak their real
 protocols over real interfaces; the console is the real one. A simulated operator clicks the
 drone at the first stop and the console tracks it from there. On a machine with no display (or
-with ``--headless``) the same session runs offscreen: the stop table is printed as it fills, a
-screenshot of the whole window is saved at the end, and with ``--out`` the session is recorded
-and ``--report`` renders the report from that recording.
+with ``--headless``) the same session runs offscreen: the stop table is printed as it fills, and
+a screenshot of the whole window and the report (paper Figs. 6-10 and 12) are saved at the end.
+The report is built from the console's own stop table (``live_report_data``: the rows and the
+frames each summarised, as measured), or, with ``--out``, from a replay of the recording.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import argparse
 import os
 import sys
 import threading
+import time
 from pathlib import Path
 
 from snrmon.cli import UsageError
@@ -47,7 +49,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--report",
         type=Path,
         metavar="FILE.pdf|png",
-        help="render the report from the recording at the end (needs --out)",
+        help="render the report at the end: from the recording with --out, else from the "
+        "live stop table (headless default: out/demo-report.pdf)",
     )
     p.set_defaults(func=run)
 
@@ -80,8 +83,6 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.commands.hil import _floats
     from snrmon.hil import TABLE_HEADER, HilOptions, HilRig, format_result
 
-    if args.report is not None and args.out is None:
-        raise UsageError("--report renders from a recording: give --out FILE.h5 too")
     if args.out is not None and args.out.exists():
         raise UsageError(f"{args.out} already exists (a session file is never overwritten)")
     if not args.speed > 0:
@@ -90,8 +91,14 @@ def run(args: argparse.Namespace) -> int:
     screenshot = args.screenshot
     if screenshot is None and headless:
         screenshot = Path("out") / "demo.png"
-    if screenshot is not None:
-        screenshot.parent.mkdir(parents=True, exist_ok=True)
+    report = args.report
+    if report is None and headless:
+        report = Path("out") / "demo-report.pdf"
+    if report is not None and report.suffix.lower() not in (".pdf", ".png"):
+        raise UsageError(f"--report {report}: must end in .pdf or .png")  # before the flight
+    for out in (screenshot, report):
+        if out is not None:
+            out.parent.mkdir(parents=True, exist_ok=True)
     opts = HilOptions(
         seed=args.seed,
         speed=args.speed,
@@ -127,13 +134,25 @@ def run(args: argparse.Namespace) -> int:
             done.set()
             operator.join(5.0)
         result = rig.result()
+        live = None
+        if report is not None and args.out is None:
+            from acquisition.report_data import live_report_data
+
+            live = live_report_data(
+                rig.session.stop_table,
+                {c: c for c in rig.cameras},
+                opts.target,
+                name=f"snrmon demo, seed {opts.seed} (live)",
+                seconds=time.monotonic() - rig.t0,
+            )
     print(format_result(result))
     if screenshot is not None:
         print(f"screenshot: {screenshot}", file=sys.stderr)
-    if args.report is not None:
+    if report is not None:
         from acquisition.report_data import report_data
         from acquisition.report_plot import render_report
 
-        render_report(report_data(args.out, target=opts.target), args.report)
-        print(f"report: {args.report}", file=sys.stderr)
+        data = live if live is not None else report_data(args.out, target=opts.target)
+        render_report(data, report)
+        print(f"report: {report}", file=sys.stderr)
     return 0

@@ -1,0 +1,70 @@
+"""The live stop table keeps the frames each final row summarised, and the headless demo's
+report is built from them without a recording."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acquisition.peak_snr import PeakSnr
+from acquisition.prediction import ModelPredictor
+from acquisition.report_data import live_report_data
+from acquisition.report_plot import render_report
+from acquisition.stop_table import StopTable
+from acquisition.stops import StopDetector
+
+FRAME_NS = 16_666_667  # 60 fps
+
+
+def _measure(rng, snr: float, flags=frozenset()) -> PeakSnr:
+    bg_mean, bg_std = 4500.0 + rng.normal(0, 1), 5.0 + rng.normal(0, 0.2)
+    return PeakSnr(640, 360, bg_mean + snr * bg_std, bg_mean, bg_std, snr, frozenset(flags))
+
+
+@pytest.fixture(scope="module")
+def table():
+    """One marked stop at 336 m (GPS) with 5 lost frames, then 130 good ones; the stop ends."""
+    rng = np.random.default_rng(2019)
+    detector = StopDetector()
+    predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
+    table = StopTable(detector, ["mwir"], predictor=predictor)
+    t0 = 10**12
+    detector.mark_stop(t0)
+    for _ in range(20):
+        detector.add_range(t0, 336.0, "gps")
+    snrs = np.r_[np.full(5, 2.0), rng.normal(100.0, 18.0, 130)]
+    for i, snr in enumerate(snrs):
+        flags = {"lost"} if i < 5 else set()
+        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, float(snr), flags))
+    detector.end_stop(t0 + len(snrs) * FRAME_NS)
+    table.snrs = snrs
+    table.t0 = t0
+    return table
+
+
+def test_final_row_keeps_the_100_frames_it_summarised(table):
+    (row,) = table.rows()
+    assert row.complete and row.n_frames == 100
+    run = table.runs()[(0, "mwir")]
+    times = [t for t, _ in run]
+    assert times[0] == table.t0 + 5 * FRAME_NS  # the first valid frame after the lost ones
+    assert np.diff(times).tolist() == [FRAME_NS] * 99
+    values = np.array([m.snr for _, m in run])
+    np.testing.assert_array_equal(values, table.snrs[5:105])
+    assert row.snr_mean == pytest.approx(values.mean(), rel=1e-12)
+    assert row.snr_std == pytest.approx(values.std(ddof=1), rel=1e-12)
+
+
+def test_live_report_is_the_table_as_measured(table, tmp_path):
+    data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.3)
+    (row,) = data.rows
+    (series,) = data.series
+    assert data.replay_seconds is None and data.path.name == "demo (live)"
+    assert series.snr.mean() == pytest.approx(row.snr_mean, rel=1e-12)
+    np.testing.assert_allclose(series.t_s, (np.arange(5, 105) * FRAME_NS) / 1e9)
+    np.testing.assert_allclose((series.peak - series.bg_mean) / series.bg_std, series.snr)
+    (csv_row,) = data.csv_rows
+    assert csv_row["ratio_small"] == pytest.approx(row.snr_mean / row.model_snr["small"])
+    assert data.measured["mwir"].range_m.tolist() == [336.0]
+    out = render_report(data, tmp_path / "live.pdf")
+    assert out.stat().st_size > 10_000
