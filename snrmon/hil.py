@@ -303,7 +303,6 @@ class HilRig:
                     "lrf_range_m": row.lrf_range_m,
                     "gps_range_m": row.gps_range_m,
                     "n_frames": row.n_frames,
-                    "complete": bool(row.complete),
                     "measured_snr_mean": row.snr_mean,
                     "measured_snr_std": row.snr_std,
                     **raw.get((row.camera, row.stop), {}),
@@ -345,12 +344,15 @@ def format_row(s: dict) -> str:
     )
 
 
+FRAMES_PER_STOP = 100  # the paper's consecutive frames per stop (the session's default)
+
+
 def _target_note(s: dict) -> str:
     """``resolved`` where the model calls the small dimension resolved (wider than a pixel; at
     37 m the drone covers the 7x7 box and Eq. (4) reads far low), else ``point``; ``short`` when
     the stop gave fewer than 100 consecutive valid frames (the track was lost)."""
     notes = ["resolved" if s.get("resolved") else "point"]
-    if not s.get("complete", True):
+    if s["n_frames"] < FRAMES_PER_STOP:
         notes.append("short")
     return ",".join(notes)
 

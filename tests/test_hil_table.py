@@ -14,7 +14,6 @@ def _stop(**kw) -> dict:
         "lrf_range_m": 336.0,
         "gps_range_m": 335.9,
         "n_frames": 100,
-        "complete": True,
         "measured_snr_mean": 102.74,
         "measured_snr_std": 18.22,
         "truth_snr": 107.74,
@@ -37,7 +36,6 @@ def test_resolved_short_row_is_marked_both():
         _stop(
             planned_range_m=37.0,
             n_frames=20,
-            complete=False,
             resolved=True,
             measured_snr_mean=2.47,
             truth_snr=720.8,
