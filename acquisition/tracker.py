@@ -54,12 +54,12 @@ from enum import Enum
 
 import numpy as np
 
+from acquisition.contamination import NoiseReference
 from acquisition.peak_snr import (
     FLAG_GPS_CUED,
     FLAG_LOST,
     FLAG_RIM_CONTAMINATED,
     RUNNING_EXCLUDED,
-    NoiseReference,
     PeakSnr,
     PeakSnrConfig,
     peak_snr_with,
