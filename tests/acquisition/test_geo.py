@@ -19,6 +19,7 @@ from acquisition.geo import (
     slant_range_m,
 )
 from drivers.gps.fix import GpsFix
+from model.presets import load_sensor
 from snrmon.cli import main
 
 SITE = Site(32.38, -106.48, 1200.0)
@@ -172,21 +173,12 @@ def test_agrees_with_the_simulated_flight_camera():
         assert p.range_m == pytest.approx(truth.range_m, abs=1e-4)
 
 
-def _load_sensor_or_skip():
-    try:
-        from model.presets import load_sensor
-    except ImportError:
-        pytest.skip("model.presets.load_sensor not available yet")
-    return load_sensor
-
-
 @pytest.mark.parametrize(
     "name,f_m,pitch_m,w,h", [("mwir", 0.016, 8e-6, 1280, 720), ("lwir", 0.0167, 17e-6, 640, 480)]
 )
 def test_cli_with_sensor_preset(name, f_m, pitch_m, w, h, capsys):
     # Paper Table 1 through the model's presets: the axis at the centre, 1 degree off at
     # f tan(1 deg) / pitch pixels.
-    load_sensor = _load_sensor_or_skip()
     cam = CameraIntrinsics.from_sensor(load_sensor(name))
     assert (cam.focal_length_m, cam.pitch_m, cam.width_px, cam.height_px) == (
         pytest.approx(f_m),

@@ -222,8 +222,7 @@ def test_scene_config_from_model_uses_the_models_chain(monkeypatch):
 
 
 def test_truth_snr_with_the_real_model_approaches_its_average_pvf_snr():
-    presets = pytest.importorskip("model.presets", reason="model/ not written yet")
-    pytest.importorskip("model.snr", reason="model/ not written yet")
+    from model import presets
     from sim.from_model import scene_config_from_model
 
     sensor = presets.load_sensor("mwir")
