@@ -116,14 +116,24 @@ class _Open:
     t_start_ns: int
     manual: bool
     t_confirmed_ns: int | None
+    # Kept sorted: the median is read on every reading, and a stop can last an hour (36,000
+    # readings a source at 10 Hz), so it must not cost a sort each time.
     ranges: dict[str, list[float]] = field(default_factory=lambda: {s: [] for s in SOURCES})
     departures: dict[str, list[tuple[int, float]]] = field(
         default_factory=lambda: {s: [] for s in SOURCES}
     )
 
+    def add(self, source: str, ranges: Iterable[float]) -> None:
+        for r in ranges:
+            bisect.insort(self.ranges[source], r)
+
     def median(self, source: str) -> float | None:
-        values = self.ranges[source]
-        return statistics.median(values) if values else None
+        """The median of the stop's readings from ``source`` (as ``statistics.median``)."""
+        v = self.ranges[source]
+        n = len(v)
+        if n == 0:
+            return None
+        return v[n // 2] if n % 2 else (v[n // 2 - 1] + v[n // 2]) / 2
 
     def snapshot(self, t_end_ns: int | None) -> Stop:
         return Stop(
@@ -186,7 +196,7 @@ class StopDetector:
         self.end_stop(t_ns)
         self._open = _Open(self._next_index(), t_ns, True, t_ns)
         for source, ranges in since.items():
-            self._open.ranges[source].extend(ranges)
+            self._open.add(source, ranges)
         return self._open.snapshot(None)
 
     def end_stop(self, t_ns: int) -> Stop | None:
@@ -245,18 +255,18 @@ class StopDetector:
         t_start = max(readings[0][0] for readings in steady.values())
         self._open = _Open(self._next_index(), t_start, False, t_now)
         for source, readings in steady.items():
-            self._open.ranges[source].extend(r for _, r in readings)
+            self._open.add(source, (r for _, r in readings))
         return self._open.snapshot(None)
 
     def _extend(self, source: str, t_ns: int, range_m: float) -> Stop | None:
         op = self._open
         assert op is not None
         if op.manual:
-            op.ranges[source].append(range_m)
+            op.add(source, (range_m,))
             return None
         ref = op.median(source)
         if ref is None or abs(range_m - ref) <= self.config.tolerance_m(source):
-            op.ranges[source].append(range_m)
+            op.add(source, (range_m,))
             op.departures[source].clear()
             return None
         departing = op.departures[source]

@@ -15,7 +15,7 @@ import logging
 import math
 import os
 import time
-from collections import defaultdict
+from collections import defaultdict, deque
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -47,6 +47,13 @@ class HilOptions:
     out: str | None = None
 
 
+LOG_S = 120.0
+"""Host seconds of measurements the rig keeps per camera for its truth bookkeeping. A stop's
+row is summarised the moment the console freezes it (within a step of the rig), long before its
+frames leave this window, so a long hover (the hour of ``snrmon bench``'s soak) costs no more
+memory than a short one."""
+
+
 @dataclass
 class CameraRig:
     name: str
@@ -54,8 +61,14 @@ class CameraRig:
     feed: object
     producer: object
     fps: float
-    log: list = field(default_factory=list)  # (t_host_ns, counter, PeakSnr)
-    raw_log: list = field(default_factory=list)  # (t_host_ns, raw running mean, std)
+    log_frames: int = 0  # maxlen of the logs below; 0: LOG_S at fps
+    log: deque = field(init=False)  # (t_host_ns, counter, PeakSnr)
+    raw_log: deque = field(init=False)  # (t_host_ns, raw running mean, std)
+
+    def __post_init__(self) -> None:
+        n = self.log_frames or math.ceil(LOG_S * self.fps)
+        self.log = deque(maxlen=n)
+        self.raw_log = deque(maxlen=n)
 
 
 def flight_config_of(opts: HilOptions):
@@ -143,7 +156,14 @@ class HilRig:
                 # MWIR: 30 slots of 1.8 MB at speed 1.
                 slots=max(16, math.ceil(sensor.fps * opts.speed / 2)),
             )
-            self.cameras[cam] = CameraRig(cam, sensor, feed, producer, float(sensor.fps))
+            self.cameras[cam] = CameraRig(
+                cam,
+                sensor,
+                feed,
+                producer,
+                float(sensor.fps),
+                log_frames=math.ceil(LOG_S * sensor.fps * opts.speed),
+            )
         self.gps_sim = NmeaSimulator(self._gps_position, rate_hz=10.0, baud=38400)
         self.lrf_sim = LdmSimulator(self._lrf_range, rate_hz=10.0, tracking=True)
         site = self.flight_config.site
@@ -177,6 +197,7 @@ class HilRig:
         )
         self.session.add_measurement_listener(self._on_measurement)
         self._clicked: set[tuple[str, int]] = set()
+        self._final: dict[tuple[str, int], dict] = {}  # (camera, stop) -> its result entry
 
     # ------------------------------------------------------------------ clock and truth
     def flight_time(self) -> float:
@@ -234,6 +255,7 @@ class HilRig:
         it; the GPS cue usually brings it back first). Without tracking the simulator clicks at
         every stop. Every click is counted in the result.
         """
+        self._summarise_final_rows()
         t = self.flight_time()
         stop_idx = self.plan.truth(t).stop_index
         if stop_idx is not None:
@@ -258,59 +280,61 @@ class HilRig:
         return self.result()
 
     # ------------------------------------------------------------------ results
-    def _raw_stats(self) -> dict:
-        """Per stop and camera, the SNR of the same track measured on raw frames (no
-        background reference): the console reports both when a reference is on."""
-        out = {}
+    def _summarise_final_rows(self) -> None:
+        """Summarise each stop row the console has frozen (100 frames, or its stop ended)
+        while its frames are still in the rig's logs."""
         for row in self.session.stops():
-            rows = [
-                m
-                for m in self.cameras[row.camera].raw_log
-                if row.t_start_ns <= m[0] and (row.t_end_ns is None or m[0] < row.t_end_ns)
-            ]
-            if rows:
-                _, mean, std = rows[-1]
-                out[(row.camera, row.stop)] = {
-                    "measured_snr_mean_raw": mean,
-                    "measured_snr_std_raw": std,
-                }
-        return out
+            if (row.complete or row.t_end_ns is not None) and (
+                row.camera,
+                row.stop,
+            ) not in self._final:
+                self._final[(row.camera, row.stop)] = self._stop_result(row)
+
+    def _stop_result(self, row) -> dict:
+        """One stop row with the simulator's truth over the frames it summarised and, with
+        fixed-pattern noise, the SNR of the same track on raw frames (no background reference)
+        at its last summarised frame: the console reports both when a reference is on."""
+        rig = self.cameras[row.camera]
+
+        def during(t_ns: int) -> bool:
+            return row.t_start_ns <= t_ns and (row.t_end_ns is None or t_ns < row.t_end_ns)
+
+        frames = [e for e in list(rig.log) if during(e[0])]
+        summary = summarise_stop([r for _, _, r in frames], 100)
+        used = frames[summary.frames] if summary.first is not None else []
+        truths = [rig.feed.truth(c) for _, c, _ in used]
+        truths = [v.truth_snr for v in truths if v is not None]
+        truth = float(np.mean(truths)) if truths else float("nan")
+        raw = {}
+        if self.opts.fpn:
+            t_last = used[-1][0] if used else math.inf
+            at = [e for e in list(rig.raw_log) if during(e[0]) and e[0] <= t_last]
+            if at:
+                _, mean, std = at[-1]
+                raw = {"measured_snr_mean_raw": mean, "measured_snr_std_raw": std}
+        rng = row.range_m
+        planned = np.array(self.opts.stops_m, float)
+        plan = float(planned[np.argmin(np.abs(planned - rng))]) if rng else float("nan")
+        return {
+            "camera": row.camera,
+            "planned_range_m": plan,
+            "lrf_range_m": row.lrf_range_m,
+            "gps_range_m": row.gps_range_m,
+            "n_frames": row.n_frames,
+            "measured_snr_mean": row.snr_mean,
+            "measured_snr_std": row.snr_std,
+            **raw,
+            "truth_snr": truth,
+            "model_snr": row.model_snr,
+            "resolved": bool(row.resolved),
+        }
 
     def result(self) -> dict:
-        planned = np.array(self.opts.stops_m, float)
-        raw = self._raw_stats() if self.opts.fpn else {}
-        stops = []
-        for row in self.session.stops():
-            rig = self.cameras[row.camera]
-            frames = [
-                (c, r)
-                for t, c, r in rig.log
-                if row.t_start_ns <= t and (row.t_end_ns is None or t < row.t_end_ns)
-            ]
-            summary = summarise_stop([r for _, r in frames], 100)
-            truth = float("nan")
-            if summary.first is not None:
-                counters = [c for c, _ in frames[summary.frames]]
-                values = [rig.feed.truth(c) for c in counters]
-                values = [v.truth_snr for v in values if v is not None]
-                truth = float(np.mean(values)) if values else float("nan")
-            rng = row.range_m
-            plan = float(planned[np.argmin(np.abs(planned - rng))]) if rng else float("nan")
-            stops.append(
-                {
-                    "camera": row.camera,
-                    "planned_range_m": plan,
-                    "lrf_range_m": row.lrf_range_m,
-                    "gps_range_m": row.gps_range_m,
-                    "n_frames": row.n_frames,
-                    "measured_snr_mean": row.snr_mean,
-                    "measured_snr_std": row.snr_std,
-                    **raw.get((row.camera, row.stop), {}),
-                    "truth_snr": truth,
-                    "model_snr": row.model_snr,
-                    "resolved": bool(row.resolved),
-                }
-            )
+        self._summarise_final_rows()
+        stops = [
+            self._final.get((row.camera, row.stop)) or self._stop_result(row)
+            for row in self.session.stops()
+        ]
         frames = defaultdict(dict)
         for name, pipe in self.session.pipelines.items():
             acc = pipe.status().frames

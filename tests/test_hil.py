@@ -20,6 +20,7 @@ from model.snr import target_contrast_electrons
 from sim.feed import FlightCameraFeed
 from sim.flight import FlightConfig, FlightPlan
 from sim.from_model import scene_config_from_model
+from snrmon import hil
 from snrmon.hil import HilOptions, HilRig
 
 SKY_K = 280.0
@@ -57,7 +58,10 @@ def test_hil_measures_the_truth_at_every_stop_without_dropping_frames():
 
 
 @pytest.mark.slow
-def test_hil_low_snr_stops_with_another_seed():
+def test_hil_low_snr_stops_with_another_seed(monkeypatch):
+    """Also: a stop is summarised when the console freezes its row, so its truth survives its
+    frames leaving the rig's bounded log (5 s here, 120 s in use) before the flight ends."""
+    monkeypatch.setattr(hil, "LOG_S", 5.0)
     opts = HilOptions(
         seed=2,
         speed=2.0,
@@ -73,13 +77,20 @@ def test_hil_low_snr_stops_with_another_seed():
     assert 5.0 <= stops[760.0]["truth_snr"] < 12.0  # the low-SNR regime is exercised
     for s in stops.values():
         _check_stop(s)
+    first = rig.session.stop_detector.stops[0]
+    log = rig.cameras["lwir"].log
+    assert len(log) == log.maxlen == 5 * 30 * 2
+    assert first.t_end_ns is not None and log[0][0] > first.t_end_ns  # its frames are gone
 
 
 @pytest.mark.slow
 def test_fixed_pattern_noise_removed_by_the_background_reference():
     """With fixed-pattern noise 2.5x the temporal noise, the sky reference taken before launch
-    brings the measurement back to the truth; on raw frames the console reports an SNR lower
-    by about sqrt(1 + 2.5^2) (the 24-pixel rim samples the pattern, hence the tolerance)."""
+    brings the measurement back to the truth; on raw frames (over the same 100 frames) the
+    console reports an SNR lower by about sqrt(1 + 2.5^2). The tolerance is statistical: the
+    std of a 24-pixel rim samples the fixed pattern with a relative spread of
+    1/sqrt(2 x 23) = 15% for one rim position, less as the hover drifts over a few; seeds 0-5
+    gave factors 2.28-2.94 (mean 2.62) against the nominal 2.69."""
     opts = HilOptions(
         seed=3, speed=1.0, cameras=("lwir",), stops_m=(393.0,), transit_mps=30.0,
         start_range_m=360.0, fpn=True,
@@ -93,7 +104,7 @@ def test_fixed_pattern_noise_removed_by_the_background_reference():
     scene = rig.cameras["lwir"].feed.scene
     assert status.fixed_pattern_dn == pytest.approx(2.5 * scene.temporal_noise_dn, rel=0.1)
     factor = stop["measured_snr_mean"] / stop["measured_snr_mean_raw"]
-    assert factor == pytest.approx(math.sqrt(1 + 2.5**2), rel=0.15)
+    assert factor == pytest.approx(math.sqrt(1 + 2.5**2), rel=0.2)
 
 
 @pytest.mark.parametrize(("camera", "range_m"), [("mwir", 451.0), ("lwir", 393.0)])

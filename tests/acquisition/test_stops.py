@@ -183,3 +183,19 @@ def test_frames_in_stop():
     sl = frames_in_stop(t_frames, stop)
     assert all(stop.contains(t) for t in t_frames[sl])
     assert not stop.contains(t_frames[sl.start - 1]) and not stop.contains(t_frames[sl.stop])
+
+
+def test_a_stop_range_is_the_median_of_all_its_readings():
+    """The open stop keeps its readings sorted (an hour-long hover must not sort 36,000 values
+    on every reading); its reported range is still exactly ``statistics.median`` of them all."""
+    import statistics
+
+    rng = np.random.default_rng(11)
+    det = StopDetector(StopConfig())
+    ranges = 393.0 + rng.uniform(-0.4, 0.4, 2001)  # all within the 1 m tolerance: one stop
+    for i, r in enumerate(ranges):
+        det.add_range(i * S // 10, float(r), "lrf")
+    stop = det.current
+    assert stop is not None and stop.t_end_ns is None
+    start = round(stop.t_start_ns * 10 / S)  # readings before the stop opened are not in it
+    assert stop.lrf_range_m == statistics.median(ranges[start:].tolist())
