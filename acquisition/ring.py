@@ -111,7 +111,12 @@ class FrameRing:
         self.dtype = np.dtype(dtype)
         self.policy = OverflowPolicy(policy)
         self.name = name
-        self._pixels = np.zeros((self.capacity, *self.shape), self.dtype)
+        self._pixels = np.empty((self.capacity, *self.shape), self.dtype)
+        # Write every page now: the OS commits untouched memory lazily, so without this the
+        # ring's first pass takes a page fault per 4 kB inside acquisition (MWIR: 27,000 a
+        # second for the first two seconds) and a machine short of memory fails mid-session
+        # instead of at start-up.
+        self._pixels.fill(0)
         self._counter = np.zeros(self.capacity, np.int64)
         self._t_host = np.zeros(self.capacity, np.int64)
         self._t_device = np.full(self.capacity, NO_DEVICE_TIME, np.int64)
