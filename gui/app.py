@@ -80,8 +80,13 @@ def run_console(
     window.show()
     if duration_s is not None:
         QTimer.singleShot(round(duration_s * 1000), window.close)
-    # Ctrl-C in the terminal closes the window cleanly; the idle timer lets Python see it.
-    previous = signal.signal(signal.SIGINT, lambda *_: window.close())
+    # Ctrl-C in the terminal (or SIGTERM, SIGHUP) closes the window cleanly, recording
+    # included; the idle timer lets Python see the signal. An exception raised inside Qt's
+    # loop would only be printed, so the CLI's KeyboardInterrupt handlers are set aside.
+    previous = {
+        sig: signal.signal(sig, lambda *_: window.close())
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    }
     tick = QTimer()
     tick.timeout.connect(lambda: None)
     tick.start(200)
@@ -91,5 +96,6 @@ def run_console(
         loop.exec()
     finally:
         tick.stop()
-        signal.signal(signal.SIGINT, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return 0

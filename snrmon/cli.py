@@ -7,6 +7,10 @@ adds one subcommand. ``register`` must set ``func`` on its parser with
 Errors meant for the user are raised as :class:`UsageError` (or any
 ``ValueError``/``OSError`` subclass the packages raise for bad input) and are
 printed as one line on stderr with a non-zero exit, never as a traceback.
+
+SIGTERM (``kill``, a service manager stopping it, a closed terminal's SIGHUP) is taken as
+Ctrl-C: the command's ``finally`` blocks run, so a recording is closed whole and the camera
+processes and temporary files are cleaned up, instead of Python's default of dying on the spot.
 """
 
 from __future__ import annotations
@@ -14,7 +18,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import pkgutil
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from snrmon import __version__, commands
@@ -44,12 +50,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _interrupt(signum: int, _frame: object) -> None:
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 2
+    previous: dict[int, object] = {}
+    if threading.current_thread() is threading.main_thread():  # only it may set handlers
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            previous[sig] = signal.signal(sig, _interrupt)
+    try:
+        return _run(args)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         return int(args.func(args) or 0)
     except UsageError as exc:

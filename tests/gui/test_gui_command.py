@@ -3,8 +3,12 @@ a recording replays headless; a missing file or config is a one-line error."""
 
 from __future__ import annotations
 
+import os
+import signal
+import time
 import uuid
 
+from PySide6.QtCore import QTimer
 from PySide6.QtGui import QImage
 
 from sim.devices.shm_camera import ShmProducer
@@ -43,6 +47,21 @@ def test_gui_replay_runs_headless_with_the_model_and_saves_a_screenshot(tmp_path
     assert code == 0
     img = QImage(str(shot))
     assert not img.isNull() and img.width() > 400
+
+
+def test_sigterm_closes_the_console_cleanly(qtbot, tmp_path):
+    """``kill`` on a running console closes its window the way Ctrl-C does (screenshot taken,
+    session stopped, exit 0), long before its --duration; Python's default would kill it."""
+    rec = write_session(tmp_path / "flight.h5", cameras=("mwir",), hover_s=4.0)
+    shot = tmp_path / "killed.png"
+    before = signal.getsignal(signal.SIGTERM)
+    QTimer.singleShot(300, lambda: os.kill(os.getpid(), signal.SIGTERM))
+    t0 = time.monotonic()
+    code = main(["gui", "--replay", str(rec.path), "--headless", "--duration", "60",
+                 "--screenshot", str(shot)])  # fmt: skip
+    assert code == 0 and time.monotonic() - t0 < 60
+    assert not QImage(str(shot)).isNull()
+    assert signal.getsignal(signal.SIGTERM) is before  # the handlers are put back
 
 
 def test_gui_missing_config_names_the_file(capsys, tmp_path):
