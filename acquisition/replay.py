@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from acquisition.frame_access import FrameCrops
 from acquisition.frame_correction import FrameCorrector
 from acquisition.frame_measurer import FrameMeasurer, crop_half_px
 from acquisition.geo import Site, slant_range_m
@@ -205,6 +206,7 @@ def replay_session(
             wall0 = time.monotonic()
             shape = cam.frames.shape[1:]
             buffer = np.zeros(shape, cam.frames.dtype) if fast else None
+            crops = FrameCrops(cam.frames) if fast else None
             for i in range(cam.n_frames):
                 t = int(cam.t_host_ns[i])
                 while refs and refs[0][0] <= t:
@@ -222,12 +224,12 @@ def replay_session(
                     x, y = measurer.roi
                     y0, y1 = max(y - half, 0), min(y + half + 1, shape[0])
                     x0, x1 = max(x - half, 0), min(x + half + 1, shape[1])
-                    buffer[y0:y1, x0:x1] = cam.frames[i, y0:y1, x0:x1]
+                    buffer[y0:y1, x0:x1] = crops.crop(i, y0, y1, x0, x1)
                     if config.background is not None:  # the clear-sky rectangle too
                         bx0, by0, bx1, by1 = config.background
-                        buffer[by0 : by1 + 1, bx0 : bx1 + 1] = cam.frames[
-                            i, by0 : by1 + 1, bx0 : bx1 + 1
-                        ]
+                        buffer[by0 : by1 + 1, bx0 : bx1 + 1] = crops.crop(
+                            i, by0, by1 + 1, bx0, bx1 + 1
+                        )
                     pixels = buffer
                 elif measurer.roi is None:
                     pixels = None  # nothing to measure: do not read the frame at all

@@ -112,6 +112,11 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     assert cam_replay.compared >= 100
     assert cam_replay.identical == cam_replay.compared
     assert any(r.complete and r.lrf_range_m == pytest.approx(150.0, abs=0.01) for r in replay.stops)
+    # --fast reads only the square around the track: the same numbers, frame for frame.
+    fast = replay_session(path, fast=True)
+    assert fast.cameras["cam"].compared == cam_replay.compared
+    assert fast.cameras["cam"].identical == cam_replay.compared
+    assert fast.stops == replay.stops
 
 
 def test_background_reference_removes_fixed_pattern_and_replays_exactly(tmp_path):
@@ -142,8 +147,9 @@ def test_background_reference_removes_fixed_pattern_and_replays_exactly(tmp_path
     # No spot in these frames: the corrected rim std is the temporal noise (x sqrt(1 + 1/32)
     # for the noise left in the reference), the raw one carries the pattern.
     assert st.last.bg_std == pytest.approx(NOISE_DN * math.sqrt(1 + 1 / 32), rel=0.35)
-    replay = replay_session(path).cameras["cam"]
-    assert replay.compared >= 60 and replay.identical == replay.compared
+    for fast in (False, True):  # --fast applies the reference to its square only
+        replay = replay_session(path, fast=fast).cameras["cam"]
+        assert replay.compared >= 60 and replay.identical == replay.compared, fast
 
 
 def test_camera_lost_raises_an_alarm_and_clears_when_it_returns(rig):
