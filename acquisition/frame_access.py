@@ -36,12 +36,14 @@ class FrameCrops:
 
     def _chunk_offsets(self) -> dict[int, int]:
         ds = self._frames
-        if ds.chunks != (1, *self._shape) or ds._filters or not hasattr(ds.id, "chunk_iter"):
+        if ds.chunks != (1, *self._shape) or not hasattr(ds.id, "chunk_iter"):
+            return {}
+        if ds.id.get_create_plist().get_nfilters():  # compressed, shuffled, checksummed: no
             return {}
         offsets: dict[int, int] = {}
 
         def visit(info) -> None:
-            if info.size == self._nbytes and info.filter_mask == 0:
+            if info.size == self._nbytes:
                 offsets[int(info.chunk_offset[0])] = int(info.byte_offset)
 
         try:

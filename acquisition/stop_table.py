@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from acquisition.peak_snr import PeakSnr
-from acquisition.stops import Stop, StopDetector, summarise_stop
+from acquisition.stops import Stop, StopDetector, StopSummary, summarise_stop
 
 Predictor = Callable[[str, float], dict[str, float]]
 """``predict(camera, range_m) -> {"small": snr, "large": ..., "small_corrected": ..., ...}``."""
@@ -103,9 +103,25 @@ class StopTable:
         with self._lock:
             return {k: list(v) for k, v in self._runs.items()}
 
-    def _row(self, stop: Stop, camera: str) -> tuple[StopRow, list[tuple[int, PeakSnr]]]:
+    def run_of(self, stop: int, camera: str) -> list[tuple[int, PeakSnr]]:
+        """The frames row ``(stop, camera)`` is summarised from, as of now: the final run of a
+        frozen row, else the run so far (empty for an unknown row)."""
+        with self._lock:
+            run = self._runs.get((stop, camera))
+            if run is not None:
+                return list(run)
+            match = [s for s in self.detector.stops if s.index == stop]
+            if not match or camera not in self._recent:
+                return []
+            return self._run(match[0], camera)[1]
+
+    def _run(self, stop: Stop, camera: str) -> tuple[StopSummary, list[tuple[int, PeakSnr]]]:
         entries = [(t, r) for t, r in self._recent[camera] if stop.contains(t)]
         summary = summarise_stop([r for _, r in entries], self.n)
+        return summary, entries[summary.frames]
+
+    def _row(self, stop: Stop, camera: str) -> tuple[StopRow, list[tuple[int, PeakSnr]]]:
+        summary, run = self._run(stop, camera)
         rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
         model = dict(self.predictor(camera, rng)) if (self.predictor and rng) else {}
         resolved = model.pop("resolved_small", None)
@@ -124,4 +140,4 @@ class StopTable:
             model_snr=model,
             resolved=None if resolved is None else bool(resolved),
         )
-        return row, entries[summary.frames]
+        return row, run

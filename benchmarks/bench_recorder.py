@@ -107,16 +107,20 @@ def run(duration_s: float) -> dict:
         # alternates too, and the ratio is the median of the pairs' ratios. Files are deleted
         # only at the end, since on a disk mounted with "discard" an unlink slows the next
         # slice down.
+        seconds = 0.55 * budget / 6
         raw_s, raw_mb, rec_runs = [], [], []
+
+        def raw_slice(k: int) -> None:
+            mb_s, nbytes = _raw_write(tmp / f"raw{k}.bin", frames, seconds)
+            raw_s.append(nbytes / MB / mb_s)
+            raw_mb.append(nbytes / MB)
+
+        def rec_slice(k: int) -> None:
+            rec_runs.append(_record(tmp / f"plain{k}.h5", frames, seconds, None))
+
         for k in range(3):
-            slices = ["raw", "rec"] if k % 2 == 0 else ["rec", "raw"]
-            for kind in slices:
-                if kind == "raw":
-                    mb_s, nbytes = _raw_write(tmp / f"raw{k}.bin", frames, 0.55 * budget / 6)
-                    raw_s.append(nbytes / MB / mb_s)
-                    raw_mb.append(nbytes / MB)
-                else:
-                    rec_runs.append(_record(tmp / f"plain{k}.h5", frames, 0.55 * budget / 6, None))
+            for run_slice in (raw_slice, rec_slice) if k % 2 == 0 else (rec_slice, raw_slice):
+                run_slice(k)
         raw_runs = [m / t for m, t in zip(raw_mb, raw_s, strict=True)]
         raw_mb_s = statistics.median(raw_runs)
         pair_ratios = [r["mb_per_s"] / w for r, w in zip(rec_runs, raw_runs, strict=True)]

@@ -16,13 +16,13 @@ import math
 import os
 import time
 from collections import defaultdict, deque
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from acquisition.session import Session
 from acquisition.session_config import session_config_from_dict
-from acquisition.stops import StopConfig, summarise_stop
+from acquisition.stops import StopConfig
 
 log = logging.getLogger(__name__)
 
@@ -61,14 +61,7 @@ class CameraRig:
     feed: object
     producer: object
     fps: float
-    log_frames: int = 0  # maxlen of the logs below; 0: LOG_S at fps
-    log: deque = field(init=False)  # (t_host_ns, counter, PeakSnr)
-    raw_log: deque = field(init=False)  # (t_host_ns, raw running mean, std)
-
-    def __post_init__(self) -> None:
-        n = self.log_frames or math.ceil(LOG_S * self.fps)
-        self.log = deque(maxlen=n)
-        self.raw_log = deque(maxlen=n)
+    log: deque  # (t_host_ns, counter, raw running mean, raw running std), LOG_S long
 
 
 def flight_config_of(opts: HilOptions):
@@ -162,7 +155,7 @@ class HilRig:
                 feed,
                 producer,
                 float(sensor.fps),
-                log_frames=math.ceil(LOG_S * sensor.fps * opts.speed),
+                deque(maxlen=math.ceil(LOG_S * sensor.fps * opts.speed)),
             )
         self.gps_sim = NmeaSimulator(self._gps_position, rate_hz=10.0, baud=38400)
         self.lrf_sim = LdmSimulator(self._lrf_range, rate_hz=10.0, tracking=True)
@@ -219,8 +212,7 @@ class HilRig:
 
     def _on_measurement(self, m, frame) -> None:
         rig = self.cameras[m.camera]
-        rig.log.append((m.t_host_ns, m.counter, m.result))
-        rig.raw_log.append((m.t_host_ns, m.snr_mean_raw, m.snr_std_raw))
+        rig.log.append((m.t_host_ns, m.counter, m.snr_mean_raw, m.snr_std_raw))
 
     # ------------------------------------------------------------------ run
     def __enter__(self) -> HilRig:
@@ -282,36 +274,27 @@ class HilRig:
     # ------------------------------------------------------------------ results
     def _summarise_final_rows(self) -> None:
         """Summarise each stop row the console has frozen (100 frames, or its stop ended)
-        while its frames are still in the rig's logs."""
+        while its frames are still in the rig's log."""
         for row in self.session.stops():
-            if (row.complete or row.t_end_ns is not None) and (
-                row.camera,
-                row.stop,
-            ) not in self._final:
-                self._final[(row.camera, row.stop)] = self._stop_result(row)
+            key = (row.camera, row.stop)
+            if (row.complete or row.t_end_ns is not None) and key not in self._final:
+                self._final[key] = self._stop_result(row)
 
     def _stop_result(self, row) -> dict:
-        """One stop row with the simulator's truth over the frames it summarised and, with
-        fixed-pattern noise, the SNR of the same track on raw frames (no background reference)
-        at its last summarised frame: the console reports both when a reference is on."""
+        """One stop row with the simulator's truth over exactly the frames the console
+        summarised and, with fixed-pattern noise, the SNR of the same track on raw frames (no
+        background reference) at the last of them: the console reports both."""
         rig = self.cameras[row.camera]
-
-        def during(t_ns: int) -> bool:
-            return row.t_start_ns <= t_ns and (row.t_end_ns is None or t_ns < row.t_end_ns)
-
-        frames = [e for e in list(rig.log) if during(e[0])]
-        summary = summarise_stop([r for _, _, r in frames], 100)
-        used = frames[summary.frames] if summary.first is not None else []
-        truths = [rig.feed.truth(c) for _, c, _ in used]
+        run = self.session.stop_table.run_of(row.stop, row.camera)
+        logged = {t: (c, mean, std) for t, c, mean, std in list(rig.log)}
+        used = [logged[t] for t, _ in run if t in logged]
+        truths = [rig.feed.truth(c) for c, _, _ in used]
         truths = [v.truth_snr for v in truths if v is not None]
         truth = float(np.mean(truths)) if truths else float("nan")
         raw = {}
-        if self.opts.fpn:
-            t_last = used[-1][0] if used else math.inf
-            at = [e for e in list(rig.raw_log) if during(e[0]) and e[0] <= t_last]
-            if at:
-                _, mean, std = at[-1]
-                raw = {"measured_snr_mean_raw": mean, "measured_snr_std_raw": std}
+        if self.opts.fpn and used:
+            _, mean, std = used[-1]
+            raw = {"measured_snr_mean_raw": mean, "measured_snr_std_raw": std}
         rng = row.range_m
         planned = np.array(self.opts.stops_m, float)
         plan = float(planned[np.argmin(np.abs(planned - rng))]) if rng else float("nan")

@@ -68,3 +68,26 @@ def test_live_report_is_the_table_as_measured(table, tmp_path):
     assert data.measured["mwir"].range_m.tolist() == [336.0]
     out = render_report(data, tmp_path / "live.pdf")
     assert out.stat().st_size > 10_000
+
+
+def test_run_of_a_row_before_and_after_it_is_final():
+    """``run_of`` gives the frames a row is summarised from: the run so far while the row is
+    open (what the HIL rig reads its truth from), the frozen 100 once it is final."""
+    rng = np.random.default_rng(7)
+    detector = StopDetector()
+    table = StopTable(detector, ["mwir"])
+    t0 = 10**12
+    detector.mark_stop(t0)
+    for i in range(40):
+        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 50.0))
+    (row,) = table.rows()
+    assert not row.complete and row.n_frames == 40
+    open_run = table.run_of(0, "mwir")
+    assert [t for t, _ in open_run] == [t0 + i * FRAME_NS for i in range(40)]
+    for i in range(40, 150):
+        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 50.0))
+    (row,) = table.rows()
+    assert row.complete
+    assert table.run_of(0, "mwir") == table.runs()[(0, "mwir")]
+    assert len(table.run_of(0, "mwir")) == 100
+    assert table.run_of(1, "mwir") == [] and table.run_of(0, "lwir") == []
