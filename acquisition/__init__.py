@@ -1,6 +1,19 @@
-"""The pipeline: measurement (paper Eq. 4), tracking, time base, recording and replay.
+"""The pipeline: everything between a device's readings and the numbers the console shows. No Qt.
 
-Owns the per-frame peak-SNR measurement and its running statistics, noise analysis
-(paper section 6), device threads, the synchronisation of range and GPS to frames,
-range-stop detection, GPS-to-pixel projection, and the HDF5 session record. No Qt.
+One subpackage per job (each says what it owns in its own docstring):
+
+- :mod:`acquisition.measure`: Eq. (4), the peak-pixel SNR, and its statistics (paper sections 5-6);
+- :mod:`acquisition.track`: following the drone from the operator's click;
+- :mod:`acquisition.engine`: the ONE per-frame engine that live acquisition, the console's
+  replay and batch replay all run;
+- :mod:`acquisition.runtime`: the live session: device threads, frame rings, time base;
+- :mod:`acquisition.stops`: range stops and the SNR-versus-range table;
+- :mod:`acquisition.record`: the HDF5 session file (schema, writer, recorder, reader);
+- :mod:`acquisition.replay`: recordings and frame stacks played back through the engine;
+- :mod:`acquisition.calibrate`: radiometric calibration, sky temperature, target characterization;
+- :mod:`acquisition.geo`: GPS geometry, pointing, GPS cues;
+- :mod:`acquisition.report`: the paper's figures and the stop table of a session.
+
+At the top level: :mod:`acquisition.config` (the session configuration, its one factory) and
+:mod:`acquisition.prediction` (the seam to :mod:`model`: the model's SNR at a stop's range).
 """

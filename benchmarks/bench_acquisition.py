@@ -38,8 +38,8 @@ def _rss_mb(proc: psutil.Process) -> float:
 
 
 def run(duration_s: float) -> dict:
-    from acquisition.replay import replay_session
-    from snrmon.hil import HilOptions, HilRig
+    from acquisition.replay.batch import replay_session
+    from snrmon.rig.rig import HilOptions, HilRig
 
     proc = psutil.Process()
     with tempfile.TemporaryDirectory(prefix="snrmon-bench-") as tmp:

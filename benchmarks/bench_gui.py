@@ -51,8 +51,8 @@ def run(duration_s: float) -> dict:
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     from PySide6.QtCore import QEventLoop, QSettings, Qt, QTimer
 
-    from acquisition.session import Session
-    from acquisition.session_config import session_config_from_dict
+    from acquisition.config import session_config_from_dict
+    from acquisition.runtime.session import Session
     from drivers.camera.shm import ShmCamera
     from gui.app import console_application
     from gui.main_window import ConsoleWindow

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.recorder import SessionRecorder
-from acquisition.session_writer import COMPRESSIONS
+from acquisition.record.recorder import SessionRecorder
+from acquisition.record.writer import COMPRESSIONS
 from drivers.camera.frame import Frame
 
 KEY = "recorder"

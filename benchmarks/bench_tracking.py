@@ -8,9 +8,9 @@ import time
 
 import numpy as np
 
-from acquisition.geo import CameraIntrinsics, Pointing, Site, project_to_pixel
-from acquisition.stops import StopDetector
-from acquisition.tracker import Tracker
+from acquisition.geo.projection import CameraIntrinsics, Pointing, Site, project_to_pixel
+from acquisition.stops.detector import StopDetector
+from acquisition.track.tracker import Tracker
 
 KEY = "tracking"
 

@@ -14,7 +14,7 @@ from pathlib import Path
 from PySide6.QtCore import QEventLoop, QSettings, QTimer, qInstallMessageHandler
 from PySide6.QtWidgets import QApplication
 
-from acquisition.session import Session
+from acquisition.runtime.session import Session
 from gui.main_window import ConsoleWindow
 from gui.range_plot import CurveSource
 from gui.theme import apply_dark_theme, configure_pyqtgraph

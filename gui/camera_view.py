@@ -2,7 +2,8 @@
 operator's click that sets the ROI, and the measurement's geometry drawn on the image.
 
 The view never receives frames: the main window's timer hands it the newest
-:class:`acquisition.ring.RingFrame` it peeked, and the view skips a frame it has already shown.
+:class:`acquisition.runtime.ring.RingFrame` it peeked, and the view skips a frame it has already
+shown.
 Drawn on the image (paper Fig. 4): the search window centred on the ROI, the box centred on the
 measured peak, and the inner edge of its one-pixel rim (the rim pixels lie between the two); and
 a cyan cross where the drone's GPS position projects into the camera (hidden with no projection).
@@ -19,9 +20,9 @@ from pyqtgraph import functions_qimage
 from PySide6.QtCore import QPoint, QPointF, QRectF, Qt, Signal
 from PySide6.QtWidgets import QGraphicsItem, QGraphicsRectItem, QVBoxLayout, QWidget
 
-from acquisition.peak_snr import PeakSnrConfig
-from acquisition.ring import RingFrame
-from acquisition.status import CameraStatus
+from acquisition.engine.status import CameraStatus
+from acquisition.measure.peak_snr import PeakSnrConfig
+from acquisition.runtime.ring import RingFrame
 from gui.levels import levels_moved, robust_levels
 
 GPS_COLOR = "#00e5ff"  # cyan: distinct from the ROI blue, box yellow and peak red
@@ -252,7 +253,7 @@ class CameraView(QWidget):
 
     def show_gps(self, xy: tuple[float, float] | None) -> None:
         """The GPS cross at image coordinates ``xy`` (pixel centres on integers, as
-        :func:`acquisition.geo.project_enu` gives them); hidden for None or NaN."""
+        :func:`acquisition.geo.projection.project_enu` gives them); hidden for None or NaN."""
         ok = xy is not None and all(math.isfinite(v) for v in xy)
         self.gps_marker.setVisible(ok)
         if ok:

@@ -28,7 +28,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from acquisition.session import Session, SessionStatus
+from acquisition.runtime.session import Session, SessionStatus
 from gui import model_curves as mc
 from gui.actions import install_actions, shortcuts_text
 from gui.alarms import AlarmBanner

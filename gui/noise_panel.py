@@ -1,7 +1,7 @@
 """The noise panel (paper section 6): per camera, total, temporal and spatial noise in DN.
 
-Every value is a field of :class:`acquisition.status.CameraStatus` computed on the processing
-side (acquisition/track_noise.py); the panel only formats it. "--" until the pipeline has a
+Every value is a field of :class:`acquisition.engine.status.CameraStatus` computed on the processing
+side (acquisition/measure/track_noise.py); the panel only formats it. "--" until the pipeline has a
 background to measure (a track, or a clear-sky rectangle in the measurement config).
 """
 
@@ -11,7 +11,7 @@ import math
 
 from PySide6.QtWidgets import QGridLayout, QLabel, QVBoxLayout, QWidget
 
-from acquisition.session import SessionStatus
+from acquisition.runtime.session import SessionStatus
 
 COLUMNS = (
     ("noise_total_dn", "total",

@@ -19,7 +19,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
-from acquisition.stop_table import StopRow
+from acquisition.stops.table import StopRow
 from gui.strip_chart import cache_axes
 from gui.theme import CAMERA_COLORS, MODEL_COLORS
 

@@ -1,7 +1,7 @@
 """The replay toolbar: play/pause, step, a seek slider, the speed and where the replay is.
 
-Shown only when the console runs on a :class:`acquisition.replay_player.ReplayPlayer`. It only
-commands the player and shows its :class:`acquisition.replay_player.ReplayPosition`; the
+Shown only when the console runs on a :class:`acquisition.replay.player.ReplayPlayer`. It only
+commands the player and shows its :class:`acquisition.replay.player.ReplayPosition`; the
 shortcuts live in :data:`gui.actions.ACTIONS` (menu "Replay").
 """
 

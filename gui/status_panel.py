@@ -1,6 +1,7 @@
 """The always-visible status: rangefinder, GPS, each camera, recording (from one snapshot).
 
-Every value is a field of :class:`acquisition.session.SessionStatus`; the panel only formats it,
+Every value is a field of :class:`acquisition.runtime.session.SessionStatus`; the panel only
+formats it,
 with units in the text and in each row's tooltip.
 """
 
@@ -10,7 +11,7 @@ import math
 
 from PySide6.QtWidgets import QFormLayout, QGroupBox, QLabel, QVBoxLayout, QWidget
 
-from acquisition.session import SessionStatus
+from acquisition.runtime.session import SessionStatus
 
 
 def _fmt(value: float | None, fmt: str, unit: str) -> str:

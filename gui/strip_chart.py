@@ -1,7 +1,8 @@
 """One camera's strip chart: per-frame peak SNR (Eq. 4), its 100-frame running mean with a
 +/- one std band, and the model's prediction at the current range as a horizontal line.
 
-Every number is the session's (:meth:`acquisition.camera_pipeline.CameraPipeline.series`, rows of
+Every number is the session's (:meth:`acquisition.runtime.camera_pipeline.CameraPipeline.series`,
+rows of
 t_host_ns, snr, running mean, running std, range_m); the chart only converts times to seconds
 before now and adds mean +/- std for the band's edges.
 

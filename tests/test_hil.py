@@ -21,7 +21,7 @@ from sim.feed import FlightCameraFeed
 from sim.flight import FlightConfig, FlightPlan
 from sim.from_model import scene_config_from_model
 from snrmon import hil
-from snrmon.hil import HilOptions, HilRig
+from snrmon.rig.rig import HilOptions, HilRig
 
 SKY_K = 280.0
 

@@ -10,8 +10,8 @@ import re
 import pytest
 
 from snrmon.cli import main
-from snrmon.hil import stop_config_at
-from snrmon.hil_speed import CONSOLE_SHARE, MAX_SPEED, RENDER_SHARE, TOTAL_SHARE, speed_from_loads
+from snrmon.rig.rig import stop_config_at
+from snrmon.rig.speed import CONSOLE_SHARE, MAX_SPEED, RENDER_SHARE, TOTAL_SHARE, speed_from_loads
 
 
 def test_speed_is_the_tightest_share_rounded_down():

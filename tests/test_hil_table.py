@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from snrmon.hil import TABLE_HEADER, format_result, format_row
+from snrmon.rig.table import TABLE_HEADER, format_result, format_row
 
 
 def _stop(**kw) -> dict:

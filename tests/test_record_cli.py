@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.session_file import open_session
+from acquisition.record.reader import open_session
 from sim.devices.ldm_sim import LdmSimulator
 from sim.devices.nmea_sim import NmeaSimulator
 from sim.devices.shm_camera import ShmProducer

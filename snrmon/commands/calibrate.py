@@ -2,7 +2,8 @@
 
     snrmon calibrate --camera mwir --blackbody T1.npy:15 --blackbody T2.npy:40 -o CAL.npz [--json]
 
-Each ``--blackbody`` is a stack file (any format of ``acquisition.stack_io.load_stack``) and the
+Each ``--blackbody`` is a stack file (any format of ``acquisition.replay.stack_io.load_stack``) and
+the
 blackbody temperature in degrees C. Writes CAL.npz and CAL.toml and prints the quality report
 (residual non-uniformity in DN and mK, fit residual, measured NETD beside Table 1's). With
 ``--json`` the report is the JSON of ``CalibrationQuality.as_dict()`` plus ``"file"``.
@@ -13,9 +14,13 @@ from __future__ import annotations
 import argparse
 import json
 
-from acquisition.calibration import BlackbodyCapture, calibrate_sensor, calibration_quality
-from acquisition.calibration_file import save_calibration
-from acquisition.stack_io import load_stack
+from acquisition.calibrate.calibration import (
+    BlackbodyCapture,
+    calibrate_sensor,
+    calibration_quality,
+)
+from acquisition.calibrate.calibration_file import save_calibration
+from acquisition.replay.stack_io import load_stack
 from model.presets import load_sensor
 from snrmon.cli import UsageError
 

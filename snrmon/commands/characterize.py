@@ -4,10 +4,10 @@
     snrmon characterize FILE.h5 --camera mwir --stop 1 [--calibration CAL.npz] [--json]
                         [--frames 100] [--method otsu|ksigma] [--target-out T.toml]
 
-The session is replayed (``acquisition.replay.replay_session`` without the tracker, whose
+The session is replayed (``acquisition.replay.batch.replay_session`` without the tracker, whose
 point-target tests reject a resolved drone: the same measurement and stop table as live);
 the stop's range (rangefinder, else GPS) and the measured peak of each of its frames give the
-ROI; ``acquisition.characterize`` segments the drone. JSON contract: ``{"camera",
+ROI; ``acquisition.calibrate.characterize`` segments the drone. JSON contract: ``{"camera",
 "stop", "range_m", "n_frames", "small_m", "small_m_std", "large_m", "large_m_std",
 "mean_temp_c", "mean_temp_c_std", "background_temp_c", "background_temp_c_std",
 "rss_delta_t_k", "rss_delta_t_k_std", "method"}``; temperatures are null without a calibration.
@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.calibration_file import load_calibration
-from acquisition.characterize import CharacterizeConfig, characterize_frames, target_toml
-from acquisition.peak_snr import FLAG_EDGE, FLAG_LOST
-from acquisition.replay import replay_session
-from acquisition.session_file import append_event, open_session
+from acquisition.calibrate.calibration_file import load_calibration
+from acquisition.calibrate.characterize import CharacterizeConfig, characterize_frames, target_toml
+from acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
+from acquisition.record.reader import append_event, open_session
+from acquisition.replay.batch import replay_session
 from model.presets import load_sensor
 from snrmon.cli import UsageError
 

@@ -64,7 +64,7 @@ def _has_display() -> bool:
 def _operate(rig, done: threading.Event, printed: set, verbose: bool) -> None:
     """The simulated operator: clicks the drone at the first stop (HilRig.step) and, headless,
     prints each stop-table row once it is final."""
-    from snrmon.hil import format_row
+    from snrmon.rig.table import format_row
 
     while not done.is_set():
         if not rig.step():
@@ -81,7 +81,8 @@ def _operate(rig, done: threading.Event, printed: set, verbose: bool) -> None:
 def run(args: argparse.Namespace) -> int:
     from gui.app import run_console
     from snrmon.commands.hil import _floats
-    from snrmon.hil import TABLE_HEADER, HilOptions, HilRig, format_result
+    from snrmon.rig.rig import HilOptions, HilRig
+    from snrmon.rig.table import TABLE_HEADER, format_result
 
     if args.out is not None and args.out.exists():
         raise UsageError(f"{args.out} already exists (a session file is never overwritten)")
@@ -136,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         result = rig.result()
         live = None
         if report is not None and args.out is None:
-            from acquisition.report_data import live_report_data
+            from acquisition.report.data import live_report_data
 
             live = live_report_data(
                 rig.session.stop_table,
@@ -149,8 +150,8 @@ def run(args: argparse.Namespace) -> int:
     if screenshot is not None:
         print(f"screenshot: {screenshot}", file=sys.stderr)
     if report is not None:
-        from acquisition.report_data import report_data
-        from acquisition.report_plot import render_report
+        from acquisition.report.data import report_data
+        from acquisition.report.plot import render_report
 
         data = live if live is not None else report_data(args.out, target=opts.target)
         render_report(data, report)

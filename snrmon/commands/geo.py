@@ -10,7 +10,7 @@ the intrinsics directly instead of a sensor preset.
 [--json]``: least-squares pointing from a CSV with the header ``x_px,y_px,lat_deg,lon_deg,alt_m``
 (one tracked pixel and its GPS position per row); prints the pointing and the residual in pixels.
 
-Angles are degrees; conventions in :mod:`acquisition.geo`.
+Angles are degrees; conventions in :mod:`acquisition.geo.projection`.
 """
 
 from __future__ import annotations
@@ -21,8 +21,14 @@ import json
 import math
 from pathlib import Path
 
-from acquisition.geo import CameraIntrinsics, Pointing, Site, parse_triple, project_to_pixel
-from acquisition.pointing import calibrate_pointing
+from acquisition.geo.pointing import calibrate_pointing
+from acquisition.geo.projection import (
+    CameraIntrinsics,
+    Pointing,
+    Site,
+    parse_triple,
+    project_to_pixel,
+)
 from snrmon.cli import UsageError
 
 PAIR_COLUMNS = ("x_px", "y_px", "lat_deg", "lon_deg", "alt_m")

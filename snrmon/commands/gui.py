@@ -27,9 +27,9 @@ def run(args: argparse.Namespace) -> int:
         return _run_replay(args)
     if args.config is None:
         raise UsageError("snrmon gui needs --config FILE.toml (or --replay FILE.h5)")
+    from acquisition.config import load_session_config
     from acquisition.prediction import ModelPredictor
-    from acquisition.session import Session
-    from acquisition.session_config import load_session_config
+    from acquisition.runtime.session import Session
     from gui.app import run_console
 
     config = load_session_config(args.config)
@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_replay(args: argparse.Namespace) -> int:
     from acquisition.prediction import ModelPredictor
-    from acquisition.replay_player import ReplayPlayer
+    from acquisition.replay.player import ReplayPlayer
     from gui.app import run_console
 
     player = ReplayPlayer(args.replay)

@@ -64,7 +64,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from snrmon.hil import HilOptions, HilRig, format_result
+    from snrmon.rig.rig import HilOptions, HilRig
+    from snrmon.rig.table import format_result
 
     speed = 1.0 if args.speed == "max" else _floats(args.speed, "--speed")[0]
     cameras = tuple(c.strip() for c in args.camera.split(",") if c.strip())
@@ -85,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
         out=args.out,
     )
     if args.speed == "max":
-        from snrmon.hil_speed import max_speed
+        from snrmon.rig.speed import max_speed
 
         choice = max_speed(opts)
         print(choice.describe(), file=sys.stderr)

@@ -10,7 +10,8 @@ JSON contract (``--json``), on stdout::
 flagged or not; a value that is not a finite number (an undefined SNR) is written as ``null``.
 The readable table adds the running mean/std over the last ``--window`` valid frames.
 
-``--track`` runs :func:`acquisition.tracker.track_stack` from ``--at`` (motion gate, LOST state;
+``--track`` runs :func:`acquisition.track.tracker.track_stack` from ``--at`` (motion gate, LOST
+state;
 see docs/tracking.md) instead of keeping the window fixed. The contract is the same, the frames
 carry the tracker's flags (``lost``, ``gps_cued``) and each frame gains ``"track_state"``
 (``"tracking"``, ``"lost"`` or ``"gps_cued"``: the state after that frame).
@@ -25,12 +26,12 @@ import sys
 
 import numpy as np
 
-from acquisition.background import parse_rect, validate_rect
-from acquisition.peak_snr import FLAG_NAMES, RUNNING_EXCLUDED, PeakSnr, PeakSnrMeter
-from acquisition.running_stats import RunningSnr
-from acquisition.stack_io import load_stack
-from acquisition.stack_snr import StackSnr, measure_stack
-from acquisition.tracker import TrackStep, track_stack
+from acquisition.measure.background import parse_rect, validate_rect
+from acquisition.measure.peak_snr import FLAG_NAMES, RUNNING_EXCLUDED, PeakSnr, PeakSnrMeter
+from acquisition.measure.running_stats import RunningSnr
+from acquisition.measure.stack_snr import StackSnr, measure_stack
+from acquisition.replay.stack_io import load_stack
+from acquisition.track.tracker import TrackStep, track_stack
 from snrmon.cli import UsageError
 
 
@@ -120,7 +121,7 @@ def _measure_frames(args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrM
 def _track_frames(
     args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrMeter
 ) -> tuple[list[PeakSnr], list[TrackStep]]:
-    """The window follows the peak (acquisition.tracker); the meter's settings carry over."""
+    """The window follows the peak (acquisition.track.tracker); the meter's settings carry over."""
     steps = track_stack(stack, args.at, measurement=meter.config)
     return [s.peak_snr for s in steps], steps
 

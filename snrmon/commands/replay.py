@@ -74,7 +74,7 @@ def _replay_foreign(args: argparse.Namespace) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.replay import replay_session
+    from acquisition.replay.batch import replay_session
 
     if not _is_session(args.file):
         return _replay_foreign(args)

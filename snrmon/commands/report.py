@@ -1,8 +1,8 @@
 """``snrmon report``: the SNR-versus-range report of a session file (PDF or PNG) and its CSV.
 
 The session is replayed through the live measurement (a tqdm bar on stderr shows the frames),
-stops are rebuilt, and the pages of :mod:`acquisition.report_plot` are written; ``--csv`` writes
-the stop table with :data:`acquisition.report_data.CSV_COLUMNS`. See docs/report.md.
+stops are rebuilt, and the pages of :mod:`acquisition.report.plot` are written; ``--csv`` writes
+the stop table with :data:`acquisition.report.data.CSV_COLUMNS`. See docs/report.md.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.report_data import report_data, write_csv
-    from acquisition.report_plot import FORMATS, render_report
+    from acquisition.report.data import report_data, write_csv
+    from acquisition.report.plot import FORMATS, render_report
 
     src, out = Path(args.file), Path(args.output)
     if out.suffix.lower() not in FORMATS:

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pymap3d
 
-from acquisition.recorder import SessionRecorder
+from acquisition.record.recorder import SessionRecorder
 from drivers.camera.frame import Frame
 from drivers.gps.fix import GpsFix
 from drivers.rangefinder.reading import RangeReading

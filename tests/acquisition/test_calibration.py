@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from acquisition.calibration import (
+from acquisition.calibrate.calibration import (
     DEAD,
     HOT,
     NOISY,

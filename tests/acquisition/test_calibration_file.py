@@ -8,8 +8,8 @@ import tomllib
 import numpy as np
 import pytest
 
-from acquisition.calibration import BlackbodyCapture, calibrate_sensor
-from acquisition.calibration_file import load_calibration, save_calibration, sidecar_path
+from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from acquisition.calibrate.calibration_file import load_calibration, save_calibration, sidecar_path
 from model.presets import load_sensor
 from tests.acquisition.calibration_scene import camera
 

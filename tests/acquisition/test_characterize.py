@@ -17,15 +17,15 @@ import math
 import numpy as np
 import pytest
 
-from acquisition.calibration import BlackbodyCapture, calibrate_sensor
-from acquisition.calibration_file import save_calibration
-from acquisition.characterize import (
+from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from acquisition.calibrate.calibration_file import save_calibration
+from acquisition.calibrate.characterize import (
     CharacterizeConfig,
     characterize_frame,
     characterize_frames,
     target_toml,
 )
-from acquisition.recorder import SessionRecorder
+from acquisition.record.recorder import SessionRecorder
 from drivers.camera.frame import Frame
 from drivers.rangefinder.reading import RangeReading
 from model.presets import load_target
@@ -182,7 +182,7 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     assert out["mean_temp_c"] == pytest.approx(DRONE_K - 273.15, abs=0.5)
     assert load_target(str(target)).large_m == pytest.approx(out["large_m"], abs=1e-4)
     # The result is recorded in the session it was measured from.
-    from acquisition.session_file import open_session
+    from acquisition.record.reader import open_session
 
     with open_session(session) as f:
         (event,) = [e for e in f.event_list() if e["kind"] == "target_characterized"]
@@ -191,7 +191,7 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
 
 
 def _stops_json(session) -> str:
-    from acquisition.replay import replay_session
+    from acquisition.replay.batch import replay_session
 
     rows = replay_session(session).stops
     return json.dumps([r.stop for r in rows if r.camera == "mwir" and r.lrf_range_m < 45])

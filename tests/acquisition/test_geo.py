@@ -1,4 +1,4 @@
-"""GPS -> pixel projection against hand-computed cases (module acquisition.geo)."""
+"""GPS -> pixel projection against hand-computed cases (module acquisition.geo.projection)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pymap3d
 import pytest
 
-from acquisition.geo import (
+from acquisition.geo.projection import (
     CameraIntrinsics,
     Pointing,
     Site,

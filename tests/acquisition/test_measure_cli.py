@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from acquisition.stack_snr import measure_stack
+from acquisition.measure.stack_snr import measure_stack
 from snrmon.cli import main
 
 FRAME_KEYS = ["index", "peak_x", "peak_y", "peak", "bg_mean", "bg_std", "snr", "flags"]

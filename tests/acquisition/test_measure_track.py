@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from acquisition.tracker import track_stack
+from acquisition.track.tracker import track_stack
 from snrmon.cli import main
 
 FRAME_KEYS = ["index", "peak_x", "peak_y", "peak", "bg_mean", "bg_std", "snr", "flags"]

@@ -9,8 +9,14 @@ import numpy as np
 import pymap3d
 import pytest
 
-from acquisition.geo import CameraIntrinsics, Pointing, Site, camera_axes, project_to_pixel
-from acquisition.pointing import calibrate_pointing
+from acquisition.geo.pointing import calibrate_pointing
+from acquisition.geo.projection import (
+    CameraIntrinsics,
+    Pointing,
+    Site,
+    camera_axes,
+    project_to_pixel,
+)
 from snrmon.cli import main
 
 SITE = Site(32.38, -106.48, 1200.0)

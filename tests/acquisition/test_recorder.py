@@ -17,12 +17,12 @@ import h5py
 import numpy as np
 import pytest
 
-from acquisition.peak_snr import FLAG_NAMES, PeakSnr
-from acquisition.recorder import BACKLOG, STOPPED, SessionRecorder
-from acquisition.ring import FrameRing
-from acquisition.session_file import clear_status_flags, open_session
-from acquisition.session_writer import SessionWriter
-from acquisition.timebase import ClockMap
+from acquisition.measure.peak_snr import FLAG_NAMES, PeakSnr
+from acquisition.record.reader import clear_status_flags, open_session
+from acquisition.record.recorder import BACKLOG, STOPPED, SessionRecorder
+from acquisition.record.writer import SessionWriter
+from acquisition.runtime.ring import FrameRing
+from acquisition.runtime.timebase import ClockMap
 from drivers.camera.frame import Frame
 from drivers.gps.fix import GpsFix
 from drivers.rangefinder.reading import RangeReading, RangeStatus
@@ -287,7 +287,7 @@ def test_real_full_filesystem_stops_with_message_and_file_stays_readable(tiny_fs
 
 WRITER = """
 import sys, time, numpy as np
-from acquisition.recorder import SessionRecorder
+from acquisition.record.recorder import SessionRecorder
 from drivers.camera.frame import Frame
 cams = {"mwir": (64, 80)}
 rec = SessionRecorder(sys.argv[1], config={"k": 1}, cameras=cams, flush_interval_s=0.2)

@@ -16,11 +16,11 @@ import numpy as np
 import pymap3d
 import pytest
 
-from acquisition.camera_analysis import CameraAnalysis, FrameAnalysis
-from acquisition.geo import CameraIntrinsics, Pointing, Site, project_to_pixel
-from acquisition.peak_snr import PeakSnrConfig
-from acquisition.recorder import SessionRecorder
-from acquisition.replay_player import ReplayPlayer
+from acquisition.engine.camera_analysis import CameraAnalysis, FrameAnalysis
+from acquisition.geo.projection import CameraIntrinsics, Pointing, Site, project_to_pixel
+from acquisition.measure.peak_snr import PeakSnrConfig
+from acquisition.record.recorder import SessionRecorder
+from acquisition.replay.player import ReplayPlayer
 from drivers.camera.frame import Frame
 from drivers.gps.fix import GpsFix
 from model.presets import load_sensor

@@ -14,11 +14,11 @@ import time
 import numpy as np
 import pytest
 
-from acquisition.replay import replay_session
-from acquisition.session import Session
-from acquisition.session_config import session_config_from_dict
-from acquisition.session_file import open_session
-from acquisition.stops import StopConfig
+from acquisition.config import session_config_from_dict
+from acquisition.record.reader import open_session
+from acquisition.replay.batch import replay_session
+from acquisition.runtime.session import Session
+from acquisition.stops.detector import StopConfig
 from sim.devices.ldm_sim import LdmSimulator
 from sim.devices.nmea_sim import NmeaSimulator
 from sim.devices.shm_camera import ShmProducer

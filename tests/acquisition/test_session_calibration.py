@@ -9,13 +9,13 @@ import time
 import numpy as np
 import pytest
 
-from acquisition.calibration import BlackbodyCapture, calibrate_sensor
-from acquisition.calibration_file import save_calibration
-from acquisition.replay import replay_session
-from acquisition.replay_player import ReplayPlayer
-from acquisition.session import Session
-from acquisition.session_config import session_config_from_dict
-from acquisition.session_file import open_session
+from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from acquisition.calibrate.calibration_file import save_calibration
+from acquisition.config import session_config_from_dict
+from acquisition.record.reader import open_session
+from acquisition.replay.batch import replay_session
+from acquisition.replay.player import ReplayPlayer
+from acquisition.runtime.session import Session
 from sim.devices.shm_camera import ShmProducer
 from tests.acquisition.calibration_scene import camera
 from tests.helpers import wait_until

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.calibration import BlackbodyCapture, calibrate_sensor
-from acquisition.peak_snr import measure_peak_snr
-from acquisition.sky_temperature import SkyTemperature
+from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from acquisition.calibrate.sky_temperature import SkyTemperature
+from acquisition.measure.peak_snr import measure_peak_snr
 from tests.acquisition.calibration_scene import camera
 
 

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from acquisition.stack_io import iter_stack, load_stack
+from acquisition.replay.stack_io import iter_stack, load_stack
 
 
 @pytest.fixture

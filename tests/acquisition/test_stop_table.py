@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.peak_snr import PeakSnr
+from acquisition.measure.peak_snr import PeakSnr
 from acquisition.prediction import ModelPredictor
-from acquisition.report_data import live_report_data
-from acquisition.report_plot import render_report
-from acquisition.stop_table import StopTable
-from acquisition.stops import StopDetector
+from acquisition.report.data import live_report_data
+from acquisition.report.plot import render_report
+from acquisition.stops.detector import StopDetector
+from acquisition.stops.table import StopTable
 
 FRAME_NS = 16_666_667  # 60 fps
 

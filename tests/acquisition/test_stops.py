@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from acquisition.peak_snr import PeakSnr
-from acquisition.stops import (
+from acquisition.measure.peak_snr import PeakSnr
+from acquisition.stops.detector import (
     StopConfig,
     StopDetector,
     detect_stops,

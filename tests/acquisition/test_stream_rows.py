@@ -7,8 +7,8 @@ from datetime import UTC, datetime
 import numpy as np
 import pytest
 
-from acquisition import session_schema as S  # noqa: N812
-from acquisition.stream_rows import fix_from_row, gps_row
+from acquisition.record import schema as S  # noqa: N812
+from acquisition.record.stream_rows import fix_from_row, gps_row
 from drivers.gps.fix import GpsFix
 
 

@@ -14,10 +14,10 @@ import time
 import numpy as np
 import pytest
 
-from acquisition.noise import estimate_noise
-from acquisition.session import Session
-from acquisition.session_config import session_config_from_dict
-from acquisition.track_noise import TrackNoise, ring_pixels
+from acquisition.config import session_config_from_dict
+from acquisition.measure.noise import estimate_noise
+from acquisition.measure.track_noise import TrackNoise, ring_pixels
+from acquisition.runtime.session import Session
 from sim.devices.shm_camera import ShmProducer
 from tests.helpers import NOISE_DN, H, SpotOnNoise, W, wait_until
 

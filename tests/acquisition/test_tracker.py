@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.peak_snr import (
+from acquisition.measure.peak_snr import (
     FLAG_RIM_CONTAMINATED,
     PeakSnrConfig,
     PeakSnrMeter,
     measure_peak_snr,
 )
-from acquisition.tracker import Tracker, TrackerConfig, TrackState, track_stack
+from acquisition.track.tracker import Tracker, TrackerConfig, TrackState, track_stack
 
 ROWS, COLS = 100, 120
 SKY_DN, NOISE_DN = 1000.0, 10.0

@@ -82,7 +82,7 @@ def _x_range(plot: RangePlot) -> list[float]:
 
 
 def _row(rng_m: float, snr: float):
-    from acquisition.stop_table import StopRow
+    from acquisition.stops.table import StopRow
 
     return StopRow("mwir", 0, False, 0, 1, rng_m, rng_m, 100, True, snr, 1.0)
 

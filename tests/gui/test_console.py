@@ -15,9 +15,9 @@ import pytest
 from PySide6.QtCore import QSettings, Qt
 from PySide6.QtGui import QImage
 
-from acquisition.session import Session
-from acquisition.session_config import session_config_from_dict
-from acquisition.session_file import open_session
+from acquisition.config import session_config_from_dict
+from acquisition.record.reader import open_session
+from acquisition.runtime.session import Session
 from drivers.camera.shm import ShmCamera
 from gui.app import console_application, run_console
 from gui.main_window import ConsoleWindow

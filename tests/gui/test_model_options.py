@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings, Qt
 
+from acquisition.config import session_config_from_dict
 from acquisition.prediction import ModelPredictor
-from acquisition.session import Session
-from acquisition.session_config import session_config_from_dict
+from acquisition.runtime.session import Session
 from drivers.camera.shm import ShmCamera
 from gui.app import console_application
 from gui.main_window import ConsoleWindow

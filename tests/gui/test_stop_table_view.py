@@ -1,6 +1,6 @@
 """The console's stop table cells."""
 
-from acquisition.stop_table import StopRow
+from acquisition.stops.table import StopRow
 from gui.stop_table_view import row_texts
 
 

@@ -1,0 +1,2 @@
+"""Radiometric calibration (NUC, DN to radiance/temperature), sky temperature and target
+characterization."""

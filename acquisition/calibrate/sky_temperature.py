@@ -1,0 +1,122 @@
+"""Live apparent sky (background) temperature per camera, as a time series (issue 9).
+
+The background region is the one Eq. 4 uses (paper section 5): the 24 rim pixels of the 7x7 box
+around the frame's peak (from its :class:`acquisition.measure.peak_snr.PeakSnr`), or the operator's
+clear-sky rectangle. Per frame the region's raw DN are turned into in-band radiance through the
+camera's calibration, averaged IN RADIANCE (the physical mean of the flux the pixels see; the
+model's background input is a radiance), and reported as the brightness temperature of that
+mean. Only the region's pixels are read, so the cost does not depend on the frame size. This is
+the measured background of the paper's path-radiance correction (sections 8-9).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from acquisition.calibrate.calibration import Calibration, temperature_of
+from acquisition.measure.background import Rect, rim_offsets, validate_rect
+from acquisition.measure.peak_snr import PeakSnr
+
+
+@dataclass(frozen=True, slots=True)
+class SkySample:
+    """One frame's background: time on the common clock, mean in-band radiance of the good
+    pixels of the region, its brightness temperature [K], the spread of the pixels' apparent
+    temperatures [K] and how many pixels were used."""
+
+    t_host_ns: int
+    radiance: float
+    temp_k: float
+    temp_std_k: float
+    n_pixels: int
+
+
+class SkyTemperature:
+    """Fed one frame at a time (``add``); keeps the last ``maxlen`` samples.
+
+    ``rect`` (inclusive ``(x0, y0, x1, y1)``) fixes the region; without it the rim of
+    ``box_px`` around each frame's peak is used and the frame's PeakSnr is required."""
+
+    def __init__(
+        self,
+        camera: str,
+        calibration: Calibration,
+        *,
+        rect: Rect | None = None,
+        box_px: int = 7,
+        maxlen: int = 36000,
+    ) -> None:
+        if calibration.camera != camera:
+            raise ValueError(f"calibration is for camera {calibration.camera!r}, not {camera!r}")
+        self.camera = camera
+        self.calibration = calibration
+        self.rect = validate_rect(rect, calibration.shape) if rect is not None else None
+        self.box_px = int(box_px)
+        self._rim = rim_offsets(self.box_px)
+        if self.rect is not None:
+            x0, y0, x1, y1 = self.rect
+            rows, cols = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]
+            self._rect_pixels = (rows.ravel(), cols.ravel())
+        self._samples: deque[SkySample] = deque(maxlen=int(maxlen))
+
+    def _region(self, result: PeakSnr | None) -> tuple[np.ndarray, np.ndarray] | None:
+        if self.rect is not None:
+            return self._rect_pixels
+        if result is None:
+            raise ValueError("the rim background needs the frame's PeakSnr (or set a rect)")
+        rows = self._rim[0] + result.peak_y
+        cols = self._rim[1] + result.peak_x
+        h, w = self.calibration.shape
+        if rows.min() < 0 or cols.min() < 0 or rows.max() >= h or cols.max() >= w:
+            return None  # the rim leaves the image: no sample (the measurement flags it too)
+        return rows, cols
+
+    def add(self, t_host_ns: int, frame: np.ndarray, result: PeakSnr | None = None):
+        """The frame's :class:`SkySample` (also kept), or None when the region is unusable."""
+        region = self._region(result)
+        if region is None:
+            return None
+        rows, cols = region
+        keep = self.calibration.bad[rows, cols] == 0
+        rows, cols = rows[keep], cols[keep]
+        if rows.size < 2:
+            return None
+        cal = self.calibration
+        lq = (frame[rows, cols].astype(np.float64) - cal.offset_dn[rows, cols]) / (
+            cal.responsivity[rows, cols]
+        )
+        mean_lq = float(lq.mean())
+        temps = temperature_of(cal.band_um, lq, cal.qe_curve)
+        sample = SkySample(
+            int(t_host_ns),
+            mean_lq,
+            float(temperature_of(cal.band_um, mean_lq, cal.qe_curve)),
+            float(np.std(temps, ddof=1)),
+            int(rows.size),
+        )
+        self._samples.append(sample)
+        return sample
+
+    def __len__(self) -> int:
+        return len(self._samples)
+
+    def samples(self) -> list[SkySample]:
+        return list(self._samples)
+
+    def series(self) -> tuple[np.ndarray, np.ndarray]:
+        """(t_host_ns int64, temp_k float64) arrays of the kept samples, oldest first."""
+        t = np.fromiter((s.t_host_ns for s in self._samples), np.int64, len(self._samples))
+        k = np.fromiter((s.temp_k for s in self._samples), np.float64, len(self._samples))
+        return t, k
+
+    def mean_temp_k(self, last: int | None = None) -> float:
+        """Brightness temperature of the mean radiance of the last ``last`` samples (all by
+        default); NaN without samples. This is what the model's background input follows."""
+        s = list(self._samples)[-last:] if last else list(self._samples)
+        if not s:
+            return float("nan")
+        lq = float(np.mean([x.radiance for x in s]))
+        return float(temperature_of(self.calibration.band_um, lq, self.calibration.qe_curve))

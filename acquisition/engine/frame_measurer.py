@@ -1,0 +1,90 @@
+"""One camera's per-frame measurement state: the ROI, the tracker, Eq. (4) and the running stats.
+
+The live pipeline and the replay of a recording both measure through this one class, so a
+replay driven by the recorded ROI events reproduces the recorded per-frame SNR exactly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from acquisition.measure.peak_snr import RUNNING_EXCLUDED, PeakSnr, PeakSnrConfig, PeakSnrMeter
+from acquisition.track.tracker import Tracker, TrackerConfig
+
+
+def crop_half_px(config: PeakSnrConfig, tracker: TrackerConfig) -> int:
+    """Half-size of the square around the track that holds every pixel the measurement may read
+    on the next frame: the search window, the tracker's gate or GPS-cue square, plus the box."""
+    reach = max(config.search_px // 2, tracker.gate_px, tracker.cue_radius_px)
+    return reach + config.box_px // 2 + 2
+
+
+@dataclass(frozen=True, slots=True)
+class FrameResult:
+    """Eq. (4) on one frame, the track state and the running statistics after it."""
+
+    result: PeakSnr
+    state: str
+    window_xy: tuple[int, int]
+    snr_mean: float
+    snr_std: float
+    snr_n: int
+
+
+class FrameMeasurer:
+    """Measures frame after frame around an ROI, following the drone when ``track`` is on."""
+
+    def __init__(
+        self,
+        config: PeakSnrConfig | None = None,
+        *,
+        window: int = 100,
+        track: bool = True,
+        tracker_config: TrackerConfig | None = None,
+    ) -> None:
+        self.meter = PeakSnrMeter(config, window=window)
+        self.track = track
+        self.tracker_config = tracker_config or TrackerConfig()
+        self.roi: tuple[int, int] | None = None
+        self.tracker: Tracker | None = None
+
+    @property
+    def state(self) -> str:
+        if self.roi is None:
+            return "idle"
+        return self.tracker.state.value if self.tracker is not None else "fixed"
+
+    def set_roi(self, x: int, y: int) -> None:
+        """The operator's click: a fresh track (and fresh statistics) from this point."""
+        self.meter.reset()
+        self.roi = (int(x), int(y))
+        self.tracker = None
+        if self.track:
+            self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
+
+    def clear_roi(self) -> None:
+        self.roi = None
+        self.tracker = None
+
+    def cue(self, x: float, y: float) -> None:
+        """A GPS position projected into this camera, for the tracker to reacquire near."""
+        if self.tracker is not None:
+            self.tracker.cue(x, y)
+
+    def measure(self, pixels: np.ndarray) -> FrameResult | None:
+        """Eq. (4) on ``pixels``; None while no ROI is set."""
+        if self.roi is None:
+            return None
+        if self.tracker is not None:
+            step = self.tracker.update(pixels)
+            result, state = step.peak_snr, step.state.value
+            centre = (step.window_x, step.window_y)
+            if not (result.flags & RUNNING_EXCLUDED):
+                self.meter.running.push(result.snr)
+        else:
+            result, state, centre = self.meter.measure(pixels, self.roi), "fixed", self.roi
+        self.roi = (int(centre[0]), int(centre[1]))
+        r = self.meter.running
+        return FrameResult(result, state, self.roi, r.mean, r.std, r.count)

@@ -1,0 +1,2 @@
+"""Geometry: GPS to slant range and to camera pixel, pointing calibration, GPS cues for the
+tracker."""

@@ -1,0 +1,74 @@
+"""The ``rim_contaminated`` test of Eq. (4)'s background (a cloud edge or the drone itself in the
+rim, paper section 6) and the recent-noise reference it compares against, in DN.
+
+A frame is contaminated when its background std exceeds ``contamination_std_factor`` (2) times
+the recent noise, or its fitted plane's gradient across the background's extent exceeds
+``contamination_gradient_factor`` (3) times it. The recent noise is the median background std of
+the last accepted frames, so one bright frame cannot move it.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections import deque
+
+
+def is_contaminated(bg_std: float, gradient: float, reference: float | None, cfg) -> bool:
+    """The ``rim_contaminated`` test of one frame against a recent-noise reference (DN)."""
+    if reference is None or not math.isfinite(bg_std):
+        return False
+    return bool(
+        bg_std > cfg.contamination_std_factor * reference
+        or gradient * cfg.extent_px > cfg.contamination_gradient_factor * reference
+    )
+
+
+class NoiseReference:
+    """The recent noise for the ``rim_contaminated`` test: the median background std of the last
+    ``frames`` accepted frames (no flag of :data:`acquisition.measure.peak_snr.RUNNING_EXCLUDED`);
+    None
+    until ``min_frames``.
+
+    A genuinely changed sky must not stay "contaminated" forever: after ``frames`` consecutive
+    contaminated frames the history is cleared and the reference warms up again.
+    """
+
+    def __init__(self, frames: int = 25, min_frames: int = 5) -> None:
+        if frames < 1 or not 1 <= min_frames <= frames:
+            raise ValueError(f"need 1 <= min_frames <= frames, got {min_frames}, {frames}")
+        self.frames = frames
+        self.min_frames = min_frames
+        self._recent: deque[float] = deque()
+        self._sorted: list[float] = []
+        self._rejected_run = 0
+
+    @property
+    def value(self) -> float | None:
+        s = self._sorted
+        n = len(s)
+        if n < self.min_frames:
+            return None
+        return s[n // 2] if n % 2 else (s[n // 2 - 1] + s[n // 2]) / 2.0
+
+    def update(self, bg_std: float, *, accepted: bool, rejected: bool) -> None:
+        """Offer one frame's background std: kept if ``accepted``; ``rejected`` (contaminated)
+        counts toward the reset; anything else (undefined, saturated, ...) is ignored."""
+        if rejected:
+            self._rejected_run += 1
+            if self._rejected_run >= self.frames:
+                self.clear()
+            return
+        if not accepted:
+            return
+        self._rejected_run = 0
+        self._recent.append(bg_std)
+        bisect.insort(self._sorted, bg_std)
+        if len(self._recent) > self.frames:
+            old = self._recent.popleft()
+            del self._sorted[bisect.bisect_left(self._sorted, old)]
+
+    def clear(self) -> None:
+        self._recent.clear()
+        self._sorted.clear()
+        self._rejected_run = 0

@@ -1,0 +1,116 @@
+"""The live noise panel's numbers (paper section 6): total, temporal and spatial noise (DN) of the
+background around the track, sampled a few times per second on the measurement thread.
+
+Which pixels: the operator's clear-sky rectangle when the measurement config has one (detrended
+by a plane when the config says so); else a ``region_px`` square centred on the tracked peak with
+the ``box_px`` box around the peak left out (the drone and its rim are not background noise);
+else (no ROI, no rectangle) none, and the figures are unknown (NaN).
+
+How: every ``interval_s`` (default 0.25 s, so at most 4 estimates per second whatever the frame
+rate) the chosen pixels of one frame are copied; on the NEXT measured frame the same pixels (same
+coordinates, even if the track moved) give :func:`acquisition.measure.noise.estimate_noise` its
+frame and
+previous frame. Temporal noise follows acquisition/measure/noise.py's convention: the std of the
+difference of two frames divided by sqrt(2) (the difference carries sqrt(2) times the
+single-frame temporal noise); spatial = sqrt(max(total^2 - temporal^2, 0)). The ring of pixels
+around the box is not a rectangle: its pixels are passed to ``estimate_noise`` as one row, which
+gives the same std (the std of a set does not depend on its arrangement; no detrend there).
+Raw camera pixels are used (before any background reference), so the spatial figure is the
+camera's own fixed pattern.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from acquisition.measure.background import Rect, validate_rect
+from acquisition.measure.noise import NoiseEstimate, estimate_noise
+
+NAN = math.nan
+
+
+def ring_pixels(
+    shape: tuple[int, int], peak_xy: tuple[int, int], region_px: int, box_px: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) of a ``region_px`` square centred on ``peak_xy`` (clipped to the image),
+    without the ``box_px`` box centred on it: the background around the track."""
+    h, w = shape
+    x, y = peak_xy
+    r, b = region_px // 2, box_px // 2
+    ys = np.arange(max(y - r, 0), min(y + r, h - 1) + 1)
+    xs = np.arange(max(x - r, 0), min(x + r, w - 1) + 1)
+    rows, cols = np.meshgrid(ys, xs, indexing="ij")
+    keep = (np.abs(rows - y) > b) | (np.abs(cols - x) > b)
+    return rows[keep].astype(np.intp), cols[keep].astype(np.intp)
+
+
+class TrackNoise:
+    """Section 6 noise around the track, at most once per ``interval_s`` (not thread-safe: one
+    measurement thread calls :meth:`update`; any thread may read :attr:`latest`)."""
+
+    def __init__(
+        self,
+        shape: tuple[int, int],
+        *,
+        box_px: int = 7,
+        background: Rect | None = None,
+        detrend: bool = False,
+        ddof: int = 1,
+        region_px: int = 41,
+        interval_s: float = 0.25,
+    ) -> None:
+        if region_px <= box_px or region_px % 2 == 0:
+            raise ValueError(
+                f"noise region must be an odd size larger than the {box_px}-px box, got {region_px}"
+            )
+        if not interval_s > 0:
+            raise ValueError(f"noise interval must be positive seconds, got {interval_s}")
+        self.shape = (int(shape[0]), int(shape[1]))
+        self.box_px = int(box_px)
+        self.rect = None if background is None else validate_rect(background, self.shape)
+        self.detrend = bool(detrend) and self.rect is not None
+        self.ddof = int(ddof)
+        self.region_px = int(region_px)
+        self.interval_ns = int(interval_s * 1e9)
+        self.latest: NoiseEstimate | None = None
+        self.estimates = 0
+        self._armed: tuple[object, np.ndarray] | None = None  # (pixel selection, their values)
+        self._last_ns: int | None = None
+
+    def _selection(self, peak_xy: tuple[int, int] | None):
+        if self.rect is not None:
+            x0, y0, x1, y1 = self.rect
+            return (slice(y0, y1 + 1), slice(x0, x1 + 1))
+        if peak_xy is None:
+            return None
+        sel = ring_pixels(self.shape, peak_xy, self.region_px, self.box_px)
+        return sel if sel[0].size > self.ddof + 1 else None
+
+    def update(self, pixels: np.ndarray, t_host_ns: int, peak_xy: tuple[int, int] | None) -> None:
+        """Feed one measured frame (raw pixels) and the tracked peak (None: no track)."""
+        if self._armed is not None:
+            sel, previous = self._armed
+            self._armed = None
+            here = pixels[sel]
+            if here.ndim == 1:  # the ring around the box: one row of pixels
+                here, previous = here.reshape(1, -1), previous.reshape(1, -1)
+            self.latest = estimate_noise(here, previous, detrend=self.detrend, ddof=self.ddof)
+            self.estimates += 1
+            return
+        if self._last_ns is not None and t_host_ns - self._last_ns < self.interval_ns:
+            return
+        sel = self._selection(peak_xy)
+        if sel is None:
+            self.latest = None  # no background to measure: unknown, not a stale figure
+            return
+        self._armed = (sel, pixels[sel].copy())
+        self._last_ns = t_host_ns
+
+    def figures(self) -> tuple[float, float, float]:
+        """(total_dn, temporal_dn, spatial_dn) of the latest estimate, NaN when unknown."""
+        est = self.latest
+        if est is None:
+            return NAN, NAN, NAN
+        return est.total_dn, est.temporal_dn, est.spatial_dn

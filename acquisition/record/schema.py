@@ -1,0 +1,155 @@
+"""The layout of a snrmon session file (HDF5): names, dtypes and units, shared by writer and reader.
+
+Documented for users in ``docs/session-format.md``; bump ``FORMAT_VERSION`` whenever a dataset or
+field changes meaning. Strings are fixed-length, NUL-padded UTF-8 bytes (MATLAB ``h5read`` returns
+them as char arrays); missing integers are -1 and missing floats NaN, as stated per field.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
+
+FORMAT = "snrmon-session"
+FORMAT_VERSION = "1.0"
+
+CAMERAS = "cameras"
+FRAMES = "frames"
+FRAME_COLUMNS = ("counter", "t_host_ns", "t_device_ns", "utc_ns")
+MEASUREMENTS = "measurements"
+RANGEFINDER = "rangefinder"
+GPS = "gps"
+EVENTS = "events"
+CLOCK = "clock"
+CONFIG = "config"
+
+RAW_BYTES = 256
+GPS_RAW_BYTES = 512
+PAYLOAD_BYTES = 4096
+NAME_BYTES = 32
+
+MEASUREMENT_DTYPE = np.dtype(
+    [
+        ("frame_index", "<i8"),
+        ("counter", "<i8"),
+        ("t_host_ns", "<i8"),
+        ("peak_x", "<i4"),
+        ("peak_y", "<i4"),
+        ("peak", "<f8"),
+        ("bg_mean", "<f8"),
+        ("bg_std", "<f8"),
+        ("snr", "<f8"),
+        ("flags", "<u2"),
+    ]
+)
+MEASUREMENT_UNITS = {
+    "frame_index": "index into frames (-1: frame not in the file)",
+    "counter": "camera frame counter",
+    "t_host_ns": "ns, host monotonic clock",
+    "peak_x": "px, column, zero-based",
+    "peak_y": "px, row, zero-based",
+    "peak": "DN",
+    "bg_mean": "DN",
+    "bg_std": "DN",
+    "snr": "1 (paper Eq. 4; NaN when undefined)",
+    "flags": "bit i = flag_names[i]",
+}
+
+RANGE_DTYPE = np.dtype(
+    [
+        ("t_host_ns", "<i8"),
+        ("utc_ns", "<i8"),
+        ("range_m", "<f8"),
+        ("status", f"S{NAME_BYTES}"),
+        ("horizontal_m", "<f8"),
+        ("azimuth_deg", "<f8"),
+        ("inclination_deg", "<f8"),
+        ("quality", "<i4"),
+        ("raw", f"S{RAW_BYTES}"),
+    ]
+)
+RANGE_UNITS = {
+    "t_host_ns": "ns, host monotonic clock at receipt",
+    "utc_ns": "ns since 1970-01-01 UTC (host clock mapped through /clock)",
+    "range_m": "m, slant range (NaN: no range)",
+    "status": "ok | no_target | error",
+    "horizontal_m": "m (NaN: not given)",
+    "azimuth_deg": "deg clockwise from north (NaN: not given)",
+    "inclination_deg": "deg above horizon (NaN: not given)",
+    "quality": "device-specific (-1: not given)",
+    "raw": "line as received, UTF-8",
+}
+
+GPS_DTYPE = np.dtype(
+    [
+        ("t_host_ns", "<i8"),
+        ("utc_ns", "<i8"),
+        ("fix_utc_ns", "<i8"),
+        ("lat_deg", "<f8"),
+        ("lon_deg", "<f8"),
+        ("alt_msl_m", "<f8"),
+        ("alt_ellipsoid_m", "<f8"),
+        ("fix_quality", "<i2"),
+        ("sats", "<i2"),
+        ("hdop", "<f8"),
+        ("raw", f"S{GPS_RAW_BYTES}"),
+    ]
+)
+GPS_UNITS = {
+    "t_host_ns": "ns, host monotonic clock at receipt",
+    "utc_ns": "ns since 1970-01-01 UTC (host clock mapped through /clock)",
+    "fix_utc_ns": "ns since 1970-01-01 UTC from the receiver (-1: no date yet)",
+    "lat_deg": "deg WGS-84, north positive (NaN: none)",
+    "lon_deg": "deg WGS-84, east positive (NaN: none)",
+    "alt_msl_m": "m above mean sea level (NaN: none)",
+    "alt_ellipsoid_m": "m above WGS-84 ellipsoid (NaN: none)",
+    "fix_quality": "GGA quality (0 none, 1 GPS, 2 DGPS, 4 RTK fixed, 5 RTK float)",
+    "sats": "satellites used (-1: not given)",
+    "hdop": "1 (NaN: not given)",
+    "raw": "sentence(s) as received, UTF-8",
+}
+
+EVENT_DTYPE = np.dtype(
+    [
+        ("t_host_ns", "<i8"),
+        ("utc_ns", "<i8"),
+        ("kind", f"S{NAME_BYTES}"),
+        ("camera", f"S{NAME_BYTES}"),
+        ("payload", f"S{PAYLOAD_BYTES}"),
+    ]
+)
+EVENT_UNITS = {
+    "t_host_ns": "ns, host monotonic clock",
+    "utc_ns": "ns since 1970-01-01 UTC (host clock mapped through /clock)",
+    "kind": "roi_set | stop_marked | note | recording_started | recording_stopped | ...",
+    "camera": "camera name, empty when the event concerns the session",
+    "payload": "JSON object, UTF-8",
+}
+
+CLOCK_DTYPE = np.dtype([("monotonic_ns", "<i8"), ("utc_ns", "<i8"), ("source", f"S{NAME_BYTES}")])
+CLOCK_UNITS = {
+    "monotonic_ns": "ns, host monotonic clock",
+    "utc_ns": "ns since 1970-01-01 UTC at that instant",
+    "source": "host | gps",
+}
+
+STREAMS = {
+    RANGEFINDER: (RANGE_DTYPE, RANGE_UNITS),
+    GPS: (GPS_DTYPE, GPS_UNITS),
+    EVENTS: (EVENT_DTYPE, EVENT_UNITS),
+    CLOCK: (CLOCK_DTYPE, CLOCK_UNITS),
+}
+
+
+def text_field(value: str, size: int) -> bytes:
+    """UTF-8 bytes for a fixed-length field, cut at ``size`` bytes on a character boundary."""
+    raw = value.encode("utf-8")
+    if len(raw) <= size:
+        return raw
+    return raw[:size].decode("utf-8", errors="ignore").encode("utf-8")
+
+
+def text_value(raw: bytes) -> str:
+    """The str of a fixed-length field as read back (NUL padding already stripped by numpy)."""
+    return raw.decode("utf-8", errors="replace")

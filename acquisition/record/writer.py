@@ -1,0 +1,213 @@
+"""The HDF5 side of the session recorder: creates the SWMR file and appends to it (one thread).
+
+Every dataset is created before ``swmr_mode`` is switched on (SWMR cannot create objects later).
+Frames go to disk as they come, one chunk per frame (``write_direct_chunk`` when uncompressed,
+which skips the filter and type-conversion path); the per-frame columns and the small streams are
+held in memory and appended at each ``flush``, which then flushes HDF5 and ``fsync``s the file so
+that what was flushed survives a kill or a power loss. A reader takes, per camera, the shortest of
+the per-frame datasets (frames reach the file before their columns).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from datetime import UTC, datetime
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from acquisition.record import schema
+from acquisition.runtime.timebase import ClockMap
+
+COMPRESSIONS = ("gzip", "lz4", "zstd", "bitshuffle-lz4")
+
+
+def frame_filter(compression: str | None) -> dict:
+    """h5py keyword arguments of the frames' lossless filter (``None``: no filter)."""
+    if compression is None:
+        return {}
+    if compression == "gzip":
+        return {"compression": "gzip", "compression_opts": 1, "shuffle": True}
+    if compression not in COMPRESSIONS:
+        raise ValueError(f"unknown compression {compression!r}; known: {', '.join(COMPRESSIONS)}")
+    try:
+        import hdf5plugin
+    except ImportError as exc:
+        raise ValueError(
+            f"compression {compression!r} needs hdf5plugin (pip install hdf5plugin)"
+        ) from exc
+    return {
+        "lz4": lambda: dict(hdf5plugin.LZ4()),
+        "zstd": lambda: dict(hdf5plugin.Zstd(clevel=1)),
+        "bitshuffle-lz4": lambda: dict(hdf5plugin.Bitshuffle(cname="lz4")),
+    }[compression]()
+
+
+class SessionWriter:
+    """Owns the open session file; not thread-safe (the recorder's writer thread only)."""
+
+    def __init__(
+        self,
+        path: Path,
+        *,
+        config: dict,
+        shapes: dict[str, tuple[int, int]],
+        filters: dict,
+        compression: str | None,
+        clock: ClockMap,
+        flush_interval_s: float,
+        fsync: bool,
+    ) -> None:
+        self.path = path
+        self.clock = clock
+        self._raw_frames = not filters
+        self.frames_written = dict.fromkeys(shapes, 0)
+        self.frames_flushed = dict.fromkeys(shapes, 0)
+        self.measurements = dict.fromkeys(shapes, 0)
+        self.stream_rows = dict.fromkeys(schema.STREAMS, 0)
+        self._pending: dict[tuple[str, str], list] = {}
+        self._file = self._create(config, shapes, filters, compression, flush_interval_s)
+        self._fd = os.open(path, os.O_RDONLY) if fsync else None
+
+    def _create(
+        self,
+        config: dict,
+        shapes: dict[str, tuple[int, int]],
+        filters: dict,
+        compression: str | None,
+        flush_interval_s: float,
+    ) -> h5py.File:
+        # chunks of 64 KiB and more start on a page boundary, so a frame is whole pages
+        f = h5py.File(
+            self.path, "w", libver="latest", alignment_threshold=65536, alignment_interval=4096
+        )
+        try:
+            ref = self.clock.reference
+            f.attrs.update(
+                format=schema.FORMAT,
+                format_version=schema.FORMAT_VERSION,
+                created_utc=datetime.now(UTC).isoformat(),
+                flush_interval_s=flush_interval_s,
+                frames_compression=compression or "none",
+                clock_start_monotonic_ns=ref.monotonic_ns,
+                clock_start_utc_ns=ref.utc_ns,
+                clock_start_source=ref.source,
+                config_json=json.dumps(config, sort_keys=True, default=str),
+            )
+            cfg = f.create_group(schema.CONFIG)
+            for key, value in config.items():
+                simple = isinstance(value, (str, int, float, bool))
+                cfg.attrs[str(key)] = (
+                    value if simple else json.dumps(value, sort_keys=True, default=str)
+                )
+            for name, (h, w) in shapes.items():
+                g = f.create_group(f"{schema.CAMERAS}/{name}")
+                g.attrs.update(height=h, width=w, pixel_dtype="uint16")
+                g.create_dataset(
+                    schema.FRAMES,
+                    (0, h, w),
+                    np.uint16,
+                    chunks=(1, h, w),
+                    maxshape=(None, h, w),
+                    **filters,
+                )
+                for col in schema.FRAME_COLUMNS:
+                    g.create_dataset(col, (0,), np.int64, chunks=(4096,), maxshape=(None,))
+                m = g.create_dataset(
+                    schema.MEASUREMENTS,
+                    (0,),
+                    schema.MEASUREMENT_DTYPE,
+                    chunks=(1024,),
+                    maxshape=(None,),
+                )
+                m.attrs["flag_names"] = np.array([n.encode() for n in schema.FLAG_NAMES])
+                m.attrs["units_json"] = json.dumps(schema.MEASUREMENT_UNITS)
+            for name, (dtype, units) in schema.STREAMS.items():
+                d = f.create_dataset(name, (0,), dtype, chunks=(64,), maxshape=(None,))
+                d.attrs["units_json"] = json.dumps(units)
+            self._last_ref = ref
+            self._append(f[schema.CLOCK], self._clock_row(ref))
+            self.stream_rows[schema.CLOCK] = 1
+            f.swmr_mode = True
+        except BaseException:
+            f.close()
+            self.path.unlink(missing_ok=True)
+            raise
+        return f
+
+    def write_frame(self, camera: str, pixels: np.ndarray, counter: int, t_host: int, t_dev: int):
+        """Append one frame's pixels now; its counter and times at the next flush."""
+        ds = self._file[f"{schema.CAMERAS}/{camera}/{schema.FRAMES}"]
+        n = self.frames_written[camera]
+        ds.resize(n + 1, axis=0)
+        if self._raw_frames and pixels.dtype == np.dtype("<u2") and pixels.flags.c_contiguous:
+            ds.id.write_direct_chunk((n, 0, 0), pixels.data)
+        else:
+            ds[n] = pixels
+        self._pending.setdefault(("frame", camera), []).append((counter, t_host, t_dev))
+        self.frames_written[camera] = n + 1
+
+    def add_row(self, kind: str, key: str, row: tuple) -> None:
+        """Hold one row of a measurement (kind "meas", key = camera) or a stream (key = name)."""
+        self._pending.setdefault((kind, key), []).append(row)
+
+    def flush(self) -> None:
+        """Append the held rows, record a changed clock reference, flush HDF5 and fsync."""
+        f = self._file
+        for (kind, key), rows in list(self._pending.items()):
+            if kind == "frame":
+                cols = np.array(rows, np.int64).reshape(-1, 3)
+                utc = self._utc_ns(cols[:, 1])
+                for name, values in zip(schema.FRAME_COLUMNS, (*cols.T, utc), strict=True):
+                    self._append(f[f"{schema.CAMERAS}/{key}/{name}"], values)
+            elif kind == "meas":
+                arr = np.array(rows, schema.MEASUREMENT_DTYPE)
+                self._append(f[f"{schema.CAMERAS}/{key}/{schema.MEASUREMENTS}"], arr)
+                self.measurements[key] += len(rows)
+            else:
+                arr = np.array(rows, schema.STREAMS[key][0])
+                arr["utc_ns"] = self._utc_ns(arr["t_host_ns"])
+                self._append(f[key], arr)
+                self.stream_rows[key] += len(rows)
+            del self._pending[(kind, key)]
+        ref = self.clock.reference
+        if ref != self._last_ref:
+            self._append(f[schema.CLOCK], self._clock_row(ref))
+            self.stream_rows[schema.CLOCK] += 1
+            self._last_ref = ref
+        f.flush()
+        if self._fd is not None:
+            os.fsync(self._fd)
+        self.frames_flushed = dict(self.frames_written)
+
+    def close(self) -> None:
+        """Close the file and the fsync handle (both attempted; the first error is raised)."""
+        errors = []
+        for closer in (self._file.close, self._close_fd):
+            try:
+                closer()
+            except Exception as exc:
+                errors.append(exc)
+        if errors:
+            raise errors[0]
+
+    def _close_fd(self) -> None:
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            os.close(fd)
+
+    def _utc_ns(self, t_host_ns: np.ndarray) -> np.ndarray:
+        ref = self.clock.reference
+        return np.asarray(t_host_ns, np.int64) - ref.monotonic_ns + ref.utc_ns
+
+    @staticmethod
+    def _clock_row(ref) -> np.ndarray:
+        return np.array([(ref.monotonic_ns, ref.utc_ns, ref.source.encode())], schema.CLOCK_DTYPE)
+
+    @staticmethod
+    def _append(ds: h5py.Dataset, values: np.ndarray) -> None:
+        n = ds.shape[0]
+        ds.resize((n + len(values),))
+        ds[n:] = values

@@ -1,0 +1,244 @@
+"""The report's pages drawn with matplotlib (Agg, no display): a PDF of pages or one tall PNG.
+
+Pages, in order (all 8.5 x 11 in):
+
+1. summary: session, target, sensors and the stop table (the CSV's numbers, rounded);
+2. Figs. 7-10: per camera, measured peak SNR (mean, error bar = sample std over the stop's 100
+   frames) against range over the model's four curves (small/large x uncorrected solid /
+   corrected dashed; the same colours as :func:`model.plot.plot_prediction`), the Fig. 12 band
+   around the corrected curves, and the resolved/unresolved transitions as dotted verticals;
+   two cameras per page;
+3. Fig. 12: the uncertainty budget per camera, term by term, at each stop's range;
+4. Fig. 6: per stop, one column per camera, rows peak value, background mean, background std,
+   peak SNR over the stop's 100 frames.
+
+``.pdf`` writes every page into one file (``PdfPages``). ``.png`` writes ONE tall image: the
+same pages stacked top to bottom, so a report is always one file whatever its format.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from acquisition.prediction import CURVES
+from acquisition.report.data import BUDGET_TERMS, ReportData, StopSeries
+
+PAGE_IN = (8.5, 11.0)
+PNG_DPI = 100
+_STYLE = {  # as model/plot.py draws them, so the report's curves read the same
+    "small": ("tab:blue", "-", "model small"),
+    "large": ("tab:orange", "-", "model large"),
+    "small_corrected": ("tab:blue", "--", "corrected small"),
+    "large_corrected": ("tab:orange", "--", "corrected large"),
+}
+FORMATS = (".pdf", ".png")
+
+
+def _figure():
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=PAGE_IN, dpi=PNG_DPI)
+
+
+def _fmt(v, spec: str) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "-"
+    return format(v, spec)
+
+
+def summary_page(data: ReportData):
+    fig = _figure()
+    fig.text(0.06, 0.96, "snrmon SNR-versus-range report", fontsize=14, weight="bold")
+    sensors = ", ".join(f"{c}: {s}" for c, s in data.sensors.items())
+    lines = [
+        f"session: {data.path.name}",
+        f"target: {data.target}    sensors: {sensors}",
+        (
+            f"recording {data.recording_seconds:.1f} s, replayed in {data.replay_seconds:.1f} s"
+            if data.replay_seconds is not None
+            else f"live session of {data.recording_seconds:.1f} s, as measured (not replayed)"
+        )
+        + f"; {len({r.stop for r in data.rows})} stops",
+        "SNR = (peak - mean(rim)) / std(rim) per frame (Eq. 4), mean and sample std over the "
+        "first 100 consecutive valid frames of each stop.",
+        "ratio = measured mean / model at the stop's range (rangefinder, else GPS).",
+    ]
+    for i, line in enumerate(lines):
+        fig.text(0.06, 0.925 - 0.022 * i, line, fontsize=8)
+    head = ["stop", "camera", "LRF m", "GPS m", "n", "SNR", "std"]
+    head += [f"model {c.replace('_corrected', ' corr')}" for c in CURVES] + ["ratio s.corr"]
+    cells = []
+    for r in data.csv_rows:
+        cells.append(
+            [str(r["stop"]), str(r["camera"]), _fmt(r["lrf_range_m"], ".1f"),
+             _fmt(r["gps_range_m"], ".1f"), str(r["n_frames"]), _fmt(r["snr_mean"], ".2f"),
+             _fmt(r["snr_std"], ".2f")]
+            + [_fmt(r[f"model_{c}"], ".1f") for c in CURVES]
+            + [_fmt(r["ratio_small_corrected"], ".3f")]
+        )  # fmt: skip
+    ax = fig.add_axes((0.04, 0.05, 0.92, 0.74))
+    ax.axis("off")
+    if cells:
+        table = ax.table(cellText=cells[:40], colLabels=head, loc="upper center", cellLoc="right")
+        table.auto_set_font_size(False)
+        table.set_fontsize(6.5)
+        table.scale(1.0, 1.25)
+        if len(cells) > 40:
+            ax.text(0.5, 0.0, f"... {len(cells) - 40} more rows in the CSV", ha="center")
+    else:
+        ax.text(0.5, 0.9, "no range stop was found in this session", ha="center", fontsize=11)
+    return fig
+
+
+def _snr_axes(ax, data: ReportData, camera: str) -> None:
+    m = data.models[camera]
+    for curve in CURVES:
+        color, ls, label = _STYLE[curve]
+        ax.plot(m.ranges_m, m.snr[curve], color=color, ls=ls, lw=1.2, label=f"{label} {m.target}")
+        if curve in m.lower:
+            ax.fill_between(m.ranges_m, m.lower[curve], m.upper[curve], color=color, alpha=0.12)
+    for rt, name in ((m.transition_small_m, "small"), (m.transition_large_m, "large")):
+        if m.ranges_m[0] <= rt <= m.ranges_m[-1]:
+            ax.axvline(rt, color="grey", ls=":", lw=1)
+            ax.text(rt, 0.98, f" {name} unresolved beyond {rt:.0f} m", rotation=90, va="top",
+                    fontsize=6.5, color="grey", transform=ax.get_xaxis_transform())  # fmt: skip
+    p = data.measured[camera]
+    if len(p.range_m):
+        ax.errorbar(p.range_m, p.snr_mean, yerr=np.nan_to_num(p.snr_std), fmt="ko", ms=4,
+                    capsize=3, label="measured (mean, std)")  # fmt: skip
+        partial = ~p.complete
+        if partial.any():
+            ax.plot(p.range_m[partial], p.snr_mean[partial], "o", mfc="none", mec="red", ms=9,
+                    label="fewer than 100 valid frames")  # fmt: skip
+    ax.set_yscale("log")
+    ax.set_xlabel("range (m)")
+    ax.set_ylabel("peak SNR")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=6.5, loc="lower left")
+    ax.set_title(
+        f"{camera} ({m.sensor}) - target {m.target}; atmosphere {m.atmosphere}, "
+        f"background {m.background_temp_k:.1f} K",
+        fontsize=8.5,
+    )
+
+
+def snr_range_pages(data: ReportData) -> Iterator:
+    cams = list(data.models)
+    for i in range(0, len(cams), 2):
+        fig = _figure()
+        fig.suptitle("Measured peak SNR vs model (paper Figs. 7-10)", fontsize=11)
+        axes = fig.subplots(2, 1)
+        for ax, cam in zip(axes, cams[i : i + 2], strict=False):
+            _snr_axes(ax, data, cam)
+        for ax in axes[len(cams[i : i + 2]) :]:
+            ax.axis("off")
+        fig.tight_layout(rect=(0, 0, 1, 0.97))
+        yield fig
+
+
+def budget_page(data: ReportData):
+    fig = _figure()
+    fig.suptitle("Uncertainty budget, small dimension (paper Fig. 12)", fontsize=11)
+    cams = list(data.budgets) or ["-"]
+    axes = np.atleast_1d(fig.subplots(len(cams), 1))
+    labels = [*BUDGET_TERMS, "total"]
+    for ax, cam in zip(axes, cams, strict=True):
+        budgets = data.budgets.get(cam, [])
+        if not budgets:
+            ax.axis("off")
+            ax.text(0.5, 0.5, f"{cam}: no stop with a range", ha="center")
+            continue
+        width = 0.8 / len(budgets)
+        y = np.arange(len(labels))
+        for k, b in enumerate(budgets):
+            values = [100 * b.terms[t] for t in BUDGET_TERMS] + [100 * b.total]
+            state = "resolved" if b.resolved else "unresolved"
+            ax.barh(y + k * width, values, height=width, label=f"{b.range_m:.0f} m ({state})")
+        ax.set_yticks(y + 0.4 - width / 2, [t.replace("_", " ") for t in labels], fontsize=7)
+        ax.invert_yaxis()
+        ax.set_xlabel(f"relative SNR uncertainty (%), combined by {budgets[0].combine}")
+        ax.set_title(f"{cam} ({data.sensors.get(cam, cam)}), target {data.target}", fontsize=8.5)
+        ax.legend(fontsize=6.5, loc="lower right")
+        ax.grid(True, axis="x", alpha=0.3)
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    return fig
+
+
+def _series_column(axes, s: StopSeries) -> None:
+    n = np.arange(1, len(s.snr) + 1)
+    rows = (("peak", s.peak, "peak (DN)"), ("bg_mean", s.bg_mean, "background mean (DN)"),
+            ("bg_std", s.bg_std, "background std (DN)"), ("snr", s.snr, "peak SNR"))  # fmt: skip
+    rng = "-" if s.range_m is None else f"{s.range_m:.1f} m"
+    for ax, (_, values, label) in zip(axes, rows, strict=True):
+        ax.plot(n, values, "-", lw=0.9, marker=".", ms=3)
+        ax.set_ylabel(label, fontsize=7)
+        ax.tick_params(labelsize=6.5)
+        ax.grid(True, alpha=0.3)
+    if len(s.snr):
+        mean = float(np.mean(s.snr))
+        std = float(np.std(s.snr, ddof=1)) if len(s.snr) > 1 else math.nan
+        axes[3].axhline(mean, color="k", lw=0.8, ls="--")
+        stats = f"SNR {mean:.2f} +/- {std:.2f}"
+    else:
+        stats = "no valid frame"
+    note = "" if s.complete else " (incomplete)"
+    axes[0].set_title(f"{s.camera}, {rng}: {len(s.snr)} frames{note}\n{stats}", fontsize=8)
+    axes[3].set_xlabel("frame", fontsize=7)
+
+
+def series_pages(data: ReportData) -> Iterator:
+    by_stop: dict[int, list[StopSeries]] = {}
+    for s in data.series:
+        by_stop.setdefault(s.stop, []).append(s)
+    for stop, series in by_stop.items():
+        fig = _figure()
+        fig.suptitle(f"Stop {stop}: the 100 frames behind the SNR (paper Fig. 6)", fontsize=11)
+        grid = fig.subplots(4, len(series), squeeze=False, sharex="col")
+        for k, s in enumerate(series):
+            _series_column(grid[:, k], s)
+        fig.tight_layout(rect=(0, 0, 1, 0.97))
+        yield fig
+
+
+def report_pages(data: ReportData) -> Iterator:
+    """Every page of the report as a matplotlib Figure, in order."""
+    yield summary_page(data)
+    yield from snr_range_pages(data)
+    yield budget_page(data)
+    yield from series_pages(data)
+
+
+def _rgb(fig) -> np.ndarray:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+
+def render_report(data: ReportData, path: str | Path) -> Path:
+    """Write the report to ``path`` (.pdf: one page per figure; .png: one tall image)."""
+    out = Path(path)
+    suffix = out.suffix.lower()
+    if suffix not in FORMATS:
+        raise ValueError(f"report file {out} must end in .pdf or .png, got {out.suffix!r}")
+    if suffix == ".pdf":
+        from matplotlib.backends.backend_pdf import PdfPages
+
+        with PdfPages(out) as pdf:
+            for fig in report_pages(data):
+                pdf.savefig(fig)
+        return out
+    from matplotlib.image import imsave
+
+    pages = [_rgb(fig) for fig in report_pages(data)]
+    width = max(p.shape[1] for p in pages)
+    padded = [
+        np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)), constant_values=255) for p in pages
+    ]
+    imsave(out, np.concatenate(padded, axis=0))
+    return out

@@ -1,0 +1,1 @@
+"""Following the drone from the operator's click: gate, confusers, loss and reacquisition."""
