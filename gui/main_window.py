@@ -28,7 +28,8 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from acquisition.runtime.session import Session, SessionStatus
+from acquisition.engine.status import SessionStatus
+from acquisition.protocols import ConsoleSession, ReplayControls
 from gui import model_curves as mc
 from gui.actions import install_actions, shortcuts_text
 from gui.alarms import AlarmBanner
@@ -65,7 +66,7 @@ class ConsoleWindow(QMainWindow):
 
     def __init__(
         self,
-        session: Session,
+        session: ConsoleSession,
         *,
         curves: CurveSource | None = None,
         predictor=None,
@@ -118,7 +119,7 @@ class ConsoleWindow(QMainWindow):
         stops = self._dock("stops", "Stops", self.stop_table, bottom)
         self.resizeDocks([stops], [150], Qt.Orientation.Vertical)  # the images need the height
 
-        self.replay = bool(getattr(session, "is_replay", False))
+        self.replay = isinstance(session, ReplayControls)
         self.shown_counter: dict[str, int] = {}
         self.actions_by_key = install_actions(self, self.menuBar(), replay=self.replay)
         self.replay_bar: ReplayBar | None = None

@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 from acquisition.prediction import CURVES, ModelPredictor
+from acquisition.protocols import ConsoleSession
 
 CURVE_LABELS = {
     "small": "small, uncorrected",
@@ -121,37 +122,30 @@ class ModelCurves:
         return out
 
 
-def session_sensors(session) -> dict[str, str]:
+def session_sensors(session: ConsoleSession) -> dict[str, str]:
     """{camera: sensor preset} of a Session or ReplayPlayer (its config names them)."""
-    return {c.name: c.sensor for c in getattr(session.config, "cameras", ())}
+    return {c.name: c.sensor for c in session.config.cameras}
 
 
-def model_for_session(session, predictor=None) -> ModelCurves | None:
+def model_for_session(session: ConsoleSession, predictor=None) -> ModelCurves | None:
     """The console's model on ``session``'s sensors and target, reusing ``predictor`` (or the
     session's own) as the sky/session predictor; None when there is no predictor to follow."""
-    predictor = predictor if predictor is not None else getattr(session, "predictor", None)
+    predictor = predictor if predictor is not None else session.predictor
     if not (hasattr(predictor, "curve") and hasattr(predictor, "set_background")):
         return None
-    options = ModelOptions(target=str(getattr(session.config, "target", "uav1")))
+    options = default_options(session)
     model = ModelCurves(session_sensors(session), options, session_predictor=predictor)
     hand_to_session(session, model.sky)
     return model
 
 
-def hand_to_session(session, predictor: ModelPredictor) -> None:
+def hand_to_session(session: ConsoleSession, predictor: ModelPredictor) -> None:
     """Make ``predictor`` the session's (its stop table's model values, its sky following)."""
-    set_predictor = getattr(session, "set_predictor", None)  # ReplayPlayer
-    if callable(set_predictor):
-        set_predictor(predictor)
-        return
     session.predictor = predictor
-    table = getattr(session, "stop_table", None)
-    if table is not None:
-        table.predictor = predictor
 
 
-def default_options(session) -> ModelOptions:
-    return ModelOptions(target=str(getattr(session.config, "target", "uav1")))
+def default_options(session: ConsoleSession) -> ModelOptions:
+    return ModelOptions(target=str(session.config.target))
 
 
 def applied_model(model: ModelCurves | None, session, options: ModelOptions) -> ModelCurves:

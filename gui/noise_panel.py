@@ -11,7 +11,7 @@ import math
 
 from PySide6.QtWidgets import QGridLayout, QLabel, QVBoxLayout, QWidget
 
-from acquisition.runtime.session import SessionStatus
+from acquisition.engine.status import SessionStatus
 
 COLUMNS = (
     ("noise_total_dn", "total",

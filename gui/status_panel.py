@@ -11,7 +11,7 @@ import math
 
 from PySide6.QtWidgets import QFormLayout, QGroupBox, QLabel, QVBoxLayout, QWidget
 
-from acquisition.runtime.session import SessionStatus
+from acquisition.engine.status import SessionStatus
 
 
 def _fmt(value: float | None, fmt: str, unit: str) -> str:

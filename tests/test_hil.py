@@ -20,7 +20,7 @@ from model.snr import target_contrast_electrons
 from sim.feed import FlightCameraFeed
 from sim.flight import FlightConfig, FlightPlan
 from sim.from_model import scene_config_from_model
-from snrmon import hil
+from snrmon.rig import rig as hil
 from snrmon.rig.rig import HilOptions, HilRig
 
 SKY_K = 280.0

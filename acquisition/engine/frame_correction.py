@@ -29,6 +29,7 @@ class FrameCorrector:
         self.reference_offset: np.ndarray | None = None
         self.reference_frames = 0
         self.fixed_pattern_dn = float("nan")  # spatial std of the reference offsets
+        self.reference_summary: dict | None = None  # the summary of the reference in force
         self._buffer = np.zeros(self.shape, np.float32)
         self._sum: np.ndarray | None = None
         self._wanted = 0
@@ -54,6 +55,7 @@ class FrameCorrector:
         self.reference_offset = None
         self.reference_frames = 0
         self.fixed_pattern_dn = float("nan")
+        self.reference_summary = None
         self._sum = None
 
     def feed(self, pixels: np.ndarray, counter: int) -> dict | None:
@@ -71,19 +73,36 @@ class FrameCorrector:
         self.reference_frames = len(self._counters)
         self.fixed_pattern_dn = float(self.reference_offset.std())
         self._sum = None
-        return {
+        self.reference_summary = {
             "n_frames": self.reference_frames,
             "first_counter": self._counters[0],
             "last_counter": self._counters[-1],
             "spatial_std_dn": self.fixed_pattern_dn,
         }
+        return dict(self.reference_summary)
 
-    def set_reference(self, frames: np.ndarray, counters) -> None:
-        """A reference from recorded frames (replay of a ``background_reference`` event),
-        through the very same accumulation as a live capture, so it is bit-identical."""
+    def set_reference(self, frames: np.ndarray, counters) -> dict:
+        """A reference from recorded frames (replay of a format 1 ``background_reference``
+        event), through the very same accumulation as a live capture, so it is bit-identical;
+        returns its summary."""
         self.start_reference(len(frames))
+        summary = None
         for frame, counter in zip(frames, counters, strict=True):
-            self.feed(frame, int(counter))
+            summary = self.feed(frame, int(counter))
+        assert summary is not None
+        return summary
+
+    def set_reference_offset(self, offset: np.ndarray, summary: dict) -> None:
+        """A reference captured before (the recorded offset image and its summary): applied
+        exactly as it was live, whatever frames the recording kept."""
+        offset = np.asarray(offset, np.float32)
+        if offset.shape != self.shape:
+            raise ValueError(f"reference of shape {offset.shape}, frames are {self.shape}")
+        self.reference_offset = offset
+        self.reference_frames = int(summary["n_frames"])
+        self.fixed_pattern_dn = float(summary["spatial_std_dn"])
+        self.reference_summary = dict(summary)
+        self._sum = None
 
     def apply(self, pixels: np.ndarray, roi: tuple[int, int] | None) -> np.ndarray:
         """The corrected frame in the window around ``roi`` (float32); the raw frame when

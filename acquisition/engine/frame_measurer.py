@@ -68,6 +68,30 @@ class FrameMeasurer:
         self.roi = None
         self.tracker = None
 
+    def snapshot(self) -> dict:
+        """Everything that carries over from frame to frame (ROI, track, running statistics,
+        noise reference), exactly and JSON-able: :meth:`restore` on a measurer of the same
+        settings continues bit-identically."""
+        return {
+            "roi": None if self.roi is None else list(self.roi),
+            "meter": self.meter.snapshot(),
+            "tracker": None if self.tracker is None else self.tracker.snapshot(),
+        }
+
+    def restore(self, state: dict) -> None:
+        roi = state["roi"]
+        self.meter.restore(state["meter"])
+        if roi is None:
+            self.roi, self.tracker = None, None
+            return
+        self.roi = (int(roi[0]), int(roi[1]))
+        self.tracker = None
+        if state["tracker"] is not None:
+            if not self.track:
+                raise ValueError("a tracked state restored into a measurer with tracking off")
+            self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
+            self.tracker.restore(state["tracker"])
+
     def cue(self, x: float, y: float) -> None:
         """A GPS position projected into this camera, for the tracker to reacquire near."""
         if self.tracker is not None:

@@ -7,9 +7,11 @@ viewer never computes a statistic itself (the lesson of PyMoDAQ #79) and never h
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from acquisition.measure.peak_snr import PeakSnr
 from drivers.device import DeviceStatus
+from drivers.gps.fix import GpsFix
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,8 +65,29 @@ class CameraStatus:
 
 @dataclass(frozen=True, slots=True)
 class RecordingStatus:
-    state: str = "off"  # off | recording | stopped | failed
+    """The recording as the operator sees it: a disk that cannot keep up shows as a growing
+    backlog and then as dropped frames, never silently."""
+
+    state: str = "off"  # off | recording | stopped | failed | replay
     path: str = ""
     bytes_written: int = 0
     free_bytes: int | None = None
     message: str = ""
+    backlog_bytes: int = 0  # frames queued for the disk
+    dropped_frames: int = 0  # frames the recording lost (all cameras, all reasons)
+
+
+@dataclass(frozen=True)
+class SessionStatus:
+    """Everything the console shows, as one snapshot."""
+
+    cameras: dict[str, CameraStatus]
+    lrf: DeviceStatus | None
+    lrf_range_m: float | None
+    lrf_age_s: float | None
+    gps: DeviceStatus | None
+    gps_fix: GpsFix | None
+    gps_range_m: float | None
+    recording: RecordingStatus
+    alarms: tuple[str, ...] = ()
+    extra: dict[str, Any] = field(default_factory=dict)

@@ -71,4 +71,13 @@ class NoiseReference:
     def clear(self) -> None:
         self._recent.clear()
         self._sorted.clear()
+
+    def snapshot(self) -> dict:
+        """The history, exactly (JSON-able), for :meth:`restore`."""
+        return {"recent": list(self._recent), "rejected_run": self._rejected_run}
+
+    def restore(self, state: dict) -> None:
+        self._recent = deque(float(v) for v in state["recent"])
+        self._sorted = sorted(self._recent)
+        self._rejected_run = int(state["rejected_run"])
         self._rejected_run = 0

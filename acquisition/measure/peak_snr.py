@@ -361,3 +361,11 @@ class PeakSnrMeter:
         """Forget the history (new ROI, new stop)."""
         self.running.clear()
         self.reference.clear()
+
+    def snapshot(self) -> dict:
+        """The running statistics and the noise reference, exactly (JSON-able)."""
+        return {"running": self.running.snapshot(), "reference": self.reference.snapshot()}
+
+    def restore(self, state: dict) -> None:
+        self.running.restore(state["running"])
+        self.reference.restore(state["reference"])

@@ -95,6 +95,30 @@ class RunningSnr:
             return math.nan
         return math.sqrt(max(self._m2, 0.0) / (self._count - 1))
 
+    def snapshot(self) -> dict:
+        """Everything the window holds, exactly (JSON-able; floats round-trip through ``repr``),
+        so a restored window continues bit-identically (the replay across a recording gap)."""
+        return {
+            "buf": self._buf.tolist(),
+            "next": self._next,
+            "count": self._count,
+            "mean": self._mean,
+            "m2": self._m2,
+            "since_exact": self._since_exact,
+        }
+
+    def restore(self, state: dict) -> None:
+        """Restore what :meth:`snapshot` returned (same ``window``)."""
+        buf = np.asarray(state["buf"], dtype=np.float64)
+        if buf.shape != self._buf.shape:
+            raise ValueError(f"running window of {buf.size} values, this one holds {self.window}")
+        self._buf[:] = buf
+        self._next = int(state["next"])
+        self._count = int(state["count"])
+        self._mean = float(state["mean"])
+        self._m2 = float(state["m2"])
+        self._since_exact = int(state["since_exact"])
+
     def values(self) -> np.ndarray:
         """The window's values, oldest first (a copy)."""
         if self._count < self.window:

@@ -52,6 +52,14 @@ class FrameCrops:
             return {}
         return offsets
 
+    def frame_view(self, i: int) -> np.ndarray | None:
+        """Frame ``i`` as a read-only view into the memory map (nothing is read until its pixels
+        are touched, and then only their pages), or None where that does not apply."""
+        offset = self._offsets.get(i) if self._map is not None else None
+        if offset is None:
+            return None
+        return self._map[offset : offset + self._nbytes].view(self._dtype).reshape(self._shape)
+
     def crop(self, i: int, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
         """Rows ``y0:y1`` and columns ``x0:x1`` of frame ``i`` (a view where direct)."""
         offset = self._offsets.get(i) if self._map is not None else None

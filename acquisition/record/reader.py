@@ -6,7 +6,7 @@ already open for write (may use <h5clear file> to clear file consistency flags)"
 both automatic here:
 
 - open it as a SWMR reader (``h5py.File(path, "r", swmr=True)``): works for any session file
-  (they are all ``libver="latest"``) and changes nothing on disk (the default);
+  (they are all written in the SWMR-capable 1.10 format) and changes nothing on disk (the default);
 - clear the flags as ``h5clear -s`` does (``repair=True`` or :func:`clear_status_flags`): byte 11
   of the version-2/3 superblock is zeroed and the superblock's Jenkins lookup3 checksum
   recomputed, after which any HDF5 reader, MATLAB's ``h5read`` included, opens the file.
@@ -44,7 +44,9 @@ class CameraRecord:
     t_host_ns: np.ndarray
     t_device_ns: np.ndarray
     utc_ns: np.ndarray
-    measurements: np.ndarray
+    measurements: np.ndarray  # MEASUREMENT_DTYPE (a 1.x file's rows upgraded: see upgrade_rows)
+    states: np.ndarray  # STATE_DTYPE: engine states at recording gaps (none in a 1.x file)
+    references: h5py.Dataset | None  # (K, H, W) float32 reference images (None in a 1.x file)
 
     @property
     def n_frames(self) -> int:
@@ -78,17 +80,32 @@ class SessionFile:
         for name, g in f[schema.CAMERAS].items():
             cols = {c: g[c][()] for c in schema.FRAME_COLUMNS}
             n = min([g[schema.FRAMES].shape[0], *(len(v) for v in cols.values())])
-            meas = g[schema.MEASUREMENTS][()]
+            meas = upgrade_rows(g[schema.MEASUREMENTS][()])
             names = g[schema.MEASUREMENTS].attrs.get("flag_names")
             if names is not None:
                 self.flag_names = tuple(x.decode() if isinstance(x, bytes) else x for x in names)
+            states = g[schema.STATES][()] if schema.STATES in g else np.empty(0, schema.STATE_DTYPE)
+            refs = g.get(schema.REFERENCES)
             self.cameras[name] = CameraRecord(
-                name, g[schema.FRAMES], *(cols[c][:n] for c in schema.FRAME_COLUMNS), meas
+                name,
+                g[schema.FRAMES],
+                *(cols[c][:n] for c in schema.FRAME_COLUMNS),
+                meas,
+                states,
+                refs,
             )
         self.rangefinder: np.ndarray = f[schema.RANGEFINDER][()]
         self.gps: np.ndarray = f[schema.GPS][()]
         self.events: np.ndarray = f[schema.EVENTS][()]
         self.clock: np.ndarray = f[schema.CLOCK][()]
+
+    @property
+    def major_version(self) -> int:
+        """The format's major version (1 or 2); what a replay can rely on depends on it."""
+        try:
+            return int(self.format_version.split(".")[0])
+        except ValueError:
+            return 1
 
     @property
     def complete(self) -> bool:
@@ -139,20 +156,39 @@ def append_event(
         ds[n] = row[0]
 
 
+def upgrade_rows(rows: np.ndarray) -> np.ndarray:
+    """Measurement rows of any format version in the current dtype: fields a 1.x file lacks are
+    "not given" (empty track state, the peak as the window, NaN cue, statistics and range)."""
+    if rows.dtype == schema.MEASUREMENT_DTYPE:
+        return rows
+    out = np.zeros(len(rows), schema.MEASUREMENT_DTYPE)
+    for name in ("cue_x", "cue_y", "snr_mean", "snr_std", "range_m"):
+        out[name] = np.nan
+    out["window_x"], out["window_y"] = rows["peak_x"], rows["peak_y"]
+    for name in rows.dtype.names or ():
+        if name in out.dtype.names:
+            out[name] = rows[name]
+    return out
+
+
 def open_session(path: str | os.PathLike, *, repair: bool = False) -> SessionFile:
-    """Open a session file read-only, recovering a crashed one (see the module docstring)."""
+    """Open a session file read-only, recovering a crashed one (see the module docstring).
+
+    HDF5's file locking is off: a session is opened read-only, often from network storage where
+    ``flock`` fails or is unsafe, and a crashed writer's lock must not keep it from being read.
+    """
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"session file {p} not found")
     try:
-        return SessionFile(h5py.File(p, "r"), "")
+        return SessionFile(h5py.File(p, "r", locking=False), "")
     except OSError as exc:
         if "h5clear" not in str(exc) and "consistency flags" not in str(exc):
             raise OSError(f"cannot open session file {p}: {str(exc).splitlines()[0]}") from exc
     if repair:
         clear_status_flags(p)
-        return SessionFile(h5py.File(p, "r"), "flags_cleared")
-    return SessionFile(h5py.File(p, "r", swmr=True), "swmr_read")
+        return SessionFile(h5py.File(p, "r", locking=False), "flags_cleared")
+    return SessionFile(h5py.File(p, "r", swmr=True, locking=False), "swmr_read")
 
 
 def clear_status_flags(path: str | os.PathLike) -> bool:

@@ -3,15 +3,15 @@
 Producers (camera, measurement, rangefinder, GPS and GUI threads) call ``add_*``; each call only
 puts a record on a queue and returns at once, so recording never stalls acquisition. The writer
 thread appends to datasets that were all created up front, because the file runs in SWMR mode
-(``libver="latest"``, ``swmr_mode = True``; anchors (b) 7, h5py#1807): a reader can follow the file
-live, and after a ``kill -9`` or a power loss the file opens with everything up to the last flush.
-Flushes (HDF5 flush + ``fsync``) happen at most every ``flush_interval_s``, so at most about one
-second is lost. Frames are written as they arrive, one chunk per frame (navigate#596).
+(``libver=("v110", "v110")``, ``swmr_mode = True``; anchors (b) 7, h5py#1807): a reader can follow
+the file live, and after a ``kill -9`` or a power loss the file opens with everything up to the last
+flush. Flushes (HDF5 flush + ``fsync``) happen at most every ``flush_interval_s``, so at most about
+one second is lost. Frames are written as they arrive, one chunk per frame (navigate#596).
 
 A slow disk shows as backlog; beyond ``max_backlog_bytes`` new frames are dropped and counted
 (reason ``recorder_backlog``). A write error (disk full) ends the recording with one message in
-``status().error``; the file stays readable up to the last flush and ``add_*`` keep returning.
-The layout is in ``acquisition/record/schema.py`` and ``docs/session-format.md``.
+``status().error``; the file stays readable up to the last flush and ``add_*`` keep returning. The
+layout is in ``acquisition/record/schema.py`` and ``docs/session-format.md``.
 """
 
 from __future__ import annotations
@@ -32,9 +32,10 @@ from typing import Any
 import h5py
 import numpy as np
 
+from acquisition.engine.inputs import Measurement
 from acquisition.measure.peak_snr import PeakSnr, flags_to_bits
 from acquisition.record import schema as S  # noqa: N812
-from acquisition.record.stream_rows import gps_row, range_row
+from acquisition.record.stream_rows import gps_row, measurement_row, range_row
 from acquisition.record.writer import SessionWriter, frame_filter
 from acquisition.runtime.ring import Reader
 from acquisition.runtime.timebase import ClockMap
@@ -127,6 +128,7 @@ class SessionRecorder:
         self._accepted = dict.fromkeys(self._shapes, 0)
         self._dropped: dict[str, dict[str, int]] = {n: {} for n in self._shapes}
         self._index_of: dict[str, dict[int, int]] = {n: {} for n in self._shapes}
+        self._references = dict.fromkeys(self._shapes, 0)
         self._state = "recording"
         self._error: str | None = None
         self._t0 = time.monotonic()
@@ -213,8 +215,54 @@ class SessionRecorder:
         if index is None:
             with self._lock:
                 index = self._index_of[camera].get(int(t_host_ns), -1)
-        row = (index, counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr, bits)
+        nan = float("nan")
+        row = (index, counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr, bits,
+               b"", peak_x, peak_y, nan, nan, nan, nan, 0, nan, b"")  # fmt: skip
         self._put(("meas", camera, row))
+
+    def add_measured(self, camera: str, index: int | None, m: Measurement) -> None:
+        """Queue one frame's :class:`Measurement` (``index``: the frame's index from
+        ``add_frame``, None when it was dropped: the measurement is kept all the same)."""
+        self._check_camera(camera)
+        self._put(("meas", camera, measurement_row(index, m)))
+
+    def add_state(self, camera: str, counter: int, t_host_ns: int, state: Mapping) -> None:
+        """Queue the engine's state before frame ``counter``: the first recorded frame after
+        frames the recording does not hold (a replay restores it there)."""
+        self._check_camera(camera)
+        text = json.dumps(dict(state), allow_nan=False, separators=(",", ":")).encode()
+        if len(text) > S.STATE_BYTES:
+            raise ValueError(
+                f"{camera}: engine state of {len(text)} bytes exceeds the "
+                f"{S.STATE_BYTES}-byte field"
+            )
+        self._put(("state", camera, (int(counter), int(t_host_ns), text)))
+
+    def add_reference(
+        self, camera: str, offset: np.ndarray, summary: Mapping, *, t_host_ns: int
+    ) -> int | None:
+        """Queue a background reference image and its ``background_reference`` event (with the
+        image's index in /cameras/<camera>/references); the index, None when not recording."""
+        self._check_camera(camera)
+        with self._lock:
+            if self._state not in ("recording", "stopping"):
+                return None
+            k = self._references[camera]
+            self._references[camera] = k + 1
+            self._queue.put(("reference", camera, np.asarray(offset, np.float32).copy()))
+        self.add_event(
+            "background_reference",
+            camera=camera,
+            payload={**dict(summary), "reference_index": k},
+            t_host_ns=t_host_ns,
+        )
+        return k
+
+    def _check_camera(self, camera: str) -> None:
+        if camera not in self._shapes:
+            raise ValueError(
+                f"camera {camera!r} is not in this recording ({', '.join(self._shapes)})"
+            )
 
     def add_peak_snr(
         self, camera: str, index: int | None, counter: int, t_host_ns: int, result: PeakSnr
@@ -368,6 +416,8 @@ class SessionRecorder:
                     self._backlog_bytes -= pixels.nbytes
                     if not ok:
                         self._dropped[cam][STOPPED] = self._dropped[cam].get(STOPPED, 0) + 1
+            elif item is not None and item[0] == "reference":
+                self._guarded("write_reference", item[1], item[2])
             elif item is not None and self._writer is not None:
                 self._writer.add_row(*item)
             if time.monotonic() >= next_flush:

@@ -12,12 +12,18 @@ import numpy as np
 from acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
 
 FORMAT = "snrmon-session"
-FORMAT_VERSION = "1.0"
+FORMAT_VERSION = "2.0"
+"""2.0 (issue 16): per-frame track state, window, cue, running statistics and range in
+/cameras/<name>/measurements; engine states at recording gaps (/cameras/<name>/states); background
+reference images (/cameras/<name>/references); stop events carry the stop's times. A 1.x file is
+still read (the new fields are missing there) and replayed as before."""
 
 CAMERAS = "cameras"
 FRAMES = "frames"
 FRAME_COLUMNS = ("counter", "t_host_ns", "t_device_ns", "utc_ns")
 MEASUREMENTS = "measurements"
+STATES = "states"
+REFERENCES = "references"
 RANGEFINDER = "rangefinder"
 GPS = "gps"
 EVENTS = "events"
@@ -28,6 +34,8 @@ RAW_BYTES = 256
 GPS_RAW_BYTES = 512
 PAYLOAD_BYTES = 4096
 NAME_BYTES = 32
+STATE_BYTES = 65536
+STATE_TEXT_BYTES = 16
 
 MEASUREMENT_DTYPE = np.dtype(
     [
@@ -41,8 +49,20 @@ MEASUREMENT_DTYPE = np.dtype(
         ("bg_std", "<f8"),
         ("snr", "<f8"),
         ("flags", "<u2"),
+        ("track_state", f"S{STATE_TEXT_BYTES}"),
+        ("window_x", "<i4"),
+        ("window_y", "<i4"),
+        ("cue_x", "<f8"),
+        ("cue_y", "<f8"),
+        ("snr_mean", "<f8"),
+        ("snr_std", "<f8"),
+        ("snr_n", "<i4"),
+        ("range_m", "<f8"),
+        ("range_source", "S8"),
     ]
 )
+MEASUREMENT_FIELDS_V1 = ("frame_index", "counter", "t_host_ns", "peak_x", "peak_y", "peak",
+                         "bg_mean", "bg_std", "snr", "flags")  # fmt: skip
 MEASUREMENT_UNITS = {
     "frame_index": "index into frames (-1: frame not in the file)",
     "counter": "camera frame counter",
@@ -54,6 +74,23 @@ MEASUREMENT_UNITS = {
     "bg_std": "DN",
     "snr": "1 (paper Eq. 4; NaN when undefined)",
     "flags": "bit i = flag_names[i]",
+    "track_state": "fixed | tracking | lost | gps_cued | ... (the tracker's state after the frame)",
+    "window_x": "px, column of the search window's centre after the frame",
+    "window_y": "px, row of the search window's centre after the frame",
+    "cue_x": "px, column of the GPS cue applied before this frame (NaN: none)",
+    "cue_y": "px, row of the GPS cue applied before this frame (NaN: none)",
+    "snr_mean": "1, running mean of the last (100) valid per-frame SNRs after this frame",
+    "snr_std": "1, their sample std (ddof=1; NaN with fewer than 2)",
+    "snr_n": "values in the running window",
+    "range_m": "m, range at the frame's time (interpolated; NaN: none; raw: /rangefinder)",
+    "range_source": "lrf | gps | empty",
+}
+
+STATE_DTYPE = np.dtype([("counter", "<i8"), ("t_host_ns", "<i8"), ("state", f"S{STATE_BYTES}")])
+STATE_UNITS = {
+    "counter": "camera frame counter of the first recorded frame after a gap",
+    "t_host_ns": "ns, host monotonic clock of that frame",
+    "state": "JSON object, UTF-8: the measurement state before that frame (replay restores it)",
 }
 
 RANGE_DTYPE = np.dtype(

@@ -1,8 +1,9 @@
-"""The rows of the recorded streams (``docs/session-format.md``): what a rangefinder reading or a
-GPS fix becomes in the session file (:func:`range_row`, :func:`gps_row`, in the field order of
-:mod:`acquisition.record.schema`), and what a recorded GPS row becomes again
-(:func:`fix_from_row`), so that a replay shows the fix the operator saw. Missing values are NaN
-(floats) or -1 (integers) in the file and None in the data types.
+"""The rows of the recorded streams (``docs/session-format.md``): what a rangefinder reading, a
+GPS fix or a measured frame becomes in the session file (:func:`range_row`, :func:`gps_row`,
+:func:`measurement_row`, in the field order of :mod:`acquisition.record.schema`), and what a
+recorded row becomes again (:func:`reading_from_row`, :func:`fix_from_row`,
+:func:`measurement_from_row`), so that a replay sees what the operator saw. Missing values are
+NaN (floats) or -1 (integers) in the file and None in the data types.
 """
 
 from __future__ import annotations
@@ -12,9 +13,11 @@ from datetime import UTC, datetime, timedelta
 
 import numpy as np
 
+from acquisition.engine.inputs import Measurement
+from acquisition.measure.peak_snr import PeakSnr, flags_from_bits, flags_to_bits
 from acquisition.record import schema as S  # noqa: N812
 from drivers.gps.fix import GpsFix
-from drivers.rangefinder.reading import RangeReading
+from drivers.rangefinder.reading import RangeReading, RangeStatus
 
 EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
 
@@ -83,4 +86,82 @@ def fix_from_row(row: np.void) -> GpsFix:
         sats=None if sats < 0 else sats,
         hdop=_opt(row["hdop"]),
         raw=raw,
+    )
+
+
+def reading_from_row(row: np.void) -> RangeReading:
+    """The :class:`RangeReading` a recorded /rangefinder row came from."""
+    quality = int(row["quality"])
+    return RangeReading(
+        t_host_ns=int(row["t_host_ns"]),
+        range_m=_opt(row["range_m"]),
+        status=RangeStatus(S.text_value(row["status"])),
+        horizontal_m=_opt(row["horizontal_m"]),
+        azimuth_deg=_opt(row["azimuth_deg"]),
+        inclination_deg=_opt(row["inclination_deg"]),
+        quality=None if quality < 0 else quality,
+        raw=S.text_value(row["raw"]),
+    )
+
+
+def measurement_row(index: int | None, m: Measurement) -> tuple:
+    """A /cameras/<name>/measurements row (``index``: the frame's index in the file, None when
+    the recorder dropped it)."""
+    r = m.result
+    cue = m.cue_xy if m.cue_xy is not None else (math.nan, math.nan)
+    return (
+        -1 if index is None else int(index),
+        m.counter,
+        m.t_host_ns,
+        r.peak_x,
+        r.peak_y,
+        r.peak,
+        r.bg_mean,
+        r.bg_std,
+        r.snr,
+        flags_to_bits(r.flags),
+        S.text_field(m.track_state, S.STATE_TEXT_BYTES),
+        m.window_xy[0],
+        m.window_xy[1],
+        float(cue[0]),
+        float(cue[1]),
+        m.snr_mean,
+        m.snr_std,
+        m.snr_n,
+        _nan(m.range_m),
+        S.text_field(m.range_source, 8),
+    )
+
+
+def peak_snr_from_row(row: np.void) -> PeakSnr:
+    """The Eq. (4) result a measurement row holds."""
+    return PeakSnr(
+        int(row["peak_x"]),
+        int(row["peak_y"]),
+        float(row["peak"]),
+        float(row["bg_mean"]),
+        float(row["bg_std"]),
+        float(row["snr"]),
+        flags_from_bits(int(row["flags"])),
+    )
+
+
+def measurement_from_row(camera: str, row: np.void, seq: int = -1) -> Measurement:
+    """The :class:`Measurement` a format 2 measurement row came from."""
+    cx, cy = float(row["cue_x"]), float(row["cue_y"])
+    rng = float(row["range_m"])
+    return Measurement(
+        camera=camera,
+        seq=seq,
+        counter=int(row["counter"]),
+        t_host_ns=int(row["t_host_ns"]),
+        result=peak_snr_from_row(row),
+        track_state=S.text_value(row["track_state"]),
+        window_xy=(int(row["window_x"]), int(row["window_y"])),
+        snr_mean=float(row["snr_mean"]),
+        snr_std=float(row["snr_std"]),
+        snr_n=int(row["snr_n"]),
+        range_m=rng if math.isfinite(rng) else None,
+        range_source=S.text_value(row["range_source"]),
+        cue_xy=(cx, cy) if math.isfinite(cx) and math.isfinite(cy) else None,
     )

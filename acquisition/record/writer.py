@@ -22,6 +22,7 @@ from acquisition.record import schema
 from acquisition.runtime.timebase import ClockMap
 
 COMPRESSIONS = ("gzip", "lz4", "zstd", "bitshuffle-lz4")
+LIBVER = ("v110", "v110")
 
 
 def frame_filter(compression: str | None) -> dict:
@@ -80,8 +81,14 @@ class SessionWriter:
         flush_interval_s: float,
     ) -> h5py.File:
         # chunks of 64 KiB and more start on a page boundary, so a frame is whole pages
+        # libver bounded at v110: SWMR needs the 1.10 file format, and nothing newer is used,
+        # so readers built on HDF5 1.10 (MATLAB, h5dump 1.10) open the file (docs/session-format).
         f = h5py.File(
-            self.path, "w", libver="latest", alignment_threshold=65536, alignment_interval=4096
+            self.path,
+            "w",
+            libver=LIBVER,
+            alignment_threshold=65536,
+            alignment_interval=4096,
         )
         try:
             ref = self.clock.reference
@@ -124,6 +131,18 @@ class SessionWriter:
                 )
                 m.attrs["flag_names"] = np.array([n.encode() for n in schema.FLAG_NAMES])
                 m.attrs["units_json"] = json.dumps(schema.MEASUREMENT_UNITS)
+                st = g.create_dataset(
+                    schema.STATES, (0,), schema.STATE_DTYPE, chunks=(1,), maxshape=(None,)
+                )
+                st.attrs["units_json"] = json.dumps(schema.STATE_UNITS)
+                images = g.create_dataset(
+                    schema.REFERENCES,
+                    (0, h, w),
+                    np.float32,
+                    chunks=(1, h, w),
+                    maxshape=(None, h, w),
+                )
+                images.attrs["units"] = "DN: the fixed-pattern offset subtracted before Eq. (4)"
             for name, (dtype, units) in schema.STREAMS.items():
                 d = f.create_dataset(name, (0,), dtype, chunks=(64,), maxshape=(None,))
                 d.attrs["units_json"] = json.dumps(units)
@@ -149,6 +168,14 @@ class SessionWriter:
         self._pending.setdefault(("frame", camera), []).append((counter, t_host, t_dev))
         self.frames_written[camera] = n + 1
 
+    def write_reference(self, camera: str, offset: np.ndarray) -> int:
+        """Append a background reference image now; its index in /cameras/<camera>/references."""
+        ds = self._file[f"{schema.CAMERAS}/{camera}/{schema.REFERENCES}"]
+        n = ds.shape[0]
+        ds.resize(n + 1, axis=0)
+        ds[n] = offset
+        return n
+
     def add_row(self, kind: str, key: str, row: tuple) -> None:
         """Hold one row of a measurement (kind "meas", key = camera) or a stream (key = name)."""
         self._pending.setdefault((kind, key), []).append(row)
@@ -166,6 +193,9 @@ class SessionWriter:
                 arr = np.array(rows, schema.MEASUREMENT_DTYPE)
                 self._append(f[f"{schema.CAMERAS}/{key}/{schema.MEASUREMENTS}"], arr)
                 self.measurements[key] += len(rows)
+            elif kind == "state":
+                arr = np.array(rows, schema.STATE_DTYPE)
+                self._append(f[f"{schema.CAMERAS}/{key}/{schema.STATES}"], arr)
             else:
                 arr = np.array(rows, schema.STREAMS[key][0])
                 arr["utc_ns"] = self._utc_ns(arr["t_host_ns"])

@@ -1,25 +1,21 @@
-"""The console's replay of a recorded session: a :class:`ReplayPlayer` that looks like a Session.
+"""The console's replay of a recorded session: a :class:`ReplayPlayer` with the live Session's face.
 
 The console drives a live :class:`acquisition.runtime.session.Session` through a small surface
-(``pipelines[name]`` with ``shape``, ``latest_frame()``, ``series()``, ``status()``; the session's
-``status()``, ``stops()``, ``config.measurement``, ``set_roi``); the player offers the same
-surface on a recording, so the same window shows a replay. One worker thread reads the recorded
-frames of every camera in recorded time order (one merged *timeline*) and analyses each with the
-live pipeline's :class:`acquisition.engine.camera_analysis.CameraAnalysis` (Eq. 4 with the track,
-the
-raw-frame SNR beside a correction, the section 6 noise, the sky temperature), with the recorded
-ROI clicks, background references and calibration applied as
-:func:`acquisition.replay.batch.replay_session` applies them (the helpers are shared). The recorded
-rangefinder and GPS streams feed the stop detector and the per-frame range as the replay reaches
-their times, so the stop table fills as it would live; each recorded GPS fix is shown in the
-status and projected into the pointed cameras (the GPS cross, and the cue of a lost track).
+(:class:`acquisition.protocols.ConsoleSession`); the player offers the same surface on a
+recording, so the same window shows a replay. One worker thread plays the recording's timeline
+(:class:`acquisition.replay.feeder.Feeder`) into a fresh
+:class:`acquisition.engine.session_engine.SessionEngine` built with the recording's settings: the
+live engine itself, so the replay shows the numbers the operator saw (per-frame SNR, running
+statistics, noise and sky figures, the stop table filling as it did), the recorded GPS fix and its
+projection.
 
-Controls (any thread): :meth:`play`, :meth:`pause`, :meth:`step` (one timeline entry: one frame
-of one camera), :meth:`seek` (a timeline index), :meth:`set_speed` (x real time, paced by the
-recorded ``t_host_ns``). A seek restarts the measurement at the target: the track starts at the
-recorded peak of the camera's last measured frame before it (else its last recorded click), the
-running statistics and the stop table hold what is measured from there on.
-Recording, stop marks, references and notes are refused (ValueError "not available in replay").
+Controls (:class:`acquisition.protocols.ReplayControls`, any thread): :meth:`play`, :meth:`pause`,
+:meth:`step` (one recorded frame of one camera), :meth:`seek` (a frame index), :meth:`set_speed`
+(x real time, paced by the recorded ``t_host_ns``). A seek restarts the measurement at the
+target: the track starts at the recorded window of the camera's last measured frame before it,
+the running statistics and the stop table hold what is measured from there on. A click measures
+the shown frame again around the new point. Recording, stop marks, references and notes are
+refused (ValueError "not available in replay").
 """
 
 from __future__ import annotations
@@ -31,22 +27,17 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.config import SessionConfig, session_config_from_dict
-from acquisition.engine.status import RecordingStatus
-from acquisition.geo.gps_cue import GpsProjector
+from acquisition.engine.inputs import SetRoi
+from acquisition.engine.session_engine import SessionEngine
+from acquisition.engine.status import RecordingStatus, SessionStatus
 from acquisition.record.reader import open_session
 from acquisition.record.stream_rows import fix_from_row
-from acquisition.replay.batch import (
-    range_readings,
-    recorded_events,
-    recorded_stop_detector,
-    recorded_track,
-)
-from acquisition.replay.camera import ReplayCamera, ReplayCameraState
-from acquisition.runtime.history import ScalarHistory
+from acquisition.replay.batch import engine_for
+from acquisition.replay.camera import ReplayCamera
+from acquisition.replay.feeder import Feeder
+from acquisition.replay.recorded import FIX, FRAME, recorded_inputs
 from acquisition.runtime.ring import RingFrame
-from acquisition.runtime.session import SessionStatus
-from acquisition.stops.table import Predictor, StopRow, StopTable
+from acquisition.stops.table import Predictor, StopRow
 from drivers.gps.fix import GpsFix
 
 NOT_IN_REPLAY = "not available in replay"
@@ -54,8 +45,8 @@ NOT_IN_REPLAY = "not available in replay"
 
 @dataclass(frozen=True, slots=True)
 class ReplayPosition:
-    """Where the replay is: ``index`` of the last shown timeline entry (-1 before the first)
-    out of ``length``, its recorded time, and whether it is playing and how fast."""
+    """Where the replay is: ``index`` of the last shown frame (-1 before the first) out of
+    ``length``, its recorded time, and whether it is playing and how fast."""
 
     index: int
     length: int
@@ -72,10 +63,7 @@ class ReplayPlayer:
         path: the session file.
         predictor: the model's ``predictor(camera, range_m)`` for the stop table, or None.
         speed: initial speed (x real time).
-        series_length: per-frame rows kept for the strip charts.
     """
-
-    is_replay = True
 
     def __init__(
         self,
@@ -83,7 +71,6 @@ class ReplayPlayer:
         *,
         predictor: Predictor | None = None,
         speed: float = 1.0,
-        series_length: int = 2000,
     ) -> None:
         self.path = Path(path)
         self._file = open_session(self.path)
@@ -91,27 +78,23 @@ class ReplayPlayer:
         if not f.cameras or not any(c.n_frames for c in f.cameras.values()):
             f.close()
             raise ValueError(f"replay: {self.path} holds no camera frames")
-        raw = f.config.get("session") if isinstance(f.config, dict) else None
-        self.config: SessionConfig = session_config_from_dict(raw or {})
-        self.track = recorded_track(f)
-        self.predictor = predictor
-        self._events = recorded_events(f)
-        self._readings = range_readings(f, self.config.site)
-        self._projector = GpsProjector(self.config)
-        self._fixes = np.sort(f.gps[:], order="t_host_ns") if len(f.gps) else None
-        names = list(f.cameras)
+        self._inputs = recorded_inputs(f)
+        self.config = self._inputs.config
+        self.track = self._inputs.track
+        self._predictor = predictor
+        tl = self._inputs.timeline
+        # The frames one can show: recorded frames (a dropped frame has nothing to show).
+        self._shown_k = np.flatnonzero((tl["kind"] == FRAME) & (tl["frame"] >= 0))
+        self._t = tl["t_ns"][self._shown_k]
+        self._t0 = int(self._t[0])
+        self._engine, self._feeder = self._build()
         self.pipelines: dict[str, ReplayCamera] = {}
         for name, cam in f.cameras.items():
             span = (cam.t_host_ns[-1] - cam.t_host_ns[0]) / 1e9 if cam.n_frames > 1 else 0.0
             fps = (cam.n_frames - 1) / span if span > 0 else 0.0
-            self.pipelines[name] = ReplayCamera(name, cam, fps, series_length)
-        t = np.concatenate([f.cameras[n].t_host_ns for n in names]).astype(np.int64)
-        c = np.concatenate([np.full(f.cameras[n].n_frames, k) for k, n in enumerate(names)])
-        i = np.concatenate([np.arange(f.cameras[n].n_frames) for n in names])
-        order = np.argsort(t, kind="stable")
-        self._t, self._cam, self._idx = t[order], c[order].astype(int), i[order]
-        self._names = names
-        self._t0 = int(self._t[0])
+            self.pipelines[name] = ReplayCamera(name, self._engine.cameras[name], fps)
+        self._next_k = 0  # the next timeline entry to apply
+        self._last_fix: GpsFix | None = None
         self._cond = threading.Condition()
         self._playing = False
         self._speed = self._valid_speed(speed)
@@ -123,7 +106,21 @@ class ReplayPlayer:
         self._anchor: tuple[float, int] | None = None  # (wall s, recorded ns) for pacing
         self._busy = False
         self._thread: threading.Thread | None = None
-        self._reset_state(0)
+
+    def _build(self) -> tuple[SessionEngine, Feeder]:
+        f, inputs = self._file, self._inputs
+        engine, feeder = engine_for(
+            f,
+            inputs,
+            cameras=inputs.cameras,
+            track=inputs.track,
+            measurement=None,
+            calibrations=None,
+            predictor=self._predictor,
+            redetect_stops=False,
+        )
+        feeder.keep = False
+        return engine, feeder
 
     # ------------------------------------------------------------------ lifetime
     def start(self) -> None:
@@ -169,14 +166,14 @@ class ReplayPlayer:
         (self.pause if self._playing else self.play)()
 
     def step(self, n: int = 1) -> None:
-        """Show the next ``n`` timeline entries (pauses playback)."""
+        """Show the next ``n`` recorded frames (pauses playback)."""
         with self._cond:
             self._playing = False
             self._steps += int(n)
             self._cond.notify_all()
 
     def seek(self, index: int) -> None:
-        """Show timeline entry ``index`` (0 .. length-1), measuring afresh from there."""
+        """Show recorded frame ``index`` (0 .. length-1), measuring afresh from there."""
         if not 0 <= int(index) < len(self._t):
             raise ValueError(f"replay: frame index {index} is outside 0..{len(self._t) - 1}")
         with self._cond:
@@ -196,10 +193,22 @@ class ReplayPlayer:
                 timeout,
             )  # fmt: skip
 
+    @property
+    def predictor(self) -> Predictor | None:
+        return self._predictor
+
+    @predictor.setter
+    def predictor(self, predictor: Predictor | None) -> None:
+        self.set_predictor(predictor)
+
     def set_predictor(self, predictor: Predictor | None) -> None:
         """The model for the stop table's model column (from the next row computed)."""
-        self.predictor = predictor
-        self._table.predictor = predictor
+        self._predictor = predictor
+        self._engine.predictor = predictor
+
+    @property
+    def stop_table(self):
+        return self._engine.stop_table
 
     def position(self) -> ReplayPosition:
         with self._cond:
@@ -228,12 +237,13 @@ class ReplayPlayer:
             self._cond.notify_all()
 
     def stops(self) -> list[StopRow]:
-        return self._table.rows()
+        return self._engine.stops()
 
     def status(self) -> SessionStatus:
         now = self.now_ns()
-        lrf = self._lrf_history.latest()
-        gps = self._gps_history.latest()
+        engine = self._engine
+        lrf = engine.lrf_range.latest()
+        gps = engine.gps_range.latest()
         return SessionStatus(
             cameras={n: p.status() for n, p in self.pipelines.items()},
             lrf=None,
@@ -262,83 +272,48 @@ class ReplayPlayer:
         raise ValueError(NOT_IN_REPLAY)
 
     # ------------------------------------------------------------------ worker
-    def _reset_state(self, target: int) -> None:
-        """Fresh measurement, stop table and range histories for a replay from ``target``."""
-        f = self._file
-        self._states = {
-            n: ReplayCameraState(f, n, self.config, self.track, self._events) for n in self._names
-        }
-        self._detector = recorded_stop_detector(f)
-        self._table = StopTable(self._detector, self._names, history_frames=10**6,
-                                predictor=self.predictor)  # fmt: skip
-        gap = int(self.config.lrf_fresh_s * 1e9)
-        self._lrf_history = ScalarHistory(maxlen=4096, max_gap_ns=gap)
-        self._gps_history = ScalarHistory(maxlen=4096)
-        self._reading_pos = 0
-        self._fix_pos = 0
-        self._last_fix: GpsFix | None = None
-        t_target = int(self._t[target])
-        self._feed_ranges(t_target - 1)
-        for name, st in self._states.items():
-            meas = st.record.measurements
-            last_click = st.apply_events(t_target, before=True)
-            if last_click is not None:
-                x, y = last_click[1], last_click[2]
-                before = meas[(meas["t_host_ns"] >= last_click[0]) & (meas["t_host_ns"] < t_target)]
-                if before.size:  # where the recorded track was when the seek cut it
-                    x, y = int(before["peak_x"][-1]), int(before["peak_y"][-1])
-                st.analysis.set_roi(x, y)
-            self.pipelines[name].clear()
+    def _seek(self, index: int) -> None:
+        """A fresh engine, readings and references up to shown frame ``index``, then it."""
+        self._engine, self._feeder = self._build()
+        for name, view in self.pipelines.items():
+            view.rebind(self._engine.cameras[name])
+        k = int(self._shown_k[index])
+        self._feeder.skip_to(k)
+        self._next_k = k
+        self._last_fix = self._fix_before(k)
+        self._show_through(k)
 
-    def _feed_ranges(self, t_ns: int) -> None:
-        """The recorded ranges and GPS fixes up to ``t_ns``, as they arrived live."""
-        readings = self._readings
-        while self._reading_pos < len(readings) and readings[self._reading_pos][0] <= t_ns:
-            t, rng, source = readings[self._reading_pos]
-            self._reading_pos += 1
-            self._detector.add_range(t, rng, source)
-            (self._lrf_history if source == "lrf" else self._gps_history).append(t, rng)
-        fixes = self._fixes
-        fix = None
-        while fixes is not None and self._fix_pos < len(fixes):
-            if int(fixes["t_host_ns"][self._fix_pos]) > t_ns:
-                break
-            fix = fix_from_row(fixes[self._fix_pos])
-            self._fix_pos += 1
-        if fix is not None:  # only the newest cues: the tracker uses the latest position
-            self._last_fix = fix
-            where = self._projector.pixels(fix)
-            for name, st in self._states.items():
-                st.cue(where.get(name))
+    def _fix_before(self, k: int) -> GpsFix | None:
+        tl = self._inputs.timeline
+        fixes = np.flatnonzero(tl["kind"][:k] == FIX)
+        return fix_from_row(self._file.gps[int(tl["row"][fixes[-1]])]) if fixes.size else None
 
-    def _range_at(self, t_ns: int) -> tuple[float | None, str]:
-        r = self._lrf_history.value_at(t_ns)
-        if r is not None:
-            return r, "lrf"
-        g = self._gps_history.value_at(t_ns)
-        return (g, "gps") if g is not None else (None, "")
+    def _show_through(self, k: int) -> None:
+        """Apply the timeline up to and including entry ``k`` (a shown frame)."""
+        tl = self._inputs.timeline
+        while self._next_k <= k:
+            j = self._next_k
+            self._next_k += 1
+            out = self._feeder.apply(j)
+            kind = int(tl["kind"][j])
+            if kind == FIX:
+                self._last_fix = fix_from_row(self._file.gps[int(tl["row"][j])])
+            if out is not None and int(tl["frame"][j]) >= 0:
+                self._show_frame(out[0], int(tl["frame"][j]), int(tl["t_ns"][j]))
 
-    def _show(self, k: int) -> None:
-        """Read and measure timeline entry ``k`` (worker thread)."""
-        t, name, i = int(self._t[k]), self._names[self._cam[k]], int(self._idx[k])
-        self._feed_ranges(t)
-        st = self._states[name]
-        click = st.apply_events(t)
-        if click is not None:
-            st.analysis.set_roi(click[1], click[2])
-        cam = st.record
-        frame = RingFrame(np.asarray(cam.frames[i]), i, int(cam.counter[i]), t, None, name)
-        st.read += 1
-        self.pipelines[name].show(frame)
-        self._measure(name, frame)
+    def _show_frame(self, name: str, i: int, t: int) -> None:
+        cam = self._file.cameras[name]
+        pixels = np.asarray(cam.frames[i])
+        self.pipelines[name].show(RingFrame(pixels, i, int(cam.counter[i]), t, None, name))
 
-    def _measure(self, name: str, frame: RingFrame) -> None:
-        st, pipe = self._states[name], self.pipelines[name]
-        range_m, source = self._range_at(frame.t_host_ns)
-        status, row, result = st.measure(frame, range_m, source, pipe.fps)
-        if result is not None:
-            self._table.add(name, frame.t_host_ns, result)
-        pipe.publish(status, row)
+    def _remeasure(self, name: str, x: int, y: int) -> None:
+        """A click in replay: measure the shown frame of ``name`` again around (x, y)."""
+        engine = self._engine
+        engine.cameras[name].post(SetRoi(x, y))
+        frame = self.pipelines[name].latest_frame()
+        if frame is not None:
+            engine.on_frame(name, frame.pixels, seq=frame.seq, counter=frame.counter,
+                            t_host_ns=frame.t_host_ns)  # fmt: skip
 
     def _next_job(self) -> tuple[str, object] | None:
         """Wait for something to do; returns the job (under the condition's lock)."""
@@ -385,21 +360,16 @@ class ReplayPlayer:
             k = None
             try:
                 if kind == "seek":
-                    self._reset_state(arg)
-                    self._show(arg)
+                    self._seek(arg)  # type: ignore[arg-type]
                     k = arg
                 elif kind == "show":
-                    self._show(arg)
+                    self._show_through(int(self._shown_k[arg]))  # type: ignore[index]
                     k = arg
                 else:
-                    name, x, y = arg
-                    self._states[name].analysis.set_roi(x, y)
-                    frame = self.pipelines[name].latest_frame()
-                    if frame is not None:
-                        self._measure(name, frame)
+                    self._remeasure(*arg)  # type: ignore[misc]
             finally:
                 with self._cond:
                     if k is not None:
-                        self._index = k
+                        self._index = int(k)  # type: ignore[arg-type]
                     self._busy = False
                     self._cond.notify_all()

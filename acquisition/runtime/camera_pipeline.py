@@ -1,17 +1,20 @@
-"""One camera's path through the console: device -> ring -> measurement (every frame) -> recorder.
+"""One live camera's path: device -> ring -> the engine (every frame) -> recorder.
 
 Threads (DESIGN "The data that flows", anchors (b) item 5):
 
 - the camera device's own reader thread copies each frame into a preallocated
   :class:`acquisition.runtime.ring.FrameRing` and returns at once (the producer never waits);
-- this pipeline's measurement thread pops EVERY frame from its ring reader in order, runs
-  Eq. (4) (with the tracker once an ROI is set), folds the SNR into the 100-frame running
-  statistics, and hands the frame and its measurement to the recorder's queue (which never
-  blocks: a recorder backlog is counted as frames dropped by the recorder);
+- this pipeline's measurement thread pops EVERY frame from its ring reader in order and hands it
+  to the session's engine (:meth:`acquisition.engine.session_engine.SessionEngine.on_frame`: the
+  same per-frame engine a replay runs), then records the frame, the commands the engine applied
+  before it, and its measurement; the recorder's queue never blocks (a backlog is counted as
+  frames dropped by the recorder, and the measurement of a dropped frame is kept all the same);
 - a display takes only the newest frame with :meth:`CameraPipeline.latest_frame` on its own
   timer, and numbers only from :meth:`CameraPipeline.status` and :meth:`CameraPipeline.series`.
 
-Every statistic is computed here, in the processing thread, never in a viewer.
+Recording gaps: before the first recorded frame after frames the file does not hold (the first
+frame of a recording, or the first after a recorder drop) the engine's state is recorded, so a
+replay continues there exactly as live did.
 """
 
 from __future__ import annotations
@@ -20,45 +23,29 @@ import logging
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
-from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from acquisition.engine.camera_analysis import CameraAnalysis
-from acquisition.engine.frame_correction import FrameCorrector
-from acquisition.engine.frame_measurer import FrameMeasurer
+from acquisition.engine.camera_engine import CameraEngine
+from acquisition.engine.inputs import (
+    ClearReference,
+    ClearRoi,
+    Cue,
+    FrameOutput,
+    SetRoi,
+    StartReference,
+)
 from acquisition.engine.status import CameraStatus, FrameAccounting
-from acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
-from acquisition.measure.track_noise import TrackNoise
 from acquisition.runtime.ring import FrameRing, RingFrame
-from acquisition.track.tracker import TrackerConfig
 from drivers.camera.frame import Frame
 from drivers.device import Device
 
+if TYPE_CHECKING:
+    from acquisition.engine.session_engine import SessionEngine
+    from acquisition.record.recorder import SessionRecorder
+
 log = logging.getLogger(__name__)
-
-RangeLookup = Callable[[int], tuple[float | None, str]]
-"""``range_at(t_host_ns) -> (range_m or None, source)``: the session's range for a frame time."""
-
-
-@dataclass(frozen=True, slots=True)
-class Measurement:
-    """One measured frame as the listeners (recorder, stop table, charts) receive it."""
-
-    camera: str
-    seq: int
-    counter: int
-    t_host_ns: int
-    result: PeakSnr
-    track_state: str
-    snr_mean: float
-    snr_std: float
-    snr_n: int
-    range_m: float | None
-    range_source: str
-    snr_mean_raw: float = float("nan")  # the same track on raw frames, while a correction is on
-    snr_std_raw: float = float("nan")
 
 
 class CameraPipeline:
@@ -67,77 +54,34 @@ class CameraPipeline:
     Args:
         name: the camera's name ("mwir", "lwir").
         device: the camera driver (any :class:`drivers.device.Device` of :class:`Frame`).
-        shape: (rows, columns) of its frames.
+        engine: the session's engine, which holds this camera's :class:`CameraEngine`.
         ring_capacity: frames held for the slowest consumer (default 2 s at 60 fps).
-        config: the Eq. (4) settings.
-        window: frames in the running statistics (the paper's 100).
-        range_at: the session's range lookup for a frame's host time.
-        track: follow the drone from the click with :class:`acquisition.track.tracker.Tracker`;
-            False keeps the search window where the operator clicked.
-        tracker_config: the tracker's gate and thresholds (its Eq. 4 settings come from
-            ``config``).
     """
 
     def __init__(
         self,
         name: str,
         device: Device[Frame],
-        shape: tuple[int, int],
+        engine: SessionEngine,
         *,
         ring_capacity: int = 120,
-        config: PeakSnrConfig | None = None,
-        window: int = 100,
-        range_at: RangeLookup | None = None,
-        track: bool = True,
-        tracker_config: TrackerConfig | None = None,
-        series_length: int = 2000,
     ) -> None:
         self.name = name
         self.device = device
-        self.shape = (int(shape[0]), int(shape[1]))
+        self.session_engine = engine
+        self.engine: CameraEngine = engine.cameras[name]
+        self.shape = self.engine.shape
         self.ring = FrameRing(ring_capacity, *self.shape, name=name)
-        self.analysis = CameraAnalysis(
-            name, self.shape, config, window=window, track=track, tracker_config=tracker_config
-        )
-        self._reference_pending: int | None = None
-        self.range_at = range_at
         self._reader = self.ring.reader("measurement")
         self._lock = threading.Lock()
-        self._roi: tuple[int, int] | None = None
-        self._roi_pending: tuple[int, int] | None = None
-        self._clear_pending = False
-        self._cue_pending: tuple[float, float] | None = None
-        self._gps_xy: tuple[float, float] | None = None
-        self._track_state = "idle"
-        self._listeners: list[Callable[[Measurement, RingFrame], None]] = []
-        self._recorder = None
-        self._measured = 0
+        self._recorder: SessionRecorder | None = None
+        self._gap = False  # the last frame is not in the recording: record the state next
         self._wrong_shape = 0
-        self._last: Measurement | None = None
+        self._measured = 0
         self._latency_ns: deque[int] = deque(maxlen=1000)
-        self._series: deque[tuple[int, float, float, float, float | None]] = deque(
-            maxlen=series_length
-        )
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._unsubscribe: Callable[[], None] | None = None
-
-    @property
-    def measurer(self) -> FrameMeasurer:
-        return self.analysis.measurer
-
-    @property
-    def corrector(self) -> FrameCorrector:
-        return self.analysis.corrector
-
-    @property
-    def noise(self) -> TrackNoise:
-        return self.analysis.noise
-
-    @property
-    def sky(self):
-        """The apparent sky temperature series (with a calibration), else None."""
-        return self.analysis.sky
+        self._unsubscribe = None
 
     # ------------------------------------------------------------------ control
     def start(self) -> None:
@@ -159,60 +103,49 @@ class CameraPipeline:
         self._reader.close()
 
     def set_roi(self, x: int, y: int) -> None:
-        """The operator's click: centre the search window at column ``x``, row ``y``.
-
-        Applied by the measurement thread before its next frame, so a measurement never mixes
-        two ROIs. The running statistics restart: they belong to one target position.
-        """
-        h, w = self.shape
-        if not (0 <= x < w and 0 <= y < h):
-            raise ValueError(f"ROI ({x}, {y}) is outside the {self.name} image ({w} x {h})")
-        with self._lock:
-            self._roi_pending = (int(x), int(y))
+        """The operator's click: centre the search window at column ``x``, row ``y``. Applied
+        before the next frame, so a measurement never mixes two ROIs; the running statistics
+        restart (they belong to one target)."""
+        self.engine.post(SetRoi(int(x), int(y)))
 
     def clear_roi(self) -> None:
-        with self._lock:
-            self._roi_pending = None
-            self._clear_pending = True
+        self.engine.post(ClearRoi())
 
     def cue(self, x: float, y: float) -> None:
         """A projected GPS position for the tracker to reacquire a lost target near."""
-        with self._lock:
-            self._cue_pending = (float(x), float(y))
-            self._gps_xy = (float(x), float(y))
+        self.engine.post(Cue(float(x), float(y)))
 
     def set_calibration(self, calibration) -> None:
         """Apply a radiometric calibration (:class:`acquisition.calibrate.calibration.Calibration`)
-        to
-        the measured window from the next frame on, and follow the apparent sky temperature
-        of the background pixels (issue 9). Call before ``start``."""
-        self.analysis.set_calibration(calibration)
+        to the measured window and follow the sky temperature (issue 9). Call before ``start``."""
+        self.engine.set_calibration(calibration)
 
     def capture_reference(self, n_frames: int = 64) -> None:
         """Average the next ``n_frames`` frames (clear sky, no drone) into the background
         reference that removes the fixed-pattern noise before Eq. (4)."""
-        if int(n_frames) < 2:
-            raise ValueError(f"a background reference needs at least 2 frames, got {n_frames}")
-        with self._lock:
-            self._reference_pending = int(n_frames)
+        self.engine.post(StartReference(int(n_frames)))
 
     def clear_reference(self) -> None:
-        with self._lock:
-            self._reference_pending = 0
+        self.engine.post(ClearReference())
 
-    def add_listener(self, callback: Callable[[Measurement, RingFrame], None]) -> None:
-        """``callback(measurement, frame)`` on the measurement thread after every frame."""
-        with self._lock:
-            self._listeners.append(callback)
-
-    def attach_recorder(self, recorder) -> None:
+    def attach_recorder(self, recorder: SessionRecorder) -> None:
         """Record every frame from now on (and its measurement) into ``recorder``."""
         with self._lock:
             self._recorder = recorder
+            self._gap = True
 
     def detach_recorder(self) -> None:
         with self._lock:
             self._recorder = None
+
+    @property
+    def corrector(self):
+        return self.engine.corrector
+
+    @property
+    def sky(self):
+        """The apparent sky temperature series (with a calibration), else None."""
+        return self.engine.sky
 
     # ------------------------------------------------------------------ reading
     def latest_frame(self) -> RingFrame | None:
@@ -222,25 +155,17 @@ class CameraPipeline:
     def series(self) -> np.ndarray:
         """The recent per-frame record for charts: rows of (t_host_ns, snr, running mean,
         running std, range_m or NaN)."""
-        with self._lock:
-            rows = list(self._series)
-        arr = np.array(rows, dtype=float) if rows else np.empty((0, 5))
-        return arr
+        return self.engine.series()
 
     def status(self) -> CameraStatus:
         dev = self.device.status()
         ring = self.ring.stats()
         reader = self._reader.stats()
         with self._lock:
-            last = self._last
-            measured = self._measured
-            roi = self._roi
-            gps_xy = self._gps_xy
-            state = self._track_state
             lat = np.array(self._latency_ns, dtype=float)
             rec = self._recorder
-        recorded = 0
-        dropped_rec = 0
+            measured = self._measured
+        recorded = dropped_rec = 0
         if rec is not None:
             st = rec.status()
             recorded = int(st.frames_written.get(self.name, 0))
@@ -256,31 +181,8 @@ class CameraPipeline:
         fps = getattr(self.device, "measured_fps", None)
         fps = fps() if callable(fps) else 0.0
         p50, p99 = (np.percentile(lat, [50, 99]) / 1e6) if lat.size else (np.nan, np.nan)
-        fig = self.analysis.figures()
-        return CameraStatus(
-            name=self.name,
-            device=dev,
-            frames=frames,
-            fps=float(fps or 0.0),
-            roi_xy=roi,
-            gps_xy=gps_xy,
-            track_state=state,
-            last=last.result if last else None,
-            snr_mean=last.snr_mean if last else float("nan"),
-            snr_std=last.snr_std if last else float("nan"),
-            snr_n=last.snr_n if last else 0,
-            snr_mean_raw=last.snr_mean_raw if last else float("nan"),
-            snr_std_raw=last.snr_std_raw if last else float("nan"),
-            reference_frames=fig.reference_frames,
-            sky_temp_k=fig.sky_temp_k,
-            fixed_pattern_dn=fig.fixed_pattern_dn,
-            range_m=last.range_m if last else None,
-            range_source=last.range_source if last else "",
-            latency_ms_p50=float(p50),
-            latency_ms_p99=float(p99),
-            noise_total_dn=fig.noise_total_dn,
-            noise_temporal_dn=fig.noise_temporal_dn,
-            noise_spatial_dn=fig.noise_spatial_dn,
+        return self.engine.status(
+            device=dev, frames=frames, fps=float(fps or 0.0), latency_ms=(float(p50), float(p99))
         )
 
     # ------------------------------------------------------------------ threads
@@ -312,76 +214,50 @@ class CameraPipeline:
 
     def _process(self, item: RingFrame) -> None:
         with self._lock:
-            pending, self._roi_pending = self._roi_pending, None
-            clear, self._clear_pending = self._clear_pending, False
-            cue, self._cue_pending = self._cue_pending, None
-            reference, self._reference_pending = self._reference_pending, None
-            recorder = self._recorder
-            listeners = list(self._listeners)
-        analysis = self.analysis
-        if reference == 0:
-            analysis.clear_reference()
-        elif reference is not None:
-            analysis.start_reference(reference)
-        if clear:
-            analysis.clear_roi()
-        if pending is not None:
-            analysis.set_roi(*pending)
-            if recorder is not None:
-                # Recorded at the frame it took effect on, so a replay applies it there too.
-                recorder.add_event(
-                    "roi_set",
-                    camera=self.name,
-                    payload={"x": pending[0], "y": pending[1], "counter": item.counter},
-                    t_host_ns=item.t_host_ns,
-                )
-        if cue is not None:
-            analysis.cue(*cue)
-        index = recorder.add_frame(self.name, item) if recorder is not None else None
-        out = analysis.analyze(item.pixels, item.counter, item.t_host_ns)
-        if out.reference_done is not None and recorder is not None:
-            recorder.add_event(
-                "background_reference",
-                camera=self.name,
-                payload=out.reference_done,
-                t_host_ns=item.t_host_ns,
-            )
-        fr = out.result
-        if fr is None:
+            rec = self._recorder
+        index = None
+        if rec is not None:
+            index = rec.add_frame(self.name, item)
             with self._lock:
-                self._measured += 1
-                self._roi = None
-                self._track_state = "idle"
-            return
-        range_m, source = self.range_at(item.t_host_ns) if self.range_at else (None, "")
-        m = Measurement(
-            self.name,
-            item.seq,
-            item.counter,
-            item.t_host_ns,
-            fr.result,
-            fr.state,
-            fr.snr_mean,
-            fr.snr_std,
-            fr.snr_n,
-            range_m,
-            source,
-            out.snr_mean_raw,
-            out.snr_std_raw,
+                resume, self._gap = (self._gap and index is not None), index is None
+            if resume:
+                self._record_resume(rec, item)
+        out = self.session_engine.on_frame(
+            self.name, item.pixels, seq=item.seq, counter=item.counter, t_host_ns=item.t_host_ns
         )
-        if recorder is not None:
-            recorder.add_peak_snr(self.name, index, item.counter, item.t_host_ns, fr.result)
+        if rec is not None:
+            self._record(rec, index, item, out)
         latency = time.monotonic_ns() - item.t_host_ns
         with self._lock:
-            self._measured += 1
-            self._last = m
-            self._track_state = fr.state
-            self._roi = fr.window_xy
             self._latency_ns.append(latency)
-            rng = np.nan if range_m is None else range_m
-            self._series.append((item.t_host_ns, fr.result.snr, fr.snr_mean, fr.snr_std, rng))
-        for cb in listeners:
-            try:
-                cb(m, item)
-            except Exception:
-                log.exception("%s: measurement listener failed", self.name)
+            self._measured += 1
+
+    def _record_resume(self, rec: SessionRecorder, item: RingFrame) -> None:
+        """The first recorded frame after frames the file does not hold: the engine's state and
+        the background reference in force, so a replay continues from here exactly."""
+        corrector = self.engine.corrector
+        if corrector.reference_offset is not None and corrector.reference_summary is not None:
+            summary = {**corrector.reference_summary, "in_force": True}
+            rec.add_reference(self.name, corrector.reference_offset, summary,
+                              t_host_ns=item.t_host_ns)  # fmt: skip
+        rec.add_state(self.name, item.counter, item.t_host_ns, self.engine.snapshot())
+
+    def _record(
+        self, rec: SessionRecorder, index: int | None, item: RingFrame, out: FrameOutput
+    ) -> None:
+        for c in out.applied:
+            # At the frame they took effect on, so a replay applies them there too.
+            if isinstance(c, SetRoi):
+                payload = {"x": c.x, "y": c.y, "counter": item.counter}
+                rec.add_event("roi_set", camera=self.name, payload=payload,
+                              t_host_ns=item.t_host_ns)  # fmt: skip
+            elif isinstance(c, ClearRoi | ClearReference | StartReference):
+                kind = {ClearRoi: "roi_cleared", ClearReference: "reference_cleared",
+                        StartReference: "reference_started"}[type(c)]  # fmt: skip
+                rec.add_event(kind, camera=self.name, payload={"counter": item.counter},
+                              t_host_ns=item.t_host_ns)  # fmt: skip
+        if out.reference_done is not None:
+            rec.add_reference(self.name, out.reference_done.offset, out.reference_done.summary,
+                              t_host_ns=item.t_host_ns)  # fmt: skip
+        if out.measurement is not None:
+            rec.add_measured(self.name, index, out.measurement)

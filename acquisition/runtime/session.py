@@ -1,13 +1,13 @@
-"""The Session: the one object the CLI and the GUI drive (no Qt).
+"""The live Session: the one object the CLI and the GUI drive on real (or simulated) devices. No Qt.
 
-It owns the devices of a :class:`acquisition.config.SessionConfig` and wires them:
-each camera through a :class:`acquisition.runtime.camera_pipeline.CameraPipeline`; the rangefinder
-and
-GPS readings into short histories on the common monotonic clock (DESIGN "Time"), from which each
-frame's range is interpolated (the rangefinder when its last reading is fresh, else the GPS slant
-range from the site); everything raw into the recorder while recording. Commands: start/stop,
-set the ROI per camera, start/stop recording, mark a stop, add a note. Reading: status snapshots
-and the latest frame per camera.
+It owns the devices of a :class:`acquisition.config.SessionConfig` and feeds the session's engine
+(:class:`acquisition.engine.session_engine.SessionEngine`, the same engine a replay feeds from a
+recording): each camera through a :class:`acquisition.runtime.camera_pipeline.CameraPipeline`
+(device -> ring -> engine -> recorder), the rangefinder and GPS readings from their device
+threads. While recording it writes everything raw, plus what the engine decided that a replay
+must apply again (stop events, final rows, the model background following the sky). Commands:
+start/stop, set the ROI per camera, start/stop recording, mark a stop, add a note. Reading: status
+snapshots and the latest frame per camera.
 """
 
 from __future__ import annotations
@@ -19,46 +19,52 @@ import shutil
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from acquisition.config import SessionConfig, camera_device
-from acquisition.engine.status import CameraStatus, RecordingStatus
-from acquisition.geo.gps_cue import GpsProjector
-from acquisition.geo.projection import gps_slant_range_m
+from acquisition.engine.inputs import Measurement
+from acquisition.engine.session_engine import SessionEngine
+from acquisition.engine.status import RecordingStatus, SessionStatus
 from acquisition.record.recorder import SessionRecorder
-from acquisition.runtime.camera_pipeline import CameraPipeline, Measurement
-from acquisition.runtime.history import ScalarHistory
+from acquisition.runtime.camera_pipeline import CameraPipeline
 from acquisition.runtime.ring import RingFrame
 from acquisition.runtime.timebase import ClockMap
-from acquisition.stops.detector import StopConfig, StopDetector
-from acquisition.stops.table import Predictor, StopRow, StopTable
-from drivers.device import Device, DeviceStatus
+from acquisition.stops.detector import Stop, StopConfig
+from acquisition.stops.table import Predictor, StopRow
+from drivers.device import Device
 from drivers.gps.fix import GpsFix
-from drivers.rangefinder.reading import RangeReading, RangeStatus
+from drivers.rangefinder.reading import RangeReading
 
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class SessionStatus:
-    """Everything the console shows, as one snapshot."""
+def stop_payload(stop: Stop) -> dict:
+    """A stop as recorded in its events (format 2: with its times, so a replay can use it)."""
+    return {
+        "stop": stop.index,
+        "t_start_ns": stop.t_start_ns,
+        "t_end_ns": stop.t_end_ns,
+        "t_confirmed_ns": stop.t_confirmed_ns,
+        "manual": stop.manual,
+        "lrf_range_m": stop.lrf_range_m,
+        "gps_range_m": stop.gps_range_m,
+    }
 
-    cameras: dict[str, CameraStatus]
-    lrf: DeviceStatus | None
-    lrf_range_m: float | None
-    lrf_age_s: float | None
-    gps: DeviceStatus | None
-    gps_fix: GpsFix | None
-    gps_range_m: float | None
-    recording: RecordingStatus
-    alarms: tuple[str, ...] = ()
-    extra: dict[str, Any] = field(default_factory=dict)
+
+def row_payload(row: StopRow) -> dict:
+    """A stop-table row as a JSON object (non-finite numbers as null)."""
+    payload = dataclasses.asdict(row)
+    for k, v in payload.items():
+        if isinstance(v, float) and not math.isfinite(v):
+            payload[k] = None
+    payload["model_snr"] = {k: (v if math.isfinite(v) else None) for k, v in row.model_snr.items()}
+    return payload
 
 
 class Session:
-    """A collection session. ``devices`` overrides what the config would open (tests, HIL)."""
+    """A collection session. ``cameras``/``gps``/``lrf`` override what the config would open
+    (tests, HIL); ``shapes`` gives frame shapes the config does not."""
 
     def __init__(
         self,
@@ -77,41 +83,23 @@ class Session:
         self.track = track
         self.clock = clock or ClockMap()
         self._lock = threading.Lock()
-        self.lrf_range = ScalarHistory(max_gap_ns=int(config.lrf_fresh_s * 1e9))
-        self.gps_range = ScalarHistory()
         self._last_lrf: RangeReading | None = None
         self._last_fix: GpsFix | None = None
         self._recorder: SessionRecorder | None = None
-        self._measurement_listeners: list[Callable[[Measurement, RingFrame], None]] = []
+        all_shapes = {
+            cam.name: (shapes or {}).get(cam.name) or self._shape_of(cam) for cam in config.cameras
+        }
+        self.engine = SessionEngine(
+            config, all_shapes, track=track, stop_config=stop_config, predictor=predictor
+        )
+        self.engine.sink = self
         self.pipelines: dict[str, CameraPipeline] = {}
-        self.projector = GpsProjector(config)
         for cam in config.cameras:
             device = (cameras or {}).get(cam.name) or camera_device(cam)
-            shape = (shapes or {}).get(cam.name) or self._shape_of(cam)
-            pipe = CameraPipeline(
-                cam.name,
-                device,
-                shape,
-                config=config.measurement,
-                window=config.window,
-                range_at=self.range_at,
-                track=track,
-            )
-            pipe.add_listener(self._on_measurement)
+            pipe = CameraPipeline(cam.name, device, self.engine)
             if cam.calibration:
-                pipe.set_calibration(self._calibration(cam, shape))
+                pipe.set_calibration(self._calibration(cam, all_shapes[cam.name]))
             self.pipelines[cam.name] = pipe
-        self.predictor = predictor
-        self._sky_checked: dict[str, int] = {}
-        self._table_checked = 0
-        self.stop_detector = StopDetector(stop_config)
-        self.stop_table = StopTable(
-            self.stop_detector,
-            list(self.pipelines),
-            frames_per_stop=100,
-            predictor=predictor,
-            on_final=self._record_row,
-        )
         self.gps = gps if gps is not None else self._serial_device(config.gps, "gps")
         self.lrf = lrf if lrf is not None else self._serial_device(config.lrf, "lrf")
         if self.gps is not None:
@@ -147,6 +135,23 @@ class Session:
 
         return device_from_config(dict(table), name)
 
+    # ------------------------------------------------------------------ the engine's parts
+    @property
+    def predictor(self) -> Predictor | None:
+        return self.engine.predictor
+
+    @predictor.setter
+    def predictor(self, predictor: Predictor | None) -> None:
+        self.engine.predictor = predictor
+
+    @property
+    def stop_table(self):
+        return self.engine.stop_table
+
+    @property
+    def stop_detector(self):
+        return self.engine.stop_detector
+
     # ------------------------------------------------------------------ control
     def start(self) -> None:
         """Open every device and start the pipelines; a device that fails is retried."""
@@ -159,13 +164,13 @@ class Session:
 
     def stop(self) -> None:
         """Stop recording (if on), the pipelines and the devices."""
-        self.stop_recording()
         for pipe in self.pipelines.values():
             pipe.stop()
         for dev in (self.gps, self.lrf):
             if dev is not None:
                 dev.close()
         self._started = False
+        self.stop_recording()
 
     def __enter__(self) -> Session:
         self.start()
@@ -196,23 +201,18 @@ class Session:
 
     def mark_stop(self) -> None:
         """The operator says the drone is hovering at a stop now."""
-        t = time.monotonic_ns()
-        with self._lock:
-            stop = self.stop_detector.mark_stop(t)
-        self._event("stop_marked", payload={"stop": stop.index}, t_host_ns=t)
+        self.engine.mark_stop(time.monotonic_ns())
 
     def stops(self) -> list[StopRow]:
         """The SNR-versus-range table so far (one row per stop and camera)."""
-        with self._lock:
-            return self.stop_table.rows()
+        return self.engine.stops()
 
     def add_note(self, text: str) -> None:
         self._event("note", payload={"text": text})
 
-    def add_measurement_listener(self, cb: Callable[[Measurement, RingFrame], None]) -> None:
-        """``cb(measurement, frame)`` on each camera's measurement thread after every frame."""
-        with self._lock:
-            self._measurement_listeners.append(cb)
+    def add_measurement_listener(self, cb: Callable[[Measurement], None]) -> None:
+        """``cb(measurement)`` on each camera's measurement thread after every measured frame."""
+        self.engine.add_listener(cb)
 
     def start_recording(self, path: str | Path) -> None:
         """Record everything from now on into one HDF5 session file (a new file)."""
@@ -221,10 +221,7 @@ class Session:
                 raise ValueError(f"already recording to {self._recorder.path}")
         shapes = {n: p.shape for n, p in self.pipelines.items()}
         rec = SessionRecorder(path, config=self._config_record(), cameras=shapes, clock=self.clock)
-        with self._lock:
-            self._recorder = rec
         for pipe in self.pipelines.values():
-            pipe.attach_recorder(rec)
             cal = pipe.corrector.calibration
             if cal is not None:
                 from acquisition.calibrate.calibration_file import calibration_metadata
@@ -234,45 +231,63 @@ class Session:
                     c.calibration for c in self.config.cameras if c.name == pipe.name
                 )
                 rec.add_event("calibration", camera=pipe.name, payload=meta)
-            roi = pipe.status().roi_xy
-            if roi is not None:  # the track in force is part of the record (replayed from here)
-                rec.add_event(
-                    "roi_set", camera=pipe.name, payload={"x": roi[0], "y": roi[1], "resumed": True}
-                )
+        for stop in self.engine.stop_detector.stops:  # the stops so far are part of the record
+            self.stop_changed("stop_known", stop, rec)
+        with self._lock:
+            self._recorder = rec
+        for pipe in self.pipelines.values():
+            pipe.attach_recorder(rec)
 
     def stop_recording(self):
         """Finish the file; returns the recorder's summary (None when not recording)."""
-        self.stops()  # rows final by now go into the file
         with self._lock:
-            rec, self._recorder = self._recorder, None
+            rec = self._recorder
         if rec is None:
             return None
+        if not self._started:  # the session ended: its open rows are final as they stand
+            self.engine.finalize()
+        else:  # the session goes on: the rows as they stand now are part of the record too
+            for row in self.engine.stops():
+                if not row.final and row.n_frames:
+                    rec.add_event("stop_summary", camera=row.camera, payload=row_payload(row))
+        with self._lock:
+            self._recorder = None
         for pipe in self.pipelines.values():
             pipe.detach_recorder()
         return rec.stop()
 
-    # ------------------------------------------------------------------ time and range
+    # ------------------------------------------------------------------ the engine's sink
+    def stop_changed(self, kind: str, stop: Stop, rec: SessionRecorder | None = None) -> None:
+        rec = rec or self._current_recorder()
+        if rec is not None:
+            rec.add_event(kind, payload=stop_payload(stop))
+
+    def row_final(self, row: StopRow) -> None:
+        """A final stop-table row goes into the recording."""
+        rec = self._current_recorder()
+        if rec is not None:
+            rec.add_event("stop_summary", camera=row.camera, payload=row_payload(row))
+
+    def model_background(self, camera: str, temp_k: float, t_host_ns: int) -> None:
+        rec = self._current_recorder()
+        if rec is not None:
+            rec.add_event("model_background", camera=camera, payload={"temp_k": temp_k},
+                          t_host_ns=t_host_ns)  # fmt: skip
+
+    def _current_recorder(self) -> SessionRecorder | None:
+        with self._lock:
+            return self._recorder
+
+    # ------------------------------------------------------------------ devices
     def range_at(self, t_host_ns: int) -> tuple[float | None, str]:
-        """The range for a frame received at ``t_host_ns``: the rangefinder if its reading is
-        fresh (within ``lrf_fresh_s``), else the GPS slant range, else None."""
-        r = self.lrf_range.value_at(t_host_ns)
-        if r is not None:
-            return r, "lrf"
-        g = self.gps_range.value_at(t_host_ns)
-        if g is not None:
-            return g, "gps"
-        return None, ""
+        """The range for a frame received at ``t_host_ns`` (the engine's rule)."""
+        return self.engine.range_at(t_host_ns)
 
     def _on_range(self, reading: RangeReading) -> None:
         with self._lock:
             self._last_lrf = reading
             rec = self._recorder
-        if reading.status is RangeStatus.OK and reading.range_m is not None:
-            try:
-                self.lrf_range.append(reading.t_host_ns, reading.range_m)
-            except ValueError:
-                log.warning("rangefinder reading out of order dropped from the history")
-            self._stop_input(lambda: self.stop_detector.add_reading(reading))
+        self.engine.on_range(reading)
         if rec is not None:
             rec.add_range(reading)
 
@@ -282,83 +297,9 @@ class Session:
             rec = self._recorder
         if fix.utc is not None and fix.has_fix:
             self.clock.update_from_gps(fix.t_host_ns, fix.utc)
-        site = self.config.site
-        if site is not None:
-            r = gps_slant_range_m(fix, site)
-            if r is not None:
-                try:
-                    self.gps_range.append(fix.t_host_ns, r)
-                except ValueError:
-                    log.warning("GPS fix out of order dropped from the history")
-                self._stop_input(lambda: self.stop_detector.add_fix(fix, site))
-            self._cue_cameras(fix)
+        self.engine.on_fix(fix)
         if rec is not None:
             rec.add_gps(fix)
-
-    def _cue_cameras(self, fix: GpsFix) -> None:
-        """Project the drone's GPS position into every pointed camera: the tracker uses it to
-        reacquire a lost drone (paper section 4), the display draws it as a marker."""
-        for name, (x, y) in self.projector.pixels(fix).items():
-            self.pipelines[name].cue(x, y)
-
-    def _stop_input(self, feed: Callable[[], object]) -> None:
-        with self._lock:
-            try:
-                stop = feed()
-            except ValueError as exc:
-                log.warning("stop detector refused a reading: %s", exc)
-                return
-            rec = self._recorder
-        if stop is not None and rec is not None:
-            kind = "stop_ended" if stop.t_end_ns is not None else "stop_detected"
-            rec.add_event(
-                kind,
-                payload={
-                    "stop": stop.index,
-                    "lrf_range_m": stop.lrf_range_m,
-                    "gps_range_m": stop.gps_range_m,
-                },
-            )
-
-    def _record_row(self, row: StopRow) -> None:
-        """A final stop-table row goes into the recording (called under the session lock)."""
-        rec = self._recorder
-        if rec is not None:
-            payload = dataclasses.asdict(row)
-            payload = {
-                k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                for k, v in payload.items()
-            }
-            rec.add_event("stop_summary", camera=row.camera, payload=payload)
-
-    def _follow_sky(self, camera: str, t_ns: int) -> None:
-        """With a calibration, the model's background input follows the measured sky
-        temperature (paper sections 8-9), re-evaluated at most every 2 s, on a 0.5 K change."""
-        pipe = self.pipelines[camera]
-        predictor = self.predictor
-        if pipe.sky is None or not hasattr(predictor, "set_background"):
-            return
-        last = self._sky_checked.get(camera, 0)
-        if t_ns - last < 2_000_000_000:
-            return
-        self._sky_checked[camera] = t_ns
-        temp = pipe.sky.mean_temp_k(last=100)
-        current = predictor.background_temp_k.get(camera)
-        if math.isfinite(temp) and (current is None or abs(temp - current) > 0.5):
-            predictor.set_background(camera, temp)
-
-    def _on_measurement(self, m: Measurement, frame: RingFrame) -> None:
-        self.stop_table.add(m.camera, m.t_host_ns, m.result)
-        self._follow_sky(m.camera, m.t_host_ns)
-        if m.t_host_ns - self._table_checked > 1_000_000_000:
-            # Rows become final here even when no display asks for the table, so they are
-            # recorded as they complete.
-            self._table_checked = m.t_host_ns
-            self.stops()
-        with self._lock:
-            listeners = list(self._measurement_listeners)
-        for cb in listeners:
-            cb(m, frame)
 
     # ------------------------------------------------------------------ status
     def latest_frame(self, camera: str) -> RingFrame | None:
@@ -370,12 +311,18 @@ class Session:
             lrf_last, fix, rec = self._last_lrf, self._last_fix, self._recorder
         now = time.monotonic_ns()
         lrf_age = None if lrf_last is None else (now - lrf_last.t_host_ns) / 1e9
-        gps_latest = self.gps_range.latest()
+        gps_latest = self.engine.gps_range.latest()
         rec_status = RecordingStatus()
         if rec is not None:
             st = rec.status()
             rec_status = RecordingStatus(
-                st.state, st.path, st.bytes_written, st.free_bytes, st.error or ""
+                st.state,
+                st.path,
+                st.bytes_written,
+                st.free_bytes,
+                st.error or "",
+                backlog_bytes=st.backlog_bytes,
+                dropped_frames=sum(sum(d.values()) for d in st.dropped.values()),
             )
         alarms = []
         for dev in (self.lrf, self.gps, *(p.device for p in self.pipelines.values())):
@@ -388,6 +335,11 @@ class Session:
                 )
         if rec_status.state == "failed":
             alarms.append(f"recording: {rec_status.message}")
+        elif rec_status.dropped_frames:
+            alarms.append(
+                f"recording: {rec_status.dropped_frames} frames dropped (the disk is not keeping "
+                f"up; backlog {rec_status.backlog_bytes / 2**20:.0f} MiB)"
+            )
         return SessionStatus(
             cameras=cams,
             lrf=self.lrf.status() if self.lrf else None,
@@ -404,15 +356,14 @@ class Session:
     def _event(
         self, kind: str, *, camera: str = "", payload: dict | None = None, t_host_ns=None
     ) -> None:
-        with self._lock:
-            rec = self._recorder
+        rec = self._current_recorder()
         if rec is not None:
             rec.add_event(kind, camera=camera, payload=payload or {}, t_host_ns=t_host_ns)
 
     def _config_record(self) -> dict[str, Any]:
         return {
             "session": self.config.raw,
-            "stop_detection": dataclasses.asdict(self.stop_detector.config),
+            "stop_detection": dataclasses.asdict(self.engine.stop_detector.config),
             "track": self.track,
             "host_free_bytes": shutil.disk_usage(".").free,
         }

@@ -3,25 +3,39 @@
 Each row is one stop and one camera: the stop's rangefinder and GPS ranges, the mean and sample
 std of the peak SNR over the first 100 consecutive valid frames
 (:func:`acquisition.stops.detector.summarise_stop`), and the model's curves at that range. Stops
-are found
-by :class:`acquisition.stops.detector.StopDetector` (or marked by the operator); because a stop's
-start is
-backdated to when the hover began, the table keeps a short history of each camera's measurements
-and takes a stop's frames from it. A row is frozen once it is complete or its stop has ended.
+are found by :class:`acquisition.stops.detector.StopDetector` (or marked by the operator).
+
+When a row becomes final is fixed by the data alone, never by when someone asks, so a replay of
+the same frames and readings builds the same table as the live console:
+
+- each camera's frames are offered in their own order (:meth:`StopTable.add` with a measurement,
+  :meth:`StopTable.tick` without one);
+- a stop's start is backdated to when the hover began, so the table keeps each camera's last
+  ``history_frames`` measurements and seeds a stop's row from them when the stop appears;
+- from then on the row is built as the frames come (:class:`RowBuilder`: the first ``n``
+  consecutive valid frames, or the longest run);
+- the row is final when its stop has ended and the camera has passed the stop's end (or at
+  :meth:`StopTable.finalize`); only frames before the end count, even those that arrived before the
+  end was known. ``on_final(row)`` is called once per row, on the thread of the frame that passed.
+
+Until then :meth:`StopTable.rows` shows the row as it stands (provisional).
 """
 
 from __future__ import annotations
 
+import math
 import threading
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from acquisition.measure.peak_snr import PeakSnr
-from acquisition.stops.detector import Stop, StopDetector, StopSummary, summarise_stop
+from acquisition.stops.detector import Stop, StopDetector, is_valid, summarise_stop
 
 Predictor = Callable[[str, float], dict[str, float]]
 """``predict(camera, range_m) -> {"small": snr, "large": ..., "small_corrected": ..., ...}``."""
+
+Entry = tuple[int, PeakSnr]
 
 
 @dataclass(frozen=True)
@@ -39,11 +53,45 @@ class StopRow:
     snr_std: float
     model_snr: dict[str, float] = field(default_factory=dict)
     resolved: bool | None = None  # the model's verdict for the small dimension at this range
+    final: bool = False  # the stop ended and the camera passed its end: the row will not change
 
     @property
     def range_m(self) -> float | None:
         """The stop's range: the rangefinder's when it has one, else the GPS slant range."""
         return self.lrf_range_m if self.lrf_range_m is not None else self.gps_range_m
+
+
+class RowBuilder:
+    """One camera's frames during one stop, kept until the first ``n`` consecutive valid ones.
+
+    Frames are kept as they come (whether or not the stop's end, known only later, lies before
+    them); once a run of ``n`` consecutive valid frames is complete nothing more is taken, so a
+    long hover costs at most ``max_frames`` entries (only a stop that never completes a run gets
+    there; its oldest frames are then forgotten, the same way live and in a replay).
+    """
+
+    def __init__(self, n: int, max_frames: int = 36_000) -> None:
+        self.n = n
+        self.entries: deque[Entry] = deque(maxlen=max_frames)
+        self._run = 0
+
+    @property
+    def filled(self) -> bool:
+        return self._run >= self.n
+
+    def add(self, t_ns: int, result: PeakSnr) -> None:
+        if self.filled:
+            return
+        self.entries.append((t_ns, result))
+        self._run = self._run + 1 if is_valid(result) else 0
+
+    def run(self, t_end_ns: int | None) -> list[Entry]:
+        """The frames the row is summarised from (:func:`summarise_stop` semantics: the first
+        ``n`` consecutive valid frames, else the longest run, the earliest of equal length),
+        taking only frames before ``t_end_ns`` (None: the stop is open)."""
+        entries = [e for e in self.entries if t_end_ns is None or e[0] < t_end_ns]
+        summary = summarise_stop([r for _, r in entries], self.n)
+        return entries[summary.frames]
 
 
 class StopTable:
@@ -64,66 +112,121 @@ class StopTable:
         self.cameras = list(cameras)
         self.n = frames_per_stop
         self.predictor = predictor
-        self._lock = threading.Lock()
-        self._recent: dict[str, deque[tuple[int, PeakSnr]]] = {
+        self._lock = threading.RLock()
+        self._recent: dict[str, deque[Entry]] = {
             c: deque(maxlen=history_frames) for c in self.cameras
         }
-        self._frozen: dict[tuple[int, str], StopRow] = {}
-        # The frames each final row summarised (paper Fig. 6), kept because the history
-        # deque forgets them within a minute.
-        self._runs: dict[tuple[int, str], list[tuple[int, PeakSnr]]] = {}
+        self._builders: dict[tuple[int, str], RowBuilder] = {}
+        self._final: dict[tuple[int, str], StopRow] = {}
+        self._runs: dict[tuple[int, str], list[Entry]] = {}
+        self._seen_stops = 0
 
-    def add(self, camera: str, t_host_ns: int, result: PeakSnr) -> None:
-        """One measured frame of ``camera`` (called on its measurement thread)."""
+    # ------------------------------------------------------------------ input, per camera
+    def add(self, camera: str, t_host_ns: int, result: PeakSnr) -> list[StopRow]:
+        """One measured frame of ``camera`` (on its measurement thread); returns the rows that
+        became final on it (``on_final`` is also called for each)."""
+        t = int(t_host_ns)
         with self._lock:
-            self._recent[camera].append((int(t_host_ns), result))
+            self._open_new_stops()  # seeded from the history before this frame
+            self._recent[camera].append((t, result))
+            for (stop_index, cam), builder in self._builders.items():
+                if cam != camera or (stop_index, cam) in self._final:
+                    continue
+                stop = self._stop(stop_index)
+                if stop is not None and stop.contains(t):
+                    builder.add(t, result)
+            return self._finish(camera, t)
 
-    def rows(self) -> list[StopRow]:
-        """Every stop so far x every camera, in stop order. A row is final once it has its
-        100 frames or its stop ended; ``on_final(row)`` is called once for each."""
+    def tick(self, camera: str, t_host_ns: int) -> list[StopRow]:
+        """A frame of ``camera`` without a measurement (no ROI): it still moves the camera past
+        a stop's end."""
         with self._lock:
-            stops = self.detector.stops
+            self._open_new_stops()
+            return self._finish(camera, int(t_host_ns))
+
+    def finalize(self) -> list[StopRow]:
+        """The end of the session: every stop's rows become final as they stand."""
+        with self._lock:
+            self._open_new_stops()
             out = []
-            for stop in stops:
+            for stop in self.detector.stops:
                 for cam in self.cameras:
-                    key = (stop.index, cam)
-                    row = self._frozen.get(key)
-                    if row is None:
-                        row, run = self._row(stop, cam)
-                        if row.complete or stop.t_end_ns is not None:
-                            self._frozen[key] = row
-                            self._runs[key] = run
-                            if self.on_final is not None:
-                                self.on_final(row)
-                    out.append(row)
+                    if (stop.index, cam) not in self._final:
+                        out.append(self._freeze(stop, cam))
             return out
 
-    def runs(self) -> dict[tuple[int, str], list[tuple[int, PeakSnr]]]:
+    # ------------------------------------------------------------------ output
+    def rows(self) -> list[StopRow]:
+        """Every stop so far x every camera, in stop order: final rows, and the open ones as
+        they stand now."""
+        with self._lock:
+            self._open_new_stops()
+            out = []
+            for stop in self.detector.stops:
+                for cam in self.cameras:
+                    key = (stop.index, cam)
+                    out.append(self._final.get(key) or self._row(stop, cam, final=False)[0])
+            return out
+
+    def runs(self) -> dict[tuple[int, str], list[Entry]]:
         """``{(stop, camera): [(t_host_ns, PeakSnr), ...]}``: the frames each final row's
-        statistics were taken from, in order (the first ``frames_per_stop`` consecutive valid
-        frames, or the longest run of a stop that ended short)."""
+        statistics were taken from, in order."""
         with self._lock:
             return {k: list(v) for k, v in self._runs.items()}
 
-    def run_of(self, stop: int, camera: str) -> list[tuple[int, PeakSnr]]:
-        """The frames row ``(stop, camera)`` is summarised from, as of now: the final run of a
-        frozen row, else the run so far (empty for an unknown row)."""
+    def run_of(self, stop: int, camera: str) -> list[Entry]:
+        """The frames row ``(stop, camera)`` is summarised from, as of now (empty when unknown)."""
         with self._lock:
             run = self._runs.get((stop, camera))
             if run is not None:
                 return list(run)
-            match = [s for s in self.detector.stops if s.index == stop]
-            if not match or camera not in self._recent:
+            builder = self._builders.get((stop, camera))
+            match = self._stop(stop)
+            if builder is None or match is None:
                 return []
-            return self._run(match[0], camera)[1]
+            return list(builder.run(match.t_end_ns))
 
-    def _run(self, stop: Stop, camera: str) -> tuple[StopSummary, list[tuple[int, PeakSnr]]]:
-        entries = [(t, r) for t, r in self._recent[camera] if stop.contains(t)]
-        summary = summarise_stop([r for _, r in entries], self.n)
-        return summary, entries[summary.frames]
+    # ------------------------------------------------------------------ internals
+    def _stop(self, index: int) -> Stop | None:
+        stops = self.detector.stops
+        return stops[index] if 0 <= index < len(stops) else None
 
-    def _row(self, stop: Stop, camera: str) -> tuple[StopRow, list[tuple[int, PeakSnr]]]:
-        summary, run = self._run(stop, camera)
+    def _open_new_stops(self) -> None:
+        """Seed a builder for each camera of each stop the detector found since the last call,
+        from the recent history (the stop's start is backdated to when the hover began)."""
+        stops = self.detector.stops
+        for stop in stops[self._seen_stops :]:
+            for cam in self.cameras:
+                builder = RowBuilder(self.n)
+                for t, result in self._recent[cam]:
+                    if stop.contains(t):
+                        builder.add(t, result)
+                self._builders[(stop.index, cam)] = builder
+        self._seen_stops = len(stops)
+
+    def _finish(self, camera: str, t_ns: int) -> list[StopRow]:
+        out = []
+        for stop in self.detector.stops:
+            key = (stop.index, camera)
+            if key in self._final or stop.t_end_ns is None or t_ns < stop.t_end_ns:
+                continue
+            out.append(self._freeze(stop, camera))
+        return out
+
+    def _freeze(self, stop: Stop, camera: str) -> StopRow:
+        row, run = self._row(stop, camera, final=True)
+        key = (stop.index, camera)
+        self._final[key] = row
+        self._runs[key] = run
+        self._builders.pop(key, None)
+        if self.on_final is not None:
+            self.on_final(row)
+        return row
+
+    def _row(self, stop: Stop, camera: str, *, final: bool) -> tuple[StopRow, list[Entry]]:
+        builder = self._builders.get((stop.index, camera))
+        run = builder.run(stop.t_end_ns) if builder is not None else []
+        summary = summarise_stop([r for _, r in run], self.n)
         rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
         model = dict(self.predictor(camera, rng)) if (self.predictor and rng) else {}
         resolved = model.pop("resolved_small", None)
@@ -141,5 +244,19 @@ class StopTable:
             snr_std=summary.snr_std,
             model_snr=model,
             resolved=None if resolved is None else bool(resolved),
+            final=final,
         )
         return row, run
+
+
+def row_values_equal(a: StopRow, b: StopRow) -> bool:
+    """The measured part of two rows is the same (NaN equals NaN): what a replay must reproduce."""
+
+    def same(x, y) -> bool:
+        if isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y):
+            return True
+        return x == y
+
+    keys = ("camera", "stop", "manual", "t_start_ns", "t_end_ns", "lrf_range_m", "gps_range_m",
+            "n_frames", "complete", "snr_mean", "snr_std")  # fmt: skip
+    return all(same(getattr(a, k), getattr(b, k)) for k in keys)

@@ -194,6 +194,36 @@ class Tracker:
         self._cue = (float(x), float(y))
         self._cue_age = 0
 
+    def snapshot(self) -> dict:
+        """The track's complete state, exactly (JSON-able): a tracker of the same configuration
+        given it with :meth:`restore` continues bit-identically (the replay of a recording
+        across frames measured live but missing from the file)."""
+        return {
+            "window": list(self._window),
+            "anchored": self._anchored,
+            "misses": self._misses,
+            "confirmed": self._confirmed,
+            "state": self.state.value,
+            "contrasts": list(self._contrasts),
+            "reference": self._reference.snapshot(),
+            "cue": None if self._cue is None else list(self._cue),
+            "cue_age": self._cue_age,
+        }
+
+    def restore(self, state: dict) -> None:
+        x, y = state["window"]
+        self._window = (int(x), int(y))
+        self._anchored = bool(state["anchored"])
+        self._misses = int(state["misses"])
+        self._confirmed = int(state["confirmed"])
+        self.state = TrackState(state["state"])
+        self._contrasts.clear()
+        self._contrasts.extend(float(v) for v in state["contrasts"])
+        self._reference.restore(state["reference"])
+        cue = state["cue"]
+        self._cue = None if cue is None else (float(cue[0]), float(cue[1]))
+        self._cue_age = int(state["cue_age"])
+
     @property
     def last_cue(self) -> tuple[float, float] | None:
         return self._cue

@@ -210,7 +210,7 @@ class HilRig:
         target = self.cameras[camera].feed.target_at(self.flight_time())
         return None if target is None else (target.x_px, target.y_px)
 
-    def _on_measurement(self, m, frame) -> None:
+    def _on_measurement(self, m) -> None:
         rig = self.cameras[m.camera]
         rig.log.append((m.t_host_ns, m.counter, m.snr_mean_raw, m.snr_std_raw))
 

@@ -20,6 +20,7 @@ import pytest
 from acquisition.measure.peak_snr import FLAG_NAMES, PeakSnr
 from acquisition.record.reader import clear_status_flags, open_session
 from acquisition.record.recorder import BACKLOG, STOPPED, SessionRecorder
+from acquisition.record.schema import MEASUREMENT_FIELDS_V1
 from acquisition.record.writer import SessionWriter
 from acquisition.runtime.ring import FrameRing
 from acquisition.runtime.timebase import ClockMap
@@ -95,7 +96,7 @@ def test_round_trip_is_exact_and_readable_with_plain_h5py(tmp_path: Path) -> Non
     assert summary.dropped == {"mwir": {}, "lwir": {}}
 
     with h5py.File(path, "r") as f:  # plain h5py, no snrmon reader
-        assert f.attrs["format_version"] == "1.0"
+        assert f.attrs["format_version"] == "2.0"
         assert f["cameras/mwir/frames"].dtype == np.uint16
         assert f["cameras/mwir/frames"].chunks == (1, H, W)
         np.testing.assert_array_equal(f["cameras/mwir/frames"][()], [x.pixels for x in mw])
@@ -115,7 +116,8 @@ def test_round_trip_is_exact_and_readable_with_plain_h5py(tmp_path: Path) -> Non
         ref = clock.reference
         np.testing.assert_array_equal(m.utc_ns, m.t_host_ns - ref.monotonic_ns + ref.utc_ns)
         assert (np.diff(m.t_host_ns) > 0).all() and (np.diff(m.utc_ns) > 0).all()
-        expected = np.array(rows, m.measurements.dtype)
+        v1 = np.dtype([(n, m.measurements.dtype[n]) for n in MEASUREMENT_FIELDS_V1])
+        expected = np.array(rows, v1)
         for name in expected.dtype.names:  # per field: NaN equals NaN
             np.testing.assert_array_equal(m.measurements[name], expected[name], err_msg=name)
         np.testing.assert_array_equal(m.frame(7), mw[7].pixels)

@@ -3,7 +3,7 @@
 A recording written with the real recorder holds a sky with fixed-pattern noise, a background
 reference captured over its first 32 frames, the operator's click, a drone from frame 40 on and
 GPS fixes from a pointed camera. Played through :class:`ReplayPlayer`, its status must equal
-what :class:`CameraAnalysis` (the live pipeline's class) gives on the same frames and commands:
+what :class:`CameraEngine` (the live pipeline's engine) gives on the same frames and commands:
 the corrected and raw running SNR, the fixed-pattern figure, the section 6 noise; the GPS fix
 and its projection into the camera must be the recorded fix's.
 """
@@ -16,7 +16,8 @@ import numpy as np
 import pymap3d
 import pytest
 
-from acquisition.engine.camera_analysis import CameraAnalysis, FrameAnalysis
+from acquisition.engine.camera_engine import CameraEngine
+from acquisition.engine.inputs import FrameOutput, SetRoi, StartReference
 from acquisition.geo.projection import CameraIntrinsics, Pointing, Site, project_to_pixel
 from acquisition.measure.peak_snr import PeakSnrConfig
 from acquisition.record.recorder import SessionRecorder
@@ -79,14 +80,14 @@ def recording(tmp_path_factory):
     return path, frames, t
 
 
-def _live(frames: np.ndarray, t: list[int]) -> tuple[CameraAnalysis, FrameAnalysis]:
-    """The live pipeline's analysis of the same frames with the same commands."""
-    a = CameraAnalysis("mwir", SHAPE, PeakSnrConfig())
-    a.start_reference(REF_FRAMES)
+def _live(frames: np.ndarray, t: list[int]) -> tuple[CameraEngine, FrameOutput]:
+    """The live pipeline's engine on the same frames with the same commands."""
+    a = CameraEngine("mwir", SHAPE, PeakSnrConfig())
+    a.post(StartReference(REF_FRAMES))
     for i in range(N):
         if i == DRONE_FROM:
-            a.set_roi(SPOT[0] + 1, SPOT[1])
-        out = a.analyze(frames[i], i, t[i])
+            a.post(SetRoi(SPOT[0] + 1, SPOT[1]))
+        out = a.process(frames[i], seq=i, counter=i, t_host_ns=t[i])
     return a, out
 
 
@@ -98,10 +99,11 @@ def test_replay_status_is_the_live_analysis(recording):
         assert player.wait_idle(30.0)
         st = player.status()
     cs = st.cameras["mwir"]
-    assert cs.snr_n == last.result.snr_n == N - DRONE_FROM
-    assert cs.last == last.result.result
-    assert (cs.snr_mean, cs.snr_std) == (last.result.snr_mean, last.result.snr_std)
-    assert (cs.snr_mean_raw, cs.snr_std_raw) == (last.snr_mean_raw, last.snr_std_raw)
+    m = last.measurement
+    assert cs.snr_n == m.snr_n == N - DRONE_FROM
+    assert cs.last == m.result
+    assert (cs.snr_mean, cs.snr_std) == (m.snr_mean, m.snr_std)
+    assert (cs.snr_mean_raw, cs.snr_std_raw) == (m.snr_mean_raw, m.snr_std_raw)
     # The reference removes the fixed pattern: the raw track reads lower, as live.
     assert cs.snr_mean_raw < 0.7 * cs.snr_mean
     fig = live.figures()

@@ -37,6 +37,7 @@ def table():
         flags = {"lost"} if i < 5 else set()
         table.add("mwir", t0 + i * FRAME_NS, _measure(rng, float(snr), flags))
     detector.end_stop(t0 + len(snrs) * FRAME_NS)
+    table.tick("mwir", t0 + len(snrs) * FRAME_NS)  # the camera passes the stop's end: final
     table.snrs = snrs
     table.t0 = t0
     return table
@@ -87,7 +88,35 @@ def test_run_of_a_row_before_and_after_it_is_final():
     for i in range(40, 150):
         table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 50.0))
     (row,) = table.rows()
-    assert row.complete
+    assert row.complete and not row.final
+    assert len(table.run_of(0, "mwir")) == 100
+    assert table.runs() == {}  # not final while the stop is open
+    detector.end_stop(t0 + 150 * FRAME_NS)
+    (final,) = table.tick("mwir", t0 + 150 * FRAME_NS)
+    assert final.final and final.snr_mean == row.snr_mean
     assert table.run_of(0, "mwir") == table.runs()[(0, "mwir")]
     assert len(table.run_of(0, "mwir")) == 100
     assert table.run_of(1, "mwir") == [] and table.run_of(0, "lwir") == []
+
+
+def test_a_row_counts_only_frames_before_an_end_known_late():
+    """The end of a stop is known only after a few departing readings: frames that arrived
+    before it was known but lie after it never enter the row, and a row is final only once
+    the camera has passed the end, whatever the order the two threads ran in."""
+    rng = np.random.default_rng(11)
+    detector = StopDetector()
+    finals = []
+    table = StopTable(detector, ["mwir"], on_final=finals.append)
+    t0 = 10**12
+    detector.mark_stop(t0)
+    for i in range(130):  # 60 valid, 1 lost, 69 valid: the end will fall at frame 90
+        flags = {"lost"} if i == 60 else set()
+        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 40.0 + i, flags))
+    assert not table.rows()[0].complete  # 69 consecutive after the loss: not 100
+    detector.end_stop(t0 + 90 * FRAME_NS)
+    assert finals == []  # the end is known, the camera has not been seen past it since
+    (row,) = table.tick("mwir", t0 + 130 * FRAME_NS)
+    assert finals == [row] and row.final and not row.complete
+    run = table.run_of(0, "mwir")
+    assert [t for t, _ in run] == [t0 + i * FRAME_NS for i in range(60)]  # 60 > 29 before 90
+    assert row.snr_mean == pytest.approx(np.mean([40.0 + i for i in range(60)]), rel=1e-12)

@@ -87,7 +87,7 @@ def test_session_reports_rendered_temporal_noise_and_the_fixed_pattern():
         assert math.isnan(cam.noise_total_dn)  # no track, no rectangle: unknown
         session.set_roi("cam", 65, 40)
         pipe = session.pipelines["cam"]
-        wait_until(lambda: pipe.noise.estimates >= 3, 10.0, "three noise estimates")
+        wait_until(lambda: pipe.engine.noise.estimates >= 3, 10.0, "three noise estimates")
         cam = session.status().cameras["cam"]
     finally:
         session.stop()

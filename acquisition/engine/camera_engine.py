@@ -1,0 +1,360 @@
+"""The one per-frame engine of a camera: live, the console's replay and batch replay all run it.
+
+Per frame (:meth:`CameraEngine.process`), in this order:
+
+1. the commands posted since the last frame are applied (ROI, GPS cue, background reference,
+   restore of a recorded state), and returned so the caller can record them at this frame;
+2. a background reference capture in progress is fed
+   (:class:`acquisition.engine.frame_correction.FrameCorrector`);
+3. Eq. (4) with the tracker on the corrected window
+   (:class:`acquisition.engine.frame_measurer.FrameMeasurer`) and, while a correction is on, the
+   same track on the raw frame (the console reports the SNR with and without it, section 6);
+4. the section 6 noise figures of the raw pixels around the track
+   (:class:`acquisition.measure.track_noise.TrackNoise`, a few times a second) and, with a
+   radiometric calibration, the apparent sky temperature of the background (sections 8-9);
+5. the range at the frame's time, the :class:`~acquisition.engine.inputs.Measurement`, the chart
+   series and the published status.
+
+Threads: one thread (a live camera's measurement thread, or a replay worker) owns an engine and
+calls :meth:`process`; :meth:`post` may be called from any thread; :meth:`status`, :meth:`series`
+and :meth:`figures` read only whole values the owner publishes under a lock.
+
+Replay across a recording gap: the live engine records :meth:`snapshot` (JSON-able, exact) before
+the first recorded frame after frames it measured but the recorder dropped; the replay posts
+:class:`~acquisition.engine.inputs.Restore` before that frame and so continues exactly as live.
+The noise and sky figures are not part of the snapshot (they are figures, not measurements):
+after a gap they restart from the frames at hand.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from acquisition.engine.frame_correction import FrameCorrector
+from acquisition.engine.frame_measurer import FrameMeasurer, crop_half_px
+from acquisition.engine.inputs import (
+    ApplyReference,
+    ClearReference,
+    ClearRoi,
+    Command,
+    Cue,
+    FrameOutput,
+    Measurement,
+    ReferenceDone,
+    Restore,
+    SetRoi,
+    StartReference,
+)
+from acquisition.engine.status import CameraStatus, FrameAccounting
+from acquisition.measure.peak_snr import PeakSnrConfig
+from acquisition.measure.track_noise import TrackNoise
+from acquisition.track.tracker import TrackerConfig
+from drivers.device import DeviceState, DeviceStatus
+
+log = logging.getLogger(__name__)
+
+SKY_FRAMES = 100  # the sky temperature shown: the mean over the last 100 frames, like the SNR
+SNAPSHOT_VERSION = 1
+NAN = math.nan
+
+RangeLookup = Callable[[int], tuple[float | None, str]]
+"""``range_at(t_host_ns) -> (range_m or None, source)``: the session's range for a frame time."""
+
+
+@dataclass(frozen=True, slots=True)
+class AnalysisFigures:
+    """The camera's slowly changing figures for the status (units in the names)."""
+
+    reference_frames: int
+    fixed_pattern_dn: float
+    sky_temp_k: float
+    noise_total_dn: float
+    noise_temporal_dn: float
+    noise_spatial_dn: float
+
+
+class CameraEngine:
+    """The per-frame processing of one camera (module docstring).
+
+    Args:
+        name: the camera's name ("mwir", "lwir").
+        shape: (rows, columns) of its frames.
+        config: the Eq. (4) settings.
+        window: frames in the running statistics (the paper's 100).
+        track: follow the drone from the click; False keeps the window where it was put.
+        tracker_config: the tracker's own numbers (its Eq. 4 settings are ``config``).
+        series_length: per-frame rows kept for the strip charts.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        shape: tuple[int, int],
+        config: PeakSnrConfig | None = None,
+        *,
+        window: int = 100,
+        track: bool = True,
+        tracker_config: TrackerConfig | None = None,
+        series_length: int = 2000,
+    ) -> None:
+        self.name = name
+        self.shape = (int(shape[0]), int(shape[1]))
+        kw = {"window": window, "track": track, "tracker_config": tracker_config}
+        self.measurer = FrameMeasurer(config, **kw)
+        self.raw_measurer = FrameMeasurer(config, **kw)
+        cfg = self.measurer.meter.config
+        self.config = cfg
+        self.corrector = FrameCorrector(self.shape, crop_half_px(cfg, self.measurer.tracker_config))
+        self.noise = self._track_noise(cfg)
+        self.sky = None  # SkyTemperature, with a calibration
+        self._lock = threading.Lock()
+        self._inbox: list[Command] = []
+        self._gps_xy: tuple[float, float] | None = None
+        self._last: Measurement | None = None
+        self._state = "idle"
+        self._roi: tuple[int, int] | None = None
+        self._measured = 0
+        self._series: deque[tuple[int, float, float, float, float]] = deque(maxlen=series_length)
+
+    def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
+        kw = {"box_px": cfg.box_px, "detrend": cfg.detrend, "ddof": cfg.ddof}
+        try:
+            return TrackNoise(self.shape, background=cfg.background, **kw)
+        except ValueError as exc:  # a rectangle off this image: noise around the track instead
+            log.warning("%s: clear-sky rectangle not used for the noise: %s", self.name, exc)
+            return TrackNoise(self.shape, **kw)
+
+    # ------------------------------------------------------------------ commands (any thread)
+    def post(self, command: Command) -> None:
+        """Queue a command for the next frame. An ROI off the image is refused here, at once."""
+        if isinstance(command, SetRoi):
+            h, w = self.shape
+            if not (0 <= command.x < w and 0 <= command.y < h):
+                raise ValueError(
+                    f"ROI ({command.x}, {command.y}) is outside the {self.name} image ({w} x {h})"
+                )
+        if isinstance(command, StartReference) and int(command.n_frames) < 2:
+            raise ValueError(
+                f"a background reference needs at least 2 frames, got {command.n_frames}"
+            )
+        with self._lock:
+            if isinstance(command, Cue):
+                # Only the newest position matters: one cue per frame at most.
+                self._inbox = [c for c in self._inbox if not isinstance(c, Cue)]
+                self._gps_xy = (command.x, command.y)
+            self._inbox.append(command)
+
+    def show_gps(self, x: float, y: float) -> None:
+        """Where the drone's GPS position falls in this camera, for the display only (a replay
+        that applies the recorded cues still shows every fix)."""
+        with self._lock:
+            self._gps_xy = (float(x), float(y))
+
+    def set_calibration(self, calibration) -> None:
+        """Correct the measured window with a radiometric calibration and follow the apparent
+        sky temperature of the background pixels
+        (:class:`acquisition.calibrate.calibration.Calibration`). Call before the first frame."""
+        from acquisition.calibrate.sky_temperature import SkyTemperature
+
+        self.corrector.calibration = calibration
+        self.sky = SkyTemperature(self.name, calibration, box_px=self.config.box_px, maxlen=600)
+
+    # ------------------------------------------------------------------ per frame (owner)
+    def process(
+        self,
+        pixels: np.ndarray,
+        *,
+        seq: int,
+        counter: int,
+        t_host_ns: int,
+        range_at: RangeLookup | None = None,
+    ) -> FrameOutput:
+        """Apply the pending commands, then analyse one raw frame (rows, columns)."""
+        applied = self._apply_commands()
+        cue = next((c for c in applied if isinstance(c, Cue)), None)
+        corrector = self.corrector
+        done = None
+        if corrector.capturing:
+            summary = corrector.feed(pixels, counter)
+            if summary is not None:
+                done = ReferenceDone(corrector.reference_offset, summary)
+                self._raw_track_from_here()
+        fr = self.measurer.measure(corrector.apply(pixels, self.measurer.roi))
+        raw = self.raw_measurer.measure(pixels) if corrector.active else None
+        peak_xy = None if fr is None else (fr.result.peak_x, fr.result.peak_y)
+        self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
+        if fr is not None and self.sky is not None:
+            self.sky.add(t_host_ns, pixels, fr.result)
+        if fr is None:
+            with self._lock:
+                self._measured += 1
+                self._roi, self._state = None, "idle"
+            return FrameOutput(None, applied, done)
+        range_m, source = range_at(t_host_ns) if range_at is not None else (None, "")
+        m = Measurement(
+            self.name,
+            seq,
+            counter,
+            t_host_ns,
+            fr.result,
+            fr.state,
+            fr.window_xy,
+            fr.snr_mean,
+            fr.snr_std,
+            fr.snr_n,
+            range_m,
+            source,
+            None if cue is None else (cue.x, cue.y),
+            raw.snr_mean if raw is not None else NAN,
+            raw.snr_std if raw is not None else NAN,
+        )
+        self._publish(m)
+        return FrameOutput(m, applied, done)
+
+    def publish_recorded(self, m: Measurement) -> None:
+        """A frame measured live but missing from the recording: its recorded measurement is
+        shown (status, series) as it was; nothing is re-measured."""
+        self._publish(m)
+
+    def _publish(self, m: Measurement) -> None:
+        rng = NAN if m.range_m is None else m.range_m
+        with self._lock:
+            self._measured += 1
+            self._last = m
+            self._state = m.track_state
+            self._roi = m.window_xy
+            self._series.append((m.t_host_ns, m.result.snr, m.snr_mean, m.snr_std, rng))
+
+    def _apply_commands(self) -> tuple[Command, ...]:
+        with self._lock:
+            commands, self._inbox = self._inbox, []
+        for c in commands:
+            if isinstance(c, SetRoi):
+                self.measurer.set_roi(c.x, c.y)
+                self.raw_measurer.set_roi(c.x, c.y)
+            elif isinstance(c, ClearRoi):
+                self.measurer.clear_roi()
+                self.raw_measurer.clear_roi()
+            elif isinstance(c, Cue):
+                self.measurer.cue(c.x, c.y)
+                self.raw_measurer.cue(c.x, c.y)
+            elif isinstance(c, StartReference):
+                self.corrector.start_reference(c.n_frames)
+            elif isinstance(c, ClearReference):
+                self.corrector.clear_reference()
+            elif isinstance(c, ApplyReference):
+                self.corrector.set_reference_offset(c.offset, c.summary)
+                self._raw_track_from_here()
+            elif isinstance(c, Restore):
+                self.restore(c.state)
+        return tuple(commands)
+
+    def _raw_track_from_here(self) -> None:
+        # The raw track starts where the corrected track is when the correction begins.
+        if self.measurer.roi is not None:
+            self.raw_measurer.set_roi(*self.measurer.roi)
+
+    # ------------------------------------------------------------------ state (owner)
+    def snapshot(self) -> dict:
+        """The measurement state that carries over from frame to frame, exactly (JSON-able)."""
+        return {
+            "version": SNAPSHOT_VERSION,
+            "measurer": self.measurer.snapshot(),
+            "raw_measurer": self.raw_measurer.snapshot(),
+        }
+
+    def restore(self, state: dict) -> None:
+        if state.get("version") != SNAPSHOT_VERSION:
+            raise ValueError(
+                f"{self.name}: engine state version {state.get('version')!r} is not "
+                f"{SNAPSHOT_VERSION}"
+            )
+        self.measurer.restore(state["measurer"])
+        self.raw_measurer.restore(state["raw_measurer"])
+
+    # ------------------------------------------------------------------ reading (any thread)
+    @property
+    def roi(self) -> tuple[int, int] | None:
+        """The search window's centre after the last frame (None: not measuring)."""
+        with self._lock:
+            return self._roi
+
+    @property
+    def track_state(self) -> str:
+        with self._lock:
+            return self._state
+
+    def series(self) -> np.ndarray:
+        """The recent per-frame record for charts: rows of (t_host_ns, snr, running mean,
+        running std, range_m or NaN)."""
+        with self._lock:
+            rows = list(self._series)
+        return np.array(rows, dtype=float) if rows else np.empty((0, 5))
+
+    def clear_series(self) -> None:
+        with self._lock:
+            self._series.clear()
+
+    def figures(self) -> AnalysisFigures:
+        total, temporal, spatial = self.noise.figures()
+        sky = self.sky.mean_temp_k(last=SKY_FRAMES) if self.sky is not None else NAN
+        return AnalysisFigures(
+            self.corrector.reference_frames,
+            self.corrector.fixed_pattern_dn,
+            sky,
+            total,
+            temporal,
+            spatial,
+        )
+
+    def status(
+        self,
+        *,
+        device: DeviceStatus | None = None,
+        frames: FrameAccounting | None = None,
+        fps: float = 0.0,
+        latency_ms: tuple[float, float] = (NAN, NAN),
+    ) -> CameraStatus:
+        """The camera's status as the console shows it; the caller adds what only it knows (the
+        device's health, the frame accounting, the frame rate, the latency)."""
+        with self._lock:
+            last, roi, state, gps_xy, measured = (
+                self._last, self._roi, self._state, self._gps_xy, self._measured
+            )  # fmt: skip
+        fig = self.figures()
+        if device is None:
+            device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)
+        if frames is None:
+            frames = FrameAccounting(received=measured, measured=measured)
+        return CameraStatus(
+            name=self.name,
+            device=device,
+            frames=frames,
+            fps=float(fps),
+            roi_xy=roi,
+            gps_xy=gps_xy,
+            track_state=state,
+            last=last.result if last else None,
+            snr_mean=last.snr_mean if last else NAN,
+            snr_std=last.snr_std if last else NAN,
+            snr_n=last.snr_n if last else 0,
+            snr_mean_raw=last.snr_mean_raw if last else NAN,
+            snr_std_raw=last.snr_std_raw if last else NAN,
+            reference_frames=fig.reference_frames,
+            sky_temp_k=fig.sky_temp_k,
+            fixed_pattern_dn=fig.fixed_pattern_dn,
+            range_m=last.range_m if last else None,
+            range_source=last.range_source if last else "",
+            latency_ms_p50=float(latency_ms[0]),
+            latency_ms_p99=float(latency_ms[1]),
+            noise_total_dn=fig.noise_total_dn,
+            noise_temporal_dn=fig.noise_temporal_dn,
+            noise_spatial_dn=fig.noise_spatial_dn,
+        )

@@ -1,0 +1,110 @@
+"""What goes into and comes out of the per-frame engine, as data.
+
+Commands change a camera engine's state; they are posted from any thread and applied by the
+engine's owner at the next frame (:meth:`acquisition.engine.camera_engine.CameraEngine.post`), so a
+measurement never mixes two ROIs. The frame they took effect on is part of the record: a replay
+applies the same commands at the same frames (``roi_set`` events, the measurement row's cue, the
+recorded background reference, state snapshots at recording gaps).
+
+:class:`Measurement` is one measured frame as every listener receives it (recorder, stop table,
+charts, the HIL rig), live and in replay alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from acquisition.measure.peak_snr import PeakSnr
+
+
+@dataclass(frozen=True, slots=True)
+class SetRoi:
+    """The operator's click: measure (and track) around column ``x``, row ``y``."""
+
+    x: int
+    y: int
+
+
+@dataclass(frozen=True, slots=True)
+class ClearRoi:
+    """Stop measuring."""
+
+
+@dataclass(frozen=True, slots=True)
+class Cue:
+    """The drone's GPS position projected into this camera (px): the tracker reacquires near it."""
+
+    x: float
+    y: float
+
+
+@dataclass(frozen=True, slots=True)
+class StartReference:
+    """Average the next ``n_frames`` frames (clear sky) into the background reference."""
+
+    n_frames: int
+
+
+@dataclass(frozen=True, slots=True)
+class ClearReference:
+    """Drop the background reference."""
+
+
+@dataclass(frozen=True, eq=False)
+class ApplyReference:
+    """A background reference captured before (a replay applies the recorded one)."""
+
+    offset: np.ndarray  # float32 (rows, columns): the fixed-pattern offset subtracted
+    summary: dict  # n_frames, first_counter, last_counter, spatial_std_dn
+
+
+@dataclass(frozen=True, slots=True)
+class Restore:
+    """Continue from a recorded engine state (:meth:`CameraEngine.snapshot`)."""
+
+    state: dict
+
+
+Command = SetRoi | ClearRoi | Cue | StartReference | ClearReference | ApplyReference | Restore
+
+
+@dataclass(frozen=True, slots=True)
+class Measurement:
+    """One measured frame: Eq. (4) with the track, the running statistics after it, the range at
+    the frame's time, and the cue applied before it (None: none)."""
+
+    camera: str
+    seq: int
+    counter: int
+    t_host_ns: int
+    result: PeakSnr
+    track_state: str
+    window_xy: tuple[int, int]
+    snr_mean: float
+    snr_std: float
+    snr_n: int
+    range_m: float | None
+    range_source: str
+    cue_xy: tuple[float, float] | None = None
+    snr_mean_raw: float = float("nan")  # the same track on raw frames, while a correction is on
+    snr_std_raw: float = float("nan")
+
+
+@dataclass(frozen=True, slots=True)
+class ReferenceDone:
+    """A background reference completed on this frame: its offset image and summary."""
+
+    offset: np.ndarray
+    summary: dict
+
+
+@dataclass(frozen=True, slots=True)
+class FrameOutput:
+    """What one frame did: its measurement (None without an ROI), the commands applied before it
+    (for the record), and a background reference completed on it."""
+
+    measurement: Measurement | None
+    applied: tuple[Command, ...] = ()
+    reference_done: ReferenceDone | None = None

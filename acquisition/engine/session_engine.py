@@ -1,0 +1,282 @@
+"""The session's engine: every camera's :class:`CameraEngine`, the range at each frame, the stops
+and the SNR-versus-range table. The live :class:`acquisition.runtime.session.Session` feeds it from
+its device threads; a replay feeds it the recorded streams on the recorded clock. No devices, no
+threads of its own, no files.
+
+Inputs (any thread; each camera's frames from one thread, in order):
+
+- :meth:`on_range`, :meth:`on_fix`: rangefinder readings and GPS fixes, into short histories on
+  the common monotonic clock from which a frame's range is interpolated (the rangefinder while its
+  reading is fresh, else the GPS slant range from the site; DESIGN "Time"), and into the stop
+  detector; a fix is projected into every pointed camera and cues its tracker (paper section 4);
+- :meth:`on_frame`: one frame of one camera through its engine, then into the stop table;
+- :meth:`on_recorded`: a frame measured live but missing from a recording (replay only);
+- :meth:`mark_stop`: the operator's stop mark.
+
+What the live session must record goes to a :class:`EngineSink` (stop events, final rows, the
+model's background following the measured sky temperature), so a replay can apply the same.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+from collections.abc import Callable, Mapping
+from typing import Protocol
+
+import numpy as np
+
+from acquisition.config import SessionConfig
+from acquisition.engine.camera_engine import CameraEngine
+from acquisition.engine.inputs import Cue, FrameOutput, Measurement, SetRoi
+from acquisition.geo.gps_cue import GpsProjector
+from acquisition.geo.projection import gps_slant_range_m
+from acquisition.runtime.history import ScalarHistory
+from acquisition.stops.detector import Stop, StopConfig, StopDetector
+from acquisition.stops.table import Predictor, StopRow, StopTable
+from drivers.gps.fix import GpsFix
+from drivers.rangefinder.reading import RangeReading, RangeStatus
+
+log = logging.getLogger(__name__)
+
+SKY_CHECK_NS = 2_000_000_000  # the model's background is re-evaluated at most every 2 s
+SKY_CHANGE_K = 0.5  # ... and follows the sky only on a change larger than this
+HISTORY_FRAMES = 4000  # measurements kept per camera to seed a backdated stop (live and replay)
+
+
+class StopSource(Protocol):
+    """Where the stop table takes its stops from: the live detector, or the recorded stops."""
+
+    @property
+    def stops(self) -> list[Stop]: ...
+
+
+class EngineSink(Protocol):
+    """What the live session records of the engine's decisions (a replay applies them back)."""
+
+    def stop_changed(self, kind: str, stop: Stop) -> None: ...
+
+    def row_final(self, row: StopRow) -> None: ...
+
+    def model_background(self, camera: str, temp_k: float, t_host_ns: int) -> None: ...
+
+
+class SessionEngine:
+    """See the module docstring.
+
+    Args:
+        config: the session configuration (cameras, site, measurement, window).
+        shapes: (rows, columns) of each camera's frames.
+        track: follow the drone from the click.
+        stop_config: the stop detector's rules (ignored when ``stops`` is given).
+        stops: a stop source in place of a detector fed by :meth:`on_range` (a replay's
+            recorded stops).
+        predictor: the model's ``predictor(camera, range_m)`` for the stop table.
+        cue_from_gps: cue the trackers with each fix (a replay of a recording that holds the
+            cues applied live turns this off and applies those).
+        follow_sky: with a calibration, the model's background follows the measured sky
+            temperature (a replay that applies the recorded changes turns this off).
+    """
+
+    def __init__(
+        self,
+        config: SessionConfig,
+        shapes: Mapping[str, tuple[int, int]],
+        *,
+        track: bool = True,
+        stop_config: StopConfig | None = None,
+        stops: StopSource | None = None,
+        predictor: Predictor | None = None,
+        cue_from_gps: bool = True,
+        follow_sky: bool = True,
+        series_length: int = 2000,
+    ) -> None:
+        self.config = config
+        self.track = track
+        self.cue_from_gps = cue_from_gps
+        self.follow_sky = follow_sky
+        self.sink: EngineSink | None = None
+        self._lock = threading.RLock()
+        self.cameras: dict[str, CameraEngine] = {
+            name: CameraEngine(
+                name,
+                shape,
+                config.measurement,
+                window=config.window,
+                track=track,
+                series_length=series_length,
+            )
+            for name, shape in shapes.items()
+        }
+        self.lrf_range = ScalarHistory(max_gap_ns=int(config.lrf_fresh_s * 1e9))
+        self.gps_range = ScalarHistory()
+        self.projector = GpsProjector(config)
+        self.stop_detector = StopDetector(stop_config)
+        self.stop_source: StopSource = stops if stops is not None else self.stop_detector
+        self.stop_table = StopTable(
+            self.stop_source,  # type: ignore[arg-type]  (duck-typed: only .stops is read)
+            list(self.cameras),
+            frames_per_stop=100,
+            history_frames=HISTORY_FRAMES,
+            predictor=predictor,
+            on_final=self._row_final,
+        )
+        self._sky_checked: dict[str, int] = {}
+        self._listeners: list[Callable[[Measurement], None]] = []
+
+    # ------------------------------------------------------------------ the model
+    @property
+    def predictor(self) -> Predictor | None:
+        return self.stop_table.predictor
+
+    @predictor.setter
+    def predictor(self, predictor: Predictor | None) -> None:
+        self.stop_table.predictor = predictor
+
+    def set_background(self, camera: str, temp_k: float | None) -> None:
+        """The model's background temperature for ``camera`` (the measured sky; None: the
+        model's own): the paper's path-radiance correction (sections 8-9)."""
+        predictor = self.predictor
+        if hasattr(predictor, "set_background"):
+            predictor.set_background(camera, temp_k)  # type: ignore[union-attr]
+
+    # ------------------------------------------------------------------ commands
+    def camera(self, name: str) -> CameraEngine:
+        try:
+            return self.cameras[name]
+        except KeyError:
+            raise ValueError(
+                f"no camera {name!r} in this session (have: {', '.join(self.cameras)})"
+            ) from None
+
+    def set_roi(self, camera: str, x: int, y: int) -> None:
+        """The operator clicked the drone at column ``x``, row ``y`` of ``camera``."""
+        self.camera(camera).post(SetRoi(int(x), int(y)))
+
+    def mark_stop(self, t_ns: int) -> Stop:
+        """The operator says the drone is hovering at a stop from ``t_ns`` on."""
+        with self._lock:
+            before = self.stop_detector.current
+            stop = self.stop_detector.mark_stop(int(t_ns))
+            ended = None
+            if before is not None:
+                ended = self.stop_detector.stops[before.index]
+        if self.sink is not None:
+            if ended is not None:
+                self.sink.stop_changed("stop_ended", ended)
+            self.sink.stop_changed("stop_marked", stop)
+        return stop
+
+    def add_listener(self, callback: Callable[[Measurement], None]) -> None:
+        """``callback(measurement)`` after every measured frame (on the frame's thread)."""
+        with self._lock:
+            self._listeners.append(callback)
+
+    # ------------------------------------------------------------------ readings
+    def on_range(self, reading: RangeReading) -> None:
+        if reading.status is not RangeStatus.OK or reading.range_m is None:
+            return
+        try:
+            self.lrf_range.append(reading.t_host_ns, reading.range_m)
+        except ValueError:
+            log.warning("rangefinder reading out of order dropped from the history")
+        self._feed_stops(lambda d: d.add_reading(reading))
+
+    def on_fix(self, fix: GpsFix) -> None:
+        site = self.config.site
+        if site is None:
+            return
+        r = gps_slant_range_m(fix, site)
+        if r is not None:
+            try:
+                self.gps_range.append(fix.t_host_ns, r)
+            except ValueError:
+                log.warning("GPS fix out of order dropped from the history")
+            self._feed_stops(lambda d: d.add_fix(fix, site))
+        for name, (x, y) in self.projector.pixels(fix).items():
+            if self.cue_from_gps:
+                self.cameras[name].post(Cue(x, y))
+            else:
+                self.cameras[name].show_gps(x, y)
+
+    def _feed_stops(self, feed: Callable[[StopDetector], Stop | None]) -> None:
+        with self._lock:
+            try:
+                stop = feed(self.stop_detector)
+            except ValueError as exc:
+                log.warning("stop detector refused a reading: %s", exc)
+                return
+        if stop is not None and self.sink is not None:
+            self.sink.stop_changed("stop_ended" if stop.t_end_ns is not None else
+                                   "stop_detected", stop)  # fmt: skip
+
+    def range_at(self, t_host_ns: int) -> tuple[float | None, str]:
+        """The range for a frame received at ``t_host_ns``: the rangefinder if its reading is
+        fresh (within ``lrf_fresh_s``), else the GPS slant range, else None."""
+        r = self.lrf_range.value_at(t_host_ns)
+        if r is not None:
+            return r, "lrf"
+        g = self.gps_range.value_at(t_host_ns)
+        return (g, "gps") if g is not None else (None, "")
+
+    # ------------------------------------------------------------------ frames
+    def on_frame(
+        self, camera: str, pixels: np.ndarray, *, seq: int, counter: int, t_host_ns: int
+    ) -> FrameOutput:
+        """One frame of ``camera`` through its engine, then the stop table and the listeners."""
+        out = self.cameras[camera].process(
+            pixels, seq=seq, counter=counter, t_host_ns=t_host_ns, range_at=self.range_at
+        )
+        self._after_frame(camera, t_host_ns, out.measurement)
+        return out
+
+    def on_recorded(self, m: Measurement) -> None:
+        """A frame measured live whose pixels the recording does not hold (replay)."""
+        self.cameras[m.camera].publish_recorded(m)
+        self._after_frame(m.camera, m.t_host_ns, m)
+
+    def _after_frame(self, camera: str, t_ns: int, m: Measurement | None) -> None:
+        if m is None:
+            self.stop_table.tick(camera, t_ns)
+            return
+        self.stop_table.add(camera, t_ns, m.result)
+        if self.follow_sky:
+            self._follow_sky(camera, t_ns)
+        with self._lock:
+            listeners = list(self._listeners)
+        for cb in listeners:
+            try:
+                cb(m)
+            except Exception:
+                log.exception("%s: measurement listener failed", camera)
+
+    def _follow_sky(self, camera: str, t_ns: int) -> None:
+        """With a calibration, the model's background input follows the measured sky
+        temperature (paper sections 8-9), re-evaluated at most every 2 s, on a 0.5 K change."""
+        sky = self.cameras[camera].sky
+        predictor = self.predictor
+        if sky is None or not hasattr(predictor, "set_background"):
+            return
+        if t_ns - self._sky_checked.get(camera, 0) < SKY_CHECK_NS:
+            return
+        self._sky_checked[camera] = t_ns
+        temp = sky.mean_temp_k(last=100)
+        current = predictor.background_temp_k.get(camera)  # type: ignore[union-attr]
+        if math.isfinite(temp) and (current is None or abs(temp - current) > SKY_CHANGE_K):
+            predictor.set_background(camera, temp)  # type: ignore[union-attr]
+            if self.sink is not None:
+                self.sink.model_background(camera, temp, t_ns)
+
+    # ------------------------------------------------------------------ the table
+    def stops(self) -> list[StopRow]:
+        """The SNR-versus-range table so far (one row per stop and camera)."""
+        return self.stop_table.rows()
+
+    def finalize(self) -> list[StopRow]:
+        """The session ends: every row final as it stands."""
+        return self.stop_table.finalize()
+
+    def _row_final(self, row: StopRow) -> None:
+        if self.sink is not None:
+            self.sink.row_final(row)

@@ -1,0 +1,282 @@
+"""Plays a recording's timeline into a session engine: the same engine the live console runs.
+
+:class:`Feeder` applies one timeline entry at a time (:meth:`Feeder.apply`): a rangefinder
+reading or GPS fix as it arrived, a recorded stop event, or one camera frame with the commands
+recorded at it (an engine state after a recording gap first, then the clicks, the background
+reference, the GPS cue), then the frame itself through the engine. A frame the live engine measured
+but the recorder dropped is not re-measured: its recorded measurement goes into the table and the
+charts as it was, and the engine state recorded before the next recorded frame takes over. So every
+recorded frame's SNR is reproduced exactly, and the stop table equals the live one.
+
+Frames are read as late and as little as possible: ``fast`` hands the engine a read-only view of
+the frame inside a memory map of the file (only the pages the measurement touches are read: a few
+kB around the track); otherwise the whole frame is read through h5py.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from acquisition.engine.inputs import (
+    ApplyReference,
+    ClearReference,
+    ClearRoi,
+    Cue,
+    FrameOutput,
+    Measurement,
+    Restore,
+    SetRoi,
+)
+from acquisition.engine.session_engine import SessionEngine
+from acquisition.record.frame_access import FrameCrops
+from acquisition.record.reader import SessionFile
+from acquisition.record.stream_rows import (
+    fix_from_row,
+    measurement_from_row,
+    peak_snr_from_row,
+    reading_from_row,
+)
+from acquisition.replay.recorded import (
+    FIX,
+    FRAME,
+    RANGE,
+    STOP,
+    RecordedInputs,
+    frames_between,
+)
+from acquisition.stops.detector import Stop
+
+log = logging.getLogger(__name__)
+
+
+class RecordedStops:
+    """The stops as the live detector found them (format 2 records their times): a replay uses
+    them instead of detecting again, so its table is the live one even where the readings of two
+    devices arrived in a different order than their time stamps say."""
+
+    def __init__(self) -> None:
+        self._stops: list[Stop] = []
+
+    @property
+    def stops(self) -> list[Stop]:
+        return list(self._stops)
+
+    def apply(self, stop: Stop) -> None:
+        if stop.index < len(self._stops):
+            self._stops[stop.index] = stop
+        elif stop.index == len(self._stops):
+            self._stops.append(stop)
+        else:
+            raise ValueError(f"recorded stop {stop.index} follows stop {len(self._stops) - 1}")
+
+
+@dataclass
+class CameraTally:
+    """What a replay did with one camera's frames."""
+
+    name: str
+    frames_in_file: int = 0
+    measured: int = 0  # frames measured again
+    not_in_file: int = 0  # measured live, pixels dropped by the recorder: recorded values used
+    compared: int = 0
+    identical: int = 0
+    states_restored: int = 0
+    first_difference: int | None = None  # counter of the first frame that differs
+    measurements: list[Measurement] = field(default_factory=list)
+
+
+def same_result(row: np.void, m: Measurement) -> bool:
+    """The replayed frame reads exactly what the live one recorded (NaN equals NaN)."""
+    rec = peak_snr_from_row(row)
+    r = m.result
+    return (
+        (rec.snr == r.snr or (rec.snr != rec.snr and r.snr != r.snr))
+        and rec.peak_x == r.peak_x
+        and rec.peak_y == r.peak_y
+        and rec.flags == r.flags
+    )
+
+
+class Feeder:
+    """Applies a recording's timeline to ``engine`` (module docstring).
+
+    Args:
+        f: the open session file.
+        inputs: what it recorded (:func:`acquisition.replay.recorded.recorded_inputs`).
+        engine: a fresh engine built from the recording's settings.
+        fast: read frames through a memory map (same numbers, a few kB a frame).
+        recorded_stops: the stop source the engine was built with, when the file's own stops
+            are used (None: the engine detects them from the readings).
+        keep: keep every measurement in the tallies (batch replay; the console does not).
+    """
+
+    def __init__(
+        self,
+        f: SessionFile,
+        inputs: RecordedInputs,
+        engine: SessionEngine,
+        *,
+        fast: bool = False,
+        recorded_stops: RecordedStops | None = None,
+        keep: bool = True,
+    ) -> None:
+        self.f = f
+        self.inputs = inputs
+        self.engine = engine
+        self.recorded_stops = recorded_stops
+        self.keep = keep
+        self.exact_inputs = inputs.version >= 2
+        self.tally = {n: CameraTally(n, f.cameras[n].n_frames) for n in inputs.cameras}
+        self._crops = {n: FrameCrops(f.cameras[n].frames) for n in inputs.cameras} if fast else {}
+        self._next_command = dict.fromkeys(inputs.cameras, 0)
+        self._next_background = dict.fromkeys(inputs.cameras, 0)
+
+    # ------------------------------------------------------------------ seeking
+    def skip_to(self, k: int) -> None:
+        """Prepare a fresh engine to show entry ``k`` without measuring what comes before:
+        readings and stops up to it are applied; per camera the background reference in force
+        and the track at its last recorded window (not the full recorded state: a seek starts
+        the measurement afresh there; running statistics restart)."""
+        tl = self.inputs.timeline
+        t_k = int(tl["t_ns"][k])
+        for j in range(k):
+            if int(tl["kind"][j]) != FRAME:
+                self.apply(j)
+        for name in self.inputs.cameras:
+            c = self.inputs.per_camera[name]
+            engine = self.engine.cameras[name]
+            i = self._next_command[name]
+            roi, roi_t, reference = None, 0, None
+            while i < len(c.commands) and c.commands[i][0] < t_k:
+                t_c, kind, p = c.commands[i]
+                i += 1
+                if kind in ("roi_set", "roi_cleared"):
+                    roi = (int(p["x"]), int(p["y"])) if kind == "roi_set" else None
+                    roi_t = t_c
+                elif kind == "background_reference":
+                    reference = p
+                elif kind == "reference_cleared":
+                    reference = None
+            self._next_command[name] = i
+            backgrounds = c.backgrounds
+            b = self._next_background[name]
+            while b < len(backgrounds) and backgrounds[b][0] < t_k:
+                if self.exact_inputs:
+                    self.engine.set_background(name, backgrounds[b][1])
+                b += 1
+            self._next_background[name] = b
+            if reference is not None:
+                engine.post(self._reference(name, reference))
+            meas = self.f.cameras[name].measurements
+            before = meas[(meas["t_host_ns"] >= roi_t) & (meas["t_host_ns"] < t_k)]
+            if roi is not None and before.size:
+                last = before[-1]  # where the recorded track was when the seek cut it
+                roi = (int(last["window_x"]), int(last["window_y"]))
+            if roi is not None:
+                engine.post(SetRoi(*roi))
+
+    # ------------------------------------------------------------------ one entry
+    def apply(self, k: int) -> tuple[str, FrameOutput | Measurement | None] | None:
+        """Apply timeline entry ``k``; for a frame, returns (camera, what it gave)."""
+        e = self.inputs.timeline[k]
+        kind = int(e["kind"])
+        if kind == RANGE:
+            self.engine.on_range(reading_from_row(self.f.rangefinder[int(e["row"])]))
+        elif kind == FIX:
+            self.engine.on_fix(fix_from_row(self.f.gps[int(e["row"])]))
+        elif kind == STOP:
+            if self.recorded_stops is not None:
+                self.recorded_stops.apply(self.inputs.stops[int(e["row"])][1])
+        elif kind == FRAME:
+            name = self.inputs.cameras[int(e["camera"])]
+            return name, self._frame(name, int(e["frame"]), int(e["row"]), int(e["t_ns"]))
+        return None
+
+    def _frame(self, name: str, i: int, r: int, t: int):
+        cam = self.f.cameras[name]
+        tally = self.tally[name]
+        row = cam.measurements[r] if r >= 0 else None
+        if i < 0:  # measured live, not in the file
+            m = measurement_from_row(name, row)
+            self.engine.on_recorded(m)
+            tally.not_in_file += 1
+            if self.keep:
+                tally.measurements.append(m)
+            self._after(name, t)
+            return m
+        self._post_commands(name, i, t, row)
+        pixels = self._pixels(name, i)
+        out = self.engine.on_frame(name, pixels, seq=i, counter=int(cam.counter[i]), t_host_ns=t)
+        m = out.measurement
+        if m is not None:
+            tally.measured += 1
+            if self.keep:
+                tally.measurements.append(m)
+            if row is not None:
+                tally.compared += 1
+                if same_result(row, m):
+                    tally.identical += 1
+                elif tally.first_difference is None:
+                    tally.first_difference = m.counter
+        self._after(name, t)
+        return out
+
+    def _after(self, name: str, t: int) -> None:
+        backgrounds = self.inputs.per_camera[name].backgrounds
+        k = self._next_background[name]
+        while k < len(backgrounds) and backgrounds[k][0] <= t:
+            if self.exact_inputs:
+                self.engine.set_background(name, backgrounds[k][1])
+            k += 1
+        self._next_background[name] = k
+
+    def _pixels(self, name: str, i: int) -> np.ndarray:
+        crops = self._crops.get(name)
+        if crops is not None:
+            view = crops.frame_view(i)
+            if view is not None:
+                return view
+        return self.f.cameras[name].frames[i]
+
+    def _post_commands(self, name: str, i: int, t: int, row) -> None:
+        engine = self.engine.cameras[name]
+        c = self.inputs.per_camera[name]
+        cam = self.f.cameras[name]
+        state = c.states.get(int(cam.counter[i]))
+        if state is not None and self.exact_inputs:
+            engine.post(Restore(state))
+            self.tally[name].states_restored += 1
+        k = self._next_command[name]
+        while k < len(c.commands) and c.commands[k][0] <= t:
+            _, kind, p = c.commands[k]
+            k += 1
+            if kind == "roi_set":
+                engine.post(SetRoi(int(p["x"]), int(p["y"])))
+            elif kind == "roi_cleared":
+                engine.post(ClearRoi())
+            elif kind == "background_reference":
+                engine.post(self._reference(name, p))
+            elif kind == "reference_cleared":
+                engine.post(ClearReference())
+        self._next_command[name] = k
+        if self.exact_inputs and row is not None:
+            cx, cy = float(row["cue_x"]), float(row["cue_y"])
+            if cx == cx and cy == cy:  # finite: a cue was applied before this frame live
+                engine.post(Cue(cx, cy))
+
+    def _reference(self, name: str, payload: dict) -> ApplyReference:
+        cam = self.f.cameras[name]
+        k = payload.get("reference_index")
+        if k is not None and cam.references is not None and k < cam.references.shape[0]:
+            return ApplyReference(np.asarray(cam.references[int(k)], np.float32), payload)
+        # Format 1: rebuild it from its frames, through the live accumulation.
+        engine = self.engine.cameras[name]
+        frames, counters = frames_between(cam, int(payload["first_counter"]),
+                                          int(payload["last_counter"]))  # fmt: skip
+        corrector = type(engine.corrector)(engine.shape, engine.corrector.half_px)
+        corrector.calibration = engine.corrector.calibration
+        summary = corrector.set_reference(frames, counters)
+        return ApplyReference(corrector.reference_offset, summary)

@@ -1,0 +1,180 @@
+"""What a replay applies, read once from a session file: the recorded devices on the recorded clock.
+
+:func:`recorded_inputs` turns the file into :class:`RecordedInputs`: the session's settings, one
+time-ordered *timeline* of everything that reached the live engine (each camera's frames, the
+frames it measured but the recorder dropped, rangefinder readings, GPS fixes, stop events), and
+per camera the commands applied at each frame (clicks, background references, the GPS cue, the
+model background, engine states at recording gaps). :class:`acquisition.replay.feeder.Feeder`
+plays it into a :class:`acquisition.engine.session_engine.SessionEngine`.
+
+Format 1 files (no cues, states or reference images recorded) replay as before: cues are
+projected from the recorded fixes, a reference is rebuilt from its recorded frames, and the
+stops are detected again from the readings.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from acquisition.config import SessionConfig, session_config_from_dict
+from acquisition.record.reader import SessionFile
+from acquisition.stops.detector import Stop, StopConfig
+
+# Timeline entry kinds, in the order entries of the same time are applied.
+RANGE, FIX, STOP, FRAME = 0, 1, 2, 3
+
+TIMELINE_DTYPE = np.dtype(
+    [("t_ns", "<i8"), ("kind", "<i1"), ("camera", "<i2"), ("frame", "<i8"), ("row", "<i8")]
+)
+"""One entry: ``kind`` RANGE/FIX/STOP (``row`` indexes /rangefinder, /gps or the stop events) or
+FRAME (``camera`` indexes ``cameras``; ``frame`` the frame in the file, -1 when the recorder
+dropped it; ``row`` its measurement row, -1 when it was not measured)."""
+
+
+@dataclass
+class CameraInputs:
+    """The commands recorded for one camera, in time order, each at the host time of the frame
+    it took effect on: ``commands`` are (t_ns, kind, payload) with kind "roi_set",
+    "roi_cleared", "background_reference", "reference_cleared" (applied before the first frame
+    at or after t); ``backgrounds`` are (t_ns, temp_k) model background changes (applied after
+    that frame); ``states`` maps a frame counter to the engine state recorded before it.
+    Format 1 files hold clicks and references only."""
+
+    commands: list[tuple[int, str, dict]] = field(default_factory=list)
+    backgrounds: list[tuple[int, float]] = field(default_factory=list)
+    states: dict[int, dict] = field(default_factory=dict)
+    calibration: str | None = None
+
+
+@dataclass
+class RecordedInputs:
+    """Everything a replay of one file applies (see the module docstring)."""
+
+    config: SessionConfig
+    track: bool
+    stop_config: StopConfig | None
+    version: int
+    cameras: list[str]
+    per_camera: dict[str, CameraInputs]
+    stops: list[tuple[str, Stop]]  # (kind, stop) as recorded, in time order (format 2)
+    final_rows: dict[tuple[int, str], dict]  # (stop, camera) -> recorded stop_summary payload
+    timeline: np.ndarray  # TIMELINE_DTYPE, in time order
+
+
+def _settings(f: SessionFile) -> tuple[SessionConfig, bool, StopConfig | None]:
+    cfg = f.config if isinstance(f.config, dict) else {}
+    config = session_config_from_dict(cfg.get("session") or {})
+    track = bool(cfg.get("track", True))
+    stop = cfg.get("stop_detection")
+    return config, track, (StopConfig(**stop) if stop else None)
+
+
+def _stop_of(payload: dict) -> Stop | None:
+    if "t_start_ns" not in payload:
+        return None  # a format 1 event: the stop's times were not recorded
+    return Stop(
+        index=int(payload["stop"]),
+        t_start_ns=int(payload["t_start_ns"]),
+        t_end_ns=None if payload["t_end_ns"] is None else int(payload["t_end_ns"]),
+        lrf_range_m=payload["lrf_range_m"],
+        gps_range_m=payload["gps_range_m"],
+        manual=bool(payload["manual"]),
+        t_confirmed_ns=payload.get("t_confirmed_ns"),
+    )
+
+
+def recorded_inputs(f: SessionFile) -> RecordedInputs:
+    """Read what a replay applies from an open session file (module docstring)."""
+    config, track, stop_config = _settings(f)
+    names = list(f.cameras)
+    per: dict[str, CameraInputs] = {n: CameraInputs() for n in names}
+    stops: list[tuple[str, Stop]] = []
+    stop_times: list[int] = []
+    final_rows: dict[tuple[int, str], dict] = {}
+    for e in f.event_list():
+        kind, cam, p, t = e["kind"], e["camera"], e["payload"], e["t_host_ns"]
+        c = per.get(cam)
+        if kind in ("stop_detected", "stop_ended", "stop_marked", "stop_known"):
+            stop = _stop_of(p)
+            if stop is not None:
+                stops.append((kind, stop))
+                stop_times.append(t)
+        elif kind == "stop_summary" and c is not None:
+            final_rows[(int(p["stop"]), cam)] = p
+        elif c is None:
+            continue
+        elif kind in ("roi_set", "roi_cleared", "background_reference", "reference_cleared"):
+            c.commands.append((t, kind, p))
+        elif kind == "model_background":
+            c.backgrounds.append((t, float(p["temp_k"])))
+        elif kind == "calibration" and "path" in p:
+            c.calibration = p["path"]
+    for name, rec in f.cameras.items():
+        for row in rec.states:
+            per[name].states[int(row["counter"])] = json.loads(bytes(row["state"]).decode())
+    timeline = _timeline(f, names, stop_times)
+    return RecordedInputs(
+        config, track, stop_config, f.major_version, names, per, stops, final_rows, timeline
+    )
+
+
+def _timeline(f: SessionFile, names: list[str], stop_times: list[int]) -> np.ndarray:
+    parts = []
+
+    def part(t, kind, camera, frame, row) -> None:
+        a = np.zeros(len(t), TIMELINE_DTYPE)
+        a["t_ns"], a["kind"], a["camera"], a["frame"], a["row"] = t, kind, camera, frame, row
+        parts.append(a)
+
+    n = len(f.rangefinder)
+    part(f.rangefinder["t_host_ns"], RANGE, -1, -1, np.arange(n))
+    n = len(f.gps)
+    part(f.gps["t_host_ns"], FIX, -1, -1, np.arange(n))
+    part(np.asarray(stop_times, np.int64), STOP, -1, -1, np.arange(len(stop_times)))
+    for k, name in enumerate(names):
+        cam = f.cameras[name]
+        meas = cam.measurements
+        index = meas["frame_index"]
+        # A row names its frame by index; rows past what the file holds (a crash) lost theirs.
+        frame_of_row = np.where(index < cam.n_frames, index, -1)
+        row_of_frame = np.full(cam.n_frames, -1, np.int64)
+        present = frame_of_row >= 0
+        row_of_frame[frame_of_row[present]] = np.flatnonzero(present)
+        part(cam.t_host_ns, FRAME, k, np.arange(cam.n_frames), row_of_frame)
+        missing = np.flatnonzero(~present)
+        part(meas["t_host_ns"][missing], FRAME, k, -1, missing)
+    timeline = np.concatenate(parts) if parts else np.zeros(0, TIMELINE_DTYPE)
+    # Time order; at equal times, readings before frames (a reading is applied when it arrives).
+    order = np.lexsort((timeline["kind"], timeline["t_ns"]))
+    return timeline[order]
+
+
+def frames_between(cam, first_counter: int, last_counter: int) -> tuple[np.ndarray, np.ndarray]:
+    """The recorded frames (and their counters) whose camera counters run from ``first`` to
+    ``last`` (inclusive): a format 1 background reference is rebuilt from them."""
+    idx = np.flatnonzero((cam.counter >= first_counter) & (cam.counter <= last_counter))
+    if idx.size < 2:
+        raise ValueError(
+            f"{cam.name}: the background reference frames {first_counter}..{last_counter} are "
+            "not in the recording, so the corrected measurement cannot be replayed"
+        )
+    lo, hi = int(idx[0]), int(idx[-1]) + 1
+    return cam.frames[lo:hi], cam.counter[lo:hi]
+
+
+def recording_drops(f: SessionFile) -> dict[str, dict[str, int]]:
+    """Frames each camera lost, by reason, as the recorder counted them (its summary; for a
+    file whose writer died, what the file shows: measured frames whose pixels are missing)."""
+    out: dict[str, dict[str, int]] = defaultdict(dict)
+    if f.summary is not None:
+        for cam, reasons in (f.summary.get("dropped") or {}).items():
+            out[cam] = {str(k): int(v) for k, v in reasons.items()}
+        return {c: dict(out.get(c, {})) for c in f.cameras}
+    for name, cam in f.cameras.items():
+        lost = int(np.count_nonzero(cam.measurements["frame_index"] < 0))
+        out[name] = {"not_in_file": lost} if lost else {}
+    return dict(out)
