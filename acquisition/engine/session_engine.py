@@ -274,7 +274,12 @@ class SessionEngine:
         return self.stop_table.rows()
 
     def finalize(self) -> list[StopRow]:
-        """The session ends: every row final as it stands."""
+        """The session ends: every row final as it stands (an open stop with its ranges as
+        they stand, which the sink records first so a replay finalizes with the same)."""
+        with self._lock:
+            current = self.stop_detector.current if self.stop_source is self.stop_detector else None
+        if current is not None and self.sink is not None:
+            self.sink.stop_changed("stop_open_at_end", current)
         return self.stop_table.finalize()
 
     def _row_final(self, row: StopRow) -> None:

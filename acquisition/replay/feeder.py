@@ -81,6 +81,7 @@ class CameraTally:
     frames_in_file: int = 0
     measured: int = 0  # frames measured again
     not_in_file: int = 0  # measured live, pixels dropped by the recorder: recorded values used
+    before_recording: int = 0  # measured live before the recording began (rows without frames)
     compared: int = 0
     identical: int = 0
     states_restored: int = 0
@@ -88,16 +89,31 @@ class CameraTally:
     measurements: list[Measurement] = field(default_factory=list)
 
 
+def _same(a: float, b: float) -> bool:
+    return a == b or (a != a and b != b)  # NaN equals NaN
+
+
 def same_result(row: np.void, m: Measurement) -> bool:
-    """The replayed frame reads exactly what the live one recorded (NaN equals NaN)."""
+    """The replayed frame reads exactly what the live one recorded: Eq. (4) (peak, SNR,
+    flags) and, where the file has them (format 2), the running statistics after it and the
+    track's state and window."""
     rec = peak_snr_from_row(row)
     r = m.result
-    return (
-        (rec.snr == r.snr or (rec.snr != rec.snr and r.snr != r.snr))
+    same = (
+        _same(rec.snr, r.snr)
         and rec.peak_x == r.peak_x
         and rec.peak_y == r.peak_y
         and rec.flags == r.flags
     )
+    if same and bytes(row["track_state"]):  # format 2
+        same = (
+            _same(float(row["snr_mean"]), m.snr_mean)
+            and _same(float(row["snr_std"]), m.snr_std)
+            and int(row["snr_n"]) == m.snr_n
+            and (int(row["window_x"]), int(row["window_y"])) == m.window_xy
+            and bytes(row["track_state"]).decode() == m.track_state
+        )
+    return same
 
 
 class Feeder:
@@ -202,7 +218,10 @@ class Feeder:
         if i < 0:  # measured live, not in the file
             m = measurement_from_row(name, row)
             self.engine.on_recorded(m)
-            tally.not_in_file += 1
+            if cam.n_frames and t < int(cam.t_host_ns[0]):
+                tally.before_recording += 1
+            else:
+                tally.not_in_file += 1
             if self.keep:
                 tally.measurements.append(m)
             self._after(name, t)

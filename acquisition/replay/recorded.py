@@ -98,7 +98,7 @@ def recorded_inputs(f: SessionFile) -> RecordedInputs:
     for e in f.event_list():
         kind, cam, p, t = e["kind"], e["camera"], e["payload"], e["t_host_ns"]
         c = per.get(cam)
-        if kind in ("stop_detected", "stop_ended", "stop_marked", "stop_known"):
+        if kind in ("stop_detected", "stop_ended", "stop_marked", "stop_known", "stop_open_at_end"):
             stop = _stop_of(p)
             if stop is not None:
                 stops.append((kind, stop))

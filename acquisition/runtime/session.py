@@ -86,6 +86,7 @@ class Session:
         self._last_lrf: RangeReading | None = None
         self._last_fix: GpsFix | None = None
         self._recorder: SessionRecorder | None = None
+        self.last_recording = None  # the summary of the last recording closed
         all_shapes = {
             cam.name: (shapes or {}).get(cam.name) or self._shape_of(cam) for cam in config.cameras
         }
@@ -214,13 +215,17 @@ class Session:
         """``cb(measurement)`` on each camera's measurement thread after every measured frame."""
         self.engine.add_listener(cb)
 
-    def start_recording(self, path: str | Path) -> None:
-        """Record everything from now on into one HDF5 session file (a new file)."""
+    def start_recording(self, path: str | Path, **recorder_options: Any) -> None:
+        """Record everything from now on into one HDF5 session file (a new file);
+        ``recorder_options`` go to :class:`SessionRecorder` (compression, backlog limit)."""
         with self._lock:
             if self._recorder is not None and self._recorder.status().state == "recording":
                 raise ValueError(f"already recording to {self._recorder.path}")
         shapes = {n: p.shape for n, p in self.pipelines.items()}
-        rec = SessionRecorder(path, config=self._config_record(), cameras=shapes, clock=self.clock)
+        rec = SessionRecorder(
+            path, config=self._config_record(), cameras=shapes, clock=self.clock,
+            **recorder_options,
+        )  # fmt: skip
         for pipe in self.pipelines.values():
             cal = pipe.corrector.calibration
             if cal is not None:
@@ -233,6 +238,11 @@ class Session:
                 rec.add_event("calibration", camera=pipe.name, payload=meta)
         for stop in self.engine.stop_detector.stops:  # the stops so far are part of the record
             self.stop_changed("stop_known", stop, rec)
+        for name in self.pipelines:
+            # The measurements a stop begun before the recording would be summarised from:
+            # rows without frames, so a replay builds the same stop table.
+            for t, result in self.engine.stop_table.history(name):
+                rec.add_peak_snr(name, -1, -1, t, result)
         with self._lock:
             self._recorder = rec
         for pipe in self.pipelines.values():
@@ -254,7 +264,8 @@ class Session:
             self._recorder = None
         for pipe in self.pipelines.values():
             pipe.detach_recorder()
-        return rec.stop()
+        self.last_recording = rec.stop()
+        return self.last_recording
 
     # ------------------------------------------------------------------ the engine's sink
     def stop_changed(self, kind: str, stop: Stop, rec: SessionRecorder | None = None) -> None:

@@ -168,6 +168,12 @@ class StopTable:
                     out.append(self._final.get(key) or self._row(stop, cam, final=False)[0])
             return out
 
+    def history(self, camera: str) -> list[Entry]:
+        """The measurements of ``camera`` the table keeps to seed a backdated stop (oldest
+        first): a recording that starts now records them, so its replay builds the same rows."""
+        with self._lock:
+            return list(self._recent[camera])
+
     def runs(self) -> dict[tuple[int, str], list[Entry]]:
         """``{(stop, camera): [(t_host_ns, PeakSnr), ...]}``: the frames each final row's
         statistics were taken from, in order."""

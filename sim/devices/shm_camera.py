@@ -8,7 +8,9 @@ check that the document is enough to build a writer, e.g. a vendor grabber.
   ``render(counter) -> np.ndarray`` at an exact rate (absolute-time pacing: frame k is due at
   ``t0 + k / fps``, so sleep overshoot never accumulates) or as fast as possible. It can skip
   counters (link drops), pause (a silent camera), stop cleanly, be killed (a camera lost without
-  goodbye) and be started again (the camera is back, its counter restarted).
+  goodbye) and be started again (the camera is back, its counter restarted). Like a real camera
+  it never falls behind its own clock: a frame it could not render in time is lost (a counter
+  gap), so the picture stays in step with the flight the serial simulators report.
 """
 
 from __future__ import annotations
@@ -232,6 +234,13 @@ def _produce(
                 wait_ns = due - time.monotonic_ns()
                 if wait_ns > 0:
                     stop.wait(wait_ns / 1e9)
+                elif -wait_ns >= period_ns:
+                    # A real camera's clock does not wait for a slow host: the frames it could
+                    # not deliver in time are lost (a gap in its counter) and the next one shows
+                    # the scene at its own time, so the picture never lags the flight's clock.
+                    behind = -wait_ns // period_ns
+                    k += behind
+                    counter += behind
                 k += 1
             if counter not in drop_counters:
                 pixels = render(counter)

@@ -17,6 +17,17 @@ from dataclasses import replace
 from snrmon.cli import UsageError
 
 
+def strict_json(value):
+    """``value`` with every non-finite float as None (JSON has no NaN)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    return value
+
+
 def _floats(text: str, what: str) -> tuple[float, ...]:
     try:
         values = tuple(float(v) for v in text.split(",") if v.strip())
@@ -101,10 +112,18 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         result = rig.run()
+    if rig.recording is not None:
+        result["recording"] = rig.recording
     if not opts.track:
         result["note"] = "tracking off: the simulator re-clicked the drone at every stop"
     if args.json:
-        print(json.dumps(result, allow_nan=True))
+        print(json.dumps(strict_json(result), allow_nan=False))
         return 0
     print(format_result(result))
+    if rig.recording is not None:
+        r = rig.recording
+        for cam, written in r["frames_written"].items():
+            lost = ", ".join(f"{k} {v}" for k, v in r["dropped"].get(cam, {}).items()) or "none"
+            print(f"recording {cam}: {written} of {r['frames_received'][cam]} frames written "
+                  f"(dropped: {lost})")  # fmt: skip
     return 0

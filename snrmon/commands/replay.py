@@ -73,6 +73,57 @@ def _replay_foreign(args: argparse.Namespace) -> int:
     return measure.run(ns)
 
 
+def _finite(v):
+    """A number for strict JSON: None where it is not finite (nothing measured)."""
+    return v if v is None or not isinstance(v, float) or math.isfinite(v) else None
+
+
+def result_json(result) -> dict:
+    """The replay as one strict-JSON object: the stop table, per camera the file's own frame
+    accounting (frames in the file, dropped by the recorder with the reasons, frames measured
+    again, frames taken from their recorded measurement), the comparison with the recording."""
+    stops = [
+        {
+            "camera": r.camera,
+            "stop": r.stop,
+            "lrf_range_m": _finite(r.lrf_range_m),
+            "gps_range_m": _finite(r.gps_range_m),
+            "n_frames": r.n_frames,
+            "complete": r.complete,
+            "final": r.final,
+            "measured_snr_mean": _finite(r.snr_mean),
+            "measured_snr_std": _finite(r.snr_std),
+            "model_snr": {k: _finite(v) for k, v in r.model_snr.items()},
+            "resolved": r.resolved,
+            "note": None if r.n_frames else "no valid frame of this camera during the stop",
+        }
+        for r in result.stops
+    ]
+    frames = {}
+    for n, c in result.cameras.items():
+        t = c.tally
+        frames[n] = {
+            "in_file": c.n_frames,
+            "dropped": sum(c.dropped.values()),
+            "dropped_reasons": c.dropped,
+            "measured": t.measured,
+            "from_recorded_rows": t.not_in_file,
+            "before_recording": t.before_recording,
+            "compared": t.compared,
+            "identical": t.identical,
+            "first_difference_counter": t.first_difference,
+            "states_restored": t.states_restored,
+        }
+    return {
+        "format_version": result.format_version,
+        "stops": stops,
+        "stops_recorded": len(result.recorded_rows),
+        "stops_identical": result.stops_identical,
+        "frames": frames,
+        "realtime_factor": _finite(result.realtime_factor),
+    }
+
+
 def run(args: argparse.Namespace) -> int:
     from acquisition.replay.batch import replay_session
 
@@ -86,42 +137,32 @@ def run(args: argparse.Namespace) -> int:
         fast=args.fast,
         track={"recorded": None, "on": True, "off": False}[args.track],
     )
-    stops = [
-        {
-            "camera": r.camera,
-            "planned_range_m": None,
-            "lrf_range_m": r.lrf_range_m,
-            "gps_range_m": r.gps_range_m,
-            "n_frames": r.n_frames,
-            "measured_snr_mean": r.snr_mean,
-            "measured_snr_std": r.snr_std,
-            "model_snr": r.model_snr,
-            "resolved": r.resolved,
-        }
-        for r in result.stops
-    ]
-    frames = {
-        n: {"received": c.n_frames, "dropped": 0, "identical": c.identical, "compared": c.compared}
-        for n, c in result.cameras.items()
-    }
+    out = result_json(result)
     if args.json:
+        print(json.dumps(out, allow_nan=False))
+        return 0
+    for n, c in out["frames"].items():
+        dropped = ", ".join(f"{k} {v}" for k, v in c["dropped_reasons"].items()) or "none"
         print(
-            json.dumps(
-                {"stops": stops, "frames": frames, "realtime_factor": result.realtime_factor}
+            f"{n}: {c['in_file']} frames in the file (dropped while recording: {dropped}); "
+            f"{c['identical']}/{c['compared']} per-frame SNRs identical to the recorded ones"
+            + (
+                f"; {c['from_recorded_rows']} taken from their recorded rows"
+                if c["from_recorded_rows"]
+                else ""
             )
         )
-        return 0
-    for n, c in result.cameras.items():
+    if out["stops_identical"] is not None:
         print(
-            f"{n}: {c.n_frames} frames, {c.identical}/{c.compared} per-frame SNRs identical "
-            "to the recorded ones"
+            f"stops: {out['stops_identical']}/{out['stops_recorded']} identical to the live table"
         )
-    for s in stops:
+    for s in out["stops"]:
         rng = s["lrf_range_m"] if s["lrf_range_m"] is not None else s["gps_range_m"]
+        snr, std = s["measured_snr_mean"], s["measured_snr_std"]
         print(
             f"{s['camera']:6s} range {rng if rng is not None else math.nan:7.1f} m  "
-            f"n {s['n_frames']:4d}  SNR {s['measured_snr_mean']:7.2f} "
-            f"+/- {s['measured_snr_std']:5.2f}"
+            f"n {s['n_frames']:4d}  SNR {snr if snr is not None else math.nan:7.2f} "
+            f"+/- {std if std is not None else math.nan:5.2f}"
         )
     print(f"replayed at {result.realtime_factor:.1f}x real time", file=sys.stderr)
     return 0

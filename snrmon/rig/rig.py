@@ -191,6 +191,7 @@ class HilRig:
         self.session.add_measurement_listener(self._on_measurement)
         self._clicked: set[tuple[str, int]] = set()
         self._final: dict[tuple[str, int], dict] = {}  # (camera, stop) -> its result entry
+        self.recording: dict | None = None  # the recording's own accounting, once closed
 
     # ------------------------------------------------------------------ clock and truth
     def flight_time(self) -> float:
@@ -231,7 +232,12 @@ class HilRig:
 
     def __exit__(self, *exc: object) -> None:
         try:
+            # Stopping the session finalizes its rows and closes the recording; its summary
+            # (frames written, dropped and why) is the record's own accounting.
             self.session.stop()
+            summary = getattr(self.session, "last_recording", None)
+            if summary is not None:
+                self.recording = recording_summary(summary)
         finally:
             for rig in self.cameras.values():
                 rig.producer.stop()
@@ -324,6 +330,8 @@ class HilRig:
             frames[name] = {
                 "received": acc.received,
                 "dropped": acc.dropped_by_camera + acc.dropped_by_ring,
+                "dropped_by_camera": acc.dropped_by_camera,
+                "dropped_by_ring": acc.dropped_by_ring,
             }
         clicks = {c: sum(1 for k in self._clicked if k[0] == c) for c in self.cameras}
         return {
@@ -332,3 +340,16 @@ class HilRig:
             "frames": dict(frames),
             "operator_clicks": clicks,
         }
+
+
+def recording_summary(summary) -> dict:
+    """What a closed recording holds and lost (:class:`acquisition.record.recorder.
+    RecorderSummary`), for the run's JSON: frames written and dropped per camera, with reasons."""
+    return {
+        "path": summary.path,
+        "state": summary.state,
+        "frames_received": dict(summary.frames_received),
+        "frames_written": dict(summary.frames_written),
+        "dropped": {cam: dict(reasons) for cam, reasons in summary.dropped.items()},
+        "error": summary.error,
+    }

@@ -14,6 +14,12 @@ the speed is the smallest of: each camera process within ``RENDER_SHARE`` of a c
 (one process: its threads share the GIL) within ``CONSOLE_SHARE`` of a core, everything within
 ``TOTAL_SHARE`` of the machine's cores, and ``MAX_SPEED``. The shares leave room for recording,
 a display, the operating system and the machine's other work.
+
+With a recording (``--out``) the disk is measured too: the probe records (its CPU is then part of
+the console's load), and a plain sequential write past the write cache
+(:func:`acquisition.record.disk_speed.sequential_write`) gives what the disk sustains; the
+cameras' data rate at the chosen speed stays within ``RECORD_SHARE`` of it, so the recorder's
+backlog never fills on a steady disk.
 """
 
 from __future__ import annotations
@@ -22,31 +28,44 @@ import math
 import os
 import time
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 import psutil
+
+from acquisition.record.disk_speed import sequential_write
 
 RENDER_SHARE = 0.7  # of one core per camera process
 CONSOLE_SHARE = 0.6  # of one core for the console process (GIL-bound)
 TOTAL_SHARE = 0.7  # of all cores
 MAX_SPEED = 8.0  # the serial devices' 10 Hz must still give each stop a few readings
 PROBE_S = 3.0
+RECORD_SHARE = 0.7  # of the disk's sustained sequential write
 
 
 @dataclass(frozen=True)
 class SpeedChoice:
-    """The chosen speed and the loads at speed 1 it was chosen from (fractions of a core)."""
+    """The chosen speed and the loads at speed 1 it was chosen from (fractions of a core; with a
+    recording, the disk's sustained MB/s and the cameras' MB/s at speed 1)."""
 
     speed: float
     console_load: float
     camera_load: dict[str, float]
     cores: int
+    disk_mb_per_s: float | None = None
+    data_mb_per_s: float | None = None
 
     def describe(self) -> str:
         cams = ", ".join(f"{c} camera {v:.0%}" for c, v in self.camera_load.items())
+        disk = ""
+        if self.disk_mb_per_s is not None and self.data_mb_per_s is not None:
+            disk = (
+                f"; recording: the disk sustains {self.disk_mb_per_s:.0f} MB/s, the cameras "
+                f"give {self.data_mb_per_s:.0f} MB/s at speed 1"
+            )
         return (
             f"speed max = {self.speed:g} x real time on {self.cores} cores "
-            f"(at speed 1: console {self.console_load:.0%} of a core, {cams})"
+            f"(at speed 1: console {self.console_load:.0%} of a core, {cams}{disk})"
         )
 
 
@@ -55,10 +74,20 @@ def _cpu_s(proc: psutil.Process) -> float:
     return t.user + t.system
 
 
-def speed_from_loads(console: float, cameras: dict[str, float], cores: int) -> float:
+def speed_from_loads(
+    console: float,
+    cameras: dict[str, float],
+    cores: int,
+    *,
+    disk_mb_per_s: float | None = None,
+    data_mb_per_s: float | None = None,
+) -> float:
     """The speed that keeps every load within its share (module docstring), rounded down to
-    0.1 (at least 0.1). Loads are fractions of one core at speed 1."""
+    0.1 (at least 0.1). Loads are fractions of one core at speed 1; with a recording, the data
+    rate at speed 1 stays within ``RECORD_SHARE`` of the disk's sustained rate."""
     limits = [MAX_SPEED, CONSOLE_SHARE / max(console, 1e-6)]
+    if disk_mb_per_s is not None and data_mb_per_s:
+        limits.append(RECORD_SHARE * disk_mb_per_s / data_mb_per_s)
     limits += [RENDER_SHARE / max(v, 1e-6) for v in cameras.values()]
     limits.append(TOTAL_SHARE * cores / max(console + sum(cameras.values()), 1e-6))
     return max(math.floor(min(limits) * 10) / 10, 0.1)
@@ -68,9 +97,32 @@ def max_speed(opts, *, probe_s: float = PROBE_S) -> SpeedChoice:
     """Measure the loads of the HIL options ``opts`` at speed 1 and choose the speed."""
     from snrmon.rig.rig import HilRig
 
-    probe = replace(opts, speed=1.0, out=None)
+    out_dir = Path(opts.out).resolve().parent if opts.out else None
+    probe_path = None
+    if out_dir is not None:  # the probe records too, beside the real recording
+        probe_path = out_dir / f".snrmon-speed-probe-{os.getpid()}.h5"
+    probe = replace(opts, speed=1.0, out=None if probe_path is None else str(probe_path))
     me = psutil.Process()
-    with HilRig(probe) as rig:
+    rig_ctx = HilRig(probe)
+    try:
+        choice = _probe(rig_ctx, me, probe_s)
+    finally:
+        if probe_path is not None:
+            probe_path.unlink(missing_ok=True)
+    if out_dir is None:
+        return choice
+    disk = sequential_write(out_dir)
+    data = (
+        sum(r.sensor.width_px * r.sensor.height_px * 2 * r.fps for r in rig_ctx.cameras.values())
+        / 1e6
+    )
+    speed = speed_from_loads(choice.console_load, choice.camera_load, choice.cores,
+                             disk_mb_per_s=disk.mb_per_s, data_mb_per_s=data)  # fmt: skip
+    return replace(choice, speed=speed, disk_mb_per_s=disk.mb_per_s, data_mb_per_s=data)
+
+
+def _probe(rig_ctx, me: psutil.Process, probe_s: float) -> SpeedChoice:
+    with rig_ctx as rig:
         deadline = time.monotonic() + 20.0
         # Wait for the first frames of every camera (process start-up is not a load).
         while time.monotonic() < deadline and not all(

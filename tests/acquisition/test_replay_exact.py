@@ -1,0 +1,135 @@
+"""Replay reproduces the live session exactly, across recording gaps (issue 16).
+
+A live Session on simulated devices (a camera process writing a shared-memory ring, an LDM
+rangefinder and an NMEA GPS on pseudo-terminals) is recorded through a disk that stalls now and
+then, with the recorder's backlog limit lowered to a few frames, so the recorder drops frames
+while the engine measures every one. The replay must reproduce every recorded frame's Eq. (4)
+result, running statistics and track window exactly, take the dropped frames' measurements from
+their rows, restore the engine's state at each gap, report the file's own drop counts, and build
+the live stop table.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+
+import pytest
+
+from acquisition.config import session_config_from_dict
+from acquisition.record.recorder import BACKLOG
+from acquisition.record.writer import SessionWriter
+from acquisition.replay.batch import replay_session
+from acquisition.runtime.session import Session
+from acquisition.stops.detector import StopConfig
+from acquisition.stops.table import row_values_equal
+from sim.devices.ldm_sim import LdmSimulator
+from sim.devices.nmea_sim import NmeaSimulator
+from sim.devices.shm_camera import ShmProducer
+from snrmon.cli import main
+from tests.helpers import H, SpotOnNoise, W, wait_until
+
+
+@pytest.fixture
+def stalling_disk(monkeypatch):
+    """Every 25th frame write takes 60 ms: a disk that stalls (the recorder's queue, limited to
+    a few frames, overflows and drops frames; the writer itself never fails)."""
+    real = SessionWriter.write_frame
+    calls = {"n": 0}
+
+    def slow(self, *args):
+        calls["n"] += 1
+        if calls["n"] % 25 == 0:
+            time.sleep(0.06)  # the stall being simulated, not a synchronisation
+        return real(self, *args)
+
+    monkeypatch.setattr(SessionWriter, "write_frame", slow)
+
+
+@pytest.fixture
+def live(tmp_path, stalling_disk):
+    name = f"snrmon-exact-{time.monotonic_ns() % 10**9}"
+    producer = ShmProducer(name, W, H, SpotOnNoise(5), fps=60.0, slots=32)
+    producer.start()
+    lrf = LdmSimulator(lambda t: 150.0, rate_hz=20.0, tracking=True).start()
+    gps = NmeaSimulator(lambda t: (32.3810, -106.4790, 1250.0), rate_hz=10.0).start()
+    config = session_config_from_dict(
+        {
+            "site": {"lat_deg": 32.38, "lon_deg": -106.48, "alt_m": 1200.0},
+            "cameras": {"cam": {"source": "shm", "address": name, "width_px": W, "height_px": H}},
+            "lrf": {"protocol": "ldm", "port": lrf.path, "baud": 9600},
+            "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
+        }
+    )
+    session = Session(config, stop_config=StopConfig(steady_s=1.0, min_readings=3))
+    try:
+        yield session, tmp_path
+    finally:
+        session.stop()
+        producer.stop()
+        lrf.stop()
+        gps.stop()
+
+
+def test_replay_after_forced_recorder_drops_reproduces_every_recorded_frame(live):
+    session, tmp_path = live
+    session.start()
+    session.set_roi("cam", 66, 39)
+    path = tmp_path / "gappy.h5"
+    # A backlog of three frames: every stall of the disk costs frames.
+    session.start_recording(path, max_backlog_bytes=3 * H * W * 2)
+    wait_until(lambda: any(r.complete for r in session.stops()), 20.0, "a complete stop")
+    measured = session.status().cameras["cam"].frames.measured
+    wait_until(lambda: session.status().cameras["cam"].frames.measured >= measured + 120, 10.0,
+               "two more seconds")  # fmt: skip
+    session.stop()  # the session ends: its rows are final, the recording closes
+    live_rows = session.stops()
+    summary = session.last_recording
+    dropped = summary.dropped["cam"].get(BACKLOG, 0)
+    assert dropped > 0, "the stalling disk must have cost frames"
+    assert summary.frames_written["cam"] + dropped == summary.frames_received["cam"]
+
+    replay = replay_session(path, fast=True)
+    cam = replay.cameras["cam"]
+    t = cam.tally
+    assert cam.dropped == {BACKLOG: dropped}  # the file's own accounting, with its reason
+    assert t.not_in_file == dropped  # measured live, pixels dropped: the recorded rows used
+    assert t.compared == summary.frames_written["cam"] > 0
+    assert t.identical == t.compared, f"first difference at counter {t.first_difference}"
+    assert t.states_restored >= 1  # the engine's state was restored after the gaps
+    assert [r.final for r in live_rows] == [True] * len(live_rows)
+    assert len(replay.stops) == len(live_rows) >= 1
+    for a, b in zip(replay.stops, live_rows, strict=True):
+        assert row_values_equal(a, b), (a, b)
+    assert replay.stops_identical == len(live_rows)
+
+    # The same through the command: strict JSON, the drops with their reason, nothing made up.
+    slow = replay_session(path)  # whole frames through h5py: the same numbers
+    assert slow.cameras["cam"].tally.identical == t.identical
+    assert [r.snr_mean for r in slow.stops] == [r.snr_mean for r in replay.stops]
+
+
+def test_replay_json_reports_the_files_drops(live, capsys):
+    session, tmp_path = live
+    session.start()
+    session.set_roi("cam", 66, 39)
+    path = tmp_path / "gappy.h5"
+    session.start_recording(path, max_backlog_bytes=3 * H * W * 2)
+    measured = session.status().cameras["cam"].frames.measured
+    wait_until(lambda: session.status().cameras["cam"].frames.measured >= measured + 90, 10.0,
+               "1.5 s recorded")  # fmt: skip
+    session.stop()
+    dropped = session.last_recording.dropped["cam"].get(BACKLOG, 0)
+    capsys.readouterr()
+    assert main(["replay", str(path), "--fast", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out, parse_constant=_refuse)
+    frames = out["frames"]["cam"]
+    assert frames["dropped"] == dropped and frames["dropped_reasons"] == (
+        {BACKLOG: dropped} if dropped else {}
+    )
+    assert frames["identical"] == frames["compared"] == frames["in_file"]
+    assert out["format_version"] == "2.0"
+
+
+def _refuse(token: str):
+    raise AssertionError(f"{token} in JSON output")
