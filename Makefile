@@ -24,6 +24,8 @@ demo: $(STAMP)
 	$(BIN)/snrmon demo
 
 test: $(STAMP)
+	$(BIN)/lint-imports
+	$(BIN)/mypy
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
 
 lint: $(STAMP)

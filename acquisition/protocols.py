@@ -16,8 +16,8 @@ import numpy as np
 
 from acquisition.config import SessionConfig
 from acquisition.engine.status import CameraStatus, SessionStatus
-from acquisition.runtime.ring import RingFrame
 from acquisition.stops.table import Predictor, StopRow
+from acquisition.streams.ring import RingFrame
 
 
 class CameraView(Protocol):

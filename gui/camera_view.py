@@ -2,7 +2,7 @@
 operator's click that sets the ROI, and the measurement's geometry drawn on the image.
 
 The view never receives frames: the main window's timer hands it the newest
-:class:`acquisition.runtime.ring.RingFrame` it peeked, and the view skips a frame it has already
+:class:`acquisition.streams.ring.RingFrame` it peeked, and the view skips a frame it has already
 shown.
 Drawn on the image (paper Fig. 4): the search window centred on the ROI, the box centred on the
 measured peak, and the inner edge of its one-pixel rim (the rim pixels lie between the two); and
@@ -22,7 +22,7 @@ from PySide6.QtWidgets import QGraphicsItem, QGraphicsRectItem, QVBoxLayout, QWi
 
 from acquisition.engine.status import CameraStatus
 from acquisition.measure.peak_snr import PeakSnrConfig
-from acquisition.runtime.ring import RingFrame
+from acquisition.streams.ring import RingFrame
 from gui.levels import levels_moved, robust_levels
 
 GPS_COLOR = "#00e5ff"  # cyan: distinct from the ROI blue, box yellow and peak red

@@ -110,7 +110,7 @@ class Calibration:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.responsivity.shape  # type: ignore[return-value]
+        return self.responsivity.shape
 
     @property
     def good(self) -> np.ndarray:

@@ -131,9 +131,8 @@ def segment_target(roi: np.ndarray, cfg: CharacterizeConfig, at_rc=None):
         t8, _ = cv2.threshold(u8, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
         # the floor of k-sigma still applies: noise alone must not be called target
         thr = max(med + (t8 + 0.5) / 255.0 * (top - med), med + 3.0 * sigma)
-    mask = (v > thr).astype(np.uint8)
     kernel = np.ones((cfg.open_px, cfg.open_px), np.uint8)
-    mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
+    mask = cv2.morphologyEx((v > thr).astype(np.uint8), cv2.MORPH_OPEN, kernel)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     if n <= 1:
         return np.zeros(v.shape, np.uint8), thr
@@ -239,9 +238,12 @@ def characterize_frames(
     temp = _mean_std([None if r.temp_k is None else r.temp_k - ZERO_C_K for r in rows])
     bg = _mean_std([None if r.background_k is None else r.background_k - ZERO_C_K for r in rows])
     rss = _mean_std([r.rss_delta_t_k for r in rows])
+    (small_m, small_std), (large_m, large_std) = small, large
+    assert small_m is not None and large_m is not None  # every row has its dimensions
     return Characterization(
-        camera, float(range_m), len(rows), *small, *large, *temp, *bg, *rss, cfg.method
-    )
+        camera, float(range_m), len(rows), small_m, small_std or 0.0, large_m,
+        large_std or 0.0, *temp, *bg, *rss, cfg.method,
+    )  # fmt: skip
 
 
 def target_toml(

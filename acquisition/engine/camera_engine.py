@@ -34,6 +34,7 @@ import threading
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -56,6 +57,9 @@ from acquisition.engine.status import CameraStatus, FrameAccounting
 from acquisition.measure.peak_snr import PeakSnrConfig
 from acquisition.measure.track_noise import TrackNoise
 from acquisition.track.tracker import TrackerConfig
+
+if TYPE_CHECKING:
+    from acquisition.calibrate.sky_temperature import SkyTemperature
 from drivers.device import DeviceState, DeviceStatus
 
 log = logging.getLogger(__name__)
@@ -106,14 +110,17 @@ class CameraEngine:
     ) -> None:
         self.name = name
         self.shape = (int(shape[0]), int(shape[1]))
-        kw = {"window": window, "track": track, "tracker_config": tracker_config}
-        self.measurer = FrameMeasurer(config, **kw)
-        self.raw_measurer = FrameMeasurer(config, **kw)
+        self.measurer = FrameMeasurer(
+            config, window=window, track=track, tracker_config=tracker_config
+        )
+        self.raw_measurer = FrameMeasurer(
+            config, window=window, track=track, tracker_config=tracker_config
+        )
         cfg = self.measurer.meter.config
         self.config = cfg
         self.corrector = FrameCorrector(self.shape, crop_half_px(cfg, self.measurer.tracker_config))
         self.noise = self._track_noise(cfg)
-        self.sky = None  # SkyTemperature, with a calibration
+        self.sky: SkyTemperature | None = None  # with a calibration
         self._lock = threading.Lock()
         self._inbox: list[Command] = []
         self._gps_xy: tuple[float, float] | None = None
@@ -124,12 +131,12 @@ class CameraEngine:
         self._series: deque[tuple[int, float, float, float, float]] = deque(maxlen=series_length)
 
     def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
-        kw = {"box_px": cfg.box_px, "detrend": cfg.detrend, "ddof": cfg.ddof}
         try:
-            return TrackNoise(self.shape, background=cfg.background, **kw)
+            return TrackNoise(self.shape, box_px=cfg.box_px, background=cfg.background,
+                              detrend=cfg.detrend, ddof=cfg.ddof)  # fmt: skip
         except ValueError as exc:  # a rectangle off this image: noise around the track instead
             log.warning("%s: clear-sky rectangle not used for the noise: %s", self.name, exc)
-            return TrackNoise(self.shape, **kw)
+            return TrackNoise(self.shape, box_px=cfg.box_px, detrend=cfg.detrend, ddof=cfg.ddof)
 
     # ------------------------------------------------------------------ commands (any thread)
     def post(self, command: Command) -> None:
@@ -183,7 +190,7 @@ class CameraEngine:
         done = None
         if corrector.capturing:
             summary = corrector.feed(pixels, counter)
-            if summary is not None:
+            if summary is not None and corrector.reference_offset is not None:
                 done = ReferenceDone(corrector.reference_offset, summary)
                 self._raw_track_from_here()
         fr = self.measurer.measure(corrector.apply(pixels, self.measurer.roi))

@@ -32,9 +32,9 @@ from acquisition.engine.camera_engine import CameraEngine
 from acquisition.engine.inputs import Cue, FrameOutput, Measurement, SetRoi
 from acquisition.geo.gps_cue import GpsProjector
 from acquisition.geo.projection import gps_slant_range_m
-from acquisition.runtime.history import ScalarHistory
 from acquisition.stops.detector import Stop, StopConfig, StopDetector
-from acquisition.stops.table import Predictor, StopRow, StopTable
+from acquisition.stops.table import Predictor, StopRow, StopSource, StopTable
+from acquisition.streams.history import ScalarHistory
 from drivers.gps.fix import GpsFix
 from drivers.rangefinder.reading import RangeReading, RangeStatus
 
@@ -43,13 +43,6 @@ log = logging.getLogger(__name__)
 SKY_CHECK_NS = 2_000_000_000  # the model's background is re-evaluated at most every 2 s
 SKY_CHANGE_K = 0.5  # ... and follows the sky only on a change larger than this
 HISTORY_FRAMES = 4000  # measurements kept per camera to seed a backdated stop (live and replay)
-
-
-class StopSource(Protocol):
-    """Where the stop table takes its stops from: the live detector, or the recorded stops."""
-
-    @property
-    def stops(self) -> list[Stop]: ...
 
 
 class EngineSink(Protocol):
@@ -115,7 +108,7 @@ class SessionEngine:
         self.stop_detector = StopDetector(stop_config)
         self.stop_source: StopSource = stops if stops is not None else self.stop_detector
         self.stop_table = StopTable(
-            self.stop_source,  # type: ignore[arg-type]  (duck-typed: only .stops is read)
+            self.stop_source,
             list(self.cameras),
             frames_per_stop=100,
             history_frames=HISTORY_FRAMES,

@@ -22,6 +22,7 @@ camera's own fixed pattern.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -76,7 +77,7 @@ class TrackNoise:
         self.interval_ns = int(interval_s * 1e9)
         self.latest: NoiseEstimate | None = None
         self.estimates = 0
-        self._armed: tuple[object, np.ndarray] | None = None  # (pixel selection, their values)
+        self._armed: tuple[Any, np.ndarray] | None = None  # (pixel selection, their values)
         self._last_ns: int | None = None
 
     def _selection(self, peak_xy: tuple[int, int] | None):

@@ -56,14 +56,14 @@ class FrameCrops:
         """Frame ``i`` as a read-only view into the memory map (nothing is read until its pixels
         are touched, and then only their pages), or None where that does not apply."""
         offset = self._offsets.get(i) if self._map is not None else None
-        if offset is None:
+        if offset is None or self._map is None:
             return None
         return self._map[offset : offset + self._nbytes].view(self._dtype).reshape(self._shape)
 
     def crop(self, i: int, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
         """Rows ``y0:y1`` and columns ``x0:x1`` of frame ``i`` (a view where direct)."""
         offset = self._offsets.get(i) if self._map is not None else None
-        if offset is None:
+        if offset is None or self._map is None:
             return self._frames[i, y0:y1, x0:x1]
         frame = self._map[offset : offset + self._nbytes].view(self._dtype).reshape(self._shape)
         return frame[y0:y1, x0:x1]

@@ -87,12 +87,15 @@ class SessionFile:
             states = g[schema.STATES][()] if schema.STATES in g else np.empty(0, schema.STATE_DTYPE)
             refs = g.get(schema.REFERENCES)
             self.cameras[name] = CameraRecord(
-                name,
-                g[schema.FRAMES],
-                *(cols[c][:n] for c in schema.FRAME_COLUMNS),
-                meas,
-                states,
-                refs,
+                name=name,
+                frames=g[schema.FRAMES],
+                counter=cols["counter"][:n],
+                t_host_ns=cols["t_host_ns"][:n],
+                t_device_ns=cols["t_device_ns"][:n],
+                utc_ns=cols["utc_ns"][:n],
+                measurements=meas,
+                states=states,
+                references=refs,
             )
         self.rangefinder: np.ndarray = f[schema.RANGEFINDER][()]
         self.gps: np.ndarray = f[schema.GPS][()]
@@ -166,7 +169,7 @@ def upgrade_rows(rows: np.ndarray) -> np.ndarray:
         out[name] = np.nan
     out["window_x"], out["window_y"] = rows["peak_x"], rows["peak_y"]
     for name in rows.dtype.names or ():
-        if name in out.dtype.names:
+        if name in (out.dtype.names or ()):
             out[name] = rows[name]
     return out
 

@@ -37,8 +37,8 @@ from acquisition.measure.peak_snr import PeakSnr, flags_to_bits
 from acquisition.record import schema as S  # noqa: N812
 from acquisition.record.stream_rows import gps_row, measurement_row, range_row
 from acquisition.record.writer import SessionWriter, frame_filter
-from acquisition.runtime.ring import Reader
-from acquisition.runtime.timebase import ClockMap
+from acquisition.streams.ring import Reader
+from acquisition.streams.timebase import ClockMap
 from drivers.gps.fix import GpsFix
 from drivers.rangefinder.reading import RangeReading
 

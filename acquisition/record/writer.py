@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 
 from acquisition.record import schema
-from acquisition.runtime.timebase import ClockMap
+from acquisition.streams.timebase import ClockMap
 
 COMPRESSIONS = ("gzip", "lz4", "zstd", "bitshuffle-lz4")
 LIBVER = ("v110", "v110")

@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 from acquisition.engine.session_engine import SessionEngine
 from acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
@@ -210,7 +211,7 @@ def _count_identical(rows: list[StopRow], recorded: dict[tuple[int, str], dict])
         rec = recorded.get((row.stop, row.camera))
         if rec is None:
             continue
-        fields = {k: rec.get(k) for k in StopRow.__dataclass_fields__ if k in rec}
+        fields: dict[str, Any] = {k: rec.get(k) for k in StopRow.__dataclass_fields__ if k in rec}
         nan = float("nan")
         for k in ("snr_mean", "snr_std"):
             fields[k] = nan if fields.get(k) is None else fields[k]

@@ -9,7 +9,7 @@ import numpy as np
 
 from acquisition.engine.camera_engine import CameraEngine
 from acquisition.engine.status import CameraStatus, FrameAccounting
-from acquisition.runtime.ring import RingFrame
+from acquisition.streams.ring import RingFrame
 
 
 class ReplayCamera:

@@ -216,6 +216,7 @@ class Feeder:
         tally = self.tally[name]
         row = cam.measurements[r] if r >= 0 else None
         if i < 0:  # measured live, not in the file
+            assert row is not None  # a timeline entry without a frame always has its row
             m = measurement_from_row(name, row)
             self.engine.on_recorded(m)
             if cam.n_frames and t < int(cam.t_host_ns[0]):
@@ -229,8 +230,9 @@ class Feeder:
         self._post_commands(name, i, t, row)
         pixels = self._pixels(name, i)
         out = self.engine.on_frame(name, pixels, seq=i, counter=int(cam.counter[i]), t_host_ns=t)
-        m = out.measurement
-        if m is not None:
+        measured = out.measurement
+        if measured is not None:
+            m = measured
             tally.measured += 1
             if self.keep:
                 tally.measurements.append(m)
@@ -298,4 +300,5 @@ class Feeder:
         corrector = type(engine.corrector)(engine.shape, engine.corrector.half_px)
         corrector.calibration = engine.corrector.calibration
         summary = corrector.set_reference(frames, counters)
+        assert corrector.reference_offset is not None
         return ApplyReference(corrector.reference_offset, summary)

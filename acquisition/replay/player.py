@@ -24,6 +24,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -36,8 +37,8 @@ from acquisition.replay.batch import engine_for
 from acquisition.replay.camera import ReplayCamera
 from acquisition.replay.feeder import Feeder
 from acquisition.replay.recorded import FIX, FRAME, recorded_inputs
-from acquisition.runtime.ring import RingFrame
 from acquisition.stops.table import Predictor, StopRow
+from acquisition.streams.ring import RingFrame
 from drivers.gps.fix import GpsFix
 
 NOT_IN_REPLAY = "not available in replay"
@@ -315,7 +316,7 @@ class ReplayPlayer:
             engine.on_frame(name, frame.pixels, seq=frame.seq, counter=frame.counter,
                             t_host_ns=frame.t_host_ns)  # fmt: skip
 
-    def _next_job(self) -> tuple[str, object] | None:
+    def _next_job(self) -> tuple[str, Any] | None:
         """Wait for something to do; returns the job (under the condition's lock)."""
         c = self._cond
         while True:
@@ -360,16 +361,17 @@ class ReplayPlayer:
             k = None
             try:
                 if kind == "seek":
-                    self._seek(arg)  # type: ignore[arg-type]
-                    k = arg
+                    k = int(arg)
+                    self._seek(k)
                 elif kind == "show":
-                    self._show_through(int(self._shown_k[arg]))  # type: ignore[index]
-                    k = arg
+                    k = int(arg)
+                    self._show_through(int(self._shown_k[k]))
                 else:
-                    self._remeasure(*arg)  # type: ignore[misc]
+                    name, x, y = arg
+                    self._remeasure(name, x, y)
             finally:
                 with self._cond:
                     if k is not None:
-                        self._index = int(k)  # type: ignore[arg-type]
+                        self._index = k
                     self._busy = False
                     self._cond.notify_all()

@@ -91,7 +91,7 @@ def _raw_descriptor(path: Path) -> tuple[Path, tuple[int, int, int], np.dtype]:
         raise ValueError(
             f"{data}: raw file {what}: {size} bytes, but shape {shape} {name} needs {expected}"
         )
-    return data, tuple(shape), dtype  # type: ignore[return-value]
+    return data, tuple(shape), dtype
 
 
 def _is_raw(path: Path) -> bool:

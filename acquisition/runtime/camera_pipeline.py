@@ -3,7 +3,7 @@
 Threads (DESIGN "The data that flows", anchors (b) item 5):
 
 - the camera device's own reader thread copies each frame into a preallocated
-  :class:`acquisition.runtime.ring.FrameRing` and returns at once (the producer never waits);
+  :class:`acquisition.streams.ring.FrameRing` and returns at once (the producer never waits);
 - this pipeline's measurement thread pops EVERY frame from its ring reader in order and hands it
   to the session's engine (:meth:`acquisition.engine.session_engine.SessionEngine.on_frame`: the
   same per-frame engine a replay runs), then records the frame, the commands the engine applied
@@ -23,6 +23,7 @@ import logging
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -37,7 +38,7 @@ from acquisition.engine.inputs import (
     StartReference,
 )
 from acquisition.engine.status import CameraStatus, FrameAccounting
-from acquisition.runtime.ring import FrameRing, RingFrame
+from acquisition.streams.ring import FrameRing, RingFrame
 from drivers.camera.frame import Frame
 from drivers.device import Device
 
@@ -81,7 +82,7 @@ class CameraPipeline:
         self._latency_ns: deque[int] = deque(maxlen=1000)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._unsubscribe = None
+        self._unsubscribe: Callable[[], None] | None = None
 
     # ------------------------------------------------------------------ control
     def start(self) -> None:

@@ -28,10 +28,10 @@ from acquisition.engine.session_engine import SessionEngine
 from acquisition.engine.status import RecordingStatus, SessionStatus
 from acquisition.record.recorder import SessionRecorder
 from acquisition.runtime.camera_pipeline import CameraPipeline
-from acquisition.runtime.ring import RingFrame
-from acquisition.runtime.timebase import ClockMap
 from acquisition.stops.detector import Stop, StopConfig
 from acquisition.stops.table import Predictor, StopRow
+from acquisition.streams.ring import RingFrame
+from acquisition.streams.timebase import ClockMap
 from drivers.device import Device
 from drivers.gps.fix import GpsFix
 from drivers.rangefinder.reading import RangeReading

@@ -219,7 +219,7 @@ class StopDetector:
     @property
     def stops(self) -> list[Stop]:
         """Every stop so far, the open one last (``t_end_ns`` None)."""
-        return [*self._closed, *([self.current] if self._open is not None else [])]
+        return [*self._closed, *([self._open.snapshot(None)] if self._open is not None else [])]
 
     # ----------------------------------------------------------------------------- rules
     def _next_index(self) -> int:

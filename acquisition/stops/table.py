@@ -28,14 +28,23 @@ import threading
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from acquisition.measure.peak_snr import PeakSnr
-from acquisition.stops.detector import Stop, StopDetector, is_valid, summarise_stop
+from acquisition.stops.detector import Stop, is_valid, summarise_stop
 
 Predictor = Callable[[str, float], dict[str, float]]
 """``predict(camera, range_m) -> {"small": snr, "large": ..., "small_corrected": ..., ...}``."""
 
 Entry = tuple[int, PeakSnr]
+
+
+class StopSource(Protocol):
+    """Where the table takes its stops from: the live :class:`StopDetector`, or a replay's
+    recorded stops. Only ``stops`` is read (stop ``i`` at index ``i``)."""
+
+    @property
+    def stops(self) -> list[Stop]: ...
 
 
 @dataclass(frozen=True)
@@ -99,7 +108,7 @@ class StopTable:
 
     def __init__(
         self,
-        detector: StopDetector,
+        detector: StopSource,
         cameras: list[str],
         *,
         frames_per_stop: int = 100,

@@ -22,8 +22,8 @@ from acquisition.record.reader import clear_status_flags, open_session
 from acquisition.record.recorder import BACKLOG, STOPPED, SessionRecorder
 from acquisition.record.schema import MEASUREMENT_FIELDS_V1
 from acquisition.record.writer import SessionWriter
-from acquisition.runtime.ring import FrameRing
-from acquisition.runtime.timebase import ClockMap
+from acquisition.streams.ring import FrameRing
+from acquisition.streams.timebase import ClockMap
 from drivers.camera.frame import Frame
 from drivers.gps.fix import GpsFix
 from drivers.rangefinder.reading import RangeReading, RangeStatus

@@ -7,7 +7,7 @@ import threading
 import numpy as np
 import pytest
 
-from acquisition.runtime.ring import RING_OVERRUN, FrameRing, OverflowPolicy
+from acquisition.streams.ring import RING_OVERRUN, FrameRing, OverflowPolicy
 from drivers.camera.frame import Frame
 
 H, W = 64, 80

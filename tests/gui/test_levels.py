@@ -10,7 +10,7 @@ import pytest
 from PySide6.QtGui import QImage
 
 from acquisition.measure.peak_snr import PeakSnrConfig
-from acquisition.runtime.ring import RingFrame
+from acquisition.streams.ring import RingFrame
 from gui.camera_view import CameraView, DisplayImageItem, block_mean
 from gui.levels import levels_moved, robust_levels
 
