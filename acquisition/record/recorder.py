@@ -16,7 +16,6 @@ layout is in ``acquisition/record/schema.py`` and ``docs/session-format.md``.
 
 from __future__ import annotations
 
-import errno
 import json
 import os
 import queue
@@ -24,7 +23,7 @@ import shutil
 import threading
 import time
 from collections.abc import Iterable, Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -33,8 +32,9 @@ import h5py
 import numpy as np
 
 from acquisition.engine.inputs import Measurement
-from acquisition.measure.peak_snr import PeakSnr, flags_to_bits
+from acquisition.measure.peak_snr import flags_to_bits
 from acquisition.record import schema as S  # noqa: N812
+from acquisition.record.recorder_status import RecorderStatus, RecorderSummary, describe_failure
 from acquisition.record.stream_rows import gps_row, measurement_row, range_row
 from acquisition.record.writer import SessionWriter, frame_filter
 from acquisition.streams.ring import Reader
@@ -44,49 +44,6 @@ from drivers.rangefinder.reading import RangeReading
 
 BACKLOG = "recorder_backlog"
 STOPPED = "recording_stopped"
-
-
-@dataclass(frozen=True, slots=True)
-class RecorderStatus:
-    """Live state: ``state`` is recording | stopping | stopped | failed."""
-
-    state: str
-    path: str
-    frames_written: dict[str, int]
-    frames_flushed: dict[str, int]
-    bytes_written: int
-    backlog_frames: int
-    backlog_bytes: int
-    dropped: dict[str, dict[str, int]]
-    free_bytes: int | None
-    error: str | None
-
-
-@dataclass(frozen=True, slots=True)
-class RecorderSummary:
-    """What a finished recording holds and what it lost, per camera and reason."""
-
-    path: str
-    state: str
-    frames_received: dict[str, int]
-    frames_written: dict[str, int]
-    dropped: dict[str, dict[str, int]]
-    measurements_written: dict[str, int]
-    ranges_written: int
-    gps_written: int
-    events_written: int
-    bytes_written: int
-    duration_s: float
-    error: str | None = None
-    extra: dict = field(default_factory=dict)
-
-
-def _describe(exc: BaseException, path: Path, frames: int) -> str:
-    text = str(exc)
-    if getattr(exc, "errno", None) == errno.ENOSPC or "No space left" in text:
-        return f"recording stopped: disk full writing {path} after {frames} frames"
-    first = text.splitlines()[0] if text else type(exc).__name__
-    return f"recording stopped: write error on {path} after {frames} frames: {first}"
 
 
 class SessionRecorder:
@@ -264,24 +221,6 @@ class SessionRecorder:
                 f"camera {camera!r} is not in this recording ({', '.join(self._shapes)})"
             )
 
-    def add_peak_snr(
-        self, camera: str, index: int | None, counter: int, t_host_ns: int, result: PeakSnr
-    ) -> None:
-        """``add_measurement`` from the measurement's own ``PeakSnr``."""
-        self.add_measurement(
-            camera,
-            index,
-            counter=counter,
-            t_host_ns=t_host_ns,
-            peak_x=result.peak_x,
-            peak_y=result.peak_y,
-            peak=result.peak,
-            bg_mean=result.bg_mean,
-            bg_std=result.bg_std,
-            snr=result.snr,
-            flags=result.flags,
-        )
-
     def add_range(self, reading: RangeReading) -> None:
         """Queue one raw rangefinder reading."""
         self._put(("stream", S.RANGEFINDER, range_row(reading)))
@@ -441,7 +380,7 @@ class SessionRecorder:
         with self._lock:
             if self._state == "failed":
                 return
-            self._error = _describe(exc, self.path, sum(w.frames_flushed.values()))
+            self._error = describe_failure(exc, self.path, sum(w.frames_flushed.values()))
             self._state = "failed"
             for cam, n in w.frames_written.items():  # written but never flushed: not in the file
                 lost = n - w.frames_flushed[cam]

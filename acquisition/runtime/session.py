@@ -241,8 +241,10 @@ class Session:
         for name in self.pipelines:
             # The measurements a stop begun before the recording would be summarised from:
             # rows without frames, so a replay builds the same stop table.
-            for t, result in self.engine.stop_table.history(name):
-                rec.add_peak_snr(name, -1, -1, t, result)
+            for t, r in self.engine.stop_table.history(name):
+                rec.add_measurement(name, -1, counter=-1, t_host_ns=t, peak_x=r.peak_x,
+                                    peak_y=r.peak_y, peak=r.peak, bg_mean=r.bg_mean,
+                                    bg_std=r.bg_std, snr=r.snr, flags=r.flags)  # fmt: skip
         with self._lock:
             self._recorder = rec
         for pipe in self.pipelines.values():

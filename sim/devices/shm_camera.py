@@ -37,6 +37,8 @@ _HAS_DEVICE_TIME = 1
 _FIXED = struct.Struct("<8sIIII8sII")  # magic .. flags, offsets 0..39
 _STRIDE_AT, _SESSION_AT, _PID_AT, _FPS_AT, _WRITE_INDEX_AT, _FLAGS_AT = 40, 48, 56, 60, 64, 36
 
+LAG_LIMIT_NS = 250_000_000  # behind its own clock by more than this, the camera drops frames
+
 
 class ShmFrameWriter:
     """Creates (or re-initialises) a frame ring and publishes uint16 frames into it.
@@ -234,10 +236,11 @@ def _produce(
                 wait_ns = due - time.monotonic_ns()
                 if wait_ns > 0:
                     stop.wait(wait_ns / 1e9)
-                elif -wait_ns >= period_ns:
-                    # A real camera's clock does not wait for a slow host: the frames it could
-                    # not deliver in time are lost (a gap in its counter) and the next one shows
-                    # the scene at its own time, so the picture never lags the flight's clock.
+                elif -wait_ns > LAG_LIMIT_NS:
+                    # A real camera's clock does not wait for a slow host: a short delay is
+                    # caught up from its buffer, but the frames it could not deliver within
+                    # LAG_LIMIT are lost (a gap in its counter) and the next one shows the scene
+                    # at its own time, so the picture never lags the flight's clock for long.
                     behind = -wait_ns // period_ns
                     k += behind
                     counter += behind

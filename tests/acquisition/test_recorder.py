@@ -144,9 +144,12 @@ def test_measurement_index_lookup_peak_snr_and_clock_update(tmp_path: Path) -> N
     frames = make_frames("mwir", 3, 3)
     for fr in frames:
         rec.add_frame("mwir", fr)
-    result = PeakSnr(5, 6, 900.0, 100.0, 10.0, 80.0, frozenset({"saturated", "lost"}))
-    rec.add_peak_snr("mwir", None, frames[2].counter, frames[2].t_host_ns, result)
-    rec.add_peak_snr("mwir", None, 1, 123, result)  # no such frame recorded
+    r = PeakSnr(5, 6, 900.0, 100.0, 10.0, 80.0, frozenset({"saturated", "lost"}))
+    kw = dict(peak_x=r.peak_x, peak_y=r.peak_y, peak=r.peak, bg_mean=r.bg_mean, bg_std=r.bg_std,
+              snr=r.snr, flags=r.flags)  # fmt: skip
+    rec.add_measurement("mwir", None, counter=frames[2].counter, t_host_ns=frames[2].t_host_ns,
+                        **kw)  # fmt: skip
+    rec.add_measurement("mwir", None, counter=1, t_host_ns=123, **kw)  # no such frame recorded
     clock.update_from_gps(frames[1].t_host_ns, datetime(2020, 1, 1, tzinfo=UTC))
     rec.stop()
     with open_session(tmp_path / "s.h5") as s:

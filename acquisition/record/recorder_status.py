@@ -1,0 +1,52 @@
+"""What a recording is doing and what it kept: the recorder's live status, its final summary (per
+camera: frames received, written, dropped and why) and the one message a write failure becomes."""
+
+from __future__ import annotations
+
+import errno
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+@dataclass(frozen=True, slots=True)
+class RecorderStatus:
+    """Live state: ``state`` is recording | stopping | stopped | failed."""
+
+    state: str
+    path: str
+    frames_written: dict[str, int]
+    frames_flushed: dict[str, int]
+    bytes_written: int
+    backlog_frames: int
+    backlog_bytes: int
+    dropped: dict[str, dict[str, int]]
+    free_bytes: int | None
+    error: str | None
+
+
+@dataclass(frozen=True, slots=True)
+class RecorderSummary:
+    """What a finished recording holds and what it lost, per camera and reason."""
+
+    path: str
+    state: str
+    frames_received: dict[str, int]
+    frames_written: dict[str, int]
+    dropped: dict[str, dict[str, int]]
+    measurements_written: dict[str, int]
+    ranges_written: int
+    gps_written: int
+    events_written: int
+    bytes_written: int
+    duration_s: float
+    error: str | None = None
+    extra: dict = field(default_factory=dict)
+
+
+def describe_failure(exc: BaseException, path: Path, frames: int) -> str:
+    """One line for the operator: disk full, or the first line of the write error."""
+    text = str(exc)
+    if getattr(exc, "errno", None) == errno.ENOSPC or "No space left" in text:
+        return f"recording stopped: disk full writing {path} after {frames} frames"
+    first = text.splitlines()[0] if text else type(exc).__name__
+    return f"recording stopped: write error on {path} after {frames} frames: {first}"
