@@ -22,7 +22,7 @@ import queue
 import shutil
 import threading
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import asdict
 from datetime import UTC, datetime
 from pathlib import Path
@@ -32,10 +32,9 @@ import h5py
 import numpy as np
 
 from acquisition.engine.inputs import Measurement
-from acquisition.measure.peak_snr import flags_to_bits
 from acquisition.record import schema as S  # noqa: N812
 from acquisition.record.recorder_status import RecorderStatus, RecorderSummary, describe_failure
-from acquisition.record.stream_rows import gps_row, measurement_row, range_row
+from acquisition.record.stream_rows import gps_row, measurement_row, range_row, values_row
 from acquisition.record.writer import SessionWriter, frame_filter
 from acquisition.streams.ring import Reader
 from acquisition.streams.timebase import ClockMap
@@ -147,35 +146,16 @@ class SessionRecorder:
             )
         return index
 
-    def add_measurement(
-        self,
-        camera: str,
-        index: int | None,
-        *,
-        counter: int,
-        t_host_ns: int,
-        peak_x: int,
-        peak_y: int,
-        peak: float,
-        bg_mean: float,
-        bg_std: float,
-        snr: float,
-        flags: int | Iterable[str] = 0,
-    ) -> None:
-        """Queue one frame's Eq. (4) result. ``index``: the frame's index from ``add_frame``, or
-        ``None`` to look it up by ``t_host_ns`` (-1 in the file when the frame is not recorded)."""
-        if camera not in self._shapes:
-            raise ValueError(
-                f"camera {camera!r} is not in this recording ({', '.join(self._shapes)})"
-            )
-        bits = int(flags) if isinstance(flags, (int, np.integer)) else flags_to_bits(flags)
+    def add_measurement(self, camera: str, index: int | None, **values: Any) -> None:
+        """Queue one frame's Eq. (4) result from its values (:func:`acquisition.record.
+        stream_rows.values_row`: counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr,
+        flags). ``index``: the frame's index from ``add_frame``, or ``None`` to look it up by
+        ``t_host_ns`` (-1 in the file when the frame is not recorded)."""
+        self._check_camera(camera)
         if index is None:
             with self._lock:
-                index = self._index_of[camera].get(int(t_host_ns), -1)
-        nan = float("nan")
-        row = (index, counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr, bits,
-               b"", peak_x, peak_y, nan, nan, nan, nan, 0, nan, b"")  # fmt: skip
-        self._put(("meas", camera, row))
+                index = self._index_of[camera].get(int(values["t_host_ns"]), -1)
+        self._put(("meas", camera, values_row(index, **values)))
 
     def add_measured(self, camera: str, index: int | None, m: Measurement) -> None:
         """Queue one frame's :class:`Measurement` (``index``: the frame's index from
@@ -255,29 +235,21 @@ class SessionRecorder:
                 self._queue.put(item)
 
     def attach_reader(self, camera: str, reader: Reader) -> None:
-        """Feed ``camera`` from a ring reader on a pump thread. On ``stop()`` the pump takes what
-        was pushed up to then and closes the reader (the recorder owns it from now on). Frames
-        the reader loses are its own overruns, counted by the ring."""
+        """Feed ``camera`` from a ring reader on a pump thread
+        (:func:`acquisition.record.ring_feed.pump_reader`); ``stop()`` waits for it."""
+        from acquisition.record.ring_feed import pump_reader
 
-        def pump() -> None:
-            end_seq = None  # frames pushed when stop() began: drain up to there, then leave
-            try:
-                while self._state in ("recording", "stopping"):
-                    if end_seq is None and self._state != "recording":
-                        end_seq = reader.ring.pushed
-                    if end_seq is not None and reader.lag == 0:
-                        return
-                    item = reader.pop_next(timeout=0.05)
-                    if item is not None:
-                        self.add_frame(camera, item)
-                        if end_seq is not None and item.seq >= end_seq - 1:
-                            return
-            finally:
-                reader.close()
+        self._pumps.append((pump_reader(self, camera, reader), reader))
 
-        t = threading.Thread(target=pump, name=f"recorder-pump-{camera}", daemon=True)
-        self._pumps.append((t, reader))
-        t.start()
+    @property
+    def accepting(self) -> bool:
+        """True while frames are still taken (recording, or stopping and draining)."""
+        return self._state in ("recording", "stopping")
+
+    @property
+    def draining(self) -> bool:
+        """True once ``stop()`` began: a pump takes what was pushed up to then, then leaves."""
+        return self._state != "recording"
 
     # -- control and status ------------------------------------------------------------------------
 

@@ -9,6 +9,7 @@ NaN (floats) or -1 (integers) in the file and None in the data types.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from datetime import UTC, datetime, timedelta
 
 import numpy as np
@@ -131,6 +132,27 @@ def measurement_row(index: int | None, m: Measurement) -> tuple:
         _nan(m.range_m),
         S.text_field(m.range_source, 8),
     )
+
+
+def values_row(
+    index: int,
+    *,
+    counter: int,
+    t_host_ns: int,
+    peak_x: int,
+    peak_y: int,
+    peak: float,
+    bg_mean: float,
+    bg_std: float,
+    snr: float,
+    flags: int | Iterable[str] = 0,
+) -> tuple:
+    """A measurement row from Eq. (4)'s values alone (a frame measured without the engine's
+    context: the track state is empty, the window is the peak, the rest is "not given")."""
+    bits = int(flags) if isinstance(flags, (int, np.integer)) else flags_to_bits(flags)
+    nan = math.nan
+    return (index, counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr, bits,
+            b"", peak_x, peak_y, nan, nan, nan, nan, 0, nan, b"")  # fmt: skip
 
 
 def peak_snr_from_row(row: np.void) -> PeakSnr:
