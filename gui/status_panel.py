@@ -83,6 +83,12 @@ class StatusPanel(QWidget):
                     ("rec_state", "state", "Recording state"),
                     ("rec_path", "file", "Session file being written"),
                     ("rec_size", "size", "Bytes written to the session file"),
+                    (
+                        "rec_backlog",
+                        "backlog",
+                        "Frames queued for the disk (grows when the disk "
+                        "cannot keep up), and frames the recording dropped",
+                    ),
                     ("rec_free", "free disk", "Free space on the recording disk"),
                 ],
             )
@@ -142,4 +148,8 @@ class StatusPanel(QWidget):
         self._set("rec_state", rec.state + (f": {rec.message}" if rec.message else ""))
         self._set("rec_path", rec.path or "--")
         self._set("rec_size", _bytes(rec.bytes_written) if rec.state != "off" else "--")
+        if rec.state in ("recording", "stopped", "failed"):
+            self._set("rec_backlog", f"{_bytes(rec.backlog_bytes)}, {rec.dropped_frames} dropped")
+        else:
+            self._set("rec_backlog", "--")
         self._set("rec_free", _bytes(rec.free_bytes))
