@@ -258,7 +258,8 @@ class CameraEngine:
                 self.corrector.clear_reference()
             elif isinstance(c, ApplyReference):
                 self.corrector.set_reference_offset(c.offset, c.summary)
-                self._raw_track_from_here()
+                if c.restart_raw:
+                    self._raw_track_from_here()
             elif isinstance(c, Restore):
                 self.restore(c.state)
         return tuple(commands)

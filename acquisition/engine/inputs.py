@@ -58,6 +58,7 @@ class ApplyReference:
 
     offset: np.ndarray  # float32 (rows, columns): the fixed-pattern offset subtracted
     summary: dict  # n_frames, first_counter, last_counter, spatial_std_dn
+    restart_raw: bool = True  # a capture just completed: the raw-frame track starts here
 
 
 @dataclass(frozen=True, slots=True)

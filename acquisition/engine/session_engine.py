@@ -188,10 +188,13 @@ class SessionEngine:
                 log.warning("GPS fix out of order dropped from the history")
             self._feed_stops(lambda d: d.add_fix(fix, site))
         for name, (x, y) in self.projector.pixels(fix).items():
+            camera = self.cameras.get(name)  # a replay of some of the cameras only
+            if camera is None:
+                continue
             if self.cue_from_gps:
-                self.cameras[name].post(Cue(x, y))
+                camera.post(Cue(x, y))
             else:
-                self.cameras[name].show_gps(x, y)
+                camera.show_gps(x, y)
 
     def _feed_stops(self, feed: Callable[[StopDetector], Stop | None]) -> None:
         with self._lock:

@@ -267,10 +267,13 @@ class Feeder:
         c = self.inputs.per_camera[name]
         cam = self.f.cameras[name]
         state = c.states.get(int(cam.counter[i]))
+        k = self._next_command[name]
         if state is not None and self.exact_inputs:
             engine.post(Restore(state))
             self.tally[name].states_restored += 1
-        k = self._next_command[name]
+            # Commands applied live at frames the file does not hold are in the state already.
+            while k < len(c.commands) and c.commands[k][0] < t:
+                k += 1
         while k < len(c.commands) and c.commands[k][0] <= t:
             _, kind, p = c.commands[k]
             k += 1
@@ -292,7 +295,10 @@ class Feeder:
         cam = self.f.cameras[name]
         k = payload.get("reference_index")
         if k is not None and cam.references is not None and k < cam.references.shape[0]:
-            return ApplyReference(np.asarray(cam.references[int(k)], np.float32), payload)
+            offset = np.asarray(cam.references[int(k)], np.float32)
+            # "in_force": recorded at the start of a recording or after a gap, not a capture
+            # that just ended: the raw track is not restarted by it.
+            return ApplyReference(offset, payload, restart_raw=not payload.get("in_force"))
         # Format 1: rebuild it from its frames, through the live accumulation.
         engine = self.engine.cameras[name]
         frames, counters = frames_between(cam, int(payload["first_counter"]),
