@@ -68,6 +68,8 @@ class SessionEngine:
         predictor: the model's ``predictor(camera, range_m)`` for the stop table.
         cue_from_gps: cue the trackers with each fix (a replay of a recording that holds the
             cues applied live turns this off and applies those).
+        project_gps: project each fix into the cameras for display even when it does not cue
+            (off for a batch replay, which has no display).
         follow_sky: with a calibration, the model's background follows the measured sky
             temperature (a replay that applies the recorded changes turns this off).
     """
@@ -83,12 +85,15 @@ class SessionEngine:
         predictor: Predictor | None = None,
         cue_from_gps: bool = True,
         follow_sky: bool = True,
+        project_gps: bool = True,
         series_length: int = 2000,
     ) -> None:
         self.config = config
         self.track = track
         self.cue_from_gps = cue_from_gps
         self.follow_sky = follow_sky
+        # A batch replay that applies the recorded cues has no display to draw the fix in.
+        self.project_gps = project_gps or cue_from_gps
         self.sink: EngineSink | None = None
         self._lock = threading.RLock()
         self.cameras: dict[str, CameraEngine] = {
@@ -187,6 +192,8 @@ class SessionEngine:
             except ValueError:
                 log.warning("GPS fix out of order dropped from the history")
             self._feed_stops(lambda d: d.add_fix(fix, site))
+        if not self.project_gps:
+            return
         for name, (x, y) in self.projector.pixels(fix).items():
             camera = self.cameras.get(name)  # a replay of some of the cameras only
             if camera is None:

@@ -4,13 +4,15 @@ A session file stores each camera's frames uncompressed by default, one chunk pe
 (docs/session-format.md). Reading a 40x40 crop through h5py costs about 250 us of
 library overhead per frame, more than the measurement itself; the bytes are a few rows of a
 memory-mapped file. :class:`FrameCrops` asks HDF5 once for every chunk's byte offset
-(``H5Dchunk_iter``) and then slices the frame out of a read-only ``numpy.memmap``, so only the
+(``H5Dchunk_iter``) and then slices the frame out of a read-only memory map, so only the
 pages under the crop are read. Where that does not apply (compressed frames, another chunk
 shape, an HDF5 without chunk iteration, a frame whose chunk was never written) it reads
 through h5py as before: the numbers are the same either way.
 """
 
 from __future__ import annotations
+
+import mmap
 
 import h5py
 import numpy as np
@@ -25,9 +27,12 @@ class FrameCrops:
         self._dtype = frames.dtype
         self._nbytes = int(np.prod(self._shape)) * self._dtype.itemsize
         self._offsets = self._chunk_offsets()
-        self._map = None
+        self._map: mmap.mmap | None = None
         if self._offsets:
-            self._map = np.memmap(frames.file.filename, np.uint8, mode="r")
+            # A plain mmap, and plain ndarrays over it (np.frombuffer): numpy.memmap wraps every
+            # slice in a memmap object, which cost more than the measurement per frame.
+            with open(frames.file.filename, "rb") as fh:
+                self._map = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
 
     @property
     def direct(self) -> bool:
@@ -58,12 +63,13 @@ class FrameCrops:
         offset = self._offsets.get(i) if self._map is not None else None
         if offset is None or self._map is None:
             return None
-        return self._map[offset : offset + self._nbytes].view(self._dtype).reshape(self._shape)
+        count = self._nbytes // self._dtype.itemsize
+        flat = np.frombuffer(self._map, self._dtype, count=count, offset=offset)
+        return flat.reshape(self._shape)
 
     def crop(self, i: int, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
         """Rows ``y0:y1`` and columns ``x0:x1`` of frame ``i`` (a view where direct)."""
-        offset = self._offsets.get(i) if self._map is not None else None
-        if offset is None or self._map is None:
+        frame = self.frame_view(i)
+        if frame is None:
             return self._frames[i, y0:y1, x0:x1]
-        frame = self._map[offset : offset + self._nbytes].view(self._dtype).reshape(self._shape)
         return frame[y0:y1, x0:x1]

@@ -88,6 +88,7 @@ def engine_for(
     predictor: Predictor | None,
     redetect_stops: bool,
     fast: bool = False,
+    display: bool = False,
 ) -> tuple[SessionEngine, Feeder]:
     """The session's engine as the live console built it, and the feeder that replays into it
     (shared by the batch replay and the console's player)."""
@@ -107,6 +108,7 @@ def engine_for(
         predictor=predictor,
         cue_from_gps=not exact,
         follow_sky=not exact,
+        project_gps=display,
     )
     for name in cameras:
         cal = recorded_calibration(f, name, inputs, (calibrations or {}).get(name))

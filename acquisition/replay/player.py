@@ -119,6 +119,7 @@ class ReplayPlayer:
             calibrations=None,
             predictor=self._predictor,
             redetect_stops=False,
+            display=True,
         )
         feeder.keep = False
         return engine, feeder
