@@ -133,3 +133,47 @@ def test_replay_json_reports_the_files_drops(live, capsys):
 
 def _refuse(token: str):
     raise AssertionError(f"{token} in JSON output")
+
+
+@pytest.fixture
+def tiny_disk(tmp_path):
+    mnt = tmp_path / "tiny"
+    mnt.mkdir()
+    import os
+    import subprocess
+
+    if os.geteuid() != 0:
+        pytest.skip("mounting a 2 MB tmpfs needs root")
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(mnt)]).returncode:
+        pytest.skip("mount -t tmpfs is not permitted here")
+    yield mnt
+    subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+def test_disk_full_stops_the_recording_not_the_session_and_the_file_replays(tmp_path, tiny_disk):
+    name = f"snrmon-full-{time.monotonic_ns() % 10**9}"
+    producer = ShmProducer(name, W, H, SpotOnNoise(9), fps=60.0, slots=32)
+    producer.start()
+    config = session_config_from_dict(
+        {"cameras": {"cam": {"source": "shm", "address": name, "width_px": W, "height_px": H}}}
+    )
+    session = Session(config)
+    try:
+        session.start()
+        session.set_roi("cam", 66, 39)
+        path = tiny_disk / "full.h5"
+        session.start_recording(path)  # 24 kB frames: the 2 MB disk is full in about a second
+        wait_until(lambda: session.status().recording.state == "failed", 20.0, "a full disk")
+        st = session.status()
+        (alarm,) = [a for a in st.alarms if a.startswith("recording:")]
+        assert "disk full" in alarm and str(path) in alarm
+        measured = st.cameras["cam"].frames.measured
+        wait_until(lambda: session.status().cameras["cam"].frames.measured >= measured + 60,
+                   10.0, "measurement to go on")  # fmt: skip
+        assert session.status().cameras["cam"].snr_n > 0
+    finally:
+        session.stop()
+        producer.stop()
+    replay = replay_session(path, fast=True)  # up to the last flushed frame
+    t = replay.cameras["cam"].tally
+    assert t.compared > 0 and t.identical == t.compared
