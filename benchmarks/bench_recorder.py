@@ -2,9 +2,21 @@
 
 Both sides write MWIR-sized frames (1280x720 uint16, sky-like: a gradient plus seeded noise, so
 that compression ratios mean something) into a temporary directory (``$SNRMON_BENCH_DIR`` or the
-system's), and both ``fsync`` every 0.5 s as the recorder does, so the page cache does not flatter
-either. The recorder is fed as fast as its backlog allows. With hdf5plugin installed, each
-lossless filter is measured too: its compression ratio, throughput and CPU per frame.
+system's). What makes the two comparable and repeatable:
+
+- **past the write cache**: both ``fsync`` every 0.5 s (as the recorder does) and each slice ends
+  with an ``fsync`` whose time is counted, so a slice measures what reached the disk, not the
+  page cache (a VM's cache took the first 1.5-2 GB of a run at several GB/s and made one run's
+  ratio 0.38 and the next 0.94);
+- **long slices, in pairs**: each slice writes ``SLICE_MB`` (default 1 GB); raw and recorder
+  slices alternate in three pairs, the order within a pair alternating too, so both see the same
+  disk weather; files are deleted only at the end (an unlink on a disk mounted with "discard"
+  slows the next slice down);
+- the figure is the **median of the pairs' ratios**, reported with their spread
+  ((max - min) / median), so a run whose pairs disagree says so.
+
+The recorder is fed as fast as its backlog allows. With hdf5plugin installed, each lossless filter
+is measured too (ratio, throughput, CPU per frame), on shorter slices.
 """
 
 from __future__ import annotations
@@ -26,6 +38,8 @@ from drivers.camera.frame import Frame
 KEY = "recorder"
 H, W = 720, 1280
 MB = 1e6
+SLICE_MB = float(os.environ.get("SNRMON_BENCH_SLICE_MB", 1024))
+PAIRS = 3
 
 
 def _frames(n: int = 8) -> list[np.ndarray]:
@@ -35,13 +49,13 @@ def _frames(n: int = 8) -> list[np.ndarray]:
     return [np.round(sky + rng.normal(0, 8, (H, W))).astype(np.uint16) for _ in range(n)]
 
 
-def _raw_write(path: Path, frames: list[np.ndarray], seconds: float) -> tuple[float, int]:
-    """MB/s of a plain sequential write (with an fsync every 0.5 s) and the bytes written."""
+def _raw_write(path: Path, frames: list[np.ndarray], mb: float) -> float:
+    """MB/s of a plain sequential write of ``mb`` MB (an fsync every 0.5 s and at the end)."""
     written = 0
     with open(path, "wb", buffering=0) as fh:
         t0 = next_sync = time.perf_counter()
         i = 0
-        while time.perf_counter() - t0 < seconds:
+        while written < mb * MB:
             written += fh.write(frames[i % len(frames)].data)
             i += 1
             if time.perf_counter() >= next_sync:
@@ -49,13 +63,12 @@ def _raw_write(path: Path, frames: list[np.ndarray], seconds: float) -> tuple[fl
                 next_sync += 0.5
         os.fsync(fh.fileno())
         elapsed = time.perf_counter() - t0
-    return written / MB / elapsed, written
+    return written / MB / elapsed
 
 
-def _record(
-    path: Path, frames: list[np.ndarray], seconds: float, compression: str | None
-) -> dict[str, float]:
-    """Feed the recorder for ``seconds`` as fast as its backlog drains; throughput and costs."""
+def _record(path: Path, frames: list[np.ndarray], mb: float, compression: str | None) -> dict:
+    """Feed the recorder ``mb`` MB of frames as fast as its backlog drains, then stop it (the
+    final flush, fsync and close are counted); throughput and costs."""
     rec = SessionRecorder(
         path,
         config={"bench": True},
@@ -65,14 +78,13 @@ def _record(
     )
     pause = threading.Event()
     cpu0, t0 = time.process_time(), time.perf_counter()
-    i = dropped = 0
-    while time.perf_counter() - t0 < seconds:
-        if (
-            rec.add_frame("mwir", Frame(frames[i % len(frames)], "mwir", i, time.monotonic_ns()))
-            is None
-        ):
-            dropped += 1
-            pause.wait(0.005)  # backlog full: the recorder is the bottleneck, as intended here
+    i = accepted = 0
+    while accepted * frames[0].nbytes < mb * MB:
+        frame = Frame(frames[i % len(frames)], "mwir", i, time.monotonic_ns())
+        if rec.add_frame("mwir", frame) is None:
+            pause.wait(0.002)  # backlog full: the recorder is the bottleneck, as intended here
+        else:
+            accepted += 1
         i += 1
     summary = rec.stop()
     elapsed = time.perf_counter() - t0
@@ -83,15 +95,11 @@ def _record(
         "mb_per_s": raw_bytes / MB / elapsed,
         "ratio_vs_raw_bytes": raw_bytes / max(1, summary.bytes_written),
         "cpu_ms_per_frame": 1e3 * cpu / max(1, n),
-        "frames": float(n),
-        "mb": raw_bytes / MB,
-        "s": elapsed,
         "error": summary.error,
     }
 
 
 def run(duration_s: float) -> dict:
-    budget = min(duration_s, 10.0)
     try:
         import hdf5plugin  # noqa: F401
 
@@ -101,52 +109,36 @@ def run(duration_s: float) -> dict:
     frames = _frames(4)
     tmp = Path(tempfile.mkdtemp(prefix="snrmon-bench-", dir=os.environ.get("SNRMON_BENCH_DIR")))
     try:
-        # Raw and recorder slices alternate in pairs so that both see the same disk weather (a
-        # shared VM disk swings by 3x within seconds, and its write-back cache makes whichever
-        # slice comes first after a quiet spell several times faster); which goes first
-        # alternates too, and the ratio is the median of the pairs' ratios. Files are deleted
-        # only at the end, since on a disk mounted with "discard" an unlink slows the next
-        # slice down.
-        seconds = 0.55 * budget / 6
-        raw_s, raw_mb, rec_runs = [], [], []
-
-        def raw_slice(k: int) -> None:
-            mb_s, nbytes = _raw_write(tmp / f"raw{k}.bin", frames, seconds)
-            raw_s.append(nbytes / MB / mb_s)
-            raw_mb.append(nbytes / MB)
-
-        def rec_slice(k: int) -> None:
-            rec_runs.append(_record(tmp / f"plain{k}.h5", frames, seconds, None))
-
-        for k in range(3):
-            for run_slice in (raw_slice, rec_slice) if k % 2 == 0 else (rec_slice, raw_slice):
-                run_slice(k)
-        raw_runs = [m / t for m, t in zip(raw_mb, raw_s, strict=True)]
-        raw_mb_s = statistics.median(raw_runs)
-        pair_ratios = [r["mb_per_s"] / w for r, w in zip(rec_runs, raw_runs, strict=True)]
-        rec = {
-            "mb_per_s": sum(r["mb"] for r in rec_runs) / sum(r["s"] for r in rec_runs),
-            "cpu_ms_per_frame": sum(r["cpu_ms_per_frame"] * r["frames"] for r in rec_runs)
-            / max(1.0, sum(r["frames"] for r in rec_runs)),
-            "error": next((r["error"] for r in rec_runs if r["error"]), None),
-        }
+        raw_runs: list[float] = []
+        rec_runs: list[dict] = []
+        for k in range(PAIRS):
+            order = ("raw", "rec") if k % 2 == 0 else ("rec", "raw")
+            for side in order:
+                if side == "raw":
+                    raw_runs.append(_raw_write(tmp / f"raw{k}.bin", frames, SLICE_MB))
+                else:
+                    rec_runs.append(_record(tmp / f"rec{k}.h5", frames, SLICE_MB, None))
+        ratios = [r["mb_per_s"] / w for r, w in zip(rec_runs, raw_runs, strict=True)]
+        ratio = statistics.median(ratios)
         out: dict = {
-            "mb_per_s": rec["mb_per_s"],
-            "raw_write_mb_per_s": raw_mb_s,
-            "ratio": statistics.median(pair_ratios),
-            "ratio_of_totals": rec["mb_per_s"] / (sum(raw_mb) / sum(raw_s)),
-            "cpu_ms_per_frame": rec["cpu_ms_per_frame"],
-            "mwir_fps_sustained": rec["mb_per_s"] * MB / frames[0].nbytes,
+            "ratio": ratio,
+            "ratio_spread": (max(ratios) - min(ratios)) / ratio,
+            "ratio_runs": ", ".join(f"{v:.3f}" for v in ratios),
+            "mb_per_s": statistics.median(r["mb_per_s"] for r in rec_runs),
+            "raw_write_mb_per_s": statistics.median(raw_runs),
             "raw_write_mb_per_s_runs": ", ".join(f"{v:.0f}" for v in raw_runs),
             "recorder_mb_per_s_runs": ", ".join(f"{r['mb_per_s']:.0f}" for r in rec_runs),
+            "cpu_ms_per_frame": statistics.median(r["cpu_ms_per_frame"] for r in rec_runs),
+            "slice_mb": SLICE_MB,
             "dir": str(tmp.parent),
         }
-        if rec["error"]:
-            out["error"] = rec["error"]
+        error = next((r["error"] for r in rec_runs if r["error"]), None)
+        if error:
+            out["error"] = error
         if not filters:
             out["compression"] = "hdf5plugin not installed: not measured"
         for name in filters:
-            c = _record(tmp / f"{name}.h5", frames, 0.25 * budget / len(filters), name)
+            c = _record(tmp / f"{name}.h5", frames, SLICE_MB / 4, name)
             key = name.replace("-", "_")
             out[f"{key}_ratio"] = c["ratio_vs_raw_bytes"]
             out[f"{key}_mb_per_s"] = c["mb_per_s"]
