@@ -16,7 +16,7 @@ def test_bench_json_has_the_sections_asked_for(capsys):
 
 
 def test_bench_duration_must_be_positive(capsys):
-    assert main(["bench", "--duration", "0"]) == 1
+    assert main(["bench", "--duration", "0"]) == 2
     assert "--duration must be positive" in capsys.readouterr().err
 
 

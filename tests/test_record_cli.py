@@ -93,7 +93,7 @@ def test_record_refuses_to_overwrite(tmp_path, capsys):
 def test_record_bad_config_is_one_line(tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text('[cameras.a]\nsource = "firewire"\n')
-    assert main(["record", "--config", str(cfg), "--out", str(tmp_path / "o.h5")]) == 1
+    assert main(["record", "--config", str(cfg), "--out", str(tmp_path / "o.h5")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "firewire" in err
 

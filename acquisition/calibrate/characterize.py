@@ -30,6 +30,7 @@ from dataclasses import asdict, dataclass
 
 import cv2
 import numpy as np
+import tomli_w
 
 from acquisition.calibrate.calibration import Calibration, temperature_of
 
@@ -258,15 +259,21 @@ def target_toml(
         f"characterized from {result.n_frames} frames of {result.camera} at "
         f"{result.range_m:.1f} m ({result.method})"
     )
-    return "\n".join(
-        [
-            "[target]",
-            f"name = {name!r}".replace("'", '"'),
-            f"description = {desc!r}".replace("'", '"'),
-            f"small_m = {result.small_m:.4f}",
-            f"large_m = {max(result.large_m, result.small_m):.4f}",
-            f"temp_c = {{ {key} = {result.mean_temp_c:.3f} }}",
-            f"rss_delta_t_k = {{ {key} = {result.rss_delta_t_k:.3f} }}",
-            "",
-        ]
-    )
+    values = {
+        "small_m": result.small_m,
+        "large_m": max(result.large_m, result.small_m),
+        "temp_c": result.mean_temp_c,
+        "rss_delta_t_k": result.rss_delta_t_k,
+    }
+    bad = {k: v for k, v in values.items() if v is None or not math.isfinite(v)}
+    if bad:  # TOML has no null, and a NaN in a target file would only fail later, in the model
+        raise ValueError(f"a target file needs finite values; not measured: {', '.join(bad)}")
+    table = {
+        "name": name,
+        "description": desc,
+        "small_m": round(values["small_m"], 4),
+        "large_m": round(values["large_m"], 4),
+        "temp_c": {key: round(values["temp_c"], 3)},
+        "rss_delta_t_k": {key: round(values["rss_delta_t_k"], 3)},
+    }
+    return tomli_w.dumps({"target": table})

@@ -156,7 +156,8 @@ def _mappable(tif, n_pages: int, size: tuple[int, int]) -> bool:
     if len(tif.series) != 1:
         return False
     series = tif.series[0]
-    return series.dataoffset is not None and int(np.prod(series.shape)) == n_pages * size[0] * size[1]
+    pixels = n_pages * size[0] * size[1]
+    return series.dataoffset is not None and int(np.prod(series.shape)) == pixels
 
 
 def _tiff_pages(path: Path) -> Iterator[np.ndarray]:

@@ -11,8 +11,10 @@ the upright bounding box is the true box; a rotated drone needs ``box="rotated"`
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import tomllib
 
 import numpy as np
 import pytest
@@ -118,6 +120,31 @@ def test_target_toml_is_read_by_the_model(cam, cal, tmp_path):
     assert t.temp_k("mwir") == pytest.approx(res.mean_temp_c + 273.15, abs=1e-3)
     with pytest.raises(ValueError, match="no temperature for band 'lwir'"):
         t.temp_k("lwir")
+
+
+@pytest.mark.parametrize("name", ["Bob's quad", 'the "big" one', "back\\slash\ttab", "Ωmega"])
+def test_target_toml_quotes_any_name(cam, cal, tmp_path, name):
+    """The file is TOML whatever the name holds (it was written with json-ish quoting)."""
+    e, _, _ = drone_scene(cam)
+    res = characterize_frames(
+        ((f, (XC, YC)) for f in cam.frames(e, 3, seed=1)),
+        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
+    )  # fmt: skip
+    path = tmp_path / "t.toml"
+    path.write_text(target_toml(res, name, description=f"{name} at 10 m"), encoding="utf-8")
+    assert tomllib.loads(path.read_text(encoding="utf-8"))["target"]["name"] == name
+    assert load_target(str(path)).name == name
+
+
+def test_target_toml_refuses_values_toml_cannot_hold(cam, cal):
+    e, _, _ = drone_scene(cam)
+    res = characterize_frames(
+        ((f, (XC, YC)) for f in cam.frames(e, 3, seed=1)),
+        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
+    )  # fmt: skip
+    bad = dataclasses.replace(res, rss_delta_t_k=float("nan"))
+    with pytest.raises(ValueError, match="not measured: rss_delta_t_k"):
+        target_toml(bad, "x")
 
 
 def test_bad_inputs_are_one_clear_error(cam, cal):

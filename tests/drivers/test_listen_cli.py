@@ -83,4 +83,4 @@ def test_missing_port_one_line_retried_and_times_out(tmp_path) -> None:
 
 def test_wrong_protocol_for_kind_is_one_line() -> None:
     r = listen("lrf", "--protocol", "nmea", "--port", "/dev/null")
-    assert r.returncode == 1 and len(r.stderr.splitlines()) == 1 and "lrf" in r.stderr
+    assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and "lrf" in r.stderr
