@@ -7,17 +7,21 @@ plain line now and then instead (see ``snrmon record``).
 
 from __future__ import annotations
 
+import logging
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
+log = logging.getLogger(__name__)
 _QUIET = False
+_VERBOSE = False
 
 
-def set_quiet(quiet: bool) -> None:
-    """``-q``: no bars (the CLI calls this per command)."""
-    global _QUIET
-    _QUIET = quiet
+def set_quiet(quiet: bool, verbose: bool = False) -> None:
+    """``-q``: no bars and no status lines; ``-v``: status lines come through the log (the CLI
+    calls this per command)."""
+    global _QUIET, _VERBOSE
+    _QUIET, _VERBOSE = quiet, verbose
 
 
 def on_terminal() -> bool:
@@ -62,7 +66,9 @@ PLAIN_EVERY_S = 5.0
 def status_progress(total_s: float | None, desc: str) -> Iterator[Callable[[float, str], None]]:
     """``show(elapsed_s, status_line)`` for a command that runs for ``total_s`` seconds (None:
     until interrupted): a tqdm bar with the status line on a terminal; elsewhere the line,
-    newline-terminated, every :data:`PLAIN_EVERY_S` (never carriage returns in a log)."""
+    newline-terminated, every :data:`PLAIN_EVERY_S` (never carriage returns in a log). Every
+    :data:`PLAIN_EVERY_S` the line is also logged at info level, so a recording's own log
+    (``FILE.log``) and ``--log-file`` keep it."""
     import time
 
     bar = None
@@ -79,8 +85,11 @@ def status_progress(total_s: float | None, desc: str) -> Iterator[Callable[[floa
                            if total_s else "{desc}: {n:.0f} s {postfix}")  # fmt: skip
             bar.n = min(elapsed_s, total_s) if total_s else elapsed_s
             bar.set_postfix_str(line, refresh=True)
-        elif not _QUIET and time.monotonic() - last_plain[0] >= PLAIN_EVERY_S:
-            last_plain[0] = time.monotonic()
+        if time.monotonic() - last_plain[0] < PLAIN_EVERY_S:
+            return
+        last_plain[0] = time.monotonic()
+        log.info("%s: %s", desc, line)
+        if not (_QUIET or _VERBOSE or on_terminal()):  # with -v the log line is on stderr
             print(line, file=sys.stderr, flush=True)
 
     try:

@@ -79,6 +79,11 @@ def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):
         meas = f.cameras["cam"].measurements
         assert (meas["peak_x"] == 64).mean() > 0.95
     assert f"cam {n} frames" in captured.out
+    # The session's log beside its recording: what wrote it, the devices' story, its end.
+    lines = out.with_suffix(".log").read_text().splitlines()
+    assert "recording rec.h5; snrmon " in lines[0] and "command: " in lines[0]
+    assert any("snrmon.progress: recording: " in line and "cam " in line for line in lines[1:-1])
+    assert lines[-1].endswith("recording log closed")
 
 
 def test_record_refuses_to_overwrite(tmp_path, capsys):
