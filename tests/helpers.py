@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -40,3 +41,17 @@ def wait_until(predicate, timeout_s: float, what: str) -> None:
             if time.monotonic() > deadline:
                 raise AssertionError(f"timed out waiting for {what}")
             cond.wait(0.02)
+
+
+def sensor_toml(path: Path, fps: float = 60.0) -> Path:
+    """The LWIR preset, resized to the test cameras' format (W x H) at ``fps``: a sensor the
+    model accepts for a simulated camera of this size."""
+    from model.presets import PRESET_DIR
+
+    lines = []
+    for line in (PRESET_DIR / "lwir.toml").read_text().splitlines():
+        key = line.split("=")[0].strip()
+        value = {"width_px": W, "height_px": H, "fps": fps}.get(key)
+        lines.append(f"{key} = {value}" if value is not None else line)
+    path.write_text("\n".join(lines) + "\n")
+    return path

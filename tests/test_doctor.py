@@ -16,7 +16,6 @@ from pathlib import Path
 import pytest
 
 from acquisition.config import session_config_from_dict
-from model.presets import PRESET_DIR
 from sim.devices.ldm_sim import LdmSimulator
 from sim.devices.nmea_sim import NmeaReplaySimulator, NmeaSimulator, gga_rmc
 from sim.devices.shm_camera import ShmProducer
@@ -26,7 +25,7 @@ from snrmon.doctor.devices import check_devices
 from snrmon.doctor.disk import BLOCK_BYTES, check_disk_speed, check_free_space
 from snrmon.doctor.ports import check_port
 from snrmon.doctor.qt import check_qt_display
-from tests.helpers import H, SpotOnNoise, W
+from tests.helpers import H, SpotOnNoise, W, sensor_toml
 
 FPS = 60.0
 
@@ -36,18 +35,6 @@ def strict_json(text: str):
         raise ValueError(f"not JSON: {name}")
 
     return json.loads(text, parse_constant=no_constants)
-
-
-def sensor_toml(path: Path, fps: float = FPS) -> Path:
-    """The LWIR preset, resized to the simulated camera's format and rate."""
-    text = (PRESET_DIR / "lwir.toml").read_text()
-    lines = []
-    for line in text.splitlines():
-        key = line.split("=")[0].strip()
-        value = {"width_px": W, "height_px": H, "fps": fps}.get(key)
-        lines.append(f"{key} = {value}" if value is not None else line)
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 def write_config(path: Path, ring: str, sensor: Path, gps_port: str, lrf_port: str) -> Path:
