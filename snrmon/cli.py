@@ -135,7 +135,10 @@ def _interrupt(signum: int, _frame: object) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # refused by the (sub)command they were given to, in its own words
+        leaf = next((p for p in iter_parsers(parser) if p.prog == getattr(args, "prog", "")), parser)
+        leaf.error(f"unrecognized arguments: {' '.join(extra)}")
     if getattr(args, "func", None) is None:
         parser.print_help()
         return EXIT_USAGE

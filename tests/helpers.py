@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import threading
 import time
 from pathlib import Path
@@ -55,3 +56,13 @@ def sensor_toml(path: Path, fps: float = 60.0) -> Path:
         lines.append(f"{key} = {value}" if value is not None else line)
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def strict_json(text: str):
+    """Parse like a strict RFC 8259 parser: NaN and Infinity are errors (Python's json module
+    accepts them by default), and so is anything but one document."""
+
+    def refuse(name: str):
+        raise ValueError(f"{name} is not JSON")
+
+    return json.loads(text, parse_constant=refuse)

@@ -33,6 +33,7 @@ from drivers.rangefinder.reading import RangeReading
 from model.presets import load_target
 from snrmon.cli import main
 from tests.acquisition.calibration_scene import camera, cross_drone, rect_electrons
+from tests.helpers import strict_json
 
 SKY_K, DRONE_K, RANGE_M = 260.0, 309.85, 37.0
 SPAN_M, ARM_M = 0.30, 0.10
@@ -196,9 +197,9 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     rc = main([*argv, "--stop", "99"])
     assert rc != 0
     assert "no stop 99 for mwir" in capsys.readouterr().err
-    stop = json.loads(_stops_json(session))[0]
+    stop = strict_json(_stops_json(session))[0]
     assert main([*argv, "--stop", str(stop)]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = strict_json(capsys.readouterr().out)
     for key in ("small_m", "large_m", "mean_temp_c", "rss_delta_t_k", "n_frames", "small_m_std"):
         assert key in out
     _, small, large = drone_scene(cam)
