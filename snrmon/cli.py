@@ -137,7 +137,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra:  # refused by the (sub)command they were given to, in its own words
-        leaf = next((p for p in iter_parsers(parser) if p.prog == getattr(args, "prog", "")), parser)
+        prog = getattr(args, "prog", "")
+        leaf = next((p for p in iter_parsers(parser) if p.prog == prog), parser)
         leaf.error(f"unrecognized arguments: {' '.join(extra)}")
     if getattr(args, "func", None) is None:
         parser.print_help()

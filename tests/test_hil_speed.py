@@ -72,7 +72,7 @@ def test_hil_speed_max_keeps_every_frame_and_replays_exactly(capsys, tmp_path):
     assert rec["frames_written"] == rec["frames_received"]
     # The recording replays to the live run's numbers, frame for frame and stop for stop.
     assert main(["replay", str(path), "--fast", "--json"]) == 0
-    replay = json.loads(capsys.readouterr().out)
+    replay = strict_json(capsys.readouterr().out)
     frames = replay["frames"]["lwir"]
     assert frames["dropped"] == 0 and frames["in_file"] == rec["frames_written"]["lwir"]
     assert frames["identical"] == frames["compared"] > 0

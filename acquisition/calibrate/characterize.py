@@ -265,15 +265,16 @@ def target_toml(
         "temp_c": result.mean_temp_c,
         "rss_delta_t_k": result.rss_delta_t_k,
     }
-    bad = {k: v for k, v in values.items() if v is None or not math.isfinite(v)}
-    if bad:  # TOML has no null, and a NaN in a target file would only fail later, in the model
-        raise ValueError(f"a target file needs finite values; not measured: {', '.join(bad)}")
+    finite = {k: float(v) for k, v in values.items() if v is not None and math.isfinite(v)}
+    if len(finite) < len(values):  # TOML has no null; a NaN would only fail later, in the model
+        missing = ", ".join(k for k in values if k not in finite)
+        raise ValueError(f"a target file needs finite values; not measured: {missing}")
     table = {
         "name": name,
         "description": desc,
-        "small_m": round(values["small_m"], 4),
-        "large_m": round(values["large_m"], 4),
-        "temp_c": {key: round(values["temp_c"], 3)},
-        "rss_delta_t_k": {key: round(values["rss_delta_t_k"], 3)},
+        "small_m": round(finite["small_m"], 4),
+        "large_m": round(finite["large_m"], 4),
+        "temp_c": {key: round(finite["temp_c"], 3)},
+        "rss_delta_t_k": {key: round(finite["rss_delta_t_k"], 3)},
     }
     return tomli_w.dumps({"target": table})
