@@ -42,8 +42,10 @@ def closure(root: str, extras: tuple[str, ...]) -> dict[str, str]:
 def main() -> int:
     pins = closure("snrmon", EXTRAS)
     pins.pop("snrmon", None)
-    print("# The exact versions `make test` passed with (Python "
-          f"{sys.version_info.major}.{sys.version_info.minor}, Linux x86-64).")
+    print(
+        "# The exact versions `make test` passed with (Python "
+        f"{sys.version_info.major}.{sys.version_info.minor}, Linux x86-64)."
+    )
     print("# Regenerate with `make constraints` after a green `make test`; pyproject.toml keeps")
     print("# the ranges, this file the tested point (pip install -c constraints.txt ...).")
     for name in sorted(pins):
