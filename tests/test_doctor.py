@@ -4,7 +4,6 @@ with its fix when its condition is broken."""
 
 from __future__ import annotations
 
-import json
 import os
 import pty
 import shutil
@@ -16,7 +15,6 @@ from pathlib import Path
 import pytest
 
 from acquisition.config import session_config_from_dict
-from sim.devices.ldm_sim import LdmSimulator
 from sim.devices.nmea_sim import NmeaReplaySimulator, NmeaSimulator, gga_rmc
 from sim.devices.shm_camera import ShmProducer
 from snrmon.cli import main
@@ -25,60 +23,31 @@ from snrmon.doctor.devices import check_devices
 from snrmon.doctor.disk import BLOCK_BYTES, check_disk_speed, check_free_space
 from snrmon.doctor.ports import check_port
 from snrmon.doctor.qt import check_qt_display
-from tests.helpers import H, SpotOnNoise, W, sensor_toml
+from tests.helpers import (
+    H,
+    SpotOnNoise,
+    W,
+    field_config,
+    field_devices,
+    sensor_toml,
+    strict_json,
+)
 
 FPS = 60.0
 
 
-def strict_json(text: str):
-    def no_constants(name):
-        raise ValueError(f"not JSON: {name}")
-
-    return json.loads(text, parse_constant=no_constants)
-
-
 def write_config(path: Path, ring: str, sensor: Path, gps_port: str, lrf_port: str) -> Path:
-    path.write_text(f"""
-[site]
-lat_deg = 32.38
-lon_deg = -106.48
-alt_m = 1200.0
-
-[cameras.cam]
-source = "shm"
-address = "{ring}"
-sensor = "{sensor}"
-
-[lrf]
-protocol = "ldm"
-port = "{lrf_port}"
-
-[gps]
-protocol = "nmea"
-port = "{gps_port}"
-baud = 38400
-""")
-    return path
+    return field_config(path, ring, gps_port, lrf_port, f'sensor = "{sensor}"')
 
 
 @pytest.fixture
 def rig(tmp_path):
     """Simulated camera, rangefinder and GPS (whose clock is the host's), and their config."""
     ring = f"snrmon-doc-{os.getpid()}-{time.monotonic_ns() % 10**9}"
-    producer = ShmProducer(ring, W, H, SpotOnNoise(3), fps=FPS, slots=16)
-    producer.start()
-    lrf = LdmSimulator(lambda t: 200.0, rate_hz=10.0, tracking=True).start()
-    gps = NmeaSimulator(
-        lambda t: (32.3810, -106.4790, 1250.0), rate_hz=10.0, start_utc=datetime.now(UTC)
-    ).start()
-    sensor = sensor_toml(tmp_path / "cam-sensor.toml")
-    config = write_config(tmp_path / "session.toml", ring, sensor, gps.path, lrf.path)
-    try:
+    with field_devices(ring, gps_utc=datetime.now(UTC), fps=FPS) as (_, lrf, gps):
+        sensor = sensor_toml(tmp_path / "cam-sensor.toml")
+        config = write_config(tmp_path / "session.toml", ring, sensor, gps.path, lrf.path)
         yield {"config": config, "ring": ring, "sensor": sensor, "gps": gps, "lrf": lrf}
-    finally:
-        producer.stop()
-        lrf.stop()
-        gps.stop()
 
 
 def doctor(capsys, *args: str) -> tuple[int, dict]:

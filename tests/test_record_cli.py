@@ -15,52 +15,18 @@ import pytest
 
 from acquisition.record.reader import open_session
 from acquisition.replay.batch import replay_session
-from sim.devices.ldm_sim import LdmSimulator
-from sim.devices.nmea_sim import NmeaSimulator
-from sim.devices.shm_camera import ShmProducer
 from snrmon.cli import main
-from tests.helpers import H, SpotOnNoise, W
+from tests.helpers import H, W, field_config, field_devices
 
 
 @pytest.fixture
 def devices(tmp_path):
     """A simulated shared-memory camera, LDM rangefinder and NMEA GPS, and the session config
     that names them."""
-    name = f"snrmon-rec-{time.monotonic_ns() % 10**9}"
-    producer = ShmProducer(name, W, H, SpotOnNoise(3), fps=60.0, slots=16)
-    producer.start()
-    lrf = LdmSimulator(lambda t: 200.0, rate_hz=10.0, tracking=True).start()
-    gps = NmeaSimulator(lambda t: (32.3810, -106.4790, 1250.0), rate_hz=10.0).start()
-    config = tmp_path / "session.toml"
-    config.write_text(
-        f"""
-[site]
-lat_deg = 32.38
-lon_deg = -106.48
-alt_m = 1200.0
-
-[cameras.cam]
-source = "shm"
-address = "{name}"
-width_px = {W}
-height_px = {H}
-
-[lrf]
-protocol = "ldm"
-port = "{lrf.path}"
-
-[gps]
-protocol = "nmea"
-port = "{gps.path}"
-baud = 38400
-"""
-    )
-    try:
-        yield config
-    finally:
-        producer.stop()
-        lrf.stop()
-        gps.stop()
+    ring = f"snrmon-rec-{time.monotonic_ns() % 10**9}"
+    with field_devices(ring) as (_, lrf, gps):
+        yield field_config(tmp_path / "session.toml", ring, gps.path, lrf.path,
+                           f"width_px = {W}\nheight_px = {H}")  # fmt: skip
 
 
 def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):

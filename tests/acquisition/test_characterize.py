@@ -123,27 +123,28 @@ def test_target_toml_is_read_by_the_model(cam, cal, tmp_path):
         t.temp_k("lwir")
 
 
-@pytest.mark.parametrize("name", ["Bob's quad", 'the "big" one', "back\\slash\ttab", "Ωmega"])
-def test_target_toml_quotes_any_name(cam, cal, tmp_path, name):
-    """The file is TOML whatever the name holds (it was written with json-ish quoting)."""
+@pytest.fixture
+def three_frames(cam, cal):
+    """The drone characterized from three calibrated frames."""
     e, _, _ = drone_scene(cam)
-    res = characterize_frames(
+    return characterize_frames(
         ((f, (XC, YC)) for f in cam.frames(e, 3, seed=1)),
         camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
     )  # fmt: skip
+
+
+@pytest.mark.parametrize("name", ["Bob's quad", 'the "big" one', "back\\slash\ttab", "Ωmega"])
+def test_target_toml_quotes_any_name(three_frames, tmp_path, name):
+    """The file is TOML whatever the name holds (it was written with json-ish quoting)."""
     path = tmp_path / "t.toml"
-    path.write_text(target_toml(res, name, description=f"{name} at 10 m"), encoding="utf-8")
+    text = target_toml(three_frames, name, description=f"{name} at 10 m")
+    path.write_text(text, encoding="utf-8")
     assert tomllib.loads(path.read_text(encoding="utf-8"))["target"]["name"] == name
     assert load_target(str(path)).name == name
 
 
-def test_target_toml_refuses_values_toml_cannot_hold(cam, cal):
-    e, _, _ = drone_scene(cam)
-    res = characterize_frames(
-        ((f, (XC, YC)) for f in cam.frames(e, 3, seed=1)),
-        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
-    )  # fmt: skip
-    bad = dataclasses.replace(res, rss_delta_t_k=float("nan"))
+def test_target_toml_refuses_values_toml_cannot_hold(three_frames):
+    bad = dataclasses.replace(three_frames, rss_delta_t_k=float("nan"))
     with pytest.raises(ValueError, match="not measured: rss_delta_t_k"):
         target_toml(bad, "x")
 
