@@ -7,9 +7,11 @@ from __future__ import annotations
 import argparse
 import ast
 import errno
+import io
 import json
 import logging
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -147,3 +149,36 @@ def test_a_bad_log_file_is_bad_input(capsys, tmp_path):
     assert main(["devices", "--log-file", str(tmp_path / "no" / "x.log")]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith("snrmon devices: error: --log-file: ") and "x.log" in line
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bars_only_on_a_terminal(monkeypatch):
+    from snrmon import progress
+
+    monkeypatch.setattr(sys, "stderr", io.StringIO())  # piped: no bar, no carriage return
+    with progress.frame_progress("replay") as cb:
+        assert cb is None
+    monkeypatch.setattr(progress, "PLAIN_EVERY_S", 0.0)
+    with progress.status_progress(10.0, "recording") as show:
+        for t in (0.0, 1.0):
+            show(t, f"{t:.0f} s | cam {int(t * 60)} frames")
+    lines = sys.stderr.getvalue().splitlines()
+    assert lines == ["0 s | cam 0 frames", "1 s | cam 60 frames"]
+    assert "\r" not in sys.stderr.getvalue()
+
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    with progress.frame_progress("replay") as cb:
+        cb(50, 200)
+        cb(200, 200)
+    assert "replay" in terminal.getvalue() and "200/200" in terminal.getvalue()
+    progress.set_quiet(True)  # -q: no bar even on a terminal
+    try:
+        with progress.frame_progress("replay") as cb:
+            assert cb is None
+    finally:
+        progress.set_quiet(False)
