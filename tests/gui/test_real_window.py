@@ -94,8 +94,9 @@ def test_clicking_the_drone_in_the_real_window(xvfb_display, tmp_path):
                    and s["cameras"]["cam"]["snr_n"] >= 5, 30, "the ROI on the sky",
                    proc)  # fmt: skip
         sky_cam = sky["cameras"]["cam"]
-        # (the tracker may then call the track lost: there is nothing to follow in empty sky)
-        assert max(abs(a - b) for a, b in zip(sky_cam["peak"], (20, 70), strict=True)) <= 8
+        # Nothing bright there: the brightest noise pixel's SNR (the tracker may then wander or
+        # call the track lost: there is nothing to follow in empty sky).
+        assert sky_cam["snr_mean"] is not None and sky_cam["snr_mean"] < 7
         assert "SNR(100) " in sky_cam["header"] and "--" not in sky_cam["header"].split("SNR")[1]
 
         # 2. The drone (a pixel off its peak, as a hand would): the ROI moves to the click, the
