@@ -5,16 +5,19 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+# The exact versions CI tested (pyproject.toml keeps the ranges); `make constraints` rewrites it.
+CONSTRAINTS := constraints.txt
 
-.PHONY: demo test setup lint clean
+.PHONY: demo test setup lint clean constraints dist-check
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml $(CONSTRAINTS)
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,mavlink,compress]'
+	$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) -e '.[dev,mavlink,compress]'
 	@# Aravis (GigE/USB3 Vision) needs PyGObject, which builds only where gobject-introspection
 	@# headers are installed (.ci/run installs them); without it the Aravis tests skip.
-	-$(BIN)/python -m pip install --quiet -e '.[aravis]' > $(VENV)/aravis-install.log 2>&1 \
+	-$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) -e '.[aravis]' \
+		> $(VENV)/aravis-install.log 2>&1 \
 		|| echo 'PyGObject not built (see $(VENV)/aravis-install.log): Aravis tests will skip'
 	touch $(STAMP)
 
@@ -28,8 +31,17 @@ test: $(STAMP)
 	$(BIN)/mypy
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
 
+# After a green `make test` with new versions: pin them as the tested ones.
+constraints: $(STAMP)
+	$(BIN)/python .ci/freeze_constraints.py > $(CONSTRAINTS).new && mv $(CONSTRAINTS).new $(CONSTRAINTS)
+
+# The package as a user gets it: wheel and sdist with licence and metadata, the wheel installed
+# into a fresh venv with the tested versions, `snrmon --help` run from there.
+dist-check: $(STAMP)
+	PYTHON=$(PYTHON) BIN=$(BIN) bash .ci/dist-check
+
 lint: $(STAMP)
 	$(BIN)/ruff check . && $(BIN)/ruff format --check .
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build dist *.egg-info

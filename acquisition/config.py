@@ -30,18 +30,27 @@ Example (``session.toml``)::
     protocol = "trupulse"
     port = "/dev/ttyUSB1"
 
-Every key is checked; a wrong one is one error naming the table, the key and the value.
+Every key is checked against the schema below (``TOP_FIELDS``, ``SITE_FIELDS``,
+``MEASUREMENT_FIELDS``, ``CAMERA_FIELDS``; the device tables by :mod:`drivers.config`): an
+unknown key, a missing one, or a value of the wrong type or range is one
+:class:`drivers.errors.ConfigError` naming the file, the table, the key, the value and what was
+expected, e.g. ``session.toml: [site] lat_deg = "north": expected a latitude in degrees, -90 to
+90``.
 """
 
 from __future__ import annotations
 
+import math
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from acquisition.geo.projection import Pointing, Site
 from acquisition.measure.peak_snr import PeakSnrConfig
+from drivers.config import check_device_table
+from drivers.errors import ConfigError, toml_repr
 
 CAMERA_SOURCES = ("shm", "v4l2", "aravis")
 
@@ -73,71 +82,158 @@ class SessionConfig:
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
-def _check_keys(table: dict, allowed: set[str], where: str) -> None:
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise ValueError(
-            f"{where}: unknown key {unknown[0]!r} (known: {', '.join(sorted(allowed))})"
-        )
+# --------------------------------------------------------------------------- the schema
+@dataclass(frozen=True)
+class Field:
+    """One key of a table: what a valid value is (``check``), said in words (``expected``)."""
+
+    expected: str
+    check: Callable[[Any], bool]
+    required: bool = False
 
 
-def _camera(name: str, table: dict) -> CameraConfig:
-    where = f"[cameras.{name}]"
+def _number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _integer(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _between(lo: float, hi: float) -> Callable[[Any], bool]:
+    return lambda v: _number(v) and lo <= v <= hi
+
+
+def _odd_int(minimum: int) -> Callable[[Any], bool]:
+    return lambda v: _integer(v) and v >= minimum and v % 2 == 1
+
+
+def _int_at_least(minimum: int) -> Callable[[Any], bool]:
+    return lambda v: _integer(v) and v >= minimum
+
+
+def _positive(v: Any) -> bool:
+    return _number(v) and v > 0
+
+
+def _text(v: Any) -> bool:
+    return isinstance(v, str) and v != ""
+
+
+def _table(v: Any) -> bool:
+    return isinstance(v, dict)
+
+
+TOP_FIELDS = {
+    "target": Field('a target preset ("uav1", "uav2") or a target TOML file', _text),
+    "site": Field("a table [site] with lat_deg, lon_deg, alt_m", _table),
+    "measurement": Field("a table [measurement]", _table),
+    "cameras": Field("tables [cameras.<name>]", _table, required=True),
+    "gps": Field("a table [gps] (drivers.config)", _table),
+    "lrf": Field("a table [lrf] (drivers.config)", _table),
+}
+SITE_FIELDS = {
+    "lat_deg": Field("a latitude in degrees, -90 to 90", _between(-90, 90), required=True),
+    "lon_deg": Field("a longitude in degrees, -180 to 180", _between(-180, 180), required=True),
+    "alt_m": Field("an altitude in metres (a number)", _number, required=True),
+}
+MEASUREMENT_FIELDS = {
+    "search_px": Field("an odd integer >= 1 (pixels)", _odd_int(1)),
+    "box_px": Field("an odd integer >= 3 (pixels)", _odd_int(3)),
+    "background": Field(
+        "a clear-sky rectangle [x0, y0, x1, y1] of integer pixels, corners included",
+        lambda v: isinstance(v, list) and len(v) == 4 and all(_integer(x) for x in v),
+    ),
+    "detrend": Field("true or false", lambda v: isinstance(v, bool)),
+    "saturation_dn": Field("a number (DN)", _number),
+    "ddof": Field("0 or 1", lambda v: _integer(v) and v in (0, 1)),
+    "contamination_std_factor": Field("a positive number", _positive),
+    "contamination_gradient_factor": Field("a positive number", _positive),
+    "reference_frames": Field("an integer >= 1", _int_at_least(1)),
+    "reference_min_frames": Field("an integer >= 1", _int_at_least(1)),
+    "window": Field("an integer >= 1 (frames of the running SNR)", _int_at_least(1)),
+    "lrf_fresh_s": Field("a positive number of seconds", _positive),
+}
+CAMERA_FIELDS = {
+    "source": Field(f"one of {', '.join(CAMERA_SOURCES)}", lambda v: v in CAMERA_SOURCES),
+    "address": Field(
+        "a string (shm ring name, V4L2 path, Aravis id) or a V4L2 index",
+        lambda v: _text(v) or (_integer(v) and v >= 0),
+    ),
+    "sensor": Field('a sensor preset ("mwir", "lwir") or a sensor TOML file', _text),
+    "width_px": Field("a positive integer (pixels)", _int_at_least(1)),
+    "height_px": Field("a positive integer (pixels)", _int_at_least(1)),
+    "pointing_deg": Field(
+        "[azimuth, elevation] or [azimuth, elevation, roll] in degrees",
+        lambda v: isinstance(v, list) and len(v) in (2, 3) and all(_number(x) for x in v),
+    ),
+    "calibration": Field("a calibration file (.npz from snrmon calibrate)", _text),
+}
+
+
+def checked(table: Any, fields: dict[str, Field], name: str) -> dict[str, Any]:
+    """``table``'s values after checking every key against ``fields``: an unknown key, a missing
+    required one or a value of the wrong type or range is one ConfigError naming the table
+    (``name``), the key, the value and what was expected."""
     if not isinstance(table, dict):
-        raise ValueError(f"{where} must be a table, got {table!r}")
-    _check_keys(
-        table,
-        {"source", "address", "sensor", "width_px", "height_px", "pointing_deg", "calibration"},
-        where,
-    )
-    source = table.get("source", "shm")
-    if source not in CAMERA_SOURCES:
-        raise ValueError(f"{where} source = {source!r}: not one of {', '.join(CAMERA_SOURCES)}")
-    pointing = None
-    if "pointing_deg" in table:
-        p = table["pointing_deg"]
-        if not (isinstance(p, list) and len(p) in (2, 3)):
-            raise ValueError(f"{where} pointing_deg = {p!r}: expected [azimuth, elevation, roll]")
-        pointing = Pointing(*(float(v) for v in p))
+        raise ConfigError(f"[{name}] = {toml_repr(table)}: expected a table")
+    unknown = sorted(set(table) - set(fields))
+    if unknown:
+        raise ConfigError(
+            f"[{name}]: unknown key {unknown[0]!r} (known: {', '.join(sorted(fields))})"
+        )
+    for key, spec in fields.items():
+        if key not in table:
+            if spec.required:
+                raise ConfigError(f"[{name}] is missing {key!r}: expected {spec.expected}")
+        elif not spec.check(table[key]):
+            raise ConfigError.expected(name, key, table[key], spec.expected)
+    return dict(table)
+
+
+def _camera(name: str, table: Any) -> CameraConfig:
+    v = checked(table, CAMERA_FIELDS, f"cameras.{name}")
+    pointing = Pointing(*(float(x) for x in v["pointing_deg"])) if "pointing_deg" in v else None
     return CameraConfig(
         name=name,
-        source=source,
-        address=str(table.get("address", f"snrmon-{name}")),
-        sensor=str(table.get("sensor", name)),
-        width_px=table.get("width_px"),
-        height_px=table.get("height_px"),
+        source=v.get("source", "shm"),
+        address=str(v.get("address", f"snrmon-{name}")),
+        sensor=v.get("sensor", name),
+        width_px=v.get("width_px"),
+        height_px=v.get("height_px"),
         pointing=pointing,
-        calibration=str(table["calibration"]) if "calibration" in table else None,
+        calibration=v.get("calibration"),
     )
 
 
 def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
     """Validate a parsed TOML document into a :class:`SessionConfig`."""
-    _check_keys(data, {"target", "site", "measurement", "cameras", "gps", "lrf"}, "session")
-    cams = data.get("cameras", {})
+    top = checked(data, TOP_FIELDS, "session")
+    cams = top["cameras"]
     if not cams:
-        raise ValueError("session: no [cameras.<name>] table")
+        raise ConfigError("[session]: no [cameras.<name>] table")
     site = None
-    if "site" in data:
-        s = data["site"]
-        _check_keys(s, {"lat_deg", "lon_deg", "alt_m"}, "[site]")
-        try:
-            site = Site(float(s["lat_deg"]), float(s["lon_deg"]), float(s["alt_m"]))
-        except KeyError as exc:
-            raise ValueError(f"[site] is missing {exc.args[0]!r}") from None
-    meas = dict(data.get("measurement", {}))
-    window = int(meas.pop("window", 100))
+    if "site" in top:
+        s = checked(top["site"], SITE_FIELDS, "site")
+        site = Site(float(s["lat_deg"]), float(s["lon_deg"]), float(s["alt_m"]))
+    meas = checked(top.get("measurement", {}), MEASUREMENT_FIELDS, "measurement")
+    window = meas.pop("window", 100)
     lrf_fresh_s = float(meas.pop("lrf_fresh_s", 2.0))
+    if "background" in meas:
+        meas["background"] = tuple(meas["background"])
     try:
         mcfg = PeakSnrConfig(**meas)
-    except TypeError as exc:
-        raise ValueError(f"[measurement]: {exc}") from None
+    except ValueError as exc:  # the combination (e.g. a rectangle too small for ddof)
+        raise ConfigError(f"[measurement]: {exc}") from None
+    for kind in ("gps", "lrf"):
+        if kind in top:
+            check_device_table(top[kind], kind)
     return SessionConfig(
         cameras=tuple(_camera(n, t) for n, t in cams.items()),
-        target=str(data.get("target", "uav1")),
+        target=top.get("target", "uav1"),
         site=site,
-        gps=data.get("gps"),
-        lrf=data.get("lrf"),
+        gps=top.get("gps"),
+        lrf=top.get("lrf"),
         measurement=mcfg,
         window=window,
         lrf_fresh_s=lrf_fresh_s,
@@ -154,7 +250,10 @@ def load_session_config(path: str | Path) -> SessionConfig:
         raise FileNotFoundError(f"session config {p} does not exist") from None
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"session config {p} is not valid TOML: {exc}") from None
-    return session_config_from_dict(data)
+    try:
+        return session_config_from_dict(data)
+    except ConfigError as exc:
+        raise ConfigError(f"{p}: {exc}") from None
 
 
 def camera_device(cfg: CameraConfig):

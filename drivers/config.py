@@ -60,15 +60,30 @@ def split_host_port(text: str, default_port: int, what: str) -> tuple[str, int]:
     return host or "127.0.0.1", int(port)
 
 
-def device_from_config(table: dict[str, Any], name: str = "device") -> Device:
-    """Build the device a table describes (see the module docstring)."""
+_TYPE_NAMES = {
+    str: "a string",
+    int: "an integer",
+    bool: "true or false",
+    (int, float): "a number",
+    (bool, list): "true, false or a list of addresses",
+}
+
+
+def device_fields(protocol: str) -> dict[str, Any]:
+    """{key: type} of a protocol's table (the tests walk every field)."""
+    return {**_COMMON, **_EXTRA[protocol]}
+
+
+def check_device_table(table: Any, name: str = "device") -> str:
+    """Check a device table's keys, types and values without building the device; returns the
+    protocol. Every problem is one ConfigError naming the table, key, value and expectation."""
     where = f"[{name}]"
     if not isinstance(table, dict):
         raise ConfigError(f"{where}: expected a table, got {type(table).__name__}")
     protocol = table.get("protocol")
     if protocol not in PROTOCOLS:
-        raise ConfigError(f"{where} protocol: {protocol!r} is not one of {', '.join(PROTOCOLS)}")
-    allowed = {**_COMMON, **_EXTRA[protocol]}
+        raise ConfigError.expected(name, "protocol", protocol, f"one of {', '.join(PROTOCOLS)}")
+    allowed = device_fields(protocol)
     for key, value in table.items():
         if key not in allowed:
             raise ConfigError(
@@ -77,18 +92,28 @@ def device_from_config(table: dict[str, Any], name: str = "device") -> Device:
             )
         types = allowed[key]
         if not isinstance(value, types) or (types is int and isinstance(value, bool)):
-            raise ConfigError(f"{where} {key}: {value!r} has the wrong type")
+            raise ConfigError.expected(name, key, value, _TYPE_NAMES[types])
     port = table.get("port")
     if not port and protocol != "gpsd":
         raise ConfigError(f"{where} port: missing (a path or URL such as /dev/ttyUSB0)")
     baud = table.get("baud")
     if baud is not None and baud not in SERIAL_BAUD_RATES:
-        raise ConfigError(f"{where} baud: {baud} is not a standard rate {SERIAL_BAUD_RATES}")
+        raise ConfigError.expected(name, "baud", baud, f"a standard rate {SERIAL_BAUD_RATES}")
+    for key in ("stale_after_s", "reopen_after_s"):
+        if key in table and not table[key] > 0:
+            raise ConfigError.expected(name, key, table[key], "a positive number of seconds")
+    return protocol
+
+
+def device_from_config(table: dict[str, Any], name: str = "device") -> Device:
+    """Build the device a table describes (see the module docstring)."""
+    where = f"[{name}]"
+    protocol = check_device_table(table, name)
+    port = table.get("port")
+    baud = table.get("baud")
     kw: dict[str, Any] = {"name": table.get("name", name)}
     for key in ("stale_after_s", "reopen_after_s"):
         if key in table:
-            if table[key] <= 0:
-                raise ConfigError(f"{where} {key}: {table[key]} must be positive")
             kw[key] = float(table[key])
     if baud is not None:
         kw["baudrate"] = baud

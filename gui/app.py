@@ -55,6 +55,7 @@ def run_console(
     duration_s: float | None = None,
     screenshot: str | Path | None = None,
     settings: QSettings | None = None,
+    status_file: str | Path | None = None,
 ) -> int:
     """Show the console on a started ``session`` until the window closes; returns 0.
 
@@ -68,6 +69,8 @@ def run_console(
         duration_s: close the window after this many seconds (None: until the operator quits).
         screenshot: save the whole window to this PNG just before it closes.
         settings: QSettings to use (default: the user's snrmon/console settings).
+        status_file: keep the console's state in this JSON file (:mod:`gui.status_file`),
+            rewritten with every status refresh.
     """
     if duration_s is not None and not duration_s > 0:
         raise ValueError(f"duration must be positive seconds, got {duration_s}")
@@ -88,7 +91,13 @@ def run_console(
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
     }
     tick = QTimer()
-    tick.timeout.connect(lambda: None)
+    if status_file is not None:
+        from gui.status_file import write_status_file
+
+        # The idle tick is also the status file's: after the window's own refresh has run.
+        tick.timeout.connect(lambda: write_status_file(window, status_file))
+    else:
+        tick.timeout.connect(lambda: None)
     tick.start(200)
     loop = QEventLoop()
     window.closed.connect(loop.quit)

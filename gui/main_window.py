@@ -9,6 +9,7 @@ shown was computed by the session's processing threads. Qt objects are touched o
 from __future__ import annotations
 
 import datetime as _dt
+import logging
 import time
 from pathlib import Path
 
@@ -48,6 +49,8 @@ from gui.window_settings import restore_window, save_model_options, save_window
 FRAME_INTERVAL_MS = 16
 STATUS_INTERVAL_MS = 200
 TABLE_INTERVAL_MS = 1000
+
+log = logging.getLogger(__name__)
 
 
 class ConsoleWindow(QMainWindow):
@@ -255,7 +258,9 @@ class ConsoleWindow(QMainWindow):
 
     # ------------------------------------------------------------------ commands
     def report(self, message: str) -> None:
-        """An operator-facing message (status bar and the message log)."""
+        """An operator-facing message (status bar, the message log, and the process's log: a
+        recording's FILE.log keeps what the operator did and was told)."""
+        log.info(message)
         self.messages.append(message)
         self.statusBar().showMessage(message, 10_000)
 

@@ -130,7 +130,9 @@ def _value(path: Path, where: str, kind: str, v: Any) -> Any:
         return (a, b)
     if kind == "curve":
         if not isinstance(v, list) or len(v) < 2:
-            raise ValueError(f"{path}: {where} must be a list of [wavelength_um, qe] pairs")
+            raise ValueError(
+                f"{path}: {where} must be a list of [wavelength_um, qe] pairs, got {v!r}"
+            )
         return tuple(tuple(_value(path, where, "pairqe", x)) for x in v)
     if kind == "pairqe":
         if not isinstance(v, list) or len(v) != 2:

@@ -2,11 +2,23 @@
 
 Every module in :mod:`snrmon.commands` that defines ``register(subparsers)``
 adds one subcommand. ``register`` must set ``func`` on its parser with
-``parser.set_defaults(func=run)``; ``run(args) -> int`` returns the exit code.
+``parser.set_defaults(func=run)``; ``run(args) -> int`` returns the exit code. Every option
+needs a ``help`` text (a test walks the parser); ``--json`` output goes through
+:func:`snrmon.output.emit_json`.
 
-Errors meant for the user are raised as :class:`UsageError` (or any
-``ValueError``/``OSError`` subclass the packages raise for bad input) and are
-printed as one line on stderr with a non-zero exit, never as a traceback.
+Exit codes, the same for every command (docs/cli.md):
+
+* 0: done.
+* 1: a runtime failure: a device that does not answer, a disk that fills, a recording that
+  stops early; or an internal error (a bug), shown as ``internal error`` with the exception's
+  type, and its traceback under ``-v``.
+* 2: bad input or usage: an unknown option, a value of the wrong type, a missing or unreadable
+  file, an unknown preset, a malformed config (:class:`UsageError`, ``ValueError`` and the
+  ``OSError`` subclasses that name a path: :data:`BAD_INPUT`).
+* 130: interrupted (Ctrl-C) before the command could finish its own way.
+
+Every message has the one prefix ``snrmon COMMAND: error: ...`` (``warning:``, ``info:`` for
+log lines), on one line, never a traceback unless ``-v``.
 
 SIGTERM (``kill``, a service manager stopping it, a closed terminal's SIGHUP) is taken as
 Ctrl-C: the command's ``finally`` blocks run, so a recording is closed whole and the camera
@@ -17,28 +29,91 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import pkgutil
 import signal
 import sys
 import threading
-from collections.abc import Sequence
+import traceback
+from collections.abc import Iterator, Sequence
 
-from snrmon import __version__, commands
+from snrmon import __version__, commands, logs, progress
+
+EXIT_OK, EXIT_FAILURE, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+log = logging.getLogger("snrmon")
 
 
 class UsageError(Exception):
     """A problem with what the user asked for; printed as one line, exit code 2."""
 
 
+BAD_INPUT: tuple[type[BaseException], ...] = (
+    UsageError,
+    argparse.ArgumentTypeError,
+    ValueError,  # includes drivers.errors.ConfigError/ParseError, tomllib and json errors
+    FileNotFoundError,
+    FileExistsError,
+    IsADirectoryError,
+    NotADirectoryError,
+    PermissionError,
+)
+"""Exceptions that mean "what you gave me is wrong": exit 2."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with snrmon's one-line errors: ``snrmon CMD: error: ...`` and exit 2, without
+    the usage block (``--help`` has it)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _add_common(p: argparse.ArgumentParser, top: bool) -> None:
+    # On the top level and on every subcommand, so both `snrmon -v record` and
+    # `snrmon record -v` work; SUPPRESS keeps a subcommand from resetting the top level's value.
+    # A subcommand that defines one of these itself keeps its own.
+    g = p.add_argument_group("logging")
+    for flags, kw in (
+        (("-v", "--verbose"), {"action": "count", "default": 0,
+         "help": "more on stderr: -v info, -vv debug (and tracebacks of errors)"}),
+        (("-q", "--quiet"), {"action": "store_true", "default": False,
+         "help": "errors only on stderr, no progress bars"}),
+        (("--log-file",), {"metavar": "FILE", "default": None,
+         "help": "also write the log (info, or debug with -vv) to FILE"}),
+    ):  # fmt: skip
+        if any(f in p._option_string_actions for f in flags):
+            continue
+        if not top:
+            kw = {**kw, "default": argparse.SUPPRESS}
+        g.add_argument(*flags, **kw)
+
+
+def iter_parsers(
+    parser: argparse.ArgumentParser,
+) -> Iterator[argparse.ArgumentParser]:
+    """``parser`` and every subcommand's parser below it, depth first."""
+    yield parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            seen: set[int] = set()
+            for sub in action.choices.values():
+                if id(sub) not in seen:  # aliases map to the same parser
+                    seen.add(id(sub))
+                    yield from iter_parsers(sub)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="snrmon",
         description=(
             "Live infrared peak-pixel SNR of unresolved drones, measured (paper Eq. 4) "
             "beside the sensor model's prediction (Eqs. 1-3)."
         ),
+        epilog="Exit codes: 0 ok, 1 runtime failure or internal error, 2 bad input or usage.",
     )
     parser.add_argument("--version", action="version", version=f"snrmon {__version__}")
+    _add_common(parser, top=True)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
         if info.name.startswith("_"):
@@ -47,6 +122,10 @@ def build_parser() -> argparse.ArgumentParser:
         register = getattr(module, "register", None)
         if register is not None:
             register(sub)
+    for p in iter_parsers(parser):
+        if p is not parser:
+            _add_common(p, top=False)
+            p.set_defaults(prog=p.prog)  # the message prefix of the (sub)command that runs
     return parser
 
 
@@ -56,32 +135,63 @@ def _interrupt(signum: int, _frame: object) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # refused by the (sub)command they were given to, in its own words
+        prog = getattr(args, "prog", "")
+        leaf = next((p for p in iter_parsers(parser) if p.prog == prog), parser)
+        leaf.error(f"unrecognized arguments: {' '.join(extra)}")
     if getattr(args, "func", None) is None:
         parser.print_help()
-        return 2
+        return EXIT_USAGE
+    prog = getattr(args, "prog", "snrmon")
     previous: dict[int, object] = {}
     if threading.current_thread() is threading.main_thread():  # only it may set handlers
         for sig in (signal.SIGTERM, signal.SIGHUP):
             previous[sig] = signal.signal(sig, _interrupt)
     try:
-        return _run(args)
+        with logs.configured(prog, verbose=args.verbose, quiet=args.quiet, log_file=args.log_file):
+            progress.set_quiet(args.quiet, verbose=args.verbose >= 1)
+            return _run(args, prog)
+    except OSError as exc:  # the --log-file itself cannot be opened
+        print(f"{prog}: error: --log-file: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     finally:
+        progress.set_quiet(False)
         for sig, handler in previous.items():
             signal.signal(sig, handler)
 
 
-def _run(args: argparse.Namespace) -> int:
+def _first_line(exc: BaseException) -> str:
+    text = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
+    lines = text.strip().splitlines()
+    return lines[0] if lines else type(exc).__name__
+
+
+def _run(args: argparse.Namespace, prog: str) -> int:
+    verbose = args.verbose >= 1
     try:
         return int(args.func(args) or 0)
-    except UsageError as exc:
-        print(f"snrmon {args.command}: {exc}", file=sys.stderr)
-        return 2
-    except (ValueError, OSError, KeyError) as exc:
-        # Bad input from the packages (a malformed file, a missing port, an
-        # unknown preset): one line naming the thing, no traceback.
-        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-        print(f"snrmon {args.command}: error: {msg}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
-        return 130
+        return EXIT_INTERRUPTED
+    except BAD_INPUT as exc:
+        _report(prog, _first_line(exc), exc, verbose)
+        return EXIT_USAGE
+    except OSError as exc:
+        # A device, a link or a disk failed while working: a runtime failure.
+        _report(prog, _first_line(exc), exc, verbose)
+        return EXIT_FAILURE
+    except Exception as exc:
+        # Anything else is a bug, not the user's input: say so, with the traceback under -v.
+        hint = "" if verbose else " (run with -v for the traceback)"
+        message = f"internal error: {type(exc).__name__}: {_first_line(exc)}{hint}"
+        _report(prog, message, exc, verbose)
+        return EXIT_FAILURE
+
+
+def _report(prog: str, message: str, exc: BaseException, show_traceback: bool) -> None:
+    """The one error line on stderr (and the traceback with -v); the log file, if any, gets
+    the line and the traceback whatever the verbosity."""
+    print(f"{prog}: error: {message}", file=sys.stderr)
+    if show_traceback:
+        traceback.print_exception(exc, file=sys.stderr)
+    log.error(message, exc_info=exc, extra={logs.FILE_ONLY: True})

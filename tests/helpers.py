@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import json
 import threading
 import time
+from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 
@@ -40,3 +43,71 @@ def wait_until(predicate, timeout_s: float, what: str) -> None:
             if time.monotonic() > deadline:
                 raise AssertionError(f"timed out waiting for {what}")
             cond.wait(0.02)
+
+
+def sensor_toml(path: Path, fps: float = 60.0) -> Path:
+    """The LWIR preset, resized to the test cameras' format (W x H) at ``fps``: a sensor the
+    model accepts for a simulated camera of this size."""
+    from model.presets import PRESET_DIR
+
+    lines = []
+    for line in (PRESET_DIR / "lwir.toml").read_text().splitlines():
+        key = line.split("=")[0].strip()
+        value = {"width_px": W, "height_px": H, "fps": fps}.get(key)
+        lines.append(f"{key} = {value}" if value is not None else line)
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def strict_json(text: str):
+    """Parse like a strict RFC 8259 parser: NaN and Infinity are errors (Python's json module
+    accepts them by default), and so is anything but one document."""
+
+    def refuse(name: str):
+        raise ValueError(f"{name} is not JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+@contextmanager
+def field_devices(
+    ring: str,
+    *,
+    gps_utc=None,
+    fps: float = 60.0,
+    seed: int = 3,
+    range_m: float = 200.0,
+    lrf_hz: float = 10.0,
+):
+    """The simulated field kit, started: a shared-memory camera writing ``ring`` (a spot on
+    noise seeded ``seed``, W x H at ``fps``), an LDM rangefinder reading ``range_m`` at
+    ``lrf_hz`` and an NMEA GPS at a fixed point (its clock starting at ``gps_utc``; the
+    simulator's fixed 2019 date by default). Yields (camera, rangefinder, gps); all are stopped
+    on exit."""
+    from sim.devices.ldm_sim import LdmSimulator
+    from sim.devices.nmea_sim import NmeaSimulator
+    from sim.devices.shm_camera import ShmProducer
+
+    producer = ShmProducer(ring, W, H, SpotOnNoise(seed), fps=fps, slots=16)
+    producer.start()
+    lrf = LdmSimulator(lambda t: range_m, rate_hz=lrf_hz, tracking=True).start()
+    gps = NmeaSimulator(
+        lambda t: (32.3810, -106.4790, 1250.0), rate_hz=10.0, start_utc=gps_utc
+    ).start()
+    try:
+        yield producer, lrf, gps
+    finally:
+        producer.stop()
+        lrf.stop()
+        gps.stop()
+
+
+def field_config(path: Path, ring: str, gps_port: str, lrf_port: str, camera: str) -> Path:
+    """A session config naming the field kit (``camera``: extra lines of [cameras.cam])."""
+    path.write_text(
+        "[site]\nlat_deg = 32.38\nlon_deg = -106.48\nalt_m = 1200.0\n\n"
+        f'[cameras.cam]\nsource = "shm"\naddress = "{ring}"\n{camera}\n\n'
+        f'[lrf]\nprotocol = "ldm"\nport = "{lrf_port}"\n\n'
+        f'[gps]\nprotocol = "nmea"\nport = "{gps_port}"\nbaud = 38400\n'
+    )
+    return path

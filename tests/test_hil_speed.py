@@ -3,7 +3,6 @@ the flight at that speed keeps every frame and still finds its stops with 100 fr
 
 from __future__ import annotations
 
-import json
 import math
 import re
 
@@ -19,6 +18,7 @@ from snrmon.rig.speed import (
     TOTAL_SHARE,
     speed_from_loads,
 )
+from tests.helpers import strict_json
 
 
 def test_speed_is_the_tightest_share_rounded_down():
@@ -62,7 +62,7 @@ def test_hil_speed_max_keeps_every_frame_and_replays_exactly(capsys, tmp_path):
     assert m, err
     assert 0.1 <= float(m.group(1)) <= MAX_SPEED
     assert "the disk sustains" in err  # with --out the disk was measured too
-    result = json.loads(out)
+    result = strict_json(out)
     (stop,) = result["stops"]
     assert stop["planned_range_m"] == 393.0 and stop["n_frames"] == 100
     assert stop["measured_snr_mean"] == pytest.approx(stop["truth_snr"], rel=0.10)
@@ -72,7 +72,7 @@ def test_hil_speed_max_keeps_every_frame_and_replays_exactly(capsys, tmp_path):
     assert rec["frames_written"] == rec["frames_received"]
     # The recording replays to the live run's numbers, frame for frame and stop for stop.
     assert main(["replay", str(path), "--fast", "--json"]) == 0
-    replay = json.loads(capsys.readouterr().out)
+    replay = strict_json(capsys.readouterr().out)
     frames = replay["frames"]["lwir"]
     assert frames["dropped"] == 0 and frames["in_file"] == rec["frames_written"]["lwir"]
     assert frames["identical"] == frames["compared"] > 0

@@ -15,52 +15,18 @@ import pytest
 
 from acquisition.record.reader import open_session
 from acquisition.replay.batch import replay_session
-from sim.devices.ldm_sim import LdmSimulator
-from sim.devices.nmea_sim import NmeaSimulator
-from sim.devices.shm_camera import ShmProducer
 from snrmon.cli import main
-from tests.helpers import H, SpotOnNoise, W
+from tests.helpers import H, W, field_config, field_devices
 
 
 @pytest.fixture
 def devices(tmp_path):
     """A simulated shared-memory camera, LDM rangefinder and NMEA GPS, and the session config
     that names them."""
-    name = f"snrmon-rec-{time.monotonic_ns() % 10**9}"
-    producer = ShmProducer(name, W, H, SpotOnNoise(3), fps=60.0, slots=16)
-    producer.start()
-    lrf = LdmSimulator(lambda t: 200.0, rate_hz=10.0, tracking=True).start()
-    gps = NmeaSimulator(lambda t: (32.3810, -106.4790, 1250.0), rate_hz=10.0).start()
-    config = tmp_path / "session.toml"
-    config.write_text(
-        f"""
-[site]
-lat_deg = 32.38
-lon_deg = -106.48
-alt_m = 1200.0
-
-[cameras.cam]
-source = "shm"
-address = "{name}"
-width_px = {W}
-height_px = {H}
-
-[lrf]
-protocol = "ldm"
-port = "{lrf.path}"
-
-[gps]
-protocol = "nmea"
-port = "{gps.path}"
-baud = 38400
-"""
-    )
-    try:
-        yield config
-    finally:
-        producer.stop()
-        lrf.stop()
-        gps.stop()
+    ring = f"snrmon-rec-{time.monotonic_ns() % 10**9}"
+    with field_devices(ring) as (_, lrf, gps):
+        yield field_config(tmp_path / "session.toml", ring, gps.path, lrf.path,
+                           f"width_px = {W}\nheight_px = {H}")  # fmt: skip
 
 
 def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):
@@ -79,6 +45,11 @@ def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):
         meas = f.cameras["cam"].measurements
         assert (meas["peak_x"] == 64).mean() > 0.95
     assert f"cam {n} frames" in captured.out
+    # The session's log beside its recording: what wrote it, the devices' story, its end.
+    lines = out.with_suffix(".log").read_text().splitlines()
+    assert "recording rec.h5; snrmon " in lines[0] and "command: " in lines[0]
+    assert any("snrmon.progress: recording: " in line and "cam " in line for line in lines[1:-1])
+    assert lines[-1].endswith("recording log closed")
 
 
 def test_record_refuses_to_overwrite(tmp_path, capsys):
@@ -93,7 +64,7 @@ def test_record_refuses_to_overwrite(tmp_path, capsys):
 def test_record_bad_config_is_one_line(tmp_path, capsys):
     cfg = tmp_path / "c.toml"
     cfg.write_text('[cameras.a]\nsource = "firewire"\n')
-    assert main(["record", "--config", str(cfg), "--out", str(tmp_path / "o.h5")]) == 1
+    assert main(["record", "--config", str(cfg), "--out", str(tmp_path / "o.h5")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "firewire" in err
 

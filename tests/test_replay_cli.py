@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-import json
-
 from snrmon.cli import main
+from tests.helpers import strict_json
 
 
 def test_replay_of_a_video_measures_every_frame_from_the_click(shared_data, capsys):
     clip = shared_data / "ir_small_targets" / "videos" / "IR_DRONE_138.mp4"
     # frames.csv: frame 1 box at x=270, y=146 (1-based MATLAB corner), 8x8 -> centre ~ (273, 149)
     assert main(["replay", str(clip), "--at", "273,149", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = strict_json(capsys.readouterr().out)
     assert out["n"] == 301
     first = out["frames"][0]
     assert abs(first["peak_x"] - 273) <= 4 and abs(first["peak_y"] - 149) <= 4

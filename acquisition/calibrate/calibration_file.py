@@ -11,11 +11,11 @@ integration time is one ValueError and nothing is returned.
 
 from __future__ import annotations
 
-import json
 import tomllib
 from pathlib import Path
 
 import numpy as np
+import tomli_w
 
 from acquisition.calibrate.calibration import RADIANCE_UNIT, Calibration, check_matches_sensor
 
@@ -27,11 +27,6 @@ _ZERO_C_K = 273.15
 def sidecar_path(path: str | Path) -> Path:
     """The TOML beside ``path`` (same stem)."""
     return Path(path).with_suffix(".toml")
-
-
-def _toml_value(v) -> str:
-    # json's strings, numbers and lists are valid TOML values for what we write
-    return json.dumps(v)
 
 
 def calibration_metadata(cal: Calibration) -> dict:
@@ -59,15 +54,11 @@ def save_calibration(cal: Calibration, path: str | Path) -> Path:
     if p.suffix.lower() != ".npz":
         raise ValueError(f"calibration file must end in .npz, got {p}")
     np.savez(p, **{k: getattr(cal, k) for k in _MAPS})
-    lines = [
-        "# snrmon radiometric calibration (maps in the .npz beside this file)",
-        "[calibration]",
-    ]
-    for key, value in calibration_metadata(cal).items():
-        if key == "qe_curve" and not value:
-            continue  # absent: flat QE
-        lines.append(f"{key} = {_toml_value(value)}")
-    sidecar_path(p).write_text("\n".join(lines) + "\n")
+    meta = calibration_metadata(cal)
+    if not meta["qe_curve"]:
+        del meta["qe_curve"]  # absent: flat QE
+    header = "# snrmon radiometric calibration (maps in the .npz beside this file)\n"
+    sidecar_path(p).write_text(header + tomli_w.dumps({"calibration": meta}))
     return p
 
 
@@ -81,7 +72,7 @@ def load_calibration(
     side = sidecar_path(p)
     for f in (p, side):
         if not f.is_file():
-            raise OSError(f"calibration file {f} not found")
+            raise FileNotFoundError(f"calibration file {f} not found")
     try:
         meta = tomllib.loads(side.read_text()).get("calibration")
     except tomllib.TOMLDecodeError as exc:

@@ -30,6 +30,7 @@ from dataclasses import asdict, dataclass
 
 import cv2
 import numpy as np
+import tomli_w
 
 from acquisition.calibrate.calibration import Calibration, temperature_of
 
@@ -258,15 +259,22 @@ def target_toml(
         f"characterized from {result.n_frames} frames of {result.camera} at "
         f"{result.range_m:.1f} m ({result.method})"
     )
-    return "\n".join(
-        [
-            "[target]",
-            f"name = {name!r}".replace("'", '"'),
-            f"description = {desc!r}".replace("'", '"'),
-            f"small_m = {result.small_m:.4f}",
-            f"large_m = {max(result.large_m, result.small_m):.4f}",
-            f"temp_c = {{ {key} = {result.mean_temp_c:.3f} }}",
-            f"rss_delta_t_k = {{ {key} = {result.rss_delta_t_k:.3f} }}",
-            "",
-        ]
-    )
+    values = {
+        "small_m": result.small_m,
+        "large_m": max(result.large_m, result.small_m),
+        "temp_c": result.mean_temp_c,
+        "rss_delta_t_k": result.rss_delta_t_k,
+    }
+    finite = {k: float(v) for k, v in values.items() if v is not None and math.isfinite(v)}
+    if len(finite) < len(values):  # TOML has no null; a NaN would only fail later, in the model
+        missing = ", ".join(k for k in values if k not in finite)
+        raise ValueError(f"a target file needs finite values; not measured: {missing}")
+    table = {
+        "name": name,
+        "description": desc,
+        "small_m": round(finite["small_m"], 4),
+        "large_m": round(finite["large_m"], 4),
+        "temp_c": {key: round(finite["temp_c"], 3)},
+        "rss_delta_t_k": {key: round(finite["rss_delta_t_k"], 3)},
+    }
+    return tomli_w.dumps({"target": table})

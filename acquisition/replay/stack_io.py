@@ -3,8 +3,9 @@
 Sources (chosen by the file name's suffix):
 
 * ``.npy``: an array (N, H, W) or one frame (H, W) -> (1, H, W); loaded memory-mapped.
-* ``.tif``/``.tiff``: a multi-page TIFF, every page a frame, 16-bit kept (OpenCV
-  ``IMREAD_UNCHANGED``); colour pages keep their first channel.
+* ``.tif``/``.tiff``: a multi-page TIFF, every page a frame, 16-bit kept (tifffile: an
+  uncompressed contiguous stack is memory-mapped, any other read one page at a time, each page
+  once); colour pages keep their first channel.
 * ``.png``: one frame (H, W); colour keeps the first channel.
 * a raw binary file ``FILE`` with a JSON descriptor ``FILE.json`` beside it (``FILE.json`` may be
   given instead of ``FILE``)::
@@ -102,8 +103,102 @@ def _is_raw(path: Path) -> bool:
 def _open_video(path: Path) -> cv2.VideoCapture:
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
-        raise OSError(f"{path}: OpenCV cannot open this video")
+        raise ValueError(f"{path}: OpenCV cannot open this video")
     return cap
+
+
+def _open_tiff(path: Path):
+    import tifffile
+
+    try:
+        tif = tifffile.TiffFile(path)
+    except (tifffile.TiffFileError, ValueError, EOFError) as exc:
+        raise ValueError(f"{path}: not a readable TIFF ({exc})") from None
+    if not len(tif.pages):
+        tif.close()
+        raise ValueError(f"{path}: the TIFF holds no pages")
+    return tif
+
+
+def _page_size(page) -> tuple[int, int]:
+    return int(page.imagelength), int(page.imagewidth)
+
+
+# Bytes of pages per OpenCV call in the fallback: each call walks (and decodes) from page 0, so
+# fewer, larger calls; bounded so that a long MWIR stack is not read into memory whole.
+_CV_CHUNK_BYTES = 256 * 2**20
+
+
+def _page_pixels(page) -> np.ndarray:
+    image = page.asarray()
+    if image.ndim == 3 and image.shape[-1] not in (3, 4) and image.shape[0] in (3, 4):
+        image = image[0]  # planar (separate) colour: the first plane
+    return _grey(image)
+
+
+def _cv_pages(path: Path, start: int, n_pages: int, page_bytes: int) -> Iterator[np.ndarray]:
+    """Pages ``start..n_pages-1`` through OpenCV, for compressions tifffile decodes only with
+    the optional imagecodecs package (``pip install snrmon[tiff]``; LZW, as OpenCV itself
+    writes); chunked, so the cost of OpenCV's walk from page 0 is paid once per chunk, not once
+    per page."""
+    chunk = max(1, _CV_CHUNK_BYTES // max(page_bytes, 1))
+    for first in range(start, n_pages, chunk):
+        count = min(chunk, n_pages - first)
+        ok, mats = cv2.imreadmulti(str(path), first, count, flags=cv2.IMREAD_UNCHANGED)
+        if not ok or len(mats) != count:
+            raise ValueError(f"{path}: cannot read TIFF pages {first}-{first + count - 1}")
+        for m in mats:
+            yield _grey(m)
+
+
+def _mappable(tif, n_pages: int, size: tuple[int, int]) -> bool:
+    """One uncompressed series of single-channel pages stored contiguously."""
+    if len(tif.series) != 1:
+        return False
+    series = tif.series[0]
+    pixels = n_pages * size[0] * size[1]
+    return series.dataoffset is not None and int(np.prod(series.shape)) == pixels
+
+
+def _tiff_pages(path: Path) -> Iterator[np.ndarray]:
+    """Pages one at a time, each read once: from a memory map where the file allows, else page
+    by page (OpenCV's ``imreadmulti(path, i, 1)`` walked the file from page 0 for every page:
+    quadratic in the page count)."""
+    import tifffile
+
+    with _open_tiff(path) as tif:
+        n_pages = len(tif.pages)
+        sizes = sorted({_page_size(p) for p in tif.pages})
+        if len(sizes) != 1:
+            raise ValueError(f"{path}: TIFF pages differ in size: {sizes}")
+        if _mappable(tif, n_pages, sizes[0]):
+            yield from tifffile.memmap(path, mode="r").reshape(n_pages, *sizes[0])
+            return
+        tif.pages.cache = False  # a long stack is not kept in memory page by page
+        for i, page in enumerate(tif.pages):
+            try:
+                pixels = _page_pixels(page)
+            except ValueError as exc:
+                if "imagecodecs" not in str(exc):
+                    raise ValueError(f"{path}: cannot read TIFF page {i} ({exc})") from None
+                page_bytes = sizes[0][0] * sizes[0][1] * page.dtype.itemsize
+                yield from _cv_pages(path, i, n_pages, page_bytes)
+                return
+            yield pixels
+
+
+def _load_tiff(path: Path) -> np.ndarray:
+    """The whole stack: memory-mapped when the file stores it uncompressed and contiguous (as
+    cameras and ImageJ write it), else read page by page into one array."""
+    import tifffile
+
+    with _open_tiff(path) as tif:
+        n_pages = len(tif.pages)
+        sizes = sorted({_page_size(p) for p in tif.pages})
+        mappable = len(sizes) == 1 and _mappable(tif, n_pages, sizes[0])
+    if mappable:
+        return tifffile.memmap(path, mode="r").reshape(n_pages, *sizes[0])
+    return np.stack(list(_tiff_pages(path)))
 
 
 def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
@@ -113,7 +208,7 @@ def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
     suffix = path.suffix.lower()
     if suffix in VIDEO_SUFFIXES:
         if not path.is_file():
-            raise OSError(f"{path}: no such file")
+            raise FileNotFoundError(f"{path}: no such file")
         cap = _open_video(path)
         try:
             while True:
@@ -125,15 +220,8 @@ def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
             cap.release()
     elif suffix in (".tif", ".tiff"):
         if not path.is_file():
-            raise OSError(f"{path}: no such file")
-        pages = cv2.imcount(str(path))
-        if pages <= 0:
-            raise ValueError(f"{path}: OpenCV cannot read this TIFF")
-        for i in range(pages):
-            ok, mats = cv2.imreadmulti(str(path), i, 1, flags=cv2.IMREAD_UNCHANGED)
-            if not ok or not mats:
-                raise ValueError(f"{path}: cannot read TIFF page {i}")
-            yield _grey(mats[0])
+            raise FileNotFoundError(f"{path}: no such file")
+        yield from _tiff_pages(path)
     else:
         yield from load_stack(path)
 
@@ -146,7 +234,7 @@ def load_stack(path: str | Path) -> np.ndarray:
         data, shape, dtype = _raw_descriptor(path)
         return _as_stack(np.memmap(data, dtype=dtype, mode="r", shape=shape), data)
     if not path.is_file():
-        raise OSError(f"{path}: no such file")
+        raise FileNotFoundError(f"{path}: no such file")
     if suffix == ".npy":
         try:
             array = np.load(path, mmap_mode="r", allow_pickle=False)
@@ -154,13 +242,7 @@ def load_stack(path: str | Path) -> np.ndarray:
             raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
         return _as_stack(array, path)
     if suffix in (".tif", ".tiff"):
-        ok, mats = cv2.imreadmulti(str(path), flags=cv2.IMREAD_UNCHANGED)
-        if not ok or not mats:
-            raise ValueError(f"{path}: OpenCV cannot read this TIFF")
-        shapes = {m.shape[:2] for m in mats}
-        if len(shapes) != 1:
-            raise ValueError(f"{path}: TIFF pages differ in size: {sorted(shapes)}")
-        return _as_stack(np.stack([_grey(m) for m in mats]), path)
+        return _as_stack(_load_tiff(path), path)
     if suffix == ".png":
         image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         if image is None:

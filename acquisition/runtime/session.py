@@ -27,6 +27,7 @@ from acquisition.engine.inputs import Measurement
 from acquisition.engine.session_engine import SessionEngine
 from acquisition.engine.status import RecordingStatus, SessionStatus
 from acquisition.record.recorder import SessionRecorder
+from acquisition.record.session_log import RecordingLog
 from acquisition.runtime.camera_pipeline import CameraPipeline
 from acquisition.stops.detector import Stop, StopConfig
 from acquisition.stops.table import Predictor, StopRow
@@ -86,6 +87,7 @@ class Session:
         self._last_lrf: RangeReading | None = None
         self._last_fix: GpsFix | None = None
         self._recorder: SessionRecorder | None = None
+        self._recording_log: RecordingLog | None = None
         self.last_recording = None  # the summary of the last recording closed
         all_shapes = {
             cam.name: (shapes or {}).get(cam.name) or self._shape_of(cam) for cam in config.cameras
@@ -226,6 +228,7 @@ class Session:
             path, config=self._config_record(), cameras=shapes, clock=self.clock,
             **recorder_options,
         )  # fmt: skip
+        self._recording_log = RecordingLog(path).start()  # FILE.log beside FILE.h5
         for pipe in self.pipelines.values():
             cal = pipe.corrector.calibration
             if cal is not None:
@@ -266,7 +269,12 @@ class Session:
             self._recorder = None
         for pipe in self.pipelines.values():
             pipe.detach_recorder()
-        self.last_recording = rec.stop()
+        try:
+            self.last_recording = rec.stop()
+        finally:
+            recording_log, self._recording_log = self._recording_log, None
+            if recording_log is not None:
+                recording_log.stop()
         return self.last_recording
 
     # ------------------------------------------------------------------ the engine's sink

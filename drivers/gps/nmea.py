@@ -5,10 +5,15 @@ general library's: every failure must be a :class:`drivers.errors.ParseError` (t
 us to it), checksum-less sentences are accepted only for the addresses a configuration names,
 over-long lines are accepted, and proprietary sentences are counted and ignored.
 
-Rules (gpsd ``www/NMEA.adoc``): ``$`` + address (talker GP/GN/GL/GA/GB/BD/QZ + type, or ``P`` +
-maker for proprietary) + ``,`` fields + ``*hh`` where hh is the XOR of the bytes between ``$`` and
-``*``. GGA carries time of day, position, quality, satellites, HDOP and altitude but no date;
-RMC and ZDA carry the date, so :class:`NmeaAssembler` combines them.
+Framing and checksums: :mod:`drivers.gps.nmea_frame` (re-exported here). GGA carries time of
+day, position, quality, satellites, HDOP and altitude but no date; RMC and ZDA carry the date,
+so :class:`NmeaAssembler` combines them.
+
+Leniency where it is safe (as gpsd does): a sentence whose checksum matches but whose date or
+time field is malformed or impossible (a receiver after the 2019 GPS week rollover sends RMC
+dates like ``2208-1``) keeps its position; its fix has ``utc = None`` (time unknown, never
+guessed) and ``NmeaCounts.bad_time`` counts it. Without a checksum nothing vouches for the rest
+of the sentence, so there a bad date or time is still a ParseError.
 """
 
 from __future__ import annotations
@@ -18,95 +23,19 @@ from collections.abc import Collection
 from dataclasses import dataclass, field
 from datetime import UTC, date, datetime, time, timedelta
 
-from drivers.checksum import xor_checksum
-from drivers.errors import ChecksumError, ParseError
+from drivers.errors import ParseError
 from drivers.gps.fix import GpsFix
+from drivers.gps.nmea_frame import (  # noqa: F401 (re-exported: the module's public names)
+    KNOWN_TYPES,
+    POSITION_TYPES,
+    TALKERS,
+    Sentence,
+    nmea_checksum,
+    parse_sentence,
+)
 
-TALKERS = frozenset({"GP", "GN", "GL", "GA", "GB", "BD", "QZ", "GI"})
-POSITION_TYPES = frozenset({"GGA", "RMC"})
-KNOWN_TYPES = frozenset({"GGA", "RMC", "GSA", "VTG", "ZDA", "GSV", "GLL", "GST", "TXT"})
-_ADDRESS = re.compile(r"^[A-Z][A-Z0-9]{1,15}$")
 _NUMBER = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)$")
 _HMS = re.compile(r"^(\d{2})(\d{2})(\d{2})(\.\d+)?$")
-
-
-nmea_checksum = xor_checksum  # the name NMEA users look for
-
-
-@dataclass(frozen=True, slots=True)
-class Sentence:
-    """One framed sentence: ``talker`` ("P" for proprietary), ``kind`` (GGA, or the maker's
-    code for proprietary), the fields after the address, and whether a checksum was present."""
-
-    talker: str
-    kind: str
-    fields: tuple[str, ...]
-    has_checksum: bool
-    raw: str
-
-    @property
-    def address(self) -> str:
-        return self.talker + self.kind
-
-    @property
-    def proprietary(self) -> bool:
-        return self.talker == "P"
-
-
-def parse_sentence(
-    line: bytes | str, *, allow_no_checksum: bool | Collection[str] = False
-) -> Sentence:
-    """Frame and verify one line.
-
-    Args:
-        line: the line with or without its CR/LF.
-        allow_no_checksum: ``True`` accepts any sentence without ``*hh``; a collection of
-            addresses (``{"POLYN", "STI"}``) accepts only those; ``False`` accepts none.
-
-    Raises:
-        ChecksumError: the checksum is present and wrong (or not two hex digits).
-        ParseError: anything else that is not a sentence.
-    """
-    if isinstance(line, bytes):
-        try:
-            text = line.decode("ascii")
-        except UnicodeDecodeError:
-            raise ParseError(f"NMEA: non-ASCII bytes in {line[:60]!r}") from None
-    else:
-        text = line
-    text = text.rstrip("\r\n")
-    if not text.startswith("$"):
-        raise ParseError(f"NMEA: no '$' at start of {text[:60]!r}")
-    if not text.isprintable():
-        raise ParseError(f"NMEA: control characters in {text[:60]!r}")
-    star = text.rfind("*")
-    if star >= 0:
-        body, given = text[1:star], text[star + 1 :]
-        if len(given) != 2 or any(c not in "0123456789ABCDEFabcdef" for c in given):
-            raise ChecksumError(f"NMEA: malformed checksum {given!r} in {text[:60]!r}")
-        if int(given, 16) != nmea_checksum(body):
-            raise ChecksumError(
-                f"NMEA: checksum {given} != computed {nmea_checksum(body):02X} in {text[:60]!r}"
-            )
-    else:
-        body = text[1:]
-    parts = body.split(",")
-    address = parts[0]
-    if not _ADDRESS.match(address):
-        raise ParseError(f"NMEA: bad address {address[:20]!r} in {text[:60]!r}")
-    if star < 0:
-        allowed = allow_no_checksum is True or (
-            not isinstance(allow_no_checksum, bool) and address in allow_no_checksum
-        )
-        if not allowed:
-            raise ParseError(f"NMEA: no checksum in {text[:60]!r}")
-    if address.startswith("P"):
-        talker, kind = "P", address[1:]
-    elif len(address) == 5:
-        talker, kind = address[:2], address[2:]
-    else:  # e.g. SkyTraq's loader messages "$STI,...": framed, but no talker to decode
-        talker, kind = "", address
-    return Sentence(talker, kind, tuple(parts[1:]), star >= 0, text)
 
 
 # --------------------------------------------------------------------------- field decoders
@@ -177,6 +106,7 @@ class Gga:
     hdop: float | None
     alt_msl_m: float | None
     geoid_sep_m: float | None
+    time_error: str = ""  # why a checksummed sentence's time was set aside (lenient decode)
 
 
 @dataclass(frozen=True, slots=True)
@@ -188,6 +118,7 @@ class Rmc:
     speed_kn: float | None
     course_deg: float | None
     day: date | None
+    time_error: str = ""  # why a checksummed sentence's date or time was set aside
 
 
 @dataclass(frozen=True, slots=True)
@@ -218,10 +149,22 @@ def _alt(s: Sentence, i: int, what: str) -> float | None:
     return v
 
 
+def _lenient(s: Sentence, decode, *args):
+    """``decode(s, *args)``, or (None, the error) when the sentence is checksummed (see the
+    module docstring); a sentence without a checksum stays strict."""
+    try:
+        return decode(s, *args), ""
+    except ParseError as exc:
+        if not s.has_checksum:
+            raise
+        return None, str(exc)
+
+
 def decode_gga(s: Sentence) -> Gga:
     quality = _int(s, 5, "quality")
+    tod, time_error = _lenient(s, _hms, 0)
     return Gga(
-        tod=_hms(s, 0),
+        tod=tod,
         lat_deg=_angle(s, 1, "NS", 2, 90.0),
         lon_deg=_angle(s, 3, "EW", 3, 180.0),
         quality=quality or 0,
@@ -229,6 +172,7 @@ def decode_gga(s: Sentence) -> Gga:
         hdop=_float(s, 7, "HDOP"),
         alt_msl_m=_alt(s, 8, "altitude"),
         geoid_sep_m=_alt(s, 10, "geoid separation"),
+        time_error=time_error,
     )
 
 
@@ -250,14 +194,17 @@ def decode_rmc(s: Sentence) -> Rmc:
     status = _field(s, 1)
     if status not in ("A", "V", ""):
         raise ParseError(f"NMEA {s.address}: status {status!r} is not A or V")
+    tod, tod_error = _lenient(s, _hms, 0)
+    day, day_error = _lenient(s, _ddmmyy, 8)
     return Rmc(
-        tod=_hms(s, 0),
+        tod=tod,
         valid=status == "A",
         lat_deg=_angle(s, 2, "NS", 2, 90.0),
         lon_deg=_angle(s, 4, "EW", 3, 180.0),
         speed_kn=_float(s, 6, "speed"),
         course_deg=_float(s, 7, "course"),
-        day=_ddmmyy(s, 8),
+        day=day,
+        time_error="; ".join(e for e in (tod_error, day_error) if e),
     )
 
 
@@ -290,6 +237,7 @@ class NmeaCounts:
     proprietary: int = 0
     ignored: int = 0
     no_checksum: int = 0
+    bad_time: int = 0  # positions kept with the time unknown (malformed date/time, checksum ok)
     by_address: dict[str, int] = field(default_factory=dict)
 
 
@@ -358,6 +306,8 @@ class NmeaAssembler:
 
     def _from_gga(self, g: Gga, raw: str, t_host_ns: int) -> GpsFix:
         self._gga = g
+        if g.time_error:
+            self.counts.bad_time += 1
         return GpsFix(
             t_host_ns=t_host_ns,
             utc=self._utc(g.tod),
@@ -376,13 +326,16 @@ class NmeaAssembler:
         )
 
     def _from_rmc(self, r: Rmc, raw: str, t_host_ns: int) -> GpsFix:
-        if r.day is not None:
+        if r.time_error:
+            self.counts.bad_time += 1
+        elif r.day is not None:
             self._set_day(r.day, r.tod)
-        g = self._gga if self._gga is not None and self._gga.tod == r.tod else None
+        same_epoch = self._gga is not None and r.tod is not None and self._gga.tod == r.tod
+        g = self._gga if same_epoch else None
         quality = (g.quality if g is not None and g.quality > 0 else 1) if r.valid else 0
         return GpsFix(
             t_host_ns=t_host_ns,
-            utc=self._utc(r.tod),
+            utc=None if r.time_error else self._utc(r.tod),
             lat_deg=r.lat_deg,
             lon_deg=r.lon_deg,
             alt_msl_m=g.alt_msl_m if g else None,

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import pkgutil
 import platform
 import sys
 
 import benchmarks
+from snrmon.cli import UsageError
+from snrmon.output import emit_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -31,21 +32,31 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def _modules() -> dict:
+    """{key: module} of every ``benchmarks/bench_*.py``."""
+    out = {}
+    for info in sorted(pkgutil.iter_modules(benchmarks.__path__), key=lambda m: m.name):
+        if info.name.startswith("bench_"):
+            module = importlib.import_module(f"benchmarks.{info.name}")
+            out[getattr(module, "KEY", info.name.removeprefix("bench_"))] = module
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
-    if args.duration <= 0:
-        raise ValueError(f"--duration must be positive, got {args.duration}")
+    if not args.duration > 0:
+        raise UsageError(f"--duration must be positive, got {args.duration}")
     only = {k.strip() for k in args.only.split(",") if k.strip()}
+    modules = _modules()
+    unknown = sorted(only - set(modules))
+    if unknown:
+        raise UsageError(f"--only {','.join(unknown)}: unknown; known: {', '.join(modules)}")
     result: dict = {
         "machine": {
             "python": platform.python_version(),
             "processor": platform.processor() or platform.machine(),
         }
     }
-    for info in sorted(pkgutil.iter_modules(benchmarks.__path__), key=lambda m: m.name):
-        if not info.name.startswith("bench_"):
-            continue
-        module = importlib.import_module(f"benchmarks.{info.name}")
-        key = getattr(module, "KEY", info.name.removeprefix("bench_"))
+    for key, module in modules.items():
         if only and key not in only:
             continue
         if not args.json:
@@ -58,11 +69,10 @@ def run(args: argparse.Namespace) -> int:
         else:
             result.setdefault(key, {}).update(figures)
     if args.json:
-        print(json.dumps(result, indent=2))
-    else:
-        for key, figures in result.items():
-            print(f"[{key}]")
-            for name, value in figures.items():
-                shown = f"{value:.4g}" if isinstance(value, float) else value
-                print(f"  {name:32s} {shown}")
+        return emit_json(result, indent=2)
+    for key, figures in result.items():
+        print(f"[{key}]")
+        for name, value in figures.items():
+            shown = f"{value:.4g}" if isinstance(value, float) else value
+            print(f"  {name:32s} {shown}")
     return 0

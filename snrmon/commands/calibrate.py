@@ -12,7 +12,6 @@ blackbody temperature in degrees C. Writes CAL.npz and CAL.toml and prints the q
 from __future__ import annotations
 
 import argparse
-import json
 
 from acquisition.calibrate.calibration import (
     BlackbodyCapture,
@@ -23,6 +22,8 @@ from acquisition.calibrate.calibration_file import save_calibration
 from acquisition.replay.stack_io import load_stack
 from model.presets import load_sensor
 from snrmon.cli import UsageError
+from snrmon.inputs import output_file
+from snrmon.output import emit_json
 
 ZERO_C_K = 273.15
 
@@ -43,7 +44,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("calibrate", help="radiometric calibration from blackbody stacks")
     p.add_argument("--camera", required=True, help="sensor preset (mwir, lwir) or TOML")
     p.add_argument(
-        "--blackbody", type=_blackbody, action="append", required=True, metavar="STACK:TEMP_C"
+        "--blackbody",
+        type=_blackbody,
+        action="append",
+        required=True,
+        metavar="STACK:TEMP_C",
+        help="a stack of the blackbody and its temperature in C (repeat: two or more)",
     )
     p.add_argument("-o", "--output", required=True, help="calibration file to write (.npz)")
     p.add_argument("--json", action="store_true", help="print the quality report as JSON")
@@ -54,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
     sensor = load_sensor(args.camera)
     if not str(args.output).endswith(".npz"):
         raise UsageError(f"-o must name a .npz file, got {args.output!r}")
+    output_file(args.output, "-o")
     captures = [
         BlackbodyCapture(temp_c + ZERO_C_K, load_stack(path)) for path, temp_c in args.blackbody
     ]
@@ -61,8 +68,7 @@ def run(args: argparse.Namespace) -> int:
     path = save_calibration(cal, args.output)
     q = calibration_quality(cal, captures, sensor.netd_mk)
     if args.json:
-        print(json.dumps({"file": str(path), **q.as_dict()}))
-        return 0
+        return emit_json({"file": str(path), **q.as_dict()})
     print(f"calibration of {cal.camera} written to {path} (+ {path.with_suffix('.toml').name})")
     print(
         f"bad pixels: {q.bad_counts['total']} (dead {q.bad_counts['dead']}, hot "

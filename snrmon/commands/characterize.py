@@ -16,7 +16,6 @@ ROI; ``acquisition.calibrate.characterize`` segments the drone. JSON contract: `
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +27,8 @@ from acquisition.record.reader import append_event, open_session
 from acquisition.replay.batch import replay_session
 from model.presets import load_sensor
 from snrmon.cli import UsageError
+from snrmon.inputs import input_file, output_file, session_file
+from snrmon.output import emit_json
 
 # A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
 # stop; only a frame without a trustworthy position is skipped.
@@ -37,16 +38,25 @@ _NO_POSITION = frozenset({FLAG_LOST, FLAG_EDGE})
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("characterize", help="drone size and temperature from a close stop")
     p.add_argument("file", help="session file (.h5)")
-    p.add_argument("--camera", required=True)
+    p.add_argument("--camera", required=True, help="camera of the session to characterize")
     p.add_argument("--stop", type=int, required=True, help="stop number as in the stop table")
     p.add_argument("--calibration", help="calibration .npz of this camera (for temperatures)")
     p.add_argument("--sensor", help="sensor preset/TOML (default: the session's, else --camera)")
     p.add_argument("--frames", type=int, default=100, help="frames of the stop to use (100)")
-    p.add_argument("--method", choices=("otsu", "ksigma"), default="otsu")
+    p.add_argument(
+        "--method",
+        choices=("otsu", "ksigma"),
+        default="otsu",
+        help="segmentation of the drone from the sky: Otsu's threshold (default) or k sigma",
+    )
     p.add_argument("--roi-px", type=int, default=32, help="ROI half size [px] (32)")
     p.add_argument("--target-out", help="write a target TOML (needs --calibration)")
-    p.add_argument("--target-name", default="characterized")
-    p.add_argument("--json", action="store_true")
+    p.add_argument(
+        "--target-name",
+        default="characterized",
+        help="the name written into --target-out (default: characterized)",
+    )
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.add_argument(
         "--no-record",
         action="store_true",
@@ -64,6 +74,15 @@ def _sensor_name(path: str, camera: str) -> str:
 def run(args: argparse.Namespace) -> int:
     if args.frames < 1:
         raise UsageError(f"--frames must be >= 1, got {args.frames}")
+    if args.roi_px < 1:
+        raise UsageError(f"--roi-px must be >= 1, got {args.roi_px}")
+    session_file(args.file)
+    if args.calibration:
+        input_file(args.calibration, "--calibration")
+    if args.target_out:
+        if not args.calibration:
+            raise UsageError("--target-out needs --calibration (a target file needs temperatures)")
+        output_file(args.target_out, "--target-out", suffixes=(".toml",))
     sensor = load_sensor(args.sensor or _sensor_name(args.file, args.camera))
     # track=False: the tracker's point-target tests (brightness, rim contamination) declare a
     # resolved drone LOST; at a hover the search window around the click holds it.
@@ -110,8 +129,7 @@ def run(args: argparse.Namespace) -> int:
         # The characterization belongs to the session it was measured from.
         append_event(args.file, "target_characterized", camera=args.camera, payload=out)
     if args.json:
-        print(json.dumps(out))
-        return 0
+        return emit_json(out)
     for key, value in out.items():
         print(f"{key:>22}: {value:.4g}" if isinstance(value, float) else f"{key:>22}: {value}")
     return 0

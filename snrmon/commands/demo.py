@@ -19,6 +19,8 @@ import time
 from pathlib import Path
 
 from snrmon.cli import UsageError
+from snrmon.commands.gui import add_status_file_option
+from snrmon.inputs import output_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -52,6 +54,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="render the report at the end: from the recording with --out, else from the "
         "live stop table (headless default: out/demo-report.pdf)",
     )
+    add_status_file_option(p)
     p.set_defaults(func=run)
 
 
@@ -84,10 +87,14 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.rig.rig import HilOptions, HilRig
     from snrmon.rig.table import TABLE_HEADER, format_result
 
-    if args.out is not None and args.out.exists():
-        raise UsageError(f"{args.out} already exists (a session file is never overwritten)")
+    if args.out is not None:
+        output_file(args.out, "--out", suffixes=(".h5",), new=True)
     if not args.speed > 0:
         raise UsageError(f"--speed must be positive, got {args.speed}")
+    if args.duration is not None and not args.duration > 0:
+        raise UsageError(f"--duration must be positive, got {args.duration}")
+    if args.status_file is not None:
+        output_file(args.status_file, "--status-file", suffixes=(".json",))
     headless = args.headless or not _has_display()
     screenshot = args.screenshot
     if screenshot is None and headless:
@@ -130,6 +137,7 @@ def run(args: argparse.Namespace) -> int:
                 headless=headless,
                 duration_s=duration,
                 screenshot=screenshot,
+                status_file=args.status_file,
             )
         finally:
             done.set()

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import argparse
 import glob
-import json
 import os
 from pathlib import Path
 
 from drivers.camera.usb import list_usb_cameras
+from snrmon.output import emit_json
 
 
 def _section(devices: list[dict], available: bool = True, note: str = "") -> dict:
@@ -142,5 +142,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     report = collect()
-    print(json.dumps(report, indent=2) if args.json else render(report), flush=True)
+    if args.json:
+        return emit_json(report, indent=2)
+    print(render(report), flush=True)
     return 0

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 from pathlib import Path
 
@@ -30,6 +29,7 @@ from acquisition.geo.projection import (
     project_to_pixel,
 )
 from snrmon.cli import UsageError
+from snrmon.output import emit_json
 
 PAIR_COLUMNS = ("x_px", "y_px", "lat_deg", "lon_deg", "alt_m")
 
@@ -117,26 +117,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     cal.set_defaults(func=run_calibrate)
 
 
-def _finite_or_none(v: float) -> float | None:
-    return v if math.isfinite(v) else None
-
-
 def run_pixel(args: argparse.Namespace) -> int:
     cam = intrinsics_of(args)
     site = Site(*parse_triple(args.site, "--site"))
     pointing = Pointing(*parse_triple(args.pointing, "--pointing"))
     p = project_to_pixel(site, pointing, cam, *parse_triple(args.target, "--target"))
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "x": _finite_or_none(p.x),
-                    "y": _finite_or_none(p.y),
-                    "range_m": p.range_m,
-                    "in_view": p.in_view,
-                }
-            )
-        )
+        return emit_json({"x": p.x, "y": p.y, "range_m": p.range_m, "in_view": p.in_view})
     else:
         where = "behind the camera" if math.isnan(p.x) else f"x={p.x:.2f}  y={p.y:.2f}"
         seen = "in view" if p.in_view else "NOT in view"
@@ -169,18 +156,16 @@ def run_calibrate(args: argparse.Namespace) -> int:
     )
     fit = calibrate_pointing(read_pairs(args.pairs), site, cam, initial)
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "az_deg": fit.az_deg,
-                    "el_deg": fit.el_deg,
-                    "roll_deg": fit.roll_deg,
-                    "residual_px_rms": fit.residual_px_rms,
-                    "residual_px_max": fit.residual_px_max,
-                    "residuals_px": list(fit.residuals_px),
-                    "n_pairs": fit.n_pairs,
-                }
-            )
+        return emit_json(
+            {
+                "az_deg": fit.az_deg,
+                "el_deg": fit.el_deg,
+                "roll_deg": fit.roll_deg,
+                "residual_px_rms": fit.residual_px_rms,
+                "residual_px_max": fit.residual_px_max,
+                "residuals_px": list(fit.residuals_px),
+                "n_pairs": fit.n_pairs,
+            }
         )
     else:
         print(

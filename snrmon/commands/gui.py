@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from snrmon.cli import UsageError
+from snrmon.inputs import input_file, output_file, session_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,16 +18,41 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--headless", action="store_true", help="run offscreen (no display needed)")
     p.add_argument("--duration", type=float, help="close after this many seconds")
     p.add_argument("--screenshot", type=Path, help="save the window to this PNG at the end")
+    add_status_file_option(p)
     p.set_defaults(func=run)
 
 
+def add_status_file_option(p: argparse.ArgumentParser) -> None:
+    """``--status-file``, shared with ``snrmon demo``."""
+    p.add_argument(
+        "--status-file",
+        type=Path,
+        metavar="FILE.json",
+        help="keep the console's state (ROI, SNR readout, where each image is on the screen) "
+        "in FILE.json, rewritten 5 times a second, for scripts and tests",
+    )
+
+
+def check_console_outputs(args: argparse.Namespace) -> None:
+    """Before a window opens: the files it will write can be written."""
+    if args.duration is not None and not args.duration > 0:
+        raise UsageError(f"--duration must be positive, got {args.duration}")
+    if args.screenshot is not None:
+        output_file(args.screenshot, "--screenshot", suffixes=(".png",))
+    if args.status_file is not None:
+        output_file(args.status_file, "--status-file", suffixes=(".json",))
+
+
 def run(args: argparse.Namespace) -> int:
+    check_console_outputs(args)
     if args.replay is not None:
         if args.config is not None:
-            raise UsageError("snrmon gui: give --config FILE.toml or --replay FILE.h5, not both")
+            raise UsageError("give --config FILE.toml or --replay FILE.h5, not both")
+        session_file(args.replay, "--replay")
         return _run_replay(args)
     if args.config is None:
-        raise UsageError("snrmon gui needs --config FILE.toml (or --replay FILE.h5)")
+        raise UsageError("needs --config FILE.toml (or --replay FILE.h5)")
+    input_file(args.config, "--config")
     from acquisition.config import load_session_config
     from acquisition.prediction import ModelPredictor
     from acquisition.runtime.session import Session
@@ -41,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
             headless=args.headless,
             duration_s=args.duration,
             screenshot=args.screenshot,
+            status_file=args.status_file,
         )
 
 
@@ -63,4 +90,5 @@ def _run_replay(args: argparse.Namespace) -> int:
             headless=args.headless,
             duration_s=args.duration,
             screenshot=args.screenshot,
+            status_file=args.status_file,
         )

@@ -9,23 +9,13 @@ the model's prediction beside each measurement.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from dataclasses import replace
 
 from snrmon.cli import UsageError
-
-
-def strict_json(value):
-    """``value`` with every non-finite float as None (JSON has no NaN)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: strict_json(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [strict_json(v) for v in value]
-    return value
+from snrmon.inputs import output_file
+from snrmon.output import emit_json
 
 
 def _floats(text: str, what: str) -> tuple[float, ...]:
@@ -40,7 +30,9 @@ def _floats(text: str, what: str) -> tuple[float, ...]:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("hil", help="run the simulated field test through the real console")
-    p.add_argument("--headless", action="store_true", help="no window (always true for now)")
+    p.add_argument(
+        "--headless", action="store_true", help="no window (always: `snrmon demo` has the console)"
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of every simulated device")
     p.add_argument(
         "--speed",
@@ -79,6 +71,11 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.rig.table import format_result
 
     speed = 1.0 if args.speed == "max" else _floats(args.speed, "--speed")[0]
+    if args.out is not None:
+        output_file(args.out, "--out", suffixes=(".h5",), new=True)
+    for option, value in (("--hover-s", args.hover_s), ("--transit-mps", args.transit_mps)):
+        if not value > 0:
+            raise UsageError(f"{option} must be positive, got {value}")
     cameras = tuple(c.strip() for c in args.camera.split(",") if c.strip())
     unknown = [c for c in cameras if c not in ("mwir", "lwir")]
     if unknown or not cameras:
@@ -117,8 +114,7 @@ def run(args: argparse.Namespace) -> int:
     if not opts.track:
         result["note"] = "tracking off: the simulator re-clicked the drone at every stop"
     if args.json:
-        print(json.dumps(strict_json(result), allow_nan=False))
-        return 0
+        return emit_json(result)  # a stop without truth or model: null, not NaN
     print(format_result(result))
     if rig.recording is not None:
         r = rig.recording

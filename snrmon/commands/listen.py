@@ -8,7 +8,6 @@ sends bad data.
 from __future__ import annotations
 
 import argparse
-import json
 import queue
 import sys
 import threading
@@ -18,6 +17,7 @@ from drivers.config import GPS_PROTOCOLS, LRF_PROTOCOLS, device_from_config
 from drivers.device import DeviceState, DeviceStatus
 from drivers.gps.fix import GpsFix
 from drivers.rangefinder.reading import RangeReading
+from snrmon.output import dumps
 
 DEFAULT_PROTOCOL = {"gps": "nmea", "lrf": "trupulse"}
 DEFAULT_COUNT_TIMEOUT_S = 30.0
@@ -165,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
             except queue.Empty:
                 continue
             n += 1
-            line = json.dumps(record(reading)) if args.json else reading_line(reading)
+            line = dumps(record(reading)) if args.json else reading_line(reading)
             print(line, flush=True)
     finally:
         device.close()

@@ -20,9 +20,7 @@ carry the tracker's flags (``lost``, ``gps_cued``) and each frame gains ``"track
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import sys
 
 import numpy as np
 
@@ -33,6 +31,7 @@ from acquisition.measure.stack_snr import StackSnr, measure_stack
 from acquisition.replay.stack_io import load_stack
 from acquisition.track.tracker import TrackStep, track_stack
 from snrmon.cli import UsageError
+from snrmon.output import emit_json
 
 
 def _point(text: str) -> tuple[int, int]:
@@ -169,9 +168,7 @@ def run(args: argparse.Namespace) -> int:
                 frame["track_state"] = steps[i].state.value
             frames.append(frame)
         out = {"n": len(results), "snr_mean": _num(mean), "snr_std": _num(std), "frames": frames}
-        json.dump(out, sys.stdout, allow_nan=False)
-        sys.stdout.write("\n")
-        return 0
+        return emit_json(out)
     state_head = f" {'state':>9}" if steps is not None else ""
     print(
         f"{'frame':>6} {'x':>5} {'y':>5} {'peak':>10} {'bg_mean':>10} {'bg_std':>8} "

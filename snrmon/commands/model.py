@@ -20,12 +20,13 @@ Subcommands and their ``--json`` contracts (stdout):
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
 import numpy as np
 
 from snrmon.cli import UsageError
+from snrmon.inputs import output_file
+from snrmon.output import emit_json
 
 ZERO_C_K = 273.15
 NOISE_REFERENCE_SKY_K = 290.0
@@ -81,7 +82,9 @@ def _atmosphere(args, sensor):
 
 
 def _emit(args, obj, table: str) -> int:
-    print(json.dumps(obj, indent=None if args.json else 2) if args.json else table)
+    if args.json:
+        return emit_json(obj)
+    print(table)
     return 0
 
 
@@ -105,32 +108,35 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("model", help="the sensor model: SNR vs range, PVF, radiance, NETD, plots",
                        description=__doc__.split("\n\n")[0])  # fmt: skip
-    msub = p.add_subparsers(dest="model_command", metavar="SUBCOMMAND")
-    p.set_defaults(func=lambda a: (p.print_help(), 2)[1])
+    msub = p.add_subparsers(dest="model_command", metavar="SUBCOMMAND", required=True)
 
     s = msub.add_parser("snr", help="the four SNR curves at given ranges (Eqs. 1-3)")
     _add_common(s)
-    s.add_argument("--ranges", type=str, default="37,126,199,336,393,451,508", metavar="R,...")
+    s.add_argument("--ranges", type=str, default="37,126,199,336,393,451,508", metavar="R,...",
+                   help="slant ranges in metres (default: the paper's stops)")  # fmt: skip
     s.set_defaults(func=run_snr)
 
     v = msub.add_parser("pvf", help="average PVF and ensquared energy of a PSF")
-    v.add_argument("--psf", required=True, choices=("airy", "gaussian", "airy+gaussian"))
-    v.add_argument("--f-number", type=float, default=None)
-    v.add_argument("--pitch-um", type=float, default=None)
+    v.add_argument("--psf", required=True, choices=("airy", "gaussian", "airy+gaussian"),
+                   help="diffraction (Airy), Gaussian blur, or both convolved")  # fmt: skip
+    v.add_argument("--f-number", type=float, default=None, help="optics f-number (Airy)")
+    v.add_argument("--pitch-um", type=float, default=None, help="detector pitch in um (Airy)")
     g = v.add_mutually_exclusive_group()
-    g.add_argument("--wavelength-um", type=float, default=None)
-    g.add_argument("--band", type=str, default=None, metavar="L1,L2")
-    v.add_argument("--sigma-px", type=float, default=None)
+    g.add_argument("--wavelength-um", type=float, default=None,
+                   help="one wavelength in um (monochromatic Airy)")  # fmt: skip
+    g.add_argument("--band", type=str, default=None, metavar="L1,L2",
+                   help="band in um (polychromatic Airy over the band)")  # fmt: skip
+    v.add_argument("--sigma-px", type=float, default=None, help="Gaussian sigma in pixels")
     v.add_argument("--fill-factor", type=float, default=1.0, help="area fill factor (1.0)")
     v.add_argument("--target-size-px", type=float, default=0.0, metavar="D",
                    help="Gaussian target of sigma D/2 convolved with the PSF")  # fmt: skip
-    v.add_argument("--json", action="store_true")
+    v.add_argument("--json", action="store_true", help="JSON on stdout")
     v.set_defaults(func=run_pvf)
 
     r = msub.add_parser("radiance", help="blackbody band radiance and its derivative")
-    r.add_argument("--band", required=True, metavar="L1,L2")
-    r.add_argument("--temp-k", required=True, type=float)
-    r.add_argument("--json", action="store_true")
+    r.add_argument("--band", required=True, metavar="L1,L2", help="band in um")
+    r.add_argument("--temp-k", required=True, type=float, help="blackbody temperature in K")
+    r.add_argument("--json", action="store_true", help="JSON on stdout")
     r.set_defaults(func=run_radiance)
 
     n = msub.add_parser("netd", help="the model's NETD and temporal noise of a sensor")
@@ -139,8 +145,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     pl = msub.add_parser("plot", help="SNR vs range figure like Figs. 7-10")
     _add_common(pl)
-    pl.add_argument("--max-range-m", type=float, default=600.0)
-    pl.add_argument("-o", "--output", required=True, metavar="FILE.png")
+    pl.add_argument("--max-range-m", type=float, default=600.0, help="last range plotted (600 m)")
+    pl.add_argument("-o", "--output", required=True, metavar="FILE.png",
+                    help="figure to write (.png, .pdf or .svg)")  # fmt: skip
     pl.set_defaults(func=run_plot)
 
 
@@ -245,8 +252,7 @@ def run_plot(args) -> int:
     sensor, target = _load(args)
     if not args.max_range_m > 10:
         raise UsageError(f"--max-range-m must be > 10, got {args.max_range_m}")
-    if not str(args.output).lower().endswith((".png", ".pdf", ".svg")):
-        raise UsageError(f"-o must end in .png, .pdf or .svg, got {args.output!r}")
+    output_file(args.output, "-o", suffixes=(".png", ".pdf", ".svg"))
     ranges = np.linspace(10.0, args.max_range_m, 500)
     pred = predict(sensor, target, ranges, atmosphere=_atmosphere(args, sensor),
                    background_temp_k=_bg_k(args), spatial_noise=args.spatial_noise)  # fmt: skip

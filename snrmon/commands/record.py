@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from snrmon.cli import UsageError
+from snrmon.progress import status_progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -76,17 +77,17 @@ def run(args: argparse.Namespace) -> int:
             session.set_roi(cam, x, y)
         session.start_recording(out)
         t0 = time.monotonic()
-        while args.duration is None or time.monotonic() - t0 < args.duration:
-            print("\r" + progress_line(session, t0), end="", file=sys.stderr, flush=True)
-            if session.status().recording.state == "failed":
-                break
-            time.sleep(0.5)  # the progress line's refresh rate
+        with status_progress(args.duration, "recording") as show:
+            while args.duration is None or time.monotonic() - t0 < args.duration:
+                show(time.monotonic() - t0, progress_line(session, t0))
+                if session.status().recording.state == "failed":
+                    break
+                time.sleep(0.5)  # the progress line's refresh rate
     except KeyboardInterrupt:
         pass
     finally:
         summary = session.stop_recording()
         session.stop()
-    print(file=sys.stderr)
     if summary is not None:
         print(
             f"recorded {out}: "

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 
 from snrmon.cli import UsageError
+from snrmon.output import emit_json
+from snrmon.progress import frame_progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -131,16 +132,17 @@ def run(args: argparse.Namespace) -> int:
         return _replay_foreign(args)
     if args.speed is not None and not args.speed > 0:
         raise UsageError(f"--speed must be positive, got {args.speed}")
-    result = replay_session(
-        args.file,
-        speed=args.speed,
-        fast=args.fast,
-        track={"recorded": None, "on": True, "off": False}[args.track],
-    )
+    with frame_progress("replay") as progress:  # a bar on a terminal only
+        result = replay_session(
+            args.file,
+            speed=args.speed,
+            fast=args.fast,
+            track={"recorded": None, "on": True, "off": False}[args.track],
+            progress=progress,
+        )
     out = result_json(result)
     if args.json:
-        print(json.dumps(out, allow_nan=False))
-        return 0
+        return emit_json(out)
     for n, c in out["frames"].items():
         dropped = ", ".join(f"{k} {v}" for k, v in c["dropped_reasons"].items()) or "none"
         print(

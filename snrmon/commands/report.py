@@ -1,6 +1,6 @@
 """``snrmon report``: the SNR-versus-range report of a session file (PDF or PNG) and its CSV.
 
-The session is replayed through the live measurement (a tqdm bar on stderr shows the frames),
+The session is replayed through the live measurement (a tqdm bar on a terminal shows the frames),
 stops are rebuilt, and the pages of :mod:`acquisition.report.plot` are written; ``--csv`` writes
 the stop table with :data:`acquisition.report.data.CSV_COLUMNS`. See docs/report.md.
 """
@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-from snrmon.cli import UsageError
+from snrmon.inputs import output_file, session_file
+from snrmon.progress import frame_progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,7 +23,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", required=True, metavar="REPORT.pdf|png", help="report file")
     p.add_argument("--csv", metavar="TABLE.csv", help="also write the stop table as CSV")
     p.add_argument("--target", metavar="T", help="target preset or TOML (default: the session's)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
@@ -31,29 +30,12 @@ def run(args: argparse.Namespace) -> int:
     from acquisition.report.data import report_data, write_csv
     from acquisition.report.plot import FORMATS, render_report
 
-    src, out = Path(args.file), Path(args.output)
-    if out.suffix.lower() not in FORMATS:
-        raise UsageError(f"-o {out}: the report must end in .pdf or .png")
-    if not src.is_file():
-        raise UsageError(f"session file {src} does not exist")
-    for dest in filter(None, (out, Path(args.csv) if args.csv else None)):
-        if not dest.parent.is_dir():
-            raise UsageError(f"cannot write {dest}: folder {dest.parent} does not exist")
-    bars = []  # made at the first frame, so an unreadable file leaves no bar on stderr
-
-    def progress(done: int, total: int) -> None:
-        if not bars:
-            from tqdm import tqdm
-
-            bars.append(tqdm(total=total, unit="frame", desc="replay", file=sys.stderr))
-        bars[0].n = done
-        bars[0].refresh()
-
-    try:
-        data = report_data(src, target=args.target, progress=None if args.quiet else progress)
-    finally:
-        for bar in bars:
-            bar.close()
+    out = output_file(args.output, "-o", suffixes=tuple(FORMATS))
+    src = session_file(args.file)
+    if args.csv:
+        output_file(args.csv, "--csv", suffixes=(".csv",))
+    with frame_progress("replay") as progress:  # a bar on a terminal only
+        data = report_data(src, target=args.target, progress=progress)
     render_report(data, out)
     print(f"report: {out} ({len(data.rows)} stop rows)", file=sys.stderr)
     if args.csv:

@@ -3,8 +3,6 @@ model's electrons; tests/acquisition/calibration_scene.py says why the scene is 
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
@@ -19,6 +17,7 @@ from acquisition.calibrate.calibration import (
     temperature_of,
 )
 from tests.acquisition.calibration_scene import camera
+from tests.helpers import strict_json
 
 TEMPS_K = (283.15, 303.15, 318.15)
 
@@ -182,7 +181,7 @@ def test_snrmon_calibrate_writes_the_file_and_reports(cam, tmp_path, capsys):
     argv = ["calibrate", "--camera", "mwir", "-o", str(out), "--json"]
     bb = ["--blackbody", f"{tmp_path / 'a.npy'}:15", "--blackbody", f"{tmp_path / 'b.npy'}:40"]
     assert main([*argv, *bb]) == 0
-    report = json.loads(capsys.readouterr().out)
+    report = strict_json(capsys.readouterr().out)
     assert out.is_file() and (tmp_path / "cal.toml").is_file()
     assert report["netd_table_mk"] == 41.0
     assert [round(r["temp_k"], 2) for r in report["temperatures"]] == [288.15, 313.15]

@@ -11,8 +11,10 @@ the upright bounding box is the true box; a rotated drone needs ``box="rotated"`
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import tomllib
 
 import numpy as np
 import pytest
@@ -31,6 +33,7 @@ from drivers.rangefinder.reading import RangeReading
 from model.presets import load_target
 from snrmon.cli import main
 from tests.acquisition.calibration_scene import camera, cross_drone, rect_electrons
+from tests.helpers import strict_json
 
 SKY_K, DRONE_K, RANGE_M = 260.0, 309.85, 37.0
 SPAN_M, ARM_M = 0.30, 0.10
@@ -120,6 +123,32 @@ def test_target_toml_is_read_by_the_model(cam, cal, tmp_path):
         t.temp_k("lwir")
 
 
+@pytest.fixture
+def three_frames(cam, cal):
+    """The drone characterized from three calibrated frames."""
+    e, _, _ = drone_scene(cam)
+    return characterize_frames(
+        ((f, (XC, YC)) for f in cam.frames(e, 3, seed=1)),
+        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("name", ["Bob's quad", 'the "big" one', "back\\slash\ttab", "Ωmega"])
+def test_target_toml_quotes_any_name(three_frames, tmp_path, name):
+    """The file is TOML whatever the name holds (it was written with json-ish quoting)."""
+    path = tmp_path / "t.toml"
+    text = target_toml(three_frames, name, description=f"{name} at 10 m")
+    path.write_text(text, encoding="utf-8")
+    assert tomllib.loads(path.read_text(encoding="utf-8"))["target"]["name"] == name
+    assert load_target(str(path)).name == name
+
+
+def test_target_toml_refuses_values_toml_cannot_hold(three_frames):
+    bad = dataclasses.replace(three_frames, rss_delta_t_k=float("nan"))
+    with pytest.raises(ValueError, match="not measured: rss_delta_t_k"):
+        target_toml(bad, "x")
+
+
 def test_bad_inputs_are_one_clear_error(cam, cal):
     frame = cam.frames(cam.electrons(SKY_K), 1, seed=2)[0]
     with pytest.raises(ValueError, match=r"ROI of \+-32 px around \(5, 5\) leaves the 128x96"):
@@ -169,9 +198,9 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     rc = main([*argv, "--stop", "99"])
     assert rc != 0
     assert "no stop 99 for mwir" in capsys.readouterr().err
-    stop = json.loads(_stops_json(session))[0]
+    stop = strict_json(_stops_json(session))[0]
     assert main([*argv, "--stop", str(stop)]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = strict_json(capsys.readouterr().out)
     for key in ("small_m", "large_m", "mean_temp_c", "rss_delta_t_k", "n_frames", "small_m_std"):
         assert key in out
     _, small, large = drone_scene(cam)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -21,6 +20,7 @@ from acquisition.geo.projection import (
 from drivers.gps.fix import GpsFix
 from model.presets import load_sensor
 from snrmon.cli import main
+from tests.helpers import strict_json
 
 SITE = Site(32.38, -106.48, 1200.0)
 MWIR = CameraIntrinsics(0.016, 8e-6, 1280, 720)  # paper Table 1
@@ -140,7 +140,7 @@ def test_cli_geo_pixel_json(capsys):
         ]
     )  # fmt: skip
     assert code == 0
-    out = json.loads(capsys.readouterr().out)
+    out = strict_json(capsys.readouterr().out)
     assert set(out) == {"x", "y", "range_m", "in_view"}
     assert out["x"] == pytest.approx(639.5 + 2000 * math.tan(math.radians(1.0)), abs=1e-4)
     assert out["y"] == pytest.approx(359.5, abs=1e-4)
@@ -191,6 +191,6 @@ def test_cli_with_sensor_preset(name, f_m, pitch_m, w, h, capsys):
                  "--sensor", name, "--target", f"{float(lat)!r},{float(lon)!r},{float(alt)!r}",
                  "--json"])  # fmt: skip
     assert code == 0
-    out = json.loads(capsys.readouterr().out)
+    out = strict_json(capsys.readouterr().out)
     assert out["x"] == pytest.approx((w - 1) / 2 + f_m * math.tan(math.radians(1.0)) / pitch_m)
     assert out["y"] == pytest.approx((h - 1) / 2, abs=1e-4)

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
 from acquisition.measure.stack_snr import measure_stack
 from snrmon.cli import main
+from tests.helpers import strict_json
 
 FRAME_KEYS = ["index", "peak_x", "peak_y", "peak", "bg_mean", "bg_std", "snr", "flags"]
 
@@ -27,7 +26,7 @@ def stack_path(tmp_path):
 def test_json_follows_the_contract(stack_path, capsys):
     path, stack = stack_path
     assert main(["measure", str(path), "--at", "26,19", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = strict_json(capsys.readouterr().out)
     assert list(out) == ["n", "snr_mean", "snr_std", "frames"]
     assert out["n"] == 12 and len(out["frames"]) == 12
     expected = measure_stack(stack, (26, 19)).to_list()
@@ -48,7 +47,7 @@ def test_undefined_snr_is_null_in_json(tmp_path, capsys):
     stack = np.full((2, 20, 20), 100, dtype=np.uint16)
     np.save(tmp_path / "flat.npy", stack)
     assert main(["measure", str(tmp_path / "flat.npy"), "--at", "10,10", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = strict_json(capsys.readouterr().out)
     assert out["snr_mean"] is None and out["frames"][0]["snr"] is None
     assert out["frames"][0]["flags"] == ["undefined"]
 

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
 from acquisition.track.tracker import track_stack
 from snrmon.cli import main
+from tests.helpers import strict_json
 
 FRAME_KEYS = ["index", "peak_x", "peak_y", "peak", "bg_mean", "bg_std", "snr", "flags"]
 DRONE_Y = 24
@@ -35,7 +34,7 @@ def _drifting_drone_with_bird(fade: range | None = None) -> np.ndarray:
 
 def _run(capsys, path, *extra) -> dict:
     assert main(["measure", str(path), "--at", "20,24", "--json", *extra]) == 0
-    return json.loads(capsys.readouterr().out)
+    return strict_json(capsys.readouterr().out)
 
 
 @pytest.fixture

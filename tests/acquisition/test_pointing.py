@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -18,6 +17,7 @@ from acquisition.geo.projection import (
     project_to_pixel,
 )
 from snrmon.cli import main
+from tests.helpers import strict_json
 
 SITE = Site(32.38, -106.48, 1200.0)
 MWIR = CameraIntrinsics(0.016, 8e-6, 1280, 720)
@@ -95,7 +95,7 @@ def test_cli_geo_calibrate(tmp_path, capsys):
     code = main(["geo", "calibrate", "--pairs", str(path), "--site", "32.38,-106.48,1200",
                  "--camera", "0.016,8,1280,720", "--json"])  # fmt: skip
     assert code == 0
-    out = json.loads(capsys.readouterr().out)
+    out = strict_json(capsys.readouterr().out)
     assert out["az_deg"] == pytest.approx(40.0, abs=0.05)
     assert out["el_deg"] == pytest.approx(8.0, abs=0.05)
     assert out["n_pairs"] == 5 and out["residual_px_rms"] < 1.0

@@ -20,35 +20,29 @@ from acquisition.record.reader import open_session
 from acquisition.replay.batch import replay_session
 from acquisition.runtime.session import Session
 from acquisition.stops.detector import StopConfig
-from sim.devices.ldm_sim import LdmSimulator
-from sim.devices.nmea_sim import NmeaSimulator
 from sim.devices.shm_camera import ShmProducer
-from tests.helpers import AMPLITUDE_DN, NOISE_DN, H, SpotOnNoise, W, wait_until
+from tests.helpers import AMPLITUDE_DN, NOISE_DN, H, SpotOnNoise, W, field_devices, wait_until
 
 
 @pytest.fixture
 def rig(tmp_path):
     name = f"snrmon-test-{time.monotonic_ns() % 10**9}"
-    producer = ShmProducer(name, W, H, SpotOnNoise(7), fps=60.0, slots=16)
-    producer.start()
-    lrf = LdmSimulator(lambda t: 150.0, rate_hz=20.0, tracking=True).start()
-    gps = NmeaSimulator(lambda t: (32.3810, -106.4790, 1250.0), rate_hz=10.0).start()
-    config = session_config_from_dict(
-        {
-            "site": {"lat_deg": 32.38, "lon_deg": -106.48, "alt_m": 1200.0},
-            "cameras": {"cam": {"source": "shm", "address": name, "width_px": W, "height_px": H}},
-            "lrf": {"protocol": "ldm", "port": lrf.path, "baud": 9600},
-            "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
-        }
-    )
-    session = Session(config, stop_config=StopConfig(steady_s=1.0, min_readings=3))
-    try:
-        yield session, producer, tmp_path
-    finally:
-        session.stop()
-        producer.stop()
-        lrf.stop()
-        gps.stop()
+    with field_devices(name, seed=7, range_m=150.0, lrf_hz=20.0) as (producer, lrf, gps):
+        config = session_config_from_dict(
+            {
+                "site": {"lat_deg": 32.38, "lon_deg": -106.48, "alt_m": 1200.0},
+                "cameras": {
+                    "cam": {"source": "shm", "address": name, "width_px": W, "height_px": H}
+                },
+                "lrf": {"protocol": "ldm", "port": lrf.path, "baud": 9600},
+                "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
+            }
+        )
+        session = Session(config, stop_config=StopConfig(steady_s=1.0, min_readings=3))
+        try:
+            yield session, producer, tmp_path
+        finally:
+            session.stop()
 
 
 def test_session_measures_every_frame_detects_the_stop_and_records(rig):

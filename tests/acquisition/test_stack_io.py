@@ -7,6 +7,7 @@ import json
 import cv2
 import numpy as np
 import pytest
+import tifffile
 
 from acquisition.replay.stack_io import iter_stack, load_stack
 
@@ -36,12 +37,50 @@ def test_npy_wrong_shape_and_missing_file(tmp_path):
 
 
 def test_multipage_tiff_keeps_16_bits(tmp_path, stack):
+    # OpenCV writes LZW, which tifffile decodes only with imagecodecs: the OpenCV fallback.
     path = str(tmp_path / "s.tif")
     assert cv2.imwritemulti(path, list(stack))
     loaded = load_stack(path)
     assert loaded.dtype == np.uint16
     np.testing.assert_array_equal(loaded, stack)
     np.testing.assert_array_equal(np.stack(list(iter_stack(path))), stack)
+
+
+def test_uncompressed_tiff_is_memory_mapped(tmp_path, stack):
+    path = tmp_path / "s.tif"
+    tifffile.imwrite(path, np.concatenate([stack, stack[::-1]]), photometric="minisblack")
+    loaded = load_stack(path)
+    assert isinstance(loaded, np.memmap) and loaded.shape == (8, 9, 11)
+    np.testing.assert_array_equal(loaded[4:], stack[::-1])
+    frames = list(iter_stack(path))
+    assert len(frames) == 8 and all(isinstance(f, np.memmap) for f in frames)
+    np.testing.assert_array_equal(frames[3], stack[3])
+
+
+def test_compressed_tiff_is_read_page_by_page_once_each(tmp_path, stack, monkeypatch):
+    path = tmp_path / "z.tif"
+    tifffile.imwrite(path, stack, compression="zlib", photometric="minisblack")
+    reads = []
+    real = tifffile.TiffPage.asarray
+    monkeypatch.setattr(
+        tifffile.TiffPage, "asarray", lambda self, *a, **k: reads.append(self.index) or real(self)
+    )
+    np.testing.assert_array_equal(np.stack(list(iter_stack(path))), stack)
+    assert reads == [0, 1, 2, 3]  # each page decoded once, in order (not from page 0 each time)
+    np.testing.assert_array_equal(load_stack(path), stack)
+
+
+def test_tiff_bad_input(tmp_path, stack):
+    (tmp_path / "junk.tif").write_bytes(b"not a tiff at all")
+    with pytest.raises(ValueError, match=r"junk\.tif: not a readable TIFF"):
+        load_stack(tmp_path / "junk.tif")
+    with tifffile.TiffWriter(tmp_path / "mixed.tif") as w:
+        w.write(stack[0])
+        w.write(np.zeros((5, 5), np.uint16))
+    with pytest.raises(ValueError, match=r"mixed\.tif: TIFF pages differ in size"):
+        load_stack(tmp_path / "mixed.tif")
+    with pytest.raises(FileNotFoundError, match=r"nope\.tif: no such file"):
+        next(iter_stack(tmp_path / "nope.tif"))
 
 
 @pytest.mark.parametrize("order", ["little", "big"])

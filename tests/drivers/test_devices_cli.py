@@ -3,7 +3,6 @@ lists what it finds (serial ports with USB ids, USB cameras with link speed, V4L
 
 from __future__ import annotations
 
-import json
 from types import SimpleNamespace
 
 import pytest
@@ -12,6 +11,7 @@ from drivers.camera import usb as usb_cam
 from snrmon.cli import main
 from snrmon.commands import devices
 from tests.drivers.test_camera_usb import BOSON, U3V_ON_USB2, FakeBackend
+from tests.helpers import strict_json
 
 
 @pytest.fixture
@@ -26,7 +26,7 @@ def no_aravis(monkeypatch):
 
 def test_json_has_every_section_in_one_shape(capsys, no_aravis):
     assert main(["devices", "--json"]) == 0
-    report = json.loads(capsys.readouterr().out)
+    report = strict_json(capsys.readouterr().out)
     assert set(report) == {"serial", "usb_cameras", "v4l2", "aravis"}
     for sec in report.values():
         assert isinstance(sec["available"], bool) and isinstance(sec["devices"], list)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 
@@ -11,6 +10,7 @@ import pytest
 from sim.devices.ldm_sim import LdmSimulator
 from sim.devices.nmea_sim import NmeaSimulator, fixed_position
 from sim.devices.trupulse_sim import TruPulseSimulator
+from tests.helpers import strict_json
 
 GPS_KEYS = {"t_host_ns", "utc", "lat", "lon", "alt_m", "fix_quality", "sats", "hdop"}
 LRF_KEYS = {"t_host_ns", "range_m", "horizontal_m", "azimuth_deg", "inclination_deg", "quality",
@@ -28,7 +28,7 @@ def test_gps_json_lines() -> None:
     with NmeaSimulator(fixed_position(-33.5, 151.25, 12.0), rate_hz=20, baud=115200) as sim:
         r = listen("gps", "--port", sim.path, "--count", "4", "--json", "--baud", "115200")
     assert r.returncode == 0, r.stderr
-    records = [json.loads(line) for line in r.stdout.splitlines()]
+    records = [strict_json(line) for line in r.stdout.splitlines()]
     assert len(records) == 4 and all(set(rec) == GPS_KEYS for rec in records)
     assert all(rec["lat"] == pytest.approx(-33.5) and rec["lon"] == 151.25 for rec in records)
     assert records[-1]["utc"].startswith("2019-05-14T15:00:") and records[-1]["alt_m"] == 12.0
@@ -39,7 +39,7 @@ def test_lrf_trupulse_json_with_no_target() -> None:
         sim.faults.no_target(1)
         r = listen("lrf", "--port", sim.path, "--count", "3", "--json", "--baud", "9600")
     assert r.returncode == 0, r.stderr
-    records = [json.loads(line) for line in r.stdout.splitlines()]
+    records = [strict_json(line) for line in r.stdout.splitlines()]
     assert all(set(rec) == LRF_KEYS for rec in records)
     statuses = [rec["status"] for rec in records]
     assert set(statuses) <= {"ok", "no_target"} and "ok" in statuses
@@ -83,4 +83,4 @@ def test_missing_port_one_line_retried_and_times_out(tmp_path) -> None:
 
 def test_wrong_protocol_for_kind_is_one_line() -> None:
     r = listen("lrf", "--protocol", "nmea", "--port", "/dev/null")
-    assert r.returncode == 1 and len(r.stderr.splitlines()) == 1 and "lrf" in r.stderr
+    assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and "lrf" in r.stderr

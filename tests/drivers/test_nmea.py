@@ -102,11 +102,44 @@ def test_rmc_void_is_not_a_fix() -> None:
     [
         GGA.replace("5321.6802", "53x1.6802"),
         GGA.replace(",N,", ",Q,"),
-        GGA.replace("092750.000", "256000"),
         GGA.replace("5321.6802", "9321.6802"),
-        RMC.replace("280511", "310211"),
+        RMC.replace(",A,5321", ",X,5321"),
     ],
 )
 def test_bad_fields_are_parse_errors(bad: str) -> None:
     with pytest.raises(ParseError):
         NmeaAssembler().feed(s(bad), 0)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        RMC.replace("280511", "2208-1"),  # a real receiver after the 2019 week rollover
+        RMC.replace("280511", "310211"),  # 31 February
+        RMC.replace("092750.000", "256000"),
+        GGA.replace("092750.000", "256000"),
+        GGA.replace("092750.000", "09:27:50"),
+    ],
+)
+def test_checksummed_bad_date_or_time_keeps_the_position_time_unknown(bad: str) -> None:
+    a = NmeaAssembler()
+    a.feed(s(RMC), 0)  # a good date earlier must not be used to guess this fix's time
+    fix = a.feed(s(bad), 7)[0]
+    assert fix.utc is None and fix.t_host_ns == 7
+    assert fix.lat_deg == pytest.approx(53 + 21.6802 / 60, abs=1e-9)
+    assert fix.lon_deg == pytest.approx(-(6 + 30.3372 / 60), abs=1e-9)
+    assert fix.has_fix and a.counts.bad_time == 1
+
+
+def test_bad_rmc_date_never_becomes_the_date_of_later_fixes() -> None:
+    a = NmeaAssembler()
+    a.feed(s(RMC.replace("280511", "2208-1")), 0)
+    assert a.feed(s(GGA), 0)[0].utc is None  # no date known yet: none is guessed
+    a.feed(s(RMC), 0)
+    assert a.feed(s(GGA), 0)[0].utc == datetime(2011, 5, 28, 9, 27, 50, tzinfo=UTC)
+
+
+def test_bad_date_without_checksum_is_still_an_error() -> None:
+    a = NmeaAssembler(allow_no_checksum=True)
+    with pytest.raises(ParseError, match="2208-1"):
+        a.feed("$" + RMC.replace("280511", "2208-1"), 0)

@@ -120,12 +120,17 @@ def test_recording_from_the_console_creates_a_session_file(qtbot, window, tmp_pa
     qtbot.waitUntil(
         lambda: window.session.status().cameras["mwir"].frames.recorded >= 30, timeout=10_000
     )
+    window.add_note("drone hovering at the first stop")
     window.actions_by_key["record_stop"].trigger()
     assert window.actions_by_key["record_start"].isEnabled()
     with open_session(path) as f:
         assert f.complete
         assert f.cameras["mwir"].n_frames >= 30
         assert f.cameras["mwir"].frame(0).shape == (H, W)
+    # The recording's log beside it keeps what the operator did and was told.
+    log = (tmp_path / "run.log").read_text()
+    assert f"gui.main_window: recording to {path}" in log
+    assert "note: drone hovering at the first stop" in log
 
 
 def test_marked_stop_fills_the_stop_table(qtbot, window):

@@ -66,7 +66,7 @@ def test_sigterm_closes_the_console_cleanly(qtbot, tmp_path):
 
 def test_gui_missing_config_names_the_file(capsys, tmp_path):
     missing = tmp_path / "nope.toml"
-    assert main(["gui", "--config", str(missing)]) == 1
+    assert main(["gui", "--config", str(missing)]) == 2
     assert str(missing) in capsys.readouterr().err
 
 

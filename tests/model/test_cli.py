@@ -1,11 +1,11 @@
 """``snrmon model``: JSON contracts and one-line errors."""
 
-import json
 from pathlib import Path
 
 import pytest
 
 from snrmon.cli import main
+from tests.helpers import strict_json
 
 FIX = Path(__file__).with_name("fixtures")
 
@@ -20,7 +20,7 @@ def test_snr_json(capsys):
     code, out, _ = _run(capsys, "snr", "--sensor", "mwir", "--target", "uav1",
                         "--ranges", "37,126,199,336,393,451,508", "--json")  # fmt: skip
     assert code == 0
-    recs = json.loads(out)
+    recs = strict_json(out)
     assert [r["range_m"] for r in recs] == [37, 126, 199, 336, 393, 451, 508]
     assert recs[3]["resolved_small"] is False and recs[3]["resolved_large"] is True
     assert recs[6]["snr_small_corrected"] < recs[6]["snr_small"]
@@ -34,19 +34,19 @@ def test_snr_with_background_and_modtran_file(capsys):
                         "--atmosphere", tape, "--atmosphere-path-m", "1000",
                         "--background-temp-c", "29.5", "--json")  # fmt: skip
     assert code == 0
-    rec = json.loads(out)[0]
+    rec = strict_json(out)[0]
     assert rec["transmission"] == pytest.approx(0.7 ** (393 / 1000), rel=1e-6)
 
 
 def test_pvf_radiance_netd_json(capsys):
     code, out, _ = _run(capsys, "pvf", "--psf", "airy", "--f-number", "1.25", "--pitch-um", "17",
                         "--wavelength-um", "10", "--fill-factor", "0.9", "--json")  # fmt: skip
-    assert code == 0 and json.loads(out)["average_pvf"] == pytest.approx(0.4654, abs=5e-4)
+    assert code == 0 and strict_json(out)["average_pvf"] == pytest.approx(0.4654, abs=5e-4)
     code, out, _ = _run(capsys, "pvf", "--psf", "gaussian", "--sigma-px", "0.8",
                         "--fill-factor", "0.8", "--target-size-px", "1", "--json")  # fmt: skip
-    assert json.loads(out)["average_pvf"] == pytest.approx(0.1602 * 0.762, abs=2e-3)
+    assert strict_json(out)["average_pvf"] == pytest.approx(0.1602 * 0.762, abs=2e-3)
     code, out, _ = _run(capsys, "radiance", "--band", "8,12", "--temp-k", "300", "--json")
-    r = json.loads(out)
+    r = strict_json(out)
     assert r["radiance_w_m2_sr"] == pytest.approx(38.50042, rel=1e-6)
     assert set(r) == {
         "radiance_w_m2_sr",
@@ -55,7 +55,7 @@ def test_pvf_radiance_netd_json(capsys):
         "d_photon_radiance_dt",
     }
     code, out, _ = _run(capsys, "netd", "--sensor", "mwir", "--json")
-    n = json.loads(out)
+    n = strict_json(out)
     assert abs(n["netd_mk"] / 41 - 1) < 0.2 and n["temporal_noise_dn"] == pytest.approx(
         6.6, rel=0.05
     )

@@ -1,0 +1,82 @@
+"""The console's state as a JSON file, on request (``snrmon gui|demo --status-file F.json``).
+
+For scripts watching a session and for tests that drive the real window as a person would
+(tests/gui/test_real_window.py clicks the drone with xdotool and reads the result back here).
+Written atomically (a temporary file renamed over the old one) every status refresh, so a
+reader never sees half a document. Strict JSON: an undefined number is ``null``.
+
+Content::
+
+    {"t_unix": float, "window": {"x", "y", "width", "height", "visible"},
+     "cameras": {name: {"roi": [x, y] | null, "peak": [x, y] | null, "track_state": str,
+                        "snr_mean": float | null, "snr_std": float | null, "snr_n": int,
+                        "header": str, "frames_shown": int, "shape": [rows, cols],
+                        "screen_first_pixel": [x, y], "screen_last_pixel": [x, y]}},
+     "messages": [str, ...]}
+
+``screen_first_pixel`` and ``screen_last_pixel`` are the global screen positions of the centres
+of image pixel (0, 0) and (cols - 1, rows - 1) as shown now (zoom and pan included): where on
+the screen a pixel of the image is.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+
+def _num(value: float | None) -> float | None:
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def _screen(view, x: int, y: int) -> list[int]:
+    p = view.graphics.viewport().mapToGlobal(view.viewport_pos_of_pixel(x, y))
+    return [p.x(), p.y()]
+
+
+def console_state(window) -> dict[str, Any]:
+    """What the console shows now (see the module docstring)."""
+    geo = window.frameGeometry()
+    st = window.last_status
+    cameras = {}
+    for name, panel in window.panels.items():
+        cs = st.cameras.get(name) if st is not None else None
+        rows, cols = panel.view.shape
+        last = cs.last if cs is not None else None
+        cameras[name] = {
+            "roi": list(cs.roi_xy) if cs is not None and cs.roi_xy is not None else None,
+            "peak": [last.peak_x, last.peak_y] if last is not None else None,
+            "track_state": cs.track_state if cs is not None else "",
+            "snr_mean": _num(cs.snr_mean) if cs is not None else None,
+            "snr_std": _num(cs.snr_std) if cs is not None else None,
+            "snr_n": cs.snr_n if cs is not None else 0,
+            "header": panel.header.text(),
+            "frames_shown": panel.view.frames_shown,
+            "shape": [rows, cols],
+            "screen_first_pixel": _screen(panel.view, 0, 0),
+            "screen_last_pixel": _screen(panel.view, cols - 1, rows - 1),
+        }
+    return {
+        "t_unix": time.time(),
+        "window": {
+            "x": geo.x(),
+            "y": geo.y(),
+            "width": geo.width(),
+            "height": geo.height(),
+            "visible": window.isVisible(),
+        },
+        "cameras": cameras,
+        "messages": window.messages[-20:],
+    }
+
+
+def write_status_file(window, path: str | Path) -> None:
+    """Replace ``path`` with the console's state (atomically)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(console_state(window), allow_nan=False))
+    os.replace(tmp, path)

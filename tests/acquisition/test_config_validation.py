@@ -1,0 +1,163 @@
+"""Config validation, field by field: every key of every table, given a value of the wrong type
+or range, is one error naming the table, the key, the value (as TOML spells it) and what was
+expected. The tests walk the schemas, so a field added later is tested too."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import pytest
+
+from acquisition.config import (
+    CAMERA_FIELDS,
+    MEASUREMENT_FIELDS,
+    SITE_FIELDS,
+    TOP_FIELDS,
+    CameraConfig,
+    SessionConfig,
+    load_session_config,
+    session_config_from_dict,
+)
+from acquisition.measure.peak_snr import PeakSnrConfig
+from drivers.config import PROTOCOLS, device_fields, device_from_config
+from drivers.errors import ConfigError, toml_repr
+from model.presets import _ATM_FIELDS, _SENSOR_FIELDS, _TARGET_FIELDS, _check
+
+# Values of every TOML type; each field must reject at least one of them.
+WRONG = ["north", 1.5, -3, True, [1, "a"], {"x": 1}, 0, ""]
+BASE = {"cameras": {"cam": {"source": "shm"}}}
+
+
+def _with(table: str, key: str, value):
+    doc = {"cameras": {"cam": {"source": "shm"}}}
+    if table == "session":
+        doc[key] = value
+    elif table == "cameras.cam":
+        doc["cameras"]["cam"][key] = value
+    elif table == "site":
+        doc["site"] = {"lat_deg": 1.0, "lon_deg": 2.0, "alt_m": 3.0, key: value}
+    else:
+        doc[table] = {key: value}
+    return doc
+
+
+CASES = [
+    (table, key, spec)
+    for table, fields in (
+        ("session", TOP_FIELDS),
+        ("site", SITE_FIELDS),
+        ("measurement", MEASUREMENT_FIELDS),
+        ("cameras.cam", CAMERA_FIELDS),
+    )
+    for key, spec in fields.items()
+]
+
+
+@pytest.mark.parametrize(("table", "key", "spec"), CASES, ids=[f"{t}.{k}" for t, k, _ in CASES])
+def test_every_session_field_names_table_key_value_and_type(table, key, spec):
+    rejected = [v for v in WRONG if not spec.check(v)]
+    assert rejected, f"[{table}] {key} accepts values of every type"
+    for value in rejected:
+        with pytest.raises(ConfigError) as err:
+            session_config_from_dict(_with(table, key, value))
+        msg = str(err.value)
+        if table == "session" and key in ("gps", "lrf", "site", "measurement") and value == {}:
+            continue  # an empty table: its own required keys are what is missing
+        if isinstance(value, dict) and table != "session":
+            assert f"[{table}] {key} = " in msg and spec.expected in msg
+            continue
+        assert f"[{table}] {key} = {toml_repr(value)}: expected {spec.expected}" in msg, msg
+
+
+def test_the_schema_covers_every_field_of_the_config_dataclasses():
+    """A new setting needs its schema entry (and so its validation and this file's tests)."""
+    camera_keys = {f.name for f in dataclasses.fields(CameraConfig)} - {"name", "pointing"}
+    assert camera_keys | {"pointing_deg"} == set(CAMERA_FIELDS)
+    peak = {f.name for f in dataclasses.fields(PeakSnrConfig)}
+    assert peak | {"window", "lrf_fresh_s"} == set(MEASUREMENT_FIELDS)
+    session = {f.name for f in dataclasses.fields(SessionConfig)}
+    assert session - {"raw", "window", "lrf_fresh_s"} == set(TOP_FIELDS)
+
+
+def test_the_issue_examples(tmp_path):
+    path = tmp_path / "session.toml"
+    path.write_text('[site]\nlat_deg = "north"\nlon_deg = 0.0\nalt_m = 0.0\n[cameras.a]\n')
+    with pytest.raises(ConfigError) as err:
+        load_session_config(path)
+    assert str(err.value) == (
+        f'{path}: [site] lat_deg = "north": expected a latitude in degrees, -90 to 90'
+    )
+    path.write_text('[cameras.mwir]\nwidth_px = "640"\n')
+    with pytest.raises(ConfigError, match=r'\[cameras\.mwir\] width_px = "640": expected a pos'):
+        load_session_config(path)
+
+
+def test_unknown_and_missing_keys_are_named():
+    with pytest.raises(ConfigError, match=r"\[cameras\.cam\]: unknown key 'colour'"):
+        session_config_from_dict({"cameras": {"cam": {"colour": "red"}}})
+    with pytest.raises(ConfigError, match=r"\[site\] is missing 'alt_m'"):
+        session_config_from_dict({**BASE, "site": {"lat_deg": 1.0, "lon_deg": 2.0}})
+    with pytest.raises(ConfigError, match=r"\[session\] is missing 'cameras'"):
+        session_config_from_dict({})
+
+
+def test_a_valid_config_keeps_its_values():
+    cfg = session_config_from_dict(
+        {
+            "target": "uav2",
+            "site": {"lat_deg": 32, "lon_deg": -106.5, "alt_m": 1200},
+            "measurement": {"search_px": 15, "window": 50, "background": [0, 0, 9, 9]},
+            "cameras": {"m": {"source": "v4l2", "address": 0, "width_px": 640, "height_px": 480,
+                              "pointing_deg": [40, 8]}},
+            "gps": {"protocol": "nmea", "port": "/dev/ttyUSB0", "baud": 38400},
+        }
+    )  # fmt: skip
+    assert cfg.site.lat_deg == 32.0 and cfg.window == 50 and cfg.measurement.search_px == 15
+    assert cfg.measurement.background == (0, 0, 9, 9)
+    cam = cfg.cameras[0]
+    assert (cam.address, cam.width_px, cam.pointing.el_deg) == ("0", 640, 8.0)
+
+
+DEVICE_CASES = [
+    (protocol, key, types)
+    for protocol in PROTOCOLS
+    for key, types in device_fields(protocol).items()
+    if key != "protocol"
+]
+
+
+@pytest.mark.parametrize(
+    ("protocol", "key", "types"), DEVICE_CASES, ids=[f"{p}.{k}" for p, k, _ in DEVICE_CASES]
+)
+def test_every_device_field_names_table_key_value_and_type(protocol, key, types):
+    value = 1.5 if types != (int, float) else "fast"
+    table = {"protocol": protocol, "port": "/dev/ttyUSB0", key: value}
+    with pytest.raises(ConfigError) as err:
+        device_from_config(table, "gps")
+    assert re.search(rf"\[gps\] {key} = {re.escape(toml_repr(value))}: expected \w", str(err.value))
+    # ... and the same check runs when a session config is loaded, before any device opens.
+    with pytest.raises(ConfigError, match=rf"\[gps\] {key} = "):
+        session_config_from_dict({**BASE, "gps": table})
+
+
+PRESET_CASES = [
+    (table, key, kind)
+    for table, fields in (
+        ("sensor", _SENSOR_FIELDS),
+        ("target", _TARGET_FIELDS),
+        ("atmosphere", _ATM_FIELDS),
+    )
+    for key, (kind, _) in fields.items()
+]
+
+
+@pytest.mark.parametrize(
+    ("table", "key", "kind"), PRESET_CASES, ids=[f"{t}.{k}" for t, k, _ in PRESET_CASES]
+)
+def test_every_preset_field_names_table_key_value_and_type(table, key, kind, tmp_path):
+    value = 7 if kind == "str" else "north"
+    with pytest.raises(ValueError) as err:
+        _check(tmp_path / "x.toml", table, {key: value}, {key: (kind, True)})
+    msg = str(err.value)
+    assert f"{table}.{key}" in msg and repr(value) in msg and " must be " in msg, msg

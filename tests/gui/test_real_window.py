@@ -1,0 +1,121 @@
+"""The console as a person uses it: a real window on a real X server (Xvfb, Qt's xcb platform),
+the mouse moved and clicked by xdotool (X events, not Qt calls), and what the console then
+shows read back from its status file (``snrmon gui --status-file``).
+
+A simulated camera writes a drone (a bright spot) on noise. The test clicks empty sky first,
+then the drone: the ROI must move to where it clicked, the measured peak must land on the
+drone, and the SNR readout must change from the sky's to the drone's. Every wait polls the
+status file against a deadline.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from sim.devices.shm_camera import ShmProducer
+from tests.helpers import SPOT_X, SPOT_Y, SpotOnNoise, sensor_toml
+
+pytestmark = pytest.mark.desktop
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _status(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None  # not written yet
+
+
+def poll(path: Path, predicate, timeout_s: float, what: str, proc) -> dict:
+    """The first status for which ``predicate`` holds (a deadline, not a sleep: the file is
+    rewritten five times a second)."""
+    deadline = time.monotonic() + timeout_s
+    last = None
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            _, err = proc.communicate()
+            pytest.fail(f"the console exited ({proc.returncode}) waiting for {what}: {err}")
+        st = _status(path)
+        if st is not None:
+            last = st
+            if predicate(st):
+                return st
+        time.sleep(0.05)  # polling interval of the file, not synchronisation
+    pytest.fail(f"timed out after {timeout_s} s waiting for {what}; last status: {last}")
+
+
+def screen_point(cam: dict, x: int, y: int) -> tuple[int, int]:
+    """Where image pixel (x, y)'s centre is on the screen, from where the console says its
+    first and last pixels are (zoom and pan included)."""
+    (x0, y0), (x1, y1) = cam["screen_first_pixel"], cam["screen_last_pixel"]
+    rows, cols = cam["shape"]
+    return round(x0 + x * (x1 - x0) / (cols - 1)), round(y0 + y * (y1 - y0) / (rows - 1))
+
+
+def click(display: str, x: int, y: int) -> None:
+    env = {**os.environ, "DISPLAY": display}
+    subprocess.run(["xdotool", "mousemove", "--sync", str(x), str(y), "click", "1"],
+                   env=env, check=True, timeout=30)  # fmt: skip
+
+
+def test_clicking_the_drone_in_the_real_window(xvfb_display, tmp_path):
+    if shutil.which("xdotool") is None:
+        pytest.skip("xdotool not installed (apt-get install xdotool; .ci/run does)")
+    ring = f"snrmon-win-{os.getpid()}"
+    producer = ShmProducer(ring, 128, 96, SpotOnNoise(5), fps=60.0, slots=16)
+    sensor = sensor_toml(tmp_path / "sensor.toml")
+    config = tmp_path / "session.toml"
+    config.write_text(f'[cameras.cam]\nsource = "shm"\naddress = "{ring}"\nsensor = "{sensor}"\n')
+    status = tmp_path / "status.json"
+    env = {**os.environ, "DISPLAY": xvfb_display, "QT_QPA_PLATFORM": "xcb",
+           "XDG_CONFIG_HOME": str(tmp_path / "config"), "PYTHONPATH": str(REPO)}  # fmt: skip
+    cmd = [sys.executable, "-m", "snrmon", "gui", "--config", str(config),
+           "--status-file", str(status), "--duration", "300"]  # fmt: skip
+    producer.start()
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)  # fmt: skip
+    try:
+        st = poll(status, lambda s: s["window"]["visible"] and s["cameras"]["cam"]["frames_shown"]
+                  > 10, 90, "the window showing frames", proc)  # fmt: skip
+        assert st["cameras"]["cam"]["roi"] is None and st["cameras"]["cam"]["snr_mean"] is None
+
+        # 1. Empty sky, far from the drone: the ROI goes there, the readout shows the sky's SNR.
+        click(xvfb_display, *screen_point(st["cameras"]["cam"], 20, 70))
+        sky = poll(status, lambda s: "cam: ROI set at column 20, row 70" in s["messages"]
+                   and s["cameras"]["cam"]["snr_n"] >= 5, 30, "the ROI on the sky",
+                   proc)  # fmt: skip
+        sky_cam = sky["cameras"]["cam"]
+        # Nothing bright there: the brightest noise pixel's SNR (the tracker may then wander or
+        # call the track lost: there is nothing to follow in empty sky).
+        assert sky_cam["snr_mean"] is not None and sky_cam["snr_mean"] < 7
+        assert "SNR(100) " in sky_cam["header"] and "--" not in sky_cam["header"].split("SNR")[1]
+
+        # 2. The drone (a pixel off its peak, as a hand would): the ROI moves to the click, the
+        # measurement's peak lands on the drone and the readout becomes the drone's SNR.
+        x, y = round(SPOT_X) - 1, round(SPOT_Y) + 1
+        click(xvfb_display, *screen_point(sky_cam, x, y))
+        drone = poll(status, lambda s: f"cam: ROI set at column {x}, row {y}" in s["messages"]
+                     and s["cameras"]["cam"]["peak"] == [round(SPOT_X), round(SPOT_Y)]
+                     and (s["cameras"]["cam"]["snr_mean"] or 0) > 3 * sky_cam["snr_mean"],
+                     30, "the ROI on the drone", proc)  # fmt: skip
+        cam = drone["cameras"]["cam"]
+        assert cam["roi"] != sky_cam["roi"]
+        assert cam["snr_mean"] > 8 and cam["header"] != sky_cam["header"]
+        assert f"{cam['snr_mean']:.2f}" in cam["header"] or cam["snr_n"] > 0
+    finally:
+        proc.send_signal(signal.SIGTERM)  # the console closes its window on SIGTERM
+        try:
+            _, err = proc.communicate(timeout=30)
+        finally:
+            proc.kill()
+            producer.stop()
+    assert proc.returncode == 0, err
