@@ -70,6 +70,7 @@ class SessionConfig:
     measurement: PeakSnrConfig = field(default_factory=PeakSnrConfig)
     window: int = 100
     lrf_fresh_s: float = 2.0
+    air_temp_k: float | None = None  # [weather] air_temp_c: the model's path temperature
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
@@ -113,7 +114,11 @@ def _camera(name: str, table: dict) -> CameraConfig:
 
 def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
     """Validate a parsed TOML document into a :class:`SessionConfig`."""
-    _check_keys(data, {"target", "site", "measurement", "cameras", "gps", "lrf"}, "session")
+    _check_keys(
+        data,
+        {"target", "site", "measurement", "cameras", "gps", "lrf", "weather", "simulation"},
+        "session",
+    )
     cams = data.get("cameras", {})
     if not cams:
         raise ValueError("session: no [cameras.<name>] table")
@@ -125,6 +130,9 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
             site = Site(float(s["lat_deg"]), float(s["lon_deg"]), float(s["alt_m"]))
         except KeyError as exc:
             raise ValueError(f"[site] is missing {exc.args[0]!r}") from None
+    air_temp_k = _air_temp_k(data.get("weather"))
+    if "simulation" in data and not isinstance(data["simulation"], dict):
+        raise ValueError(f"[simulation] must be a table, got {data['simulation']!r}")
     meas = dict(data.get("measurement", {}))
     window = int(meas.pop("window", 100))
     lrf_fresh_s = float(meas.pop("lrf_fresh_s", 2.0))
@@ -141,8 +149,23 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
         measurement=mcfg,
         window=window,
         lrf_fresh_s=lrf_fresh_s,
+        air_temp_k=air_temp_k,
         raw=data,
     )
+
+
+def _air_temp_k(table) -> float | None:
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise ValueError(f"[weather] must be a table, got {table!r}")
+    _check_keys(table, {"air_temp_c"}, "[weather]")
+    if "air_temp_c" not in table:
+        return None
+    t = table["air_temp_c"]
+    if isinstance(t, bool) or not isinstance(t, int | float) or not -100.0 < t < 100.0:
+        raise ValueError(f"[weather] air_temp_c = {t!r}: expected a temperature in C")
+    return float(t) + 273.15
 
 
 def load_session_config(path: str | Path) -> SessionConfig:

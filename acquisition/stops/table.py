@@ -39,6 +39,7 @@ class StopRow:
     snr_std: float
     model_snr: dict[str, float] = field(default_factory=dict)
     resolved: bool | None = None  # the model's verdict for the small dimension at this range
+    snr_sem: float = float("nan")  # error of the mean, frames' autocorrelation counted
 
     @property
     def range_m(self) -> float | None:
@@ -139,6 +140,7 @@ class StopTable:
             complete=summary.complete,
             snr_mean=summary.snr_mean,
             snr_std=summary.snr_std,
+            snr_sem=summary.snr_sem,
             model_snr=model,
             resolved=None if resolved is None else bool(resolved),
         )

@@ -27,6 +27,24 @@ def _floats(text: str, what: str) -> tuple[float, ...]:
     return values
 
 
+def _kelvin(celsius: float, what: str) -> float:
+    if not (math.isfinite(celsius) and -100.0 < celsius < 100.0):
+        raise UsageError(f"{what} must be a temperature in C, got {celsius}")
+    return celsius + 273.15
+
+
+def _window(text: str | None) -> tuple[int, int] | None:
+    if text is None:
+        return None
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise UsageError(f"--window must be WxH in pixels, e.g. 256x192, got {text!r}") from None
+    if w < 64 or h < 64:
+        raise UsageError(f"--window must be at least 64x64 pixels, got {text!r}")
+    return w, h
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("hil", help="run the simulated field test through the real console")
     p.add_argument("--headless", action="store_true", help="no window (always true for now)")
@@ -47,11 +65,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target", default="uav1", help="target preset or TOML file")
     p.add_argument("--hover-s", type=float, default=7.0, help="hover time per stop (flight s)")
     p.add_argument("--transit-mps", type=float, default=8.0, help="transit speed between stops")
-    p.add_argument(
-        "--real-psf",
-        action="store_true",
-        help="render with the sensor's real (corrected) PSF, not the diffraction limit",
-    )
+    p.add_argument("--sky-temp-c", type=float, default=280.0 - 273.15,
+                   help="the scenario's clear-sky apparent temperature, C (6.85)")  # fmt: skip
+    p.add_argument("--air-temp-c", type=float, default=15.0,
+                   help="the scenario's air temperature along the path, C (15)")  # fmt: skip
+    p.add_argument("--window", metavar="WxH",
+                   help="read a sub-array of W x H pixels around the line of sight")  # fmt: skip
+    p.add_argument("--no-calibration", action="store_true",
+                   help="skip the blackbody calibration before the flight")  # fmt: skip
     p.add_argument("--fpn", action="store_true", help="add fixed-pattern noise to the frames")
     p.add_argument(
         "--no-track",
@@ -61,6 +82,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="FILE.h5", help="record the run into a session file")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
+
+
+def _no_nan(value):
+    """JSON has no NaN: a number that was not measured is null."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _no_nan(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_no_nan(v) for v in value]
+    return value
 
 
 def run(args: argparse.Namespace) -> int:
@@ -80,7 +112,10 @@ def run(args: argparse.Namespace) -> int:
         target=args.target,
         hover_s=args.hover_s,
         transit_mps=args.transit_mps,
-        real_psf=args.real_psf,
+        sky_temp_k=_kelvin(args.sky_temp_c, "--sky-temp-c"),
+        air_temp_k=_kelvin(args.air_temp_c, "--air-temp-c"),
+        window_px=_window(args.window),
+        calibrate=not args.no_calibration,
         fpn=args.fpn,
         track=not args.no_track,
         out=args.out,
@@ -104,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
     if not opts.track:
         result["note"] = "tracking off: the simulator re-clicked the drone at every stop"
     if args.json:
-        print(json.dumps(result, allow_nan=True))
+        print(json.dumps(_no_nan(result)))
         return 0
     print(format_result(result))
     return 0

@@ -14,10 +14,10 @@ from acquisition.calibrate.calibration import (
     NOISY,
     BlackbodyCapture,
     calibrate_sensor,
-    calibration_quality,
     radiance_of,
     temperature_of,
 )
+from acquisition.calibrate.quality import calibration_quality
 from tests.acquisition.calibration_scene import camera
 
 TEMPS_K = (283.15, 303.15, 318.15)
