@@ -16,8 +16,9 @@ Presets (:data:`TWIN_ABERRATION_PX`): the MWIR twin is aberration-limited, with 
 makes a Gaussian fitted to its point images come out at the paper's sigma = 0.8 px (section 5;
 the fit is ``acquisition.calibrate.psf_estimate``'s and the test holds it to 0.80 +/- 0.02);
 the LWIR twin is near diffraction-limited (F lambda / d = 0.73, section 8) with a small residual
-blur. The light outside +/- ``reach_px`` (the far Airy wings, ~3 % in the MWIR) is not rendered:
-it would add less than a thousandth of the noise to any pixel.
+blur. The light of the far Airy wings, outside +/- ``reach_px`` (~3 % in the MWIR), is folded
+back in proportion (the PRF sums to the fill factor): it would spread below a thousandth of the
+noise per pixel, but a flux measurement of the drone must find all of its light.
 
 :class:`TwinSpread` renders the drone's :class:`sim.silhouette.Silhouette` through the PRF at
 any range and sub-pixel phase (the renderer's spread protocol of :mod:`sim.drone`).
@@ -130,7 +131,11 @@ def _prf(optics: TwinOptics, ss: int) -> np.ndarray:
     prf = fftconvolve(prf, w1[:, None], mode="same")
     c = prf.shape[0] // 2
     h = optics.reach_px * ss
-    return np.clip(prf[c - h : c + h + 1, c - h : c + h + 1], 0.0, None)
+    prf = np.clip(prf[c - h : c + h + 1, c - h : c + h + 1], 0.0, None)
+    # The Airy wings beyond reach_px (~3 % in the MWIR) are folded back in proportion: the
+    # rendered drone carries all of its light, as a radiometric (flux) measurement expects
+    # (the far wings would be spread below the noise over hundreds of pixels anyway).
+    return prf * (optics.fill_factor * ss * ss / prf.sum())
 
 
 def contrast_weights(sensor, target_temp_k: float, sky_temp_k: float, n: int = 12):
@@ -142,7 +147,9 @@ def contrast_weights(sensor, target_temp_k: float, sky_temp_k: float, n: int = 1
     lo, hi = float(sensor.band_um[0]), float(sensor.band_um[1])
     wl = lo + (np.arange(n) + 0.5) * (hi - lo) / n
     resp = sensor.qe_at(wl)
-    w = resp * (spectral_photon_radiance(wl, target_temp_k) - spectral_photon_radiance(wl, sky_temp_k))
+    w = resp * (
+        spectral_photon_radiance(wl, target_temp_k) - spectral_photon_radiance(wl, sky_temp_k)
+    )
     return tuple(float(v) for v in wl), tuple(float(v) for v in np.clip(w, 0.0, None))
 
 
@@ -161,7 +168,7 @@ class TwinSpread:
     """The drone's silhouette through the twin's optics (the spread protocol of
     :mod:`sim.drone`): ``fractions(dx, dy, size_px)`` with ``size_px`` the small dimension in
     pixels at the current range. One FFT convolution of the rasterised silhouette with the PRF
-    per size (cached by 0.5 % steps, 2 % above 4 px) serves every phase: a phase is a strided
+    per size (cached by 1 % steps, 3 % above 4 px) serves every phase: a phase is a strided
     read of it, rounded to 1/16 px (1/8 px once the drone spans 8 px, 1/4 px from 24 px)."""
 
     def __init__(self, optics: TwinOptics, silhouette: Silhouette, small_m: float, *, cache=24):
@@ -190,7 +197,7 @@ class TwinSpread:
     def _image(self, size_px: float) -> tuple[int, np.ndarray]:
         # finer steps where the drone is small (its sub-pixel shape sets the peak), coarser
         # once it covers many pixels (a close, resolved drone: 2 % of its size, 1/4-px phases)
-        step = 1.005 if size_px < 4.0 else 1.02
+        step = 1.01 if size_px < 4.0 else 1.03
         key = (step, round(math.log(max(size_px, 1e-6)) / math.log(step)))
         hit = self._cache.get(key)
         if hit is None:

@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+
 @dataclass(frozen=True)
 class Part:
     """An axis-aligned rectangle: centre (x, y) and full width and height [m]."""

@@ -45,9 +45,12 @@ def camera_feeds(opts, flight_config, preroll_s: float) -> dict:
         scene = twin_scene_config(sensor, target, opts.scenario, **extra)
         if not opts.fpn:
             scene = replace(scene, fpn_enabled=False)
+        # two cameras on a mount are never co-aligned to a fraction of a pixel: the sight line
+        # lands at a seeded sub-pixel offset, not always on a pixel corner
+        offset = np.random.default_rng([opts.seed, i, 0xB0]).uniform(-0.5, 0.5, 2)
         feed = FlightCameraFeed(
             scene, flight_config, fps=sensor.fps, seed=opts.seed + i, t0_s=-preroll_s,
-            launch_s=0.0,
+            launch_s=0.0, boresight_offset_px=(float(offset[0]), float(offset[1])),
         )  # fmt: skip
         out[cam] = (sensor, feed)
     return out
