@@ -19,14 +19,21 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from acquisition.prediction import CURVES, ModelPredictor
+from acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
 
 CURVE_LABELS = {
     "small": "small, uncorrected",
     "large": "large, uncorrected",
     "small_corrected": "small, corrected",
     "large_corrected": "large, corrected",
+    EXPECTED: "expected Eq. (4), small corrected",
+    "paper_small": "paper's switched small",
+    "paper_large": "paper's switched large",
+    "paper_small_corrected": "paper's switched small, corrected",
+    "paper_large_corrected": "paper's switched large, corrected",
 }
+ALL_CURVES = (*CURVES, EXPECTED, *PAPER_CURVES)
+DEFAULT_SHOWN = (*CURVES, EXPECTED)
 SKY_STEP_K = 0.5  # a smaller change of the measured sky does not redraw the curves
 
 
@@ -35,13 +42,14 @@ class ModelOptions:
     """The operator's model choices: target preset, curves shown, background temperature."""
 
     target: str = "uav1"
-    shown: tuple[str, ...] = CURVES
+    shown: tuple[str, ...] = DEFAULT_SHOWN
     background_temp_k: float | None = None  # None: the model's own
 
     def __post_init__(self) -> None:
-        unknown = [c for c in self.shown if c not in CURVES]
+        unknown = [c for c in self.shown if c not in ALL_CURVES]
         if unknown:
-            raise ValueError(f"unknown model curve {unknown[0]!r} (known: {', '.join(CURVES)})")
+            known = ", ".join(ALL_CURVES)
+            raise ValueError(f"unknown model curve {unknown[0]!r} (known: {known})")
 
 
 def parse_background_temp(text: str) -> float | None:
@@ -78,7 +86,7 @@ class ModelCurves:
     ) -> None:
         self.sensors = dict(sensors)
         self.options = options
-        self.own = self._build(options)
+        self.own = self._build(options)  # the paper's curves come with every prediction
         self.sky = session_predictor if session_predictor is not None else self._build(options)
         self.sky_temp_k: dict[str, float] = {}
 

@@ -40,13 +40,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("file", help="session file (.h5)")
     p.add_argument("--camera", required=True)
     p.add_argument("--stop", type=int, required=True, help="stop number as in the stop table")
-    p.add_argument("--calibration",
-                   help="calibration .npz of this camera (default: the session's recorded one)")
-    p.add_argument("--air-temp-c", type=float,
-                   help="air along the path, C, for the atmospheric correction of the drone's "
-                   "temperature (default: the session's [weather], else the atmosphere's)")
-    p.add_argument("--apparent", action="store_true",
-                   help="report the apparent temperature only (no atmospheric correction)")
+    p.add_argument(
+        "--calibration",
+        help="calibration .npz of this camera (default: the session's recorded one)",
+    )
+    p.add_argument(
+        "--air-temp-c",
+        type=float,
+        help="air along the path, C, for the atmospheric correction of the drone's "
+        "temperature (default: the session's [weather], else the atmosphere's)",
+    )
+    p.add_argument(
+        "--apparent",
+        action="store_true",
+        help="report the apparent temperature only (no atmospheric correction)",
+    )
     p.add_argument("--sensor", help="sensor preset/TOML (default: the session's, else --camera)")
     p.add_argument("--frames", type=int, default=100, help="frames of the stop to use (100)")
     p.add_argument("--method", choices=("otsu", "ksigma"), default="otsu")

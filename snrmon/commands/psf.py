@@ -66,7 +66,11 @@ def run(args: argparse.Namespace) -> int:
     with open_session(args.file) as f:
         cam = f.cameras[args.camera]
         cal_path = args.calibration or recorded_events(f).calibrations.get(args.camera)
-        cal = load_calibration(cal_path, sensor, frame_shape=cam.frames.shape[1:]) if cal_path else None
+        cal = (
+            load_calibration(cal_path, sensor, frame_shape=cam.frames.shape[1:])
+            if cal_path
+            else None
+        )
         for n in args.stop:
             row = rows.get(n)
             if row is None:
