@@ -16,9 +16,9 @@ Presets (:data:`TWIN_ABERRATION_PX`): the MWIR twin is aberration-limited, with 
 makes a Gaussian fitted to its point images come out at the paper's sigma = 0.8 px (section 5;
 the fit is ``acquisition.calibrate.psf_estimate``'s and the test holds it to 0.80 +/- 0.02);
 the LWIR twin is near diffraction-limited (F lambda / d = 0.73, section 8) with a small residual
-blur. The light of the far Airy wings, outside +/- ``reach_px`` (~3 % in the MWIR), is folded
-back in proportion (the PRF sums to the fill factor): it would spread below a thousandth of the
-noise per pixel, but a flux measurement of the drone must find all of its light.
+blur. The light of the far Airy wings, outside +/- ``reach_px`` (~3 % in the MWIR), is not
+rendered: spread over the hundreds of pixels it would reach, it is below a thousandth of the
+noise in any of them (and folding it back in would brighten the core by 3 %).
 
 :class:`TwinSpread` renders the drone's :class:`sim.silhouette.Silhouette` through the PRF at
 any range and sub-pixel phase (the renderer's spread protocol of :mod:`sim.drone`).
@@ -131,11 +131,7 @@ def _prf(optics: TwinOptics, ss: int) -> np.ndarray:
     prf = fftconvolve(prf, w1[:, None], mode="same")
     c = prf.shape[0] // 2
     h = optics.reach_px * ss
-    prf = np.clip(prf[c - h : c + h + 1, c - h : c + h + 1], 0.0, None)
-    # The Airy wings beyond reach_px (~3 % in the MWIR) are folded back in proportion: the
-    # rendered drone carries all of its light, as a radiometric (flux) measurement expects
-    # (the far wings would be spread below the noise over hundreds of pixels anyway).
-    return prf * (optics.fill_factor * ss * ss / prf.sum())
+    return np.clip(prf[c - h : c + h + 1, c - h : c + h + 1], 0.0, None)
 
 
 def contrast_weights(sensor, target_temp_k: float, sky_temp_k: float, n: int = 12):
