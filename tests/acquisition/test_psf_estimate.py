@@ -64,7 +64,7 @@ def test_resolved_and_short_stops_are_refused_with_the_reason():
     crops, size, _ = _hover_crops(sensor, 451.0, n=30)
     with pytest.raises(PsfEstimateError, match=r"stop 2 .*resolved \(small dimension 1.58 px"):
         estimate_psf([StopCrops("stop 2 (mwir, 199 m)", crops, 1.58)], sensor)
-    with pytest.raises(PsfEstimateError, match="stop 4 .*only 30 usable frames.*at least 50"):
+    with pytest.raises(PsfEstimateError, match=r"stop 4 .*only 30 usable frames.*at least 50"):
         estimate_psf([StopCrops("stop 4 (mwir, 451 m)", crops, size)], sensor)
     with pytest.raises(PsfEstimateError, match="no stop"):
         estimate_psf([], sensor)
