@@ -171,6 +171,11 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     assert rc != 0
     assert "no stop 99 for mwir" in capsys.readouterr().err
     stop = json.loads(_stops_json(session))[0]
+    # a target file needs the drone's temperature: without a calibration, one message
+    no_cal = [a for a in argv if a not in ("--calibration", str(cal_path))]
+    assert main([*no_cal, "--stop", str(stop)]) == 2
+    err = capsys.readouterr().err
+    assert f"stop {stop} of mwir: the session has no calibration" in err
     assert main([*argv, "--stop", str(stop)]) == 0
     out = json.loads(capsys.readouterr().out)
     for key in ("small_m", "large_m", "mean_temp_c", "rss_delta_t_k", "n_frames", "small_m_std"):
