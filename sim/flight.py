@@ -45,7 +45,7 @@ class FlightConfig:
     speed_mps: float = 5.0  # transit speed along the line of sight
     hover_s: float = 6.0  # >= 100 frames at 30 fps plus margin
     start_range_m: float = 10.0  # where the drone starts (take-off done)
-    drift_amplitude_m: tuple[float, float, float] = (0.8, 0.2, 0.5)  # right, along, up
+    drift_amplitude_m: tuple[float, float, float] = (0.6, 0.15, 0.4)  # right, along, up
     drift_period_s: tuple[float, float] = (5.3, 1.7)  # slow sway, position-hold corrections
     seed: int = 0
 
