@@ -153,7 +153,7 @@ def test_pdf_and_png_render(outputs):
     img = cv2.imread(str(png))
     assert img is not None
     page_h, page_w = round(PAGE_IN[1] * PNG_DPI), round(PAGE_IN[0] * PNG_DPI)
-    assert img.shape == (5 * page_h, page_w, 3)
+    assert img.shape == (6 * page_h, page_w, 3)
     assert img.std() > 10  # drawn, not blank
 
 
