@@ -57,6 +57,7 @@ class ModelPredictor:
         self.curves: dict[str, dict[str, np.ndarray]] = {}
         self._lock = threading.Lock()
         self._generation: dict[str, int] = {}
+        self.version = 0  # counts the curves swapped in: a display redraws when it changes
         for camera, sensor_name in sensors.items():
             self.sensors[camera] = load_sensor(sensor_name)
             self._compute(camera, predict_options.get("background_temp_k"), None)
@@ -113,6 +114,7 @@ class ModelPredictor:
                 return  # a newer request superseded this one
             self.background_temp_k[camera] = p.background_temp_k if background_temp_k else None
             self.curves = {**self.curves, camera: curves}  # swapped whole: no half reads
+            self.version += 1
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
         curves = self.curves.get(camera)

@@ -103,6 +103,12 @@ class ModelCurves:
             sky.set_background(camera, temp)
         self.own, self.sky, self.options = own, sky, options
 
+    @property
+    def version(self) -> tuple[int, int]:
+        """Changes whenever either predictor swapped in new curves (they may be computed in
+        the background: a new sky, a PSF measured from the flight)."""
+        return (getattr(self.own, "version", 0), getattr(self.sky, "version", 0))
+
     def follow_sky(self, camera: str, temp_k: float) -> bool:
         """Set ``camera``'s measured sky temperature; True when its curves changed."""
         if not math.isfinite(temp_k):

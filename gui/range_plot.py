@@ -37,19 +37,22 @@ def x_span_m(ranges_m: Sequence[float]) -> float:
     return max(MIN_SPAN_M, 100.0 * math.ceil(1.25 * far / 100.0))
 
 
-def fit_title(rows: list[StopRow]) -> str:
+def fit_title(rows: list[StopRow], expected: tuple[np.ndarray, np.ndarray] | None) -> str:
     """chi^2/dof of the unresolved stops (the model's small dimension under a pixel) against
-    the model's expected Eq. (4) reading, with the error of each mean; "" without such a stop."""
+    the model's expected Eq. (4) reading as the plot has it now (``expected``: ranges, snr),
+    with the error of each mean; "" without such a stop or curve."""
+    if expected is None:
+        return ""
+    lr, snr = np.log(np.asarray(expected[0], float)), np.asarray(expected[1], float)
     terms = [
-        (r.snr_mean - r.model_snr["expected_eq4"]) ** 2 / r.snr_sem**2
+        (r.snr_mean - float(np.interp(math.log(r.range_m), lr, snr))) ** 2 / r.snr_sem**2
         for r in rows
-        if r.resolved is False and "expected_eq4" in r.model_snr and r.snr_sem > 0
+        if r.resolved is False and r.range_m and r.snr_sem > 0
     ]
     if not terms:
         return ""
-    return (
-        f"chi2/dof against the expected Eq. (4): {sum(terms) / len(terms):.2f} ({len(terms)} stops)"
-    )
+    chi2 = sum(terms) / len(terms)
+    return f"chi2/dof against the expected Eq. (4): {chi2:.2f} ({len(terms)} stops)"
 
 
 class RangePlot(QWidget):
@@ -88,6 +91,8 @@ class RangePlot(QWidget):
         view.sigRangeChangedManually.connect(self._zoomed)
         cache_axes(self.plot)
         self._stops_shown: list[tuple[float, float, float]] = []
+        self._rows: list[StopRow] = []
+        self._expected = None
         self._live_shown: tuple[float, float, float] | None = None
         self.setToolTip(
             f"{camera}: peak SNR (dimensionless) versus range (m). Lines: the model's curves; "
@@ -108,7 +113,12 @@ class RangePlot(QWidget):
             self.plot.getViewBox().setXRange(0.0, span, padding=0.0)
 
     def set_curves(self, curves: Curves | None) -> None:
-        """Replace the model curves (None or empty draws none)."""
+        """Replace the model curves (None or empty draws none); the fit statistic follows the
+        expected Eq. (4) curve (the sky-following one where there is one)."""
+        names = [n for n in (curves or {}) if n.startswith("expected_eq4") and "band" not in n]
+        names.sort(key=lambda n: "@ sky" not in n)
+        self._expected = tuple((curves or {})[names[0]]) if names else None
+        self.plot.setTitle(fit_title(self._rows, self._expected), size="8pt")
         for item in self.curve_items.values():
             self.plot.removeItem(item)
         self.curve_items = {}
@@ -152,7 +162,8 @@ class RangePlot(QWidget):
         if pts == self._stops_shown:
             return
         self._stops_shown = pts
-        self.plot.setTitle(fit_title(mine), size="8pt")
+        self._rows = mine
+        self.plot.setTitle(fit_title(mine, self._expected), size="8pt")
         if not pts:
             self.stops.setData([], [])
             self.errors.setData(x=np.array([]), y=np.array([]))

@@ -25,7 +25,13 @@ import numpy as np
 from acquisition.config import session_config_from_dict
 from acquisition.runtime.session import Session
 from acquisition.stops.detector import StopConfig
-from snrmon.rig.twin_day import CropLog, calibrate_cameras, camera_feeds, measured_psf
+from snrmon.rig.twin_day import (
+    CropLog,
+    adopt_measured_psf,
+    calibrate_cameras,
+    camera_feeds,
+    measured_psf,
+)
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +56,7 @@ class HilOptions:
     fpn: bool = False
     track: bool = True
     out: str | None = None
+    adopt_psf: bool = False  # hand the PSF measured at each unresolved stop to the model
 
     @property
     def scenario(self):
@@ -290,6 +297,8 @@ class HilRig:
             key = (row.camera, row.stop)
             if (row.complete or row.t_end_ns is not None) and key not in self._final:
                 self._final[key] = self._stop_result(row)
+                if self.opts.adopt_psf:
+                    adopt_measured_psf(self, row.camera, self._final)
 
     def _stop_result(self, row) -> dict:
         """One stop row with the simulator's truth over exactly the frames the console

@@ -114,30 +114,55 @@ class CropLog:
         return np.asarray(got).reshape(-1, 13, 13)
 
 
+def _unresolved_stops(rig, cam: str, finals: dict) -> list:
+    from acquisition.calibrate.psf_estimate import StopCrops, target_px
+
+    sensor = rig.cameras[cam].sensor
+    stops = []
+    for (c, stop), entry in sorted(finals.items()):
+        crops = entry.get("_crops")
+        if c != cam or crops is None or entry.get("lrf_range_m") is None:
+            continue
+        d = target_px(rig.predictor.target, entry["lrf_range_m"], sensor.ifov_rad)
+        if d < 1.0 and len(crops) >= 50:
+            stops.append(StopCrops(f"stop {stop} ({cam})", crops, d))
+    return stops
+
+
+def adopt_measured_psf(rig, cam: str, finals: dict) -> None:
+    """Fit the PSF to ``cam``'s unresolved stops so far and hand it to the model (its
+    corrected curves and expected Eq. (4) reading), in the background: what an operator does
+    once the first unresolved stop is in."""
+    import threading
+
+    from acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
+
+    stops = _unresolved_stops(rig, cam, finals)
+    if not stops:
+        return
+
+    def fit() -> None:
+        try:
+            est = estimate_psf(stops, rig.cameras[cam].sensor)
+        except PsfEstimateError:
+            return
+        rig.predictor.set_psf(cam, est.psf())
+
+    threading.Thread(target=fit, name=f"psf-{cam}", daemon=True).start()
+
+
 def measured_psf(rig, finals: dict) -> dict:
     """Per camera, the PSF fitted to the crops of its unresolved stops, pooled, and every
     stop's expected Eq. (4) with it: {camera: {"psf": {...} | {"error": ...}}} and, in the
     stop entries of ``finals``, ``"expected_eq4_measured_psf"``."""
-    from acquisition.calibrate.psf_estimate import (
-        PsfEstimateError,
-        StopCrops,
-        estimate_psf,
-        target_px,
-    )
+    from acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
     from model.snr import predict
 
     out = {}
     target = rig.predictor.target
     for cam, cam_rig in rig.cameras.items():
         sensor = cam_rig.sensor
-        stops = []
-        for (c, stop), entry in sorted(finals.items()):
-            crops = entry.get("_crops")
-            if c != cam or crops is None or entry.get("lrf_range_m") is None:
-                continue
-            d = target_px(target, entry["lrf_range_m"], sensor.ifov_rad)
-            if d < 1.0 and len(crops) >= 50:
-                stops.append(StopCrops(f"stop {stop} ({cam})", crops, d))
+        stops = _unresolved_stops(rig, cam, finals)
         if not stops:
             out[cam] = {"error": f"{cam}: no unresolved stop with 50 frames to fit a PSF"}
             continue
