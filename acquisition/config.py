@@ -79,6 +79,7 @@ class SessionConfig:
     measurement: PeakSnrConfig = field(default_factory=PeakSnrConfig)
     window: int = 100
     lrf_fresh_s: float = 2.0
+    air_temp_k: float | None = None  # [weather] air_temp_c: the model's path temperature
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
@@ -131,6 +132,11 @@ TOP_FIELDS = {
     "cameras": Field("tables [cameras.<name>]", _table, required=True),
     "gps": Field("a table [gps] (drivers.config)", _table),
     "lrf": Field("a table [lrf] (drivers.config)", _table),
+    "weather": Field("a table [weather] with air_temp_c", _table),
+    "simulation": Field("a table [simulation] (the simulated scenario, recorded with it)", _table),
+}
+WEATHER_FIELDS = {
+    "air_temp_c": Field("an air temperature in C, -100 to 100", _between(-100, 100)),
 }
 SITE_FIELDS = {
     "lat_deg": Field("a latitude in degrees, -90 to 90", _between(-90, 90), required=True),
@@ -210,12 +216,12 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
     """Validate a parsed TOML document into a :class:`SessionConfig`."""
     top = checked(data, TOP_FIELDS, "session")
     cams = top["cameras"]
-    if not cams:
-        raise ConfigError("[session]: no [cameras.<name>] table")
     site = None
     if "site" in top:
         s = checked(top["site"], SITE_FIELDS, "site")
         site = Site(float(s["lat_deg"]), float(s["lon_deg"]), float(s["alt_m"]))
+    weather = checked(top.get("weather", {}), WEATHER_FIELDS, "weather")
+    air_temp_k = float(weather["air_temp_c"]) + 273.15 if "air_temp_c" in weather else None
     meas = checked(top.get("measurement", {}), MEASUREMENT_FIELDS, "measurement")
     window = meas.pop("window", 100)
     lrf_fresh_s = float(meas.pop("lrf_fresh_s", 2.0))
@@ -237,6 +243,7 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
         measurement=mcfg,
         window=window,
         lrf_fresh_s=lrf_fresh_s,
+        air_temp_k=air_temp_k,
         raw=data,
     )
 

@@ -1,22 +1,35 @@
 """The model's prediction at a measured range, for the stop table and the live charts.
 
 The four curves of paper Figs. 7-10 (small/large characteristic dimension, uncorrected
-diffraction-limited point target / corrected real PSF and finite size) are computed once per
-camera on a dense logarithmic range grid by :func:`model.snr.predict` and interpolated in
-log-range, so a lookup per frame costs microseconds and every number still comes from
-:mod:`model`.
+diffraction-limited / corrected real PSF, both with the drone as a square of its dimension:
+continuous through the resolved/unresolved transition), the expected Eq. (4) reading
+(``expected_eq4``: what the 7x7 estimator should read on the corrected small target) and the
+paper's own switched curves are computed once per camera on a dense logarithmic range grid by
+:func:`model.snr.predict` and interpolated in log-range, so a lookup per frame costs
+microseconds and every number still comes from :mod:`model`.
+
+A recomputation (a new sky temperature, a PSF measured from the flight) takes ~0.5 s per camera.
+With ``asynchronous=True`` :meth:`ModelPredictor.set_background` returns at once and the new
+curves replace the old ones, whole, when they are ready: the session calls it from a camera's
+measurement thread, whose frame ring holds half a second.
 """
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 CURVES = ("small", "large", "small_corrected", "large_corrected")
+EXPECTED = "expected_eq4"
+PAPER_CURVES = tuple(f"paper_{c}" for c in CURVES)
 
 
 class ModelPredictor:
     """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
-    "large_corrected", "resolved_small"}`` for each camera's sensor preset and one target."""
+    "large_corrected", "expected_eq4", "resolved_small"}`` for each camera's sensor preset and
+    one target. ``predict_options`` go to :func:`model.snr.predict` (``background_temp_k``,
+    ``air_temp_k``, ``atmosphere``, ``corrected_psf``...)."""
 
     def __init__(
         self,
@@ -24,6 +37,7 @@ class ModelPredictor:
         target: str,
         *,
         ranges_m: np.ndarray | None = None,
+        asynchronous: bool = False,
         **predict_options,
     ) -> None:
         from model.presets import load_sensor, load_target
@@ -32,27 +46,54 @@ class ModelPredictor:
         self.target = load_target(target)
         self._predict = predict
         self._options = dict(predict_options)
+        self.asynchronous = asynchronous
         self.sensors = {}
         self.background_temp_k: dict[str, float | None] = {}
+        self.psf: dict[str, object] = {}
         self.ranges_m = (
             np.geomspace(10.0, 5000.0, 600) if ranges_m is None else np.asarray(ranges_m, float)
         )
         self._log_r = np.log(self.ranges_m)
         self.curves: dict[str, dict[str, np.ndarray]] = {}
+        self._lock = threading.Lock()
+        self._generation: dict[str, int] = {}
+        self.version = 0  # counts the curves swapped in: a display redraws when it changes
         for camera, sensor_name in sensors.items():
             self.sensors[camera] = load_sensor(sensor_name)
-            self._compute(camera, predict_options.get("background_temp_k"))
+            self._compute(camera, predict_options.get("background_temp_k"), None)
 
-    def set_background(self, camera: str, temp_k: float | None) -> None:
+    def set_background(self, camera: str, temp_k: float | None, *, wait: bool | None = None):
         """Recompute ``camera``'s curves for a measured background (sky) temperature: the
         paper's path-radiance correction (sections 8-9); None returns to the model's own."""
         if camera in self.sensors:
-            self._compute(camera, temp_k)
+            self._schedule(camera, temp_k, self.psf.get(camera), wait)
 
-    def _compute(self, camera: str, background_temp_k: float | None) -> None:
+    def set_psf(self, camera: str, psf, *, wait: bool | None = None) -> None:
+        """Use ``psf`` (a ``model.psf`` PSF, e.g. measured from the flight,
+        ``acquisition.calibrate.psf_estimate``) for ``camera``'s corrected curves; None returns
+        to the sensor preset's."""
+        if camera in self.sensors:
+            self._schedule(camera, self.background_temp_k.get(camera), psf, wait)
+
+    def _schedule(self, camera, temp_k, psf, wait) -> None:
+        # the inputs are current at once (a second request for the same value does nothing)
+        self.background_temp_k[camera] = temp_k
+        self.psf[camera] = psf
+        if wait if wait is not None else not self.asynchronous:
+            self._compute(camera, temp_k, psf)
+            return
+        threading.Thread(
+            target=self._compute, args=(camera, temp_k, psf), name=f"model-{camera}", daemon=True
+        ).start()
+
+    def _compute(self, camera: str, background_temp_k: float | None, psf) -> None:
+        with self._lock:
+            gen = self._generation.get(camera, 0) + 1
+            self._generation[camera] = gen
         options = {**self._options, "background_temp_k": background_temp_k}
+        if psf is not None:
+            options["corrected_psf"] = psf
         p = self._predict(self.sensors[camera], self.target, self.ranges_m, **options)
-        self.background_temp_k[camera] = background_temp_k
         curves = {
             "small": np.asarray(p.snr_small, float),
             "large": np.asarray(p.snr_large, float),
@@ -60,29 +101,41 @@ class ModelPredictor:
             "large_corrected": np.asarray(p.snr_large_corrected, float),
             "resolved_small": np.asarray(p.resolved_small, float),
         }
-        for name in ("small_corrected", "large_corrected"):  # the Fig. 12 band
+        if p.expected_eq4 is not None:
+            curves[EXPECTED] = np.asarray(p.expected_eq4, float)
+        for name, snr in p.paper.items():
+            curves[f"paper_{name}"] = np.asarray(snr, float)
+        for name in ("small_corrected", "large_corrected", EXPECTED):  # the band
             if name in p.lower and name in p.upper:
                 curves[f"{name}_lower"] = np.asarray(p.lower[name], float)
                 curves[f"{name}_upper"] = np.asarray(p.upper[name], float)
-        self.curves = {**self.curves, camera: curves}  # swapped whole: readers never see half
+        with self._lock:
+            if self._generation[camera] != gen:
+                return  # a newer request superseded this one
+            self.background_temp_k[camera] = p.background_temp_k if background_temp_k else None
+            self.curves = {**self.curves, camera: curves}  # swapped whole: no half reads
+            self.version += 1
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
         curves = self.curves.get(camera)
         if curves is None or range_m is None or not range_m > 0:
             return {}
         x = np.log(range_m)
-        out = {name: float(np.interp(x, self._log_r, curves[name])) for name in CURVES}
-        # The resolved/unresolved switch is a step, not something to interpolate.
+        names = [*CURVES, EXPECTED] if EXPECTED in curves else list(CURVES)
+        out = {name: float(np.interp(x, self._log_r, curves[name])) for name in names}
+        # the paper's resolved/unresolved verdict (D >= 1 px) is a step, not interpolated
         i = int(np.clip(np.searchsorted(self._log_r, x), 0, len(self._log_r) - 1))
         out["resolved_small"] = float(curves["resolved_small"][i])
         return out
 
     def curve(self, camera: str) -> dict[str, tuple]:
-        """The four curves of ``camera`` as (ranges_m, snr) pairs, for plotting, and the
-        uncertainty band of each corrected curve as (ranges_m, lower, upper)."""
+        """The curves of ``camera`` as (ranges_m, snr) pairs, for plotting: the four, the
+        expected Eq. (4) reading and the paper's four (``paper_<name>``); and the band of the
+        corrected curves and the expected reading as (ranges_m, lower, upper)."""
         c = self.curves.get(camera, {})
-        out: dict[str, tuple] = {name: (self.ranges_m, c[name]) for name in CURVES if name in c}
-        for name in ("small_corrected", "large_corrected"):
+        names = (*CURVES, EXPECTED, *PAPER_CURVES)
+        out: dict[str, tuple] = {name: (self.ranges_m, c[name]) for name in names if name in c}
+        for name in ("small_corrected", "large_corrected", EXPECTED):
             if f"{name}_lower" in c:
                 out[f"{name} band"] = (self.ranges_m, c[f"{name}_lower"], c[f"{name}_upper"])
         return out

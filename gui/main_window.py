@@ -178,9 +178,13 @@ class ConsoleWindow(QMainWindow):
         self.banner.show_alarms(st.alarms, now_ns / 1e9)
         self.status_panel.show_status(st)
         self.noise_panel.show_status(st)
+        version = getattr(self.model, "version", None)
+        redraw = version is not None and version != getattr(self, "_model_version", None)
+        self._model_version = version
         for name, panel in self.panels.items():
             cs = st.cameras[name]
-            if self.model is not None and self.model.follow_sky(name, cs.sky_temp_k):
+            followed = self.model is not None and self.model.follow_sky(name, cs.sky_temp_k)
+            if followed or redraw:  # a new sky, or curves computed in the background arrived
                 self._draw_curves(name)
             panel.view.show_status(cs)
             panel.inset.show_box(self._pixels.get(name), cs)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from acquisition.prediction import CURVES, ModelPredictor
+from acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
 from acquisition.protocols import ConsoleSession
 
 CURVE_LABELS = {
@@ -27,7 +27,14 @@ CURVE_LABELS = {
     "large": "large, uncorrected",
     "small_corrected": "small, corrected",
     "large_corrected": "large, corrected",
+    EXPECTED: "expected Eq. (4), small corrected",
+    "paper_small": "paper's switched small",
+    "paper_large": "paper's switched large",
+    "paper_small_corrected": "paper's switched small, corrected",
+    "paper_large_corrected": "paper's switched large, corrected",
 }
+ALL_CURVES = (*CURVES, EXPECTED, *PAPER_CURVES)
+DEFAULT_SHOWN = (*CURVES, EXPECTED)
 SKY_STEP_K = 0.5  # a smaller change of the measured sky does not redraw the curves
 
 
@@ -36,13 +43,14 @@ class ModelOptions:
     """The operator's model choices: target preset, curves shown, background temperature."""
 
     target: str = "uav1"
-    shown: tuple[str, ...] = CURVES
+    shown: tuple[str, ...] = DEFAULT_SHOWN
     background_temp_k: float | None = None  # None: the model's own
 
     def __post_init__(self) -> None:
-        unknown = [c for c in self.shown if c not in CURVES]
+        unknown = [c for c in self.shown if c not in ALL_CURVES]
         if unknown:
-            raise ValueError(f"unknown model curve {unknown[0]!r} (known: {', '.join(CURVES)})")
+            known = ", ".join(ALL_CURVES)
+            raise ValueError(f"unknown model curve {unknown[0]!r} (known: {known})")
 
 
 def parse_background_temp(text: str) -> float | None:
@@ -79,7 +87,7 @@ class ModelCurves:
     ) -> None:
         self.sensors = dict(sensors)
         self.options = options
-        self.own = self._build(options)
+        self.own = self._build(options)  # the paper's curves come with every prediction
         self.sky = session_predictor if session_predictor is not None else self._build(options)
         self.sky_temp_k: dict[str, float] = {}
 
@@ -95,6 +103,12 @@ class ModelCurves:
         for camera, temp in self.sky_temp_k.items():
             sky.set_background(camera, temp)
         self.own, self.sky, self.options = own, sky, options
+
+    @property
+    def version(self) -> tuple[int, int]:
+        """Changes whenever either predictor swapped in new curves (they may be computed in
+        the background: a new sky, a PSF measured from the flight)."""
+        return (getattr(self.own, "version", 0), getattr(self.sky, "version", 0))
 
     def follow_sky(self, camera: str, temp_k: float) -> bool:
         """Set ``camera``'s measured sky temperature; True when its curves changed."""

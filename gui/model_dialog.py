@@ -21,8 +21,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from acquisition.prediction import CURVES
-from gui.model_curves import CURVE_LABELS, ModelOptions, parse_background_temp
+from gui.model_curves import ALL_CURVES, CURVE_LABELS, ModelOptions, parse_background_temp
 
 TARGET_CHOICES = ("uav1", "uav2")  # the model's target presets; a target TOML path also works
 
@@ -50,7 +49,7 @@ class ModelOptionsDialog(QDialog):
         self.shown: dict[str, QCheckBox] = {}
         form = QFormLayout()
         form.addRow("target", self.target)
-        for name in CURVES:
+        for name in ALL_CURVES:
             box = QCheckBox(CURVE_LABELS[name])
             box.setChecked(name in options.shown)
             box.setToolTip(

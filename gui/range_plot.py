@@ -37,6 +37,24 @@ def x_span_m(ranges_m: Sequence[float]) -> float:
     return max(MIN_SPAN_M, 100.0 * math.ceil(1.25 * far / 100.0))
 
 
+def fit_title(rows: list[StopRow], expected: tuple[np.ndarray, np.ndarray] | None) -> str:
+    """chi^2/dof of the unresolved stops (the model's small dimension under a pixel) against
+    the model's expected Eq. (4) reading as the plot has it now (``expected``: ranges, snr),
+    with the error of each mean; "" without such a stop or curve."""
+    if expected is None:
+        return ""
+    lr, snr = np.log(np.asarray(expected[0], float)), np.asarray(expected[1], float)
+    terms = [
+        (r.snr_mean - float(np.interp(math.log(r.range_m), lr, snr))) ** 2 / r.snr_sem**2
+        for r in rows
+        if r.resolved is False and r.range_m and r.snr_sem > 0
+    ]
+    if not terms:
+        return ""
+    chi2 = sum(terms) / len(terms)
+    return f"chi2/dof against the expected Eq. (4): {chi2:.2f} ({len(terms)} stops)"
+
+
 class RangePlot(QWidget):
     """The SNR-versus-range plot of one camera."""
 
@@ -54,7 +72,7 @@ class RangePlot(QWidget):
         self.plot.addItem(self.errors)
         self.stops = self.plot.plot(
             pen=None, symbol="s", symbolSize=8, symbolBrush=colour, symbolPen="k",
-            name="stops (mean +/- std)",
+            name="stops (mean +/- error of the mean)",
         )  # fmt: skip
         self.live_errors = pg.ErrorBarItem(x=np.array([]), y=np.array([]), pen=pg.mkPen("#ffffff"))
         self.plot.addItem(self.live_errors)
@@ -73,11 +91,13 @@ class RangePlot(QWidget):
         view.sigRangeChangedManually.connect(self._zoomed)
         cache_axes(self.plot)
         self._stops_shown: list[tuple[float, float, float]] = []
+        self._rows: list[StopRow] = []
+        self._expected = None
         self._live_shown: tuple[float, float, float] | None = None
         self.setToolTip(
             f"{camera}: peak SNR (dimensionless) versus range (m). Lines: the model's curves; "
-            "shaded: the model's uncertainty; squares: measured stops, mean +/- 1 std over 100 "
-            "frames; star: the live 100-frame mean at the current range."
+            "shaded: the model's uncertainty; squares: measured stops, mean +/- the error of the "
+            "mean of their 100 frames; star: the live 100-frame mean +/- std at the current range."
         )
         lay = QVBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)
@@ -93,7 +113,12 @@ class RangePlot(QWidget):
             self.plot.getViewBox().setXRange(0.0, span, padding=0.0)
 
     def set_curves(self, curves: Curves | None) -> None:
-        """Replace the model curves (None or empty draws none)."""
+        """Replace the model curves (None or empty draws none); the fit statistic follows the
+        expected Eq. (4) curve (the sky-following one where there is one)."""
+        names = [n for n in (curves or {}) if n.startswith("expected_eq4") and "band" not in n]
+        names.sort(key=lambda n: "@ sky" not in n)
+        self._expected = tuple((curves or {})[names[0]]) if names else None
+        self.plot.setTitle(fit_title(self._rows, self._expected), size="8pt")
         for item in self.curve_items.values():
             self.plot.removeItem(item)
         self.curve_items = {}
@@ -122,15 +147,23 @@ class RangePlot(QWidget):
             self.curve_items[name] = item
 
     def show_stops(self, rows: list[StopRow]) -> None:
-        """The stops of this camera that have a range and at least one valid frame."""
-        pts = [
-            (r.range_m, r.snr_mean, r.snr_std)
+        """The stops of this camera that have a range and at least one valid frame, with the
+        error of their mean (the frames' autocorrelation counted; the per-frame std where it is
+        not known), and the chi^2/dof of the unresolved ones against the expected Eq. (4)."""
+        mine = [
+            r
             for r in rows
             if r.camera == self.camera and r.range_m is not None and math.isfinite(r.snr_mean)
+        ]
+        pts = [
+            (r.range_m, r.snr_mean, r.snr_sem if math.isfinite(r.snr_sem) else r.snr_std)
+            for r in mine
         ]
         if pts == self._stops_shown:
             return
         self._stops_shown = pts
+        self._rows = mine
+        self.plot.setTitle(fit_title(mine, self._expected), size="8pt")
         if not pts:
             self.stops.setData([], [])
             self.errors.setData(x=np.array([]), y=np.array([]))

@@ -9,6 +9,16 @@
 * optionally a spectral transmission from MODTRAN (:mod:`model.modtran`) at one path length,
   scaled to other ranges per spectral bin as tau(R) = tau(L0)^(R/L0).
 
+Contrast weighting: a target's signal is tau x (L_target - L_path source) integrated over the
+band with the camera's response, so the transmission that multiplies it is the band average
+WEIGHTED by that contrast spectrum, not the flat one; where the mid-wave CO2 band eats the
+strongest part of a warm target's contrast the two differ by 7-14 % (0.695 against 0.746 at
+199 m, 0.580 against 0.663 at 508 m). :meth:`Atmosphere.contrast_transmission` is that
+weighted value: a spectral (MODTRAN) atmosphere gives it exactly per bin; for the power law the
+built-in table holds a fit weighted by dLq/dT at 300 K where one was run (US Standard 1976
+MWIR: a = 0.722, b = 0.419, physics.md section 4) and the flat fit elsewhere (the LWIR band is
+close to grey: 0.96 at 199 m).
+
 Path radiance is (1 - tau) L(T_path) per spectral bin: T_path is the air temperature unless the
 paper's correction is applied (a measured sky/background temperature, see :mod:`model.snr`);
 with a MODTRAN radiance run the bin's effective source function PTH_THRML / (1 - tau(L0)) is used.
@@ -44,6 +54,11 @@ POWER_LAW_FITS: dict[tuple[str, str], tuple[float, float, float]] = {
     ("midlat_winter", "mwir"): (0.451, 0.334, 0.005),
     ("midlat_winter", "lwir"): (0.0815, 0.642, 0.005),
 }
+# (model, band) -> (a, b) fitted to the band transmission weighted by dLq/dT at 300 K (the
+# thermal contrast of a near-ambient target); only where physics.md section 4 tabulates it.
+CONTRAST_WEIGHTED_FITS: dict[tuple[str, str], tuple[float, float]] = {
+    ("us_std_1976", "mwir"): (0.722, 0.419),
+}
 AIR_TEMP_K = {
     "us_std_1976": 288.15,
     "midlat_summer": 294.2,
@@ -77,6 +92,8 @@ class Atmosphere:
     air_temp_k: float = US_STD_AIR_TEMP_K
     spectral: SpectralPath | None = None
     source: str = ""
+    contrast_power_a: float | None = None  # contrast-weighted fit (None: the flat one)
+    contrast_power_b: float | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.constant_tau <= 1.0:
@@ -98,6 +115,25 @@ class Atmosphere:
         if self.power_a > 0:
             tau = tau * np.exp(-self.power_a * r_km**self.power_b)
         return tau
+
+    def contrast_transmission(self, range_m) -> np.ndarray | float:
+        """Band transmission weighted by a near-ambient target's thermal contrast (module
+        docstring); equal to the flat band average where no weighted fit is tabulated. For a
+        spectral atmosphere use :meth:`spectral_transmission` (exact per bin)."""
+        if self.contrast_power_a is None or self.contrast_power_b is None:
+            return self._broadband(range_m)
+        r_km = _check_ranges(range_m) / 1e3
+        tau = self.constant_tau * np.exp(-self.aerosol_beta_per_km * r_km)
+        return tau * np.exp(-self.contrast_power_a * r_km**self.contrast_power_b)
+
+    def signal_transmission(self, range_m, wavelengths_um) -> np.ndarray:
+        """tau(R, lambda) (n_ranges, n_wl) to apply to a target's contrast: the spectral
+        transmission of a MODTRAN atmosphere, else the contrast-weighted band value at every
+        wavelength (a grey band would overstate the MWIR signal by 7-14 %)."""
+        if self.spectral is not None:
+            return self.spectral_transmission(range_m, wavelengths_um)
+        tau = np.atleast_1d(self.contrast_transmission(range_m))[:, None]
+        return np.broadcast_to(tau, (tau.shape[0], np.size(wavelengths_um))).copy()
 
     def spectral_transmission(self, range_m, wavelengths_um) -> np.ndarray:
         """tau(R, lambda), shape (n_ranges, n_wavelengths)."""
@@ -163,12 +199,16 @@ def default_atmosphere(band_um: tuple[float, float], model: str = "us_std_1976")
         known = sorted({m for m, _ in POWER_LAW_FITS})
         raise ValueError(f"unknown standard atmosphere {model!r}; known: {', '.join(known)}")
     a, b, err = POWER_LAW_FITS[(model, key)]
+    ca, cb = CONTRAST_WEIGHTED_FITS.get((model, key), (None, None))
+    weighted = "contrast-weighted" if ca is not None else "flat (no weighted fit tabulated)"
     return Atmosphere(
         name=f"{model} {key} (power law)",
         power_a=a,
         power_b=b,
         air_temp_k=AIR_TEMP_K[model],
-        source=f"LOWTRAN7 {model}, no aerosol, sea level; fit |error| <= {err}",
+        source=f"LOWTRAN7 {model}, no aerosol, sea level; fit |error| <= {err}; signal {weighted}",
+        contrast_power_a=ca,
+        contrast_power_b=cb,
     )
 
 

@@ -237,6 +237,8 @@ def load_atmosphere(path_like, band_um: tuple[float, float], path_length_m: floa
             constant_tau=v.get("transmission", 1.0),
             power_a=base.power_a,
             power_b=base.power_b,
+            contrast_power_a=base.contrast_power_a,
+            contrast_power_b=base.contrast_power_b,
             aerosol_beta_per_km=v.get("aerosol_beta_per_km", 0.0),
             air_temp_k=v.get("air_temp_k", base.air_temp_k),
             spectral=spectral,

@@ -30,7 +30,6 @@ from model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf, Psf
 
 _SQ2PI = math.sqrt(2.0 * math.pi)
 _N_R, _N_THETA = 96, 24
-_PERIOD_PX = 128.0  # aliasing period of the Cartesian grid for pixel_energy_fractions
 
 
 def _check_ff(fill_factor: float) -> float:
@@ -161,24 +160,6 @@ def average_pvf_spatial(psf: AiryPsf | GaussianPsf, fill_factor: float, n: int =
     return float(4.0 * np.einsum("i,j,ij->", wu * overlap, wu * overlap, density))
 
 
-@functools.lru_cache(maxsize=32)
-def _cartesian_weights(psf: Psf, fill_factor: float, target_sigma_px: float):
-    a = math.sqrt(fill_factor)
-    top = max(cut for _, _, cut in psf.components())
-    n = min(math.ceil(top * _PERIOD_PX), 2048)
-    step = top / n
-    f = np.arange(n + 1) * step
-    fr = np.hypot(f[:, None], f[None, :])
-    g = sum(w * fn(fr) for w, fn, _ in psf.components())
-    g = g * fill_factor * np.sinc(a * f)[:, None] * np.sinc(a * f)[None, :]
-    if target_sigma_px > 0:
-        g = g * np.exp(-2.0 * math.pi**2 * target_sigma_px**2 * fr * fr)
-    mult = np.full(n + 1, 2.0)
-    mult[0] = 1.0
-    w = g * (step * mult)[:, None] * (step * mult)[None, :]
-    return 2.0 * math.pi * f, w
-
-
 def pixel_energy_fractions(
     psf: Psf,
     dx_px: float,
@@ -204,10 +185,9 @@ def pixel_energy_fractions(
         fx = ndtr((k - dx_px + half) / s) - ndtr((k - dx_px - half) / s)
         fy = ndtr((k - dy_px + half) / s) - ndtr((k - dy_px - half) / s)
         return np.outer(fy, fx)
-    omega, w = _cartesian_weights(psf, ff, st)
-    cx = np.cos(np.outer(k - dx_px, omega))
-    cy = np.cos(np.outer(k - dy_px, omega))
-    return cy @ w @ cx.T
+    from model.footprint import pixel_patterns
+
+    return pixel_patterns(psf, ff, dx_px, dy_px, half_size_px=h, target_sigma_px=st)[0, 0]
 
 
 def solve_blur_sigma(

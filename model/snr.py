@@ -1,21 +1,29 @@
-"""SNR versus range: paper Eqs. 2-3 with the resolved/unresolved rule and the four curves of
-Figs. 7-10 (sections 2, 8).
+"""SNR versus range: paper Eqs. 2-3, the four curves of Figs. 7-10 (sections 2, 8), and what
+Eq. (4) is expected to read.
 
-Signal (Eq. 2), in photons integrated over the band with tau_optics tau_cold_filter QE(lambda):
+Signal (Eq. 2), in photons over the band through tau_optics tau_cold_filter QE(lambda): the
+contrast radiance of :mod:`model.contrast` (separate sky and air temperatures, the
+contrast-weighted transmission) over the target's area A_t at range R gives the point-source
+contrast S_pt = A_opt t_int A_t / R^2 integral tau dLq resp (PVF = 1); the pixel's share of it
+depends on the geometry:
 
-* contrast photon radiance dLq(R, lambda) = tau(R) L_t + L_path(R) - L_bg. The path radiance is
-  (1 - tau) S(lambda) and the clear-sky background is the infinite path, L_bg = S; S is a
-  blackbody at the measured background temperature when one is given (the paper's correction),
-  else at the atmosphere's air temperature (or MODTRAN's path source). Hence dLq = tau (L_t - S).
-* unresolved (characteristic dimension < pixel footprint R IFOV): point-source intensity
-  dLq A_t over R^2 into A_opt, times the average PVF: S_e = A_opt t_int PVF dLq A_t / R^2;
-* resolved: pixel-filling radiance over the detector's solid angle, S_e = A_opt t_int FF IFOV^2
-  dLq (no PVF; the paper applies no correction to resolved ranges).
+* ``geometry="square"`` (default, continuous): the target is a square of side D = size / (R
+  IFOV) pixels convolved with the PSF and the PVF is its phase-averaged ensquared energy
+  (:func:`model.footprint.average_pvf_square`) at EVERY range: S_e = S_pt x PVF(D). It is the
+  point-source average PVF for D -> 0 and FF / D^2 for D >> 1, where S_e becomes the paper's
+  pixel-filling radiance A_opt t_int FF IFOV^2 dLq exactly; in between it has no jump.
+* ``geometry="paper"``: the paper's switched curves: resolved (D >= 1) pixel-filling radiance,
+  unresolved point source x average PVF, the finite size (corrected curves) as a Gaussian of
+  sigma_t = ``target_sigma_per_size`` x D. Its jump at D = 1 (MWIR UAV1 small, 314 m: 433 ->
+  144 uncorrected) is the paper's, not physics; these curves are always in ``paper`` too.
 
 Curves: small/large characteristic dimension x uncorrected (diffraction-limited Airy averaged
-over the band, point target) / corrected (the sensor's real PSF, and a finite Gaussian target of
-sigma_t = ``target_sigma_per_size`` x D, D the dimension in pixels, convolved with it).
-SNR = S_e / sqrt(temporal^2 + spatial^2) (Eq. 3); temporal from Eq. 1 against the background.
+over the band) / corrected (the sensor's real PSF, or one measured from flight data).
+SNR = S_e / sqrt(temporal^2 + spatial^2) (Eq. 3), temporal from Eq. 1 against the sky.
+
+``expected_eq4`` is the mean of what the Eq. (4) estimator reads on the corrected small curve's
+target (:mod:`model.eq4`: peak-search bias, the rim's share of the PSF, the 24-pixel std); the
+band (``lower``/``upper``) is the Monte-Carlo band of :mod:`model.montecarlo`.
 """
 
 from __future__ import annotations
@@ -24,36 +32,44 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.interpolate import PchipInterpolator
 
-from model.atmosphere import Atmosphere, band_key, resolve_atmosphere
+from model.contrast import contrast
 from model.detector import spectral_grid
+from model.eq4 import expected_eq4 as _expected_eq4
+from model.footprint import average_pvf_square
+from model.montecarlo import InputUncertainty, McDraws, draw_corrected
 from model.noise import NoiseBreakdown, noise_breakdown
 from model.psf import Psf
 from model.pvf import average_pvf, average_pvf_vs_target_sigma
-from model.radiometry import spectral_photon_radiance
 from model.sensor import Sensor
 from model.target import Target
 from model.uncertainty import UncertaintyBudget
 
 CURVES = ("small", "large", "small_corrected", "large_corrected")
+GEOMETRIES = ("square", "paper")
 DEFAULT_TARGET_SIGMA_PER_SIZE = 0.5
-"""sigma_t = D / 2 (physics.md: with the paper's sigma = 0.8 px this reproduces its relative
-PVF drop with target size)."""
+"""The paper geometry's sigma_t = D / 2 (physics.md: with the paper's sigma = 0.8 px this
+reproduces its relative PVF drop with target size)."""
+_EXPECTED_NODES = 28  # the expected Eq. (4) curve is computed here and interpolated between
 
 
 @dataclass(frozen=True, eq=False)
 class SnrPrediction:
     """The four curves over ``ranges_m`` and what made them. Arrays have one value per range.
 
-    ``signal_e``, ``pvf``, ``lower``/``upper`` map a curve name (:data:`CURVES`) to arrays;
-    ``pvf`` is NaN where that curve's target is resolved; ``lower``/``upper`` (the Fig. 12 band)
-    exist for the corrected curves. ``noise`` is per pixel and the same at every range.
+    ``signal_e``, ``pvf``, ``paper`` map a curve name (:data:`CURVES`) to arrays; ``pvf`` is
+    NaN where the paper geometry calls the target resolved; ``lower``/``upper`` (the band) exist
+    for the corrected curves and ``expected_eq4``; ``relative_uncertainty`` is the Fig. 12
+    budget (deterministic, as the paper tabulates it). ``noise`` is per pixel.
     """
 
     sensor_name: str
     target_name: str
     atmosphere_name: str
-    background_temp_k: float
+    background_temp_k: float  # the sky (measured or the model's own)
+    air_temp_k: float
+    geometry: str
     ranges_m: np.ndarray
     snr_small: np.ndarray
     snr_large: np.ndarray
@@ -65,14 +81,22 @@ class SnrPrediction:
     pvf: dict[str, np.ndarray]
     noise: NoiseBreakdown
     transmission: np.ndarray
+    transmission_contrast: np.ndarray
     lower: dict[str, np.ndarray]
     upper: dict[str, np.ndarray]
     relative_uncertainty: dict[str, np.ndarray]
     transition_range_small_m: float
     transition_range_large_m: float
     point_contrast_e: dict[str, np.ndarray] = field(default_factory=dict)
+    paper: dict[str, np.ndarray] = field(default_factory=dict)
+    expected_eq4: np.ndarray | None = None
+    draws: McDraws | None = None  # the Monte-Carlo draws behind the band
 
     def snr(self, curve: str) -> np.ndarray:
+        if curve == "expected_eq4":
+            if self.expected_eq4 is None:
+                raise ValueError("this prediction was made without the expected Eq. (4) curve")
+            return self.expected_eq4
         if curve not in CURVES:
             raise ValueError(f"unknown curve {curve!r}; known: {', '.join(CURVES)}")
         return getattr(self, f"snr_{curve}")
@@ -85,24 +109,26 @@ class SnrPrediction:
         """One JSON-ready object per range (the ``snrmon model snr --json`` contract)."""
         out = []
         for i, r in enumerate(self.ranges_m):
-            out.append(
-                {
-                    "range_m": float(r),
-                    "resolved_small": bool(self.resolved_small[i]),
-                    "resolved_large": bool(self.resolved_large[i]),
-                    "snr_small": float(self.snr_small[i]),
-                    "snr_large": float(self.snr_large[i]),
-                    "snr_small_corrected": float(self.snr_small_corrected[i]),
-                    "snr_large_corrected": float(self.snr_large_corrected[i]),
-                    "signal_e": {c: float(self.signal_e[c][i]) for c in CURVES},
-                    "noise_e": self.noise_e,
-                    "transmission": float(self.transmission[i]),
-                    "pvf": {c: _none_if_nan(self.pvf[c][i]) for c in CURVES},
-                    "uncertainty": {
-                        c: [float(self.lower[c][i]), float(self.upper[c][i])] for c in self.lower
-                    },
-                }
-            )
+            rec = {
+                "range_m": float(r),
+                "resolved_small": bool(self.resolved_small[i]),
+                "resolved_large": bool(self.resolved_large[i]),
+                "snr_small": float(self.snr_small[i]),
+                "snr_large": float(self.snr_large[i]),
+                "snr_small_corrected": float(self.snr_small_corrected[i]),
+                "snr_large_corrected": float(self.snr_large_corrected[i]),
+                "expected_eq4": None if self.expected_eq4 is None else float(self.expected_eq4[i]),
+                "snr_paper": {c: float(self.paper[c][i]) for c in self.paper},
+                "signal_e": {c: float(self.signal_e[c][i]) for c in CURVES},
+                "noise_e": self.noise_e,
+                "transmission": float(self.transmission[i]),
+                "transmission_contrast": float(self.transmission_contrast[i]),
+                "pvf": {c: _none_if_nan(self.pvf[c][i]) for c in CURVES},
+                "uncertainty": {
+                    c: [float(self.lower[c][i]), float(self.upper[c][i])] for c in self.lower
+                },
+            }
+            out.append(rec)
         return out
 
 
@@ -120,51 +146,9 @@ def _check_ranges(ranges_m) -> np.ndarray:
     return r
 
 
-@dataclass(frozen=True)
-class _Contrast:
-    atmosphere: Atmosphere
-    background_temp_k: float
-    tau: np.ndarray  # (n_ranges, n_wl)
-    k_spec: np.ndarray  # A_opt t_int w resp per wavelength [m^2 s um]
-    diff: np.ndarray  # L_t - S per wavelength (photon, per um)
-    source: np.ndarray  # S per wavelength
-
-    @property
-    def intensity_e(self) -> np.ndarray:
-        """Electrons per (m^2 of target / m^2 of range^2): A_opt t_int integral tau dLq resp."""
-        return self.tau @ (self.k_spec * self.diff)
-
-    @property
-    def background_over_contrast(self) -> np.ndarray:
-        return (self.tau @ (self.k_spec * self.source)) / (self.tau @ (self.k_spec * self.diff))
-
-
-def _contrast(
-    sensor: Sensor, target: Target, ranges: np.ndarray, atmosphere, background_temp_k
-) -> _Contrast:
-    atm = resolve_atmosphere(atmosphere, tuple(sensor.band_um))
-    wl, w, resp = spectral_grid(sensor)
-    t_target = target.temp_k(band_key(sensor.band_um))
-    if background_temp_k is not None:
-        if not (background_temp_k > 0 and math.isfinite(background_temp_k)):
-            raise ValueError(f"background temperature must be > 0 K, got {background_temp_k!r}")
-        t_bg = float(background_temp_k)
-        source = spectral_photon_radiance(wl, t_bg)
-    elif atm.spectral is not None and atm.spectral.has_radiance:
-        t_bg = atm.air_temp_k
-        source = atm.spectral.path_source_photon(wl)
-    else:
-        t_bg = atm.air_temp_k
-        source = spectral_photon_radiance(wl, t_bg)
-    tau = atm.spectral_transmission(ranges, wl)
-    k_spec = sensor.aperture_area_m2 * sensor.t_int_s * w * resp
-    diff = spectral_photon_radiance(wl, t_target) - source
-    return _Contrast(atm, t_bg, tau, k_spec, diff, source)
-
-
 def transition_range_m(sensor: Sensor, size_m: float) -> float:
     """Range at which a target of characteristic dimension ``size_m`` equals the pixel
-    footprint (resolved below it, unresolved beyond): size / IFOV."""
+    footprint (D = 1 px: the paper's resolved/unresolved switch): size / IFOV."""
     return float(size_m) / sensor.ifov_rad
 
 
@@ -176,13 +160,54 @@ def target_contrast_electrons(
     size: str = "small",
     atmosphere=None,
     background_temp_k: float | None = None,
+    air_temp_k: float | None = None,
 ) -> float:
     """Contrast electrons per frame that the whole target puts on the focal plane (point-source
-    equivalent, PVF = 1, no fill factor): A_opt t_int A_t / R^2 integral tau dLq resp dlambda.
-    Spread it with :func:`model.pvf.pixel_energy_fractions` to get pixel values."""
+    equivalent, PVF = 1, no fill factor): A_opt t_int A_t / R^2 integral dLq resp dlambda with
+    the contrast of :mod:`model.contrast`. Spread it with :mod:`model.footprint` to get pixels."""
     r = _check_ranges(range_m)
-    c = _contrast(sensor, target, r, atmosphere, background_temp_k)
-    return float(c.intensity_e[0] * target.area_m2(size) / r[0] ** 2)
+    c = contrast(sensor, target, r, atmosphere=atmosphere, sky_temp_k=background_temp_k,
+                 air_temp_k=air_temp_k)  # fmt: skip
+    return float(c.intensity_e()[0] * target.area_m2(size) / r[0] ** 2)
+
+
+def _paper_pvf(psf, ff, d_px, resolved, sigma_per_size, point: bool) -> np.ndarray:
+    if point:
+        return np.full(d_px.shape, average_pvf(psf, ff))
+    return average_pvf_vs_target_sigma(psf, ff, np.where(resolved, 0.0, sigma_per_size * d_px))
+
+
+def expected_reading(
+    psf: Psf,
+    fill_factor: float,
+    ranges_m: np.ndarray,
+    amplitude: np.ndarray,
+    d_px: np.ndarray,
+    *,
+    geometry: str = "square",
+    target_sigma_per_size: float = DEFAULT_TARGET_SIGMA_PER_SIZE,
+    nodes: int = _EXPECTED_NODES,
+) -> np.ndarray:
+    """:func:`model.eq4.expected_eq4` along a range grid (amplitude = point contrast / noise,
+    d_px the target's side in pixels): exact at up to ``nodes`` log-spaced ranges, PCHIP in
+    log-log between them (the reading is smooth in range)."""
+    r = np.asarray(ranges_m, float)
+
+    def at(idx):
+        kw = ({"target_square_px": d_px[idx]} if geometry == "square"
+              else {"target_sigma_px": target_sigma_per_size * d_px[idx]})  # fmt: skip
+        return _expected_eq4(psf, fill_factor, amplitude[idx], **kw)
+
+    if r.size <= nodes:
+        return at(np.arange(r.size))
+    order = np.argsort(r)
+    picks = np.unique(np.round(np.linspace(0, r.size - 1, nodes)).astype(int))
+    idx = order[picks]
+    values = at(idx)
+    lr = np.log(r[idx])
+    keep = np.concatenate([[True], np.diff(lr) > 0])
+    f = PchipInterpolator(lr[keep], np.log(values[keep]))
+    return np.exp(f(np.log(r)))
 
 
 def predict(
@@ -192,61 +217,94 @@ def predict(
     *,
     atmosphere=None,
     background_temp_k: float | None = None,
+    air_temp_k: float | None = None,
     spatial_noise: float | str | None = None,
     corrected_psf: Psf | None = None,
+    geometry: str = "square",
     target_sigma_per_size: float = DEFAULT_TARGET_SIGMA_PER_SIZE,
     uncertainty: UncertaintyBudget | None = None,
+    inputs: InputUncertainty | None = None,
+    expected: bool = True,
+    band: bool = True,
 ) -> SnrPrediction:
-    """The four SNR curves of Figs. 7-10 at ``ranges_m`` (metres, > 0).
+    """The four SNR curves of Figs. 7-10 at ``ranges_m`` (metres, > 0); see the module
+    docstring.
 
     ``atmosphere``: None or "default" (built-in US Std 1976 power law), "none", a number (constant
-    transmission), an :class:`Atmosphere` or a file path. ``background_temp_k``: measured sky
-    temperature (the paper's path-radiance correction). ``spatial_noise``: see
-    :func:`model.noise.spatial_noise_e`. ``corrected_psf``: the real PSF (default the sensor's).
+    transmission), an :class:`Atmosphere` or a file path. ``background_temp_k``: the measured sky
+    temperature (the paper's path-radiance correction); ``air_temp_k``: the air along the path
+    (default the atmosphere's). ``spatial_noise``: see :func:`model.noise.spatial_noise_e`.
+    ``corrected_psf``: the real PSF (default the sensor's). ``expected``: compute the expected
+    Eq. (4) reading; ``band``: the Monte-Carlo band (``inputs``, default
+    :class:`model.montecarlo.InputUncertainty`).
     """
     ranges = _check_ranges(ranges_m)
+    if geometry not in GEOMETRIES:
+        raise ValueError(f"geometry must be one of {', '.join(GEOMETRIES)}, got {geometry!r}")
     if not (target_sigma_per_size >= 0 and math.isfinite(target_sigma_per_size)):
         raise ValueError(f"target_sigma_per_size must be >= 0, got {target_sigma_per_size!r}")
     budget = uncertainty or UncertaintyBudget()
-    c = _contrast(sensor, target, ranges, atmosphere, background_temp_k)
-    noise = noise_breakdown(sensor, c.background_temp_k, spatial_noise)
+    c = contrast(sensor, target, ranges, atmosphere=atmosphere, sky_temp_k=background_temp_k,
+                 air_temp_k=air_temp_k)  # fmt: skip
+    noise = noise_breakdown(sensor, c.sky_temp_k, spatial_noise)
     denom = noise.total
-    intensity = c.intensity_e
+    intensity = c.intensity_e()
     ext = intensity * sensor.fill_factor * sensor.ifov_rad**2
     ff = sensor.fill_factor
-    pvf_point = average_pvf(sensor.diffraction_psf(), ff)
+    diffraction = sensor.diffraction_psf()
     real = corrected_psf if corrected_psf is not None else sensor.corrected_psf()
     footprint = ranges * sensor.ifov_rad
-    amp = c.background_over_contrast
-    out: dict[str, dict[str, np.ndarray]] = {"snr": {}, "sig": {}, "pvf": {}, "pt": {}}
-    lower, upper, rel = {}, {}, {}
-    resolved = {}
+    out: dict[str, dict[str, np.ndarray]] = {"snr": {}, "sig": {}, "pvf": {}, "paper": {}}
+    resolved, point, d_of = {}, {}, {}
     for size in ("small", "large"):
-        area = target.area_m2(size)
-        res = target.size_m(size) >= footprint
-        resolved[size] = res
-        point_e = intensity * area / ranges**2
         d_px = target.size_m(size) / footprint
-        pvf_c = average_pvf_vs_target_sigma(
-            real, ff, np.where(res, 0.0, target_sigma_per_size * d_px)
-        )
-        for curve, pvf in ((size, np.full(ranges.shape, pvf_point)), (f"{size}_corrected", pvf_c)):
-            sig = np.where(res, ext, point_e * pvf)
-            out["sig"][curve] = sig
-            out["pvf"][curve] = np.where(res, np.nan, pvf)
+        res = d_px >= 1.0
+        resolved[size], d_of[size] = res, d_px
+        point[size] = intensity * target.area_m2(size) / ranges**2
+        for curve, psf in ((size, diffraction), (f"{size}_corrected", real)):
+            paper_pvf = _paper_pvf(psf, ff, d_px, res, target_sigma_per_size, psf is diffraction)
+            paper_sig = np.where(res, ext, point[size] * paper_pvf)
+            out["paper"][curve] = paper_sig / denom
+            if geometry == "square":
+                pvf = average_pvf_square(psf, ff, d_px)
+                sig = point[size] * pvf
+            else:
+                pvf, sig = np.where(res, np.nan, paper_pvf), paper_sig
+            out["sig"][curve], out["pvf"][curve] = sig, pvf
             out["snr"][curve] = sig / denom
-            out["pt"][curve] = point_e
-        u = budget.relative(amp, ~res)
-        rel[f"{size}_corrected"] = u
-        lower[f"{size}_corrected"], upper[f"{size}_corrected"] = budget.band(
-            out["snr"][f"{size}_corrected"], u
-        )
+    lower, upper, rel = {}, {}, {}
+    amp = c.background_over_contrast
+    for size in ("small", "large"):
+        rel[f"{size}_corrected"] = budget.relative(amp, ~resolved[size])
+    expected_curve, draws = None, None
+    if expected:
+        expected_curve = expected_reading(
+            real, ff, ranges, point["small"] / denom, d_of["small"], geometry=geometry,
+            target_sigma_per_size=target_sigma_per_size,
+        )  # fmt: skip
+    if band:
+        draws = draw_corrected(
+            sensor, c, {s: target.size_m(s) for s in ("small", "large")}, real, spatial_noise,
+            inputs or InputUncertainty(),
+        )  # fmt: skip
+        for name in ("small_corrected", "large_corrected"):
+            lo, hi = draws.band(name)
+            # the draws are of the square geometry: as relative spreads about their own nominal
+            # curve they carry over to the paper's
+            scale = out["snr"][name] / draws.nominal[name]
+            lower[name], upper[name] = lo * scale, hi * scale
+        if expected_curve is not None:
+            ratio = expected_curve / out["snr"]["small_corrected"]
+            lower["expected_eq4"] = lower["small_corrected"] * ratio
+            upper["expected_eq4"] = upper["small_corrected"] * ratio
     wl_w = spectral_grid(sensor)[1]
     return SnrPrediction(
         sensor_name=sensor.name,
         target_name=target.name,
         atmosphere_name=c.atmosphere.name,
-        background_temp_k=c.background_temp_k,
+        background_temp_k=c.sky_temp_k,
+        air_temp_k=c.air_temp_k,
+        geometry=geometry,
         ranges_m=ranges,
         snr_small=out["snr"]["small"],
         snr_large=out["snr"]["large"],
@@ -257,13 +315,19 @@ def predict(
         signal_e=out["sig"],
         pvf=out["pvf"],
         noise=noise,
-        transmission=c.tau @ wl_w / np.sum(wl_w),
+        transmission=c.atmosphere.spectral_transmission(ranges, c.wavelengths_um)
+        @ wl_w
+        / np.sum(wl_w),
+        transmission_contrast=c.transmission_contrast,
         lower=lower,
         upper=upper,
         relative_uncertainty=rel,
         transition_range_small_m=transition_range_m(sensor, target.small_m),
         transition_range_large_m=transition_range_m(sensor, target.large_m),
-        point_contrast_e={s: out["pt"][s] for s in ("small", "large")},
+        point_contrast_e=point,
+        paper=out["paper"],
+        expected_eq4=expected_curve,
+        draws=draws,
     )
 
 
@@ -283,8 +347,9 @@ def detection_range_m(
         raise ValueError(f"SNR threshold must be > 0, got {snr_threshold!r}")
     if curve not in CURVES:
         raise ValueError(f"unknown curve {curve!r}; known: {', '.join(CURVES)}")
+    kw = {"expected": False, "band": False, **predict_kwargs}
     grid = np.geomspace(1.0, max_range_m, 2000)
-    snr = predict(sensor, target, grid, **predict_kwargs).snr(curve)
+    snr = predict(sensor, target, grid, **kw).snr(curve)
     above = np.nonzero(snr >= snr_threshold)[0]
     if above.size == 0:
         return 0.0
@@ -294,7 +359,7 @@ def detection_range_m(
     lo, hi = grid[i], grid[i + 1]
     for _ in range(40):
         mid = 0.5 * (lo + hi)
-        if predict(sensor, target, [mid], **predict_kwargs).snr(curve)[0] >= snr_threshold:
+        if predict(sensor, target, [mid], **kw).snr(curve)[0] >= snr_threshold:
             lo = mid
         else:
             hi = mid

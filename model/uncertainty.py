@@ -2,8 +2,10 @@
 
 Relative (1-sigma-like) uncertainties, defaults from section 9: target outline 3 % (area and
 radiometry), path radiance 5 % (of the measured background radiance), real MTF 5 %, target-size
-blur 10 %; radiometry (blackbody calibration, spectral) and transmission (actual vs modelled) are
-inputs, 0 by default. Outline, radiometry and transmission scale the signal directly. The path
+blur 10 %; radiometry (blackbody calibration, spectral) 2 % and transmission (actual vs
+modelled) 3 %, the spreads of the Monte-Carlo band (:mod:`model.montecarlo`); they were 0 before
+issue 15 and left the band blind to both. Outline, radiometry and transmission scale the
+signal directly. The path
 radiance term is propagated through the contrast: the signal is tau (L_target - L_background),
 so a fraction u of the background radiance moves the SNR by u L_bg / (L_t - L_bg) -- the
 amplification the paper describes ("a 2 % change in flux ... the SNR error is 83 %"). MTF and
@@ -27,8 +29,8 @@ class UncertaintyBudget:
     path_radiance: float = 0.05
     mtf: float = 0.05
     target_size_blur: float = 0.10
-    radiometry: float = 0.0
-    transmission: float = 0.0
+    radiometry: float = 0.02  # the target's Delta-T to ~0.5 K of ~25 K (montecarlo.py)
+    transmission: float = 0.03  # the transmission's weighting spectrum and fit (montecarlo.py)
     combine: str = "rss"
 
     def __post_init__(self) -> None:

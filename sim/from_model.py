@@ -21,6 +21,8 @@ from sim.drone import GaussianSpread, TabulatedSpread
 from sim.scene import SceneConfig, TargetSignal
 
 DEFAULT_SKY_TEMP_K = 280.0
+"""The simulated clear sky's apparent temperature: a cold clear sky (the paper's LWIR sky read
+29.5-33.5 C in a cloud gap; a scenario sets its own, ``sim.twin.Scenario``)."""
 
 
 def _airy_equivalent_sigma_px(sensor) -> float:
@@ -43,6 +45,7 @@ def scene_config_from_model(
     *,
     size: str = "small",
     sky_temp_k: float = DEFAULT_SKY_TEMP_K,
+    air_temp_k: float | None = None,
     atmosphere=None,
     psf=None,
     psf_sigma_px: float | None = None,
@@ -50,7 +53,8 @@ def scene_config_from_model(
     **overrides,
 ) -> SceneConfig:
     """A :class:`SceneConfig` for ``sensor`` (``model.presets.load_sensor``) watching
-    ``target`` (``model.presets.load_target``) against a clear sky at ``sky_temp_k``.
+    ``target`` (``model.presets.load_target``) against a clear sky at ``sky_temp_k``, through
+    air at ``air_temp_k`` (default the model atmosphere's; ``model.contrast``).
 
     ``size`` picks the characteristic dimension ("small" or "large", paper section 3) for both
     the signal and the rendered source. ``psf``: a ``model.psf`` object, rendered through
@@ -71,7 +75,7 @@ def scene_config_from_model(
     noise_e = float(temporal_noise_e(sensor, sky_temp_k))
     floor_e = math.sqrt(max(noise_e**2 - sky_e, 0.0))
     grid = ranges_m or tuple(float(r) for r in np.geomspace(5.0, 3000.0, 48))
-    kwargs = {"size": size, "background_temp_k": sky_temp_k}
+    kwargs = {"size": size, "background_temp_k": sky_temp_k, "air_temp_k": air_temp_k}
     if atmosphere is not None:
         kwargs["atmosphere"] = atmosphere
     electrons = tuple(float(target_contrast_electrons(sensor, target, r, **kwargs)) for r in grid)

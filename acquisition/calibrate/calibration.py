@@ -247,13 +247,32 @@ def calibrate(
         f = np.asarray(c.frames, np.float32)
         means.append(f.mean(axis=0, dtype=np.float64).astype(np.float32))
         stds.append(f.std(axis=0, ddof=1, dtype=np.float64).astype(np.float32))
+    counts = [int(np.shape(c.frames)[0]) for c in captures]
+    return calibrate_means(
+        [c.temp_k for c in captures], means, stds, counts, camera=camera, band_um=band_um,
+        t_int_s=t_int_s, qe_curve=qe_curve,
+    )  # fmt: skip
+
+
+def calibrate_means(
+    temps_k: Sequence[float],
+    means: Sequence[np.ndarray],
+    stds: Sequence[np.ndarray],
+    counts: Sequence[int],
+    *,
+    camera: str,
+    band_um: tuple[float, float],
+    t_int_s: float,
+    qe_curve: tuple = (),
+) -> Calibration:
+    """:func:`calibrate` from each capture's per-pixel mean and temporal std (ddof=1) over
+    ``counts`` frames, in increasing temperature (a long capture accumulated frame by frame)."""
     m = np.stack(means)  # (K, H, W)
-    x = radiance_of(band_um, [c.temp_k for c in captures], qe_curve).astype(np.float64)
+    x = radiance_of(band_um, list(temps_k), qe_curve).astype(np.float64)
     levels = np.median(m.reshape(len(m), -1), axis=1)
     if np.any(np.diff(levels) <= 0):
         pairs = ", ".join(
-            f"{c.temp_k - 273.15:.2f} C: {lv:.1f} DN"
-            for c, lv in zip(captures, levels, strict=True)
+            f"{t - 273.15:.2f} C: {lv:.1f} DN" for t, lv in zip(temps_k, levels, strict=True)
         )
         raise ValueError(
             f"non-monotonic response: median DN does not rise with temperature ({pairs})"
@@ -270,7 +289,7 @@ def calibrate(
         camera=camera,
         band_um=(float(band_um[0]), float(band_um[1])),
         t_int_s=float(t_int_s),
-        temps_k=tuple(float(c.temp_k) for c in captures),
+        temps_k=tuple(float(t) for t in temps_k),
         responsivity=resp.astype(np.float32),
         offset_dn=offset.astype(np.float32),
         bad=bad,
@@ -278,7 +297,7 @@ def calibrate(
         temporal_noise_dn=noise.astype(np.float32),
         qe_curve=tuple(qe_curve),
         date=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        frames_per_temp=tuple(int(np.shape(c.frames)[0]) for c in captures),
+        frames_per_temp=tuple(int(n) for n in counts),
     )
 
 
@@ -304,88 +323,6 @@ def _bad_pixels(resp: np.ndarray, cold_level: np.ndarray, noise: np.ndarray) -> 
     bad[(_robust_z(cold_level) > ROBUST_Z) | (zr > ROBUST_Z)] |= HOT
     bad[_robust_z(noise) > ROBUST_Z] |= NOISY
     return bad
-
-
-# ------------------------------------------------------------------------------ quality
-@dataclass(frozen=True)
-class TemperatureQuality:
-    """Quality at one blackbody temperature (spatial figures over good pixels, one frame)."""
-
-    temp_k: float
-    raw_spatial_dn: float  # total spatial std of a raw frame
-    corrected_spatial_dn: float  # the same after correction (temporal noise + residual)
-    temporal_noise_dn: float  # median per-pixel temporal std
-    residual_fpn_dn: float  # sqrt(corrected^2 - temporal^2): non-uniformity left
-    residual_fpn_mk: float
-    dn_per_k: float
-    netd_mk: float  # temporal noise / (dDN/dT): measured NETD
-    apparent_temp_k: float  # median apparent temperature of the mean frame
-
-
-@dataclass(frozen=True)
-class CalibrationQuality:
-    camera: str
-    netd_table_mk: float | None
-    temperatures: tuple[TemperatureQuality, ...]
-    fit_rms_median_dn: float
-    fit_rms_max_dn: float
-    bad_counts: dict[str, int]
-
-    def as_dict(self) -> dict:
-        return {
-            "camera": self.camera,
-            "netd_table_mk": self.netd_table_mk,
-            "fit_rms_median_dn": self.fit_rms_median_dn,
-            "fit_rms_max_dn": self.fit_rms_max_dn,
-            "bad_pixels": dict(self.bad_counts),
-            "temperatures": [q.__dict__.copy() for q in self.temperatures],
-        }
-
-
-def _spatial_std(img: np.ndarray, good: np.ndarray) -> float:
-    return float(np.std(img[good], dtype=np.float64, ddof=1))
-
-
-def calibration_quality(
-    cal: Calibration, captures: Sequence[BlackbodyCapture], netd_table_mk: float | None = None
-) -> CalibrationQuality:
-    """Residual non-uniformity, fit residual and measured NETD on ``captures`` (the
-    calibration's own, or better, captures held out from the fit)."""
-    good = cal.good
-    rows = []
-    for c in sorted(captures, key=lambda c: c.temp_k):
-        f = np.asarray(c.frames)
-        cal._check_shape(f)
-        last = np.asarray(f[-1], np.float32)
-        raw = _spatial_std(last, good)
-        corr = _spatial_std(cal.correct(last), good)
-        temporal = float(np.median(np.asarray(f, np.float32).std(axis=0, ddof=1)[good]))
-        dndk = cal.dn_per_k(c.temp_k)
-        resid = math.sqrt(max(corr**2 - temporal**2, 0.0))
-        t_app = float(np.median(cal.temperature_k(np.asarray(f, np.float32).mean(0))[good]))
-        rows.append(
-            TemperatureQuality(
-                float(c.temp_k),
-                raw,
-                corr,
-                temporal,
-                resid,
-                1e3 * resid / dndk,
-                dndk,
-                1e3 * temporal / dndk,
-                t_app,
-            )
-        )
-    counts = {name: int(np.count_nonzero(cal.bad & bit)) for bit, name in BAD_NAMES.items()}
-    counts["total"] = int(np.count_nonzero(cal.bad))
-    return CalibrationQuality(
-        camera=cal.camera,
-        netd_table_mk=netd_table_mk,
-        temperatures=tuple(rows),
-        fit_rms_median_dn=float(np.median(cal.fit_rms_dn[good])),
-        fit_rms_max_dn=float(np.max(cal.fit_rms_dn[good])),
-        bad_counts=counts,
-    )
 
 
 def check_matches_sensor(cal: Calibration, sensor, *, source: str = "calibration") -> None:

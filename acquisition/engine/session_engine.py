@@ -121,7 +121,7 @@ class SessionEngine:
             on_final=self._row_final,
         )
         self._sky_checked: dict[str, int] = {}
-        self._listeners: list[Callable[[Measurement], None]] = []
+        self._listeners: list[Callable[[Measurement, np.ndarray | None], None]] = []
 
     # ------------------------------------------------------------------ the model
     @property
@@ -166,8 +166,10 @@ class SessionEngine:
             self.sink.stop_changed("stop_marked", stop)
         return stop
 
-    def add_listener(self, callback: Callable[[Measurement], None]) -> None:
-        """``callback(measurement)`` after every measured frame (on the frame's thread)."""
+    def add_listener(self, callback: Callable[[Measurement, np.ndarray | None], None]) -> None:
+        """``callback(measurement, pixels)`` after every measured frame, on the frame's thread;
+        ``pixels`` (the raw frame, valid during the call only) is None for a frame a replay has
+        only the recorded measurement of."""
         with self._lock:
             self._listeners.append(callback)
 
@@ -231,15 +233,17 @@ class SessionEngine:
         out = self.cameras[camera].process(
             pixels, seq=seq, counter=counter, t_host_ns=t_host_ns, range_at=self.range_at
         )
-        self._after_frame(camera, t_host_ns, out.measurement)
+        self._after_frame(camera, t_host_ns, out.measurement, pixels)
         return out
 
     def on_recorded(self, m: Measurement) -> None:
         """A frame measured live whose pixels the recording does not hold (replay)."""
         self.cameras[m.camera].publish_recorded(m)
-        self._after_frame(m.camera, m.t_host_ns, m)
+        self._after_frame(m.camera, m.t_host_ns, m, None)
 
-    def _after_frame(self, camera: str, t_ns: int, m: Measurement | None) -> None:
+    def _after_frame(
+        self, camera: str, t_ns: int, m: Measurement | None, pixels: np.ndarray | None
+    ) -> None:
         if m is None:
             self.stop_table.tick(camera, t_ns)
             return
@@ -250,7 +254,7 @@ class SessionEngine:
             listeners = list(self._listeners)
         for cb in listeners:
             try:
-                cb(m)
+                cb(m, pixels)
             except Exception:
                 log.exception("%s: measurement listener failed", camera)
 

@@ -5,9 +5,7 @@ table's own rows and the frames each summarised are used as measured.
 
 - Fig. 6: per stop and camera, the 100-frame series of peak value, background (rim) mean,
   background std and peak SNR: the frames :func:`acquisition.stops.detector.summarise_stop` chose
-  (the
-  first 100 consecutive valid frames of the stop) from a replay of the session through the live
-  measurement (:func:`acquisition.replay.batch.replay_session`).
+  from a replay of the session through the live measurement.
 - Figs. 7-10: per camera, the measured points (mean with the sample std as error bar, against the
   stop's range: the rangefinder's, else the GPS slant range) over the model's four curves
   (:func:`model.snr.predict`), the Fig. 12 band around the corrected curves and the
@@ -27,7 +25,7 @@ import bisect
 import csv
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -87,6 +85,7 @@ class MeasuredPoints:
     range_m: np.ndarray
     snr_mean: np.ndarray
     snr_std: np.ndarray
+    snr_sem: np.ndarray  # the error of the mean (frames' autocorrelation counted)
     n_frames: np.ndarray
     complete: np.ndarray
 
@@ -133,6 +132,9 @@ class ReportData:
     csv_rows: list[dict[str, object]]
     replay_seconds: float | None  # None: measured live, not replayed
     recording_seconds: float
+    fits: list = field(default_factory=list)  # comparison.FitStatistic per camera and curve
+    references: list = field(default_factory=list)  # comparison.Reference
+    detections: dict = field(default_factory=dict)  # camera -> comparison.DetectionSummary
 
 
 def session_models(path: str | Path, target: str | None = None) -> tuple[dict[str, str], str]:
@@ -240,6 +242,7 @@ def measured_points(rows: list[StopRow], camera: str) -> MeasuredPoints:
         range_m=np.array([r.range_m for r in keep], dtype=float),
         snr_mean=np.array([r.snr_mean for r in keep], dtype=float),
         snr_std=np.array([r.snr_std for r in keep], dtype=float),
+        snr_sem=np.array([r.snr_sem for r in keep], dtype=float),
         n_frames=np.array([r.n_frames for r in keep], dtype=int),
         complete=np.array([r.complete for r in keep], dtype=bool),
     )
@@ -257,6 +260,9 @@ def model_curves(camera: str, sensor_name: str, target_name: str, ranges_m) -> M
     from model.snr import predict
 
     p = predict(load_sensor(sensor_name), load_target(target_name), ranges_m)
+    snr = {c: np.asarray(p.snr(c), float) for c in CURVES}
+    snr["expected_eq4"] = np.asarray(p.expected_eq4, float)
+    snr.update({f"paper_{c}": np.asarray(v, float) for c, v in p.paper.items()})
     return ModelCurves(
         camera=camera,
         sensor=sensor_name,
@@ -264,7 +270,7 @@ def model_curves(camera: str, sensor_name: str, target_name: str, ranges_m) -> M
         atmosphere=p.atmosphere_name,
         background_temp_k=p.background_temp_k,
         ranges_m=p.ranges_m,
-        snr={c: np.asarray(p.snr(c), float) for c in CURVES},
+        snr=snr,
         lower={c: np.asarray(v, float) for c, v in p.lower.items()},
         upper={c: np.asarray(v, float) for c, v in p.upper.items()},
         transition_small_m=p.transition_range_small_m,
@@ -373,6 +379,9 @@ def assemble_report(
     for c in cameras:
         ranges = sorted({r.range_m for r in rows if r.camera == c and r.range_m is not None})
         budgets[c] = uncertainty_budget(c, sensors[c], target, ranges)
+    from acquisition.report.comparison import detection_summary, fit_statistics, reference_table
+
+    models = {c: model_curves(c, sensors[c], target, grid) for c in cameras}
     return ReportData(
         path=path,
         target=target,
@@ -380,9 +389,12 @@ def assemble_report(
         rows=rows,
         series=series,
         measured={c: measured_points(rows, c) for c in cameras},
-        models={c: model_curves(c, sensors[c], target, grid) for c in cameras},
+        models=models,
         budgets=budgets,
         csv_rows=csv_rows(rows),
         replay_seconds=replay_seconds,
         recording_seconds=seconds,
+        fits=fit_statistics(rows, models),
+        references=reference_table(sensors, target),
+        detections={c: detection_summary(c, sensors[c], target) for c in cameras},
     )

@@ -3,13 +3,14 @@
 Pages, in order (all 8.5 x 11 in):
 
 1. summary: session, target, sensors and the stop table (the CSV's numbers, rounded);
-2. Figs. 7-10: per camera, measured peak SNR (mean, error bar = sample std over the stop's 100
-   frames) against range over the model's four curves (small/large x uncorrected solid /
-   corrected dashed; the same colours as :func:`model.plot.plot_prediction`), the Fig. 12 band
-   around the corrected curves, and the resolved/unresolved transitions as dotted verticals;
-   two cameras per page;
-3. Fig. 12: the uncertainty budget per camera, term by term, at each stop's range;
-4. Fig. 6: per stop, one column per camera, rows peak value, background mean, background std,
+2. Figs. 7-10: per camera, measured peak SNR (mean, error bar = the error of the mean with
+   the frames' autocorrelation) against range over the model's continuous curves (small/large x
+   uncorrected solid / corrected dashed), their Monte-Carlo band, the expected Eq. (4) reading,
+   the paper's switched curves dotted (``paper_curves``), the D = 1 px ranges as dotted
+   verticals and the chi^2/dof of the unresolved stops against each curve; two cameras a page;
+3. the paper's reference numbers beside ours with the reasons, and Pd versus range;
+4. Fig. 12: the uncertainty budget per camera, term by term, at each stop's range;
+5. Fig. 6: per stop, one column per camera, rows peak value, background mean, background std,
    peak SNR over the stop's 100 frames.
 
 ``.pdf`` writes every page into one file (``PdfPages``). ``.png`` writes ONE tall image: the
@@ -34,6 +35,11 @@ _STYLE = {  # as model/plot.py draws them, so the report's curves read the same
     "large": ("tab:orange", "-", "model large"),
     "small_corrected": ("tab:blue", "--", "corrected small"),
     "large_corrected": ("tab:orange", "--", "corrected large"),
+    "expected_eq4": ("black", "-.", "expected Eq. (4), corrected small"),
+}
+_PAPER_STYLE = {
+    "paper_small": ("tab:blue", "paper's switched small"),
+    "paper_small_corrected": ("tab:cyan", "paper's switched corrected small"),
 }
 FORMATS = (".pdf", ".png")
 
@@ -94,31 +100,43 @@ def summary_page(data: ReportData):
     return fig
 
 
-def _snr_axes(ax, data: ReportData, camera: str) -> None:
+def _snr_axes(ax, data: ReportData, camera: str, paper_curves: bool = True) -> None:
     m = data.models[camera]
-    for curve in CURVES:
-        color, ls, label = _STYLE[curve]
+    for curve, (color, ls, label) in _STYLE.items():
+        if curve not in m.snr:
+            continue
         ax.plot(m.ranges_m, m.snr[curve], color=color, ls=ls, lw=1.2, label=f"{label} {m.target}")
         if curve in m.lower:
             ax.fill_between(m.ranges_m, m.lower[curve], m.upper[curve], color=color, alpha=0.12)
+    if paper_curves:
+        for curve, (color, label) in _PAPER_STYLE.items():
+            if curve in m.snr:
+                ax.plot(m.ranges_m, m.snr[curve], color=color, ls=":", lw=0.9, label=label)
     for rt, name in ((m.transition_small_m, "small"), (m.transition_large_m, "large")):
         if m.ranges_m[0] <= rt <= m.ranges_m[-1]:
             ax.axvline(rt, color="grey", ls=":", lw=1)
-            ax.text(rt, 0.98, f" {name} unresolved beyond {rt:.0f} m", rotation=90, va="top",
+            ax.text(rt, 0.98, f" {name} D = 1 px at {rt:.0f} m", rotation=90, va="top",
                     fontsize=6.5, color="grey", transform=ax.get_xaxis_transform())  # fmt: skip
     p = data.measured[camera]
     if len(p.range_m):
-        ax.errorbar(p.range_m, p.snr_mean, yerr=np.nan_to_num(p.snr_std), fmt="ko", ms=4,
-                    capsize=3, label="measured (mean, std)")  # fmt: skip
+        ax.errorbar(p.range_m, p.snr_mean, yerr=np.nan_to_num(p.snr_sem), fmt="ko", ms=4,
+                    capsize=3, label="measured (mean, error of the mean)")  # fmt: skip
         partial = ~p.complete
         if partial.any():
             ax.plot(p.range_m[partial], p.snr_mean[partial], "o", mfc="none", mec="red", ms=9,
                     label="fewer than 100 valid frames")  # fmt: skip
+    fits = [f for f in data.fits if f.camera == camera]
+    if fits:
+        text = "chi2/dof of the unresolved stops\n" + "\n".join(
+            f"{f.curve}: {f.chi2_per_dof:.2f} (n={f.n_stops})" for f in fits
+        )
+        ax.text(0.99, 0.99, text, transform=ax.transAxes, ha="right", va="top", fontsize=6,
+                family="monospace", bbox={"fc": "white", "alpha": 0.8, "lw": 0.3})  # fmt: skip
     ax.set_yscale("log")
     ax.set_xlabel("range (m)")
     ax.set_ylabel("peak SNR")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=6.5, loc="lower left")
+    ax.legend(fontsize=6, loc="lower left")
     ax.set_title(
         f"{camera} ({m.sensor}) - target {m.target}; atmosphere {m.atmosphere}, "
         f"background {m.background_temp_k:.1f} K",
@@ -126,14 +144,57 @@ def _snr_axes(ax, data: ReportData, camera: str) -> None:
     )
 
 
-def snr_range_pages(data: ReportData) -> Iterator:
+def reference_page(data: ReportData):
+    """The paper's reference numbers beside ours, and Pd versus range (beyond the paper)."""
+    fig = _figure()
+    fig.suptitle("The paper's numbers beside ours; probability of detection", fontsize=11)
+    ax = fig.add_axes((0.04, 0.55, 0.92, 0.38))
+    ax.axis("off")
+    cells = [[r.quantity, r.paper, r.ours, r.reason] for r in data.references]
+    if cells:
+        table = ax.table(
+            cellText=cells,
+            colLabels=["quantity", "paper", "ours", "why they differ"],
+            loc="upper center",
+            cellLoc="left",
+            colWidths=[0.22, 0.1, 0.14, 0.54],
+        )
+        table.auto_set_font_size(False)
+        table.set_fontsize(5.5)
+        table.scale(1.0, 2.6)
+        for (row, col), cell in table.get_celld().items():
+            if col == 3 and row > 0:
+                cell.get_text().set_wrap(True)
+    ax2 = fig.add_axes((0.1, 0.07, 0.85, 0.38))
+    for cam, d in data.detections.items():
+        line = ax2.plot(d.ranges_m, d.pd, label=cam)[0]
+        ax2.fill_between(d.ranges_m, d.pd_lower, d.pd_upper, color=line.get_color(), alpha=0.15)
+        if d.range_m is not None:
+            lo = "-" if d.range_lower_m is None else f"{d.range_lower_m:.0f}"
+            hi = "-" if d.range_upper_m is None else f"{d.range_upper_m:.0f}"
+            ax2.axvline(d.range_m, color=line.get_color(), ls=":", lw=1)
+            line.set_label(f"{cam}: Pd 50 % at {d.range_m:.0f} m ({lo}-{hi} m)")
+    ax2.set_xscale("log")
+    ax2.set_xlabel("range (m)")
+    ax2.set_ylabel("probability of detection")
+    ax2.grid(True, which="both", alpha=0.3)
+    if data.detections:
+        k = next(iter(data.detections.values()))
+        ax2.set_title(f"one false alarm per {1 / k.false_alarms_per_hour:g} h over the frame: "
+                      f"threshold {k.threshold_sigma:.2f} sigma; band: the model's inputs",
+                      fontsize=8)  # fmt: skip
+    ax2.legend(fontsize=7)
+    return fig
+
+
+def snr_range_pages(data: ReportData, paper_curves: bool = True) -> Iterator:
     cams = list(data.models)
     for i in range(0, len(cams), 2):
         fig = _figure()
         fig.suptitle("Measured peak SNR vs model (paper Figs. 7-10)", fontsize=11)
         axes = fig.subplots(2, 1)
         for ax, cam in zip(axes, cams[i : i + 2], strict=False):
-            _snr_axes(ax, data, cam)
+            _snr_axes(ax, data, cam, paper_curves)
         for ax in axes[len(cams[i : i + 2]) :]:
             ax.axis("off")
         fig.tight_layout(rect=(0, 0, 1, 0.97))
@@ -204,10 +265,11 @@ def series_pages(data: ReportData) -> Iterator:
         yield fig
 
 
-def report_pages(data: ReportData) -> Iterator:
+def report_pages(data: ReportData, paper_curves: bool = True) -> Iterator:
     """Every page of the report as a matplotlib Figure, in order."""
     yield summary_page(data)
-    yield from snr_range_pages(data)
+    yield from snr_range_pages(data, paper_curves)
+    yield reference_page(data)
     yield budget_page(data)
     yield from series_pages(data)
 
@@ -220,7 +282,7 @@ def _rgb(fig) -> np.ndarray:
     return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
 
-def render_report(data: ReportData, path: str | Path) -> Path:
+def render_report(data: ReportData, path: str | Path, *, paper_curves: bool = True) -> Path:
     """Write the report to ``path`` (.pdf: one page per figure; .png: one tall image)."""
     out = Path(path)
     suffix = out.suffix.lower()
@@ -230,12 +292,12 @@ def render_report(data: ReportData, path: str | Path) -> Path:
         from matplotlib.backends.backend_pdf import PdfPages
 
         with PdfPages(out) as pdf:
-            for fig in report_pages(data):
+            for fig in report_pages(data, paper_curves):
                 pdf.savefig(fig)
         return out
     from matplotlib.image import imsave
 
-    pages = [_rgb(fig) for fig in report_pages(data)]
+    pages = [_rgb(fig) for fig in report_pages(data, paper_curves)]
     width = max(p.shape[1] for p in pages)
     padded = [
         np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)), constant_values=255) for p in pages

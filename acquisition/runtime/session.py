@@ -22,6 +22,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from acquisition.config import SessionConfig, camera_device
 from acquisition.engine.inputs import Measurement
 from acquisition.engine.session_engine import SessionEngine
@@ -213,8 +215,11 @@ class Session:
     def add_note(self, text: str) -> None:
         self._event("note", payload={"text": text})
 
-    def add_measurement_listener(self, cb: Callable[[Measurement], None]) -> None:
-        """``cb(measurement)`` on each camera's measurement thread after every measured frame."""
+    def add_measurement_listener(
+        self, cb: Callable[[Measurement, np.ndarray | None], None]
+    ) -> None:
+        """``cb(measurement, pixels)`` on each camera's measurement thread after every measured
+        frame (the raw pixels are valid during the call only)."""
         self.engine.add_listener(cb)
 
     def start_recording(self, path: str | Path, **recorder_options: Any) -> None:

@@ -310,6 +310,7 @@ class StopSummary:
     first: int | None
     snr_mean: float
     snr_std: float
+    snr_sem: float = math.nan  # the error of the mean: std / sqrt(N_eff) (mean_error)
 
     @property
     def frames(self) -> slice:
@@ -348,7 +349,33 @@ def summarise_stop(frames: Sequence[PeakSnr] | Iterable[PeakSnr], n: int = 100) 
         return StopSummary(0, n, False, None, math.nan, math.nan)
     values = np.asarray(snrs[best_start : best_start + best_len], float)
     std = float(values.std(ddof=1)) if best_len > 1 else math.nan
-    return StopSummary(best_len, n, best_len == n, best_start, float(values.mean()), std)
+    return StopSummary(
+        best_len, n, best_len == n, best_start, float(values.mean()), std, mean_error(values)
+    )
+
+
+def mean_error(values: Sequence[float] | np.ndarray) -> float:
+    """Standard error of the mean of correlated frames: std / sqrt(N_eff) with
+    N_eff = N / (1 + 2 sum_k (1 - k/N) rho_k), rho_k the sample autocorrelation summed over
+    the initial positive lags (Geyer's rule: up to the first lag where it is <= 0). A hover's
+    drift makes the per-frame SNR wander over tens of frames, so N_eff is often well below the
+    100 frames; the error bar of a stop against the model is this, not the per-frame std.
+    NaN for fewer than 3 values."""
+    x = np.asarray(values, float)
+    n = x.size
+    if n < 3:
+        return math.nan
+    d = x - x.mean()
+    var = float(d @ d) / n
+    if var == 0:
+        return 0.0
+    tau = 1.0
+    for k in range(1, n - 1):
+        rho = float(d[:-k] @ d[k:]) / (n * var)
+        if rho <= 0:
+            break
+        tau += 2.0 * (1.0 - k / n) * rho
+    return float(x.std(ddof=1) / math.sqrt(n / tau))
 
 
 def frames_in_stop(t_ns: Sequence[int], stop: Stop) -> slice:

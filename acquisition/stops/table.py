@@ -63,6 +63,7 @@ class StopRow:
     model_snr: dict[str, float] = field(default_factory=dict)
     resolved: bool | None = None  # the model's verdict for the small dimension at this range
     final: bool = False  # the stop ended and the camera passed its end: the row will not change
+    snr_sem: float = float("nan")  # error of the mean, frames' autocorrelation counted
 
     @property
     def range_m(self) -> float | None:
@@ -257,6 +258,7 @@ class StopTable:
             complete=summary.complete,
             snr_mean=summary.snr_mean,
             snr_std=summary.snr_std,
+            snr_sem=summary.snr_sem,
             model_snr=model,
             resolved=None if resolved is None else bool(resolved),
             final=final,

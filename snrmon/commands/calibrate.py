@@ -16,9 +16,9 @@ import argparse
 from acquisition.calibrate.calibration import (
     BlackbodyCapture,
     calibrate_sensor,
-    calibration_quality,
 )
 from acquisition.calibrate.calibration_file import save_calibration
+from acquisition.calibrate.quality import calibration_quality
 from acquisition.replay.stack_io import load_stack
 from model.presets import load_sensor
 from snrmon.cli import UsageError

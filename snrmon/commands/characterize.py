@@ -16,6 +16,7 @@ ROI; ``acquisition.calibrate.characterize`` segments the drone. JSON contract: `
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,7 @@ from acquisition.calibrate.calibration_file import load_calibration
 from acquisition.calibrate.characterize import CharacterizeConfig, characterize_frames, target_toml
 from acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
 from acquisition.record.reader import append_event, open_session
-from acquisition.replay.batch import replay_session
+from acquisition.replay.batch import recorded_events, replay_session
 from model.presets import load_sensor
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, output_file, session_file
@@ -40,7 +41,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("file", help="session file (.h5)")
     p.add_argument("--camera", required=True, help="camera of the session to characterize")
     p.add_argument("--stop", type=int, required=True, help="stop number as in the stop table")
-    p.add_argument("--calibration", help="calibration .npz of this camera (for temperatures)")
+    p.add_argument(
+        "--calibration",
+        help="calibration .npz of this camera (default: the session's recorded one)",
+    )
+    p.add_argument(
+        "--air-temp-c",
+        type=float,
+        help="air along the path, C, for the atmospheric correction of the drone's "
+        "temperature (default: the session's [weather], else the atmosphere's)",
+    )
+    p.add_argument(
+        "--apparent",
+        action="store_true",
+        help="report the apparent temperature only (no atmospheric correction)",
+    )
     p.add_argument("--sensor", help="sensor preset/TOML (default: the session's, else --camera)")
     p.add_argument("--frames", type=int, default=100, help="frames of the stop to use (100)")
     p.add_argument(
@@ -63,6 +78,38 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="do not add the result to the session file as a target_characterized event",
     )
     p.set_defaults(func=run)
+
+
+def _air_temp_k(args) -> float | None:
+    if args.air_temp_c is not None:
+        return args.air_temp_c + 273.15
+    from acquisition.config import session_config_from_dict
+
+    with open_session(args.file) as f:
+        raw = f.config.get("session") if isinstance(f.config, dict) else None
+    return session_config_from_dict(raw).air_temp_k if raw else None
+
+
+def through_the_air(result, sensor, range_m: float, air_temp_k: float | None) -> dict:
+    """The drone's own temperature from its apparent one: the calibrated camera sees
+    L_app = tau L_t + (1 - tau) L_air through the air in front of it (``model.contrast``), so
+    L_t = (L_app - (1 - tau) L_air) / tau with the model's contrast-weighted transmission at
+    the stop's range. The apparent value stays as ``apparent_temp_c``."""
+    from acquisition.calibrate.calibration import radiance_of, temperature_of
+    from model.atmosphere import default_atmosphere
+
+    atm = default_atmosphere(tuple(sensor.band_um))
+    t_air = air_temp_k or atm.air_temp_k
+    tau = float(atm.contrast_transmission(range_m))
+    band = tuple(sensor.band_um)
+    app = float(radiance_of(band, result.mean_temp_c + 273.15))
+    own = (app - (1.0 - tau) * float(radiance_of(band, t_air))) / tau
+    return {
+        "apparent_temp_c": result.mean_temp_c,
+        "mean_temp_c": float(temperature_of(band, own)) - 273.15,
+        "transmission": tau,
+        "air_temp_c": t_air - 273.15,
+    }
 
 
 def _sensor_name(path: str, camera: str) -> str:
@@ -103,14 +150,20 @@ def run(args: argparse.Namespace) -> int:
         (t, (r.peak_x, r.peak_y))
         for t, r in zip(rep.t_host_ns, rep.results, strict=True)
         if row.t_start_ns <= t < end and not (r.flags & _NO_POSITION)
-    ][: args.frames]
+    ][-args.frames :]  # the end of the hover: the drone stationary there (paper section 4)
     if not picks:
         raise UsageError(f"stop {args.stop} holds no tracked frames of {args.camera}")
     with open_session(args.file) as f:
         cam = f.cameras[args.camera]
         cal = None
-        if args.calibration:
-            cal = load_calibration(args.calibration, sensor, frame_shape=cam.frames.shape[1:])
+        cal_path = args.calibration or recorded_events(f).calibrations.get(args.camera)
+        if cal_path:
+            cal = load_calibration(cal_path, sensor, frame_shape=cam.frames.shape[1:])
+        elif args.target_out:
+            raise UsageError(
+                f"stop {args.stop} of {args.camera}: the session has no calibration and none was "
+                "given (--calibration): a target file needs the drone's temperature"
+            )
         index = np.searchsorted(cam.t_host_ns, [t for t, _ in picks])
         pairs = ((cam.frames[int(i)], at) for i, (_, at) in zip(index, picks, strict=True))
         result = characterize_frames(
@@ -121,9 +174,12 @@ def run(args: argparse.Namespace) -> int:
             calibration=cal,
             config=CharacterizeConfig(roi_half_px=args.roi_px, method=args.method),
         )
-    out = {"stop": args.stop, **result.as_dict()}
+    out = {"stop": args.stop, **result.as_dict(), "calibration": cal_path}
+    if result.mean_temp_c is not None and not args.apparent:
+        out.update(through_the_air(result, sensor, float(range_m), _air_temp_k(args)))
     if args.target_out:
-        Path(args.target_out).write_text(target_toml(result, args.target_name))
+        own = dataclasses.replace(result, mean_temp_c=out["mean_temp_c"])
+        Path(args.target_out).write_text(target_toml(own, args.target_name))
         out["target_file"] = args.target_out
     if not args.no_record:
         # The characterization belongs to the session it was measured from.

@@ -113,6 +113,7 @@ def run(args: argparse.Namespace) -> int:
         stops_m=_floats(args.stops, "--stops"),
         transit_mps=12.0,
         out=str(args.out) if args.out else None,
+        adopt_psf=True,  # the model takes the PSF measured at each unresolved stop
     )
     rig = HilRig(opts)
     duration = args.duration or rig.plan.duration_s / args.speed + 3.0

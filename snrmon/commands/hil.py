@@ -28,6 +28,24 @@ def _floats(text: str, what: str) -> tuple[float, ...]:
     return values
 
 
+def _kelvin(celsius: float, what: str) -> float:
+    if not (math.isfinite(celsius) and -100.0 < celsius < 100.0):
+        raise UsageError(f"{what} must be a temperature in C, got {celsius}")
+    return celsius + 273.15
+
+
+def _window(text: str | None) -> tuple[int, int] | None:
+    if text is None:
+        return None
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise UsageError(f"--window must be WxH in pixels, e.g. 256x192, got {text!r}") from None
+    if w < 64 or h < 64:
+        raise UsageError(f"--window must be at least 64x64 pixels, got {text!r}")
+    return w, h
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("hil", help="run the simulated field test through the real console")
     p.add_argument(
@@ -50,11 +68,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target", default="uav1", help="target preset or TOML file")
     p.add_argument("--hover-s", type=float, default=7.0, help="hover time per stop (flight s)")
     p.add_argument("--transit-mps", type=float, default=8.0, help="transit speed between stops")
-    p.add_argument(
-        "--real-psf",
-        action="store_true",
-        help="render with the sensor's real (corrected) PSF, not the diffraction limit",
-    )
+    p.add_argument("--sky-temp-c", type=float, default=280.0 - 273.15,
+                   help="the scenario's clear-sky apparent temperature, C (6.85)")  # fmt: skip
+    p.add_argument("--air-temp-c", type=float, default=15.0,
+                   help="the scenario's air temperature along the path, C (15)")  # fmt: skip
+    p.add_argument("--window", metavar="WxH",
+                   help="read a sub-array of W x H pixels around the line of sight")  # fmt: skip
+    p.add_argument("--no-calibration", action="store_true",
+                   help="skip the blackbody calibration before the flight")  # fmt: skip
     p.add_argument("--fpn", action="store_true", help="add fixed-pattern noise to the frames")
     p.add_argument(
         "--no-track",
@@ -88,7 +109,10 @@ def run(args: argparse.Namespace) -> int:
         target=args.target,
         hover_s=args.hover_s,
         transit_mps=args.transit_mps,
-        real_psf=args.real_psf,
+        sky_temp_k=_kelvin(args.sky_temp_c, "--sky-temp-c"),
+        air_temp_k=_kelvin(args.air_temp_c, "--air-temp-c"),
+        window_px=_window(args.window),
+        calibrate=not args.no_calibration,
         fpn=args.fpn,
         track=not args.no_track,
         out=args.out,

@@ -23,6 +23,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", required=True, metavar="REPORT.pdf|png", help="report file")
     p.add_argument("--csv", metavar="TABLE.csv", help="also write the stop table as CSV")
     p.add_argument("--target", metavar="T", help="target preset or TOML (default: the session's)")
+    p.add_argument("--no-paper-curves", action="store_true",
+                   help="leave out the paper's switched resolved/unresolved curves")  # fmt: skip
     p.set_defaults(func=run)
 
 
@@ -36,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
         output_file(args.csv, "--csv", suffixes=(".csv",))
     with frame_progress("replay") as progress:  # a bar on a terminal only
         data = report_data(src, target=args.target, progress=progress)
-    render_report(data, out)
+    render_report(data, out, paper_curves=not args.no_paper_curves)
     print(f"report: {out} ({len(data.rows)} stop rows)", file=sys.stderr)
     if args.csv:
         write_csv(data.csv_rows, args.csv)

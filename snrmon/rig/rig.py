@@ -14,15 +14,24 @@ from __future__ import annotations
 import logging
 import math
 import os
+import tempfile
 import time
 from collections import defaultdict, deque
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from acquisition.config import session_config_from_dict
 from acquisition.runtime.session import Session
 from acquisition.stops.detector import StopConfig
+from snrmon.rig.twin_day import (
+    CropLog,
+    adopt_measured_psf,
+    calibrate_cameras,
+    camera_feeds,
+    measured_psf,
+)
 
 log = logging.getLogger(__name__)
 
@@ -38,13 +47,22 @@ class HilOptions:
     hover_s: float = 7.0
     transit_mps: float = 8.0
     start_range_m: float = 10.0
-    real_psf: bool = False
     preroll_s: float = 5.0  # empty sky before launch (with fpn: the background reference)
     reference_frames: int = 64
-    sky_temp_k: float = 280.0
+    sky_temp_k: float = 280.0  # the scenario's clear sky (apparent temperature)
+    air_temp_k: float = 288.15  # the scenario's air along the path
+    calibrate: bool = True  # blackbody frames and a calibration before the flight
+    window_px: tuple[int, int] | None = None  # a sub-array (width, height) around the sight line
     fpn: bool = False
     track: bool = True
     out: str | None = None
+    adopt_psf: bool = False  # hand the PSF measured at each unresolved stop to the model
+
+    @property
+    def scenario(self):
+        from sim.twin import Scenario
+
+        return Scenario(sky_temp_k=self.sky_temp_k, air_temp_k=self.air_temp_k)
 
 
 LOG_S = 120.0
@@ -77,34 +95,6 @@ def flight_config_of(opts: HilOptions):
     )
 
 
-def camera_feeds(opts: HilOptions, flight_config, preroll_s: float) -> dict:
-    """{camera: (sensor preset, :class:`sim.feed.FlightCameraFeed`)}: each camera's renderer
-    of the flight, from the model's sensor and target presets."""
-    from model.presets import load_sensor, load_target
-    from sim.feed import FlightCameraFeed
-    from sim.from_model import scene_config_from_model
-
-    target = load_target(opts.target)
-    out = {}
-    for i, cam in enumerate(opts.cameras):
-        sensor = load_sensor(cam)
-        # Diffraction-limited optics by default (the model's uncorrected PSF); the real, wider
-        # PSF of the corrected curves on request. Its wings reach the 7x7 rim, which makes
-        # Eq. (4) read low at high SNR (docs/measurement.md).
-        psf = sensor.corrected_psf() if opts.real_psf else sensor.diffraction_psf()
-        scene = scene_config_from_model(
-            sensor, target, size=opts.size, sky_temp_k=opts.sky_temp_k, psf=psf
-        )
-        if not opts.fpn:
-            scene = replace(scene, fpn_enabled=False)
-        feed = FlightCameraFeed(
-            scene, flight_config, fps=sensor.fps, seed=opts.seed + i, t0_s=-preroll_s,
-            launch_s=0.0,
-        )  # fmt: skip
-        out[cam] = (sensor, feed)
-    return out
-
-
 def stop_config_at(speed: float) -> StopConfig:
     """The stop detector's rules on a flight run at ``speed`` x real time: "steady for 3 s"
     means 3 s of the flight, so 3 / speed s of the host clock the detector runs on."""
@@ -127,7 +117,11 @@ class HilRig:
         if predictor is None:
             from acquisition.prediction import ModelPredictor
 
-            predictor = ModelPredictor({c: c for c in opts.cameras}, opts.target)
+            # the model is told what a field team would know: the air temperature; the sky
+            # it measures (a calibration is made before the flight)
+            predictor = ModelPredictor(
+                {c: c for c in opts.cameras}, opts.target, air_temp_k=opts.air_temp_k
+            )
         self.predictor = predictor
         self.flight_config = flight_config_of(opts)
         self.plan = FlightPlan(self.flight_config)
@@ -137,11 +131,21 @@ class HilRig:
         tag = f"{os.getpid()}-{opts.seed}"
         self.cameras: dict[str, CameraRig] = {}
         feeds = camera_feeds(opts, self.flight_config, self.preroll_s)
+        self._tmp = None
+        calibrations: dict[str, str] = {}
+        if opts.calibrate:
+            if opts.out:
+                where, stem = Path(opts.out).resolve().parent, Path(opts.out).stem
+            else:
+                self._tmp = tempfile.TemporaryDirectory(prefix="snrmon-hil-")
+                where, stem = Path(self._tmp.name), "hil"
+            seeds = {c: opts.seed + i for i, c in enumerate(opts.cameras)}
+            calibrations = calibrate_cameras(feeds, seeds, where, stem)
         for cam, (sensor, feed) in feeds.items():
             producer = ShmProducer(
                 f"snrmon-{cam}-{tag}",
-                sensor.width_px,
-                sensor.height_px,
+                feed.scene.width_px,
+                feed.scene.height_px,
                 feed,
                 fps=sensor.fps * opts.speed,
                 # Half a second of frames at any speed: the console may stall that long (GIL,
@@ -157,6 +161,9 @@ class HilRig:
                 float(sensor.fps),
                 deque(maxlen=math.ceil(LOG_S * sensor.fps * opts.speed)),
             )
+        window = {}
+        if opts.window_px is not None:
+            window = {"width_px": int(opts.window_px[0]), "height_px": int(opts.window_px[1])}
         self.gps_sim = NmeaSimulator(self._gps_position, rate_hz=10.0, baud=38400)
         self.lrf_sim = LdmSimulator(self._lrf_range, rate_hz=10.0, tracking=True)
         site = self.flight_config.site
@@ -175,9 +182,13 @@ class HilRig:
                             self.flight_config.elevation_deg,
                             0.0,
                         ],
+                        **window,
+                        **({"calibration": calibrations[c]} if c in calibrations else {}),
                     }
                     for c, r in self.cameras.items()
                 },
+                "weather": {"air_temp_c": round(opts.air_temp_k - 273.15, 6)},
+                "simulation": {**opts.scenario.record(tuple(opts.cameras)), "seed": opts.seed},
                 "gps": {"protocol": "nmea", "port": self.gps_sim.path, "baud": 38400},
                 "lrf": {"protocol": "ldm", "port": self.lrf_sim.path, "baud": 9600},
             }
@@ -188,6 +199,10 @@ class HilRig:
             predictor=predictor,
             stop_config=stop_config_at(opts.speed),
         )
+        self.crop_logs = {
+            c: CropLog(r.fps * opts.speed, LOG_S, self.session.pipelines[c].corrector.calibration)
+            for c, r in self.cameras.items()
+        }
         self.session.add_measurement_listener(self._on_measurement)
         self._clicked: set[tuple[str, int]] = set()
         self._final: dict[tuple[str, int], dict] = {}  # (camera, stop) -> its result entry
@@ -211,9 +226,11 @@ class HilRig:
         target = self.cameras[camera].feed.target_at(self.flight_time())
         return None if target is None else (target.x_px, target.y_px)
 
-    def _on_measurement(self, m) -> None:
+    def _on_measurement(self, m, pixels) -> None:
         rig = self.cameras[m.camera]
         rig.log.append((m.t_host_ns, m.counter, m.snr_mean_raw, m.snr_std_raw))
+        if pixels is not None:
+            self.crop_logs[m.camera].add(m.t_host_ns, pixels, m.result)
 
     # ------------------------------------------------------------------ run
     def __enter__(self) -> HilRig:
@@ -243,6 +260,8 @@ class HilRig:
                 rig.producer.stop()
             self.gps_sim.stop()
             self.lrf_sim.stop()
+            if self._tmp is not None:
+                self._tmp.cleanup()
 
     def step(self) -> bool:
         """Do what the operator would do now; False once the flight is over.
@@ -285,6 +304,8 @@ class HilRig:
             key = (row.camera, row.stop)
             if (row.complete or row.t_end_ns is not None) and key not in self._final:
                 self._final[key] = self._stop_result(row)
+                if self.opts.adopt_psf:
+                    adopt_measured_psf(self, row.camera, self._final)
 
     def _stop_result(self, row) -> dict:
         """One stop row with the simulator's truth over exactly the frames the console
@@ -312,18 +333,24 @@ class HilRig:
             "n_frames": row.n_frames,
             "measured_snr_mean": row.snr_mean,
             "measured_snr_std": row.snr_std,
+            "measured_snr_sem": row.snr_sem,
             **raw,
             "truth_snr": truth,
             "model_snr": row.model_snr,
             "resolved": bool(row.resolved),
+            "_crops": self.crop_logs[row.camera].between([t for t, _ in run]),
         }
 
     def result(self) -> dict:
         self._summarise_final_rows()
-        stops = [
-            self._final.get((row.camera, row.stop)) or self._stop_result(row)
-            for row in self.session.stops()
-        ]
+        for row in self.session.stops():
+            self._final.setdefault((row.camera, row.stop), self._stop_result(row))
+        psf = measured_psf(self, self._final)  # the PSF from the flight's own frames
+        stops = []
+        for row in self.session.stops():
+            entry = dict(self._final[(row.camera, row.stop)])
+            entry.pop("_crops", None)
+            stops.append(entry)
         frames = defaultdict(dict)
         for name, pipe in self.session.pipelines.items():
             acc = pipe.status().frames
@@ -336,6 +363,11 @@ class HilRig:
         clicks = {c: sum(1 for k in self._clicked if k[0] == c) for c in self.cameras}
         return {
             "seed": self.opts.seed,
+            "scenario": self.opts.scenario.record(tuple(self.cameras)),
+            "sky_temp_measured_k": {
+                c: self.predictor.background_temp_k.get(c) for c in self.cameras
+            },
+            "psf": psf,
             "stops": stops,
             "frames": dict(frames),
             "operator_clicks": clicks,

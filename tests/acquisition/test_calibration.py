@@ -12,10 +12,10 @@ from acquisition.calibrate.calibration import (
     NOISY,
     BlackbodyCapture,
     calibrate_sensor,
-    calibration_quality,
     radiance_of,
     temperature_of,
 )
+from acquisition.calibrate.quality import calibration_quality
 from tests.acquisition.calibration_scene import camera
 from tests.helpers import strict_json
 

@@ -193,12 +193,18 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     _record(cam, session)
     cal_path = save_calibration(cal, tmp_path / "mwir.npz")
     target = tmp_path / "t.toml"
+    # this scene's drone has no air in front of it: its apparent temperature is its own
     argv = ["characterize", str(session), "--camera", "mwir", "--calibration", str(cal_path),
-            "--json", "--target-out", str(target)]  # fmt: skip
+            "--json", "--target-out", str(target), "--apparent"]  # fmt: skip
     rc = main([*argv, "--stop", "99"])
     assert rc != 0
     assert "no stop 99 for mwir" in capsys.readouterr().err
     stop = strict_json(_stops_json(session))[0]
+    # a target file needs the drone's temperature: without a calibration, one message
+    no_cal = [a for a in argv if a not in ("--calibration", str(cal_path))]
+    assert main([*no_cal, "--stop", str(stop)]) == 2
+    err = capsys.readouterr().err
+    assert f"stop {stop} of mwir: the session has no calibration" in err
     assert main([*argv, "--stop", str(stop)]) == 0
     out = strict_json(capsys.readouterr().out)
     for key in ("small_m", "large_m", "mean_temp_c", "rss_delta_t_k", "n_frames", "small_m_std"):
@@ -217,6 +223,19 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
         (event,) = [e for e in f.event_list() if e["kind"] == "target_characterized"]
     assert event["camera"] == "mwir"
     assert event["payload"]["small_m"] == pytest.approx(out["small_m"])
+    # Without --apparent the drone's own temperature is found through the air: at 37 m the
+    # MWIR transmission is 0.834 and the path radiance at 15 C is taken back out.
+    assert main([*argv[:-1], "--stop", str(stop), "--no-record"]) == 0
+    own = json.loads(capsys.readouterr().out)
+    assert own["apparent_temp_c"] == pytest.approx(out["mean_temp_c"])
+    assert own["transmission"] == pytest.approx(0.834, abs=0.002)
+    from acquisition.calibrate.calibration import radiance_of
+
+    band = (3.45, 5.25)
+    seen = 0.834 * radiance_of(band, own["mean_temp_c"] + 273.15) + 0.166 * radiance_of(
+        band, 288.15
+    )
+    assert seen == pytest.approx(radiance_of(band, own["apparent_temp_c"] + 273.15), rel=2e-3)
 
 
 def _stops_json(session) -> str:

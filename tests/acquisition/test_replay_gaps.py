@@ -66,7 +66,7 @@ def recorded(tmp_path_factory):
     rng = np.random.default_rng(2019)
     fpn = np.random.default_rng(7).normal(0.0, 8.0, (H, W))
     live: list = []
-    engine.add_listener(live.append)
+    engine.add_listener(lambda m, pixels: live.append(m))
     for i in range(N):
         if i in CLICKS:
             pipe.set_roi(*CLICKS[i])

@@ -140,18 +140,20 @@ def test_budget_and_curves_are_the_models(data):
     pts = data.measured["lwir"]
     assert pts.range_m.tolist() == pytest.approx(list(RANGES_M), abs=0.15)
     assert np.all(pts.snr_std > 0)
+    assert np.all(pts.snr_sem > 0)
 
 
 def test_pdf_and_png_render(outputs):
     pdf, png, _ = outputs
     head = pdf.read_bytes()
     assert head[:5] == b"%PDF-" and len(head) > 20_000
-    # summary, one Figs. 7-10 page for two cameras, Fig. 12, one Fig. 6 page per stop
-    assert b"/Count 5" in head
+    # summary, one Figs. 7-10 page for two cameras, the paper's numbers and Pd, Fig. 12, one
+    # Fig. 6 page per stop
+    assert b"/Count 6" in head
     img = cv2.imread(str(png))
     assert img is not None
     page_h, page_w = round(PAGE_IN[1] * PNG_DPI), round(PAGE_IN[0] * PNG_DPI)
-    assert img.shape == (5 * page_h, page_w, 3)
+    assert img.shape == (6 * page_h, page_w, 3)
     assert img.std() > 10  # drawn, not blank
 
 
@@ -167,3 +169,19 @@ def test_missing_file_and_bad_output_are_one_line_errors(tmp_path, session, caps
     assert main(["report", str(junk), "-o", str(tmp_path / "r.pdf")]) != 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "junk.h5" in err[0]
+
+
+def test_report_compares_the_stops_and_the_paper(data):
+    """chi2/dof per curve of the unresolved stops, the paper's reference numbers beside ours
+    with a reason each, and Pd versus range with the detection range's confidence."""
+    refs = {r.quantity: r for r in data.references}
+    assert refs["MWIR average PVF, diffraction limited"].paper == "0.25"
+    assert refs["MWIR average PVF, diffraction limited"].ours == "0.2653"
+    assert refs["NETD MWIR / LWIR (mK)"].ours == "41.1 / 50.0"
+    assert all(r.reason for r in data.references) and len(data.references) == 6
+    for cam, d in data.detections.items():
+        assert d.range_lower_m < d.range_m < d.range_upper_m, cam
+    curves = {f.curve for f in data.fits}
+    if curves:  # the fixture's stops are unresolved in the LWIR
+        assert {"expected_eq4", "paper_small"} <= curves
+        assert all(f.chi2_per_dof <= f.chi2_per_dof_measured for f in data.fits)

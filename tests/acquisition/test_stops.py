@@ -199,3 +199,16 @@ def test_a_stop_range_is_the_median_of_all_its_readings():
     assert stop is not None and stop.t_end_ns is None
     start = round(stop.t_start_ns * 10 / S)  # readings before the stop opened are not in it
     assert stop.lrf_range_m == statistics.median(ranges[start:].tolist())
+
+
+def test_error_of_the_mean_counts_the_frames_autocorrelation():
+    """White frames: sem = std / sqrt(N); a drifting, correlated series: larger (N_eff < N)."""
+    from acquisition.stops.detector import mean_error
+
+    rng = np.random.default_rng(3)
+    white = rng.standard_normal(100)
+    assert mean_error(white) == pytest.approx(white.std(ddof=1) / 10, rel=0.25)
+    walk = np.convolve(rng.standard_normal(130), np.ones(30) / 30, mode="valid")[:100]
+    assert mean_error(walk) > 2.5 * walk.std(ddof=1) / 10
+    assert np.isnan(mean_error([1.0, 2.0]))
+    assert mean_error([5.0] * 10) == 0.0

@@ -119,3 +119,27 @@ def test_strip_chart_model_label_lies_inside_the_plot(qtbot):
 
     qtbot.waitUntil(inside, timeout=2000)
     assert label.toPlainText() == "model (small) 12.0"
+
+
+def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(qtbot):
+    """The stops' bars are the error of the mean, not the per-frame std, and the title states
+    chi2/dof of the unresolved stops against the expected Eq. (4) curve shown."""
+    import numpy as np
+
+    from acquisition.stops.table import StopRow
+    from gui.range_plot import RangePlot, fit_title
+
+    def row(stop, r, mean, sem, resolved=False):
+        return StopRow("mwir", stop, False, 0, 1, r, r, 100, True, mean, 10.0,
+                       {"expected_eq4": 0.0}, resolved, sem)  # fmt: skip
+
+    rows = [row(0, 199.0, 90.0, 2.0, True), row(1, 393.0, 60.0, 2.0), row(2, 508.0, 33.0, 1.0)]
+    expected = (np.array([100.0, 1000.0]), np.array([64.0, 64.0]))
+    # (60-64)^2/4 = 4 and (33-64)^2/1 = 961: the resolved stop is left out
+    assert fit_title(rows, expected) == "chi2/dof against the expected Eq. (4): 482.50 (2 stops)"
+    assert fit_title(rows, None) == ""
+    plot = RangePlot("mwir")
+    qtbot.addWidget(plot)
+    plot.set_curves({"expected_eq4": expected})
+    plot.show_stops(rows)
+    assert [p[2] for p in plot._stops_shown] == [2.0, 2.0, 1.0]  # not the std of 10

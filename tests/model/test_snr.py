@@ -1,5 +1,5 @@
-"""Eqs. 2-3, the resolved/unresolved rule, the four curves, the Fig. 12 band, and the hooks the
-scene simulator uses (its truth must equal the model's SNR)."""
+"""Eqs. 2-3, the paper's resolved/unresolved rule and its switched curves, the continuous
+square-target curves, the band, and the hooks the scene simulator uses."""
 
 import numpy as np
 import pytest
@@ -19,7 +19,7 @@ PAPER_RANGES = [37, 126, 199, 336, 393, 451, 508]
 
 
 def test_transition_range_uav1_small_mwir():
-    p = predict(MW, UAV1, PAPER_RANGES)
+    p = predict(MW, UAV1, PAPER_RANGES, geometry="paper", expected=False, band=False)
     assert 314 <= p.transition_range_small_m <= 350
     assert list(p.resolved_small) == [True, True, True, False, False, False, False]
     assert list(p.resolved_large) == [True] * 6 + [False]
@@ -31,8 +31,9 @@ def test_eq2_point_signal_by_hand():
     # physics.md worked example: 5 K contrast, tau 0.8, 15.7 cm target, 290 K background
     s = MW.__class__(**{**MW.__dict__, "t_int_s": 0.005})
     t = Target("bb", 0.157, 0.157, {"mwir": 295.0 - 273.15})
-    e199 = target_contrast_electrons(s, t, 199.0, atmosphere=0.8, background_temp_k=290.0)
-    e508 = target_contrast_electrons(s, t, 508.0, atmosphere=0.8, background_temp_k=290.0)
+    kw = {"atmosphere": 0.8, "background_temp_k": 290.0, "air_temp_k": 290.0}
+    e199 = target_contrast_electrons(s, t, 199.0, **kw)
+    e508 = target_contrast_electrons(s, t, 508.0, **kw)
     assert e199 == pytest.approx(3.37e5, rel=0.01)
     assert e508 == pytest.approx(5.17e4, rel=0.01)
     wl, w = band_nodes((3.45, 5.25), 48)
@@ -41,8 +42,8 @@ def test_eq2_point_signal_by_hand():
     assert e199 == pytest.approx(by_hand * 0.157**2 / 199.0**2, rel=1e-12)
 
 
-def test_four_curves_unresolved_use_pvf_and_eq3():
-    p = predict(MW, UAV1, PAPER_RANGES, spatial_noise="2x")
+def test_four_paper_curves_unresolved_use_pvf_and_eq3():
+    p = predict(MW, UAV1, PAPER_RANGES, spatial_noise="2x", geometry="paper", expected=False)
     i = 6  # 508 m: both dimensions unresolved
     pt = target_contrast_electrons(MW, UAV1, 508.0)
     pvf0 = average_pvf(MW.diffraction_psf(), 0.8)
@@ -62,7 +63,7 @@ def test_four_curves_unresolved_use_pvf_and_eq3():
 def test_mwir_corrected_pvf_is_0082_for_a_point_and_drops_with_size():
     psf = MW.corrected_psf()
     assert isinstance(psf, GaussianPsf) and psf.sigma_px == pytest.approx(1.183, abs=2e-3)
-    p = predict(MW, UAV1, [400.0, 4000.0, 40000.0])
+    p = predict(MW, UAV1, [400.0, 4000.0, 40000.0], geometry="paper", expected=False)
     assert p.pvf["small_corrected"][2] == pytest.approx(0.082, abs=2e-4)
     assert p.pvf["small_corrected"][0] < p.pvf["small_corrected"][1] < 0.082
 
@@ -73,7 +74,8 @@ def test_background_correction_and_atmosphere_move_the_signal_the_right_way():
     assert cold > 3 * warm > 0
     clear = predict(MW, UAV1, [400.0], atmosphere="none").snr_small[0]
     hazy = predict(MW, UAV1, [400.0], atmosphere="default").snr_small[0]
-    assert hazy / clear == pytest.approx(predict(MW, UAV1, [400.0]).transmission[0], rel=1e-9)
+    tau = predict(MW, UAV1, [400.0]).transmission_contrast[0]
+    assert hazy / clear == pytest.approx(tau, rel=1e-9)
 
 
 def test_uncertainty_band_surrounds_corrected_curves_and_path_term_is_amplified():
@@ -99,7 +101,7 @@ def test_simulator_hooks_reproduce_the_model_snr():
     # peak-pixel signal over phases / temporal noise = the model's corrected SNR (Eqs. 2-3)
     rng = np.random.default_rng(7)
     r = 451.0
-    p = predict(MW, UAV1, [r], background_temp_k=285.0)
+    p = predict(MW, UAV1, [r], background_temp_k=285.0, geometry="paper", expected=False)
     e = target_contrast_electrons(MW, UAV1, r, background_temp_k=285.0)
     st = 0.5 * 0.157 / (r * MW.ifov_rad)
     psf = MW.corrected_psf()
@@ -115,11 +117,12 @@ def test_simulator_hooks_reproduce_the_model_snr():
 
 
 def test_to_records_shape_and_bad_ranges():
-    recs = predict(LW, UAV2, [126.0, 393.0]).to_records()
+    recs = predict(LW, UAV2, [126.0, 393.0], geometry="paper").to_records()
     assert len(recs) == 2
     assert set(recs[0]) >= {
         "range_m", "resolved_small", "resolved_large", "snr_small", "snr_large",
         "snr_small_corrected", "snr_large_corrected", "signal_e", "noise_e", "transmission", "pvf",
+        "expected_eq4", "snr_paper", "transmission_contrast",
     }  # fmt: skip
     assert set(recs[0]["noise_e"]) == {"background", "lens", "dark", "read", "temporal", "spatial"}
     assert recs[0]["pvf"]["small"] is None and recs[1]["pvf"]["small"] > 0.3

@@ -1,0 +1,138 @@
+"""The target's contrast signal at the aperture (paper Eq. 2 without the PVF), with the sky and
+the air as two temperatures.
+
+Along the line of sight to a drone at range R the camera sees the drone through the air:
+tau(R) L_t + (1 - tau(R)) S_air; around it, the clear sky: L_sky (the whole path, i.e. the
+apparent sky temperature a calibrated camera measures). The contrast photon radiance is
+
+    dLq(R, lambda) = tau(R) (L_t - S_air) + (S_air - L_sky)
+
+with S_air a blackbody at the air temperature (or MODTRAN's path source function) and L_sky a
+blackbody at the measured sky temperature, or S_air itself when no sky temperature is given (the
+infinite path of the model's own atmosphere; then dLq = tau (L_t - S_air) as before). The paper
+corrected the background with the measured sky (its path-radiance correction, sections 8-9);
+using the sky temperature for the path as well understates the contrast when the air is warmer
+than the sky (7-10 % with a 280 K sky and 288 K air in the MWIR). tau is the contrast-weighted
+transmission (:meth:`model.atmosphere.Atmosphere.signal_transmission`).
+
+Electrons: the contrast radiance times A_opt t_int and the photon response tau_o tau_cf QE,
+integrated over the band (48-node Gauss-Legendre), per unit (target area / range^2): multiply
+by A_t / R^2 for the point-source equivalent (PVF = 1). Temperatures may be arrays (they
+broadcast against each other; the Monte-Carlo band samples them).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from model.atmosphere import Atmosphere, band_key, resolve_atmosphere
+from model.detector import spectral_grid
+from model.radiometry import spectral_photon_radiance
+from model.sensor import Sensor
+from model.target import Target
+
+
+def _check_temp(what: str, value) -> float:
+    if not (value is not None and value > 0 and math.isfinite(value)):
+        raise ValueError(f"{what} must be > 0 K, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Contrast:
+    """The radiometric chain of one sensor, target and atmosphere at a set of ranges."""
+
+    atmosphere: Atmosphere
+    sky_temp_k: float  # the clear sky behind the drone (the noise's background too)
+    air_temp_k: float  # the air between the camera and the drone
+    target_temp_k: float
+    ranges_m: np.ndarray
+    tau: np.ndarray  # (n_ranges, n_wl): the contrast-weighted transmission
+    k_spec: np.ndarray  # A_opt t_int w resp per wavelength node [m^2 s um]
+    wavelengths_um: np.ndarray
+    source_air: np.ndarray  # S_air per wavelength (photon, per um)
+    sky: np.ndarray  # L_sky per wavelength
+
+    def intensity_e(
+        self, target_temp_k=None, air_temp_k=None, sky_temp_k=None, tau_scale=1.0
+    ) -> np.ndarray:
+        """Contrast electrons per (m^2 of target / m^2 of range^2) at each range; any argument
+        given (scalar or an array of samples, shape (n,)) replaces the chain's value: the
+        result is then (n, n_ranges)."""
+        sampled = not (
+            target_temp_k is None and air_temp_k is None and sky_temp_k is None
+            and np.ndim(tau_scale) == 0
+        )  # fmt: skip
+        wl = self.wavelengths_um
+
+        def rad(t, default):
+            if t is None:
+                return np.atleast_2d(default)
+            return spectral_photon_radiance(wl, np.atleast_1d(np.asarray(t, float))).T
+
+        lt = rad(target_temp_k, spectral_photon_radiance(wl, self.target_temp_k))
+        air = rad(air_temp_k, self.source_air)
+        sky = rad(sky_temp_k, self.sky)
+        scale = np.atleast_1d(np.asarray(tau_scale, float))[:, None]
+        through = ((lt - air) * self.k_spec) @ self.tau.T  # (n, n_ranges)
+        path = np.sum((air - sky) * self.k_spec, axis=1)[:, None]
+        out = scale * through + path
+        return out if sampled else out[0]
+
+    @property
+    def background_over_contrast(self) -> np.ndarray:
+        """L_sky / dLq, response weighted, per range (the Fig. 12 path-radiance amplifier)."""
+        return float(np.sum(self.k_spec * self.sky)) / self.intensity_e()
+
+    @property
+    def transmission_contrast(self) -> np.ndarray:
+        """The contrast-weighted transmission per range (flat over the response)."""
+        w = self.k_spec / np.sum(self.k_spec)
+        return self.tau @ w
+
+
+def contrast(
+    sensor: Sensor,
+    target: Target,
+    ranges_m: np.ndarray,
+    *,
+    atmosphere=None,
+    sky_temp_k: float | None = None,
+    air_temp_k: float | None = None,
+) -> Contrast:
+    """The :class:`Contrast` of ``target`` seen by ``sensor`` at ``ranges_m`` (module
+    docstring). ``sky_temp_k``: the measured (apparent) sky temperature, None for the model's own
+    (the infinite path at the air temperature); ``air_temp_k``: None for the atmosphere's."""
+    atm = resolve_atmosphere(atmosphere, tuple(sensor.band_um))
+    wl, w, resp = spectral_grid(sensor)
+    t_target = target.temp_k(band_key(sensor.band_um))
+    if air_temp_k is not None:
+        t_air = _check_temp("air temperature", air_temp_k)
+        source_air = spectral_photon_radiance(wl, t_air)
+    elif atm.spectral is not None and atm.spectral.has_radiance:
+        t_air = atm.air_temp_k
+        source_air = atm.spectral.path_source_photon(wl)
+    else:
+        t_air = atm.air_temp_k
+        source_air = spectral_photon_radiance(wl, t_air)
+    if sky_temp_k is not None:
+        t_sky = _check_temp("background (sky) temperature", sky_temp_k)
+        sky = spectral_photon_radiance(wl, t_sky)
+    else:
+        t_sky, sky = t_air, source_air
+    ranges = np.asarray(ranges_m, dtype=float)
+    return Contrast(
+        atmosphere=atm,
+        sky_temp_k=t_sky,
+        air_temp_k=t_air,
+        target_temp_k=t_target,
+        ranges_m=ranges,
+        tau=atm.signal_transmission(ranges, wl),
+        k_spec=sensor.aperture_area_m2 * sensor.t_int_s * w * resp,
+        wavelengths_um=wl,
+        source_air=source_air,
+        sky=sky,
+    )

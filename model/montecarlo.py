@@ -1,0 +1,131 @@
+"""The model's uncertainty as a Monte-Carlo band over its inputs (paper section 9, Fig. 12).
+
+Each draw perturbs the inputs of the corrected curves and recomputes the SNR through the same
+chain (:mod:`model.contrast`, :mod:`model.noise`, :mod:`model.footprint`); the band is the
+16th-84th percentile of the draws at each range (a one-sigma equivalent that need not be
+symmetric). Inputs and their spreads (:class:`InputUncertainty`; one sigma unless stated):
+
+* target outline: area +/- 3 % (section 9), so the characteristic dimension +/- 1.5 %;
+* target Delta-T (the blackbody calibration of the target's radiometry): +/- 0.5 K on its
+  apparent temperature (chosen: what ``snrmon characterize`` recovers on the twin);
+* sky temperature: the path radiance measured to 5 % (section 9), as a temperature through
+  dL/dT of the band;
+* air temperature: +/- 2 K (chosen: a site thermometer against the path's mean);
+* transmission: +/- 3 % (chosen: the contrast weighting's spectrum and the fit, section 9's
+  "transmission compared to MODTRAN");
+* PSF / MTF: the point-source PVF +/- 5 % (section 9: the measured MTF to about 5 %);
+* target-size rule, ONE-SIDED: the paper calls the finite-size correction a modelling error
+  biased toward lower SNR, "the highest at around 10 %" (section 9): a real drone spreads its
+  light wider than the square of the same area (its arms reach the bounding box). The draw
+  lowers the PVF by 10 % x |z| x w(D), w = D up to one pixel (a point has no size error),
+  falling to 0 at D = 2 (resolved: the paper applies no size correction).
+
+The draws are seeded, so a band is reproducible.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from model.contrast import Contrast
+from model.footprint import average_pvf_square
+from model.noise import noise_breakdown
+from model.psf import Psf
+from model.pvf import average_pvf, solve_blur_sigma
+from model.radiometry import spectral_photon_radiance, spectral_photon_radiance_dt
+from model.sensor import Sensor
+
+BAND_QUANTILES = (0.16, 0.84)
+
+
+@dataclass(frozen=True)
+class InputUncertainty:
+    """One-sigma spreads of the model's inputs (module docstring)."""
+
+    outline_area: float = 0.03
+    target_temp_k: float = 0.5
+    sky_radiance: float = 0.05
+    air_temp_k: float = 2.0
+    transmission: float = 0.03
+    psf_pvf: float = 0.05
+    size_rule: float = 0.10  # one-sided, at D = 1 px
+    samples: int = 200
+    seed: int = 2019
+
+    def __post_init__(self) -> None:
+        for name in ("outline_area", "target_temp_k", "sky_radiance", "air_temp_k",
+                     "transmission", "psf_pvf", "size_rule"):  # fmt: skip
+            v = getattr(self, name)
+            if not (0.0 <= v < 100.0):
+                raise ValueError(f"input uncertainty {name} must be >= 0, got {v!r}")
+        if self.samples < 10:
+            raise ValueError(f"the Monte-Carlo band needs >= 10 samples, got {self.samples}")
+
+
+def widened_psf(psf: Psf, fill_factor: float, pvf_drop: float) -> Psf:
+    """The PSF blurred (Gaussian, or Airy/real base (x) Gaussian) until its point-source
+    average PVF is (1 - pvf_drop) times ``psf``'s: the MTF error of the band."""
+    from model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf
+
+    target = (1.0 - pvf_drop) * average_pvf(psf, fill_factor)
+    if isinstance(psf, GaussianPsf):
+        return GaussianPsf(solve_blur_sigma(target, fill_factor))
+    base = psf.airy if isinstance(psf, AiryGaussianPsf) else psf
+    if isinstance(base, AiryPsf):
+        return AiryGaussianPsf(base, solve_blur_sigma(target, fill_factor, base_psf=base))
+    raise ValueError(f"no widened version of a {type(psf).__name__} PSF for the band")
+
+
+@dataclass(frozen=True)
+class McDraws:
+    """SNR draws (n_samples, n_ranges) of the corrected small and large curves, and the
+    unperturbed curves they scatter around (``nominal``)."""
+
+    snr: dict[str, np.ndarray]
+    nominal: dict[str, np.ndarray]
+
+    def band(self, curve: str) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = np.quantile(self.snr[curve], BAND_QUANTILES, axis=0)
+        return lo, hi
+
+
+def draw_corrected(
+    sensor: Sensor,
+    c: Contrast,
+    sizes_m: dict[str, float],
+    psf: Psf,
+    spatial_noise,
+    inputs: InputUncertainty,
+) -> McDraws:
+    """Monte-Carlo draws of the corrected (real PSF, square target) curves."""
+    rng = np.random.default_rng(inputs.seed)
+    n = inputs.samples
+    z = rng.standard_normal((7, n + 1))
+    z[:, 0] = 0.0  # draw 0 is the nominal model
+    ff = sensor.fill_factor
+    wl = c.wavelengths_um
+    w = c.k_spec / np.sum(c.k_spec)
+    l_sky = float(np.sum(w * spectral_photon_radiance(wl, c.sky_temp_k)))
+    dl_sky = float(np.sum(w * spectral_photon_radiance_dt(wl, c.sky_temp_k)))
+    t_sky = c.sky_temp_k + inputs.sky_radiance * l_sky / dl_sky * z[0]
+    t_air = c.air_temp_k + inputs.air_temp_k * z[1]
+    t_tgt = c.target_temp_k + inputs.target_temp_k * z[2]
+    tau = np.clip(1.0 + inputs.transmission * z[3], 0.0, None)
+    intensity = c.intensity_e(t_tgt, t_air, t_sky, tau)  # (n, n_ranges)
+    noise = np.array([noise_breakdown(sensor, t, spatial_noise).total for t in t_sky])
+    outline = np.sqrt(np.clip(1.0 + inputs.outline_area * z[4], 0.05, None))  # size factor
+    wide = widened_psf(psf, ff, inputs.psf_pvf) if inputs.psf_pvf > 0 else psf
+    pixel_m = c.ranges_m * sensor.ifov_rad  # the pixel footprint at each range
+    out = {}
+    for size, size_m in sizes_m.items():
+        d = (size_m * outline[:, None]) / pixel_m[None, :]
+        p_real = average_pvf_square(psf, ff, d)
+        p_wide = average_pvf_square(wide, ff, d)
+        reach = np.clip(np.minimum(d, 2.0 - d), 0.0, 1.0)
+        p = p_real + z[5][:, None] * (p_real - p_wide)
+        p = p * (1.0 - inputs.size_rule * np.abs(z[6])[:, None] * reach)
+        area = (size_m * outline[:, None]) ** 2
+        out[f"{size}_corrected"] = intensity * area / c.ranges_m**2 * p / noise[:, None]
+    return McDraws({k: v[1:] for k, v in out.items()}, {k: v[0] for k, v in out.items()})

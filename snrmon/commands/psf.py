@@ -1,0 +1,121 @@
+"""``snrmon psf``: the camera's PSF from a recorded stop of an unresolved drone (issue 15).
+
+    snrmon psf FILE.h5 --camera C --stop N [--stop M ...] [--calibration CAL.npz]
+               [--min-frames 50] [--json] [--no-record]
+
+The session is replayed like ``snrmon characterize`` (the same stop table as live); the stop's
+frames with a valid measurement give 13 x 13 crops around their peaks, non-uniformity corrected
+by the session's recorded calibration (or ``--calibration``); ``acquisition.calibrate.
+psf_estimate`` fits them. JSON contract: ``{"sigma_px", "pvf", "pvf_std", "n_frames"}`` plus
+``"sigma_px_std"``, ``"blur_px"``, ``"blur_px_std"``, ``"chi2_per_dof"``, ``"camera"``,
+``"stops"``, ``"range_m"`` (one per stop), ``"target_px"``. A resolved drone, a stop with
+too few frames or without a range is one message naming the stop and why (exit 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from snrmon.cli import UsageError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("psf", help="the PSF and its average PVF from an unresolved stop")
+    p.add_argument("file", help="session file (.h5)")
+    p.add_argument("--camera", required=True)
+    p.add_argument("--stop", type=int, action="append", required=True,
+                   help="stop number as in the stop table (repeat to pool stops)")  # fmt: skip
+    p.add_argument("--calibration", help="calibration .npz (default: the session's)")
+    p.add_argument("--sensor", help="sensor preset/TOML (default: the session's)")
+    p.add_argument("--target", help="target preset/TOML (default: the session's)")
+    p.add_argument("--min-frames", type=int, default=50)
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--no-record", action="store_true",
+                   help="do not add the result to the session as a psf_measured event")  # fmt: skip
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from acquisition.calibrate.calibration_file import load_calibration
+    from acquisition.calibrate.psf_estimate import (
+        PsfEstimateError,
+        StopCrops,
+        crop_frames,
+        estimate_psf,
+        target_px,
+    )
+    from acquisition.record.reader import append_event, open_session
+    from acquisition.replay.batch import recorded_events, replay_session
+    from acquisition.report.data import session_models
+    from model.presets import load_sensor, load_target
+
+    if args.min_frames < 10:
+        raise UsageError(f"--min-frames must be >= 10, got {args.min_frames}")
+    sensors, target_name = session_models(args.file, args.target)
+    if args.camera not in sensors:
+        raise UsageError(f"camera {args.camera!r} not in {args.file} ({', '.join(sensors)})")
+    sensor = load_sensor(args.sensor or sensors[args.camera])
+    target = load_target(target_name)
+    replay = replay_session(args.file)
+    rows = {r.stop: r for r in replay.stops if r.camera == args.camera}
+    rep = replay.cameras[args.camera]
+    stops, ranges = [], []
+    with open_session(args.file) as f:
+        cam = f.cameras[args.camera]
+        cal_path = args.calibration or recorded_events(f).calibrations.get(args.camera)
+        cal = (
+            load_calibration(cal_path, sensor, frame_shape=cam.frames.shape[1:])
+            if cal_path
+            else None
+        )
+        for n in args.stop:
+            row = rows.get(n)
+            if row is None:
+                known = ", ".join(str(k) for k in sorted(rows)) or "none"
+                raise UsageError(f"no stop {n} for {args.camera} in {args.file} (stops: {known})")
+            label = f"stop {n} of {args.camera}"
+            try:
+                d = target_px(target, row.range_m, sensor.ifov_rad)
+            except PsfEstimateError as exc:
+                raise UsageError(f"{label}: {exc}") from None
+            lo = np.searchsorted(rep.t_host_ns, row.t_start_ns)
+            hi = len(rep.t_host_ns) if row.t_end_ns is None else np.searchsorted(
+                rep.t_host_ns, row.t_end_ns)  # fmt: skip
+            picks = [(t, r) for t, r in zip(rep.t_host_ns[lo:hi], rep.results[lo:hi], strict=True)
+                     if not r.flags and np.isfinite(r.snr)]  # fmt: skip
+            index = np.searchsorted(cam.t_host_ns, [t for t, _ in picks])
+            crops = crop_frames(
+                (cam.frames[int(i)] for i in index), [(r.peak_x, r.peak_y) for _, r in picks], cal
+            )
+            stops.append(StopCrops(f"{label} at {row.range_m:.1f} m", crops, d))
+            ranges.append(row.range_m)
+    try:
+        est = estimate_psf(stops, sensor, min_frames=args.min_frames)
+    except PsfEstimateError as exc:
+        raise UsageError(str(exc)) from None
+    out = {
+        "sigma_px": est.sigma_px,
+        "pvf": est.pvf,
+        "pvf_std": est.pvf_std,
+        "n_frames": est.n_frames,
+        "sigma_px_std": est.sigma_px_std,
+        "blur_px": est.blur_px,
+        "blur_px_std": est.blur_px_std,
+        "chi2_per_dof": est.chi2_per_dof,
+        "camera": args.camera,
+        "stops": list(args.stop),
+        "range_m": ranges,
+        "target_px": [s.target_px for s in stops],
+        "calibrated": cal is not None,
+    }
+    if not args.no_record:
+        append_event(args.file, "psf_measured", camera=args.camera, payload=out)
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    for key, value in out.items():
+        print(f"{key:>14}: {value:.4g}" if isinstance(value, float) else f"{key:>14}: {value}")
+    return 0

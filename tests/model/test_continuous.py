@@ -1,0 +1,159 @@
+"""The continuous model (issue 15): the square target's phase-averaged ensquared energy, its
+limits, no jump at the transition, separate sky and air, the contrast-weighted transmission,
+and the audit's numbers each pinned."""
+
+import json
+
+import numpy as np
+import pytest
+
+from model.atmosphere import default_atmosphere
+from model.footprint import average_pvf_square, phase_grid, pixel_patterns
+from model.presets import load_sensor, load_target
+from model.pvf import average_pvf, average_pvf_vs_target_sigma
+from model.snr import predict
+from snrmon.cli import main
+
+MW, LW = load_sensor("mwir"), load_sensor("lwir")
+UAV1 = load_target("uav1")
+
+
+@pytest.mark.parametrize("psf", [MW.diffraction_psf(), MW.corrected_psf(), LW.diffraction_psf()])
+def test_square_pvf_is_the_point_pvf_at_zero_and_the_phase_average_of_the_patterns(psf):
+    ff = 0.8
+    assert average_pvf_square(psf, ff, 0.0) == pytest.approx(average_pvf(psf, ff), abs=1e-6)
+    ph = np.linspace(-0.5, 0.5, 24, endpoint=False) + 1 / 48
+    for d in (0.4, 1.3):
+        mid = pixel_patterns(psf, ff, ph, ph, target_square_px=d)[:, :, 3, 3].mean()
+        assert mid == pytest.approx(average_pvf_square(psf, ff, d), rel=2e-3)
+    # the symmetric half-cell grid averages to the same value
+    half = phase_grid(6)
+    assert pixel_patterns(psf, ff, half, half, target_square_px=1.3)[:, :, 3, 3].mean() == (
+        pytest.approx(average_pvf_square(psf, ff, 1.3), rel=2e-3)
+    )
+
+
+def test_square_pvf_tends_to_the_pixel_filling_limit():
+    ff = MW.fill_factor
+    for psf in (MW.diffraction_psf(), MW.corrected_psf()):
+        share = [average_pvf_square(psf, ff, d) * d * d / ff for d in (16.0, 64.0, 1000.0)]
+        assert share[0] < share[1] < share[2] <= 1.0 + 1e-4
+        assert share[2] == pytest.approx(1.0, abs=1e-3)
+    # the narrow real PSF already fills the 8.5-px square at 37 m; the Airy's wings (energy
+    # outside r ~ 2q/(pi^2 r)) keep 5.5 % of the light of its centre pixel outside the square
+    d37 = UAV1.small_m / (37.0 * MW.ifov_rad)
+    real = average_pvf_square(MW.corrected_psf(), ff, d37) * d37**2 / ff
+    airy = average_pvf_square(MW.diffraction_psf(), ff, d37) * d37**2 / ff
+    assert real == pytest.approx(1, abs=0.01)
+    assert airy == pytest.approx(0.945, abs=0.005)
+
+
+def test_resolved_limit_is_the_papers_resolved_formula_at_37_m():
+    p = predict(MW, UAV1, [37.0], expected=False, band=False)
+    paper = predict(MW, UAV1, [37.0], geometry="paper", expected=False, band=False)
+    assert paper.resolved_small[0]
+    # the corrected (real PSF) curve at 37 m is the pixel-filling radiance within 1 %
+    assert p.snr_small_corrected[0] == pytest.approx(paper.snr_small_corrected[0], rel=0.01)
+    # and as D -> infinity the square's signal IS the resolved formula, by construction
+    ext = paper.signal_e["small_corrected"][0]
+    d = 1e6
+    limit = (
+        p.point_contrast_e["small"][0]
+        * MW.fill_factor
+        / d**2
+        * (d / (UAV1.small_m / (37.0 * MW.ifov_rad))) ** 2
+    )
+    assert limit == pytest.approx(ext, rel=1e-9)
+
+
+def _jump(snr: np.ndarray) -> float:
+    """The largest step of log SNR between neighbouring ranges over the larger of the steps
+    two ranges before and after it: ~1 on a smooth curve, >> 1 at a jump."""
+    d = np.abs(np.diff(np.log(snr)))
+    around = np.maximum(d[:-4], d[4:])
+    return float(np.max(d[2:-2] / np.maximum(around, 1e-6)))
+
+
+def test_model_snr_json_10_to_1000_m_has_no_jump(capsys):
+    ranges = ",".join(str(r) for r in range(10, 1001))
+    assert main(["model", "snr", "--sensor", "mwir", "--target", "uav1", "--ranges", ranges,
+                 "--json"]) == 0  # fmt: skip
+    recs = json.loads(capsys.readouterr().out)
+    assert len(recs) == 991 and recs[0]["range_m"] == 10.0
+    for key in ("snr_small", "snr_large", "snr_small_corrected", "snr_large_corrected",
+                "expected_eq4"):  # fmt: skip
+        assert _jump(np.array([r[key] for r in recs])) < 1.5, key
+    # the same statistic catches the paper's switch (so the test can fail): 393 -> 130 at 314 m
+    paper = np.array([r["snr_paper"]["small"] for r in recs])
+    assert _jump(paper) > 50
+    i = 314 - 10
+    assert paper[i - 1] / paper[i + 1] > 2.5
+
+
+def test_the_switch_the_audit_found_and_the_continuous_value():
+    below, above = predict(MW, UAV1, [313.9, 314.1], geometry="paper", expected=False,
+                           band=False).snr_small  # fmt: skip
+    jump = 0.8 / average_pvf(MW.diffraction_psf(), 0.8)  # FF / PVF: the paper's step
+    assert below / above == pytest.approx(jump, rel=0.02)
+    cont = predict(MW, UAV1, [313.9, 314.1], expected=False, band=False).snr_small
+    assert cont[0] / cont[1] == pytest.approx(1.0, abs=0.002)
+    # the square of side 1 px with the Airy: 0.828 of the point source, no branch jumps
+    assert cont[0] / above == pytest.approx(0.828, abs=0.005)
+
+
+def test_finite_size_numbers_of_the_audit():
+    """sigma_t = D/2 with the 0.082 PSF: 0.081/0.079/0.071 (the paper: 0.080/0.076/0.062);
+    the square of side D: 0.0817/0.0809/0.0778. In the LWIR at 199 m (D = 0.78 px) the
+    Gaussian rule drops the SNR 35 %, the square 16 %."""
+    real = MW.corrected_psf()
+    gauss = [float(average_pvf_vs_target_sigma(real, 0.8, 0.5 * d)) for d in (0.25, 0.5, 1.0)]
+    square = [average_pvf_square(real, 0.8, d) for d in (0.25, 0.5, 1.0)]
+    assert gauss == pytest.approx([0.0812, 0.0788, 0.0706], abs=2e-4)
+    assert square == pytest.approx([0.0817, 0.0809, 0.0778], abs=2e-4)
+    airy = LW.diffraction_psf()
+    d = UAV1.small_m / (199.0 * LW.ifov_rad)
+    point = average_pvf(airy, 0.9)
+    gauss = float(average_pvf_vs_target_sigma(airy, 0.9, d / 2))
+    assert gauss / point == pytest.approx(0.65, abs=0.01)
+    assert average_pvf_square(airy, 0.9, d) / point == pytest.approx(0.84, abs=0.01)
+
+
+def test_air_and_sky_are_separate_and_the_air_adds_contrast():
+    kw = {"expected": False, "band": False, "background_temp_k": 280.0}
+    same = predict(MW, UAV1, [199.0, 508.0], air_temp_k=280.0, **kw)
+    warm_air = predict(MW, UAV1, [199.0, 508.0], air_temp_k=288.15, **kw)
+    gain = warm_air.snr_small / same.snr_small
+    assert 1.07 < gain[0] < gain[1] < 1.16  # more path in front of the drone farther out
+    assert warm_air.air_temp_k == 288.15 and warm_air.background_temp_k == 280.0
+    assert warm_air.noise.temporal == same.noise.temporal  # the noise is the sky's
+    # no sky given: the infinite path at the air temperature, as before
+    own = predict(MW, UAV1, [199.0], expected=False, band=False)
+    assert own.background_temp_k == own.air_temp_k == 288.15
+
+
+def test_contrast_weighted_transmission_of_the_mwir_default():
+    atm = default_atmosphere((3.45, 5.25))
+    assert atm.transmission([199.0, 508.0]) == pytest.approx([0.746, 0.663], abs=0.005)
+    assert atm.contrast_transmission([199.0, 508.0]) == pytest.approx([0.695, 0.580], abs=0.005)
+    p = predict(MW, UAV1, [199.0], expected=False, band=False)
+    assert p.transmission_contrast[0] == pytest.approx(0.693, abs=0.005)
+    assert p.transmission[0] == pytest.approx(0.744, abs=0.005)
+    lw = default_atmosphere((8.0, 12.0))  # not tabulated: the flat fit, said so
+    assert lw.contrast_transmission(199.0) == pytest.approx(lw.transmission(199.0))
+    assert "flat" in lw.source and "contrast-weighted" in atm.source
+
+
+def test_band_is_one_sided_where_the_paper_says_so():
+    p = predict(MW, UAV1, [250.0, 451.0, 2000.0])
+    for name in ("small_corrected", "large_corrected", "expected_eq4"):
+        lo, hi, mid = p.lower[name], p.upper[name], p.snr(name)
+        assert (lo < mid).all() and (mid < hi).all()
+    c = p.snr_small_corrected
+    down = (c - p.lower["small_corrected"]) / c
+    up = (p.upper["small_corrected"] - c) / c
+    # the target-size rule only lowers the SNR, and only near a pixel: wider below than above
+    assert down[1] > 1.2 * up[1]
+    assert down[2] == pytest.approx(up[2], rel=0.25)  # far: a point, symmetric terms only
+    assert 0.05 < down[1] < 0.3
+    again = predict(MW, UAV1, [250.0, 451.0, 2000.0])
+    assert np.array_equal(again.lower["small_corrected"], p.lower["small_corrected"])
