@@ -177,7 +177,7 @@ class Atmosphere:
             source = spectral_photon_radiance(wl, path_temp_k or self.air_temp_k)
         return (1.0 - tau) * source[None, :]
 
-    def path_radiance(self, range_m, band_um: tuple[float, float], **kw) -> np.ndarray:
+    def path_radiance(self, range_m, band_um: tuple[float, float], **kw) -> np.ndarray | float:
         """In-band path radiance [W m^-2 sr^-1] at each range (photon radiance times hc/lambda)."""
         from model.constants import C, H
         from model.radiometry import band_nodes

@@ -106,7 +106,7 @@ def contrast(
     """The :class:`Contrast` of ``target`` seen by ``sensor`` at ``ranges_m`` (module
     docstring). ``sky_temp_k``: the measured (apparent) sky temperature, None for the model's own
     (the infinite path at the air temperature); ``air_temp_k``: None for the atmosphere's."""
-    atm = resolve_atmosphere(atmosphere, tuple(sensor.band_um))
+    atm = resolve_atmosphere(atmosphere, (float(sensor.band_um[0]), float(sensor.band_um[1])))
     wl, w, resp = spectral_grid(sensor)
     t_target = target.temp_k(band_key(sensor.band_um))
     if air_temp_k is not None:

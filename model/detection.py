@@ -95,10 +95,10 @@ def detection(
     ph = phase_grid(phases)
     amp = p.point_contrast_e["small"] / p.noise.total
     d_px = target.small_m / (r * sensor.ifov_rad)
-    draws = p.draws.snr["small_corrected"] if p.draws is not None else None
+    mc = p.draws
     scale = (
-        draws[:max_draws] / p.draws.nominal["small_corrected"]
-        if draws is not None
+        mc.snr["small_corrected"][:max_draws] / mc.nominal["small_corrected"]
+        if mc is not None
         else np.ones((1, r.size))
     )
     pd = np.empty(r.size)

@@ -64,6 +64,8 @@ class SpectralPath:
 
     def path_source_photon(self, wl_um: np.ndarray) -> np.ndarray:
         """Effective source function PTH / (1 - tau(L0)) in photon units per um."""
+        if self.path_radiance is None:
+            raise ValueError("this MODTRAN table has no path radiance column")
         lrad = np.interp(wl_um, self.wavelength_um, self.path_radiance)
         emis = 1.0 - self.transmission_at(wl_um)
         src = np.where(emis > 1e-6, lrad / np.maximum(emis, 1e-6), 0.0)

@@ -14,6 +14,7 @@ OTF is smooth on [0, cutoff] and ~0 beyond, so quadratures in :mod:`model.pvf` s
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -34,6 +35,11 @@ def _airy_otf(f: np.ndarray, cutoff: float) -> np.ndarray:
 
 def _gauss_mtf(f: np.ndarray, sigma_px: float) -> np.ndarray:
     return np.exp(-2.0 * math.pi**2 * sigma_px**2 * np.asarray(f) ** 2)
+
+
+def _blurred_otf(f: np.ndarray, otf: OtfFn, sigma_px: float) -> np.ndarray:
+    """An OTF times a Gaussian blur's MTF (a cascade of optics and aberration)."""
+    return otf(f) * _gauss_mtf(f, sigma_px)
 
 
 @dataclass(frozen=True)
@@ -114,7 +120,7 @@ class AiryPsf:
         out: list[Component] = []
         for q, w in zip(self.q_values, self.weights, strict=True):
             cut = 1.0 / q
-            out.append((w, lambda f, c=cut: _airy_otf(f, c), cut))
+            out.append((w, functools.partial(_airy_otf, cutoff=cut), cut))
         return out
 
     def radial_psf(self, r_px: np.ndarray) -> np.ndarray:
@@ -145,7 +151,7 @@ class AiryGaussianPsf:
     def components(self) -> list[Component]:
         s = float(self.sigma_px)
         return [
-            (w, lambda f, o=otf, s=s: o(f) * _gauss_mtf(f, s), cut)
+            (w, functools.partial(_blurred_otf, otf=otf, sigma_px=s), cut)
             for w, otf, cut in self.airy.components()
         ]
 

@@ -119,6 +119,11 @@ def _real_psf(sensor: Sensor) -> Psf:
         return airy
     sigma = sensor.real_psf_sigma_px
     if sigma is None:
+        if sensor.real_psf_average_pvf is None:
+            raise ValueError(
+                f"sensor {sensor.name!r}: a {sensor.real_psf!r} PSF needs real_psf_sigma_px or "
+                "real_psf_average_pvf"
+            )
         base = airy if sensor.real_psf == "airy+gaussian" else None
         sigma = solve_blur_sigma(sensor.real_psf_average_pvf, sensor.fill_factor, base_psf=base)
     if sensor.real_psf == "gaussian":

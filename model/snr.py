@@ -266,7 +266,7 @@ def predict(
             paper_sig = np.where(res, ext, point[size] * paper_pvf)
             out["paper"][curve] = paper_sig / denom
             if geometry == "square":
-                pvf = average_pvf_square(psf, ff, d_px)
+                pvf = np.asarray(average_pvf_square(psf, ff, d_px), float)
                 sig = point[size] * pvf
             else:
                 pvf, sig = np.where(res, np.nan, paper_pvf), paper_sig

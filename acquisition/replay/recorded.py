@@ -178,3 +178,13 @@ def recording_drops(f: SessionFile) -> dict[str, dict[str, int]]:
         lost = int(np.count_nonzero(cam.measurements["frame_index"] < 0))
         out[name] = {"not_in_file": lost} if lost else {}
     return dict(out)
+
+
+def recorded_calibration_path(f: SessionFile, camera: str) -> str | None:
+    """The calibration file the live measurement of ``camera`` ran with (its recorded
+    ``calibration`` event's path), or None."""
+    path = None
+    for e in f.event_list():
+        if e["kind"] == "calibration" and e["camera"] == camera and "path" in e["payload"]:
+            path = e["payload"]["path"]
+    return path

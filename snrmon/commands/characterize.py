@@ -25,7 +25,8 @@ from acquisition.calibrate.calibration_file import load_calibration
 from acquisition.calibrate.characterize import CharacterizeConfig, characterize_frames, target_toml
 from acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
 from acquisition.record.reader import append_event, open_session
-from acquisition.replay.batch import recorded_events, replay_session
+from acquisition.replay.batch import replay_session
+from acquisition.replay.recorded import recorded_calibration_path
 from model.presets import load_sensor
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, output_file, session_file
@@ -156,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
     with open_session(args.file) as f:
         cam = f.cameras[args.camera]
         cal = None
-        cal_path = args.calibration or recorded_events(f).calibrations.get(args.camera)
+        cal_path = args.calibration or recorded_calibration_path(f, args.camera)
         if cal_path:
             cal = load_calibration(cal_path, sensor, frame_shape=cam.frames.shape[1:])
         elif args.target_out:

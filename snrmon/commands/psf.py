@@ -48,7 +48,8 @@ def run(args: argparse.Namespace) -> int:
         target_px,
     )
     from acquisition.record.reader import append_event, open_session
-    from acquisition.replay.batch import recorded_events, replay_session
+    from acquisition.replay.batch import replay_session
+    from acquisition.replay.recorded import recorded_calibration_path
     from acquisition.report.data import session_models
     from model.presets import load_sensor, load_target
 
@@ -65,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     stops, ranges = [], []
     with open_session(args.file) as f:
         cam = f.cameras[args.camera]
-        cal_path = args.calibration or recorded_events(f).calibrations.get(args.camera)
+        cal_path = args.calibration or recorded_calibration_path(f, args.camera)
         cal = (
             load_calibration(cal_path, sensor, frame_shape=cam.frames.shape[1:])
             if cal_path
