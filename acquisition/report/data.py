@@ -296,8 +296,9 @@ def uncertainty_budget(
     r = np.asarray(ranges_m, float)
     budget = UncertaintyBudget()
     unit_path = UncertaintyBudget(
-        target_outline=0.0, path_radiance=1.0, mtf=0.0, target_size_blur=0.0
-    )
+        target_outline=0.0, radiometry=0.0, transmission=0.0, path_radiance=1.0, mtf=0.0,
+        target_size_blur=0.0,
+    )  # fmt: skip
     p = predict(sensor, target, r, uncertainty=unit_path)
     amp = np.asarray(p.relative_uncertainty["small_corrected"], float)
     unresolved = ~np.asarray(p.resolved_small, bool)

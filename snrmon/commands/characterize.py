@@ -127,9 +127,7 @@ def run(args: argparse.Namespace) -> int:
     session_file(args.file)
     if args.calibration:
         input_file(args.calibration, "--calibration")
-    if args.target_out:
-        if not args.calibration:
-            raise UsageError("--target-out needs --calibration (a target file needs temperatures)")
+    if args.target_out:  # (a calibration comes from the session, or from --calibration)
         output_file(args.target_out, "--target-out", suffixes=(".toml",))
     sensor = load_sensor(args.sensor or _sensor_name(args.file, args.camera))
     # track=False: the tracker's point-target tests (brightness, rim contamination) declare a

@@ -15,24 +15,25 @@ too few frames or without a range is one message naming the stop and why (exit 2
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
 
 from snrmon.cli import UsageError
+from snrmon.output import emit_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("psf", help="the PSF and its average PVF from an unresolved stop")
     p.add_argument("file", help="session file (.h5)")
-    p.add_argument("--camera", required=True)
+    p.add_argument("--camera", required=True, help="the recorded camera (mwir, lwir, ...)")
     p.add_argument("--stop", type=int, action="append", required=True,
                    help="stop number as in the stop table (repeat to pool stops)")  # fmt: skip
     p.add_argument("--calibration", help="calibration .npz (default: the session's)")
     p.add_argument("--sensor", help="sensor preset/TOML (default: the session's)")
     p.add_argument("--target", help="target preset/TOML (default: the session's)")
-    p.add_argument("--min-frames", type=int, default=50)
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--min-frames", type=int, default=50,
+                   help="fewest valid frames a stop must give (at least 10)")  # fmt: skip
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.add_argument("--no-record", action="store_true",
                    help="do not add the result to the session as a psf_measured event")  # fmt: skip
     p.set_defaults(func=run)
@@ -115,8 +116,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_record:
         append_event(args.file, "psf_measured", camera=args.camera, payload=out)
     if args.json:
-        print(json.dumps(out))
-        return 0
+        return emit_json(out)
     for key, value in out.items():
         print(f"{key:>14}: {value:.4g}" if isinstance(value, float) else f"{key:>14}: {value}")
     return 0

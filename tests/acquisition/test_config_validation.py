@@ -14,6 +14,7 @@ from acquisition.config import (
     MEASUREMENT_FIELDS,
     SITE_FIELDS,
     TOP_FIELDS,
+    WEATHER_FIELDS,
     CameraConfig,
     SessionConfig,
     load_session_config,
@@ -48,6 +49,7 @@ CASES = [
         ("session", TOP_FIELDS),
         ("site", SITE_FIELDS),
         ("measurement", MEASUREMENT_FIELDS),
+        ("weather", WEATHER_FIELDS),
         ("cameras.cam", CAMERA_FIELDS),
     )
     for key, spec in fields.items()
@@ -77,7 +79,11 @@ def test_the_schema_covers_every_field_of_the_config_dataclasses():
     peak = {f.name for f in dataclasses.fields(PeakSnrConfig)}
     assert peak | {"window", "lrf_fresh_s"} == set(MEASUREMENT_FIELDS)
     session = {f.name for f in dataclasses.fields(SessionConfig)}
-    assert session - {"raw", "window", "lrf_fresh_s"} == set(TOP_FIELDS)
+    # [weather] air_temp_c becomes air_temp_k; [simulation] is kept in raw (the scenario)
+    assert session - {"raw", "window", "lrf_fresh_s", "air_temp_k"} | {"weather", "simulation"} == (
+        set(TOP_FIELDS)
+    )
+    assert set(WEATHER_FIELDS) == {"air_temp_c"}
 
 
 def test_the_issue_examples(tmp_path):

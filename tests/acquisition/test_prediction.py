@@ -45,7 +45,7 @@ def test_session_weather_and_simulation_tables():
                                     "simulation": {"sky_temp_k": 280.0}})  # fmt: skip
     assert cfg.air_temp_k == pytest.approx(294.65)
     assert session_config_from_dict(base).air_temp_k is None
-    with pytest.raises(ValueError, match=r"\[weather\] air_temp_c = 'warm'"):
+    with pytest.raises(ValueError, match=r'\[weather\] air_temp_c = "warm": expected an air temp'):
         session_config_from_dict({**base, "weather": {"air_temp_c": "warm"}})
     with pytest.raises(ValueError, match=r"\[weather\]: unknown key 'sky'"):
         session_config_from_dict({**base, "weather": {"sky": 1}})

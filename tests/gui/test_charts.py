@@ -131,7 +131,7 @@ def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(q
 
     def row(stop, r, mean, sem, resolved=False):
         return StopRow("mwir", stop, False, 0, 1, r, r, 100, True, mean, 10.0,
-                       {"expected_eq4": 0.0}, resolved, sem)  # fmt: skip
+                       {"expected_eq4": 0.0}, resolved, snr_sem=sem)  # fmt: skip
 
     rows = [row(0, 199.0, 90.0, 2.0, True), row(1, 393.0, 60.0, 2.0), row(2, 508.0, 33.0, 1.0)]
     expected = (np.array([100.0, 1000.0]), np.array([64.0, 64.0]))
