@@ -284,6 +284,11 @@ def _rgb(fig) -> np.ndarray:
 
 def render_report(data: ReportData, path: str | Path, *, paper_curves: bool = True) -> Path:
     """Write the report to ``path`` (.pdf: one page per figure; .png: one tall image)."""
+    return write_pages(report_pages(data, paper_curves), path)
+
+
+def write_pages(pages, path: str | Path) -> Path:
+    """Figures to ``path``: .pdf one page each, .png one tall image of them stacked."""
     out = Path(path)
     suffix = out.suffix.lower()
     if suffix not in FORMATS:
@@ -292,15 +297,15 @@ def render_report(data: ReportData, path: str | Path, *, paper_curves: bool = Tr
         from matplotlib.backends.backend_pdf import PdfPages
 
         with PdfPages(out) as pdf:
-            for fig in report_pages(data, paper_curves):
+            for fig in pages:
                 pdf.savefig(fig)
         return out
     from matplotlib.image import imsave
 
-    pages = [_rgb(fig) for fig in report_pages(data, paper_curves)]
-    width = max(p.shape[1] for p in pages)
+    images = [_rgb(fig) for fig in pages]
+    width = max(p.shape[1] for p in images)
     padded = [
-        np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)), constant_values=255) for p in pages
+        np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)), constant_values=255) for p in images
     ]
     imsave(out, np.concatenate(padded, axis=0))
     return out
