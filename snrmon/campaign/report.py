@@ -28,6 +28,18 @@ from acquisition.report.plot import _STYLE, _figure, _fmt, write_pages
 
 FIT_CURVE = "small_corrected"
 MARKERS = "osD^v<>pPX*h"
+# Not the model curves' blue and orange: a session's points never read as a curve's.
+SESSION_COLOURS = (
+    "k",
+    "tab:green",
+    "tab:red",
+    "tab:purple",
+    "tab:brown",
+    "tab:pink",
+    "tab:olive",
+    "tab:cyan",
+    "tab:gray",
+)
 
 
 def fit_statistics(rows: list[dict], curves: dict) -> list[dict]:
@@ -135,7 +147,7 @@ def _curves_axes(ax, rows: list[dict], m, sessions: list[str]) -> None:
         ax.plot(m.ranges_m, m.snr[curve], color=color, ls=ls, lw=1.2, label=f"{label} {m.target}")
         if curve in m.lower:
             ax.fill_between(m.ranges_m, m.lower[curve], m.upper[curve], color=color, alpha=0.12)
-    colours = [f"C{i % 10}" for i in range(len(sessions))]
+    colours = [SESSION_COLOURS[i % len(SESSION_COLOURS)] for i in range(len(sessions))]
     for i, s in enumerate(sessions):
         pts = [r for r in rows if r["session"] == s and r["range_m"] and r["snr_mean"] is not None]
         if not pts:
