@@ -24,7 +24,7 @@ the log's resolution, and is more likely the rangefinder's own latency, some ten
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -122,28 +122,31 @@ def search_offset(
     ``t_gps_ns`` must be increasing (the log on the session clock, before any offset)."""
     if not (max_offset_s >= 0 and step_s > 0):
         raise ValueError(f"offset search needs max >= 0 and step > 0, got {max_offset_s}, {step_s}")
-    base = {"searched_s": (-max_offset_s, max_offset_s), "step_s": step_s}
     t_gps, r_gps = np.asarray(t_gps_ns, float), np.asarray(r_gps_m, float)
     t_lrf, r_lrf = np.asarray(t_lrf_ns, float), np.asarray(r_lrf_m, float)
     cost0, pairs0 = _cost(0.0, t_gps, r_gps, t_lrf, r_lrf) if len(t_gps) > 1 else (math.inf, 0)
     span = float(np.ptp(r_lrf)) if len(r_lrf) else 0.0
-    found = {
-        "pairs": pairs0,
-        "lrf_span_m": span,
-        "rms_at_zero_m": _finite(cost0),
-        "rms_at_best_m": None,
-        "best_s": None,
-        **base,
-    }
+    found = OffsetSearch(
+        offset_s=0.0,
+        applied=False,
+        reason="",
+        searched_s=(-max_offset_s, max_offset_s),
+        step_s=step_s,
+        pairs=pairs0,
+        lrf_span_m=span,
+        rms_at_zero_m=_finite(cost0),
+        rms_at_best_m=None,
+        best_s=None,
+    )
     if len(t_lrf) < min_pairs or len(t_gps) < 2:
         why = f"too few readings ({len(t_lrf)} rangefinder, {len(t_gps)} GPS; {min_pairs} needed)"
-        return OffsetSearch(0.0, False, why, **found)
+        return replace(found, reason=why)
     grid = np.arange(-max_offset_s, max_offset_s + step_s / 2, step_s)
     costs = np.array([_cost(d * 1e9, t_gps, r_gps, t_lrf, r_lrf)[0] for d in grid])
     i = int(np.argmin(costs))
     best, cost = float(round(grid[i], 6)), float(costs[i])
     pairs = _cost(best * 1e9, t_gps, r_gps, t_lrf, r_lrf)[1]
-    found.update(pairs=pairs, rms_at_best_m=_finite(cost), best_s=best)
+    found = replace(found, pairs=pairs, rms_at_best_m=_finite(cost), best_s=best)
     aligned = f"the best offset {best:+.3f} s"
     if pairs < min_pairs:
         why = f"only {pairs} rangefinder readings overlap the log ({min_pairs} needed)"
@@ -155,8 +158,8 @@ def search_offset(
     elif abs(best) < min_offset_s:
         why = f"{aligned} is within the log's {min_offset_s:g} s resolution: taken as aligned"
     else:
-        return OffsetSearch(best, True, "the offset that best fits the rangefinder", **found)
-    return OffsetSearch(0.0, False, why, **found)
+        return replace(found, offset_s=best, applied=True, reason="the best fit to the rangefinder")
+    return replace(found, reason=why)
 
 
 def _finite(v: float) -> float | None:

@@ -22,6 +22,8 @@ Example::
     [replay]
     track = "recorded"         # recorded | on | off
     fast = true                # read only the pixels around the track (same results)
+    stops = "recorded"         # recorded (the live detector's) | redetect (from the streams);
+                               # a session with imported GPS is always redetected
 
 Every key is checked: a wrong one is one error naming the table, the key and the value.
 """
@@ -37,7 +39,8 @@ from acquisition.measure.peak_snr import PeakSnrConfig
 
 MEASUREMENT_KEYS = {"box_px", "search_px", "background", "detrend"}
 MODEL_KEYS = {"target", "background_temp_k", "atmosphere", "spatial_noise", "sensors"}
-REPLAY_KEYS = {"track", "fast"}
+REPLAY_KEYS = {"track", "fast", "stops"}
+STOPS = ("recorded", "redetect")
 TRACK = {"recorded": None, "on": True, "off": False}
 
 
@@ -52,6 +55,7 @@ class AnalysisSettings:
     model_options: dict[str, Any] = field(default_factory=dict)  # model.snr.predict keywords
     track: str = "recorded"
     fast: bool = True
+    stops: str = "recorded"
     source: str | None = None  # the analysis.toml it came from
 
     def as_dict(self) -> dict[str, Any]:
@@ -132,7 +136,11 @@ def settings_from_dict(data: dict[str, Any], *, source: str | None = None) -> An
     fast = replay.get("fast", True)
     if not isinstance(fast, bool):
         raise ValueError(f"[replay] fast = {fast!r}: expected true or false")
+    stops = replay.get("stops", "recorded")
+    if stops not in STOPS:
+        raise ValueError(f"[replay] stops = {stops!r}: expected one of {', '.join(STOPS)}")
     return AnalysisSettings(
+        stops=stops,
         measurement=measurement,
         calibrations=dict(cal),
         target=target,

@@ -36,6 +36,10 @@ STOP_COLUMNS: dict[str, tuple[pa.DataType, str]] = {
     "gps_range_m": (_F, "m, median GPS slant range during the stop"),
     "range_m": (_F, "m, the rangefinder's range, else the GPS range"),
     "gps_source": (pa.string(), "live | imported (snrmon gps-import) | null (no GPS)"),
+    "stops_source": (
+        pa.string(),
+        "recorded (the live detector's stops) | redetected (found again from the range streams)",
+    ),
     "n_frames": (pa.int32(), "frames in the stop's summary run (first 100 consecutive valid)"),
     "complete": (pa.bool_(), "the run has its 100 frames"),
     "snr_mean": (_F, "mean of the per-frame peak SNR (Eq. 4) over the run"),

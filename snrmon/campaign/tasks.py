@@ -100,6 +100,10 @@ def analyse_camera(
     target = settings.target or (cfg.target if cfg else "uav1")
     predictor = ModelPredictor({camera: sensor}, target, **settings.model_options)
     cal = settings.calibrations.get(camera)
+    source = gps_source(path)
+    # The recorded stops carry the live GPS ranges; an imported GPS stream needs them found
+    # again from the streams (its ranges and the stop detector's use of them).
+    redetect = settings.stops == "redetect" or source == "imported"
     result = replay_session(
         path,
         cameras=[camera],
@@ -108,9 +112,9 @@ def analyse_camera(
         calibrations={camera: cal} if cal else None,
         track=settings.track_flag,
         predictor=predictor,
+        redetect_stops=redetect,
     )
     rep = result.cameras[camera]
-    source = gps_source(path)
     sky = _model_sky_temp_k(sensor, target, settings.model_options)
     method = background_method(measurement)
     times = np.asarray(rep.t_host_ns, np.int64)
@@ -152,6 +156,7 @@ def analyse_camera(
             "gps_range_m": _none(r.gps_range_m),
             "range_m": _none(r.range_m),
             "gps_source": source,
+            "stops_source": "redetected" if redetect else "recorded",
             "n_frames": n,
             "complete": r.complete,
             "snr_mean": _none(r.snr_mean),

@@ -58,7 +58,17 @@ def flight_logs(session, folder, shift_s: float = 0.0) -> dict:
     epochs = flight_epochs(plan, times, utcs)
     suffix = {"dji": ".csv", "nmea": ".nmea", "tlog": ".tlog"}
     logs = {k: w(folder / f"flight{suffix[k]}", epochs) for k, w in WRITERS.items()}
-    return {"logs": logs}
+    truth = {
+        round(e.utc.timestamp() * 1e9): float(slant_ranges_m(SITE, e.lat_deg, e.lon_deg, e.alt_m))
+        for e in epochs
+    }
+    return {"logs": logs, "truth": truth}
+
+
+def redetected(session):
+    """The stops found again from the session's streams (a replay otherwise keeps the live
+    detector's stops, with the live GPS ranges)."""
+    return replay_session(session, fast=True, redetect_stops=True).stops
 
 
 def gga_rows(rows) -> dict[int, np.void]:
@@ -80,7 +90,7 @@ def session_copy(hil_sessions, tmp_path_factory):
 def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
     session, folder = session_copy
     made = flight_logs(session, folder)
-    live_stops = [(s.camera, s.stop, s.gps_range_m) for s in replay_session(session).stops]
+    live_stops = [(s.camera, s.stop, s.gps_range_m) for s in redetected(session)]
     assert live_stops and all(g is not None for _, _, g in live_stops)
     for i, (kind, log) in enumerate(made["logs"].items()):
         # The first import replaces the live stream (kept in /gps_live); the next ones
@@ -96,26 +106,27 @@ def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
             live, imported = gga_rows(f["gps_live"][()]), f["gps"][()]
             assert f["gps"].attrs["source"] == "imported"
         assert len(imported) == result["fixes_written"] > 0
+        # Every imported fix: the flight's slant range at its epoch, to the log's resolution
+        # (a UTC decoded 0.1 s off would be 3 m off in a transit at 4x).
+        for r in imported:
+            want = made["truth"][int(r["fix_utc_ns"])]
+            assert rng(r) == pytest.approx(want, abs=RESOLUTION_M[kind]), (kind, r["fix_utc_ns"])
         by_utc = {int(r["fix_utc_ns"]): r for r in imported}
-        period = 10**8
-        checked = 0
+        lags, diffs = [], []
         for u, lv in live.items():
-            r, nxt = by_utc.get(u), by_utc.get(u + period)
-            if r is None or nxt is None:
-                continue
-            checked += 1
-            # The imported fix lands where the live one was received (the link's latency: a
-            # GGA+RMC epoch at 38400 baud and the clock's re-anchoring on it, tens of ms).
-            assert abs(int(r["t_host_ns"]) - int(lv["t_host_ns"])) < 60e6, kind
-            # The simulated receiver computed its live fix when its thread ran, at or a few ms
-            # after the epoch's time (never before): its range lies between the log's at this
-            # epoch and at the next, to within the log's resolution. One epoch off in time
-            # would put it 3 m (32 m/s in transit) outside.
-            lo, hi = sorted((rng(r), rng(nxt)))
-            tol = RESOLUTION_M[kind]
-            assert lo - tol <= rng(lv) <= hi + tol, (kind, u, rng(lv), lo, hi)
-        assert checked >= 0.9 * len(live) > 50, kind
-        stops = [(s.camera, s.stop, s.gps_range_m) for s in replay_session(session).stops]
+            if u in by_utc:
+                lags.append(abs(int(by_utc[u]["t_host_ns"]) - int(lv["t_host_ns"])))
+                diffs.append(abs(rng(lv) - rng(by_utc[u])))
+        assert len(lags) >= 0.9 * len(live) > 50, kind
+        # And the live feed's: the simulated receiver computed a live fix when its thread ran,
+        # at or a few ms after the epoch (on a loaded machine now and then a period late), so
+        # the two agree to the log's resolution in the bulk.
+        assert np.median(diffs) < 0.05, (kind, np.median(diffs))
+        # The imported fix lands where the live one was received: the link's latency (a GGA+RMC
+        # epoch at 38400 baud, the clock re-anchored on it), tens of ms; a loaded machine's
+        # scheduling adds to single fixes.
+        assert np.median(lags) < 40e6 and max(lags) < 150e6, (kind, np.median(lags), max(lags))
+        stops = [(s.camera, s.stop, s.gps_range_m) for s in redetected(session)]
         assert [s[:2] for s in stops] == [s[:2] for s in live_stops], kind
         for (_, _, got), (_, _, want) in zip(stops, live_stops, strict=True):
             assert got == pytest.approx(want, abs=0.05), kind
