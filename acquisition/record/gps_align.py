@@ -31,14 +31,18 @@ import numpy as np
 from acquisition.geo.projection import Site, enu_of
 
 
-def utc_to_host_ns(utc_ns: np.ndarray, clock: np.ndarray, *, chunk: int = 1024) -> np.ndarray:
-    """Host monotonic ns of each UTC (ns) through the session's ``/clock`` rows."""
-    utc_ns = np.asarray(utc_ns, dtype=np.int64)
+def _clock_rows(clock: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The ``/clock`` rows' (monotonic_ns, utc_ns), in monotonic order."""
     if len(clock) == 0:
         raise ValueError("the session has no /clock rows: its UTC cannot be mapped")
     order = np.argsort(clock["monotonic_ns"], kind="stable")
-    mono = clock["monotonic_ns"][order].astype(np.int64)
-    utc = clock["utc_ns"][order].astype(np.int64)
+    return clock["monotonic_ns"][order].astype(np.int64), clock["utc_ns"][order].astype(np.int64)
+
+
+def utc_to_host_ns(utc_ns: np.ndarray, clock: np.ndarray, *, chunk: int = 1024) -> np.ndarray:
+    """Host monotonic ns of each UTC (ns) through the session's ``/clock`` rows."""
+    utc_ns = np.asarray(utc_ns, dtype=np.int64)
+    mono, utc = _clock_rows(clock)
     upper = np.append(mono[1:], np.iinfo(np.int64).max)
     out = np.empty(len(utc_ns), np.int64)
     for lo in range(0, len(utc_ns), chunk):  # (fixes x rows) pairs, a chunk of fixes at a time
@@ -57,11 +61,7 @@ def host_to_utc_ns(t_host_ns: np.ndarray, clock: np.ndarray) -> np.ndarray:
     """UTC (ns) of host monotonic times through ``/clock``: the latest row at or before each
     time (the first row for a time before it), as ``docs/session-format.md`` states."""
     t = np.asarray(t_host_ns, dtype=np.int64)
-    if len(clock) == 0:
-        raise ValueError("the session has no /clock rows: its UTC cannot be mapped")
-    order = np.argsort(clock["monotonic_ns"], kind="stable")
-    mono = clock["monotonic_ns"][order].astype(np.int64)
-    utc = clock["utc_ns"][order].astype(np.int64)
+    mono, utc = _clock_rows(clock)
     row = np.clip(np.searchsorted(mono, t, side="right") - 1, 0, len(mono) - 1)
     return utc[row] + (t - mono[row])
 
@@ -93,11 +93,17 @@ class OffsetSearch:
 
 
 def _cost(
-    d_ns: float, t_gps: np.ndarray, r_gps: np.ndarray, t_lrf: np.ndarray, r_lrf: np.ndarray
+    d_ns: float,
+    t_gps: np.ndarray,
+    r_gps: np.ndarray,
+    t_lrf: np.ndarray,
+    r_lrf: np.ndarray,
+    min_pairs: int = 2,
 ) -> tuple[float, int]:
     t = t_lrf - d_ns  # the log's time at each reading
     inside = (t >= t_gps[0]) & (t <= t_gps[-1])
-    if inside.sum() < 2:
+    if inside.sum() < max(min_pairs, 2):
+        # An offset that leaves too few readings under the log fits them trivially well.
         return math.inf, int(inside.sum())
     diff = np.interp(t[inside], t_gps, r_gps) - r_lrf[inside]
     diff -= np.median(diff)
@@ -142,15 +148,16 @@ def search_offset(
         why = f"too few readings ({len(t_lrf)} rangefinder, {len(t_gps)} GPS; {min_pairs} needed)"
         return replace(found, reason=why)
     grid = np.arange(-max_offset_s, max_offset_s + step_s / 2, step_s)
-    costs = np.array([_cost(d * 1e9, t_gps, r_gps, t_lrf, r_lrf)[0] for d in grid])
+    costs = np.array([_cost(d * 1e9, t_gps, r_gps, t_lrf, r_lrf, min_pairs)[0] for d in grid])
+    if not np.isfinite(costs).any():
+        why = f"no offset within +/-{max_offset_s:g} s puts {min_pairs} rangefinder readings "
+        return replace(found, reason=why + "under the log")
     i = int(np.argmin(costs))
     best, cost = float(round(grid[i], 6)), float(costs[i])
     pairs = _cost(best * 1e9, t_gps, r_gps, t_lrf, r_lrf)[1]
     found = replace(found, pairs=pairs, rms_at_best_m=_finite(cost), best_s=best)
     aligned = f"the best offset {best:+.3f} s"
-    if pairs < min_pairs:
-        why = f"only {pairs} rangefinder readings overlap the log ({min_pairs} needed)"
-    elif span < min_span_m:
+    if span < min_span_m:
         why = f"the rangefinder's ranges span {span:.1f} m (< {min_span_m:g} m): a hover cannot "
         why += "time the log"
     elif math.isfinite(cost0) and cost > (1.0 - min_gain) * cost0:

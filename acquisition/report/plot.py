@@ -86,18 +86,25 @@ def summary_page(data: ReportData):
             + [_fmt(r[f"model_{c}"], ".1f") for c in CURVES]
             + [_fmt(r["ratio_small_corrected"], ".3f")]
         )  # fmt: skip
-    ax = fig.add_axes((0.04, 0.05, 0.92, 0.74))
-    ax.axis("off")
-    if cells:
-        table = ax.table(cellText=cells[:40], colLabels=head, loc="upper center", cellLoc="right")
-        table.auto_set_font_size(False)
-        table.set_fontsize(6.5)
-        table.scale(1.0, 1.25)
-        if len(cells) > 40:
-            ax.text(0.5, 0.0, f"... {len(cells) - 40} more rows in the CSV", ha="center")
-    else:
-        ax.text(0.5, 0.9, "no range stop was found in this session", ha="center", fontsize=11)
+    empty = "no range stop was found in this session"
+    draw_table(fig, (0.04, 0.05, 0.92, 0.74), head, cells, max_rows=40, fontsize=6.5,
+               more="more rows in the CSV", empty=empty)  # fmt: skip
     return fig
+
+
+def draw_table(fig, rect, head, cells, *, max_rows: int, fontsize: float, more: str, empty: str):
+    """A table of text cells on its own axes (at most ``max_rows``; the rest counted)."""
+    ax = fig.add_axes(rect)
+    ax.axis("off")
+    if not cells:
+        ax.text(0.5, 0.9, empty, ha="center", fontsize=11)
+        return
+    table = ax.table(cellText=cells[:max_rows], colLabels=head, loc="upper center", cellLoc="right")
+    table.auto_set_font_size(False)
+    table.set_fontsize(fontsize)
+    table.scale(1.0, 1.25)
+    if len(cells) > max_rows:
+        ax.text(0.5, 0.0, f"... {len(cells) - max_rows} {more}", ha="center")
 
 
 def _snr_axes(ax, data: ReportData, camera: str, paper_curves: bool = True) -> None:

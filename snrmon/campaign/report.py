@@ -24,7 +24,7 @@ import numpy as np
 
 from acquisition.prediction import CURVES
 from acquisition.report.data import model_curves, model_range_grid
-from acquisition.report.plot import _STYLE, _figure, _fmt, write_pages
+from acquisition.report.plot import _STYLE, _figure, _fmt, draw_table, write_pages
 
 FIT_CURVE = "small_corrected"
 MARKERS = "osD^v<>pPX*h"
@@ -129,15 +129,16 @@ def _summary_page(rows, fits, settings: dict, campaign: dict):
         ]
         for f in fits
     ]
-    ax = fig.add_axes((0.04, 0.05, 0.92, 0.7))
-    ax.axis("off")
-    if cells:
-        table = ax.table(cellText=cells[:45], colLabels=head, loc="upper center", cellLoc="right")
-        table.auto_set_font_size(False)
-        table.set_fontsize(7)
-        table.scale(1.0, 1.2)
-    else:
-        ax.text(0.5, 0.9, "no stop was found in any session", ha="center", fontsize=11)
+    draw_table(
+        fig,
+        (0.04, 0.05, 0.92, 0.7),
+        head,
+        cells,
+        max_rows=45,
+        fontsize=7,
+        more="more sessions' rows in stops.parquet",
+        empty="no stop was found in any session",
+    )
     return fig
 
 

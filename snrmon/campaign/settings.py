@@ -30,7 +30,6 @@ Every key is checked: a wrong one is one error naming the table, the key and the
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -156,13 +155,10 @@ def load_settings(path: str | Path | None) -> AnalysisSettings:
     """``analysis.toml`` at ``path``; None gives the recorded settings of each session."""
     if path is None:
         return AnalysisSettings()
+    from acquisition.config import read_toml
+
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        raise FileNotFoundError(f"analysis settings {p} do not exist") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"analysis settings {p} are not valid TOML: {exc}") from None
+    data = read_toml(p, "analysis settings")
     settings = settings_from_dict(data, source=str(p.resolve()))
     # Workers open calibration files by path: a relative one is relative to analysis.toml.
     cals = {c: str((p.parent / f).resolve()) for c, f in settings.calibrations.items()}

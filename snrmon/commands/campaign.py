@@ -10,10 +10,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
-from datetime import date
 from pathlib import Path
 
 from snrmon.cli import UsageError
@@ -55,19 +53,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
-
-
-def clean(v):
-    """JSON-ready: NaN and infinities null, dates ISO strings, tuples lists."""
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, dict):
-        return {k: clean(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [clean(x) for x in v]
-    if isinstance(v, date):
-        return v.isoformat()
-    return v
 
 
 def _progress(quiet: bool):
@@ -128,6 +113,7 @@ def write_outputs(args, result, settings, out: Path, report: Path | None) -> int
     from snrmon import __version__
     from snrmon.campaign.report import write_campaign_report
     from snrmon.campaign.tables import write_frame_table, write_stop_table
+    from snrmon.jsonsafe import json_ready
 
     rows = sorted(
         (r for t in result.tasks for r in t.stops),
@@ -163,8 +149,8 @@ def write_outputs(args, result, settings, out: Path, report: Path | None) -> int
         if result.seconds
         else None,
     }
-    settings_d = clean(settings.as_dict())
-    campaign = clean(campaign)
+    settings_d = json_ready(settings.as_dict())
+    campaign = json_ready(campaign)
     table = write_stop_table(out / STOP_TABLE, rows, settings_d, campaign)
     frame_files = []
     if args.frames:
@@ -186,7 +172,7 @@ def write_outputs(args, result, settings, out: Path, report: Path | None) -> int
     }
     (out / SUMMARY).write_text(json.dumps(summary, indent=1, allow_nan=False))
     if args.json:
-        print(json.dumps({**summary, "stops": clean(rows)}, allow_nan=False))
+        print(json.dumps({**summary, "stops": json_ready(rows)}, allow_nan=False))
     else:
         print(
             f"{len(result.tasks)} tasks, {len(rows)} stop rows, {frames} frames in "

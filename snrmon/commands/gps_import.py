@@ -44,19 +44,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _clean(v):
-    """JSON without NaN: a missing number is null."""
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_clean(x) for x in v]
-    return v
-
-
 def run(args: argparse.Namespace) -> int:
     from acquisition.record.gps_import import gps_source, import_gps_log
+    from snrmon.jsonsafe import json_ready
 
     kind, log = next(
         (k, v) for k, v in (("dji_csv", args.dji), ("nmea", args.nmea), ("tlog", args.tlog)) if v
@@ -82,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
         max_offset_s=args.max_offset_s,
     )
     if args.json:
-        print(json.dumps(_clean(result.as_dict())))
+        print(json.dumps(json_ready(result.as_dict())))
         return 0
     o = result.offset
     print(
