@@ -77,7 +77,7 @@ def run_serial(
     for path in sessions:
         try:
             cameras = session_cameras(os.path.abspath(path))
-        except Exception as exc:
+        except Exception as exc:  # any error fails this session's task only, and is listed
             failures.append({"session": path, "camera": None, "error": _error(exc)})
             cameras = []
         total += len(cameras)
@@ -89,7 +89,7 @@ def run_serial(
                         os.path.abspath(path), cam, settings, frames=frames, label=labels[path]
                     )
                 )
-            except Exception as exc:
+            except Exception as exc:  # this camera's task only
                 failures.append({"session": path, "camera": cam, "error": _error(exc)})
             done += 1
             if progress:
@@ -164,7 +164,7 @@ def run_dask(
             path, cam = meta[fut.key]
             try:
                 value = fut.result()
-            except Exception as exc:
+            except Exception as exc:  # the task's own error, raised again here: that task only
                 failures.append({"session": path, "camera": cam, "error": _error(exc)})
                 value = None
             if cam is None and value is not None:

@@ -119,9 +119,9 @@ def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
                 diffs.append(abs(rng(lv) - rng(by_utc[u])))
         assert len(lags) >= 0.9 * len(live) > 50, kind
         # And the live feed's: the simulated receiver computed a live fix when its thread ran,
-        # at or a few ms after the epoch (on a loaded machine now and then a period late), so
-        # the two agree to the log's resolution in the bulk.
-        assert np.median(diffs) < 0.05, (kind, np.median(diffs))
+        # a few ms after the epoch (more on a loaded machine: 3 ms is 0.1 m in a transit at 4x),
+        # so in the bulk they agree far closer than the 3.2 m of one epoch off.
+        assert np.median(diffs) < 0.5, (kind, np.median(diffs))
         # The imported fix lands where the live one was received: the link's latency (a GGA+RMC
         # epoch at 38400 baud, the clock re-anchored on it), tens of ms; a loaded machine's
         # scheduling adds to single fixes.
@@ -130,6 +130,32 @@ def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
         assert [s[:2] for s in stops] == [s[:2] for s in live_stops], kind
         for (_, _, got), (_, _, want) in zip(stops, live_stops, strict=True):
             assert got == pytest.approx(want, abs=0.05), kind
+    # The campaign takes the imported stream: its stops are found again with the imported GPS.
+    assert (
+        main(
+            [
+                "campaign",
+                str(session),
+                "--out",
+                str(folder / "c"),
+                "--workers",
+                "0",
+                "--report",
+                "none",
+                "--json",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    rows = json.loads(capsys.readouterr().out)["stops"]
+    assert [(r["camera"], r["stop"], r["gps_range_m"]) for r in rows] == stops
+    assert all(
+        r["gps_source"] == "imported"
+        and r["stops_source"] == "redetected"
+        and "gps_imported" in r["flags"]
+        for r in rows
+    )
 
 
 def test_offset_search_corrects_a_wrong_session_clock(session_copy, tmp_path):
