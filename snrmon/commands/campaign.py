@@ -9,7 +9,6 @@ others, and the JSON and ``campaign.json`` list each failure with its error), 2 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from pathlib import Path
@@ -113,7 +112,7 @@ def write_outputs(args, result, settings, out: Path, report: Path | None) -> int
     from snrmon import __version__
     from snrmon.campaign.report import write_campaign_report
     from snrmon.campaign.tables import write_frame_table, write_stop_table
-    from snrmon.jsonsafe import json_ready
+    from snrmon.output import dumps, emit_json, strict
 
     rows = sorted(
         (r for t in result.tasks for r in t.stops),
@@ -149,8 +148,8 @@ def write_outputs(args, result, settings, out: Path, report: Path | None) -> int
         if result.seconds
         else None,
     }
-    settings_d = json_ready(settings.as_dict())
-    campaign = json_ready(campaign)
+    settings_d = strict(settings.as_dict())
+    campaign = strict(campaign)
     table = write_stop_table(out / STOP_TABLE, rows, settings_d, campaign)
     frame_files = []
     if args.frames:
@@ -170,9 +169,10 @@ def write_outputs(args, result, settings, out: Path, report: Path | None) -> int
         "frame_tables": frame_files,
         "report": None if report is None else str(report),
     }
-    (out / SUMMARY).write_text(json.dumps(summary, indent=1, allow_nan=False))
+    (out / SUMMARY).write_text(dumps(summary, indent=1))
     if args.json:
-        print(json.dumps({**summary, "stops": json_ready(rows)}, allow_nan=False))
+        # The day as an ISO date (the Parquet column is a date).
+        emit_json({**summary, "stops": [{**r, "day": r["day"].isoformat()} for r in rows]})
     else:
         print(
             f"{len(result.tasks)} tasks, {len(rows)} stop rows, {frames} frames in "

@@ -5,7 +5,6 @@ aligned to a session on UTC and recorded as its GPS stream, marked as imported
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 
@@ -18,7 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="record a drone's own flight log (DJI CSV, NMEA, tlog) as a session's GPS stream",
     )
     p.add_argument("session", metavar="SESSION.h5", help="a finished snrmon session file")
-    log = p.add_mutually_exclusive_group(required=True)
+    log = p.add_mutually_exclusive_group()
     log.add_argument("--dji", metavar="FLIGHT.csv", help="a DJI flight record exported by AirData")
     log.add_argument("--nmea", metavar="LOG", help="a receiver's NMEA 0183 log")
     log.add_argument("--tlog", metavar="FILE.tlog", help="a MAVLink telemetry log")
@@ -46,14 +45,17 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from acquisition.record.gps_import import gps_source, import_gps_log
-    from snrmon.jsonsafe import json_ready
+    from snrmon.output import emit_json
 
-    kind, log = next(
-        (k, v) for k, v in (("dji_csv", args.dji), ("nmea", args.nmea), ("tlog", args.tlog)) if v
-    )
-    for what, path in (("session file", args.session), ("flight log", log)):
-        if not Path(path).is_file():
-            raise UsageError(f"{what} {path} does not exist")
+    if not Path(args.session).is_file():
+        raise UsageError(f"session file {args.session} does not exist")
+    logs = (("dji_csv", args.dji), ("nmea", args.nmea), ("tlog", args.tlog))
+    given = [(k, v) for k, v in logs if v]
+    if not given:
+        raise UsageError("give the flight log: --dji FLIGHT.csv, --nmea LOG or --tlog FILE.tlog")
+    kind, log = given[0]
+    if not Path(log).is_file():
+        raise UsageError(f"flight log {log} does not exist")
     if args.offset_s is not None and not math.isfinite(args.offset_s):
         raise UsageError(f"--offset-s must be a number of seconds, got {args.offset_s}")
     if not (math.isfinite(args.max_offset_s) and 0 <= args.max_offset_s <= 3600):
@@ -72,8 +74,7 @@ def run(args: argparse.Namespace) -> int:
         max_offset_s=args.max_offset_s,
     )
     if args.json:
-        print(json.dumps(json_ready(result.as_dict())))
-        return 0
+        return emit_json(result.as_dict())
     o = result.offset
     print(
         f"{result.session}: {result.fixes_written} of {result.fixes_in_log} fixes from "
