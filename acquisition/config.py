@@ -248,19 +248,24 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
     )
 
 
-def load_session_config(path: str | Path) -> SessionConfig:
-    """Read and validate a session TOML file."""
+def read_toml(path: str | Path, what: str) -> dict[str, Any]:
+    """A TOML file's document; a missing or malformed file is one error naming ``what``."""
     p = Path(path)
     try:
-        data = tomllib.loads(p.read_text())
+        return tomllib.loads(p.read_text())
     except FileNotFoundError:
-        raise FileNotFoundError(f"session config {p} does not exist") from None
+        raise FileNotFoundError(f"{what} {p} does not exist") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"session config {p} is not valid TOML: {exc}") from None
+        raise ValueError(f"{what} {p} is not valid TOML: {exc}") from None
+
+
+def load_session_config(path: str | Path) -> SessionConfig:
+    """Read and validate a session TOML file."""
+    data = read_toml(path, "session config")
     try:
         return session_config_from_dict(data)
     except ConfigError as exc:
-        raise ConfigError(f"{p}: {exc}") from None
+        raise ConfigError(f"{Path(path)}: {exc}") from None
 
 
 def camera_device(cfg: CameraConfig):

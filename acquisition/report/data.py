@@ -255,11 +255,15 @@ def model_range_grid(stop_ranges_m: list[float]) -> np.ndarray:
     return np.geomspace(lo, hi, 400)
 
 
-def model_curves(camera: str, sensor_name: str, target_name: str, ranges_m) -> ModelCurves:
+def model_curves(
+    camera: str, sensor_name: str, target_name: str, ranges_m, **predict_options
+) -> ModelCurves:
+    """The four curves and their bands; ``predict_options`` go to :func:`model.snr.predict`
+    (a campaign's ``[model]`` settings)."""
     from model.presets import load_sensor, load_target
     from model.snr import predict
 
-    p = predict(load_sensor(sensor_name), load_target(target_name), ranges_m)
+    p = predict(load_sensor(sensor_name), load_target(target_name), ranges_m, **predict_options)
     snr = {c: np.asarray(p.snr(c), float) for c in CURVES}
     snr["expected_eq4"] = np.asarray(p.expected_eq4, float)
     snr.update({f"paper_{c}": np.asarray(v, float) for c, v in p.paper.items()})

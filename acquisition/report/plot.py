@@ -86,18 +86,25 @@ def summary_page(data: ReportData):
             + [_fmt(r[f"model_{c}"], ".1f") for c in CURVES]
             + [_fmt(r["ratio_small_corrected"], ".3f")]
         )  # fmt: skip
-    ax = fig.add_axes((0.04, 0.05, 0.92, 0.74))
-    ax.axis("off")
-    if cells:
-        table = ax.table(cellText=cells[:40], colLabels=head, loc="upper center", cellLoc="right")
-        table.auto_set_font_size(False)
-        table.set_fontsize(6.5)
-        table.scale(1.0, 1.25)
-        if len(cells) > 40:
-            ax.text(0.5, 0.0, f"... {len(cells) - 40} more rows in the CSV", ha="center")
-    else:
-        ax.text(0.5, 0.9, "no range stop was found in this session", ha="center", fontsize=11)
+    empty = "no range stop was found in this session"
+    draw_table(fig, (0.04, 0.05, 0.92, 0.74), head, cells, max_rows=40, fontsize=6.5,
+               more="more rows in the CSV", empty=empty)  # fmt: skip
     return fig
+
+
+def draw_table(fig, rect, head, cells, *, max_rows: int, fontsize: float, more: str, empty: str):
+    """A table of text cells on its own axes (at most ``max_rows``; the rest counted)."""
+    ax = fig.add_axes(rect)
+    ax.axis("off")
+    if not cells:
+        ax.text(0.5, 0.9, empty, ha="center", fontsize=11)
+        return
+    table = ax.table(cellText=cells[:max_rows], colLabels=head, loc="upper center", cellLoc="right")
+    table.auto_set_font_size(False)
+    table.set_fontsize(fontsize)
+    table.scale(1.0, 1.25)
+    if len(cells) > max_rows:
+        ax.text(0.5, 0.0, f"... {len(cells) - max_rows} {more}", ha="center")
 
 
 def _snr_axes(ax, data: ReportData, camera: str, paper_curves: bool = True) -> None:
@@ -284,6 +291,11 @@ def _rgb(fig) -> np.ndarray:
 
 def render_report(data: ReportData, path: str | Path, *, paper_curves: bool = True) -> Path:
     """Write the report to ``path`` (.pdf: one page per figure; .png: one tall image)."""
+    return write_pages(report_pages(data, paper_curves), path)
+
+
+def write_pages(pages, path: str | Path) -> Path:
+    """Figures to ``path``: .pdf one page each, .png one tall image of them stacked."""
     out = Path(path)
     suffix = out.suffix.lower()
     if suffix not in FORMATS:
@@ -292,15 +304,15 @@ def render_report(data: ReportData, path: str | Path, *, paper_curves: bool = Tr
         from matplotlib.backends.backend_pdf import PdfPages
 
         with PdfPages(out) as pdf:
-            for fig in report_pages(data, paper_curves):
+            for fig in pages:
                 pdf.savefig(fig)
         return out
     from matplotlib.image import imsave
 
-    pages = [_rgb(fig) for fig in report_pages(data, paper_curves)]
-    width = max(p.shape[1] for p in pages)
+    images = [_rgb(fig) for fig in pages]
+    width = max(p.shape[1] for p in images)
     padded = [
-        np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)), constant_values=255) for p in pages
+        np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)), constant_values=255) for p in images
     ]
     imsave(out, np.concatenate(padded, axis=0))
     return out

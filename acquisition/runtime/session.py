@@ -215,6 +215,10 @@ class Session:
     def add_note(self, text: str) -> None:
         self._event("note", payload={"text": text})
 
+    def add_event(self, kind: str, *, camera: str = "", payload: dict | None = None) -> None:
+        """Record an event of ``kind`` (nothing when not recording), e.g. the HIL rig's flight."""
+        self._event(kind, camera=camera, payload=payload)
+
     def add_measurement_listener(
         self, cb: Callable[[Measurement, np.ndarray | None], None]
     ) -> None:

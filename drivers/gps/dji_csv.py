@@ -11,6 +11,13 @@ The unit is read from the header, never assumed; height above take-off is not MS
 out of the fix rather than mislabelled. The files may hold NUL bytes and Latin-1 text.
 For a replay the fix's ``t_host_ns`` is the log's own time since its first row (ns), so the
 track can be re-timed onto a session clock.
+
+Sub-second UTC: AirData's ``datetime(utc)`` holds whole seconds (truncated), while
+``time(millisecond)`` counts the log's own clock in 0.1 s steps. With both, every row's UTC is
+``anchor + time(millisecond)``, the anchor being the latest ``datetime(utc) - time`` over the
+rows: each row says the anchor lies in ``[utc - t, utc - t + 1 s)``, so the latest lower bound
+is exact to within the log's 0.1 s step once the rows cross a whole second (:func:`_sub_second`).
+Satellites: AirData ``satellites``, PhantomHelp ``OSD.gpsNum``.
 """
 
 from __future__ import annotations
@@ -19,7 +26,8 @@ import csv
 import io
 import math
 import re
-from datetime import UTC, datetime
+from dataclasses import replace
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 from drivers.errors import ParseError
@@ -80,7 +88,10 @@ def read_dji_csv(path: str | Path) -> list[GpsFix]:
         raise ParseError(f"{path}: altitude_above_seaLevel column without a known unit: {header}")
     utc_c = col("datetime(utc)", "CUSTOM.updateTime")
     ms_c = col("time(millisecond)")
+    sats_c = col("satellites", "OSD.gpsNum")
     fixes: list[GpsFix] = []
+    log_ms: list[float | None] = []  # each fix's time(millisecond)
+    anchors: list[datetime] = []  # datetime(utc) - time(millisecond) of every timed row
     t0: datetime | None = None
     for lineno, row in enumerate(rows, start=2):
         if not row or all(not c.strip() for c in row):
@@ -98,14 +109,19 @@ def read_dji_csv(path: str | Path) -> list[GpsFix]:
                 raise ParseError(f"{where}: {what} {row[c[0]]!r} is not finite")
             return v * c[1]
 
+        utc = _time(row[utc_c[0]], where) if utc_c is not None and row[utc_c[0]].strip() else None
+        ms = num(ms_c, "time")
+        if utc is not None and ms is not None:
+            anchors.append(utc - timedelta(milliseconds=ms))
         lat, lon = num(lat_c, "latitude"), num(lon_c, "longitude")
         if lat is None or lon is None or (lat == 0.0 and lon == 0.0):
             continue  # DJI writes 0,0 before the first satellite fix
         if abs(lat) > 90 or abs(lon) > 180:
             raise ParseError(f"{where}: position {lat}, {lon} out of range")
-        utc = _time(row[utc_c[0]], where) if utc_c is not None and row[utc_c[0]].strip() else None
-        if ms_c is not None and num(ms_c, "time") is not None:
-            t_ns = round(num(ms_c, "time") * 1e6)
+        sats = num(sats_c, "satellites")
+        log_ms.append(ms)
+        if ms is not None:
+            t_ns = round(ms * 1e6)
         elif utc is not None:
             t0 = t0 or utc
             t_ns = round((utc - t0).total_seconds() * 1e9)
@@ -119,7 +135,22 @@ def read_dji_csv(path: str | Path) -> list[GpsFix]:
                 lon_deg=lon,
                 alt_msl_m=num(msl_c, "altitude"),
                 fix_quality=1,
+                sats=None if sats is None else int(sats),
                 raw=",".join(row),
             )
         )
-    return fixes
+    return _sub_second(fixes, log_ms, anchors)
+
+
+def _sub_second(
+    fixes: list[GpsFix], log_ms: list[float | None], anchors: list[datetime]
+) -> list[GpsFix]:
+    """Each fix's UTC as ``anchor + time(millisecond)`` (module docstring); unchanged where the
+    log has no millisecond column or no row with both times."""
+    if not anchors:
+        return fixes
+    anchor = max(anchors)
+    return [
+        f if ms is None else replace(f, utc=anchor + timedelta(milliseconds=ms))
+        for f, ms in zip(fixes, log_ms, strict=True)
+    ]

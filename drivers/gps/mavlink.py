@@ -17,7 +17,7 @@ from drivers.errors import MissingDependencyError
 from drivers.gps.fix import GpsFix
 
 # MAVLink GPS_FIX_TYPE -> GGA fix quality
-_FIX_TYPE_TO_QUALITY = {0: 0, 1: 0, 2: 1, 3: 1, 4: 2, 5: 5, 6: 4, 7: 1, 8: 1}
+FIX_TYPE_TO_QUALITY = {0: 0, 1: 0, 2: 1, 3: 1, 4: 2, 5: 5, 6: 4, 7: 1, 8: 1}
 
 
 def mavutil():
@@ -74,7 +74,7 @@ class MavlinkGpsDevice(Device[GpsFix]):
             self._mark_alive()
             return []
         raw = self._raw
-        quality = _FIX_TYPE_TO_QUALITY.get(raw.fix_type, 1) if raw is not None else 1
+        quality = FIX_TYPE_TO_QUALITY.get(raw.fix_type, 1) if raw is not None else 1
         utc = None
         if raw is not None and raw.time_usec > 1_000_000_000_000_000:  # Unix time, not boot time
             utc = datetime.fromtimestamp(raw.time_usec / 1e6, tz=UTC)

@@ -74,6 +74,11 @@ class LineSimulator(ABC):
 
     tick_period_s = 0.1
 
+    @property
+    def started_monotonic_s(self) -> float:
+        """``time.monotonic()`` at :meth:`start`: ``t_s = 0`` of :meth:`tick`."""
+        return self._t0
+
     # control --------------------------------------------------------------------------------
     def start(self) -> LineSimulator:
         self._t0 = time.monotonic()

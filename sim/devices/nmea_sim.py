@@ -117,9 +117,12 @@ class NmeaSimulator(LineSimulator):
         )
 
     def tick(self, t_s: float) -> list[bytes]:
-        # The epoch time is the scheduled one, quantised like a receiver's (centiseconds).
-        k = self.epochs
-        self.epochs += 1
+        # The epoch time is the scheduled one, quantised like a receiver's (centiseconds): the
+        # epoch due now. A thread held up for more than a period skips the epochs it missed, as
+        # a receiver does, rather than sending them late under their old times (a position
+        # taken now, labelled with a time in the past, would shift the session's GPS clock).
+        k = max(self.epochs, round(t_s / self.tick_period_s))
+        self.epochs = k + 1
         t_epoch = k * self.tick_period_s
         utc = self.start_utc + timedelta(seconds=round(t_epoch, 2))
         pos = self.position(t_epoch)

@@ -245,7 +245,30 @@ class HilRig:
                 self.session.capture_reference(cam, self.opts.reference_frames)
         if self.opts.out:
             self.session.start_recording(self.opts.out)
+            self.session.add_event("hil_flight", payload=self.flight_record())
         return self
+
+    def flight_record(self) -> dict:
+        """The simulated flight's clock and plan, recorded with the session (event
+        ``hil_flight``) so the truth can be rebuilt from the file: flight time at host time t is
+        ``(t - t0_host_ns) * speed / 1e9 - preroll_s``; the GPS simulator's epoch k is due at
+        ``gps_epoch0_host_ns + k / gps_rate_hz`` s and labelled ``gps_epoch0_utc_ns + k / rate``."""
+        fc = self.flight_config
+        return {
+            "t0_host_ns": round(self.t0 * 1e9),
+            "speed": self.opts.speed,
+            "preroll_s": self.preroll_s,
+            "gps_epoch0_host_ns": round(self.gps_sim.started_monotonic_s * 1e9),
+            "gps_epoch0_utc_ns": round(self.gps_sim.start_utc.timestamp() * 1e9),
+            "gps_rate_hz": 1.0 / self.gps_sim.tick_period_s,
+            "flight": {
+                "stops_m": list(fc.stops_m),
+                "hover_s": fc.hover_s,
+                "speed_mps": fc.speed_mps,
+                "start_range_m": fc.start_range_m,
+                "seed": fc.seed,
+            },
+        }
 
     def __exit__(self, *exc: object) -> None:
         try:

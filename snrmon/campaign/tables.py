@@ -1,0 +1,136 @@
+"""The campaign's Parquet tables: every stop of every session, and per-frame tables on request.
+
+Plain Parquet (pyarrow), readable without snrmon: ``pandas.read_parquet``, ``polars.read_parquet``,
+MATLAB's ``parquetread``. Missing values are nulls, never NaN or made-up numbers. The file's
+key-value metadata holds ``snrmon.settings`` (the analysis settings as JSON), ``snrmon.campaign``
+(the sessions, the failures, the snrmon version) and ``snrmon.units`` (column -> unit and meaning),
+so a table says how it was made. Columns: :data:`STOP_COLUMNS` and :data:`FRAME_COLUMNS`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from acquisition.prediction import CURVES
+
+_F = pa.float64()
+STOP_COLUMNS: dict[str, tuple[pa.DataType, str]] = {
+    "session": (
+        pa.string(),
+        "session name (file stem; the path relative to the common folder when two stems are equal)",
+    ),
+    "session_path": (pa.string(), "absolute path of the session file"),
+    "camera": (pa.string(), "camera name in the session"),
+    "stop": (pa.int32(), "stop index in the session (range-stop detector order)"),
+    "target": (pa.string(), "target preset or TOML of the model curves"),
+    "sensor": (pa.string(), "sensor preset of the model curves"),
+    "day": (pa.date32(), "UTC date of the stop's start"),
+    "t_start_utc_ns": (pa.int64(), "ns since 1970 UTC, stop start (session clock)"),
+    "t_end_utc_ns": (pa.int64(), "ns since 1970 UTC, stop end (null: open when the file ends)"),
+    "lrf_range_m": (_F, "m, median rangefinder slant range during the stop"),
+    "gps_range_m": (_F, "m, median GPS slant range during the stop"),
+    "range_m": (_F, "m, the rangefinder's range, else the GPS range"),
+    "gps_source": (pa.string(), "live | imported (snrmon gps-import) | null (no GPS)"),
+    "stops_source": (
+        pa.string(),
+        "recorded (the live detector's stops) | redetected (found again from the range streams)",
+    ),
+    "n_frames": (pa.int32(), "frames in the stop's summary run (first 100 consecutive valid)"),
+    "complete": (pa.bool_(), "the run has its 100 frames"),
+    "snr_mean": (_F, "mean of the per-frame peak SNR (Eq. 4) over the run"),
+    "snr_std": (_F, "sample std (ddof=1) of the per-frame SNR over the run"),
+    "snr_sem": (_F, "snr_std / sqrt(n_frames): error of the mean (frames taken independent)"),
+    "n_frames_in_stop": (pa.int32(), "frames measured while the stop was open"),
+    "n_frames_flagged": (pa.int32(), "of those, frames with a flag that keeps them out of runs"),
+    "background_method": (pa.string(), "rim | rect x0,y0,x1,y1, +detrend when detrended"),
+    "box_px": (pa.int32(), "px, Eq. (4) box side"),
+    "search_px": (pa.int32(), "px, search window side"),
+    "calibration": (pa.string(), "calibration file the analysis applied (null: as recorded)"),
+    "sky_temp_k": (_F, "K, background (sky) temperature of the model curves"),
+    "sky_temp_measured_k": (_F, "K, measured sky temperature: null (not exposed by replay yet)"),
+    **{f"model_{c}": (_F, f"model SNR, curve {c}, at range_m (paper Figs. 7-10)") for c in CURVES},
+    "resolved_small": (pa.bool_(), "the model's verdict for the small dimension at range_m"),
+    "flags": (
+        pa.list_(pa.string()),
+        "incomplete, manual, stop_open_at_end, no_range, gps_imported",
+    ),
+}
+FRAME_COLUMNS: dict[str, tuple[pa.DataType, str]] = {
+    "session": (pa.string(), "session name"),
+    "camera": (pa.string(), "camera name"),
+    "t_host_ns": (pa.int64(), "ns, host monotonic clock at receipt"),
+    "utc_ns": (pa.int64(), "ns since 1970 UTC (session clock)"),
+    "stop": (pa.int32(), "stop index while a stop was open, else null"),
+    "peak_x": (pa.int32(), "px, column, zero-based"),
+    "peak_y": (pa.int32(), "px, row, zero-based"),
+    "peak": (_F, "DN"),
+    "bg_mean": (_F, "DN"),
+    "bg_std": (_F, "DN"),
+    "snr": (_F, "Eq. (4) peak SNR (null when undefined)"),
+    "flags": (pa.uint16(), "bit i = acquisition.measure.peak_snr.FLAG_NAMES[i]"),
+}
+STOP_SCHEMA = pa.schema([(k, t) for k, (t, _) in STOP_COLUMNS.items()])
+FRAME_SCHEMA = pa.schema([(k, t) for k, (t, _) in FRAME_COLUMNS.items()])
+
+
+def _metadata(columns: dict, settings: dict, campaign: dict) -> dict[bytes, bytes]:
+    return {
+        b"snrmon.settings": json.dumps(settings).encode(),
+        b"snrmon.campaign": json.dumps(campaign).encode(),
+        b"snrmon.units": json.dumps({k: u for k, (_, u) in columns.items()}).encode(),
+    }
+
+
+def stop_table(rows: list[dict[str, Any]]) -> pa.Table:
+    """The stop rows as an Arrow table of :data:`STOP_SCHEMA` (sorted by session, camera, stop)."""
+    rows = sorted(rows, key=lambda r: (r["session"], r["camera"], r["stop"]))
+    return pa.Table.from_pylist(rows, schema=STOP_SCHEMA)
+
+
+def write_stop_table(path: Path, rows: list[dict], settings: dict, campaign: dict) -> Path:
+    table = stop_table(rows).replace_schema_metadata(_metadata(STOP_COLUMNS, settings, campaign))
+    pq.write_table(table, path)
+    return path
+
+
+def frame_table(columns: list[dict]) -> pa.Table:
+    """Per-frame columns of one or more tasks as an Arrow table of :data:`FRAME_SCHEMA`; NaN
+    SNRs and stop -1 become nulls."""
+    import numpy as np
+
+    parts = []
+    for c in columns:
+        arrays = []
+        for name, (typ, _) in FRAME_COLUMNS.items():
+            v = c[name]
+            mask = None
+            if name == "stop":
+                mask = np.asarray(v) < 0
+            elif typ == _F:
+                mask = ~np.isfinite(np.asarray(v, float))
+            arrays.append(pa.array(v, type=typ, mask=mask))
+        parts.append(pa.Table.from_arrays(arrays, schema=FRAME_SCHEMA))
+    return pa.concat_tables(parts) if parts else FRAME_SCHEMA.empty_table()
+
+
+def write_frame_table(path: Path, columns: list[dict], settings: dict, campaign: dict) -> Path:
+    table = frame_table(columns).replace_schema_metadata(
+        _metadata(FRAME_COLUMNS, settings, campaign)
+    )
+    pq.write_table(table, path)
+    return path
+
+
+def read_metadata(path: str | Path) -> dict[str, Any]:
+    """The snrmon metadata of a campaign table, parsed (settings, campaign, units)."""
+    meta = pq.read_schema(path).metadata or {}
+    return {
+        k.decode().removeprefix("snrmon."): json.loads(v)
+        for k, v in meta.items()
+        if k.startswith(b"snrmon.")
+    }

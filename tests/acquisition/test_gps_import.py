@@ -1,0 +1,146 @@
+"""Importing a flight log into a session (issue 17): the real gpsd NMEA logs through the import
+path, the clock mapping and the offset search on known data, the refusals."""
+
+from __future__ import annotations
+
+import json
+from datetime import UTC, datetime, timedelta
+
+import h5py
+import numpy as np
+import pytest
+
+from acquisition.record.gps_align import host_to_utc_ns, search_offset, utc_to_host_ns
+from acquisition.record.gps_import import gps_source, import_gps_log
+from acquisition.record.recorder import SessionRecorder
+from acquisition.streams.timebase import ClockMap
+from drivers.camera.frame import Frame
+from drivers.gps.nmea_log import read_nmea_log
+from snrmon.cli import main
+from tests.drivers.test_nmea_logs import golden_tpvs
+
+T0_NS = 5 * 10**12
+
+
+def bare_session(path, utc0: datetime, seconds: float) -> None:
+    """A session whose clock maps T0_NS to ``utc0`` and which holds frames for ``seconds``
+    and no GPS (the live feed was missing)."""
+    clock = ClockMap()
+    clock.update_from_gps(T0_NS, utc0)
+    rec = SessionRecorder(
+        path,
+        config={"session": {"cameras": {"lwir": {"sensor": "lwir"}}}},
+        cameras={"lwir": (8, 8)},
+        clock=clock,
+        fsync=False,
+    )
+    for i in range(int(seconds) + 1):
+        rec.add_frame("lwir", Frame(np.full((8, 8), 1000, np.uint16), "lwir", i, T0_NS + i * 10**9))
+    rec.stop()
+
+
+@pytest.mark.parametrize("name", ["garmin15x", "nmea-rtk", "ublox-f9p-hpnmea"])
+def test_real_nmea_log_imports_one_fix_per_epoch_at_its_utc(shared_data, tmp_path, name):
+    log = shared_data / "nmea" / f"{name}.log"
+    parsed = read_nmea_log(log)
+    fixes = parsed.fixes
+    utcs = [f.utc for f in fixes]
+    assert utcs == sorted(set(utcs)) and len(fixes) >= 2  # one fix per epoch, in order
+    # Every position gpsd reports for the log is one of our merged epochs.
+    gold = {
+        (round(t["lat"], 7), round(t["lon"], 7)) for t in golden_tpvs(log.with_suffix(".log.chk"))
+    }
+    ours = {(round(f.lat_deg, 7), round(f.lon_deg, 7)) for f in fixes if f.lat_deg is not None}
+    assert gold <= ours
+    span = (utcs[-1] - utcs[0]).total_seconds()
+    session = tmp_path / "s.h5"
+    bare_session(session, utcs[0], span)
+    code = main(["gps-import", str(session), "--nmea", str(log), "--json"])
+    assert code == 0
+    with h5py.File(session, "r") as f:  # plain h5py reads it, no SWMR flags left
+        gps = f["gps"][()]
+        assert f["gps"].attrs["source"] == "imported"
+        meta = json.loads(f["gps"].attrs["import_json"])
+        assert "gps_live" not in f
+    assert meta["kind"] == "nmea" and meta["fixes_written"] == len(fixes) == len(gps)
+    assert meta["offset"]["applied"] is False and "no site" in meta["offset"]["reason"]
+    # On the session clock exactly where the log's UTC says, positions and satellites kept.
+    for row, fix in zip(gps, fixes, strict=True):
+        assert int(row["t_host_ns"]) == T0_NS + round((fix.utc - utcs[0]).total_seconds() * 1e9)
+        assert row["lat_deg"] == fix.lat_deg and row["lon_deg"] == fix.lon_deg
+        assert int(row["sats"]) == (-1 if fix.sats is None else fix.sats)
+    assert gps_source(session) == "imported"
+
+
+def test_a_receivers_date_before_lock_is_left_out(shared_data, tmp_path):
+    """mtk-3301 says 1980-01-05 (GPS week 0) until it has the almanac, then 2008-08-23: a
+    session recorded in 2008 takes the 2008 epochs and reports the others as outside."""
+    log = shared_data / "nmea" / "mtk-3301.log"
+    fixes = read_nmea_log(log).fixes
+    late = [f for f in fixes if f.utc.year == 2008]
+    assert 0 < len(late) < len(fixes)
+    session = tmp_path / "s.h5"
+    bare_session(session, late[0].utc, (late[-1].utc - late[0].utc).total_seconds())
+    result = import_gps_log(session, log, "nmea")
+    assert result.fixes_written == len(late)
+    assert result.fixes_outside == len(fixes) - len(late)
+
+
+def test_clock_mapping_round_trips_through_re_anchored_rows():
+    rows = [
+        (1_000, 10**18, b"host"),
+        (5_000, 2 * 10**18, b"gps"),
+        (9_000, 2 * 10**18 + 4_100, b"gps"),
+    ]
+    clock = np.array(rows, dtype=[("monotonic_ns", "<i8"), ("utc_ns", "<i8"), ("source", "S32")])
+    t = np.array([5_000, 6_000, 8_999, 9_000, 12_000])
+    utc = host_to_utc_ns(t, clock)
+    assert list(utc - 2 * 10**18) == [0, 1_000, 3_999, 4_100, 7_100]
+    assert list(utc_to_host_ns(utc, clock)) == list(t)
+    # Before the GPS rows: extrapolated from the nearest one, never through the host's UTC.
+    assert utc_to_host_ns(np.array([2 * 10**18 - 500]), clock)[0] == 4_500
+
+
+def test_offset_search_finds_a_clock_error_and_refuses_a_hover():
+    rng = np.random.default_rng(17)
+    t_lrf = np.arange(0, 60e9, 1e8)  # 10 Hz for a minute
+    r_true = lambda t: 50 + 4.0 * np.clip((t / 1e9 - 20) % 40, 0, 20)  # noqa: E731  out, back, out
+    r_lrf = r_true(t_lrf) + rng.normal(0, 0.3, t_lrf.size)
+    t_gps = np.arange(-5e9, 65e9, 1e8)
+    shift = 2.37e9  # the log's times are 2.37 s late on the session clock
+    found = search_offset(t_gps + shift, r_true(t_gps) + 1.5, t_lrf, r_lrf, min_offset_s=0.1)
+    assert found.applied and found.offset_s == pytest.approx(-2.37, abs=0.02)
+    assert found.rms_at_best_m < 0.5 < found.rms_at_zero_m  # the 1.5 m bias is not timing
+    hover = search_offset(t_gps, np.full(t_gps.size, 80.0), t_lrf, np.full(t_lrf.size, 80.0))
+    assert not hover.applied and "cannot time the log" in hover.reason
+
+
+def test_import_refuses_a_live_stream_and_missing_files(tmp_path, capsys):
+    from tests.acquisition.session_factory import write_session
+
+    s = write_session(tmp_path / "s.h5", ranges_m=(120.0,), hover_s=2.0, transit_s=1.0)
+    log = tmp_path / "log.nmea"
+    log.write_bytes(b"$GPGGA,120000.00,3222.8,N,10628.8,W,1,08,0.9,1200.0,M,,M,,*7C\r\n")
+    assert main(["gps-import", str(s.path), "--nmea", str(log)]) == 2
+    err = capsys.readouterr().err
+    assert "already holds a live GPS stream; give --replace" in err
+    assert gps_source(s.path) == "live"
+    assert main(["gps-import", str(tmp_path / "none.h5"), "--nmea", str(log)]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="no NMEA fix with a UTC date"):
+        import_gps_log(s.path, log, "nmea", replace=True)  # GGA alone has no date
+
+
+def test_dji_csv_sub_second_utc_and_satellites(tmp_path):
+    from drivers.gps.dji_csv import read_dji_csv
+    from sim.flight import FlightPlan
+    from sim.flight_logs import flight_epochs, write_airdata_csv
+
+    u0 = datetime(2019, 5, 14, 15, 0, 0, 300000, tzinfo=UTC)  # the log starts at .3 s
+    times = [0.1 * k for k in range(25)]
+    epochs = flight_epochs(FlightPlan(), times, [u0 + timedelta(seconds=t) for t in times])
+    path = write_airdata_csv(tmp_path / "f.csv", epochs, sats=13)
+    assert "15:00:00," in path.read_text()  # AirData's own column: whole seconds only
+    fixes = read_dji_csv(path)
+    assert [f.utc for f in fixes] == [e.utc for e in epochs]
+    assert {f.sats for f in fixes} == {13}

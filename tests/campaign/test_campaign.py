@@ -1,0 +1,159 @@
+"""``snrmon campaign`` against ``snrmon replay`` on the same sessions (issue 17)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from snrmon.campaign.tables import STOP_SCHEMA, read_metadata
+from snrmon.cli import main
+
+# What `snrmon replay --json` prints for a stop -> the campaign table's column.
+SAME = {
+    "camera": "camera",
+    "lrf_range_m": "lrf_range_m",
+    "gps_range_m": "gps_range_m",
+    "n_frames": "n_frames",
+    "measured_snr_mean": "snr_mean",
+    "measured_snr_std": "snr_std",
+}
+
+
+def _none(v):
+    return None if isinstance(v, float) and math.isnan(v) else v
+
+
+def campaign(argv: list[str], capsys) -> tuple[int, dict]:
+    code = main(["campaign", *argv, "--json", "--quiet"])
+    return code, json.loads(capsys.readouterr().out)
+
+
+def table_rows(out: Path, session: str) -> list[dict]:
+    rows = pq.read_table(out / "stops.parquet").to_pylist()
+    return [{c: r[c] for c in SAME.values()} for r in rows if r["session"] == session]
+
+
+@pytest.fixture(scope="module")
+def reference(hil_sessions) -> dict[str, list[dict]]:
+    """Each session's stop rows from `snrmon replay --json`, one after the other."""
+    out = {}
+    for p in hil_sessions:
+        text = io.StringIO()
+        with contextlib.redirect_stdout(text):
+            assert main(["replay", str(p), "--json"]) == 0
+        stops = json.loads(text.getvalue())["stops"]
+        out[p.stem] = [{col: _none(s[key]) for key, col in SAME.items()} for s in stops]
+    return out
+
+
+def test_local_cluster_table_equals_serial_replay(hil_sessions, reference, tmp_path, capsys):
+    out = tmp_path / "out"
+    code, result = campaign(
+        [*map(str, hil_sessions), "--out", str(out), "--workers", "2", "--frames"], capsys
+    )
+    assert code == 0, result["failures"]
+    assert result["executor"] == "LocalCluster(2)" and result["failures"] == []
+    assert sum(len(v) for v in reference.values()) >= 3  # every flight found stops
+    for p in hil_sessions:
+        assert table_rows(out, p.stem) == reference[p.stem], p.stem
+    table = pq.read_table(out / "stops.parquet")
+    assert table.schema.remove_metadata() == STOP_SCHEMA
+    meta = read_metadata(out / "stops.parquet")
+    assert meta["settings"]["fast"] is True and meta["settings"]["source"] is None
+    assert meta["campaign"]["sessions"] == [str(p) for p in hil_sessions]
+    assert meta["units"]["snr_sem"].startswith("snr_std / sqrt")
+    rows = table.to_pylist()
+    for r in rows:
+        assert r["gps_source"] == "live" and r["background_method"] == "rim"
+        assert r["day"].isoformat() == "2019-05-14"  # the simulated receiver's date
+        if r["range_m"] is not None:
+            assert r["model_small_corrected"] > 0 and r["sky_temp_k"] > 0
+    # Per-frame tables: one per session, every measured frame, stops marked.
+    for t in result["tasks"]:
+        frames = pq.read_table(out / "frames" / f"{t['session']}.parquet")
+        assert frames.num_rows == t["measured"] > 0
+        assert set(frames.column("camera").to_pylist()) == {"lwir"}
+        assert frames.column("stop").null_count < frames.num_rows
+    assert (out / "campaign-report.pdf").stat().st_size > 10_000
+    assert json.loads((out / "campaign.json").read_text())["frames_per_s"] > 0
+
+
+def test_failed_sessions_fail_their_own_task(hil_sessions, tmp_path, capsys):
+    corrupt = tmp_path / "corrupt.h5"
+    corrupt.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(range(256)) * 64)
+    missing = tmp_path / "missing.h5"
+    out = tmp_path / "out"
+    code, result = campaign(
+        [str(hil_sessions[0]), str(corrupt), str(missing), "--out", str(out), "--workers", "2"],
+        capsys,
+    )
+    assert code == 1
+    errors = {f["session"]: f["error"] for f in result["failures"]}
+    assert set(errors) == {str(corrupt), str(missing)}
+    assert errors[str(missing)] == f"session file {missing} not found"
+    assert errors[str(corrupt)].startswith(f"cannot open session file {corrupt}")
+    sessions = {r["session"] for r in pq.read_table(out / "stops.parquet").to_pylist()}
+    assert sessions == {hil_sessions[0].stem}
+    assert len(json.loads((out / "campaign.json").read_text())["failures"]) == 2
+
+
+def test_existing_scheduler_and_worker_processes(hil_sessions, reference, tmp_path, capsys):
+    from distributed import Client
+
+    dask = str(Path(sys.executable).parent / "dask")
+    info = tmp_path / "scheduler.json"
+    procs = [
+        subprocess.Popen(
+            [
+                dask,
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(info),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
+    try:
+        worker = [
+            dask,
+            "worker",
+            "--scheduler-file",
+            str(info),
+            "--nworkers",
+            "2",
+            "--nthreads",
+            "1",
+            "--no-dashboard",
+        ]
+        procs.append(subprocess.Popen(worker, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        # The scheduler file appears once the scheduler listens; the client waits for workers.
+        with Client(scheduler_file=str(info), timeout=60) as client:
+            client.wait_for_workers(2, timeout=60)
+            address = client.scheduler.address
+        assert address.startswith("tcp://127.0.0.1:")
+        out = tmp_path / "out"
+        code, result = campaign(
+            [*map(str, hil_sessions), "--out", str(out), "--scheduler", address], capsys
+        )
+        assert code == 0 and result["executor"] == address
+        for p in hil_sessions:
+            assert table_rows(out, p.stem) == reference[p.stem], p.stem
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            p.wait(30)
