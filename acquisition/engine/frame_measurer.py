@@ -54,7 +54,7 @@ class FrameMeasurer:
     def state(self) -> str:
         if self.roi is None:
             return "idle"
-        return self.tracker.state.value if self.tracker is not None else "fixed"
+        return self.tracker.track_state.value if self.tracker is not None else "fixed"
 
     def set_roi(self, x: int, y: int) -> None:
         """The operator's click: a fresh track (and fresh statistics) from this point."""

@@ -14,13 +14,17 @@ import math
 from collections import deque
 
 
-def is_contaminated(bg_std: float, gradient: float, reference: float | None, cfg) -> bool:
-    """The ``rim_contaminated`` test of one frame against a recent-noise reference (DN)."""
+def is_contaminated(
+    bg_std: float, gradient: float, reference: float | None, cfg, extent_px: int | None = None
+) -> bool:
+    """The ``rim_contaminated`` test of one frame against a recent-noise reference (DN);
+    ``extent_px``: the background's extent for the gradient term (default ``cfg.extent_px``)."""
     if reference is None or not math.isfinite(bg_std):
         return False
+    extent = cfg.extent_px if extent_px is None else extent_px
     return bool(
         bg_std > cfg.contamination_std_factor * reference
-        or gradient * cfg.extent_px > cfg.contamination_gradient_factor * reference
+        or gradient * extent > cfg.contamination_gradient_factor * reference
     )
 
 
@@ -72,3 +76,13 @@ class NoiseReference:
         self._recent.clear()
         self._sorted.clear()
         self._rejected_run = 0
+
+    def state(self) -> dict:
+        """Everything the reference remembers, JSON-able (floats kept exactly)."""
+        return {"recent": list(self._recent), "rejected_run": self._rejected_run}
+
+    def set_state(self, state: dict) -> None:
+        """Restore :meth:`state` (same ``frames`` and ``min_frames``)."""
+        self._recent = deque(float(v) for v in state["recent"])
+        self._sorted = sorted(self._recent)
+        self._rejected_run = int(state["rejected_run"])

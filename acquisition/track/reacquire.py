@@ -1,0 +1,113 @@
+"""Finding a lost drone again (the tracker's rules 5 and 6, docs/tracking.md).
+
+While misses last, a square around the predicted position (around a fresh GPS cue once LOST)
+grows by ``search_growth_px`` per missed frame from ``search_start_px`` to ``search_max_px``.
+Objects in it with prominence >= ``reacquire_snr`` sigma that look like the drone (prominence and
+core area within ``brightness_factor`` / ``size_factor`` of its history) are candidates; the
+nearest is followed with its own motion and accepted after ``reacquire_frames`` consecutive
+frames in which it is found again where that motion puts it (within ``gate_px``), no faster than
+``max_speed_px`` per frame and still looking like the drone. A bird crossing near the old
+position moves too fast or does not look like the drone, and is dropped. A candidate at a fresh
+GPS cue is accepted at once (state ``gps_cued``).
+
+:class:`Reacquisition` is a part of :class:`acquisition.track.tracker.Tracker` (it works on the
+tracker's own state); kept apart so each file reads on its own.
+"""
+
+from __future__ import annotations
+
+import math
+
+from acquisition.measure.blob import Blob
+from acquisition.measure.peak_snr import FLAG_GPS_CUED, FLAG_LOST, pixel_of
+from acquisition.track.candidate import Candidate, box_at, consistent
+from acquisition.track.config import TrackState, TrackStep
+from acquisition.track.search import brightest_in, find_objects, is_object
+
+
+class Reacquisition:
+    """The lost-track search and the confirmation of its candidates (module docstring)."""
+
+    def _fresh_cue(self) -> tuple[float, float] | None:
+        if self._cue is None or self._cue_age > self.config.cue_max_age_frames:
+            return None
+        rows, cols = self._shape or (1 << 30, 1 << 30)
+        x, y = pixel_of(self._cue)
+        return self._cue if (0 <= x < cols and 0 <= y < rows) else None
+
+    def _lost(self, pixels, ref) -> TrackStep:
+        self._misses += 1
+        self.motion.coast()
+        found = self._reacquire(pixels, ref, use_cue=True)
+        if found is not None:
+            return found
+        self.track_state = TrackState.LOST
+        at = self._window  # the measurement holds at the last good position
+        size = self.measurement.search_px
+        m = self._meter.measure(pixels, at, size, ref)
+        return self._step(m, at, size, self._search_reason, {FLAG_LOST})
+
+    def _reacquire(self, pixels, ref, *, use_cue: bool) -> TrackStep | None:
+        """Confirm the pending candidate or look for one; the step when something was found."""
+        c = self.config
+        self._search_reason = "searching"
+        cand = self._pending
+        if cand is not None:
+            self._pending = None
+            pred = cand.predict()
+            seed = brightest_in(pixels, box_at(cand.rel, *pred, grow=c.gate_px))
+            blob = self._analyse(pixels, seed, cand.size_px, pred)
+            ok = (
+                is_object(blob, c.reacquire_snr, c.reacquire_isolation)
+                and max(abs(blob.centroid_x - pred[0]), abs(blob.centroid_y - pred[1])) <= c.gate_px
+                and math.hypot(blob.centroid_x - cand.x, blob.centroid_y - cand.y) <= c.max_speed_px
+                and consistent(blob, self._history, c)
+            )
+            if ok:
+                cand.follow(blob)
+                if cand.count >= c.reacquire_frames:
+                    return self._reacquired(pixels, blob, cand, ref)
+                self._pending = cand
+                return self._confirming(pixels, blob, ref)
+        cue = self._fresh_cue() if use_cue else None
+        if cue is not None:
+            centre, half = pixel_of(cue), c.cue_radius_px
+        else:
+            grow = c.search_start_px + c.search_growth_px * (self._misses - 1)
+            centre, half = pixel_of(self.motion.predict()), min(grow, c.search_max_px)
+        objects = find_objects(
+            pixels, centre, half, config=c.blob, min_significance=c.reacquire_snr,
+            min_isolation=c.reacquire_isolation, size_px=max(self._history.size_px, 1),
+            min_contrast=(self._history.prominence or 0.0) / c.brightness_factor,
+        )  # fmt: skip
+        objects = [b for b in objects if consistent(b, self._history, c)]
+        if not objects:
+            if cue is not None:
+                self._search_reason = "faint"
+            return None
+        blob = objects[0]
+        if cue is not None:  # the GPS position is a strong prior: accepted at once
+            self._cue = None  # used: a later loss needs a fresh position
+            self.motion.reset(blob.centroid_x, blob.centroid_y)
+            m, _, _ = self._meter.measure_object(pixels, blob, pixel_of(cue), ref)
+            self._accept(blob)
+            self.track_state = TrackState.GPS_CUED
+            self._confirmed = 1
+            return self._step(m, centre, 2 * half + 1, "", {FLAG_GPS_CUED})
+        self._pending = Candidate.of(blob, cued=False)
+        return self._confirming(pixels, blob, ref)
+
+    def _confirming(self, pixels, blob: Blob, ref) -> TrackStep:
+        self.track_state = TrackState.REACQUIRING
+        m, at, size = self._meter.measure_object(pixels, blob, (blob.peak_x, blob.peak_y), ref)
+        return self._step(m, at, size, "confirming", {FLAG_LOST})
+
+    def _reacquired(self, pixels, blob: Blob, cand: Candidate, ref) -> TrackStep:
+        self.motion.reset(blob.centroid_x, blob.centroid_y, cand.vx, cand.vy)
+        m, at, size = self._meter.measure_object(pixels, blob, (blob.peak_x, blob.peak_y), ref)
+        self._accept(blob)
+        self.track_state = TrackState.TRACKING
+        self.reacquisitions += 1
+        return self._step(m, at, size, "", set())
+
+    # ------------------------------------------------------------------ measurement
