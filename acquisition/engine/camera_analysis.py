@@ -157,7 +157,7 @@ class CameraAnalysis:
             done = corrector.feed(pixels, counter)
             if done is not None:
                 self._raw_track_from_here()
-        fr = self.measurer.measure(corrector.apply(pixels, self.measurer.roi))
+        fr = self.measurer.measure(corrector.apply(pixels, self.measurer.read_xy))
         raw = self.raw_measurer.measure(pixels) if corrector.active else None
         peak_xy = None if fr is None else (fr.result.peak_x, fr.result.peak_y)
         self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN

@@ -11,14 +11,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from acquisition.measure.peak_snr import RUNNING_EXCLUDED, PeakSnr, PeakSnrConfig, PeakSnrMeter
-from acquisition.track.tracker import Tracker, TrackerConfig
+from acquisition.track.tracker import Tracker, TrackerConfig, reach_px
 
 
 def crop_half_px(config: PeakSnrConfig, tracker: TrackerConfig) -> int:
-    """Half-size of the square around the track that holds every pixel the measurement may read
-    on the next frame: the search window, the tracker's gate or GPS-cue square, plus the box."""
-    reach = max(config.search_px // 2, tracker.gate_px, tracker.cue_radius_px)
-    return reach + config.box_px // 2 + 2
+    """Half-size of the square around :attr:`FrameMeasurer.read_xy` that holds every pixel the
+    measurement may read on the next frame (the tracker's search, the object's analysis window
+    and background; the fixed window and its box without a tracker)."""
+    return max(reach_px(tracker, config), config.search_px // 2 + config.box_px // 2 + 2)
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,6 +63,13 @@ class FrameMeasurer:
         self.tracker = None
         if self.track:
             self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
+
+    @property
+    def read_xy(self) -> tuple[int, int] | None:
+        """Centre of the square (:func:`crop_half_px`) the next :meth:`measure` reads in."""
+        if self.tracker is not None:
+            return self.tracker.read_centre
+        return self.roi
 
     def clear_roi(self) -> None:
         self.roi = None

@@ -202,6 +202,9 @@ class SessionRecorder:
         bg_std: float,
         snr: float,
         flags: int | Iterable[str] = 0,
+        background: str = "rim",
+        extent_w_px: int = 0,
+        extent_h_px: int = 0,
     ) -> None:
         """Queue one frame's Eq. (4) result. ``index``: the frame's index from ``add_frame``, or
         ``None`` to look it up by ``t_host_ns`` (-1 in the file when the frame is not recorded)."""
@@ -213,7 +216,10 @@ class SessionRecorder:
         if index is None:
             with self._lock:
                 index = self._index_of[camera].get(int(t_host_ns), -1)
-        row = (index, counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr, bits)
+        row = (
+            index, counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr, bits,
+            background.encode(), extent_w_px, extent_h_px,
+        )  # fmt: skip
         self._put(("meas", camera, row))
 
     def add_peak_snr(
@@ -232,6 +238,9 @@ class SessionRecorder:
             bg_std=result.bg_std,
             snr=result.snr,
             flags=result.flags,
+            background=result.background,
+            extent_w_px=result.extent_w_px,
+            extent_h_px=result.extent_h_px,
         )
 
     def add_range(self, reading: RangeReading) -> None:

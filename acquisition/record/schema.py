@@ -12,7 +12,7 @@ import numpy as np
 from acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
 
 FORMAT = "snrmon-session"
-FORMAT_VERSION = "1.0"
+FORMAT_VERSION = "1.1"  # 1.1: measurements gained background, extent_w_px, extent_h_px
 
 CAMERAS = "cameras"
 FRAMES = "frames"
@@ -41,6 +41,9 @@ MEASUREMENT_DTYPE = np.dtype(
         ("bg_std", "<f8"),
         ("snr", "<f8"),
         ("flags", "<u2"),
+        ("background", f"S{NAME_BYTES}"),
+        ("extent_w_px", "<i2"),
+        ("extent_h_px", "<i2"),
     ]
 )
 MEASUREMENT_UNITS = {
@@ -54,6 +57,9 @@ MEASUREMENT_UNITS = {
     "bg_std": "DN",
     "snr": "1 (paper Eq. 4; NaN when undefined)",
     "flags": "bit i = flag_names[i]",
+    "background": "rim | extent_rim | rect: the background bg_mean/bg_std are of",
+    "extent_w_px": "px, segmented target's box width (0: not segmented)",
+    "extent_h_px": "px, segmented target's box height (0: not segmented)",
 }
 
 RANGE_DTYPE = np.dtype(

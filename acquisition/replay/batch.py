@@ -221,7 +221,7 @@ def replay_session(
                     if delay > 0:
                         time.sleep(delay)  # pacing to the recorded clock, not synchronisation
                 if buffer is not None and measurer.roi is not None:
-                    x, y = measurer.roi
+                    x, y = measurer.read_xy
                     y0, y1 = max(y - half, 0), min(y + half + 1, shape[0])
                     x0, x1 = max(x - half, 0), min(x + half + 1, shape[1])
                     buffer[y0:y1, x0:x1] = crops.crop(i, y0, y1, x0, x1)
@@ -236,7 +236,7 @@ def replay_session(
                 else:
                     pixels = cam.frames[i]
                 if pixels is not None:
-                    pixels = corrector.apply(pixels, measurer.roi)
+                    pixels = corrector.apply(pixels, measurer.read_xy)
                 fr = measurer.measure(pixels) if pixels is not None else None
                 done += 1
                 if progress is not None and done % 50 == 0:

@@ -13,7 +13,7 @@ and takes a stop's frames from it. A row is frozen once it is complete or its st
 from __future__ import annotations
 
 import threading
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -39,11 +39,20 @@ class StopRow:
     snr_std: float
     model_snr: dict[str, float] = field(default_factory=dict)
     resolved: bool | None = None  # the model's verdict for the small dimension at this range
+    # The background(s) the summarised frames were measured against (rim, extent_rim, rect),
+    # most used first, joined by "+"; "" without frames.
+    background: str = ""
 
     @property
     def range_m(self) -> float | None:
         """The stop's range: the rangefinder's when it has one, else the GPS slant range."""
         return self.lrf_range_m if self.lrf_range_m is not None else self.gps_range_m
+
+
+def backgrounds_of(results) -> str:
+    """The background methods of some measurements, most used first, joined by "+"."""
+    counts = Counter(r.background for r in results)
+    return "+".join(name for name, _ in counts.most_common())
 
 
 class StopTable:
@@ -141,5 +150,6 @@ class StopTable:
             snr_std=summary.snr_std,
             model_snr=model,
             resolved=None if resolved is None else bool(resolved),
+            background=backgrounds_of(r for _, r in run),
         )
         return row, run

@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
             "processor": platform.processor() or platform.machine(),
         }
     }
+    texts: dict[str, str] = {}
     for info in sorted(pkgutil.iter_modules(benchmarks.__path__), key=lambda m: m.name):
         if not info.name.startswith("bench_"):
             continue
@@ -57,11 +58,16 @@ def run(args: argparse.Namespace) -> int:
                 result.setdefault(section, {}).update(values)
         else:
             result.setdefault(key, {}).update(figures)
+        if hasattr(module, "format_text"):  # a table rather than name/value lines
+            texts[key] = module.format_text(figures)
     if args.json:
         print(json.dumps(result, indent=2))
     else:
         for key, figures in result.items():
             print(f"[{key}]")
+            if key in texts:
+                print(texts[key])
+                continue
             for name, value in figures.items():
                 shown = f"{value:.4g}" if isinstance(value, float) else value
                 print(f"  {name:32s} {shown}")

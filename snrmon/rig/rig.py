@@ -310,6 +310,7 @@ class HilRig:
             "truth_snr": truth,
             "model_snr": row.model_snr,
             "resolved": bool(row.resolved),
+            "background": row.background,
         }
 
     def result(self) -> dict:
