@@ -20,7 +20,7 @@ from model.snr import target_contrast_electrons
 from sim.feed import FlightCameraFeed
 from sim.flight import FlightConfig, FlightPlan
 from sim.from_model import scene_config_from_model
-from snrmon import hil
+from snrmon.rig import rig as hil
 from snrmon.rig.rig import HilOptions, HilRig
 
 SKY_K = 280.0
@@ -55,6 +55,27 @@ def test_hil_measures_the_truth_at_every_stop_without_dropping_frames():
     for cam, frames in result["frames"].items():
         assert frames["dropped"] == 0, cam
         assert frames["received"] > 0, cam
+
+
+@pytest.mark.slow
+def test_hil_first_click_at_37m_holds_the_resolved_drone_and_reads_its_truth():
+    """Issue 14: the operator's first act, a click on the drone at the closest stop. The drone
+    covers more than the 7x7 box (MWIR ~12 px across); the track holds it, the stop gets its
+    100 frames, and the background outside the drone's extent gives the truth within 15 %."""
+    opts = HilOptions(seed=4, speed=2.0, stops_m=(37.0, 126.0), hover_s=6.0)
+    with HilRig(opts) as rig:
+        result = rig.run()
+    stops = {(s["camera"], s["planned_range_m"]): s for s in result["stops"]}
+    assert set(stops) == {(c, r) for c in ("mwir", "lwir") for r in (37.0, 126.0)}
+    assert result["operator_clicks"] == {"mwir": 1, "lwir": 1}  # one click, at 37 m
+    for (cam, rng), s in stops.items():
+        where = f"{cam} at {rng:.0f} m"
+        assert s["n_frames"] == 100, f"{where}: only {s['n_frames']} valid frames"
+        tolerance = 0.15 if s["resolved"] else 0.10
+        assert s["measured_snr_mean"] == pytest.approx(s["truth_snr"], rel=tolerance), where
+    assert stops[("mwir", 37.0)]["background"] == "extent_rim"
+    assert stops[("lwir", 37.0)]["background"] == "extent_rim"
+    assert stops[("mwir", 37.0)]["truth_snr"] > 300  # the regime the 7x7 rim read as 1-3
 
 
 @pytest.mark.slow

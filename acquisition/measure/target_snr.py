@@ -132,8 +132,9 @@ def measure_target(
     sat = saturation_level(cfg, pixels.dtype)
     if sat is not None and math.isfinite(peak) and peak >= sat:
         bits.add(FLAG_SATURATED)
+    n_pixels = None if method == BACKGROUND_RECT or values is None else values.shape[1]
     if FLAG_UNDEFINED not in bits and is_contaminated(
-        bg_std, gradient, reference_noise, cfg, extent_px=extent
+        bg_std, gradient, reference_noise, cfg, extent_px=extent, n_pixels=n_pixels
     ):
         bits.add(FLAG_RIM_CONTAMINATED)
     w, h = blob.extent_size

@@ -178,7 +178,9 @@ def judge(blob: Blob | None, pred: tuple[float, float], history: ObjectHistory, 
         return "undefined"
     typical = history.prominence
     if not is_object(blob, c.lost_snr, c.min_isolation):
-        bright = blob.significance >= c.reacquire_snr and (
+        # Bright where the drone should be, but not standing out of what it touches: merged
+        # with clutter (occluded); else too faint to be seen.
+        bright = blob.contrast >= c.reacquire_snr * blob.sigma and (
             typical is None or blob.contrast * c.brightness_factor >= typical
         )
         return "occluded" if bright else "faint"
