@@ -54,9 +54,11 @@ import numpy as np
 from acquisition.measure.local_sky import (
     darkest_side_level,
     flatten_sky,
+    looks_level,
     median,
     ring_sides,
     robust_sigma,
+    side_levels,
 )
 
 Box = tuple[int, int, int, int]
@@ -157,9 +159,16 @@ class _Window:
         sig = robust_sigma(self.v) if sigma is None else float(sigma)
         floor = cfg.sigma_floor_dn if self.integer else 1e-6
         self.sigma = max(sig, floor)
-        if cfg.flatten and self.finite and flatten_sky(self.v, self.sigma):
+        levels = side_levels(self.v, cfg.ring_px)
+        if (
+            cfg.flatten
+            and self.finite
+            and not looks_level(levels, self.sigma)
+            and flatten_sky(self.v, self.sigma)
+        ):
             self.integer = False  # levels are no longer whole numbers
-        self.background = darkest_side_level(self.v, cfg.ring_px)
+            levels = side_levels(self.v, cfg.ring_px)
+        self.background = darkest_side_level(levels)
         # The extent's noise: the sky's own roughness around the window (a curved gradient
         # an AGC leaves, structure) where it exceeds the pixel noise.
         ring = np.concatenate(ring_sides(self.v, cfg.ring_px))

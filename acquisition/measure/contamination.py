@@ -13,7 +13,6 @@ import bisect
 import math
 from collections import deque
 
-
 RIM_PIXELS = 24  # the 7x7 rim the std factor is stated for
 
 

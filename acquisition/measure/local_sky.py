@@ -92,12 +92,25 @@ def ring_sides(v: np.ndarray, width: int) -> list[np.ndarray]:
     return [v[:w].ravel(), v[-w:].ravel(), v[w:-w, :w].ravel(), v[w:-w, -w:].ravel()]
 
 
-def darkest_side_level(v: np.ndarray, width: int) -> float:
-    """The darkest side's median: the sky beside a treeline or cloud bank, not their mean."""
+def side_levels(v: np.ndarray, width: int) -> list[float]:
+    """Medians of the top, bottom, left and right sides of the outer ring (NaN: none finite)."""
     levels = []
     for side in ring_sides(v, width):
         if not np.isfinite(side).all():
             side = side[np.isfinite(side)]
-        if side.size:
-            levels.append(median(side))
-    return min(levels) if levels else math.nan
+        levels.append(median(side) if side.size else math.nan)
+    return levels
+
+
+def darkest_side_level(levels: list[float]) -> float:
+    """The darkest side's median: the sky beside a treeline or cloud bank, not their mean."""
+    finite = [v for v in levels if math.isfinite(v)]
+    return min(finite) if finite else math.nan
+
+
+def looks_level(levels: list[float], sigma: float) -> bool:
+    """True when opposite sides differ by less than 2 sigma: no tilt worth a plane fit."""
+    if len(levels) != 4 or not all(math.isfinite(v) for v in levels):
+        return False
+    top, bottom, left, right = levels
+    return abs(bottom - top) < 2.0 * sigma and abs(right - left) < 2.0 * sigma

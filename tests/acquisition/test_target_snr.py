@@ -51,7 +51,7 @@ def test_extent_of_a_point_fits_the_guard_and_a_disc_does_not():
     assert 13 <= w <= 19 and 13 <= h <= 19  # 12 px across plus its soft edge above 3 sigma
     assert background_rule(blob, PeakSnrConfig()) == "extent_rim"
     assert background_rule(blob, PeakSnrConfig(background=(2, 2, 20, 20))) == "rect"
-    x0, y0, x1, y1 = extent_rim_rect(blob, 2)
+    x0, y0, _x1, _y1 = extent_rim_rect(blob, 2)
     assert (x0, y0) == (blob.extent_box[0] - 3, blob.extent_box[1] - 3)
 
 
@@ -98,7 +98,7 @@ def test_a_cloud_edge_in_the_background_is_flagged_against_the_sky_noise():
     track itself holds."""
     n = 50
     stack = _sky(n, 5)
-    yy, xx = np.mgrid[0:ROWS, 0:COLS]
+    _yy, xx = np.mgrid[0:ROWS, 0:COLS]
     for i in range(n):
         _disc(stack[i], 60, 50, 6.0, 3000.0)
         if i >= 30:  # a warm cloud edge moving in from the right, 12 px from the drone's edge

@@ -104,7 +104,7 @@ def test_every_read_lies_within_reach_of_the_read_centre(clips, shared_data):
         at = clicks(frames[0], boxes[0])[0][1]
         full, cropped = Tracker(at, config), Tracker(at, config)
         half = reach_px(config, full.measurement)
-        rows, cols = frames.shape[1:]
+        _rows, cols = frames.shape[1:]
         assert 2 * half + 1 < 0.7 * cols
         for f in frames:
             x, y = cropped.read_centre

@@ -59,7 +59,7 @@ def test_a_bird_crossing_near_a_lost_track_is_not_accepted(bird_amp, speed, why)
 
 
 def test_the_drone_coming_back_after_a_bird_is_reacquired_within_a_second():
-    stack, bird = _gone_then_birds(750.0, 2.0, seed=12)
+    stack, _bird = _gone_then_birds(750.0, 2.0, seed=12)
     for i in range(55, len(stack)):  # back at its place after the bird
         frame = stack[i].astype(float)
         _spot(frame, 60, 50, 150.0)
@@ -78,7 +78,7 @@ def _treeline_dip(n=60, seed=13):
     boxes = []
     for i in range(n):
         y = min(55 + 0.5 * i, 70.0) if i <= 40 else 70.0 - 0.5 * (i - 40)
-        x0, y0 = 55, int(round(y)) - 2
+        x0, y0 = 55, round(y) - 2
         stack[i, y0 : y0 + 5, x0 : x0 + 9] = 4095.0
         boxes.append(np.array([x0, y0, x0 + 8, y0 + 4], float))
     return np.clip(stack, 0, 4095).astype(np.uint16), boxes
@@ -86,7 +86,9 @@ def _treeline_dip(n=60, seed=13):
 
 def test_a_drone_merged_with_saturated_clutter_is_occluded_not_followed_onto_it():
     stack, boxes = _treeline_dip()
-    merged = [inseparable(f.astype(float) / 4095 * 255, b) for f, b in zip(stack, boxes)]
+    merged = [
+        inseparable(f.astype(float) / 4095 * 255, b) for f, b in zip(stack, boxes, strict=False)
+    ]
     assert any(merged) and not merged[0] and not merged[-1]
     steps = track_stack(stack, (59, 56))
     for s, box, joined in zip(steps, boxes, merged, strict=True):
