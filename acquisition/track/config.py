@@ -14,6 +14,8 @@ from acquisition.measure.blob import BlobConfig
 from acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
 from acquisition.track.motion import MotionConfig
 
+WING_PX = 8  # the farthest the background rim moves out past PSF wings (target_snr.wing_growth)
+
 
 class TrackState(Enum):
     """What the track is doing; shown to the operator and recorded."""
@@ -93,7 +95,7 @@ def reach_px(config: TrackerConfig, measurement: PeakSnrConfig) -> int:
     """How far from :attr:`Tracker.read_centre` a frame's reads can go (pixels, Chebyshev)."""
     search = max(config.search_max_px, config.cue_radius_px, config.click_radius_px + 2)
     window = max(measurement.search_px // 2, config.gate_px) + measurement.box_px // 2
-    around = config.blob.max_half_px + config.guard_px + 2
+    around = config.blob.max_half_px + config.guard_px + 2 + WING_PX + 2
     return search + around + window + math.ceil(config.motion.max_speed_px) + 2
 
 

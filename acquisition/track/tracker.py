@@ -52,6 +52,7 @@ from acquisition.track.candidate import Candidate, ObjectHistory, box_at, judge
 from acquisition.track.config import (
     ON_TARGET,
     REFUSED,
+    WING_PX,
     TrackerConfig,
     TrackState,
     TrackStep,
@@ -88,8 +89,9 @@ class Tracker(Reacquisition):
             raise ValueError("give either config or settings, not both")
         self.config = config if config is not None else TrackerConfig(**settings)
         self.measurement = measurement if measurement is not None else PeakSnrConfig()
+        c = self.config
         self._meter = TargetMeter(
-            self.measurement, gate_px=self.config.gate_px, guard_px=self.config.guard_px
+            self.measurement, gate_px=c.gate_px, guard_px=c.guard_px, wing_px=WING_PX
         )
         if not (reference_noise is None or reference_noise == "recent") and (
             isinstance(reference_noise, str) or not math.isfinite(reference_noise)
@@ -99,7 +101,6 @@ class Tracker(Reacquisition):
             )
         self._fixed_reference = reference_noise
         m = self.measurement
-        c = self.config
         self._reference = NoiseReference(m.reference_frames, m.reference_min_frames)
         self._history = ObjectHistory(c.brightness_frames, c.brightness_min_frames)
         self.motion = MotionModel(c.motion)
@@ -121,6 +122,7 @@ class Tracker(Reacquisition):
         self.track_state = TrackState.TRACKING
         self._history.clear()
         self._reference.clear()
+        self._meter.wings.clear()
         self.motion.reset(*self._click)
         self._pending: Candidate | None = None
 
@@ -313,6 +315,7 @@ class Tracker(Reacquisition):
             "motion": self.motion.state(),
             "history": self._history.state(),
             "reference": self._reference.state(),
+            "wings": self._meter.wings.state(),
             "pending": None if pending is None else pending.state(),
         }
 
@@ -332,6 +335,7 @@ class Tracker(Reacquisition):
         self.motion.set_state(d["motion"])
         self._history.set_state(d["history"])
         self._reference.set_state(d["reference"])
+        self._meter.wings.set_state(d["wings"])
         self._pending = None if d["pending"] is None else Candidate.from_state(d["pending"])
 
 
