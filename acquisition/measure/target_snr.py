@@ -82,21 +82,17 @@ def _rim_mean(pixels: np.ndarray, rect: Rect) -> tuple[float, int] | None:
     return float(outer - inner) / n, n
 
 
-def rim_excess(pixels: np.ndarray, rect: Rect, sigma: float, most: int) -> list[float]:
-    """For k = 0 .. ``most``: how much brighter the rim of ``rect`` grown by k px is than the
-    rim 2 px farther out, in units of the noise of that difference (sigma x sqrt(1/n1 +
-    1/n2)); NaN where a rim leaves the image. A plane (a sky gradient) adds the same to two rims
-    centred on the same point, so only light falling off outwards (PSF wings) shows."""
+def rim_excess(pixels: np.ndarray, rect: Rect, sigma: float, k: int) -> float:
+    """How much brighter the rim of ``rect`` grown by ``k`` px is than the rim 2 px farther
+    out, in units of the noise of that difference (sigma x sqrt(1/n1 + 1/n2)); NaN where a
+    rim leaves the image. A plane (a sky gradient) adds the same to two rims centred on the
+    same point, so only light falling off outwards (PSF wings) shows."""
     x0, y0, x1, y1 = rect
-    means = [_rim_mean(pixels, (x0 - k, y0 - k, x1 + k, y1 + k)) for k in range(most + 3)]
-    out = []
-    for k in range(most + 1):
-        here, far = means[k], means[k + 2]
-        if here is None or far is None or sigma <= 0:
-            out.append(math.nan)
-        else:
-            out.append((here[0] - far[0]) / (sigma * math.sqrt(1.0 / here[1] + 1.0 / far[1])))
-    return out
+    here = _rim_mean(pixels, (x0 - k, y0 - k, x1 + k, y1 + k))
+    far = _rim_mean(pixels, (x0 - k - 2, y0 - k - 2, x1 + k + 2, y1 + k + 2))
+    if here is None or far is None or not sigma > 0:
+        return math.nan
+    return (here[0] - far[0]) / (sigma * math.sqrt(1.0 / here[1] + 1.0 / far[1]))
 
 
 class WingProfile:
@@ -120,13 +116,15 @@ class WingProfile:
         self._recent: deque[list[float]] = deque(maxlen=frames)
 
     def growth(self, pixels: np.ndarray, rect: Rect, sigma: float) -> int:
-        """Add this frame's excess; how many pixels the rim of ``rect`` moves out."""
-        now = rim_excess(pixels, rect, sigma, self.most)
+        """Add this frame's excess; how many pixels the rim of ``rect`` moves out. Only the
+        steps the decision reaches are measured (NaN for the others: left out of the means)."""
+        now = [math.nan] * (self.most + 1)
         self._recent.append(now)
         for k in range(self.most + 1):
+            now[k] = rim_excess(pixels, rect, sigma, k)
             if not math.isfinite(now[k]):
                 return k  # the rims leave the image: no farther
-            past = [e[k] for e in self._recent if len(e) > k and math.isfinite(e[k])]
+            past = [e[k] for e in self._recent if math.isfinite(e[k])]
             if len(past) < self.min_frames:
                 if now[k] <= self.z:
                     return k
