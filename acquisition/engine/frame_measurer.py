@@ -31,6 +31,7 @@ class FrameResult:
     snr_mean: float
     snr_std: float
     snr_n: int
+    reason: str = ""  # why the tracker did not find the drone in this frame ("" when it did)
 
 
 class FrameMeasurer:
@@ -84,9 +85,10 @@ class FrameMeasurer:
         """Eq. (4) on ``pixels``; None while no ROI is set."""
         if self.roi is None:
             return None
+        reason = ""
         if self.tracker is not None:
             step = self.tracker.update(pixels)
-            result, state = step.peak_snr, step.state.value
+            result, state, reason = step.peak_snr, step.state.value, step.reason
             centre = (step.window_x, step.window_y)
             if not (result.flags & RUNNING_EXCLUDED):
                 self.meter.running.push(result.snr)
@@ -94,4 +96,4 @@ class FrameMeasurer:
             result, state, centre = self.meter.measure(pixels, self.roi), "fixed", self.roi
         self.roi = (int(centre[0]), int(centre[1]))
         r = self.meter.running
-        return FrameResult(result, state, self.roi, r.mean, r.std, r.count)
+        return FrameResult(result, state, self.roi, r.mean, r.std, r.count, reason)

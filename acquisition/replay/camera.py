@@ -129,6 +129,7 @@ class ReplayCameraState:
             roi_xy=fr.window_xy if fr else None,
             gps_xy=self.gps_xy,
             track_state=fr.state if fr else "idle",
+            track_reason=fr.reason if fr else "",
             last=fr.result if fr else None,
             snr_mean=fr.snr_mean if fr else NAN,
             snr_std=fr.snr_std if fr else NAN,

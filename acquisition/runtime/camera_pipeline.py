@@ -109,6 +109,7 @@ class CameraPipeline:
         self._cue_pending: tuple[float, float] | None = None
         self._gps_xy: tuple[float, float] | None = None
         self._track_state = "idle"
+        self._track_reason = ""
         self._listeners: list[Callable[[Measurement, RingFrame], None]] = []
         self._recorder = None
         self._measured = 0
@@ -237,6 +238,7 @@ class CameraPipeline:
             roi = self._roi
             gps_xy = self._gps_xy
             state = self._track_state
+            reason = self._track_reason
             lat = np.array(self._latency_ns, dtype=float)
             rec = self._recorder
         recorded = 0
@@ -265,6 +267,7 @@ class CameraPipeline:
             roi_xy=roi,
             gps_xy=gps_xy,
             track_state=state,
+            track_reason=reason,
             last=last.result if last else None,
             snr_mean=last.snr_mean if last else float("nan"),
             snr_std=last.snr_std if last else float("nan"),
@@ -352,6 +355,7 @@ class CameraPipeline:
                 self._measured += 1
                 self._roi = None
                 self._track_state = "idle"
+                self._track_reason = ""
             return
         range_m, source = self.range_at(item.t_host_ns) if self.range_at else (None, "")
         m = Measurement(
@@ -376,6 +380,7 @@ class CameraPipeline:
             self._measured += 1
             self._last = m
             self._track_state = fr.state
+            self._track_reason = fr.reason
             self._roi = fr.window_xy
             self._latency_ns.append(latency)
             rng = np.nan if range_m is None else range_m

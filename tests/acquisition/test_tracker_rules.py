@@ -133,3 +133,14 @@ def test_bad_input_is_one_clear_message_and_the_state_says_why():
         t.update(_u16(stack))
     with pytest.raises(ValueError, match="search_max_px"):
         TrackerConfig(search_max_px=0)
+
+
+def test_the_console_status_says_why_the_track_is_not_tracking():
+    from acquisition.engine.frame_measurer import FrameMeasurer
+
+    sat = _sky(1, 16)[0]
+    sat[40:, :] = 65535.0
+    measurer = FrameMeasurer()
+    measurer.set_roi(60, 70)
+    fr = measurer.measure(_u16(sat))
+    assert (fr.state, fr.reason) == ("lost", "no_object")
