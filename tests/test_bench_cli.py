@@ -70,7 +70,7 @@ def test_tracking_real_summary_and_table_from_scored_runs():
                 "occluded_frames_max": r.occluded,
                 "reacquisitions_max": r.reacquisitions,
                 "longest_miss_frames": r.longest_miss,
-            }  # fmt: skip
+            }
             for r in runs
         },
     }
