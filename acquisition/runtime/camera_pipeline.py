@@ -316,6 +316,10 @@ class CameraPipeline:
     def _process(self, item: RingFrame) -> None:
         with self._lock:
             pending, self._roi_pending = self._roi_pending, None
+            if pending is not None:
+                # The click is in force from this frame on, before its (slower) measurement: a
+                # recording started meanwhile records it as resumed.
+                self._roi = pending
             clear, self._clear_pending = self._clear_pending, False
             cue, self._cue_pending = self._cue_pending, None
             reference, self._reference_pending = self._reference_pending, None
