@@ -28,8 +28,10 @@ from acquisition.track.search import brightest_in, find_objects, is_object
 class Reacquisition:
     """The lost-track search and the confirmation of its candidates (module docstring)."""
 
-    def _fresh_cue(self) -> tuple[float, float] | None:
-        if self._cue is None or self._cue_age > self.config.cue_max_age_frames:
+    def _fresh_cue(self, ahead: int = 0) -> tuple[float, float] | None:
+        """The GPS cue if it is no older than ``cue_max_age_frames`` (``ahead`` frames from
+        now) and in the image."""
+        if self._cue is None or self._cue_age + ahead > self.config.cue_max_age_frames:
             return None
         rows, cols = self._shape or (1 << 30, 1 << 30)
         x, y = pixel_of(self._cue)
@@ -41,9 +43,15 @@ class Reacquisition:
         found = self._reacquire(pixels, ref, use_cue=True)
         if found is not None:
             return found
-        self.track_state = TrackState.LOST
-        at = self._window  # the measurement holds at the last good position
-        size = self.measurement.search_px
+        # A candidate dropped before lost_frames misses of a track: it coasts on (still
+        # flagged). Without a track (nothing at the click) it stays lost until found.
+        lost = self._misses >= self.config.lost_frames or not self._anchored
+        self.track_state = TrackState.LOST if lost else TrackState.TRACKING
+        cue = self._fresh_cue()
+        if cue is not None:  # measured where it was looked for
+            at, size = pixel_of(cue), 2 * self.config.cue_radius_px + 1
+        else:  # the measurement holds at the last good position
+            at, size = self._window, self.measurement.search_px
         m = self._meter.measure(pixels, at, size, ref)
         return self._step(m, at, size, self._search_reason, {FLAG_LOST})
 
@@ -51,9 +59,10 @@ class Reacquisition:
         """Confirm the pending candidate or look for one; the step when something was found."""
         c = self.config
         self._search_reason = "searching"
+        cue = self._fresh_cue() if use_cue else None
         cand = self._pending
-        if cand is not None:
-            self._pending = None
+        self._pending = None
+        if cand is not None and cue is None:  # a fresh GPS cue outranks a candidate
             pred = cand.predict()
             seed = brightest_in(pixels, box_at(cand.rel, *pred, grow=c.gate_px))
             blob = self._analyse(pixels, seed, cand.size_px, pred)
@@ -69,7 +78,6 @@ class Reacquisition:
                     return self._reacquired(pixels, blob, cand, ref)
                 self._pending = cand
                 return self._confirming(pixels, blob, ref)
-        cue = self._fresh_cue() if use_cue else None
         if cue is not None:
             centre, half = pixel_of(cue), c.cue_radius_px
         else:

@@ -146,7 +146,7 @@ class Tracker(Reacquisition):
     @property
     def read_centre(self) -> tuple[int, int]:
         """Centre of the square (half-size :func:`reach_px`) the next frame reads in."""
-        cue = self._fresh_cue()
+        cue = self._fresh_cue(ahead=1)  # as update() will see it
         if self.track_state in (TrackState.LOST, TrackState.REACQUIRING) and cue is not None:
             return pixel_of(cue)
         return pixel_of(self.motion.predict())

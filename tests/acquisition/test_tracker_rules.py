@@ -144,3 +144,40 @@ def test_the_console_status_says_why_the_track_is_not_tracking():
     measurer.set_roi(60, 70)
     fr = measurer.measure(_u16(sat))
     assert (fr.state, fr.reason) == ("lost", "no_object")
+
+
+def test_reads_stay_within_reach_of_the_read_centre_through_a_gps_cue():
+    """The engine corrects only the square of reach_px around read_centre: a track lost far
+    from where the cue then puts the drone must read around the cue, nowhere else."""
+    from acquisition.measure.blob import BlobConfig
+    from acquisition.track.tracker import reach_px
+
+    rows, cols = 300, 400
+    rng = np.random.default_rng(17)
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    frames = []
+    for i in range(70):
+        f = SKY + rng.normal(0.0, NOISE, (rows, cols))
+        x, y = (60, 50) if i < 20 else (330, 240)  # gone at 20 frames, back far away at 30
+        if i < 20 or i >= 30:
+            f += 150.0 * np.exp(-((xx - x) ** 2 + (yy - y) ** 2) / (2 * 0.8**2))
+        frames.append(_u16(f))
+    config = TrackerConfig(search_max_px=24, blob=BlobConfig(max_half_px=16))
+    full, cropped = Tracker((60, 50), config), Tracker((60, 50), config)
+    half = reach_px(config, full.measurement)
+    assert 2 * half + 1 < cols / 2
+    steps = []
+    for i, f in enumerate(frames):
+        if i == 40:
+            for t in (full, cropped):
+                t.cue(331.4, 238.8)
+        x, y = cropped.read_centre
+        masked = np.full_like(f, 65535)
+        y0, x0 = max(y - half, 0), max(x - half, 0)
+        masked[y0 : y + half + 1, x0 : x + half + 1] = f[y0 : y + half + 1, x0 : x + half + 1]
+        a, b = full.update(f), cropped.update(masked)
+        assert (a == b and a.peak_snr.snr == b.peak_snr.snr) or np.isnan(a.peak_snr.snr), i
+        steps.append(a)
+    assert steps[39].state is TrackState.LOST  # too far for the capped search
+    assert steps[40].state is TrackState.GPS_CUED
+    assert (steps[-1].peak_snr.peak_x, steps[-1].peak_snr.peak_y) == (330, 240)
