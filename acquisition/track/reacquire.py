@@ -1,7 +1,9 @@
 """Finding a lost drone again (the tracker's rules 5 and 6, docs/tracking.md).
 
-While misses last, a square around the predicted position (around a fresh GPS cue once LOST)
-grows by ``search_growth_px`` per missed frame from ``search_start_px`` to ``search_max_px``.
+While misses last, a square around the predicted position grows by ``search_growth_px`` per
+missed frame from ``search_start_px`` to ``search_max_px``; once LOST with a fresh GPS cue, the
+``2 cue_radius_px + 1`` square around the cue is searched on the frame the cue arrives and then
+every other frame (one square a frame: the engine corrects only around :attr:`read_centre`).
 Objects in it with prominence >= ``reacquire_snr`` sigma that look like the drone (prominence and
 core area within ``brightness_factor`` / ``size_factor`` of its history) are candidates; the
 nearest is followed with its own motion and accepted after ``reacquire_frames`` consecutive
@@ -37,32 +39,44 @@ class Reacquisition:
         x, y = pixel_of(self._cue)
         return self._cue if (0 <= x < cols and 0 <= y < rows) else None
 
+    def _plan(self, misses: int, use_cue: bool, ahead: int = 0) -> tuple[str, tuple[int, int]]:
+        """Where this frame's search runs: ("candidate", its predicted position) while one is
+        being confirmed; ("cue", the cue) while lost with a fresh cue, on the frame it arrives
+        and then every other frame; ("grow", the predicted position) otherwise. One place a
+        frame: the engine corrects only the square around it (:attr:`read_centre` asks the same
+        with ``ahead`` = 1)."""
+        if self._pending is not None:
+            return "candidate", pixel_of(self._pending.predict())
+        cue = self._fresh_cue(ahead) if use_cue else None
+        if cue is not None and (misses % 2 == 1 or self._cue_age + ahead <= 1):
+            return "cue", pixel_of(cue)
+        return "grow", pixel_of(self.motion.predict())
+
     def _lost(self, pixels, ref) -> TrackStep:
         self._misses += 1
         self.motion.coast()
-        found = self._reacquire(pixels, ref, use_cue=True)
+        found, kind, centre = self._reacquire(pixels, ref, use_cue=True)
         if found is not None:
             return found
         # A candidate dropped before lost_frames misses of a track: it coasts on (still
         # flagged). Without a track (nothing at the click) it stays lost until found.
         lost = self._misses >= self.config.lost_frames or not self._anchored
         self.track_state = TrackState.LOST if lost else TrackState.TRACKING
-        cue = self._fresh_cue()
-        if cue is not None:  # measured where it was looked for
-            at, size = pixel_of(cue), 2 * self.config.cue_radius_px + 1
-        else:  # the measurement holds at the last good position
+        if kind == "grow":  # the measurement holds at the last good position
             at, size = self._window, self.measurement.search_px
+        else:  # measured where it was looked for
+            at, size = centre, 2 * self.config.cue_radius_px + 1
         m = self._meter.measure(pixels, at, size, ref)
         return self._step(m, at, size, self._search_reason, {FLAG_LOST})
 
-    def _reacquire(self, pixels, ref, *, use_cue: bool) -> TrackStep | None:
-        """Confirm the pending candidate or look for one; the step when something was found."""
+    def _reacquire(self, pixels, ref, *, use_cue: bool):
+        """(step or None, plan kind, plan centre): confirm the pending candidate, or look for
+        one at the cue or in the growing square (:meth:`_plan`)."""
         c = self.config
         self._search_reason = "searching"
-        cue = self._fresh_cue() if use_cue else None
-        cand = self._pending
-        self._pending = None
-        if cand is not None and cue is None:  # a fresh GPS cue outranks a candidate
+        kind, centre = self._plan(self._misses, use_cue)
+        if kind == "candidate":
+            cand, self._pending = self._pending, None
             pred = cand.predict()
             seed = brightest_in(pixels, box_at(cand.rel, *pred, grow=c.gate_px))
             blob = self._analyse(pixels, seed, cand.size_px, pred)
@@ -72,17 +86,18 @@ class Reacquisition:
                 and math.hypot(blob.centroid_x - cand.x, blob.centroid_y - cand.y) <= c.max_speed_px
                 and consistent(blob, self._history, c)
             )
-            if ok:
-                cand.follow(blob)
-                if cand.count >= c.reacquire_frames:
-                    return self._reacquired(pixels, blob, cand, ref)
-                self._pending = cand
-                return self._confirming(pixels, blob, ref)
-        if cue is not None:
-            centre, half = pixel_of(cue), c.cue_radius_px
+            if not ok:  # dropped; the search goes on from the next frame
+                return None, kind, centre
+            cand.follow(blob)
+            if cand.count >= c.reacquire_frames:
+                return self._reacquired(pixels, blob, cand, ref), kind, centre
+            self._pending = cand
+            return self._confirming(pixels, blob, ref), kind, centre
+        if kind == "cue":
+            half = c.cue_radius_px
         else:
             grow = c.search_start_px + c.search_growth_px * (self._misses - 1)
-            centre, half = pixel_of(self.motion.predict()), min(grow, c.search_max_px)
+            half = min(grow, c.search_max_px)
         objects = find_objects(
             pixels, centre, half, config=c.blob, min_significance=c.reacquire_snr,
             min_isolation=c.reacquire_isolation, size_px=max(self._history.size_px, 1),
@@ -90,20 +105,20 @@ class Reacquisition:
         )  # fmt: skip
         objects = [b for b in objects if consistent(b, self._history, c)]
         if not objects:
-            if cue is not None:
-                self._search_reason = "faint"
-            return None
+            if use_cue and self._fresh_cue() is not None:
+                self._search_reason = "faint"  # not where its GPS position says it is
+            return None, kind, centre
         blob = objects[0]
-        if cue is not None:  # the GPS position is a strong prior: accepted at once
+        if kind == "cue":  # the GPS position is a strong prior: accepted at once
             self._cue = None  # used: a later loss needs a fresh position
             self.motion.reset(blob.centroid_x, blob.centroid_y)
-            m, _, _ = self._meter.measure_object(pixels, blob, pixel_of(cue), ref)
+            m, _, _ = self._meter.measure_object(pixels, blob, centre, ref)
             self._accept(blob)
             self.track_state = TrackState.GPS_CUED
             self._confirmed = 1
-            return self._step(m, centre, 2 * half + 1, "", {FLAG_GPS_CUED})
+            return self._step(m, centre, 2 * half + 1, "", {FLAG_GPS_CUED}), kind, centre
         self._pending = Candidate.of(blob, cued=False)
-        return self._confirming(pixels, blob, ref)
+        return self._confirming(pixels, blob, ref), kind, centre
 
     def _confirming(self, pixels, blob: Blob, ref) -> TrackStep:
         self.track_state = TrackState.REACQUIRING

@@ -146,9 +146,9 @@ class Tracker(Reacquisition):
     @property
     def read_centre(self) -> tuple[int, int]:
         """Centre of the square (half-size :func:`reach_px`) the next frame reads in."""
-        cue = self._fresh_cue(ahead=1)  # as update() will see it
-        if self.track_state in (TrackState.LOST, TrackState.REACQUIRING) and cue is not None:
-            return pixel_of(cue)
+        if self.track_state in (TrackState.LOST, TrackState.REACQUIRING):
+            # As update() will plan it: one miss more, the cue one frame older.
+            return self._plan(self._misses + 1, use_cue=True, ahead=1)[1]
         return pixel_of(self.motion.predict())
 
     @property
@@ -267,7 +267,7 @@ class Tracker(Reacquisition):
         if self.track_state is TrackState.LOST or (
             vanished and self._misses >= c.search_after_misses
         ):
-            found = self._reacquire(pixels, ref, use_cue=False)
+            found = self._reacquire(pixels, ref, use_cue=False)[0]
             if found is not None:
                 return found
         at = self._window
