@@ -3,8 +3,9 @@
 :func:`find_objects` proposes seeds and lets :func:`acquisition.measure.blob.analyse_blob` judge
 each one. Seeds: the brightest pixel of each connected group of pixels that stand
 ``seed_sigma`` noise above a local mean (a ``k x k`` box blur, ``k`` about three times the
-expected object size, so a large drone is not blurred into its own background), nearest the
-square's centre first, plus any given seeds. An object is kept when it is significant
+expected object size, so a large drone is not blurred into its own background) and whose
+brightest pixel stands 0.6 x ``min_significance`` sigma above it (the noise's own groups do not),
+small groups nearest the square's centre first, plus any given seeds. An object is kept when it is significant
 (prominence >= ``min_significance`` sigma) and isolated (prominence >= ``min_isolation`` of its
 contrast over the local background): a drone on sky stands out of the sky by nearly its whole
 contrast, a bump in a treeline's or cloud's texture by a small part of it, and a pixel inside
@@ -95,8 +96,11 @@ def find_objects(
     found: list[tuple[int, int]] = list(seeds)
     n, labels, stats, cents = cv2.connectedComponentsWithStats(high, connectivity=8)
     if n > 1:
+        # A group that stands less than 0.6 x min_significance sigma (3 sigma for 5) over its
+        # local mean cannot hold an object that significant: the noise's own groups go.
         index = np.arange(1, n)
-        keep = index[ndimage.maximum(excess, labels, index) >= 0.5 * min_contrast]
+        floor = max(0.5 * min_contrast, 0.6 * min_significance * sigma)
+        keep = index[ndimage.maximum(excess, labels, index) >= floor]
         # Groups far larger than the object (a treeline's edge, a cloud's) come last.
         d = np.hypot(cents[keep, 0] + x0 - cx, cents[keep, 1] + y0 - cy)
         large = np.maximum(stats[keep, 2], stats[keep, 3]) > 4 * size_px + 8
