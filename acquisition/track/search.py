@@ -4,12 +4,12 @@
 each one. Seeds: the brightest pixel of each connected group of pixels that stand
 ``seed_sigma`` noise above a local mean (a ``k x k`` box blur, ``k`` about three times the
 expected object size, so a large drone is not blurred into its own background) and whose
-brightest pixel stands 0.6 x ``min_significance`` sigma above it (the noise's own groups do not),
-small groups nearest the square's centre first, plus any given seeds. An object is kept when it is significant
-(prominence >= ``min_significance`` sigma) and isolated (prominence >= ``min_isolation`` of its
-contrast over the local background): a drone on sky stands out of the sky by nearly its whole
-contrast, a bump in a treeline's or cloud's texture by a small part of it, and a pixel inside
-a saturated region by nothing.
+brightest pixel stands 0.6 x ``min_significance`` sigma above it (the noise's own groups do
+not), small groups nearest the square's centre first, plus any given seeds. An object is kept
+when it is significant (prominence >= ``min_significance`` sigma) and isolated (prominence >=
+``min_isolation`` of its contrast over the local background): a drone on sky stands out of the
+sky by nearly its whole contrast, a bump in a treeline's or cloud's texture by a small part of
+it, and a pixel inside a saturated region by nothing.
 
 Conventions: x = column, y = row, zero-based; boxes ``(x0, y0, x1, y1)`` with both included.
 """
