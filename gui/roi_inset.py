@@ -97,7 +97,8 @@ class RoiInset(QWidget):
         self.setToolTip(
             f"{camera}: the {box_px}x{box_px} box centred on the measured peak (pixel values in "
             f"DN of the displayed frame). Outlined band = the {4 * (box_px - 1)} rim pixels, the "
-            "background of Eq. 4; red = the peak."
+            "background of Eq. 4 while the drone fits the box (a wider drone is measured against "
+            "the rim of its extent, 'extent_rim'; docs/measurement.md); red = the peak."
         )
         lay = QVBoxLayout(self)
         lay.setContentsMargins(2, 2, 2, 2)
@@ -115,6 +116,6 @@ class RoiInset(QWidget):
         flags = ", ".join(sorted(last.flags)) or "none"
         self.numbers.setText(
             f"peak ({last.peak_x}, {last.peak_y}) = {last.peak:.0f} DN\n"
-            f"rim mean {last.bg_mean:.1f} DN, std {last.bg_std:.2f} DN\n"
+            f"{last.background} mean {last.bg_mean:.1f} DN, std {last.bg_std:.2f} DN\n"
             f"SNR {last.snr:.2f}   flags: {flags}"
         )

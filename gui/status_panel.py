@@ -137,7 +137,8 @@ class StatusPanel(QWidget):
                 f"cam {f.dropped_by_camera}, ring {f.dropped_by_ring}, rec {f.dropped_by_recorder}",
             )
             roi = "--" if cs.roi_xy is None else f"({cs.roi_xy[0]}, {cs.roi_xy[1]})"
-            self._set(f"{cam}_track", f"{cs.track_state}  ROI {roi}")
+            why = f" ({cs.track_reason})" if cs.track_reason else ""
+            self._set(f"{cam}_track", f"{cs.track_state}{why}  ROI {roi}")
             if cs.snr_n:
                 self._set(f"{cam}_snr", f"{cs.snr_mean:.2f} +/- {cs.snr_std:.2f} (n {cs.snr_n})")
             else:

@@ -17,12 +17,17 @@ COLUMNS = (
     ("frames", "Valid frames summarised (the paper uses the first 100 consecutive)"),
     ("SNR mean", "Mean peak SNR over the stop's frames (Eq. 4)"),
     ("SNR std", "Sample std of the peak SNR over the stop's frames"),
+    (
+        "background",
+        "The background the stop's frames were measured against: rim (Eq. 4's 7x7 rim), "
+        "extent_rim (outside the segmented drone and a guard band: a drone wider than the box) "
+        "or rect (the operator's clear-sky rectangle); most used first",
+    ),
     ("model", "The model's SNR at the stop's range, per curve"),
     (
         "state",
         "complete (100 frames) / collecting / ended short; 'resolved' where the model calls the "
-        "small dimension resolved (wider than a pixel): at 37 m the drone covers the 7x7 box "
-        "and Eq. (4) reads far low",
+        "small dimension resolved (wider than a pixel)",
     ),
 )
 
@@ -50,6 +55,7 @@ def row_texts(r: StopRow) -> list[str]:
         str(r.n_frames),
         _num(r.snr_mean, ".2f"),
         _num(r.snr_std, ".2f"),
+        r.background or "--",
         model,
         state,
     ]

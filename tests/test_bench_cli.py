@@ -33,3 +33,47 @@ def test_acquisition_soak_rolls_its_recording_and_samples_memory(monkeypatch):
     assert all(rss > 50 for _, rss in acq["rss_mb_samples"])
     assert acq["recording_mb"] > 0
     assert out["replay"]["fps"] > 0  # the last segment is a complete, readable session
+
+
+def test_tracking_real_summary_and_table_from_scored_runs():
+    """The tracking-real benchmark's figures and table (the runs themselves take minutes on all
+    33 clips: tests/acquisition/test_tracker_real.py scores a subset)."""
+    from benchmarks.bench_tracking_real import _summary, format_text
+    from benchmarks.real_clips import RunScore
+
+    runs = [
+        RunScore("IR_DRONE_048", "right", (250, 160), 320, 0, 0.988, 0.191, 2, 0, 1, 4),
+        RunScore("IR_DRONE_151", "right", (165, 162), 301, 0, 1.0, 0.0, 0, 0, 0, 0),
+        RunScore("IR_DRONE_020", "right", (170, 45), 302, 0, 0.94, 0.99, 20, 3, 1, 18),
+    ]
+    s = _summary(runs)
+    assert (s["clips"], s["clips_at_95pct"], s["worst_clip"]) == (3, 2, "IR_DRONE_020")
+    assert s["median_fraction"] == 0.988
+    assert round(s["worst_vs_baseline_points"], 6) == -5.0  # 020: 94 % against 99 %
+    assert s["longest_miss_frames"] == 18
+    figures = {
+        "runs": 3,
+        "frames_tracked": 923,
+        "seconds": 1.0,
+        "every_click": {"right": s},
+        "all_clicks": s,
+        "per_clip": {
+            r.clip: {
+                "frames": r.frames,
+                "inseparable": 0,
+                "worst": r.fraction,
+                "median": r.fraction,
+                "baseline_worst": r.baseline,
+                "worst_vs_baseline_points": 100 * (r.fraction - r.baseline),
+                "lost_frames_max": r.lost,
+                "occluded_frames_max": r.occluded,
+                "reacquisitions_max": r.reacquisitions,
+                "longest_miss_frames": r.longest_miss,
+            }
+            for r in runs
+        },
+    }
+    lines = format_text(figures).splitlines()
+    assert lines[0].split()[:4] == ["clip", "frames", "insep", "worst"]
+    assert lines[1].split()[:4] == ["IR_DRONE_048", "320", "0", "98.8%"]
+    assert any(line.startswith("all ") and " 2/3 " in line for line in lines)

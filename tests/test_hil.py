@@ -90,6 +90,27 @@ def _measured(psf_dict):
 
 
 @pytest.mark.slow
+def test_hil_first_click_at_37m_holds_the_resolved_drone_and_reads_its_truth():
+    """Issue 14: the operator's first act, a click on the drone at the closest stop. The drone
+    covers more than the 7x7 box (MWIR ~12 px across); the track holds it, the stop gets its
+    100 frames, and the background outside the drone's extent gives the truth within 15 %."""
+    opts = HilOptions(seed=4, speed=2.0, stops_m=(37.0, 126.0), hover_s=6.0)
+    with HilRig(opts) as rig:
+        result = rig.run()
+    stops = {(s["camera"], s["planned_range_m"]): s for s in result["stops"]}
+    assert set(stops) == {(c, r) for c in ("mwir", "lwir") for r in (37.0, 126.0)}
+    assert result["operator_clicks"] == {"mwir": 1, "lwir": 1}  # one click, at 37 m
+    for (cam, rng), s in stops.items():
+        where = f"{cam} at {rng:.0f} m"
+        assert s["n_frames"] == 100, f"{where}: only {s['n_frames']} valid frames"
+        tolerance = 0.15 if s["resolved"] else 0.10
+        assert s["measured_snr_mean"] == pytest.approx(s["truth_snr"], rel=tolerance), where
+    assert stops[("mwir", 37.0)]["background"] == "extent_rim"
+    assert stops[("lwir", 37.0)]["background"] == "extent_rim"
+    assert stops[("mwir", 37.0)]["truth_snr"] > 300  # the regime the 7x7 rim read as 1-3
+
+
+@pytest.mark.slow
 def test_hil_low_snr_stops_and_a_bounded_log(monkeypatch):
     """A stop is summarised when the console freezes its row, so its truth survives its
     frames leaving the rig's bounded log (5 s here, 120 s in use) before the flight ends."""

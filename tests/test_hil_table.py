@@ -19,6 +19,7 @@ def _stop(**kw) -> dict:
         "truth_snr": 107.74,
         "model_snr": {"small": 124.51, "small_corrected": 33.75},
         "resolved": False,
+        "background": "rim",
     }
     row.update(kw)
     return row
@@ -39,9 +40,10 @@ def test_resolved_short_row_is_marked_both():
             resolved=True,
             measured_snr_mean=2.47,
             truth_snr=720.8,
+            background="extent_rim+rim",
         )
     )
-    assert line.split()[-1] == "resolved,short"
+    assert line.split()[-2:] == ["extent_rim+rim", "resolved,short"]
     assert " 20 " in line
 
 
@@ -52,6 +54,6 @@ def test_table_explains_the_marks_and_counts_drops():
     lines = text.splitlines()
     assert lines[0] == TABLE_HEADER
     assert lines[1].endswith("resolved")
-    assert "Eq. (4) reads far low" in text
+    assert "'extent_rim': outside the segmented drone" in text
     assert lines[-1] == "mwir: 600 frames received, 0 dropped"
     assert math.isnan(float(lines[1].split()[7]))  # no raw (uncorrected) SNR without --fpn

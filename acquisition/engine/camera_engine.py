@@ -193,7 +193,7 @@ class CameraEngine:
             if summary is not None and corrector.reference_offset is not None:
                 done = ReferenceDone(corrector.reference_offset, summary)
                 self._raw_track_from_here()
-        fr = self.measurer.measure(corrector.apply(pixels, self.measurer.roi))
+        fr = self.measurer.measure(corrector.apply(pixels, self.measurer.read_xy))
         raw = self.raw_measurer.measure(pixels) if corrector.active else None
         peak_xy = None if fr is None else (fr.result.peak_x, fr.result.peak_y)
         self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
@@ -221,6 +221,7 @@ class CameraEngine:
             None if cue is None else (cue.x, cue.y),
             raw.snr_mean if raw is not None else NAN,
             raw.snr_std if raw is not None else NAN,
+            fr.reason,
         )
         self._publish(m)
         return FrameOutput(m, applied, done)
@@ -349,6 +350,7 @@ class CameraEngine:
             roi_xy=roi,
             gps_xy=gps_xy,
             track_state=state,
+            track_reason=last.track_reason if last and state != "idle" else "",
             last=last.result if last else None,
             snr_mean=last.snr_mean if last else NAN,
             snr_std=last.snr_std if last else NAN,

@@ -11,14 +11,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from acquisition.measure.peak_snr import RUNNING_EXCLUDED, PeakSnr, PeakSnrConfig, PeakSnrMeter
-from acquisition.track.tracker import Tracker, TrackerConfig
+from acquisition.track.tracker import Tracker, TrackerConfig, reach_px
 
 
 def crop_half_px(config: PeakSnrConfig, tracker: TrackerConfig) -> int:
-    """Half-size of the square around the track that holds every pixel the measurement may read
-    on the next frame: the search window, the tracker's gate or GPS-cue square, plus the box."""
-    reach = max(config.search_px // 2, tracker.gate_px, tracker.cue_radius_px)
-    return reach + config.box_px // 2 + 2
+    """Half-size of the square around :attr:`FrameMeasurer.read_xy` that holds every pixel the
+    measurement may read on the next frame (the tracker's search, the object's analysis window
+    and background; the fixed window and its box without a tracker)."""
+    return max(reach_px(tracker, config), config.search_px // 2 + config.box_px // 2 + 2)
 
 
 @dataclass(frozen=True, slots=True)
@@ -31,6 +31,7 @@ class FrameResult:
     snr_mean: float
     snr_std: float
     snr_n: int
+    reason: str = ""  # why the tracker did not find the drone in this frame ("" when it did)
 
 
 class FrameMeasurer:
@@ -54,7 +55,7 @@ class FrameMeasurer:
     def state(self) -> str:
         if self.roi is None:
             return "idle"
-        return self.tracker.state.value if self.tracker is not None else "fixed"
+        return self.tracker.track_state.value if self.tracker is not None else "fixed"
 
     def set_roi(self, x: int, y: int) -> None:
         """The operator's click: a fresh track (and fresh statistics) from this point."""
@@ -63,6 +64,13 @@ class FrameMeasurer:
         self.tracker = None
         if self.track:
             self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
+
+    @property
+    def read_xy(self) -> tuple[int, int] | None:
+        """Centre of the square (:func:`crop_half_px`) the next :meth:`measure` reads in."""
+        if self.tracker is not None:
+            return self.tracker.read_centre
+        return self.roi
 
     def clear_roi(self) -> None:
         self.roi = None
@@ -101,9 +109,10 @@ class FrameMeasurer:
         """Eq. (4) on ``pixels``; None while no ROI is set."""
         if self.roi is None:
             return None
+        reason = ""
         if self.tracker is not None:
             step = self.tracker.update(pixels)
-            result, state = step.peak_snr, step.state.value
+            result, state, reason = step.peak_snr, step.state.value, step.reason
             centre = (step.window_x, step.window_y)
             if not (result.flags & RUNNING_EXCLUDED):
                 self.meter.running.push(result.snr)
@@ -111,4 +120,4 @@ class FrameMeasurer:
             result, state, centre = self.meter.measure(pixels, self.roi), "fixed", self.roi
         self.roi = (int(centre[0]), int(centre[1]))
         r = self.meter.running
-        return FrameResult(result, state, self.roi, r.mean, r.std, r.count)
+        return FrameResult(result, state, self.roi, r.mean, r.std, r.count, reason)

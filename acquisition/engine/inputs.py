@@ -91,6 +91,7 @@ class Measurement:
     cue_xy: tuple[float, float] | None = None
     snr_mean_raw: float = float("nan")  # the same track on raw frames, while a correction is on
     snr_std_raw: float = float("nan")
+    track_reason: str = ""  # why the tracker did not find the drone in this frame ("": it did)
 
 
 @dataclass(frozen=True, slots=True)

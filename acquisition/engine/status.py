@@ -42,6 +42,7 @@ class CameraStatus:
     roi_xy: tuple[int, int] | None = None
     gps_xy: tuple[float, float] | None = None  # the drone's GPS position projected (px)
     track_state: str = "idle"
+    track_reason: str = ""  # why the track missed its last frame (docs/tracking.md), "" if not
     last: PeakSnr | None = None
     snr_mean: float = float("nan")
     snr_std: float = float("nan")

@@ -13,14 +13,38 @@ import bisect
 import math
 from collections import deque
 
+RIM_PIXELS = 24  # the 7x7 rim the std factor is stated for
 
-def is_contaminated(bg_std: float, gradient: float, reference: float | None, cfg) -> bool:
-    """The ``rim_contaminated`` test of one frame against a recent-noise reference (DN)."""
+
+def std_factor(cfg, n_pixels: int | None) -> float:
+    """The std threshold for a background of ``n_pixels`` (None: the configured factor): the
+    same significance as ``contamination_std_factor`` on the 24-pixel rim. The std of n
+    pixels of white noise scatters by 1/sqrt(2 (n - 1)), so the excess over 1 scales by
+    sqrt(23 / (n - 1)): 2.0 on the 7x7 rim, 1.57 on a 72-pixel extent rim."""
+    f = cfg.contamination_std_factor
+    if n_pixels is None or n_pixels <= RIM_PIXELS:
+        return f
+    return 1.0 + (f - 1.0) * math.sqrt((RIM_PIXELS - 1) / (n_pixels - 1))
+
+
+def is_contaminated(
+    bg_std: float,
+    gradient: float,
+    reference: float | None,
+    cfg,
+    extent_px: int | None = None,
+    n_pixels: int | None = None,
+) -> bool:
+    """The ``rim_contaminated`` test of one frame against a recent-noise reference (DN);
+    ``extent_px``: the background's extent for the gradient term (default ``cfg.extent_px``);
+    ``n_pixels``: a background larger than the rim gets the std threshold of the same
+    significance (:func:`std_factor`; None keeps the configured factor)."""
     if reference is None or not math.isfinite(bg_std):
         return False
+    extent = cfg.extent_px if extent_px is None else extent_px
     return bool(
-        bg_std > cfg.contamination_std_factor * reference
-        or gradient * cfg.extent_px > cfg.contamination_gradient_factor * reference
+        bg_std > std_factor(cfg, n_pixels) * reference
+        or gradient * extent > cfg.contamination_gradient_factor * reference
     )
 
 
@@ -71,6 +95,7 @@ class NoiseReference:
     def clear(self) -> None:
         self._recent.clear()
         self._sorted.clear()
+        self._rejected_run = 0
 
     def snapshot(self) -> dict:
         """The history, exactly (JSON-able), for :meth:`restore`."""
@@ -80,4 +105,3 @@ class NoiseReference:
         self._recent = deque(float(v) for v in state["recent"])
         self._sorted = sorted(self._recent)
         self._rejected_run = int(state["rejected_run"])
-        self._rejected_run = 0

@@ -27,7 +27,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,6 +50,11 @@ FLAG_NAMES: tuple[str, ...] = (
     FLAG_GPS_CUED,
 )
 _BIT = {name: 1 << i for i, name in enumerate(FLAG_NAMES)}
+BACKGROUND_RIM = "rim"
+BACKGROUND_EXTENT = "extent_rim"
+BACKGROUND_RECT = "rect"
+#: The background methods a :class:`PeakSnr` can name (docs/measurement.md).
+BACKGROUNDS: tuple[str, ...] = (BACKGROUND_RIM, BACKGROUND_EXTENT, BACKGROUND_RECT)
 #: Frames carrying any of these never enter the running statistics or the noise reference.
 RUNNING_EXCLUDED: frozenset[str] = frozenset(
     {FLAG_SATURATED, FLAG_EDGE, FLAG_UNDEFINED, FLAG_RIM_CONTAMINATED, FLAG_LOST}
@@ -83,6 +88,13 @@ class PeakSnr:
         bg_std: their std (DN; ddof as configured, detrended if asked).
         snr: (peak - bg_mean) / bg_std; NaN when not defined (flag ``undefined``).
         flags: names from :data:`FLAG_NAMES`.
+        background: which background the mean and std are of (:data:`BACKGROUNDS`): ``rim``
+            (the 24 rim pixels of Eq. 4's 7x7 box), ``extent_rim`` (the rim of the segmented
+            target's box grown by a guard band; :mod:`acquisition.measure.target_snr`) or
+            ``rect`` (the operator's clear-sky rectangle).
+        extent_w_px, extent_h_px: the segmented target's extent (box width and height, px)
+            when the tracker segmented it; 0 when not segmented. Metadata of the segmentation:
+            not compared by ``==``, which compares the Eq. 4 measurement.
     """
 
     peak_x: int
@@ -92,6 +104,9 @@ class PeakSnr:
     bg_std: float
     snr: float
     flags: frozenset[str]
+    background: str = "rim"
+    extent_w_px: int = field(default=0, compare=False)
+    extent_h_px: int = field(default=0, compare=False)
 
 
 @dataclass(frozen=True)
@@ -215,9 +230,7 @@ def measure_core(stack: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> _Core
             gradient[box_out] = np.nan
         snr = np.where(undefined, np.nan, (peak - bg_mean) / bg_std)
     peak[~np.isfinite(peak)] = np.nan
-    sat = cfg.saturation_dn
-    if sat is None and stack.dtype.kind in "ui":
-        sat = _dtype_max(stack.dtype)
+    sat = saturation_level(cfg, stack.dtype)
     bits = np.where(undefined, _BIT[FLAG_UNDEFINED], 0)
     bits |= np.where(box_out, _BIT[FLAG_EDGE], 0) | (_BIT[FLAG_EDGE] if clipped else 0)
     if sat is not None:
@@ -228,6 +241,13 @@ def measure_core(stack: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> _Core
 @functools.lru_cache(maxsize=16)
 def _dtype_max(dtype: np.dtype) -> float:
     return float(np.iinfo(dtype).max)
+
+
+def saturation_level(cfg: PeakSnrConfig, dtype: np.dtype) -> float | None:
+    """The ``saturated`` flag's level: the configured one, else an integer dtype's maximum."""
+    if cfg.saturation_dn is None and np.dtype(dtype).kind in "ui":
+        return _dtype_max(np.dtype(dtype))
+    return cfg.saturation_dn
 
 
 _EXCLUDED_BITS = flags_to_bits(RUNNING_EXCLUDED)
@@ -263,7 +283,12 @@ def sequential_pass(
             running.push(snr[i])
 
 
-def result_at(core: _Core, i: int) -> PeakSnr:
+def background_of(cfg: PeakSnrConfig) -> str:
+    """The background method Eq. (4) uses with ``cfg``: ``rect`` or ``rim``."""
+    return BACKGROUND_RIM if cfg.background is None else BACKGROUND_RECT
+
+
+def result_at(core: _Core, i: int, background: str = BACKGROUND_RIM) -> PeakSnr:
     """The i-th frame of a core as a :class:`PeakSnr`."""
     return PeakSnr(
         int(core.peak_x[i]),
@@ -273,6 +298,7 @@ def result_at(core: _Core, i: int) -> PeakSnr:
         float(core.bg_std[i]),
         float(core.snr[i]),
         flags_from_bits(int(core.bits[i])),
+        background,
     )
 
 
@@ -319,7 +345,7 @@ def _measure_one(pixels, at_xy, cfg, *, extra_bits=0, **state) -> PeakSnr:
     core = measure_core(pixels[None], x, y, cfg)
     core.bits |= extra_bits
     sequential_pass(core, cfg, **state)
-    return result_at(core, 0)
+    return result_at(core, 0, background_of(cfg))
 
 
 class PeakSnrMeter:

@@ -16,6 +16,7 @@ import numpy as np
 from acquisition.measure.peak_snr import (
     PeakSnr,
     PeakSnrMeter,
+    background_of,
     flags_from_bits,
     measure_core,
     pixel_of,
@@ -36,12 +37,13 @@ class StackSnr:
     bg_std: np.ndarray
     snr: np.ndarray
     flag_bits: np.ndarray
+    background: str = "rim"  # the method of every frame: "rim" or "rect"
 
     def __len__(self) -> int:
         return len(self.snr)
 
     def __getitem__(self, i: int) -> PeakSnr:
-        return result_at(self, i)  # type: ignore[arg-type]
+        return result_at(self, i, self.background)  # type: ignore[arg-type]
 
     @property
     def bits(self) -> np.ndarray:
@@ -51,7 +53,7 @@ class StackSnr:
         return flags_from_bits(int(self.flag_bits[i]))
 
     def to_list(self) -> list[PeakSnr]:
-        return [result_at(self, i) for i in range(len(self))]  # type: ignore[arg-type]
+        return [result_at(self, i, self.background) for i in range(len(self))]  # type: ignore[arg-type]
 
 
 def measure_stack(
@@ -82,9 +84,11 @@ def measure_stack(
         core = measure_core(stack[start : start + chunk_frames], x, y, meter.config)
         sequential_pass(core, meter.config, reference=meter.reference, running=meter.running)
         parts.append(core)
+
+    def joined(name: str) -> np.ndarray:
+        return np.concatenate([getattr(p, name) for p in parts])
+
     return StackSnr(
-        *(
-            np.concatenate([getattr(p, name) for p in parts])
-            for name in ("peak_x", "peak_y", "peak", "bg_mean", "bg_std", "snr", "bits")
-        )
-    )
+        joined("peak_x"), joined("peak_y"), joined("peak"), joined("bg_mean"), joined("bg_std"),
+        joined("snr"), joined("bits"), background_of(meter.config),
+    )  # fmt: skip

@@ -168,6 +168,7 @@ def upgrade_rows(rows: np.ndarray) -> np.ndarray:
     for name in ("cue_x", "cue_y", "snr_mean", "snr_std", "range_m"):
         out[name] = np.nan
     out["window_x"], out["window_y"] = rows["peak_x"], rows["peak_y"]
+    out["background"] = b"rim"  # before 2.0 Eq. (4) was always on the 7x7 rim
     for name in rows.dtype.names or ():
         if name in (out.dtype.names or ()):
             out[name] = rows[name]

@@ -13,10 +13,11 @@ from acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit orde
 
 FORMAT = "snrmon-session"
 FORMAT_VERSION = "2.0"
-"""2.0 (issue 16): per-frame track state, window, cue, running statistics and range in
-/cameras/<name>/measurements; engine states at recording gaps (/cameras/<name>/states); background
-reference images (/cameras/<name>/references); stop events carry the stop's times. A 1.x file is
-still read (the new fields are missing there) and replayed as before."""
+"""2.0 (issues 14, 16): per-frame background method and target extent, track state, window, cue,
+running statistics and range in /cameras/<name>/measurements; engine states at recording gaps
+(/cameras/<name>/states); background reference images (/cameras/<name>/references); stop events
+carry the stop's times. A 1.x file is still read (the new fields are missing there) and replayed
+as before."""
 
 CAMERAS = "cameras"
 FRAMES = "frames"
@@ -49,6 +50,9 @@ MEASUREMENT_DTYPE = np.dtype(
         ("bg_std", "<f8"),
         ("snr", "<f8"),
         ("flags", "<u2"),
+        ("background", f"S{NAME_BYTES}"),
+        ("extent_w_px", "<i2"),
+        ("extent_h_px", "<i2"),
         ("track_state", f"S{STATE_TEXT_BYTES}"),
         ("window_x", "<i4"),
         ("window_y", "<i4"),
@@ -74,6 +78,9 @@ MEASUREMENT_UNITS = {
     "bg_std": "DN",
     "snr": "1 (paper Eq. 4; NaN when undefined)",
     "flags": "bit i = flag_names[i]",
+    "background": "rim | extent_rim | rect: the background bg_mean/bg_std are of",
+    "extent_w_px": "px, segmented target's box width (0: not segmented)",
+    "extent_h_px": "px, segmented target's box height (0: not segmented)",
     "track_state": "fixed | tracking | lost | gps_cued | ... (the tracker's state after the frame)",
     "window_x": "px, column of the search window's centre after the frame",
     "window_y": "px, row of the search window's centre after the frame",

@@ -121,6 +121,9 @@ def measurement_row(index: int | None, m: Measurement) -> tuple:
         r.bg_std,
         r.snr,
         flags_to_bits(r.flags),
+        S.text_field(r.background, S.NAME_BYTES),
+        r.extent_w_px,
+        r.extent_h_px,
         S.text_field(m.track_state, S.STATE_TEXT_BYTES),
         m.window_xy[0],
         m.window_xy[1],
@@ -146,12 +149,16 @@ def values_row(
     bg_std: float,
     snr: float,
     flags: int | Iterable[str] = 0,
+    background: str = "rim",
+    extent_w_px: int = 0,
+    extent_h_px: int = 0,
 ) -> tuple:
     """A measurement row from Eq. (4)'s values alone (a frame measured without the engine's
     context: the track state is empty, the window is the peak, the rest is "not given")."""
     bits = int(flags) if isinstance(flags, (int, np.integer)) else flags_to_bits(flags)
     nan = math.nan
     return (index, counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr, bits,
+            background.encode(), extent_w_px, extent_h_px,
             b"", peak_x, peak_y, nan, nan, nan, nan, 0, nan, b"")  # fmt: skip
 
 
@@ -165,6 +172,9 @@ def peak_snr_from_row(row: np.void) -> PeakSnr:
         float(row["bg_std"]),
         float(row["snr"]),
         flags_from_bits(int(row["flags"])),
+        S.text_value(row["background"]),
+        int(row["extent_w_px"]),
+        int(row["extent_h_px"]),
     )
 
 

@@ -104,6 +104,7 @@ def same_result(row: np.void, m: Measurement) -> bool:
         and rec.peak_x == r.peak_x
         and rec.peak_y == r.peak_y
         and rec.flags == r.flags
+        and rec.background == r.background
     )
     if same and bytes(row["track_state"]):  # format 2
         same = (

@@ -45,6 +45,7 @@ CSV_COLUMNS: tuple[str, ...] = (
     "n_frames",
     "snr_mean",
     "snr_std",
+    "background",
     *(f"model_{c}" for c in CURVES),
     *(f"ratio_{c}" for c in CURVES),
 )
@@ -171,6 +172,7 @@ def csv_rows(rows: list[StopRow]) -> list[dict[str, object]]:
             "n_frames": r.n_frames,
             "snr_mean": r.snr_mean,
             "snr_std": r.snr_std,
+            "background": r.background or None,
         }
         for c in CURVES:
             row[f"model_{c}"] = r.model_snr.get(c)

@@ -50,6 +50,13 @@ def _figure():
     return Figure(figsize=PAGE_IN, dpi=PNG_DPI)
 
 
+def _background(methods: object) -> str:
+    """A stop's background methods, short: rim, ext (extent_rim), rect; "--" when none."""
+    if not methods:
+        return "--"
+    return str(methods).replace("extent_rim", "ext")
+
+
 def _fmt(v, spec: str) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "-"
@@ -69,20 +76,22 @@ def summary_page(data: ReportData):
             else f"live session of {data.recording_seconds:.1f} s, as measured (not replayed)"
         )
         + f"; {len({r.stop for r in data.rows})} stops",
-        "SNR = (peak - mean(rim)) / std(rim) per frame (Eq. 4), mean and sample std over the "
+        "SNR = (peak - mean(BG)) / std(BG) per frame (Eq. 4), mean and sample std over the "
         "first 100 consecutive valid frames of each stop.",
+        "BG (column bg): rim = the 7x7 box's rim; ext = outside the segmented drone and a 2 px "
+        "guard (a drone wider than the box); rect = the operator's clear-sky rectangle.",
         "ratio = measured mean / model at the stop's range (rangefinder, else GPS).",
     ]
     for i, line in enumerate(lines):
         fig.text(0.06, 0.925 - 0.022 * i, line, fontsize=8)
-    head = ["stop", "camera", "LRF m", "GPS m", "n", "SNR", "std"]
+    head = ["stop", "camera", "LRF m", "GPS m", "n", "SNR", "std", "bg"]
     head += [f"model {c.replace('_corrected', ' corr')}" for c in CURVES] + ["ratio s.corr"]
     cells = []
     for r in data.csv_rows:
         cells.append(
             [str(r["stop"]), str(r["camera"]), _fmt(r["lrf_range_m"], ".1f"),
              _fmt(r["gps_range_m"], ".1f"), str(r["n_frames"]), _fmt(r["snr_mean"], ".2f"),
-             _fmt(r["snr_std"], ".2f")]
+             _fmt(r["snr_std"], ".2f"), _background(r["background"])]
             + [_fmt(r[f"model_{c}"], ".1f") for c in CURVES]
             + [_fmt(r["ratio_small_corrected"], ".3f")]
         )  # fmt: skip

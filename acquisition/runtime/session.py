@@ -256,7 +256,9 @@ class Session:
             for t, r in self.engine.stop_table.history(name):
                 rec.add_measurement(name, -1, counter=-1, t_host_ns=t, peak_x=r.peak_x,
                                     peak_y=r.peak_y, peak=r.peak, bg_mean=r.bg_mean,
-                                    bg_std=r.bg_std, snr=r.snr, flags=r.flags)  # fmt: skip
+                                    bg_std=r.bg_std, snr=r.snr, flags=r.flags,
+                                    background=r.background, extent_w_px=r.extent_w_px,
+                                    extent_h_px=r.extent_h_px)  # fmt: skip
         with self._lock:
             self._recorder = rec
         for pipe in self.pipelines.values():

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -64,11 +64,20 @@ class StopRow:
     resolved: bool | None = None  # the model's verdict for the small dimension at this range
     final: bool = False  # the stop ended and the camera passed its end: the row will not change
     snr_sem: float = float("nan")  # error of the mean, frames' autocorrelation counted
+    # The background(s) the summarised frames were measured against (rim, extent_rim, rect),
+    # most used first, joined by "+"; "" without frames.
+    background: str = ""
 
     @property
     def range_m(self) -> float | None:
         """The stop's range: the rangefinder's when it has one, else the GPS slant range."""
         return self.lrf_range_m if self.lrf_range_m is not None else self.gps_range_m
+
+
+def backgrounds_of(results) -> str:
+    """The background methods of some measurements, most used first, joined by "+"."""
+    counts = Counter(r.background for r in results)
+    return "+".join(name for name, _ in counts.most_common())
 
 
 class RowBuilder:
@@ -262,6 +271,7 @@ class StopTable:
             model_snr=model,
             resolved=None if resolved is None else bool(resolved),
             final=final,
+            background=backgrounds_of(r for _, r in run),
         )
         return row, run
 

@@ -1,63 +1,42 @@
-"""The track: keeps the Eq. (4) search window on a faint drone from frame to frame.
+"""The track: follows the object the operator clicked, measures it, and finds it again.
 
-After the operator's click the window follows the peak, but only within a motion gate: the drone
-hovers, so a peak that jumps farther than ``gate_px`` between frames is not the drone (a bird, an
-aircraft, a cloud edge entering the window). Lost track is a state, shown and recorded, never a
-silent jump; the drone's GPS position projected into the image (:mod:`acquisition.geo.projection`)
-cues the
-search to find it again, as the paper's operators did (section 7).
+The operator clicks the drone once; the tracker follows *the compact bright object nearest the
+click* (an :func:`acquisition.measure.blob.analyse_blob` object, significant and isolated: a
+treeline, a cloud bank or a saturated region is not one) and measures every frame with paper
+Eq. (4), the background chosen by the target's extent (:mod:`acquisition.measure.target_snr`).
+Per frame (rules and numbers in docs/tracking.md and :class:`TrackerConfig`):
 
-Per frame (:meth:`Tracker.update`):
+1. **Click**: the nearest object within ``click_radius_px``; none -> LOST, reason ``no_object``.
+2. **Follow**: a constant-velocity model (:mod:`acquisition.track.motion`) predicts the core
+   box; the object there is judged (:func:`acquisition.track.candidate.judge`: occluded,
+   faint, gate, bright, size) without ever looking at the SNR, which a contaminated background
+   can make meaningless.
+3. **Measure**: :class:`acquisition.measure.target_snr.TargetMeter`; a miss is Eq. (4) at the
+   held window, flagged ``lost`` when refused as occluded, gate, bright or size.
+4. **States**: tracking, occluded, lost (``lost_frames`` misses), reacquiring, gps_cued.
+5. **Reacquisition**: a square growing around the prediction (around a fresh GPS cue while
+   lost); a candidate is accepted after ``reacquire_frames`` consistent frames (a GPS-cued one
+   at once).
 
-1. Measure Eq. (4) with :func:`acquisition.measure.peak_snr.peak_snr_with` and the measurement's own
-   :class:`~acquisition.measure.peak_snr.PeakSnrConfig` (one source of the Eq. 4 settings) in the
-   search
-   window (``search_px``, default 11) centred on the window centre = the last accepted peak.
-2. Judge the candidate, in this order: SNR undefined -> ``undefined``; peak farther than
-   ``gate_px`` from the last accepted peak (Chebyshev distance, max(|dx|, |dy|)) -> ``gate``; peak
-   contrast (peak - bg_mean) above ``brightness_factor`` x the median contrast of the last
-   ``brightness_frames`` accepted frames (once there are ``brightness_min_frames``) -> ``bright``;
-   rim contaminated (the measurement's own flag) -> ``contaminated``; SNR below ``lost_snr``, or
-   contrast below that median / ``brightness_factor`` (a noise peak where the drone vanished) ->
-   ``faint``; else accepted.
-3. Refused by the gate: search again only inside the gate (a ``2 gate_px + 1`` square around the
-   last peak) and judge that candidate the same way; its measurement is the frame's output.
-4. Accepted: the window centre moves to the peak. Anything else is a miss and the window holds.
-   A frame refused by ``gate`` or ``bright`` gets the ``lost`` flag (its measurement is not the
-   drone's); ``faint`` frames are genuine measurements of a faint drone and keep their flags.
-5. ``lost_frames`` consecutive misses -> state LOST: every frame is flagged ``lost`` and the window
-   holds until a cue or a new click (no automatic reacquisition: a bird near the old position
-   must not capture a lost track).
-6. :meth:`Tracker.cue` gives the projected GPS position. While LOST, the search runs in a
-   ``2 cue_radius_px + 1`` square around the latest cue (no older than ``cue_max_age_frames``);
-   a candidate with SNR >= ``reacquire_snr`` that passes the brightness and contamination tests
-   reacquires: state GPS_CUED, frames flagged ``gps_cued``, until ``confirm_frames`` consecutive
-   accepted frames make it TRACKING again.
-
-The first frame after a click has no gate (the operator's click is the prior). When the window
-never moves, every output is bit-identical to :func:`~acquisition.measure.peak_snr.peak_snr_with`
-at that
-point with the same configuration and ``reference_noise``: the tracker calls it, and only adds
-``lost``/``gps_cued``.
+The complete state is :meth:`Tracker.snapshot` (JSON-able; floats exact) and
+:meth:`Tracker.restore`: a tracker built with the same configuration and restored from the
+state after frame k gives bit-identical steps from frame k + 1 on. Everything a frame reads lies
+within :func:`reach_px` of :attr:`Tracker.read_centre`.
 
 The rim-contamination reference (``reference_noise``): ``"recent"`` (default) keeps the same
 recent-noise median as :class:`acquisition.measure.peak_snr.PeakSnrMeter`, fed with the tracker's
-output
-frames; a number fixes it (DN); None skips the contamination test.
+output frames; a number fixes it (DN); None skips the contamination test.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import statistics
-from collections import deque
 from collections.abc import Iterable
-from dataclasses import dataclass
-from enum import Enum
 
 import numpy as np
 
+from acquisition.measure.blob import Blob, analyse_blob
 from acquisition.measure.contamination import NoiseReference
 from acquisition.measure.peak_snr import (
     FLAG_GPS_CUED,
@@ -66,83 +45,35 @@ from acquisition.measure.peak_snr import (
     RUNNING_EXCLUDED,
     PeakSnr,
     PeakSnrConfig,
-    peak_snr_with,
     pixel_of,
 )
+from acquisition.measure.target_snr import TargetMeter
+from acquisition.track.candidate import Candidate, ObjectHistory, box_at, judge
+from acquisition.track.config import (
+    ON_TARGET,
+    REFUSED,
+    WING_PX,
+    TrackerConfig,
+    TrackState,
+    TrackStep,
+    reach_px,
+)
+from acquisition.track.motion import MotionModel
+from acquisition.track.reacquire import Reacquisition
+from acquisition.track.search import box_distance, brightest_in, find_objects
+
+__all__ = [
+    "ON_TARGET",
+    "TrackState",
+    "TrackStep",
+    "Tracker",
+    "TrackerConfig",
+    "reach_px",
+    "track_stack",
+]
 
 
-class TrackState(Enum):
-    """What the track is doing; shown to the operator and recorded."""
-
-    TRACKING = "tracking"
-    LOST = "lost"
-    GPS_CUED = "gps_cued"
-
-
-@dataclass(frozen=True)
-class TrackerConfig:
-    """Every number of the tracker (module docstring). The Eq. (4) settings it measures with
-    (search window, box, background, contamination test) are a :class:`PeakSnrConfig`, given
-    to :class:`Tracker` beside this, so that tracking and fixed-point measurement share them."""
-
-    gate_px: int = 3
-    lost_snr: float = 3.0
-    lost_frames: int = 10
-    brightness_factor: float = 3.0
-    brightness_frames: int = 25
-    brightness_min_frames: int = 5
-    cue_radius_px: int = 15
-    cue_max_age_frames: int = 60
-    reacquire_snr: float = 5.0
-    confirm_frames: int = 5
-
-    def __post_init__(self) -> None:
-        for name in ("gate_px", "cue_radius_px"):
-            v = getattr(self, name)
-            if int(v) != v or v < 1:
-                raise ValueError(f"tracker {name} must be an integer >= 1, got {v}")
-        for name in ("lost_frames", "confirm_frames", "brightness_frames", "cue_max_age_frames"):
-            v = getattr(self, name)
-            if int(v) != v or v < 1:
-                raise ValueError(f"tracker {name} must be an integer >= 1, got {v}")
-        if not 1 <= self.brightness_min_frames <= self.brightness_frames:
-            raise ValueError(
-                f"tracker brightness_min_frames must be in 1..{self.brightness_frames}, "
-                f"got {self.brightness_min_frames}"
-            )
-        for name in ("lost_snr", "reacquire_snr", "brightness_factor"):
-            v = getattr(self, name)
-            if math.isnan(v) or (name == "brightness_factor" and v <= 1):
-                raise ValueError(f"tracker {name} must be a number (factor > 1), got {v}")
-
-
-@dataclass(frozen=True, slots=True)
-class TrackStep:
-    """One frame's outcome.
-
-    Attributes:
-        peak_snr: the Eq. (4) measurement output for this frame (with ``lost``/``gps_cued``).
-        state: the track state after this frame.
-        window_x, window_y: centre of the search window the output was measured in.
-        search_px: that window's size (the normal window, the gate, or the cue square).
-        reason: "" when accepted, else why not: undefined, gate, bright, contaminated, faint,
-            no_cue (lost, no usable cue).
-        misses: consecutive frames not accepted.
-    """
-
-    peak_snr: PeakSnr
-    state: TrackState
-    window_x: int
-    window_y: int
-    search_px: int
-    reason: str
-    misses: int
-
-
-_REFUSED = frozenset({"gate", "bright"})
-
-
-class Tracker:
+class Tracker(Reacquisition):
     """Follows the drone from the operator's click (:meth:`click`) frame by frame."""
 
     def __init__(
@@ -158,9 +89,10 @@ class Tracker:
             raise ValueError("give either config or settings, not both")
         self.config = config if config is not None else TrackerConfig(**settings)
         self.measurement = measurement if measurement is not None else PeakSnrConfig()
-        # One configuration per window size the tracker searches (normal, gate, cue square),
-        # built once: each keeps its cached background offsets.
-        self._configs: dict[int, PeakSnrConfig] = {self.measurement.search_px: self.measurement}
+        c = self.config
+        self._meter = TargetMeter(
+            self.measurement, gate_px=c.gate_px, guard_px=c.guard_px, wing_px=WING_PX
+        )
         if not (reference_noise is None or reference_noise == "recent") and (
             isinstance(reference_noise, str) or not math.isfinite(reference_noise)
         ):
@@ -170,21 +102,29 @@ class Tracker:
         self._fixed_reference = reference_noise
         m = self.measurement
         self._reference = NoiseReference(m.reference_frames, m.reference_min_frames)
-        self._contrasts: deque[float] = deque(maxlen=self.config.brightness_frames)
-        self._cue: tuple[float, float] | None = None
+        self._history = ObjectHistory(c.brightness_frames, c.brightness_min_frames)
+        self.motion = MotionModel(c.motion)
+        self._cue = None
         self._cue_age = 0
+        self._shape = None
+        self._search_reason = "searching"
+        self.reacquisitions = 0
         self.click(at_xy)
 
     # ----------------------------------------------------------------------------- commands
     def click(self, at_xy: tuple[float, float]) -> None:
-        """The operator's click: the window goes there, the track starts afresh (TRACKING)."""
-        self._window = pixel_of(at_xy)
-        self._anchored = False  # no accepted peak yet: the first frame is not gated
+        """The operator's click: the track starts afresh from the object nearest it."""
+        self._click = pixel_of(at_xy)
+        self._window = self._click
+        self._anchored = False  # no object yet: the next frame looks near the click
         self._misses = 0
         self._confirmed = 0
-        self.state = TrackState.TRACKING
-        self._contrasts.clear()
+        self.track_state = TrackState.TRACKING
+        self._history.clear()
         self._reference.clear()
+        self._meter.wings.clear()
+        self.motion.reset(*self._click)
+        self._pending: Candidate | None = None
 
     def cue(self, x: float, y: float) -> None:
         """The drone's GPS position projected into this camera (pixels). Used while LOST;
@@ -194,44 +134,22 @@ class Tracker:
         self._cue = (float(x), float(y))
         self._cue_age = 0
 
-    def snapshot(self) -> dict:
-        """The track's complete state, exactly (JSON-able): a tracker of the same configuration
-        given it with :meth:`restore` continues bit-identically (the replay of a recording
-        across frames measured live but missing from the file)."""
-        return {
-            "window": list(self._window),
-            "anchored": self._anchored,
-            "misses": self._misses,
-            "confirmed": self._confirmed,
-            "state": self.state.value,
-            "contrasts": list(self._contrasts),
-            "reference": self._reference.snapshot(),
-            "cue": None if self._cue is None else list(self._cue),
-            "cue_age": self._cue_age,
-        }
-
-    def restore(self, state: dict) -> None:
-        x, y = state["window"]
-        self._window = (int(x), int(y))
-        self._anchored = bool(state["anchored"])
-        self._misses = int(state["misses"])
-        self._confirmed = int(state["confirmed"])
-        self.state = TrackState(state["state"])
-        self._contrasts.clear()
-        self._contrasts.extend(float(v) for v in state["contrasts"])
-        self._reference.restore(state["reference"])
-        cue = state["cue"]
-        self._cue = None if cue is None else (float(cue[0]), float(cue[1]))
-        self._cue_age = int(state["cue_age"])
-
     @property
     def last_cue(self) -> tuple[float, float] | None:
         return self._cue
 
     @property
     def window_xy(self) -> tuple[int, int]:
-        """Where the next frame's search window is centred."""
+        """Where the next frame's Eq. (4) search window is centred."""
         return self._window
+
+    @property
+    def read_centre(self) -> tuple[int, int]:
+        """Centre of the square (half-size :func:`reach_px`) the next frame reads in."""
+        if self.track_state in (TrackState.LOST, TrackState.REACQUIRING):
+            # As update() will plan it: one miss more, the cue one frame older.
+            return self._plan(self._misses + 1, use_cue=True, ahead=1)[1]
+        return pixel_of(self.motion.predict())
 
     @property
     def reference_noise(self) -> float | None:
@@ -243,11 +161,22 @@ class Tracker:
     # ----------------------------------------------------------------------------- per frame
     def update(self, pixels: np.ndarray) -> TrackStep:
         """Measure and track one frame (rows, columns)."""
+        if pixels.ndim != 2:
+            raise ValueError(f"a frame must be 2-D (rows, columns), got shape {pixels.shape}")
+        if self._shape is None:
+            self._shape = pixels.shape
+        elif pixels.shape != self._shape:
+            raise ValueError(
+                f"frame of {pixels.shape[1]}x{pixels.shape[0]} px, but the track runs on "
+                f"{self._shape[1]}x{self._shape[0]} px frames"
+            )
         if self._cue is not None:
             self._cue_age += 1
         ref = self.reference_noise
-        if self.state is TrackState.LOST:
-            step = self._search_lost(pixels, ref)
+        if not self._anchored and self.track_state is TrackState.TRACKING:
+            step = self._acquire(pixels, ref)
+        elif self.track_state in (TrackState.LOST, TrackState.REACQUIRING):
+            step = self._lost(pixels, ref)
         else:
             step = self._follow(pixels, ref)
         m = step.peak_snr
@@ -258,100 +187,156 @@ class Tracker:
         )
         return step
 
-    def _measure(self, pixels, at, search_px, ref) -> PeakSnr:
-        cfg = self._configs.get(search_px)
-        if cfg is None:
-            cfg = self._configs[search_px] = dataclasses.replace(
-                self.measurement, search_px=search_px
-            )
-        return peak_snr_with(pixels, at, cfg, reference_noise=ref)
+    def _analyse(self, pixels, seed, size_px: int, centre=None) -> Blob | None:
+        if seed is None:
+            return None
+        at = None if centre is None else pixel_of(centre)
+        return analyse_blob(pixels, seed, self.config.blob, min_half_px=size_px, centre_xy=at)
 
-    def _judge(self, m: PeakSnr, *, gated: bool, min_snr: float) -> str:
-        if not math.isfinite(m.snr):
-            return "undefined"
-        if gated and self._anchored:
-            wx, wy = self._window
-            if max(abs(m.peak_x - wx), abs(m.peak_y - wy)) > self.config.gate_px:
-                return "gate"
+    def _acquire(self, pixels, ref) -> TrackStep:
         c = self.config
-        if len(self._contrasts) >= c.brightness_min_frames:
-            typical = statistics.median(self._contrasts)
-            contrast = m.peak - m.bg_mean
-            if typical > 0 and contrast > c.brightness_factor * typical:
-                return "bright"
-            if typical > 0 and contrast * c.brightness_factor < typical:
-                # Implausibly dim: the drone is gone and this is a noise peak. Following it
-                # would walk the window off the drone's last position.
-                return "faint"
-        if FLAG_RIM_CONTAMINATED in m.flags:
-            return "contaminated"
-        if m.snr < min_snr:
-            return "faint"
-        return ""
+        cx, cy = self._click
+        rows, cols = pixels.shape
+        if not (0 <= cx < cols and 0 <= cy < rows):
+            raise ValueError(
+                f"click at x={cx}, y={cy} is off the {cols}x{rows} image "
+                f"(x must be 0..{cols - 1}, y 0..{rows - 1})"
+            )
+        near = brightest_in(pixels, (cx - 2, cy - 2, cx + 2, cy + 2))
+        objects = find_objects(
+            pixels, (cx, cy), c.click_radius_px + 2, config=c.blob,
+            min_significance=c.reacquire_snr, min_isolation=c.reacquire_isolation,
+            seeds=() if near is None else (near,),
+        )  # fmt: skip
+        objects = [b for b in objects if box_distance(b.core_box, (cx, cy)) <= c.click_radius_px]
+        if not objects:
+            self._misses = 1
+            self.track_state = TrackState.LOST
+            m = self._meter.measure(pixels, self._click, self.measurement.search_px, ref)
+            return self._step(m, self._click, self.measurement.search_px, "no_object", {FLAG_LOST})
+        blob = objects[0]
+        m, at, size = self._meter.measure_object(pixels, blob, self._click, ref)
+        self.motion.reset(blob.centroid_x, blob.centroid_y)
+        self._accept(blob)
+        return self._step(m, at, size, "", set())
 
+    # ------------------------------------------------------------------ following
     def _follow(self, pixels, ref) -> TrackStep:
         c = self.config
-        at = self._window
-        size = self.measurement.search_px
-        m = self._measure(pixels, at, size, ref)
-        reason = self._judge(m, gated=True, min_snr=c.lost_snr)
-        if reason == "gate":
-            size = 2 * c.gate_px + 1
-            m = self._measure(pixels, at, size, ref)
-            reason = self._judge(m, gated=True, min_snr=c.lost_snr)
-        extra: set[str] = set()
-        if reason == "":
-            self._accept(m)
-            if self.state is TrackState.GPS_CUED:
+        pred = self.motion.predict()
+        hist = self._history
+        core = box_at(hist.rel, *pred)
+        seed = brightest_in(pixels, box_at(hist.rel, *pred, grow=c.gate_px))
+        blob = self._analyse(pixels, seed, hist.size_px, pred)
+        reason = judge(blob, pred, self._history, c)
+        if reason in ("occluded", "faint", "undefined", "gate"):
+            # The brightest pixel near the prediction may be clutter or another object beside
+            # the drone: try the predicted core itself.
+            seed2 = brightest_in(pixels, core)
+            if seed2 is not None and seed2 != seed:
+                blob2 = self._analyse(pixels, seed2, hist.size_px, pred)
+                if judge(blob2, pred, self._history, c) == "":
+                    blob, reason = blob2, ""
+        if reason == "" and blob is not None:  # judge() calls a missing object "undefined"
+            m, at, size = self._meter.measure_object(pixels, blob, self._window, ref)
+            self.motion.update(blob.centroid_x, blob.centroid_y)
+            self._accept(blob)
+            if self.track_state is TrackState.GPS_CUED:
                 self._confirmed += 1
                 if self._confirmed >= c.confirm_frames:
-                    self.state = TrackState.TRACKING
-        else:
-            self._misses += 1
-            self._confirmed = 0
-            if reason in _REFUSED:
-                extra.add(FLAG_LOST)
-            if self._misses >= c.lost_frames:
-                self.state = TrackState.LOST
-        if self.state is TrackState.LOST:
-            extra.add(FLAG_LOST)
-        elif self.state is TrackState.GPS_CUED:
+                    self.track_state = TrackState.TRACKING
+            else:
+                self.track_state = TrackState.TRACKING
+            extra = {FLAG_GPS_CUED} if self.track_state is TrackState.GPS_CUED else set()
+            return self._step(m, at, size, "", extra)
+        return self._miss(pixels, ref, reason)
+
+    def _miss(self, pixels, ref, reason: str) -> TrackStep:
+        c = self.config
+        self._misses += 1
+        self._confirmed = 0
+        self.motion.coast()
+        if self._misses >= c.lost_frames:
+            self.track_state = TrackState.LOST
+        elif reason == "occluded":
+            self.track_state = TrackState.OCCLUDED
+        # A drone that vanished from its predicted place (a jump, a cut, a fast turn) is looked
+        # for at once; one hidden by a confuser or merged with clutter is most likely still
+        # where it was.
+        vanished = reason in ("faint", "undefined")
+        if self.track_state is TrackState.LOST or (
+            vanished and self._misses >= c.search_after_misses
+        ):
+            found = self._reacquire(pixels, ref, use_cue=False)[0]
+            if found is not None:
+                return found
+        at = self._window
+        size = self.measurement.search_px
+        m = self._meter.measure(pixels, at, size, ref)
+        if max(abs(m.peak_x - at[0]), abs(m.peak_y - at[1])) > c.gate_px:
+            size = 2 * c.gate_px + 1
+            m = self._meter.measure(pixels, at, size, ref)
+        lost = reason in REFUSED or self.track_state is TrackState.LOST
+        extra = {FLAG_LOST} if lost else set()
+        if self.track_state is TrackState.GPS_CUED:
             extra.add(FLAG_GPS_CUED)
         return self._step(m, at, size, reason, extra)
 
-    def _search_lost(self, pixels, ref) -> TrackStep:
-        c = self.config
-        rows, cols = pixels.shape
-        cue = self._cue if self._cue_age <= c.cue_max_age_frames else None
-        if cue is not None:
-            cx, cy = pixel_of(cue)
-            if 0 <= cx < cols and 0 <= cy < rows:
-                size = 2 * c.cue_radius_px + 1
-                m = self._measure(pixels, (cx, cy), size, ref)
-                reason = self._judge(m, gated=False, min_snr=c.reacquire_snr)
-                if reason == "":
-                    self._accept(m)
-                    self._cue = None  # used: a later loss needs a fresh position
-                    self.state = TrackState.GPS_CUED
-                    self._confirmed = 1
-                    return self._step(m, (cx, cy), size, "", {FLAG_GPS_CUED})
-                self._misses += 1
-                return self._step(m, (cx, cy), size, reason, {FLAG_LOST})
-        self._misses += 1
-        size = self.measurement.search_px
-        m = self._measure(pixels, self._window, size, ref)
-        return self._step(m, self._window, size, "no_cue", {FLAG_LOST})
-
-    def _accept(self, m: PeakSnr) -> None:
-        self._window = (m.peak_x, m.peak_y)
+    def _accept(self, blob: Blob) -> None:
+        self._window = (blob.peak_x, blob.peak_y)
         self._anchored = True
         self._misses = 0
-        self._contrasts.append(m.peak - m.bg_mean)
+        self._pending = None
+        self._history.add(blob)
 
     def _step(self, m: PeakSnr, at, size: int, reason: str, extra: set[str]) -> TrackStep:
         if extra - m.flags:
             m = dataclasses.replace(m, flags=m.flags | extra)
-        return TrackStep(m, self.state, int(at[0]), int(at[1]), size, reason, self._misses)
+        return TrackStep(m, self.track_state, int(at[0]), int(at[1]), size, reason, self._misses)
+
+    # ------------------------------------------------------------------ state
+    def snapshot(self) -> dict:
+        """Everything the tracker remembers, JSON-able (str/int/float/bool/None, lists and
+        dicts; floats kept exactly): :meth:`restore` on a tracker with the same
+        configuration continues bit for bit."""
+        pending = self._pending
+        return {
+            "track_state": self.track_state.value,
+            "click": list(self._click),
+            "window": list(self._window),
+            "anchored": self._anchored,
+            "misses": self._misses,
+            "confirmed": self._confirmed,
+            "cue": None if self._cue is None else list(self._cue),
+            "cue_age": self._cue_age,
+            "shape": None if self._shape is None else list(self._shape),
+            "search_reason": self._search_reason,
+            "reacquisitions": self.reacquisitions,
+            "motion": self.motion.snapshot(),
+            "history": self._history.snapshot(),
+            "reference": self._reference.snapshot(),
+            "wings": self._meter.wings.snapshot(),
+            "pending": None if pending is None else pending.snapshot(),
+        }
+
+    def restore(self, d: dict) -> None:
+        """Restore a :meth:`snapshot` taken from a tracker with the same configuration."""
+        self.track_state = TrackState(d["track_state"])
+        self._click = (int(d["click"][0]), int(d["click"][1]))
+        self._window = (int(d["window"][0]), int(d["window"][1]))
+        self._anchored = bool(d["anchored"])
+        self._misses = int(d["misses"])
+        self._confirmed = int(d["confirmed"])
+        self._cue = None if d["cue"] is None else (float(d["cue"][0]), float(d["cue"][1]))
+        self._cue_age = int(d["cue_age"])
+        self._shape = None if d["shape"] is None else (int(d["shape"][0]), int(d["shape"][1]))
+        self._search_reason = str(d["search_reason"])
+        self.reacquisitions = int(d["reacquisitions"])
+        self.motion.restore(d["motion"])
+        self._history.restore(d["history"])
+        self._reference.restore(d["reference"])
+        self._meter.wings.restore(d["wings"])
+        self._pending = None if d["pending"] is None else Candidate.from_snapshot(d["pending"])
 
 
 def track_stack(

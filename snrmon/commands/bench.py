@@ -56,6 +56,7 @@ def run(args: argparse.Namespace) -> int:
             "processor": platform.processor() or platform.machine(),
         }
     }
+    texts: dict[str, str] = {}
     for key, module in modules.items():
         if only and key not in only:
             continue
@@ -68,10 +69,15 @@ def run(args: argparse.Namespace) -> int:
                 result.setdefault(section, {}).update(values)
         else:
             result.setdefault(key, {}).update(figures)
+        if hasattr(module, "format_text"):  # a table rather than name/value lines
+            texts[key] = module.format_text(figures)
     if args.json:
         return emit_json(result, indent=2)
     for key, figures in result.items():
         print(f"[{key}]")
+        if key in texts:
+            print(texts[key])
+            continue
         for name, value in figures.items():
             shown = f"{value:.4g}" if isinstance(value, float) else value
             print(f"  {name:32s} {shown}")

@@ -10,11 +10,15 @@ JSON contract (``--json``), on stdout::
 flagged or not; a value that is not a finite number (an undefined SNR) is written as ``null``.
 The readable table adds the running mean/std over the last ``--window`` valid frames.
 
-``--track`` runs :func:`acquisition.track.tracker.track_stack` from ``--at`` (motion gate, LOST
-state;
-see docs/tracking.md) instead of keeping the window fixed. The contract is the same, the frames
-carry the tracker's flags (``lost``, ``gps_cued``) and each frame gains ``"track_state"``
-(``"tracking"``, ``"lost"`` or ``"gps_cued"``: the state after that frame).
+``--track`` runs :func:`acquisition.track.tracker.track_stack` from ``--at`` (the compact
+object nearest the click, followed, measured against the background its extent allows, found
+again after a loss; docs/tracking.md) instead of keeping the window fixed. The contract is the
+same, the frames carry the tracker's flags (``lost``, ``gps_cued``) and each frame gains
+``"background"`` (``"rim"``, ``"extent_rim"`` or ``"rect"``: what bg_mean and bg_std are of),
+``"extent_w_px"``, ``"extent_h_px"`` (the segmented target's box, 0 when not segmented) and
+``"track_state"`` (``"tracking"``, ``"occluded"``, ``"lost"``, ``"reacquiring"`` or
+``"gps_cued"``: the state after that frame). A click with no compact object near it (a
+saturated region, empty sky) is bad input: one line, exit 2.
 """
 
 from __future__ import annotations
@@ -25,11 +29,17 @@ import math
 import numpy as np
 
 from acquisition.measure.background import parse_rect, validate_rect
-from acquisition.measure.peak_snr import FLAG_NAMES, RUNNING_EXCLUDED, PeakSnr, PeakSnrMeter
+from acquisition.measure.peak_snr import (
+    FLAG_NAMES,
+    RUNNING_EXCLUDED,
+    PeakSnr,
+    PeakSnrMeter,
+    saturation_level,
+)
 from acquisition.measure.running_stats import RunningSnr
 from acquisition.measure.stack_snr import StackSnr, measure_stack
 from acquisition.replay.stack_io import load_stack
-from acquisition.track.tracker import TrackStep, track_stack
+from acquisition.track.tracker import Tracker, TrackerConfig, TrackStep, track_stack
 from snrmon.cli import UsageError
 from snrmon.output import emit_json
 
@@ -82,7 +92,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--track",
         action="store_true",
-        help="follow the peak from --at with the gated tracker (adds track_state per frame)",
+        help="follow the object clicked at --at (adds background, extent and track_state per "
+        "frame; docs/tracking.md)",
     )
     p.set_defaults(func=run)
 
@@ -120,7 +131,23 @@ def _measure_frames(args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrM
 def _track_frames(
     args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrMeter
 ) -> tuple[list[PeakSnr], list[TrackStep]]:
-    """The window follows the peak (acquisition.track.tracker); the meter's settings carry over."""
+    """The window follows the object (acquisition.track.tracker); the meter's settings carry
+    over. A click the tracker finds nothing compact near is a UsageError."""
+    first = Tracker(args.at, measurement=meter.config).update(stack[0])
+    if first.reason == "no_object":
+        x, y = args.at
+        value = stack[0][y, x]
+        sat = saturation_level(meter.config, stack.dtype)
+        why = (
+            f"the click is on a saturated region ({value} DN)"
+            if sat is not None and value >= sat
+            else "nothing there stands out of its background as a compact object"
+        )
+        radius = TrackerConfig().click_radius_px
+        raise UsageError(
+            f"--at {x},{y}: no compact object within {radius} px of the click on frame 0 "
+            f"({why}); click on the drone"
+        )
     steps = track_stack(stack, args.at, measurement=meter.config)
     return [s.peak_snr for s in steps], steps
 
@@ -165,18 +192,21 @@ def run(args: argparse.Namespace) -> int:
                 "flags": [f for f in FLAG_NAMES if f in r.flags],
             }
             if steps is not None:
+                frame["background"] = r.background
+                frame["extent_w_px"] = r.extent_w_px
+                frame["extent_h_px"] = r.extent_h_px
                 frame["track_state"] = steps[i].state.value
             frames.append(frame)
         out = {"n": len(results), "snr_mean": _num(mean), "snr_std": _num(std), "frames": frames}
         return emit_json(out)
-    state_head = f" {'state':>9}" if steps is not None else ""
+    state_head = f" {'background':>10} {'state':>11}" if steps is not None else ""
     print(
         f"{'frame':>6} {'x':>5} {'y':>5} {'peak':>10} {'bg_mean':>10} {'bg_std':>8} "
         f"{'snr':>8}{state_head}  flags"
     )
     for i, r in enumerate(results):
         flags = ",".join(f for f in FLAG_NAMES if f in r.flags)
-        state = f" {steps[i].state.value:>9}" if steps is not None else ""
+        state = f" {r.background:>10} {steps[i].state.value:>11}" if steps is not None else ""
         print(
             f"{i:6d} {r.peak_x:5d} {r.peak_y:5d} {r.peak:10.2f} {r.bg_mean:10.2f} "
             f"{r.bg_std:8.3f} {r.snr:8.3f}{state}  {flags}"

@@ -362,6 +362,7 @@ class HilRig:
             "model_snr": row.model_snr,
             "resolved": bool(row.resolved),
             "_crops": self.crop_logs[row.camera].between([t for t, _ in run]),
+            "background": row.background,
         }
 
     def result(self) -> dict:

@@ -10,6 +10,7 @@ from snrmon.cli import main
 from tests.helpers import strict_json
 
 FRAME_KEYS = ["index", "peak_x", "peak_y", "peak", "bg_mean", "bg_std", "snr", "flags"]
+TRACK_KEYS = ["background", "extent_w_px", "extent_h_px", "track_state"]
 DRONE_Y = 24
 
 
@@ -51,7 +52,8 @@ def test_track_stays_on_the_drone_while_the_untracked_window_takes_the_bird(bird
     fixed = _run(capsys, path)
     assert list(tracked) == ["n", "snr_mean", "snr_std", "frames"] and tracked["n"] == 40
     for i, f in enumerate(tracked["frames"]):
-        assert list(f) == [*FRAME_KEYS, "track_state"]
+        assert list(f) == [*FRAME_KEYS, *TRACK_KEYS]
+        assert f["background"] == "rim" and 1 <= f["extent_w_px"] <= 5
         assert (f["peak_x"], f["peak_y"]) == (20 + i // 5, DRONE_Y), i
         assert f["track_state"] == "tracking"
     # Without --track the contract has no track_state and the bird captures the fixed window.
@@ -89,6 +91,20 @@ def test_track_table_shows_the_state_column(bird_stack, capsys):
     path, _ = bird_stack
     assert main(["measure", str(path), "--at", "20,24", "--track"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert lines[0].split()[-2:] == ["state", "flags"]
-    assert lines[1].split()[7] == "tracking"
+    assert lines[0].split()[-3:] == ["background", "state", "flags"]
+    assert lines[1].split()[7:9] == ["rim", "tracking"]
     assert lines[-1].startswith("running, last ")
+
+
+def test_a_click_on_a_saturated_region_is_one_clear_message(tmp_path, capsys):
+    stack = _drifting_drone_with_bird()
+    stack[:, 36:, :] = 65535  # a saturated band: nothing compact in it
+    path = tmp_path / "sat.npy"
+    np.save(path, stack)
+    assert main(["measure", str(path), "--at", "30,40", "--track"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "--at 30,40: no compact object within 8 px" in err[0]
+    assert "saturated region (65535 DN)" in err[0]
+    # The same click without --track is Eq. (4) at a fixed point, which needs no object.
+    assert main(["measure", str(path), "--at", "30,40", "--json"]) == 0

@@ -90,39 +90,57 @@ def test_bird_through_the_gate_is_refused_not_followed():
     assert all(s.reason == "" for s in steps[30:])
 
 
-def test_fade_out_is_lost_then_reacquired_with_a_gps_cue():
-    n = 110
-    stack = _sky(n, seed=3)
+def _fade_stack(n: int = 110, back_at: int = 60, back_xy=(68, 46), seed: int = 3) -> np.ndarray:
+    """The drone at (60, 50) for 30 frames, gone until ``back_at``, then back at ``back_xy``."""
+    stack = _sky(n, seed=seed)
     for i in range(n):
         if i < 30:
             _spot(stack[i], 60, 50, 150.0)
-        elif i >= 60:  # back, having drifted 8 px right and 4 up while unseen
-            _spot(stack[i], 68, 46, 150.0)
-    stack = _to_u16(stack)
-    cues = [None] * n
-    cues[75] = (66.2, 48.7)  # projected GPS position, ~3 px off
-    steps = track_stack(stack, (60, 50), cues=cues)
+        elif i >= back_at:
+            _spot(stack[i], *back_xy, 150.0)
+    return _to_u16(stack)
+
+
+def test_fade_out_is_lost_then_reacquired_without_a_cue():
+    stack = _fade_stack()
+    tracker = Tracker((60, 50))
+    steps = [tracker.update(f) for f in stack]
 
     assert all(s.state is TrackState.TRACKING for s in steps[:30])
     first_lost = next(i for i, s in enumerate(steps) if s.state is TrackState.LOST)
     # lost_frames = 10 misses: frames 30..39. Noise peaks in the gate are far dimmer than the
-    # track's median contrast, so none restarts the count.
+    # track's median prominence, so none restarts the count.
     assert first_lost == 39
     assert all(s.reason == "faint" for s in steps[30:40])
-    # While lost the window holds and every frame is flagged; the drone back 8 px away (outside
-    # the gate) does not by itself restart the track.
-    for s in steps[first_lost:75]:
+    # While lost the measurement holds at the last good peak and every frame is flagged.
+    for s in steps[first_lost:60]:
         assert s.state is TrackState.LOST and "lost" in s.peak_snr.flags
-        assert (s.window_x, s.window_y) == (steps[29].peak_snr.peak_x, steps[29].peak_snr.peak_y)
-    cued = steps[75]
+        assert (s.window_x, s.window_y) == (60, 50)
+    # Back 8 px right and 4 up (outside the gate): found by the growing search, confirmed over
+    # reacquire_frames (3) frames, flagged lost while confirming, then tracked again.
+    assert [s.state for s in steps[60:62]] == [TrackState.REACQUIRING] * 2
+    assert all("lost" in s.peak_snr.flags for s in steps[60:62])
+    assert all((s.peak_snr.peak_x, s.peak_snr.peak_y) == (68, 46) for s in steps[60:])
+    for s in steps[62:]:
+        assert s.state is TrackState.TRACKING and not s.peak_snr.flags & {"lost", "gps_cued"}
+    assert tracker.reacquisitions == 1
+
+
+def test_a_lost_drone_is_reacquired_at_the_gps_cue_at_once():
+    stack = _fade_stack()
+    cues = [None] * len(stack)
+    cues[60] = (66.2, 48.7)  # projected GPS position, ~3 px off, as the drone comes back
+    steps = track_stack(stack, (60, 50), cues=cues)
+    assert all(s.state is TrackState.LOST for s in steps[39:60])
+    cued = steps[60]
     assert cued.state is TrackState.GPS_CUED and cued.reason == ""
     assert (cued.peak_snr.peak_x, cued.peak_snr.peak_y) == (68, 46)
     assert "gps_cued" in cued.peak_snr.flags and "lost" not in cued.peak_snr.flags
-    assert (cued.window_x, cued.window_y) == (66, 49)  # measured in the cue square
+    assert (cued.window_x, cued.window_y) == (66, 49)  # searched in the cue square
     # Confirmed after confirm_frames (5) accepted frames, the cued one included, then tracking.
-    assert [s.state for s in steps[76:79]] == [TrackState.GPS_CUED] * 3
-    assert all("gps_cued" in s.peak_snr.flags for s in steps[76:79])
-    for s in steps[79:]:
+    assert [s.state for s in steps[61:64]] == [TrackState.GPS_CUED] * 3
+    assert all("gps_cued" in s.peak_snr.flags for s in steps[61:64])
+    for s in steps[64:]:
         assert s.state is TrackState.TRACKING and not s.peak_snr.flags & {"lost", "gps_cued"}
         assert (s.peak_snr.peak_x, s.peak_snr.peak_y) == (68, 46)
 
@@ -132,7 +150,7 @@ def test_a_cue_on_empty_sky_does_not_reacquire():
     tracker = Tracker((60, 50), lost_frames=3)
     for frame in stack[:10]:
         tracker.update(frame)
-    assert tracker.state is TrackState.LOST
+    assert tracker.track_state is TrackState.LOST
     tracker.cue(30.0, 30.0)
     steps = [tracker.update(f) for f in stack[10:]]
     assert all(s.state is TrackState.LOST and s.reason == "faint" for s in steps)
