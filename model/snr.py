@@ -196,7 +196,10 @@ def expected_reading(
     def at(idx):
         kw = ({"target_square_px": d_px[idx]} if geometry == "square"
               else {"target_sigma_px": target_sigma_per_size * d_px[idx]})  # fmt: skip
-        return _expected_eq4(psf, fill_factor, amplitude[idx], **kw)
+        # A target no brighter than its background (the contrast can cross zero at long range
+        # where a warm sky's path radiance catches up) gives Eq. (4) no peak of its own: the
+        # estimator reads the noise, as for a zero contrast.
+        return _expected_eq4(psf, fill_factor, np.clip(amplitude[idx], 0.0, None), **kw)
 
     if r.size <= nodes:
         return at(np.arange(r.size))
