@@ -119,7 +119,8 @@ def test_round_trip_is_exact_and_readable_with_plain_h5py(tmp_path: Path) -> Non
         ref = clock.reference
         np.testing.assert_array_equal(m.utc_ns, m.t_host_ns - ref.monotonic_ns + ref.utc_ns)
         assert (np.diff(m.t_host_ns) > 0).all() and (np.diff(m.utc_ns) > 0).all()
-        v1 = np.dtype([(n, m.measurements.dtype[n]) for n in MEASUREMENT_FIELDS_V1])
+        names = (*MEASUREMENT_FIELDS_V1, "background", "extent_w_px", "extent_h_px")
+        v1 = np.dtype([(n, m.measurements.dtype[n]) for n in names])
         expected = np.array(rows, v1)
         for name in expected.dtype.names:  # per field: NaN equals NaN
             np.testing.assert_array_equal(m.measurements[name], expected[name], err_msg=name)
