@@ -12,8 +12,8 @@ table's own rows and the frames each summarised are used as measured.
   resolved/unresolved transition ranges (characteristic dimension = pixel footprint).
 - Fig. 12: the uncertainty budget (:class:`model.uncertainty.UncertaintyBudget`) of the session's
   sensor and target at each stop's range, term by term, for the small dimension.
-- The CSV: one row per stop and camera (:data:`CSV_COLUMNS`); ``ratio_<curve>`` is measured SNR
-  mean / model SNR for that curve at the stop's range.
+- The CSV rows (:mod:`acquisition.report.stop_csv`): one per stop and camera, with the ratio of
+  the measured SNR mean to each model curve at the stop's range.
 
 The sensors are the session's ``[cameras.<name>] sensor`` presets and the target is the
 session's ``target`` unless one is given.
@@ -22,8 +22,6 @@ session's ``target`` unless one is given.
 from __future__ import annotations
 
 import bisect
-import csv
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,21 +32,10 @@ from acquisition.config import session_config_from_dict
 from acquisition.prediction import CURVES, ModelPredictor
 from acquisition.record.reader import open_session
 from acquisition.replay.batch import ReplayResult, replay_session
+from acquisition.report.stop_csv import csv_rows
 from acquisition.stops.detector import summarise_stop
 from acquisition.stops.table import StopRow, StopTable
 
-CSV_COLUMNS: tuple[str, ...] = (
-    "camera",
-    "stop",
-    "lrf_range_m",
-    "gps_range_m",
-    "n_frames",
-    "snr_mean",
-    "snr_std",
-    "background",
-    *(f"model_{c}" for c in CURVES),
-    *(f"ratio_{c}" for c in CURVES),
-)
 BUDGET_TERMS: tuple[str, ...] = (
     "target_outline",
     "radiometry",
@@ -151,55 +138,6 @@ def session_models(path: str | Path, target: str | None = None) -> tuple[dict[st
         sensors.update({c.name: c.sensor for c in cfg.cameras if c.name in sensors})
         session_target = cfg.target
     return sensors, target or session_target
-
-
-def ratio(measured: float, model: float | None) -> float:
-    """measured / model; NaN when either is missing, not finite or the model is not > 0."""
-    if model is None or not (math.isfinite(measured) and math.isfinite(model) and model > 0):
-        return math.nan
-    return measured / model
-
-
-def csv_rows(rows: list[StopRow]) -> list[dict[str, object]]:
-    """One dict per stop row with exactly :data:`CSV_COLUMNS` (None for a missing value)."""
-    out = []
-    for r in rows:
-        row: dict[str, object] = {
-            "camera": r.camera,
-            "stop": r.stop,
-            "lrf_range_m": r.lrf_range_m,
-            "gps_range_m": r.gps_range_m,
-            "n_frames": r.n_frames,
-            "snr_mean": r.snr_mean,
-            "snr_std": r.snr_std,
-            "background": r.background or None,
-        }
-        for c in CURVES:
-            row[f"model_{c}"] = r.model_snr.get(c)
-        for c in CURVES:
-            row[f"ratio_{c}"] = ratio(r.snr_mean, r.model_snr.get(c))
-        out.append(row)
-    return out
-
-
-def _cell(v: object) -> str:
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return ""  # missing or undefined: an empty cell, never a made-up number
-    if isinstance(v, float):
-        return repr(v)
-    return str(v)
-
-
-def write_csv(rows: list[dict[str, object]], path: str | Path) -> Path:
-    """The CSV table: a header of :data:`CSV_COLUMNS`, full-precision numbers, empty cells for
-    missing or undefined values."""
-    out = Path(path)
-    with out.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(CSV_COLUMNS)
-        for row in rows:
-            w.writerow([_cell(row[c]) for c in CSV_COLUMNS])
-    return out
 
 
 def stop_series(replay: ReplayResult, row: StopRow, n: int = 100) -> StopSeries:

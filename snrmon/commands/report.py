@@ -2,7 +2,7 @@
 
 The session is replayed through the live measurement (a tqdm bar on a terminal shows the frames),
 stops are rebuilt, and the pages of :mod:`acquisition.report.plot` are written; ``--csv`` writes
-the stop table with :data:`acquisition.report.data.CSV_COLUMNS`. See docs/report.md.
+the stop table with :data:`acquisition.report.stop_csv.CSV_COLUMNS`. See docs/report.md.
 """
 
 from __future__ import annotations
@@ -29,8 +29,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.report.data import report_data, write_csv
+    from acquisition.report.data import report_data
     from acquisition.report.plot import FORMATS, render_report
+    from acquisition.report.stop_csv import write_csv
 
     out = output_file(args.output, "-o", suffixes=tuple(FORMATS))
     src = session_file(args.file)

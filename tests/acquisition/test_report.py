@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from acquisition.prediction import CURVES, ModelPredictor
-from acquisition.report.data import BUDGET_TERMS, CSV_COLUMNS, report_data
+from acquisition.report.data import BUDGET_TERMS, report_data
 from acquisition.report.plot import PAGE_IN, PNG_DPI
+from acquisition.report.stop_csv import CSV_COLUMNS
 from snrmon.cli import main
 from tests.acquisition.session_factory import SPOT_XY, write_session
 

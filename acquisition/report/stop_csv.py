@@ -1,0 +1,74 @@
+"""The report's CSV: one row per stop and camera, every value at full precision, an empty cell
+where a value is missing or undefined (never a made-up number); ``ratio_<curve>`` is the measured
+SNR mean over the model's SNR for that curve at the stop's range."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+from acquisition.prediction import CURVES
+from acquisition.stops.table import StopRow
+
+CSV_COLUMNS: tuple[str, ...] = (
+    "camera",
+    "stop",
+    "lrf_range_m",
+    "gps_range_m",
+    "n_frames",
+    "snr_mean",
+    "snr_std",
+    "background",
+    *(f"model_{c}" for c in CURVES),
+    *(f"ratio_{c}" for c in CURVES),
+)
+
+
+def ratio(measured: float, model: float | None) -> float:
+    """measured / model; NaN when either is missing, not finite or the model is not > 0."""
+    if model is None or not (math.isfinite(measured) and math.isfinite(model) and model > 0):
+        return math.nan
+    return measured / model
+
+
+def csv_rows(rows: list[StopRow]) -> list[dict[str, object]]:
+    """One dict per stop row with exactly :data:`CSV_COLUMNS` (None for a missing value)."""
+    out = []
+    for r in rows:
+        row: dict[str, object] = {
+            "camera": r.camera,
+            "stop": r.stop,
+            "lrf_range_m": r.lrf_range_m,
+            "gps_range_m": r.gps_range_m,
+            "n_frames": r.n_frames,
+            "snr_mean": r.snr_mean,
+            "snr_std": r.snr_std,
+            "background": r.background or None,
+        }
+        for c in CURVES:
+            row[f"model_{c}"] = r.model_snr.get(c)
+        for c in CURVES:
+            row[f"ratio_{c}"] = ratio(r.snr_mean, r.model_snr.get(c))
+        out.append(row)
+    return out
+
+
+def _cell(v: object) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""  # missing or undefined: an empty cell, never a made-up number
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def write_csv(rows: list[dict[str, object]], path: str | Path) -> Path:
+    """The CSV table: a header of :data:`CSV_COLUMNS`, full-precision numbers, empty cells for
+    missing or undefined values."""
+    out = Path(path)
+    with out.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(CSV_COLUMNS)
+        for row in rows:
+            w.writerow([_cell(row[c]) for c in CSV_COLUMNS])
+    return out
