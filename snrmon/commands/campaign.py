@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from snrmon.cli import UsageError
+from snrmon.progress import frame_progress
 
 STOP_TABLE = "stops.parquet"
 FRAMES_DIR = "frames"
@@ -54,23 +55,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _progress(quiet: bool):
-    bars: list = []
-
-    def update(done: int, total: int) -> None:
-        if quiet:
-            return
-        if not bars:
-            from tqdm import tqdm
-
-            bars.append(tqdm(total=total, unit="task", desc="campaign", file=sys.stderr))
-        bars[0].total = total
-        bars[0].n = done
-        bars[0].refresh()
-
-    return update, bars
-
-
 def run(args: argparse.Namespace) -> int:
     from snrmon.campaign.run import run_dask, run_serial
     from snrmon.campaign.settings import load_settings
@@ -89,8 +73,9 @@ def run(args: argparse.Namespace) -> int:
     settings = load_settings(args.settings)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    update, bars = _progress(args.quiet)
-    try:
+    # One bar on a terminal (snrmon.progress: none when piped, logged or with -q/--quiet).
+    with frame_progress("campaign", unit="task") as bar:
+        update = None if args.quiet else bar
         if args.scheduler or args.workers > 0:
             result = run_dask(
                 args.sessions,
@@ -102,9 +87,6 @@ def run(args: argparse.Namespace) -> int:
             )
         else:
             result = run_serial(args.sessions, settings, frames=args.frames, progress=update)
-    finally:
-        for bar in bars:
-            bar.close()
     return write_outputs(args, result, settings, out, report)
 
 
