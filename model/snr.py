@@ -199,7 +199,8 @@ def expected_reading(
         # A target no brighter than its background (the contrast can cross zero at long range
         # where a warm sky's path radiance catches up) gives Eq. (4) no peak of its own: the
         # estimator reads the noise, as for a zero contrast.
-        return _expected_eq4(psf, fill_factor, np.clip(amplitude[idx], 0.0, None), **kw)
+        amp = np.clip(amplitude[idx], 0.0, None)
+        return _expected_eq4(psf, fill_factor, amp, background="target", **kw)
 
     if r.size <= nodes:
         return at(np.arange(r.size))

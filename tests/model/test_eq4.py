@@ -71,3 +71,45 @@ def test_wide_psf_reads_far_below_the_model_peak():
     airy = MW.diffraction_psf()
     truth = 1000.0 * average_pvf_square(airy, 0.8, 0.0)
     assert float(expected_eq4(airy, 0.8, 1000.0)) / truth == pytest.approx(0.965, abs=0.02)
+
+
+def test_resolved_drone_reading_follows_the_consoles_extent_background():
+    """A drone wider than the 5x5 guard (an 8-px square): the paper's 7x7 rim lies on the drone
+    and reads it against itself; the console measures it against the rim of its extent grown by
+    the guard (acquisition.measure.target_snr), and background="target" predicts that reading:
+    held to a Monte Carlo of the console's own segmentation and measurement."""
+    from acquisition.measure.blob import analyse_blob
+    from acquisition.measure.target_snr import measure_target
+
+    psf, amplitude, d_px = GaussianPsf(0.5), 3000.0, 8.0
+    rim_only = float(expected_eq4(psf, 0.8, amplitude, target_square_px=d_px))
+    target = float(expected_eq4(psf, 0.8, amplitude, target_square_px=d_px, background="target"))
+    assert rim_only < 0.2 * target  # the 7x7 rim on the drone itself
+
+    rng = np.random.default_rng(14)
+    ph = (np.arange(6) + 0.5) / 6 - 0.5
+    half = 20
+    pats = pixel_patterns(psf, 0.8, ph, ph, half_size_px=half, target_square_px=d_px)
+    readings = []
+    for pat in np.repeat(pats.reshape(-1, 2 * half + 1, 2 * half + 1), 8, axis=0):
+        frame = 1000.0 + amplitude * pat + rng.standard_normal(pat.shape)
+        blob = analyse_blob(frame, (half, half), sigma=1.0)
+        m = measure_target(frame, blob, PeakSnrConfig())
+        assert m.background == "extent_rim"
+        readings.append(m.snr)
+    assert target == pytest.approx(float(np.mean(readings)), rel=0.025)
+
+
+def test_compact_target_reading_is_the_7x7_rims_in_both_modes():
+    """Within the 5x5 guard the console keeps Eq. (4)'s 7x7 rim: both modes agree (up to the
+    vanishing chance that noise links a 3-sigma rim pixel to the target); brighter, the Airy's
+    first ring lights the 7x7 rim now and then and the console's background moves out."""
+    airy = MW.diffraction_psf()
+    bright = expected_eq4(airy, 0.8, 1000.0, background="target")
+    assert bright / expected_eq4(airy, 0.8, 1000.0) == pytest.approx(1.025, abs=0.01)
+    for amplitude in (0.0, 12.0, 100.0):
+        rim = expected_eq4(airy, 0.8, amplitude)
+        target = expected_eq4(airy, 0.8, amplitude, background="target")
+        assert target == pytest.approx(rim, rel=1e-5)
+    with pytest.raises(ValueError, match="background must be"):
+        expected_eq4(airy, 0.8, 10.0, background="annulus")
