@@ -219,7 +219,9 @@ def readings_of_patterns(
         if background == "target":
             rims = target_backgrounds(pat, int(y), int(x), box_px)
         else:
-            rims = [(1.0, _rect_rim(pat, (x - hb, y - hb, x + hb, y + hb)))]
+            seven = _rect_rim(pat, (x - hb, y - hb, x + hb, y + hb))
+            assert seven is not None  # the reach check above keeps the box inside
+            rims = [(1.0, seven)]
         out[j] = 0.0
         for weight, rim in rims:
             lam = float(np.sum((rim - rim.mean()) ** 2))
