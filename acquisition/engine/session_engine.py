@@ -160,11 +160,18 @@ class SessionEngine:
             ended = None
             if before is not None:
                 ended = self.stop_detector.stops[before.index]
-        if self.sink is not None:
-            if ended is not None:
-                self.sink.stop_changed("stop_ended", ended)
-            self.sink.stop_changed("stop_marked", stop)
+            if self.sink is not None:  # in the detector's order (see _feed_stops)
+                if ended is not None:
+                    self.sink.stop_changed("stop_ended", ended)
+                self.sink.stop_changed("stop_marked", stop)
         return stop
+
+    def with_stops_held(self, fn: Callable[[], None]) -> None:
+        """``fn()`` with the stop detector held: no stop changes while it runs, and every change
+        after it reaches the sink after it (a recording attaches its sink and records the stops
+        so far this way, so none falls between the two)."""
+        with self._lock:
+            fn()
 
     def add_listener(self, callback: Callable[[Measurement, np.ndarray | None], None]) -> None:
         """``callback(measurement, pixels)`` after every measured frame, on the frame's thread;
@@ -212,9 +219,11 @@ class SessionEngine:
             except ValueError as exc:
                 log.warning("stop detector refused a reading: %s", exc)
                 return
-        if stop is not None and self.sink is not None:
-            self.sink.stop_changed("stop_ended" if stop.t_end_ns is not None else
-                                   "stop_detected", stop)  # fmt: skip
+            # Under the lock: the rangefinder's and the GPS's threads record their stop changes
+            # in the order the detector made them.
+            if stop is not None and self.sink is not None:
+                self.sink.stop_changed("stop_ended" if stop.t_end_ns is not None else
+                                       "stop_detected", stop)  # fmt: skip
 
     def range_at(self, t_host_ns: int) -> tuple[float | None, str]:
         """The range for a frame received at ``t_host_ns``: the rangefinder if its reading is

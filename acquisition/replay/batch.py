@@ -77,6 +77,28 @@ def recorded_calibration(f: SessionFile, name: str, inputs: RecordedInputs, path
     return load_calibration(path, frame_shape=shape)
 
 
+def as_recorded(
+    inputs: RecordedInputs,
+    cameras: Sequence[str],
+    measurement: PeakSnrConfig | None,
+    track: bool,
+    calibrations: Mapping[str, str] | None,
+) -> bool:
+    """True when the settings given are the live session's own (None or equal to the recorded
+    ones): the replay then applies the live cues and engine states and reproduces every
+    recorded frame. Settings that differ are a re-analysis, which measures afresh. Passing the
+    recorded settings explicitly (as the campaign does) is not a re-analysis."""
+    if measurement is not None and measurement != inputs.config.measurement:
+        return False
+    if track != inputs.track:
+        return False
+    for name in cameras:
+        path = (calibrations or {}).get(name)
+        if path is not None and path != inputs.per_camera[name].calibration:
+            return False
+    return True
+
+
 def engine_for(
     f: SessionFile,
     inputs: RecordedInputs,
@@ -95,7 +117,7 @@ def engine_for(
     config = inputs.config
     if measurement is not None:
         config = replace(config, measurement=measurement)
-    exact = inputs.version >= 2 and measurement is None
+    exact = inputs.version >= 2 and as_recorded(inputs, cameras, measurement, track, calibrations)
     # The live session's own stops where it recorded them (format 2 with stop events).
     stops = RecordedStops() if inputs.stops and not redetect_stops else None
     shapes = {n: tuple(f.cameras[n].frames.shape[1:]) for n in cameras}

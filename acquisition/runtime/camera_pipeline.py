@@ -77,6 +77,7 @@ class CameraPipeline:
         self._lock = threading.Lock()
         self._recorder: SessionRecorder | None = None
         self._gap = False  # the last frame is not in the recording: record the state next
+        self._history_due = False  # the stop table's history is not in the recording yet
         self._wrong_shape = 0
         self._measured = 0
         self._latency_ns: deque[int] = deque(maxlen=1000)
@@ -130,14 +131,21 @@ class CameraPipeline:
         self.engine.post(ClearReference())
 
     def attach_recorder(self, recorder: SessionRecorder) -> None:
-        """Record every frame from now on (and its measurement) into ``recorder``."""
+        """Record every frame from now on (and its measurement) into ``recorder``; the
+        measurements the stop table keeps to seed a backdated stop go in first (on the
+        measurement thread, before the first frame it records: every frame measured before that
+        one is in them, none after)."""
         with self._lock:
             self._recorder = recorder
             self._gap = True
+            self._history_due = True
 
     def detach_recorder(self) -> None:
         with self._lock:
-            self._recorder = None
+            rec, due = self._recorder, self._history_due
+            self._recorder, self._history_due = None, False
+        if rec is not None and due:  # no frame came while recording: the history all the same
+            self._record_history(rec)
 
     @property
     def corrector(self):
@@ -215,7 +223,9 @@ class CameraPipeline:
 
     def _process(self, item: RingFrame) -> None:
         with self._lock:
-            rec = self._recorder
+            rec, history, self._history_due = self._recorder, self._history_due, False
+        if rec is not None and history:
+            self._record_history(rec)
         index = None
         if rec is not None:
             index = rec.add_frame(self.name, item)
@@ -232,6 +242,16 @@ class CameraPipeline:
         with self._lock:
             self._latency_ns.append(latency)
             self._measured += 1
+
+    def _record_history(self, rec: SessionRecorder) -> None:
+        """The measurements a stop begun before the recording would be summarised from: rows
+        without frames, so a replay builds the same stop table. Taken on the measurement thread
+        (or once it has stopped), so exactly the frames measured before the first recorded one."""
+        for t, r in self.session_engine.stop_table.history(self.name):
+            rec.add_measurement(self.name, -1, counter=-1, t_host_ns=t, peak_x=r.peak_x,
+                                peak_y=r.peak_y, peak=r.peak, bg_mean=r.bg_mean, bg_std=r.bg_std,
+                                snr=r.snr, flags=r.flags, background=r.background,
+                                extent_w_px=r.extent_w_px, extent_h_px=r.extent_h_px)  # fmt: skip
 
     def _record_resume(self, rec: SessionRecorder, item: RingFrame) -> None:
         """The first recorded frame after frames the file does not hold: the engine's state and

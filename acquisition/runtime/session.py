@@ -248,20 +248,18 @@ class Session:
                     c.calibration for c in self.config.cameras if c.name == pipe.name
                 )
                 rec.add_event("calibration", camera=pipe.name, payload=meta)
-        for stop in self.engine.stop_detector.stops:  # the stops so far are part of the record
-            self.stop_changed("stop_known", stop, rec)
-        for name in self.pipelines:
-            # The measurements a stop begun before the recording would be summarised from:
-            # rows without frames, so a replay builds the same stop table.
-            for t, r in self.engine.stop_table.history(name):
-                rec.add_measurement(name, -1, counter=-1, t_host_ns=t, peak_x=r.peak_x,
-                                    peak_y=r.peak_y, peak=r.peak, bg_mean=r.bg_mean,
-                                    bg_std=r.bg_std, snr=r.snr, flags=r.flags,
-                                    background=r.background, extent_w_px=r.extent_w_px,
-                                    extent_h_px=r.extent_h_px)  # fmt: skip
-        with self._lock:
-            self._recorder = rec
+
+        def attach() -> None:
+            # With the detector held: the stops so far are part of the record, and every change
+            # after them reaches the recorder (none falls between the two).
+            with self._lock:
+                self._recorder = rec
+            for stop in self.engine.stop_detector.stops:
+                self.stop_changed("stop_known", stop, rec)
+
+        self.engine.with_stops_held(attach)
         for pipe in self.pipelines.values():
+            # Each pipeline records the stop table's history before its first recorded frame.
             pipe.attach_recorder(rec)
 
     def stop_recording(self):

@@ -9,11 +9,14 @@ never holds. The replay must still reproduce every recorded frame exactly.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 from acquisition.config import session_config_from_dict
 from acquisition.engine.session_engine import SessionEngine
+from acquisition.record.reader import open_session
 from acquisition.record.recorder import BACKLOG, SessionRecorder
 from acquisition.replay.batch import replay_session
 from acquisition.runtime.camera_pipeline import CameraPipeline
@@ -94,3 +97,37 @@ def test_gaps_with_commands_inside_them_replay_exactly(recorded):
     # The reference completed inside a gap is in force when the replay resumes.
     fast = replay_session(path, fast=True)
     assert fast.cameras["cam"].tally.identical == t.compared
+
+
+def test_a_click_posted_before_the_recording_and_applied_at_its_first_frame(tmp_path):
+    """The operator clicks, then starts recording before the next frame: the click takes effect
+    on the first recorded frame, so the state recorded before it has no track yet and the
+    ``roi_set`` event is recorded at that frame. The replay applies both in that order."""
+    path = tmp_path / "click-first.h5"
+    config = session_config_from_dict(
+        {"cameras": {"cam": {"source": "shm", "address": "none", "width_px": W, "height_px": H}}}
+    )
+    engine = SessionEngine(config, {"cam": (H, W)})
+    pipe = CameraPipeline("cam", _NoDevice(), engine)
+    rec = SessionRecorder(path, config={"session": config.raw, "track": True},
+                          cameras={"cam": (H, W)}, fsync=False)  # fmt: skip
+    pipe.set_roi(40, 30)
+    pipe.attach_recorder(rec)
+    rng = np.random.default_rng(37)
+    fpn = np.random.default_rng(8).normal(0.0, 8.0, (H, W))
+    live: list = []
+    engine.add_listener(lambda m, pixels: live.append(m))
+    for i in range(40):
+        pipe._process(RingFrame(_frame(i, rng, fpn), i, i, T0 + i * DT, None, "cam"))
+    rec.stop()
+    with open_session(path) as f:
+        states = f.cameras["cam"].states
+        assert states[0]["counter"] == 0
+        assert json.loads(bytes(states[0]["state"]).decode())["measurer"]["roi"] is None
+        (click,) = [e for e in f.event_list() if e["kind"] == "roi_set"]
+        assert click["t_host_ns"] == T0 and click["payload"]["counter"] == 0
+    replay = replay_session(path)
+    t = replay.cameras["cam"].tally
+    assert t.compared == len(live) == 40
+    assert t.identical == t.compared, f"first difference at frame {t.first_difference}"
+    assert replay_session(path, fast=True).cameras["cam"].tally.identical == 40

@@ -49,6 +49,9 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     session, _, tmp_path = rig
     session.start()
     session.set_roi("cam", 66, 39)  # a click within the search window of the spot
+    # The click takes effect before the next frame: wait until the engine has measured with it,
+    # so that the recording begins after the click (the first recorded state holds the track).
+    wait_until(lambda: session.status().cameras["cam"].roi_xy is not None, 10.0, "the click")
     path = tmp_path / "session.h5"
     session.start_recording(path)
     wait_until(lambda: any(r.complete for r in session.stops()), 20.0, "a complete stop")
