@@ -213,8 +213,11 @@ class HilRig:
         """Seconds since launch on the flight's clock (negative during the pre-roll)."""
         return (time.monotonic() - self.t0) * self.opts.speed - self.preroll_s
 
-    def _gps_position(self, _t_s: float):
-        t = self.flight_time()
+    def _gps_position(self, t_s: float):
+        # A receiver reports where the drone was at the epoch its sentence is labelled with
+        # (``t_s`` on the simulator's clock), not where it is when the simulator's thread gets
+        # to run: on a loaded machine that is milliseconds later (0.1 m at 4x in a transit).
+        t = (self.gps_sim.started_monotonic_s + t_s - self.t0) * self.opts.speed - self.preroll_s
         return None if t < 0 else self.plan.position(t)  # no fix before launch
 
     def _lrf_range(self, _t_s: float) -> float | None:
