@@ -147,6 +147,7 @@ class ConsoleWindow(QMainWindow):
             timer.timeout.connect(slot)
             timer.start(interval)
             self._timers.append(timer)
+        self.frame_timer = self._timers[0]  # offscreen, run_console slows it (nobody watches)
 
     def _dock(self, key: str, title: str, widget: QWidget, area) -> QDockWidget:
         dock = QDockWidget(title, self)
