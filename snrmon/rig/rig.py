@@ -98,10 +98,12 @@ class HilRig:
             from acquisition.prediction import ModelPredictor
 
             # the model is told what a field team would know: the air temperature; the sky
-            # it measures (a calibration is made before the flight)
+            # it measures (a calibration is made before the flight). Asynchronous: a new sky
+            # is asked for on a camera's measurement thread, which must not stop for the model.
             predictor = ModelPredictor(
-                {c: c for c in opts.cameras}, opts.target, air_temp_k=opts.air_temp_k
-            )
+                {c: c for c in opts.cameras}, opts.target, air_temp_k=opts.air_temp_k,
+                asynchronous=True,
+            )  # fmt: skip
         self.predictor = predictor
         self.flight_config = flight_config_of(opts)
         self.plan = FlightPlan(self.flight_config)
