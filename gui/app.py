@@ -30,6 +30,11 @@ def _offscreen_messages(_mode, _context, message: str) -> None:
         print(message, file=sys.stderr)
 
 
+OFFSCREEN_FRAME_INTERVAL_MS = 250
+"""How often an offscreen (headless) console shows the newest frames: the screenshot at the end
+still has the last ones; the status, table and status file refresh as on a screen."""
+
+
 def console_application(*, headless: bool = False) -> QApplication:
     """The process's QApplication (created once; offscreen when ``headless``), dark-themed."""
     app = QApplication.instance()
@@ -78,6 +83,9 @@ def run_console(
     window = ConsoleWindow(session, curves=curves, predictor=predictor, settings=settings)
     if headless:
         window.resize(1600, 1000)  # offscreen there is no screen to size to: a laptop's
+        # Nobody watches an offscreen window's frames go by: painting both cameras at 60 Hz
+        # took most of a core (and the GIL) from the measurement and camera threads.
+        window.frame_timer.setInterval(OFFSCREEN_FRAME_INTERVAL_MS)
     if screenshot is not None:
         window.screenshot_path = Path(screenshot)
     window.show()

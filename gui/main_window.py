@@ -1,9 +1,8 @@
 """The console's main window: one panel per camera, status, stop table, SNR-versus-range plots.
 
-Threading (anchors (c): acq4#595, PyMoDAQ#79, bluesky#1222): the window never receives frames
-or measurements through signals. Its own timers, on the GUI thread, peek the newest frame of each
-camera (~30 Hz) and read the session's status, series and stop table (5 Hz / 1 Hz); every number
-shown was computed by the session's processing threads. Qt objects are touched only here.
+Threading (anchors (c): acq4#595, PyMoDAQ#79, bluesky#1222): no frames or measurements through
+signals; its timers, on the GUI thread, peek each camera's newest frame (60 Hz) and read the
+session's status, series and stop table (5 Hz / 1 Hz). Qt objects are touched only here.
 """
 
 from __future__ import annotations
@@ -44,11 +43,11 @@ from gui.stop_table_view import StopTableView
 from gui.theme import configure_pyqtgraph
 from gui.window_settings import restore_window, save_model_options, save_window
 
-# Twice the fastest camera's rate: a 33 ms tick caps a 60 fps camera at 30.3 shown fps and loses
-# a 30 fps frame whenever one tick is late (bench gui: 16 ms shows MWIR ~54, LWIR ~29.6 fps).
+# Twice the fastest camera's rate (33 ms caps 60 fps at 30.3; 16 ms shows MWIR ~54, LWIR ~29.6).
 FRAME_INTERVAL_MS = 16
 STATUS_INTERVAL_MS = 200
 TABLE_INTERVAL_MS = 1000
+_NO_NEWS = type("NoNews", (), {"take": staticmethod(list)})()  # a replay tells no click news
 
 log = logging.getLogger(__name__)
 
@@ -147,6 +146,7 @@ class ConsoleWindow(QMainWindow):
             timer.timeout.connect(slot)
             timer.start(interval)
             self._timers.append(timer)
+        self.frame_timer = self._timers[0]  # offscreen, run_console slows it
 
     def _dock(self, key: str, title: str, widget: QWidget, area) -> QDockWidget:
         dock = QDockWidget(title, self)
@@ -187,6 +187,8 @@ class ConsoleWindow(QMainWindow):
             if followed or redraw:  # a new sky, or curves computed in the background arrived
                 self._draw_curves(name)
             panel.view.show_status(cs)
+            for message in getattr(self.session.pipelines[name], "click_news", _NO_NEWS).take():
+                self.report(f"{name}: {message}")  # what the track made of a click
             panel.inset.show_box(self._pixels.get(name), cs)
             panel.chart.show_series(self.session.pipelines[name].series(), now_ns)
             mname, msnr = self._model_now(name, cs)
@@ -374,9 +376,8 @@ class ConsoleWindow(QMainWindow):
     def save_screenshot(self, path: str | Path | None = None) -> Path | None:
         """Save the whole window as a PNG (asks for a file name when None)."""
         if path is None:
-            chosen, _ = QFileDialog.getSaveFileName(
-                self, "Save screenshot", "snrmon-console.png", "PNG (*.png)"
-            )
+            chosen, _ = QFileDialog.getSaveFileName(self, "Save screenshot", "snrmon-console.png",
+                                                    "PNG (*.png)")  # fmt: skip
             if not chosen:
                 return None
             path = chosen

@@ -38,6 +38,7 @@ from acquisition.engine.inputs import (
     StartReference,
 )
 from acquisition.engine.status import CameraStatus, FrameAccounting
+from acquisition.runtime.click_news import ClickNews
 from acquisition.streams.ring import FrameRing, RingFrame
 from drivers.camera.frame import Frame
 from drivers.device import Device
@@ -81,6 +82,7 @@ class CameraPipeline:
         self._wrong_shape = 0
         self._measured = 0
         self._latency_ns: deque[int] = deque(maxlen=1000)
+        self.click_news = ClickNews()  # what became of the operator's click, for the console
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._unsubscribe: Callable[[], None] | None = None
@@ -236,6 +238,7 @@ class CameraPipeline:
         out = self.session_engine.on_frame(
             self.name, item.pixels, seq=item.seq, counter=item.counter, t_host_ns=item.t_host_ns
         )
+        self.click_news.frame(out.applied, out.measurement)
         if rec is not None:
             self._record(rec, index, item, out)
         latency = time.monotonic_ns() - item.t_host_ns

@@ -66,14 +66,15 @@ def _has_display() -> bool:
 
 def _operate(rig, done: threading.Event, printed: set, verbose: bool) -> None:
     """The simulated operator: clicks the drone at the first stop (HilRig.step) and, headless,
-    prints each stop-table row once it is final."""
+    prints each stop-table row once it is final (not ``rig.result()``: its PSF fits and model
+    runs each time would take the CPU the cameras need)."""
     from snrmon.rig.table import format_row
 
     while not done.is_set():
         if not rig.step():
             done.set()
         if verbose:
-            for row in rig.result()["stops"]:
+            for row in rig.final_stops():
                 key = (row["camera"], row["planned_range_m"], row["lrf_range_m"])
                 if row["n_frames"] >= 100 and key not in printed:
                     printed.add(key)

@@ -59,7 +59,11 @@ def run(args: argparse.Namespace) -> int:
     from gui.app import run_console
 
     config = load_session_config(args.config)
-    predictor = ModelPredictor({c.name: c.sensor for c in config.cameras}, config.target)
+    # Asynchronous: the measured sky's new curves are computed beside the cameras' measurement
+    # threads (0.3 s of model each time), not on them.
+    predictor = ModelPredictor(
+        {c.name: c.sensor for c in config.cameras}, config.target, asynchronous=True
+    )
     with Session(config, predictor=predictor) as session:
         return run_console(
             session,

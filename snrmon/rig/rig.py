@@ -17,14 +17,14 @@ import os
 import tempfile
 import time
 from collections import defaultdict, deque
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from acquisition.config import session_config_from_dict
 from acquisition.runtime.session import Session
-from acquisition.stops.detector import StopConfig
+from snrmon.rig.support import flight_config_of, recording_summary, stop_config_at
 from snrmon.rig.twin_day import (
     CropLog,
     adopt_measured_psf,
@@ -82,26 +82,6 @@ class CameraRig:
     log: deque  # (t_host_ns, counter, raw running mean, raw running std), LOG_S long
 
 
-def flight_config_of(opts: HilOptions):
-    """The simulated flight (:class:`sim.flight.FlightConfig`) of the options."""
-    from sim.flight import FlightConfig
-
-    return FlightConfig(
-        stops_m=tuple(opts.stops_m),
-        hover_s=opts.hover_s,
-        speed_mps=opts.transit_mps,
-        start_range_m=opts.start_range_m,
-        seed=opts.seed,
-    )
-
-
-def stop_config_at(speed: float) -> StopConfig:
-    """The stop detector's rules on a flight run at ``speed`` x real time: "steady for 3 s"
-    means 3 s of the flight, so 3 / speed s of the host clock the detector runs on."""
-    default = StopConfig()
-    return replace(default, steady_s=default.steady_s / speed)
-
-
 class HilRig:
     """Builds and runs the simulated collection against a Session (context manager)."""
 
@@ -118,10 +98,12 @@ class HilRig:
             from acquisition.prediction import ModelPredictor
 
             # the model is told what a field team would know: the air temperature; the sky
-            # it measures (a calibration is made before the flight)
+            # it measures (a calibration is made before the flight). Asynchronous: a new sky
+            # is asked for on a camera's measurement thread, which must not stop for the model.
             predictor = ModelPredictor(
-                {c: c for c in opts.cameras}, opts.target, air_temp_k=opts.air_temp_k
-            )
+                {c: c for c in opts.cameras}, opts.target, air_temp_k=opts.air_temp_k,
+                asynchronous=True,
+            )  # fmt: skip
         self.predictor = predictor
         self.flight_config = flight_config_of(opts)
         self.plan = FlightPlan(self.flight_config)
@@ -368,16 +350,23 @@ class HilRig:
             "background": row.background,
         }
 
+    def final_stops(self) -> list[dict]:
+        """The stop entries frozen so far (their rows are complete or their stop ended), in
+        the order they froze; cheap (no PSF fit), for printing rows as they come."""
+        self._summarise_final_rows()
+        return [{k: v for k, v in e.items() if k != "_crops"} for e in self._final.values()]
+
     def result(self) -> dict:
         self._summarise_final_rows()
-        for row in self.session.stops():
-            self._final.setdefault((row.camera, row.stop), self._stop_result(row))
-        psf = measured_psf(self, self._final)  # the PSF from the flight's own frames
-        stops = []
-        for row in self.session.stops():
-            entry = dict(self._final[(row.camera, row.stop)])
-            entry.pop("_crops", None)
-            stops.append(entry)
+        # A row still open is summarised as it stands now, and again at the next call: only
+        # _summarise_final_rows freezes one (a row frozen early stayed short for good).
+        entries = {
+            (row.camera, row.stop): self._final.get((row.camera, row.stop))
+            or self._stop_result(row)
+            for row in self.session.stops()
+        }
+        psf = measured_psf(self, entries)  # the PSF from the flight's own frames
+        stops = [{k: v for k, v in e.items() if k != "_crops"} for e in entries.values()]
         frames = defaultdict(dict)
         for name, pipe in self.session.pipelines.items():
             acc = pipe.status().frames
@@ -399,16 +388,3 @@ class HilRig:
             "frames": dict(frames),
             "operator_clicks": clicks,
         }
-
-
-def recording_summary(summary) -> dict:
-    """What a closed recording holds and lost (:class:`acquisition.record.recorder.
-    RecorderSummary`), for the run's JSON: frames written and dropped per camera, with reasons."""
-    return {
-        "path": summary.path,
-        "state": summary.state,
-        "frames_received": dict(summary.frames_received),
-        "frames_written": dict(summary.frames_written),
-        "dropped": {cam: dict(reasons) for cam, reasons in summary.dropped.items()},
-        "error": summary.error,
-    }
