@@ -2,7 +2,12 @@
 
 The background region is the one Eq. 4 uses (paper section 5): the 24 rim pixels of the 7x7 box
 around the frame's peak (from its :class:`acquisition.measure.peak_snr.PeakSnr`), or the operator's
-clear-sky rectangle. Per frame the region's raw DN are turned into in-band radiance through the
+clear-sky rectangle. For a frame measured against the ``extent_rim`` background (a drone wider
+than the box's guard, issue 14) the 7x7 rim lies on the drone itself and would read it, not the
+sky: the rim of the square around the peak that holds the segmented extent and its 2 px guard
+(half-size max(extent width, height) + 2) is used instead, the sky outside the drone.
+
+Per frame the region's raw DN are turned into in-band radiance through the
 camera's calibration, averaged IN RADIANCE (the physical mean of the flux the pixels see; the
 model's background input is a radiance), and reported as the brightness temperature of that
 mean. Only the region's pixels are read, so the cost does not depend on the frame size. This is
@@ -18,7 +23,7 @@ import numpy as np
 
 from acquisition.calibrate.calibration import Calibration, temperature_of
 from acquisition.measure.background import Rect, rim_offsets, validate_rect
-from acquisition.measure.peak_snr import PeakSnr
+from acquisition.measure.peak_snr import BACKGROUND_EXTENT, PeakSnr
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,8 +72,13 @@ class SkyTemperature:
             return self._rect_pixels
         if result is None:
             raise ValueError("the rim background needs the frame's PeakSnr (or set a rect)")
-        rows = self._rim[0] + result.peak_y
-        cols = self._rim[1] + result.peak_x
+        dy, dx = self._rim
+        if result.background == BACKGROUND_EXTENT and max(result.extent_w_px, result.extent_h_px):
+            # Any extent pixel lies within max(w, h) - 1 of the peak; the guard adds 2 more.
+            half = max(self.box_px // 2, max(result.extent_w_px, result.extent_h_px) + 2)
+            dy, dx = rim_offsets(2 * half + 1)
+        rows = dy + result.peak_y
+        cols = dx + result.peak_x
         h, w = self.calibration.shape
         if rows.min() < 0 or cols.min() < 0 or rows.max() >= h or cols.max() >= w:
             return None  # the rim leaves the image: no sample (the measurement flags it too)

@@ -48,3 +48,27 @@ def test_bad_inputs(setup):
     with pytest.raises(ValueError, match="needs the frame's PeakSnr"):
         SkyTemperature("lwir", cal).add(0, np.zeros(cam.shape, np.uint16))
     assert np.isnan(SkyTemperature("lwir", cal).mean_temp_k())
+
+
+def test_a_drone_wider_than_the_box_is_not_read_as_sky(setup):
+    """A resolved drone (a 9-px warm square, measured against its extent rim, issue 14) puts
+    itself on the 7x7 rim: the sky is read on the rim outside its extent and guard instead, as
+    Eq. 4's background is, so the model's path-radiance correction gets the sky's 280 K."""
+    from acquisition.measure.blob import analyse_blob
+    from acquisition.measure.peak_snr import PeakSnrConfig
+    from acquisition.measure.target_snr import measure_target
+
+    cam, cal = setup
+    scene = np.full(cam.shape, cam.electrons(280.0))
+    scene[28:37, 36:45] = cam.electrons(300.0)  # the drone, 20 K warmer than the sky
+    scene[32, 40] = cam.electrons(305.0)  # its hottest pixel (the engine's peak)
+    sky = SkyTemperature("lwir", cal)
+    for i, frame in enumerate(cam.frames(scene, 5, seed=31)):
+        blob = analyse_blob(frame.astype(np.float64), (40, 32))
+        result = measure_target(frame, blob, PeakSnrConfig())
+        assert result.background == "extent_rim" and result.extent_w_px == 9
+        s = sky.add(1_000 * i, frame, result)
+        assert s.n_pixels > 24  # a rim outside the drone, not the 7x7 box's 24 pixels
+        assert s.temp_k == pytest.approx(280.0, abs=0.1)
+        on_drone = SkyTemperature("lwir", cal).add(0, frame, measure_peak_snr(frame, (40, 32)))
+        assert on_drone.temp_k > 290.0  # what the 7x7 rim reads: the drone itself
