@@ -22,6 +22,11 @@ and :meth:`figures` read only whole values the owner publishes under a lock.
 Replay across a recording gap: the live engine records :meth:`snapshot` (JSON-able, exact) before
 the first recorded frame after frames it measured but the recorder dropped; the replay posts
 :class:`~acquisition.engine.inputs.Restore` before that frame and so continues exactly as live.
+Frame gaps: the frames elapsed since the last processed frame come from the camera's counter
+(more than 1 after camera or ring drops; a counter that repeats, restarts or goes backwards
+counts as 1) and are told to the trackers before the frame is read
+(:meth:`acquisition.track.tracker.Tracker.skip`). The last counter is part of the snapshot, so a
+replay, which feeds the recorded counters, sees the same gaps.
 The noise and sky figures are not part of the snapshot (they are figures, not measurements):
 after a gap they restart from the frames at hand.
 """
@@ -128,6 +133,7 @@ class CameraEngine:
         self._state = "idle"
         self._roi: tuple[int, int] | None = None
         self._measured = 0
+        self._last_counter: int | None = None  # of the last frame process() was given
         self._series: deque[tuple[int, float, float, float, float]] = deque(maxlen=series_length)
 
     def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
@@ -184,7 +190,12 @@ class CameraEngine:
         range_at: RangeLookup | None = None,
     ) -> FrameOutput:
         """Apply the pending commands, then analyse one raw frame (rows, columns)."""
-        applied = self._apply_commands()
+        applied = self._apply_commands()  # a Restore sets _last_counter as it was live
+        last, self._last_counter = self._last_counter, int(counter)
+        if last is not None and counter > last + 1:  # frames dropped in between
+            self.measurer.skip(counter - last - 1)
+            if self.corrector.active:  # the raw track runs only while a correction is on
+                self.raw_measurer.skip(counter - last - 1)
         cue = next((c for c in applied if isinstance(c, Cue)), None)
         corrector = self.corrector
         done = None
@@ -228,7 +239,9 @@ class CameraEngine:
 
     def publish_recorded(self, m: Measurement) -> None:
         """A frame measured live but missing from the recording: its recorded measurement is
-        shown (status, series) as it was; nothing is re-measured."""
+        shown (status, series) as it was; nothing is re-measured. The last counter stays that
+        of the last frame this engine's trackers saw: an exact replay restores the live one (the
+        state recorded before the next recorded frame holds it)."""
         self._publish(m)
 
     def _publish(self, m: Measurement) -> None:
@@ -277,6 +290,7 @@ class CameraEngine:
             "version": SNAPSHOT_VERSION,
             "measurer": self.measurer.snapshot(),
             "raw_measurer": self.raw_measurer.snapshot(),
+            "last_counter": self._last_counter,
         }
 
     def restore(self, state: dict) -> None:
@@ -287,6 +301,8 @@ class CameraEngine:
             )
         self.measurer.restore(state["measurer"])
         self.raw_measurer.restore(state["raw_measurer"])
+        last = state.get("last_counter")  # None in states recorded before gaps were told
+        self._last_counter = None if last is None else int(last)
 
     # ------------------------------------------------------------------ reading (any thread)
     @property

@@ -100,6 +100,13 @@ class FrameMeasurer:
             self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
             self.tracker.restore(state["tracker"])
 
+    def skip(self, frames: int) -> None:
+        """``frames`` camera frames were dropped before the next :meth:`measure`
+        (:meth:`acquisition.track.tracker.Tracker.skip`; nothing without a tracker). Call it
+        before reading :attr:`read_xy`."""
+        if self.tracker is not None:
+            self.tracker.skip(frames)
+
     def cue(self, x: float, y: float) -> None:
         """A GPS position projected into this camera, for the tracker to reacquire near."""
         if self.tracker is not None:

@@ -4,7 +4,9 @@ Per frame the filter predicts ``p + v`` (pixels; x = column, y = row). A measure
 corrects it: ``r = z - prediction``, ``p = prediction + alpha r``, ``v = v + beta r``, the speed
 then clamped to ``max_speed_px`` per frame. A frame without a measurement coasts: ``p = p + v``
 and the velocity decays by ``coast_decay`` (a drone that is not seen is more likely hovering
-than flying on in a straight line for ever). The whole state is a few floats
+than flying on in a straight line for ever). Frames dropped before they reached the tracker
+(:meth:`advance`) move it on without decay: the drone was not missed, just not looked for. The
+whole state is a few floats
 (:meth:`snapshot` / :meth:`restore`, JSON-able and exact).
 """
 
@@ -68,6 +70,17 @@ class MotionModel:
         d = self.config.coast_decay
         self.vx *= d
         self.vy *= d
+
+    def advance(self, frames: int, bounds: tuple[float, float] | None = None) -> None:
+        """``frames`` frames that were never seen (dropped): ``p += v`` each, no decay; the
+        position is kept within ``bounds`` (columns, rows: the image) when given."""
+        if frames <= 0:
+            return
+        self.x += frames * self.vx
+        self.y += frames * self.vy
+        if bounds is not None:
+            self.x = min(max(self.x, 0.0), bounds[0] - 1.0)
+            self.y = min(max(self.y, 0.0), bounds[1] - 1.0)
 
     @property
     def speed(self) -> float:

@@ -51,6 +51,7 @@ class Reacquisition:
     _shape: tuple[int, int] | None
     _pending: Candidate | None
     _misses: int
+    _widen: int
     _anchored: bool
     _window: tuple[int, int]
     _history: ObjectHistory
@@ -131,7 +132,7 @@ class Reacquisition:
         if kind == "cue":
             half = c.cue_radius_px
         else:
-            grow = c.search_start_px + c.search_growth_px * (self._misses - 1)
+            grow = c.search_start_px + c.search_growth_px * (self._misses - 1) + self._widen
             half = min(grow, c.search_max_px)
         objects = find_objects(
             pixels, centre, half, config=c.blob, min_significance=c.reacquire_snr,

@@ -17,6 +17,9 @@ Per frame (rules and numbers in docs/tracking.md and :class:`TrackerConfig`):
 5. **Reacquisition**: a square growing around the prediction (around a fresh GPS cue while
    lost); a candidate is accepted after ``reacquire_frames`` consistent frames (a GPS-cued one
    at once).
+6. **Gaps**: frames dropped before the tracker (:meth:`Tracker.skip`, or ``update(frames=)``)
+   move the motion model on without decay; a ``gate`` miss right after them is searched for at
+   once, in a square widened by ``max_speed_px`` per dropped frame.
 
 The complete state is :meth:`Tracker.snapshot` (JSON-able; floats exact) and
 :meth:`Tracker.restore`: a tracker built with the same configuration and restored from the
@@ -109,6 +112,7 @@ class Tracker(Reacquisition):
         self._shape = None
         self._search_reason = "searching"
         self.reacquisitions = 0
+        self._gap = 1  # camera frames from the last update to the next (> 1 after drops)
         self.click(at_xy)
 
     # ----------------------------------------------------------------------------- commands
@@ -119,6 +123,7 @@ class Tracker(Reacquisition):
         self._anchored = False  # no object yet: the next frame looks near the click
         self._misses = 0
         self._confirmed = 0
+        self._widen = 0  # px added to the search square after dropped frames
         self.track_state = TrackState.TRACKING
         self._history.clear()
         self._reference.clear()
@@ -159,8 +164,31 @@ class Tracker(Reacquisition):
         return self._fixed_reference  # type: ignore[return-value]
 
     # ----------------------------------------------------------------------------- per frame
-    def update(self, pixels: np.ndarray) -> TrackStep:
-        """Measure and track one frame (rows, columns)."""
+    def skip(self, frames: int) -> None:
+        """``frames`` camera frames were dropped before the next :meth:`update` (by the camera,
+        or by a frame ring the measurement could not keep up with). The motion model moves on
+        over them without decay (kept in the image), the cue ages, a candidate being confirmed
+        is dropped (its frames must be consecutive), the search square widens by
+        ``max_speed_px`` a frame, and a ``gate`` miss on the next frame is a drone that moved,
+        looked for at once, not a confuser. Call it before reading :attr:`read_centre`."""
+        n = int(frames)
+        if n <= 0:
+            return
+        self._gap += n
+        if self._cue is not None:
+            self._cue_age += n
+        if not self._anchored:
+            return  # no track yet: the next frame looks near the click (or searches) anyway
+        bounds = None if self._shape is None else (self._shape[1], self._shape[0])
+        self.motion.advance(n, bounds)
+        self._pending = None
+        c = self.config
+        self._widen = min(self._widen + math.ceil(c.max_speed_px * n), c.search_max_px)
+
+    def update(self, pixels: np.ndarray, *, frames: int = 1) -> TrackStep:
+        """Measure and track one frame (rows, columns), ``frames`` camera frames after the last
+        one (> 1 after drops: :meth:`skip` of ``frames - 1`` first)."""
+        self.skip(frames - 1)
         if pixels.ndim != 2:
             raise ValueError(f"a frame must be 2-D (rows, columns), got shape {pixels.shape}")
         if self._shape is None:
@@ -185,6 +213,7 @@ class Tracker(Reacquisition):
             accepted=not m.flags & RUNNING_EXCLUDED,
             rejected=FLAG_RIM_CONTAMINATED in m.flags,
         )
+        self._gap = 1
         return step
 
     def _analyse(self, pixels, seed, size_px: int, centre=None) -> Blob | None:
@@ -262,8 +291,8 @@ class Tracker(Reacquisition):
             self.track_state = TrackState.OCCLUDED
         # A drone that vanished from its predicted place (a jump, a cut, a fast turn) is looked
         # for at once; one hidden by a confuser or merged with clutter is most likely still
-        # where it was.
-        vanished = reason in ("faint", "undefined")
+        # where it was. Right after dropped frames, off the gate is a drone that moved on.
+        vanished = reason in ("faint", "undefined") or (reason == "gate" and self._gap > 1)
         if self.track_state is TrackState.LOST or (
             vanished and self._misses >= c.search_after_misses
         ):
@@ -286,6 +315,7 @@ class Tracker(Reacquisition):
         self._window = (blob.peak_x, blob.peak_y)
         self._anchored = True
         self._misses = 0
+        self._widen = 0
         self._pending = None
         self._history.add(blob)
 
@@ -307,6 +337,7 @@ class Tracker(Reacquisition):
             "anchored": self._anchored,
             "misses": self._misses,
             "confirmed": self._confirmed,
+            "widen": self._widen,
             "cue": None if self._cue is None else list(self._cue),
             "cue_age": self._cue_age,
             "shape": None if self._shape is None else list(self._shape),
@@ -327,6 +358,8 @@ class Tracker(Reacquisition):
         self._anchored = bool(d["anchored"])
         self._misses = int(d["misses"])
         self._confirmed = int(d["confirmed"])
+        self._widen = int(d.get("widen", 0))  # states recorded before gaps were told: 0
+        self._gap = 1
         self._cue = None if d["cue"] is None else (float(d["cue"][0]), float(d["cue"][1]))
         self._cue_age = int(d["cue_age"])
         self._shape = None if d["shape"] is None else (int(d["shape"][0]), int(d["shape"][1]))
