@@ -134,6 +134,9 @@ class CameraEngine:
         self._roi: tuple[int, int] | None = None
         self._measured = 0
         self._last_counter: int | None = None  # of the last frame process() was given
+        # Tell the tracker about frames dropped before measurement (off to replay a session
+        # recorded before it was told: format 2.0).
+        self.tell_gaps = True
         self._series: deque[tuple[int, float, float, float, float]] = deque(maxlen=series_length)
 
     def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
@@ -192,7 +195,7 @@ class CameraEngine:
         """Apply the pending commands, then analyse one raw frame (rows, columns)."""
         applied = self._apply_commands()  # a Restore sets _last_counter as it was live
         last, self._last_counter = self._last_counter, int(counter)
-        if last is not None and counter > last + 1:  # frames dropped in between
+        if self.tell_gaps and last is not None and counter > last + 1:  # frames dropped between
             self.measurer.skip(counter - last - 1)
             if self.corrector.active:  # the raw track runs only while a correction is on
                 self.raw_measurer.skip(counter - last - 1)

@@ -111,6 +111,15 @@ class SessionFile:
             return 1
 
     @property
+    def version(self) -> tuple[int, int]:
+        """(major, minor) of the format; (1, 0) when unreadable."""
+        try:
+            major, minor = (int(v) for v in self.format_version.split(".")[:2])
+        except ValueError:
+            return (1, 0)
+        return (major, minor)
+
+    @property
     def complete(self) -> bool:
         """True when the recorder stopped cleanly (a summary was written)."""
         return self.summary is not None

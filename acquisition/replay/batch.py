@@ -133,6 +133,8 @@ def engine_for(
         project_gps=display,
     )
     for name in cameras:
+        # Format 2.1 on: the live engine told the tracker about dropped frames (schema.py).
+        engine.cameras[name].tell_gaps = f.version >= (2, 1)
         cal = recorded_calibration(f, name, inputs, (calibrations or {}).get(name))
         if cal is not None:
             engine.cameras[name].set_calibration(cal)

@@ -128,7 +128,7 @@ def test_replay_json_reports_the_files_drops(live, capsys):
         {BACKLOG: dropped} if dropped else {}
     )
     assert frames["identical"] == frames["compared"] == frames["in_file"]
-    assert out["format_version"] == "2.0"
+    assert out["format_version"] == "2.1"
 
 
 def _refuse(token: str):

@@ -150,16 +150,14 @@ class RecorderDropping(DroppingRecorder):
         return SessionRecorder.add_frame(self, camera, frame)
 
 
-def test_ring_drops_are_told_to_the_tracker_live_and_in_replay(tmp_path):
-    """Counters skip where the ring dropped frames: the engine tells the tracker (a drone flying
-    0.5 px a frame stays tracked across 16 dropped frames), and a replay, fed the recorded
-    counters and the last counter in the state recorded after a recorder gap, reproduces every
-    recorded frame."""
-    path = tmp_path / "ring.h5"
+def _ring_run(path, *, told: bool = True) -> list:
+    """A live run whose frame ring drops RING_DROPS and whose recorder drops REC_DROPS; the
+    engine tells the tracker about the ring's gaps (``told``) or not, as before format 2.1."""
     config = session_config_from_dict(
         {"cameras": {"cam": {"source": "shm", "address": "none", "width_px": W, "height_px": H}}}
     )
     engine = SessionEngine(config, {"cam": (H, W)})
+    engine.cameras["cam"].tell_gaps = told
     pipe = CameraPipeline("cam", _NoDevice(), engine)
     rec = RecorderDropping(path, config={"session": config.raw, "track": True},
                            cameras={"cam": (H, W)}, fsync=False)  # fmt: skip
@@ -178,6 +176,16 @@ def test_ring_drops_are_told_to_the_tracker_live_and_in_replay(tmp_path):
         if i not in RING_DROPS:
             pipe._process(RingFrame(pixels, i, i, T0 + i * DT, None, "cam"))
     rec.stop()
+    return live
+
+
+def test_ring_drops_are_told_to_the_tracker_live_and_in_replay(tmp_path):
+    """Counters skip where the ring dropped frames: the engine tells the tracker (a drone flying
+    0.5 px a frame stays tracked across 16 dropped frames), and a replay, fed the recorded
+    counters and the last counter in the state recorded after a recorder gap, reproduces every
+    recorded frame."""
+    path = tmp_path / "ring.h5"
+    live = _ring_run(path)
     after = {m.counter: m for m in live}
     for i in (56, 85):  # right after each ring gap: still on the drone, no miss
         assert after[i].track_reason == "" and after[i].track_state == "tracking", i
@@ -193,3 +201,21 @@ def test_ring_drops_are_told_to_the_tracker_live_and_in_replay(tmp_path):
     assert t.identical == t.compared, f"first difference at frame {t.first_difference}"
     assert t.states_restored == 3
     assert replay_session(path, fast=True).cameras["cam"].tally.identical == t.compared
+
+
+def test_a_format_2_0_recording_replays_with_gaps_untold(tmp_path):
+    """A session recorded before the tracker was told about dropped frames (format 2.0) replays
+    as it was recorded; the same file claiming 2.1 would not (the flag is what decides)."""
+    import h5py
+
+    path = tmp_path / "old.h5"
+    live = _ring_run(path, told=False)
+    after = {m.counter: m for m in live}
+    assert after[56].track_reason != ""  # untold, the tracker misses the drone 8 px on
+    with h5py.File(path, "r+") as f:
+        f.attrs["format_version"] = "2.0"
+    t = replay_session(path).cameras["cam"].tally
+    assert t.identical == t.compared == len(live) - len(REC_DROPS)
+    with h5py.File(path, "r+") as f:
+        f.attrs["format_version"] = "2.1"
+    assert replay_session(path).cameras["cam"].tally.identical < t.compared
