@@ -49,6 +49,9 @@ class ModelPredictor:
         self.asynchronous = asynchronous
         self.sensors = {}
         self.background_temp_k: dict[str, float | None] = {}
+        # The background temperature the current curves were computed for (K; the model's own
+        # when none was asked for), swapped in with them.
+        self.curves_background_k: dict[str, float] = {}
         self.psf: dict[str, object] = {}
         self.ranges_m = (
             np.geomspace(10.0, 5000.0, 600) if ranges_m is None else np.asarray(ranges_m, float)
@@ -114,6 +117,7 @@ class ModelPredictor:
                 return  # a newer request superseded this one
             self.background_temp_k[camera] = p.background_temp_k if background_temp_k else None
             self.curves = {**self.curves, camera: curves}  # swapped whole: no half reads
+            self.curves_background_k = {**self.curves_background_k, camera: p.background_temp_k}
             self.version += 1
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:

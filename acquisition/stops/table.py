@@ -67,6 +67,8 @@ class StopRow:
     # The background(s) the summarised frames were measured against (rim, extent_rim, rect),
     # most used first, joined by "+"; "" without frames.
     background: str = ""
+    # The background (sky) temperature the model values were computed for (None: no model).
+    model_sky_temp_k: float | None = None
 
     @property
     def range_m(self) -> float | None:
@@ -255,6 +257,7 @@ class StopTable:
         rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
         model = dict(self.predictor(camera, rng)) if (self.predictor and rng) else {}
         resolved = model.pop("resolved_small", None)
+        sky = getattr(self.predictor, "curves_background_k", {}).get(camera) if model else None
         row = StopRow(
             camera=camera,
             stop=stop.index,
@@ -272,6 +275,7 @@ class StopTable:
             resolved=None if resolved is None else bool(resolved),
             final=final,
             background=backgrounds_of(r for _, r in run),
+            model_sky_temp_k=sky,
         )
         return row, run
 

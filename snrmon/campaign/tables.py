@@ -44,15 +44,28 @@ STOP_COLUMNS: dict[str, tuple[pa.DataType, str]] = {
     "complete": (pa.bool_(), "the run has its 100 frames"),
     "snr_mean": (_F, "mean of the per-frame peak SNR (Eq. 4) over the run"),
     "snr_std": (_F, "sample std (ddof=1) of the per-frame SNR over the run"),
-    "snr_sem": (_F, "snr_std / sqrt(n_frames): error of the mean (frames taken independent)"),
+    "snr_sem": (
+        _F,
+        "snr_std / sqrt(N_eff): error of the mean, N_eff from the frames' autocorrelation "
+        "(acquisition.stops.detector.mean_error)",
+    ),
     "n_frames_in_stop": (pa.int32(), "frames measured while the stop was open"),
     "n_frames_flagged": (pa.int32(), "of those, frames with a flag that keeps them out of runs"),
     "background_method": (pa.string(), "rim | rect x0,y0,x1,y1, +detrend when detrended"),
+    "background_used": (
+        pa.string(),
+        "what the run's frames were measured against: rim (Eq. 4's 7x7 rim), extent_rim (outside "
+        "a drone wider than the box's guard) or rect, most used first, joined by +",
+    ),
     "box_px": (pa.int32(), "px, Eq. (4) box side"),
     "search_px": (pa.int32(), "px, search window side"),
     "calibration": (pa.string(), "calibration file the analysis applied (null: as recorded)"),
-    "sky_temp_k": (_F, "K, background (sky) temperature of the model curves"),
-    "sky_temp_measured_k": (_F, "K, measured sky temperature: null (not exposed by replay yet)"),
+    "sky_temp_k": (
+        _F,
+        "K, background (sky) temperature of the row's model curves: the sky measured through the "
+        "session's calibration when the live model followed it, else the analysis's or the "
+        "model's own",
+    ),
     **{f"model_{c}": (_F, f"model SNR, curve {c}, at range_m (paper Figs. 7-10)") for c in CURVES},
     "resolved_small": (pa.bool_(), "the model's verdict for the small dimension at range_m"),
     "flags": (
