@@ -31,18 +31,24 @@ class FitStatistic:
     chi2_per_dof_measured: float
 
 
+def _error_of_mean(row) -> float:
+    """The stop's error of the mean (its std where that is undefined); NaN when neither is."""
+    return row.snr_sem if math.isfinite(row.snr_sem) else row.snr_std
+
+
 def fit_statistics(rows, models) -> list[FitStatistic]:
     """chi^2/dof of each camera's unresolved stops (small dimension under a pixel, the paper's
     points) against each curve of ``models`` ({camera: ModelCurves})."""
     out = []
     for cam, m in models.items():
         keep = [r for r in rows if r.camera == cam and r.range_m is not None and r.n_frames >= 2
-                and math.isfinite(r.snr_mean) and r.resolved is False]  # fmt: skip
+                and math.isfinite(r.snr_mean) and r.resolved is False
+                and _error_of_mean(r) > 0]  # a stop without an error has no weight  # fmt: skip
         if not keep:
             continue
         x = np.log([r.range_m for r in keep])
         meas = np.array([r.snr_mean for r in keep])
-        sem = np.array([r.snr_sem if math.isfinite(r.snr_sem) else r.snr_std for r in keep])
+        sem = np.array([_error_of_mean(r) for r in keep])
         lr = np.log(m.ranges_m)
         for curve in FIT_CURVES:
             if curve not in m.snr:

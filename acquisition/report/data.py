@@ -222,6 +222,15 @@ def model_curves(
     )
 
 
+def rows_sky_k(rows: list[StopRow], camera: str) -> float | None:
+    """The background (sky) temperature to draw ``camera``'s curves at: the median of the one
+    its stop rows' model values were computed for (the measured sky where the session's model
+    followed it, paper sections 8-9), so the curves are those the stops are compared with; None
+    (the model's own) without such rows."""
+    temps = [r.model_sky_temp_k for r in rows if r.camera == camera and r.model_sky_temp_k]
+    return float(np.median(temps)) if temps else None
+
+
 def uncertainty_budget(
     camera: str, sensor_name: str, target_name: str, ranges_m: list[float]
 ) -> list[BudgetAtRange]:
@@ -326,7 +335,10 @@ def assemble_report(
         budgets[c] = uncertainty_budget(c, sensors[c], target, ranges)
     from acquisition.report.comparison import detection_summary, fit_statistics, reference_table
 
-    models = {c: model_curves(c, sensors[c], target, grid) for c in cameras}
+    models = {
+        c: model_curves(c, sensors[c], target, grid, background_temp_k=rows_sky_k(rows, c))
+        for c in cameras
+    }
     return ReportData(
         path=path,
         target=target,

@@ -78,14 +78,16 @@ def summary_page(data: ReportData):
         + f"; {len({r.stop for r in data.rows})} stops",
         "SNR = (peak - mean(BG)) / std(BG) per frame (Eq. 4), mean and sample std over the "
         "first 100 consecutive valid frames of each stop.",
-        "BG (column bg): rim = the 7x7 box's rim; ext = outside the segmented drone and a 2 px "
+        "BG (column bg): rim = the 7x7 box's rim; ext = outside the segmented drone and a 2 px",
         "guard (a drone wider than the box); rect = the operator's clear-sky rectangle.",
-        "ratio = measured mean / model at the stop's range (rangefinder, else GPS).",
+        "small, large, ... corr: the model's four curves at the stop's range (rangefinder, else "
+        "GPS); ratio = measured mean / model.",
     ]
     for i, line in enumerate(lines):
         fig.text(0.06, 0.925 - 0.022 * i, line, fontsize=8)
     head = ["stop", "camera", "LRF m", "GPS m", "n", "SNR", "std", "bg"]
-    head += [f"model {c.replace('_corrected', ' corr')}" for c in CURVES] + ["ratio s.corr"]
+    # short headers: the table's columns are narrow (the lines above spell out what they are)
+    head += [c.replace("_corrected", " corr") for c in CURVES] + ["ratio s.corr"]
     cells = []
     for r in data.csv_rows:
         cells.append(

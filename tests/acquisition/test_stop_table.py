@@ -120,3 +120,28 @@ def test_a_row_counts_only_frames_before_an_end_known_late():
     run = table.run_of(0, "mwir")
     assert [t for t, _ in run] == [t0 + i * FRAME_NS for i in range(60)]  # 60 > 29 before 90
     assert row.snr_mean == pytest.approx(np.mean([40.0 + i for i in range(60)]), rel=1e-12)
+
+
+def test_the_reports_curves_are_drawn_at_the_sky_the_rows_were_compared_with():
+    """A session whose model followed the measured sky (280 K against the model's own 288 K):
+    each row keeps the background its model values were computed for, and the report draws
+    the curves there, so a stop and the curve it is compared with agree (paper sections 8-9)."""
+    rng = np.random.default_rng(5)
+    detector = StopDetector()
+    predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
+    own = predictor.curves_background_k["mwir"]
+    predictor.set_background("mwir", 280.0, wait=True)
+    table = StopTable(detector, ["mwir"], predictor=predictor)
+    t0 = 10**12
+    detector.mark_stop(t0)
+    for _ in range(20):
+        detector.add_range(t0, 336.0, "gps")
+    for i in range(110):
+        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 40.0))
+    (row,) = table.rows()
+    assert own == pytest.approx(288.15) and row.model_sky_temp_k == pytest.approx(280.0)
+    data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
+    curves = data.models["mwir"]
+    assert curves.background_temp_k == pytest.approx(280.0)
+    at_stop = np.interp(np.log(336.0), np.log(curves.ranges_m), curves.snr["small"])
+    assert at_stop == pytest.approx(row.model_snr["small"], rel=0.01)
