@@ -137,6 +137,10 @@ class CameraEngine:
         # Tell the tracker about frames dropped before measurement (off to replay a session
         # recorded before it was told: format 2.0).
         self.tell_gaps = True
+        # The same track on the raw frames, for the raw-SNR figure beside a corrected one (the
+        # console's status and the HIL's FPN check); a batch replay, which reports neither,
+        # turns it off: it is half of a frame's work.
+        self.raw_figures = True
         self._series: deque[tuple[int, float, float, float, float]] = deque(maxlen=series_length)
 
     def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
@@ -197,7 +201,7 @@ class CameraEngine:
         last, self._last_counter = self._last_counter, int(counter)
         if self.tell_gaps and last is not None and counter > last + 1:  # frames dropped between
             self.measurer.skip(counter - last - 1)
-            if self.corrector.active:  # the raw track runs only while a correction is on
+            if self._raw_track:  # the raw track runs only while a correction is on
                 self.raw_measurer.skip(counter - last - 1)
         cue = next((c for c in applied if isinstance(c, Cue)), None)
         corrector = self.corrector
@@ -208,7 +212,7 @@ class CameraEngine:
                 done = ReferenceDone(corrector.reference_offset, summary)
                 self._raw_track_from_here()
         fr = self.measurer.measure(corrector.apply(pixels, self.measurer.read_xy))
-        raw = self.raw_measurer.measure(pixels) if corrector.active else None
+        raw = self.raw_measurer.measure(pixels) if self._raw_track else None
         peak_xy = None if fr is None else (fr.result.peak_x, fr.result.peak_y)
         self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
         if fr is not None and self.sky is not None:
@@ -287,6 +291,10 @@ class CameraEngine:
             self.raw_measurer.set_roi(*self.measurer.roi)
 
     # ------------------------------------------------------------------ state (owner)
+    @property
+    def _raw_track(self) -> bool:
+        return self.raw_figures and self.corrector.active
+
     def snapshot(self) -> dict:
         """The measurement state that carries over from frame to frame, exactly (JSON-able)."""
         return {

@@ -135,6 +135,7 @@ def engine_for(
     for name in cameras:
         # Format 2.1 on: the live engine told the tracker about dropped frames (schema.py).
         engine.cameras[name].tell_gaps = f.version >= (2, 1)
+        engine.cameras[name].raw_figures = display  # no display, no raw-SNR figure to show
         cal = recorded_calibration(f, name, inputs, (calibrations or {}).get(name))
         if cal is not None:
             engine.cameras[name].set_calibration(cal)
