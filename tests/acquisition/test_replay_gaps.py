@@ -55,16 +55,23 @@ def _frame(i: int, rng: np.random.Generator, fpn: np.ndarray) -> np.ndarray:
     return np.rint(1000.0 + fpn + spot + rng.normal(0, 5.0, (H, W))).astype(np.uint16)
 
 
-@pytest.fixture(scope="module")
-def recorded(tmp_path_factory):
-    path = tmp_path_factory.mktemp("gaps") / "gaps.h5"
+def _rig(path, recorder_class):
+    """One camera's engine and live pipeline (no device: frames are handed to it) recording
+    into ``recorder_class`` at ``path``."""
     config = session_config_from_dict(
         {"cameras": {"cam": {"source": "shm", "address": "none", "width_px": W, "height_px": H}}}
     )
     engine = SessionEngine(config, {"cam": (H, W)})
     pipe = CameraPipeline("cam", _NoDevice(), engine)
-    rec = DroppingRecorder(path, config={"session": config.raw, "track": True},
-                           cameras={"cam": (H, W)}, fsync=False)  # fmt: skip
+    rec = recorder_class(path, config={"session": config.raw, "track": True},
+                         cameras={"cam": (H, W)}, fsync=False)  # fmt: skip
+    return engine, pipe, rec
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    path = tmp_path_factory.mktemp("gaps") / "gaps.h5"
+    engine, pipe, rec = _rig(path, DroppingRecorder)
     pipe.attach_recorder(rec)
     rng = np.random.default_rng(2019)
     fpn = np.random.default_rng(7).normal(0.0, 8.0, (H, W))
@@ -104,13 +111,7 @@ def test_a_click_posted_before_the_recording_and_applied_at_its_first_frame(tmp_
     on the first recorded frame, so the state recorded before it has no track yet and the
     ``roi_set`` event is recorded at that frame. The replay applies both in that order."""
     path = tmp_path / "click-first.h5"
-    config = session_config_from_dict(
-        {"cameras": {"cam": {"source": "shm", "address": "none", "width_px": W, "height_px": H}}}
-    )
-    engine = SessionEngine(config, {"cam": (H, W)})
-    pipe = CameraPipeline("cam", _NoDevice(), engine)
-    rec = SessionRecorder(path, config={"session": config.raw, "track": True},
-                          cameras={"cam": (H, W)}, fsync=False)  # fmt: skip
+    engine, pipe, rec = _rig(path, SessionRecorder)
     pipe.set_roi(40, 30)
     pipe.attach_recorder(rec)
     rng = np.random.default_rng(37)
@@ -153,14 +154,8 @@ class RecorderDropping(DroppingRecorder):
 def _ring_run(path, *, told: bool = True) -> list:
     """A live run whose frame ring drops RING_DROPS and whose recorder drops REC_DROPS; the
     engine tells the tracker about the ring's gaps (``told``) or not, as before format 2.1."""
-    config = session_config_from_dict(
-        {"cameras": {"cam": {"source": "shm", "address": "none", "width_px": W, "height_px": H}}}
-    )
-    engine = SessionEngine(config, {"cam": (H, W)})
+    engine, pipe, rec = _rig(path, RecorderDropping)
     engine.cameras["cam"].tell_gaps = told
-    pipe = CameraPipeline("cam", _NoDevice(), engine)
-    rec = RecorderDropping(path, config={"session": config.raw, "track": True},
-                           cameras={"cam": (H, W)}, fsync=False)  # fmt: skip
     pipe.attach_recorder(rec)
     rng = np.random.default_rng(2020)
     fpn = np.random.default_rng(9).normal(0.0, 8.0, (H, W))
