@@ -2,8 +2,10 @@
 
 Per frame (:meth:`CameraEngine.process`), in this order:
 
-1. the commands posted since the last frame are applied (ROI, GPS cue, background reference,
-   restore of a recorded state), and returned so the caller can record them at this frame;
+1. the commands posted since the last frame are applied in the order posted, except that a GPS
+   cue is applied last, to the track of this frame's click if there is one (ROI, background
+   reference, restore of a recorded state, GPS cue), and returned so the caller can record them
+   at this frame;
 2. a background reference capture in progress is fed
    (:class:`acquisition.engine.frame_correction.FrameCorrector`);
 3. Eq. (4) with the tracker on the corrected window
@@ -263,6 +265,10 @@ class CameraEngine:
     def _apply_commands(self) -> tuple[Command, ...]:
         with self._lock:
             commands, self._inbox = self._inbox, []
+        # A GPS cue goes to the track in force after this frame's click, however the two
+        # threads' posts interleaved (a click makes a new tracker; a cue applied before it would
+        # be lost live, but kept by a replay that posts the recorded click first).
+        commands.sort(key=lambda c: isinstance(c, Cue))
         for c in commands:
             if isinstance(c, SetRoi):
                 self.measurer.set_roi(c.x, c.y)
