@@ -241,13 +241,19 @@ def expected_eq4(
     ddof: int = 1,
     phases: int = 5,
     background: str = "rim",
+    phases_xy=None,
 ) -> np.ndarray:
     """Expected mean Eq. (4) reading (see the module docstring) for total signals
     ``amplitude`` = contrast electrons on the focal plane / temporal noise (the SNR at PVF = 1),
     with the target a square of side ``target_square_px`` (or a Gaussian of
     ``target_sigma_px``) convolved with ``psf``. ``amplitude`` and the target sizes broadcast;
     ``phases`` x ``phases`` phases over the half cell (the symmetric quarter of the cell);
-    ``background`` as in :func:`readings_of_patterns` ("target": what the console reads)."""
+    ``background`` as in :func:`readings_of_patterns` ("target": what the console reads).
+
+    ``phases_xy`` (N, 2): instead of phases uniform over the cell, the target centroid's offsets
+    (x, y) from a pixel centre that N frames actually had (:func:`observed_phases`): the mean is
+    over those frames. 100 frames of a hover do not sample the cell evenly; over the phases
+    they sampled, the expectation is of what those frames read."""
     amp, d, s = np.broadcast_arrays(
         np.asarray(amplitude, float), np.asarray(target_square_px, float),
         np.asarray(target_sigma_px, float),
@@ -255,7 +261,11 @@ def expected_eq4(
     if np.any(~np.isfinite(amp)) or np.any(amp < 0):
         raise ValueError(f"signal amplitude must be >= 0, got {amplitude!r}")
     base_half = search_px // 2 + box_px // 2 + 1
-    ph = phase_grid(phases)
+    if phases_xy is None:
+        ph = phase_grid(phases)
+        ph_x, ph_y, weights = ph, ph, np.full((len(ph), len(ph)), 1.0 / len(ph) ** 2)
+    else:
+        ph_x, ph_y, weights = observed_phase_weights(phases_xy)
     out = np.empty(amp.shape)
     cache: dict[tuple[float, float, int], np.ndarray] = {}
     for idx in np.ndindex(amp.shape):
@@ -266,7 +276,7 @@ def expected_eq4(
             key = (float(d[idx]), float(s[idx]), half)
             if key not in cache:
                 cache[key] = pixel_patterns(
-                    psf, fill_factor, ph, ph, half_size_px=half,
+                    psf, fill_factor, ph_x, ph_y, half_size_px=half,
                     target_square_px=key[0], target_sigma_px=key[1],
                 )  # fmt: skip
             try:
@@ -279,5 +289,25 @@ def expected_eq4(
                 if half >= MAX_HALF_PX:
                     raise
                 half = min(2 * half, MAX_HALF_PX)  # a bright target's 3-sigma extent is wide
-        out[idx] = float(np.mean(readings))
+        out[idx] = float(np.sum(weights * readings))
     return out
+
+
+PHASE_STEP_PX = 1.0 / 24.0  # observed phases are binned to this (the reading changes < 0.5 %)
+
+
+def observed_phase_weights(phases_xy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x phases, y phases, weights (n_y, n_x)) of observed centroid offsets ``phases_xy``
+    (N, 2) from a pixel centre: each folded into the half cell [0, 0.5] (the PSF and target
+    are symmetric, and an offset past half a pixel is nearer the next pixel), binned to
+    :data:`PHASE_STEP_PX`, weighted by how many frames fell in each bin."""
+    p = np.asarray(phases_xy, dtype=float).reshape(-1, 2)
+    if len(p) == 0 or not np.all(np.isfinite(p)):
+        raise ValueError(f"observed phases must be finite (N, 2) offsets, got {len(p)} rows")
+    folded = np.abs((p + 0.5) % 1.0 - 0.5)
+    bins = np.rint(folded / PHASE_STEP_PX).astype(int)
+    xs, ix = np.unique(bins[:, 0], return_inverse=True)
+    ys, iy = np.unique(bins[:, 1], return_inverse=True)
+    weights = np.zeros((len(ys), len(xs)))
+    np.add.at(weights, (iy.ravel(), ix.ravel()), 1.0 / len(p))
+    return xs * PHASE_STEP_PX, ys * PHASE_STEP_PX, weights

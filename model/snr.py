@@ -187,10 +187,12 @@ def expected_reading(
     geometry: str = "square",
     target_sigma_per_size: float = DEFAULT_TARGET_SIGMA_PER_SIZE,
     nodes: int = _EXPECTED_NODES,
+    phases_xy=None,
 ) -> np.ndarray:
     """:func:`model.eq4.expected_eq4` along a range grid (amplitude = point contrast / noise,
     d_px the target's side in pixels): exact at up to ``nodes`` log-spaced ranges, PCHIP in
-    log-log between them (the reading is smooth in range)."""
+    log-log between them (the reading is smooth in range). ``phases_xy``: over these observed
+    sub-pixel phases instead of the whole cell (``expected_eq4``)."""
     r = np.asarray(ranges_m, float)
 
     def at(idx):
@@ -200,7 +202,8 @@ def expected_reading(
         # where a warm sky's path radiance catches up) gives Eq. (4) no peak of its own: the
         # estimator reads the noise, as for a zero contrast.
         amp = np.clip(amplitude[idx], 0.0, None)
-        return _expected_eq4(psf, fill_factor, amp, background="target", **kw)
+        return _expected_eq4(psf, fill_factor, amp, background="target", phases_xy=phases_xy,
+                             **kw)  # fmt: skip
 
     if r.size <= nodes:
         return at(np.arange(r.size))
@@ -230,6 +233,7 @@ def predict(
     inputs: InputUncertainty | None = None,
     expected: bool = True,
     band: bool = True,
+    phases_xy=None,
 ) -> SnrPrediction:
     """The four SNR curves of Figs. 7-10 at ``ranges_m`` (metres, > 0); see the module
     docstring.
@@ -239,8 +243,9 @@ def predict(
     temperature (the paper's path-radiance correction); ``air_temp_k``: the air along the path
     (default the atmosphere's). ``spatial_noise``: see :func:`model.noise.spatial_noise_e`.
     ``corrected_psf``: the real PSF (default the sensor's). ``expected``: compute the expected
-    Eq. (4) reading; ``band``: the Monte-Carlo band (``inputs``, default
-    :class:`model.montecarlo.InputUncertainty`).
+    Eq. (4) reading, over the sub-pixel phases ``phases_xy`` (N, 2) that a stop's frames
+    sampled if given (:func:`model.eq4.expected_eq4`), else over the whole cell; ``band``: the
+    Monte-Carlo band (``inputs``, default :class:`model.montecarlo.InputUncertainty`).
     """
     ranges = _check_ranges(ranges_m)
     if geometry not in GEOMETRIES:
@@ -284,7 +289,7 @@ def predict(
     if expected:
         expected_curve = expected_reading(
             real, ff, ranges, point["small"] / denom, d_of["small"], geometry=geometry,
-            target_sigma_per_size=target_sigma_per_size,
+            target_sigma_per_size=target_sigma_per_size, phases_xy=phases_xy,
         )  # fmt: skip
     if band:
         draws = draw_corrected(

@@ -145,6 +145,21 @@ def _frame_chi2(data: np.ndarray, noise: np.ndarray, patterns: np.ndarray) -> np
     return (np.sum(data * data, axis=1) - gain.max(axis=1)) / noise**2
 
 
+def observed_phases(stop: StopCrops, psf, fill_factor: float) -> np.ndarray:
+    """(N, 2) offsets (x, y) in px of the drone's centroid from its peak pixel's centre in each
+    of the stop's frames: the best-fitting offset on the fit's grid (1/12 px) with ``psf`` (the
+    fitted one, :meth:`PsfEstimate.psf`). The phases the stop's frames actually sampled, for
+    ``model.eq4.expected_eq4(phases_xy=...)``."""
+    data, _ = _prepare(stop.crops)
+    pats = pixel_patterns(psf, fill_factor, _OFFSETS, _OFFSETS, half_size_px=FIT_HALF,
+                          target_square_px=stop.target_px)  # fmt: skip
+    p = pats.reshape(-1, data.shape[1])
+    dots = matmul(data, p.T)
+    gain = np.where(dots > 0, dots * dots / np.sum(p * p, axis=1)[None, :], 0.0)
+    iy, ix = np.divmod(np.argmax(gain, axis=1), len(_OFFSETS))
+    return np.stack([_OFFSETS[ix], _OFFSETS[iy]], axis=1)
+
+
 def _psf_of(family: str, theta: float, airy):
     if family == "gaussian":
         return GaussianPsf(max(theta, 1e-3))

@@ -125,7 +125,7 @@ def _unresolved_stops(rig, cam: str, finals: dict) -> list:
             continue
         d = target_px(rig.predictor.target, entry["lrf_range_m"], sensor.ifov_rad)
         if d < 1.0 and len(crops) >= 50:
-            stops.append(StopCrops(f"stop {stop} ({cam})", crops, d))
+            stops.append(StopCrops(_label(stop, cam), crops, d))
     return stops
 
 
@@ -154,8 +154,9 @@ def adopt_measured_psf(rig, cam: str, finals: dict) -> None:
 def measured_psf(rig, finals: dict) -> dict:
     """Per camera, the PSF fitted to the crops of its unresolved stops, pooled, and every
     stop's expected Eq. (4) with it: {camera: {"psf": {...} | {"error": ...}}} and, in the
-    stop entries of ``finals``, ``"expected_eq4_measured_psf"``."""
-    from acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
+    stop entries of ``finals``, ``"expected_eq4_measured_psf"`` (over the whole cell) and, at
+    an unresolved stop, ``"expected_eq4_stop_phases"`` (over the phases its frames sampled)."""
+    from acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf, observed_phases
     from model.snr import predict
 
     out = {}
@@ -173,12 +174,22 @@ def measured_psf(rig, finals: dict) -> dict:
             continue
         out[cam] = est.as_dict()
         sky = rig.predictor.background_temp_k.get(cam)
-        for (c, _), entry in finals.items():
+        phases = {s.label: observed_phases(s, est.psf(), sensor.fill_factor) for s in stops}
+        for (c, stop), entry in finals.items():
             rng = entry.get("lrf_range_m")
             if c != cam or rng is None:
                 continue
-            p = predict(sensor, target, [rng], corrected_psf=est.psf(), background_temp_k=sky,
-                        air_temp_k=rig.opts.scenario.air_temp_k, band=False)  # fmt: skip
+            kw = {"corrected_psf": est.psf(), "background_temp_k": sky,
+                  "air_temp_k": rig.opts.scenario.air_temp_k, "band": False}  # fmt: skip
+            p = predict(sensor, target, [rng], **kw)
             entry["expected_eq4_measured_psf"] = float(p.expected_eq4[0])
             entry["model_small_corrected_measured_psf"] = float(p.snr_small_corrected[0])
+            sampled = phases.get(_label(stop, cam))
+            if sampled is not None:  # unresolved: the phases its own frames sampled
+                p = predict(sensor, target, [rng], phases_xy=sampled, **kw)
+                entry["expected_eq4_stop_phases"] = float(p.expected_eq4[0])
     return out
+
+
+def _label(stop: int, cam: str) -> str:
+    return f"stop {stop} ({cam})"
