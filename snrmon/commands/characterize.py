@@ -130,9 +130,10 @@ def run(args: argparse.Namespace) -> int:
     if args.target_out:  # (a calibration comes from the session, or from --calibration)
         output_file(args.target_out, "--target-out", suffixes=(".toml",))
     sensor = load_sensor(args.sensor or _sensor_name(args.file, args.camera))
-    # track=False: the tracker's point-target tests (brightness, rim contamination) declare a
-    # resolved drone LOST; at a hover the search window around the click holds it.
-    replay = replay_session(args.file, track=False)
+    # As recorded: the live track (it follows a resolved drone, issue 14) gives each frame's
+    # position. A fixed window at the click would sit where the operator clicked, which at a
+    # close stop can be tens of pixels off the drone (a click on its GPS position).
+    replay = replay_session(args.file, fast=True)
     if args.camera not in replay.cameras:
         raise UsageError(f"camera {args.camera!r} not in {args.file} ({', '.join(replay.cameras)})")
     rows = [r for r in replay.stops if r.camera == args.camera]

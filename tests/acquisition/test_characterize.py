@@ -174,7 +174,8 @@ def _record(cam, path, fps=20.0):
     t0 = 10**12
     knots_t = [p for a, b, _ in plan for p in (a, b)]
     knots_r = [r for _, _, r in plan for r in (r, r)]
-    rec.add_event("roi_set", camera="mwir", payload={"x": XC, "y": YC}, t_host_ns=t0)
+    # The click is 44 px off the drone (the HIL clicks its GPS position): the track finds it.
+    rec.add_event("roi_set", camera="mwir", payload={"x": XC - 44, "y": YC}, t_host_ns=t0)
     rng = np.random.default_rng(4)
     for i in range(int(t_end * fps)):
         t = i / fps
