@@ -6,17 +6,31 @@ system's). What makes the two comparable and repeatable:
 
 - **past the write cache**: both ``fsync`` every 0.5 s (as the recorder does) and each slice ends
   with an ``fsync`` whose time is counted, so a slice measures what reached the disk, not the
-  page cache (a VM's cache took the first 1.5-2 GB of a run at several GB/s and made one run's
-  ratio 0.38 and the next 0.94);
-- **long slices, in pairs**: each slice writes ``SLICE_MB`` (default 1 GB); raw and recorder
-  slices alternate in three pairs, the order within a pair alternating too, so both see the same
-  disk weather; files are deleted only at the end (an unlink on a disk mounted with "discard"
-  slows the next slice down);
+  page cache;
+- **a warm-up first**: ``WARMUP_MB`` (default 1 GB, ``$SNRMON_BENCH_WARMUP_MB``) of plain writes,
+  not counted, before the first pair. This VM's disk is a file on its host, whose own write-back
+  cache takes the first GB of a run at 1.5-2 GB/s however often the guest fsyncs; without the
+  warm-up that burst always fell on the first (plain) slice and made that pair's ratio 0.25-0.57;
+- **short slices, many pairs**: each slice writes ``SLICE_MB`` (default 256 MB,
+  ``$SNRMON_BENCH_SLICE_MB``); raw and recorder slices alternate in ``PAIRS`` pairs (default 12,
+  ``$SNRMON_BENCH_PAIRS``), the order within a pair alternating too, so both sides of a pair see
+  the same disk weather. The host's disk switches between ~2 GB/s (its cache) and 250-550 MB/s
+  (the disk under it) within a run, and a pair that straddles a switch gives a ratio of 0.2 or 5:
+  three pairs of 1 GB slices gave medians of 0.85, 1.09 and 1.16 in three runs in a row, twelve
+  pairs of 256 MB 0.889-0.922 on the same code. Other processes on a shared machine still move a
+  run by several per cent (``ratio_iqr`` shows it). Files are deleted only at the end (an unlink
+  on a disk mounted with "discard" hands the host back its cache and changes the weather for the
+  next slice); a run needs about ``WARMUP_MB + 2 * PAIRS * SLICE_MB`` (7.2 GB) of free space;
 - the figure is the **median of the pairs' ratios**, reported with their spread
-  ((max - min) / median), so a run whose pairs disagree says so.
+  ((max - min) / median: one straddling pair makes it large) and their interquartile range over
+  the median (``ratio_iqr``: how much the typical pairs disagree).
+
+The guest's page cache is not dropped between slices: with an fsync every 0.5 s it holds a few MB
+of dirty data at most, and the swings come from the host, which ``/proc/sys/vm/drop_caches`` in
+the guest does not reach.
 
 The recorder is fed as fast as its backlog allows. With hdf5plugin installed, each lossless filter
-is measured too (ratio, throughput, CPU per frame), on shorter slices.
+is measured too (ratio, throughput, CPU per frame), on one 256 MB slice each.
 """
 
 from __future__ import annotations
@@ -38,8 +52,10 @@ from drivers.camera.frame import Frame
 KEY = "recorder"
 H, W = 720, 1280
 MB = 1e6
-SLICE_MB = float(os.environ.get("SNRMON_BENCH_SLICE_MB", 1024))
-PAIRS = 3
+SLICE_MB = float(os.environ.get("SNRMON_BENCH_SLICE_MB", 256))
+WARMUP_MB = float(os.environ.get("SNRMON_BENCH_WARMUP_MB", 1024))
+PAIRS = int(os.environ.get("SNRMON_BENCH_PAIRS", 12))
+FILTER_MB = 256.0  # each lossless filter's slice
 
 
 def _frames(n: int = 8) -> list[np.ndarray]:
@@ -109,6 +125,7 @@ def run(duration_s: float) -> dict:
     frames = _frames(4)
     tmp = Path(tempfile.mkdtemp(prefix="snrmon-bench-", dir=os.environ.get("SNRMON_BENCH_DIR")))
     try:
+        warmup = _raw_write(tmp / "warmup.bin", frames, WARMUP_MB) if WARMUP_MB > 0 else None
         raw_runs: list[float] = []
         rec_runs: list[dict] = []
         for k in range(PAIRS):
@@ -120,9 +137,11 @@ def run(duration_s: float) -> dict:
                     rec_runs.append(_record(tmp / f"rec{k}.h5", frames, SLICE_MB, None))
         ratios = [r["mb_per_s"] / w for r, w in zip(rec_runs, raw_runs, strict=True)]
         ratio = statistics.median(ratios)
+        quartiles = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else [ratio] * 3
         out: dict = {
             "ratio": ratio,
             "ratio_spread": (max(ratios) - min(ratios)) / ratio,
+            "ratio_iqr": (quartiles[2] - quartiles[0]) / ratio,
             "ratio_runs": ", ".join(f"{v:.3f}" for v in ratios),
             "mb_per_s": statistics.median(r["mb_per_s"] for r in rec_runs),
             "raw_write_mb_per_s": statistics.median(raw_runs),
@@ -130,6 +149,8 @@ def run(duration_s: float) -> dict:
             "recorder_mb_per_s_runs": ", ".join(f"{r['mb_per_s']:.0f}" for r in rec_runs),
             "cpu_ms_per_frame": statistics.median(r["cpu_ms_per_frame"] for r in rec_runs),
             "slice_mb": SLICE_MB,
+            "warmup_mb": WARMUP_MB,
+            "warmup_mb_per_s": warmup,
             "dir": str(tmp.parent),
         }
         error = next((r["error"] for r in rec_runs if r["error"]), None)
@@ -138,7 +159,7 @@ def run(duration_s: float) -> dict:
         if not filters:
             out["compression"] = "hdf5plugin not installed: not measured"
         for name in filters:
-            c = _record(tmp / f"{name}.h5", frames, SLICE_MB / 4, name)
+            c = _record(tmp / f"{name}.h5", frames, FILTER_MB, name)
             key = name.replace("-", "_")
             out[f"{key}_ratio"] = c["ratio_vs_raw_bytes"]
             out[f"{key}_mb_per_s"] = c["mb_per_s"]

@@ -23,6 +23,7 @@ from acquisition.streams.timebase import ClockMap
 
 COMPRESSIONS = ("gzip", "lz4", "zstd", "bitshuffle-lz4")
 LIBVER = ("v110", "v110")
+_U16 = np.dtype("<u2")
 
 
 def frame_filter(compression: str | None) -> dict:
@@ -69,6 +70,7 @@ class SessionWriter:
         self.measurements = dict.fromkeys(shapes, 0)
         self.stream_rows = dict.fromkeys(schema.STREAMS, 0)
         self._pending: dict[tuple[str, str], list] = {}
+        self._frames: dict[str, h5py.Dataset] = {}  # per camera, looked up once (not per frame)
         self._file = self._create(config, shapes, filters, compression, flush_interval_s)
         self._fd = os.open(path, os.O_RDONLY) if fsync else None
 
@@ -112,7 +114,7 @@ class SessionWriter:
             for name, (h, w) in shapes.items():
                 g = f.create_group(f"{schema.CAMERAS}/{name}")
                 g.attrs.update(height=h, width=w, pixel_dtype="uint16")
-                g.create_dataset(
+                self._frames[name] = g.create_dataset(
                     schema.FRAMES,
                     (0, h, w),
                     np.uint16,
@@ -158,11 +160,13 @@ class SessionWriter:
 
     def write_frame(self, camera: str, pixels: np.ndarray, counter: int, t_host: int, t_dev: int):
         """Append one frame's pixels now; its counter and times at the next flush."""
-        ds = self._file[f"{schema.CAMERAS}/{camera}/{schema.FRAMES}"]
+        ds = self._frames[camera]
         n = self.frames_written[camera]
-        ds.resize(n + 1, axis=0)
-        if self._raw_frames and pixels.dtype == np.dtype("<u2") and pixels.flags.c_contiguous:
-            ds.id.write_direct_chunk((n, 0, 0), pixels.data)
+        # The low-level calls: h5py's path lookup and Dataset.resize cost ~100 us a frame
+        # together, a quarter of writing the frame's 1.8 MB (MWIR) to the page cache.
+        ds.id.set_extent((n + 1, *pixels.shape))
+        if self._raw_frames and pixels.dtype == _U16 and pixels.flags.c_contiguous:
+            ds.id.write_direct_chunk((n, 0, 0), pixels)
         else:
             ds[n] = pixels
         self._pending.setdefault(("frame", camera), []).append((counter, t_host, t_dev))
