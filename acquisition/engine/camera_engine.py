@@ -125,7 +125,8 @@ class CameraEngine:
         )
         cfg = self.measurer.meter.config
         self.config = cfg
-        self.corrector = FrameCorrector(self.shape, crop_half_px(cfg, self.measurer.tracker_config))
+        half = crop_half_px(cfg, self.measurer.tracker_config)  # lazy: frame_correction.py
+        self.corrector = FrameCorrector(self.shape, half, lazy=cfg.background is None)
         self.noise = self._track_noise(cfg)
         self.sky: SkyTemperature | None = None  # with a calibration
         self._lock = threading.Lock()
