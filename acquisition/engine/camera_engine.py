@@ -348,13 +348,9 @@ class CameraEngine:
     def figures(self) -> AnalysisFigures:
         total, temporal, spatial = self.noise.figures()
         sky = self.sky.mean_temp_k(last=SKY_FRAMES) if self.sky is not None else NAN
+        c = self.corrector
         return AnalysisFigures(
-            self.corrector.reference_frames,
-            self.corrector.fixed_pattern_dn,
-            sky,
-            total,
-            temporal,
-            spatial,
+            c.reference_frames, c.fixed_pattern_dn, sky, total, temporal, spatial
         )
 
     def status(
