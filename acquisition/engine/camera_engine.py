@@ -125,7 +125,8 @@ class CameraEngine:
         )
         cfg = self.measurer.meter.config
         self.config = cfg
-        self.corrector = FrameCorrector(self.shape, crop_half_px(cfg, self.measurer.tracker_config))
+        half = crop_half_px(cfg, self.measurer.tracker_config)  # lazy: frame_correction.py
+        self.corrector = FrameCorrector(self.shape, half, lazy=cfg.background is None)
         self.noise = self._track_noise(cfg)
         self.sky: SkyTemperature | None = None  # with a calibration
         self._lock = threading.Lock()
@@ -347,13 +348,9 @@ class CameraEngine:
     def figures(self) -> AnalysisFigures:
         total, temporal, spatial = self.noise.figures()
         sky = self.sky.mean_temp_k(last=SKY_FRAMES) if self.sky is not None else NAN
+        c = self.corrector
         return AnalysisFigures(
-            self.corrector.reference_frames,
-            self.corrector.fixed_pattern_dn,
-            sky,
-            total,
-            temporal,
-            spatial,
+            c.reference_frames, c.fixed_pattern_dn, sky, total, temporal, spatial
         )
 
     def status(

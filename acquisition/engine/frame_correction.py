@@ -9,28 +9,45 @@
 two-point
   non-uniformity correction; the reference, if any, is then taken on corrected frames.
 
-Both are applied only to the square around the track that the measurement reads
-(:func:`acquisition.replay.batch.crop_half_px`-sized), written into a float32 full-frame buffer, so
-the cost does not grow with the frame. The recording always keeps the raw frames.
+Both are applied only inside the square around the track that the measurement may read
+(:func:`acquisition.engine.frame_measurer.crop_half_px`-sized), written into a float32 full-frame
+buffer, so the cost does not grow with the frame. Within that square only what the measurement
+reads is corrected, as it reads it (:class:`acquisition.engine.lazy_frame.LazyFrame`, in
+``TILE_PX`` tiles): each pixel's correction is its own (per-pixel gain, offset and reference), so
+a pixel corrected alone equals the same pixel of the whole square, bit for bit. Two cases are
+corrected whole, as before: a region holding a bad pixel of the calibration (its replacement is
+a median over the square's neighbours and the square's own median), and a measurement that reads
+a fixed clear-sky rectangle (it may lie outside the square: the buffer is read as it stands,
+``lazy=False``). The recording always keeps the raw frames.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from acquisition.engine.lazy_frame import LazyFrame, Region
+
+TILE_PX = 32  # a read corrects the tiles it falls in (within the square): few, small passes
+
 
 class FrameCorrector:
     """Applies the background reference and/or a calibration inside a window around the ROI."""
 
-    def __init__(self, shape: tuple[int, int], half_px: int) -> None:
+    def __init__(self, shape: tuple[int, int], half_px: int, *, lazy: bool = True) -> None:
         self.shape = (int(shape[0]), int(shape[1]))
         self.half_px = int(half_px)
+        self.lazy = lazy
         self.calibration = None
         self.reference_offset: np.ndarray | None = None
         self.reference_frames = 0
         self.fixed_pattern_dn = float("nan")  # spatial std of the reference offsets
         self.reference_summary: dict | None = None  # the summary of the reference in force
         self._buffer = np.zeros(self.shape, np.float32)
+        self._lazy_frame = LazyFrame.of(self._buffer, self)
+        self._pixels: np.ndarray | None = None  # the frame being read (lazy)
+        self._square: Region = (0, 0, 0, 0)  # what apply() corrects this frame
+        self._done: list[Region] = []  # regions corrected this frame
+        self._bad_sum: tuple[object, np.ndarray | None] = (None, None)  # (calibration, table)
         self._sum: np.ndarray | None = None
         self._wanted = 0
         self._counters: list[int] = []
@@ -106,13 +123,69 @@ class FrameCorrector:
 
     def apply(self, pixels: np.ndarray, roi: tuple[int, int] | None) -> np.ndarray:
         """The corrected frame in the window around ``roi`` (float32); the raw frame when
-        nothing is active or no ROI is set."""
+        nothing is active or no ROI is set. Lazy (the default), the window's pixels are
+        corrected as they are read, until the next call."""
         if not self.active or roi is None:
             return pixels
         x, y = roi
         h = self.half_px
         y0, y1 = max(y - h, 0), min(y + h + 1, self.shape[0])
         x0, x1 = max(x - h, 0), min(x + h + 1, self.shape[1])
+        self._square = (y0, y1, x0, x1)
+        if not self.lazy:
+            self._correct(pixels, self._square)
+            return self._buffer
+        self._pixels = pixels
+        self._done = []
+        return self._lazy_frame
+
+    def ensure(self, region: Region | None) -> None:
+        """Correct ``region`` of the frame given to :meth:`apply` (within its square; None: the
+        whole square) unless this frame has corrected it already (:class:`LazyFrame`)."""
+        sy0, sy1, sx0, sx1 = self._square
+        if region is None:
+            y0, y1, x0, x1 = sy0, sy1, sx0, sx1
+        else:
+            y0, y1 = max(region[0], sy0), min(region[1], sy1)
+            x0, x1 = max(region[2], sx0), min(region[3], sx1)
+            if y0 >= y1 or x0 >= x1:
+                return  # outside the square: never read (reach_px), left as it stands
+        for d in self._done:
+            if d[0] <= y0 and y1 <= d[1] and d[2] <= x0 and x1 <= d[3]:
+                return
+        if self._pixels is None:
+            return  # not a lazy frame (or already dropped): the buffer is what it is
+        t = TILE_PX
+        y0, y1 = max(y0 // t * t, sy0), min(-(-y1 // t) * t, sy1)
+        x0, x1 = max(x0 // t * t, sx0), min(-(-x1 // t) * t, sx1)
+        box = (y0, y1, x0, x1)
+        if self._has_bad(box):  # its replacement depends on the whole square: correct it all
+            box = self._square
+        self._correct(self._pixels, box)
+        self._done.append(box)
+
+    def _has_bad(self, box: Region) -> bool:
+        """True when the calibration marks a bad pixel in ``box`` (a summed-area table)."""
+        cal = self.calibration
+        if cal is None:
+            return False
+        if self._bad_sum[0] is not cal:
+            bad = np.asarray(cal.bad) != 0
+            table = None
+            if bad.any():
+                table = np.zeros((bad.shape[0] + 1, bad.shape[1] + 1), np.int64)
+                table[1:, 1:] = bad.cumsum(0).cumsum(1)
+            self._bad_sum = (cal, table)
+        table = self._bad_sum[1]
+        if table is None:
+            return False
+        y0, y1, x0, x1 = box
+        return bool(table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0] > 0)
+
+    def _correct(self, pixels: np.ndarray, box: Region) -> None:
+        """The correction of ``box`` into the buffer. The calibration's bad-pixel replacement
+        depends on the box (a median over it); every other pixel's value does not."""
+        y0, y1, x0, x1 = box
         if self.calibration is not None:
             win = self.calibration.correct(pixels, (y0, y1, x0, x1))
         else:
@@ -120,4 +193,3 @@ class FrameCorrector:
         if self.reference_offset is not None:
             win = win - self.reference_offset[y0:y1, x0:x1]
         self._buffer[y0:y1, x0:x1] = win
-        return self._buffer

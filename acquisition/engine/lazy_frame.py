@@ -1,0 +1,85 @@
+"""A corrected frame whose pixels are corrected as the measurement reads them.
+
+:class:`LazyFrame` is the corrector's full-frame float32 buffer seen as an array whose
+indexing (``frame[y0:y1, x0:x1]``, ``frame[y, x]``, ``frame[None]`` and the index arrays
+Eq. (4) gathers its box with) first asks its owner to correct the rows and columns it is about
+to return (:meth:`acquisition.engine.frame_correction.FrameCorrector.ensure`). The tracker and
+Eq. (4) read only such rectangles near the track, so a frame costs the few thousand pixels
+they touch instead of the whole square the next frame may read. Everything else (shape, dtype)
+is the buffer's own; a whole-array operation that does not index first would see pixels not
+yet corrected this frame, so the measurement code indexes before it reads (it always has: it
+reads windows, never the frame).
+
+:func:`read_box` turns an index into the rectangle it reads (rows, columns; half-open), or
+None when it cannot tell (the owner then corrects everything it would have).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+import numpy as np
+
+Region = tuple[int, int, int, int]  # rows y0:y1, columns x0:x1, half-open
+
+
+class Corrects(Protocol):
+    """What a :class:`LazyFrame` asks of its owner."""
+
+    def ensure(self, region: Region | None) -> None:
+        """Correct ``region`` (None: all it would correct) in the buffer, if not done yet."""
+
+
+def _span(index: Any, n: int) -> tuple[int, int] | None:
+    """The half-open range [a, b) of one axis of length ``n`` that ``index`` reads."""
+    if isinstance(index, slice):
+        start, stop, step = index.indices(n)
+        if step != 1:
+            return None
+        return start, max(stop, start)
+    if isinstance(index, (int, np.integer)):
+        i = int(index)
+        i = i + n if i < 0 else i
+        return (i, i + 1) if 0 <= i < n else None
+    if isinstance(index, np.ndarray) and index.dtype.kind in "iu":
+        if index.size == 0:
+            return 0, 0
+        lo, hi = int(index.min()), int(index.max())
+        return (lo, hi + 1) if lo >= 0 and hi < n else None
+    return None
+
+
+def read_box(key: Any, shape: tuple[int, ...]) -> Region | None:
+    """The rectangle (rows, columns) of the last two axes that ``frame[key]`` reads; None
+    when the index is of another kind (a mask, an ellipsis, a list, a missing axis)."""
+    if not isinstance(key, tuple) or len(key) != len(shape) or len(shape) < 2:
+        return None
+    rows = _span(key[-2], shape[-2])
+    cols = _span(key[-1], shape[-1])
+    if rows is None or cols is None:
+        return None
+    return rows[0], rows[1], cols[0], cols[1]
+
+
+class LazyFrame(np.ndarray):
+    """The corrector's buffer, corrected where it is read (module docstring)."""
+
+    owner: Corrects | None = None
+
+    def __array_finalize__(self, obj: Any) -> None:
+        self.owner = getattr(obj, "owner", None)
+
+    def __getitem__(self, key: Any) -> Any:
+        owner = self.owner
+        if key is None and self.ndim == 2:  # frame[None]: a stack of one, read through later
+            return super().__getitem__(key)
+        if owner is not None:
+            owner.ensure(read_box(key, self.shape))
+        out = super().__getitem__(key)
+        return out.view(np.ndarray) if isinstance(out, LazyFrame) else out
+
+    @classmethod
+    def of(cls, buffer: np.ndarray, owner: Corrects) -> LazyFrame:
+        frame = buffer.view(cls)
+        frame.owner = owner
+        return frame
