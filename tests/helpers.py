@@ -111,3 +111,14 @@ def field_config(path: Path, ring: str, gps_port: str, lrf_port: str, camera: st
         f'[gps]\nprotocol = "nmea"\nport = "{gps_port}"\nbaud = 38400\n'
     )
     return path
+
+
+def twin_recording(path: Path, *, stops: str, speed: float, hover_s: float = 4.0) -> Path:
+    """``snrmon hil --seed 0 --out path`` (both cameras, calibrated): the digital twin's
+    flight over ``stops`` (metres, comma-separated) as a session file."""
+    from snrmon.cli import main
+
+    argv = ["hil", "--seed", "0", "--stops", stops, "--hover-s", str(hover_s),
+            "--speed", str(speed), "--out", str(path), "--json", "--quiet"]  # fmt: skip
+    assert main(argv) == 0
+    return path

@@ -18,7 +18,7 @@ import pytest
 
 from model.presets import load_target
 from snrmon.cli import main
-from tests.helpers import strict_json
+from tests.helpers import strict_json, twin_recording
 
 UAV1 = load_target("uav1")
 
@@ -27,11 +27,7 @@ UAV1 = load_target("uav1")
 def close_stop(tmp_path_factory):
     """``snrmon hil --out`` of the 37 m stop alone (seed 0, a 4 s hover at speed 2, both
     cameras, calibrated)."""
-    path = tmp_path_factory.mktemp("twin-37m") / "s.h5"
-    argv = ["hil", "--seed", "0", "--stops", "37", "--hover-s", "4", "--speed", "2",
-            "--out", str(path), "--json", "--quiet"]  # fmt: skip
-    assert main(argv) == 0
-    return path
+    return twin_recording(tmp_path_factory.mktemp("twin-37m") / "s.h5", stops="37", speed=2)
 
 
 @pytest.mark.slow

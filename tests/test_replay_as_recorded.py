@@ -17,7 +17,7 @@ from acquisition.replay.batch import replay_session
 from acquisition.replay.recorded import recorded_inputs
 from snrmon.campaign.settings import AnalysisSettings
 from snrmon.campaign.tasks import analyse_camera
-from snrmon.cli import main
+from tests.helpers import twin_recording
 
 
 def _none(v: float) -> float | None:
@@ -41,11 +41,7 @@ def _rows(replay) -> list[str]:
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
-    path = tmp_path_factory.mktemp("as-recorded") / "s.h5"
-    argv = ["hil", "--seed", "0", "--stops", "37,126", "--hover-s", "4", "--speed", "4",
-            "--out", str(path), "--json", "--quiet"]  # fmt: skip
-    assert main(argv) == 0
-    return path
+    return twin_recording(tmp_path_factory.mktemp("as-recorded") / "s.h5", stops="37,126", speed=4)
 
 
 @pytest.mark.slow
