@@ -13,10 +13,16 @@ Per frame, in a square ROI around the tracked position:
    (the outline encloses the body);
 4. small dimension = sqrt(segmented area), large = sqrt(area of its bounding box) (upright, or
    the minimum-area rotated box), both times the pixel footprint range x IFOV [m];
-5. with a calibration: mean apparent temperature of the target pixels (the outline eroded by
-   ``erode_px`` so pixels the edge and the PSF mix with sky do not pull it down), their std
-   sigma_target, the background temperature (radiance mean of the ROI's border ring, outside
-   the dilated outline), and RSS delta-T = sqrt((T_target - T_bg)^2 + sigma_target^2).
+5. with a calibration: the target's temperature from its core, the pixels of the outline at
+   least ``core_px`` from its edge (``cv2.distanceTransform``), or where no pixel is that far
+   in (a drone whose parts are thinner than 2 ``core_px``), those farthest in: a pixel nearer
+   the edge mixes sky into its reading through the pixel and the PSF. The temperature of their
+   mean radiance is the drone's; sigma_target is the spread of the outline eroded by
+   ``erode_px``; the background temperature is the radiance mean of the ROI's border ring,
+   outside the dilated outline; RSS delta-T = sqrt((T_target - T_bg)^2 + sigma_target^2).
+   The eroded outline's own mean temperature is kept (``outline_temp_k``): it is what the
+   paper's outline average reads when the drone is many PSF widths across, and reads low when
+   it is not (docs/calibration.md gives the twin's figures).
 
 Frames are summarised by the mean and sample std of each quantity. :func:`target_toml` writes
 the result as a target file ``model.presets.load_target`` reads.
@@ -47,6 +53,10 @@ class CharacterizeConfig:
     open_px: int = 3
     ring_px: int = 3
     erode_px: int = 1
+    # 3 px from the outline's edge: beyond a Gaussian PSF of sigma <= 0.85 px (the paper's MWIR
+    # fit is 0.8 px) at 3 sigma, plus the half pixel by which a thresholded outline's edge is
+    # quantised.
+    core_px: float = 3.0
     box: str = "upright"
 
     def __post_init__(self) -> None:
@@ -56,10 +66,10 @@ class CharacterizeConfig:
             raise ValueError(f"bounding box must be one of {BOXES}, got {self.box!r}")
         if self.roi_half_px < self.ring_px + 3:
             raise ValueError(f"ROI half size {self.roi_half_px} px is too small")
-        if self.open_px < 1 or self.erode_px < 0 or self.k_sigma <= 0:
+        if self.open_px < 1 or self.erode_px < 0 or self.k_sigma <= 0 or not self.core_px > 0:
             raise ValueError(
-                f"need open_px >= 1, erode_px >= 0, k_sigma > 0; got {self.open_px}, "
-                f"{self.erode_px}, {self.k_sigma}"
+                f"need open_px >= 1, erode_px >= 0, k_sigma > 0, core_px > 0; got "
+                f"{self.open_px}, {self.erode_px}, {self.k_sigma}, {self.core_px}"
             )
 
 
@@ -76,6 +86,8 @@ class FrameTarget:
     sigma_target_k: float | None
     background_k: float | None
     rss_delta_t_k: float | None
+    outline_temp_k: float | None = None
+    core_px: int | None = None  # pixels the temperature was read on
 
 
 @dataclass(frozen=True)
@@ -96,6 +108,8 @@ class Characterization:
     rss_delta_t_k: float | None
     rss_delta_t_k_std: float | None
     method: str
+    outline_temp_c: float | None = None
+    core_pixels: float | None = None  # mean count of core pixels a frame's temperature read
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -182,7 +196,8 @@ def characterize_frame(
         return None
     px_m = range_m * ifov_rad
     box = _box_area(mask, cfg.box)
-    temp = sig = bgk = rss = None
+    temp = sig = bgk = rss = outline = None
+    n_core = None
     if calibration is not None:
         inner = mask
         if cfg.erode_px:
@@ -190,8 +205,15 @@ def characterize_frame(
             eroded = cv2.erode(mask, k)
             inner = eroded if eroded.sum() >= 2 else mask
         temps = temperature_of(calibration.band_um, lq[inner > 0], calibration.qe_curve)
-        temp = float(np.mean(temps))
+        outline = float(np.mean(temps))
         sig = float(np.std(temps, ddof=1)) if temps.size > 1 else 0.0
+        # distance of each outline pixel's centre to the nearest sky pixel's centre
+        depth = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        core = depth >= min(cfg.core_px, float(depth.max()))
+        n_core = int(core.sum())
+        temp = float(
+            temperature_of(calibration.band_um, float(np.mean(lq[core])), calibration.qe_curve)
+        )
         # the border ring, as for the threshold: blades and other parts removed from the
         # outline must not count as sky
         outside = _ring(mask.shape, cfg.ring_px) & (
@@ -200,8 +222,9 @@ def characterize_frame(
         bgk = float(temperature_of(calibration.band_um, float(np.mean(lq[outside]))))
         rss = math.hypot(temp - bgk, sig)
     return FrameTarget(
-        area, box, math.sqrt(area) * px_m, math.sqrt(box) * px_m, float(thr), temp, sig, bgk, rss
-    )
+        area, box, math.sqrt(area) * px_m, math.sqrt(box) * px_m, float(thr), temp, sig, bgk, rss,
+        outline, n_core,
+    )  # fmt: skip
 
 
 def _mean_std(values: list[float | None]) -> tuple[float | None, float | None]:
@@ -239,11 +262,14 @@ def characterize_frames(
     temp = _mean_std([None if r.temp_k is None else r.temp_k - ZERO_C_K for r in rows])
     bg = _mean_std([None if r.background_k is None else r.background_k - ZERO_C_K for r in rows])
     rss = _mean_std([r.rss_delta_t_k for r in rows])
+    outline, _ = _mean_std([None if r.outline_temp_k is None else r.outline_temp_k - ZERO_C_K
+                            for r in rows])  # fmt: skip
+    n_core, _ = _mean_std([None if r.core_px is None else float(r.core_px) for r in rows])
     (small_m, small_std), (large_m, large_std) = small, large
     assert small_m is not None and large_m is not None  # every row has its dimensions
     return Characterization(
         camera, float(range_m), len(rows), small_m, small_std or 0.0, large_m,
-        large_std or 0.0, *temp, *bg, *rss, cfg.method,
+        large_std or 0.0, *temp, *bg, *rss, cfg.method, outline, n_core,
     )  # fmt: skip
 
 

@@ -4,13 +4,16 @@
     snrmon characterize FILE.h5 --camera mwir --stop 1 [--calibration CAL.npz] [--json]
                         [--frames 100] [--method otsu|ksigma] [--target-out T.toml]
 
-The session is replayed (``acquisition.replay.batch.replay_session`` without the tracker, whose
-point-target tests reject a resolved drone: the same measurement and stop table as live);
-the stop's range (rangefinder, else GPS) and the measured peak of each of its frames give the
-ROI; ``acquisition.calibrate.characterize`` segments the drone. JSON contract: ``{"camera",
+The session is replayed as recorded (``acquisition.replay.batch.replay_session``: the same
+measurement, live track and stop table as live); the stop's range (rangefinder, else GPS) and
+the tracked peak of each of its last frames give the ROI; ``acquisition.calibrate.characterize``
+segments the drone. JSON contract: ``{"camera",
 "stop", "range_m", "n_frames", "small_m", "small_m_std", "large_m", "large_m_std",
 "mean_temp_c", "mean_temp_c_std", "background_temp_c", "background_temp_c_std",
-"rss_delta_t_k", "rss_delta_t_k_std", "method"}``; temperatures are null without a calibration.
+"rss_delta_t_k", "rss_delta_t_k_std", "method", "outline_temp_c", "core_pixels"}``; temperatures
+are null without a calibration. ``mean_temp_c`` is read on the outline's core, the pixels the
+PSF does not mix with the sky (``acquisition.calibrate.characterize``); ``outline_temp_c`` is the
+eroded outline's mean, low where the drone's parts are only a few PSF widths across.
 """
 
 from __future__ import annotations
@@ -95,7 +98,8 @@ def through_the_air(result, sensor, range_m: float, air_temp_k: float | None) ->
     """The drone's own temperature from its apparent one: the calibrated camera sees
     L_app = tau L_t + (1 - tau) L_air through the air in front of it (``model.contrast``), so
     L_t = (L_app - (1 - tau) L_air) / tau with the model's contrast-weighted transmission at
-    the stop's range. The apparent value stays as ``apparent_temp_c``."""
+    the stop's range. The apparent value stays as ``apparent_temp_c``; the eroded outline's
+    mean (``outline_temp_c``) is corrected the same way."""
     from acquisition.calibrate.calibration import radiance_of, temperature_of
     from model.atmosphere import default_atmosphere
 
@@ -103,14 +107,21 @@ def through_the_air(result, sensor, range_m: float, air_temp_k: float | None) ->
     t_air = air_temp_k or atm.air_temp_k
     tau = float(atm.contrast_transmission(range_m))
     band = tuple(sensor.band_um)
-    app = float(radiance_of(band, result.mean_temp_c + 273.15))
-    own = (app - (1.0 - tau) * float(radiance_of(band, t_air))) / tau
-    return {
+
+    def own_c(apparent_c: float) -> float:
+        app = float(radiance_of(band, apparent_c + 273.15))
+        own = (app - (1.0 - tau) * float(radiance_of(band, t_air))) / tau
+        return float(temperature_of(band, own)) - 273.15
+
+    out = {
         "apparent_temp_c": result.mean_temp_c,
-        "mean_temp_c": float(temperature_of(band, own)) - 273.15,
+        "mean_temp_c": own_c(result.mean_temp_c),
         "transmission": tau,
         "air_temp_c": t_air - 273.15,
     }
+    if result.outline_temp_c is not None:
+        out["outline_temp_c"] = own_c(result.outline_temp_c)
+    return out
 
 
 def _sensor_name(path: str, camera: str) -> str:
