@@ -52,6 +52,9 @@ class ModelPredictor:
         # The background temperature the current curves were computed for (K; the model's own
         # when none was asked for), swapped in with them.
         self.curves_background_k: dict[str, float] = {}
+        # The corrected PSF the current curves were computed with (None: the sensor preset's),
+        # swapped in with them, so a stop row names the curves its values came from.
+        self.curves_psf: dict[str, object] = {}
         self.psf: dict[str, object] = {}
         self.ranges_m = (
             np.geomspace(10.0, 5000.0, 600) if ranges_m is None else np.asarray(ranges_m, float)
@@ -118,6 +121,7 @@ class ModelPredictor:
             self.background_temp_k[camera] = p.background_temp_k if background_temp_k else None
             self.curves = {**self.curves, camera: curves}  # swapped whole: no half reads
             self.curves_background_k = {**self.curves_background_k, camera: p.background_temp_k}
+            self.curves_psf = {**self.curves_psf, camera: psf}
             self.version += 1
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:

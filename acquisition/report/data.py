@@ -93,6 +93,8 @@ class ModelCurves:
     upper: dict[str, np.ndarray]
     transition_small_m: float
     transition_large_m: float
+    # What the corrected curves' PSF is: "sensor preset" or the PSF measured from the flight.
+    psf_label: str = "sensor preset"
 
 
 @dataclass(frozen=True)
@@ -204,6 +206,7 @@ def model_curves(
     from model.snr import predict
 
     p = predict(load_sensor(sensor_name), load_target(target_name), ranges_m, **predict_options)
+    psf = predict_options.get("corrected_psf")
     snr = {c: np.asarray(p.snr(c), float) for c in CURVES}
     snr["expected_eq4"] = np.asarray(p.expected_eq4, float)
     snr.update({f"paper_{c}": np.asarray(v, float) for c, v in p.paper.items()})
@@ -219,7 +222,18 @@ def model_curves(
         upper={c: np.asarray(v, float) for c, v in p.upper.items()},
         transition_small_m=p.transition_range_small_m,
         transition_large_m=p.transition_range_large_m,
+        psf_label="sensor preset" if psf is None else psf_label(psf),
     )
+
+
+def psf_label(psf) -> str:
+    """The PSF the stop rows' corrected values came from, in a few words for a title (the
+    console adopts the one measured from the flight: Airy x a Gaussian blur)."""
+    sigma = getattr(psf, "sigma_px", None)
+    name = {"AiryGaussianPsf": "Airy x Gaussian blur", "GaussianPsf": "Gaussian sigma"}.get(
+        type(psf).__name__, type(psf).__name__
+    )
+    return f"the rows' ({name} {sigma:.2f} px)" if sigma is not None else f"the rows' ({name})"
 
 
 def rows_sky_k(rows: list[StopRow], camera: str) -> float | None:
@@ -229,6 +243,14 @@ def rows_sky_k(rows: list[StopRow], camera: str) -> float | None:
     (the model's own) without such rows."""
     temps = [r.model_sky_temp_k for r in rows if r.camera == camera and r.model_sky_temp_k]
     return float(np.median(temps)) if temps else None
+
+
+def rows_psf(rows: list[StopRow], camera: str):
+    """The corrected PSF to draw ``camera``'s curves with: the one its last stop row's model
+    values were computed with (a PSF measured from the flight, once the console adopted one),
+    so the curves are those the rows are compared with; None (the sensor preset's) without."""
+    psfs = [r.model_psf for r in rows if r.camera == camera and r.model_psf is not None]
+    return psfs[-1] if psfs else None
 
 
 def uncertainty_budget(
@@ -335,10 +357,13 @@ def assemble_report(
         budgets[c] = uncertainty_budget(c, sensors[c], target, ranges)
     from acquisition.report.comparison import detection_summary, fit_statistics, reference_table
 
-    models = {
-        c: model_curves(c, sensors[c], target, grid, background_temp_k=rows_sky_k(rows, c))
-        for c in cameras
-    }
+    models = {}
+    for c in cameras:
+        psf = rows_psf(rows, c)
+        extra = {} if psf is None else {"corrected_psf": psf}
+        models[c] = model_curves(
+            c, sensors[c], target, grid, background_temp_k=rows_sky_k(rows, c), **extra
+        )
     return ReportData(
         path=path,
         target=target,

@@ -69,6 +69,9 @@ class StopRow:
     background: str = ""
     # The background (sky) temperature the model values were computed for (None: no model).
     model_sky_temp_k: float | None = None
+    # The corrected PSF they were computed with (a ``model.psf`` PSF, e.g. measured from the
+    # flight); None: the sensor preset's (or no model).
+    model_psf: object | None = field(default=None, compare=False)
 
     @property
     def range_m(self) -> float | None:
@@ -258,6 +261,7 @@ class StopTable:
         model = dict(self.predictor(camera, rng)) if (self.predictor and rng) else {}
         resolved = model.pop("resolved_small", None)
         sky = getattr(self.predictor, "curves_background_k", {}).get(camera) if model else None
+        psf = getattr(self.predictor, "curves_psf", {}).get(camera) if model else None
         row = StopRow(
             camera=camera,
             stop=stop.index,
@@ -276,6 +280,7 @@ class StopTable:
             final=final,
             background=backgrounds_of(r for _, r in run),
             model_sky_temp_k=sky,
+            model_psf=psf,
         )
         return row, run
 

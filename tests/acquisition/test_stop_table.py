@@ -145,3 +145,37 @@ def test_the_reports_curves_are_drawn_at_the_sky_the_rows_were_compared_with():
     assert curves.background_temp_k == pytest.approx(280.0)
     at_stop = np.interp(np.log(336.0), np.log(curves.ranges_m), curves.snr["small"])
     assert at_stop == pytest.approx(row.model_snr["small"], rel=0.01)
+
+
+def test_the_reports_corrected_curves_use_the_psf_the_rows_were_compared_with():
+    """The console adopts the PSF measured from the flight for the corrected curves (the twin's
+    MWIR: Airy x a 0.57 px blur, average PVF ~0.14, where the preset's PVF is 0.082): a row
+    keeps the PSF its model values came from and the report draws the corrected curves with
+    it. Before, the live report drew them with the preset's PSF, 40 % below the rows."""
+    from acquisition.calibrate.psf_estimate import _airy
+    from model.presets import load_sensor
+    from model.psf import AiryGaussianPsf
+
+    rng = np.random.default_rng(6)
+    sensor = load_sensor("mwir")
+    measured = AiryGaussianPsf(_airy(sensor.f_number, sensor.pitch_um, tuple(sensor.band_um)), 0.57)
+    detector = StopDetector()
+    predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
+    preset = predictor("mwir", 393.0)["small_corrected"]
+    predictor.set_psf("mwir", measured, wait=True)
+    table = StopTable(detector, ["mwir"], predictor=predictor)
+    t0 = 10**12
+    detector.mark_stop(t0)
+    for _ in range(20):
+        detector.add_range(t0, 393.0, "gps")
+    for i in range(110):
+        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 60.0))
+    (row,) = table.rows()
+    assert row.model_psf is measured
+    assert row.model_snr["small_corrected"] > 1.4 * preset
+    data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
+    curves = data.models["mwir"]
+    for name in ("small_corrected", "expected_eq4"):
+        at_stop = np.interp(np.log(393.0), np.log(curves.ranges_m), curves.snr[name])
+        assert at_stop == pytest.approx(row.model_snr[name], rel=0.01), name
+    assert "Airy x Gaussian blur 0.57 px" in curves.psf_label
