@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 from snrmon.rig.table import TABLE_HEADER, format_result, format_row
 
 
@@ -17,7 +15,8 @@ def _stop(**kw) -> dict:
         "measured_snr_mean": 102.74,
         "measured_snr_std": 18.22,
         "truth_snr": 107.74,
-        "model_snr": {"small": 124.51, "small_corrected": 33.75},
+        "model_snr": {"small": 124.51, "small_corrected": 33.75, "expected_eq4": 35.1},
+        "measured_snr_mean_raw": 60.0,
         "resolved": False,
         "background": "rim",
     }
@@ -29,6 +28,7 @@ def test_unresolved_complete_row_is_a_point():
     line = format_row(_stop())
     assert line.split()[-1] == "point"
     assert "102.74" in line and "124.51" in line
+    assert "-" not in line.split()[:-2]  # every number of this row was measured or modelled
     assert len(line.split()) == len(TABLE_HEADER.split())
 
 
@@ -49,11 +49,16 @@ def test_resolved_short_row_is_marked_both():
 
 def test_table_explains_the_marks_and_counts_drops():
     text = format_result(
-        {"stops": [_stop(resolved=True)], "frames": {"mwir": {"received": 600, "dropped": 0}}}
+        {
+            "stops": [_stop(resolved=True, measured_snr_mean_raw=None, model_snr={"small": 9.0})],
+            "frames": {"mwir": {"received": 600, "dropped": 0}},
+        }
     )
     lines = text.splitlines()
     assert lines[0] == TABLE_HEADER
     assert lines[1].endswith("resolved")
     assert "'extent_rim': outside the segmented drone" in text
     assert lines[-1] == "mwir: 600 frames received, 0 dropped"
-    assert math.isnan(float(lines[1].split()[7]))  # no raw (uncorrected) SNR without --fpn
+    assert lines[1].split()[7] == "-"  # no raw (uncorrected) SNR without --fpn: not "nan"
+    assert lines[1].split()[11] == "-"  # no expected Eq. (4) in this row's model
+    assert "nan" not in text

@@ -5,8 +5,11 @@ from __future__ import annotations
 import math
 
 
-def _f(v: float | None) -> str:
-    return f"{v:7.1f}" if v is not None else f"{'-':>7s}"
+def _f(v: float | None, width: int = 7, digits: int = 1) -> str:
+    """A number, or '-' where there is none (not measured, no model): never 'nan'."""
+    if v is None or not math.isfinite(v):
+        return f"{'-':>{width}s}"
+    return f"{v:{width}.{digits}f}"
 
 
 def format_row(s: dict) -> str:
@@ -14,10 +17,10 @@ def format_row(s: dict) -> str:
     m = s["model_snr"]
     return (
         f"{s['camera']:6s} {s['planned_range_m']:7.0f} {_f(s['lrf_range_m'])} "
-        f"{_f(s['gps_range_m'])} {s['n_frames']:4d} {s['measured_snr_mean']:7.2f} "
-        f"{s['measured_snr_std']:6.2f} {s.get('measured_snr_mean_raw', math.nan):7.2f} "
-        f"{s['truth_snr']:7.2f} "
-        f"{m.get('small', math.nan):8.2f} {m.get('small_corrected', math.nan):8.2f}  "
+        f"{_f(s['gps_range_m'])} {s['n_frames']:4d} {_f(s['measured_snr_mean'], 7, 2)} "
+        f"{_f(s['measured_snr_std'], 6, 2)} {_f(s.get('measured_snr_mean_raw'), 7, 2)} "
+        f"{_f(s['truth_snr'], 7, 2)} {_f(m.get('small'), 8, 2)} "
+        f"{_f(m.get('small_corrected'), 8, 2)} {_f(m.get('expected_eq4'), 8, 2)}  "
         f"{s.get('background') or '-':15s} {_target_note(s)}"
     )
 
@@ -36,11 +39,15 @@ def _target_note(s: dict) -> str:
 
 TABLE_HEADER = (
     f"{'camera':6s} {'plan_m':>7s} {'lrf_m':>7s} {'gps_m':>7s} {'n':>4s} "
-    f"{'SNR':>7s} {'std':>6s} {'raw':>7s} {'truth':>7s} {'model_s':>8s} {'model_sc':>8s}  "
+    f"{'SNR':>7s} {'std':>6s} {'raw':>7s} {'truth':>7s} {'model_s':>8s} {'model_sc':>8s} "
+    f"{'exp_eq4':>8s}  "
     f"{'background':15s} target"
 )
 
 TABLE_FOOTNOTE = (
+    "raw: the SNR of the same track on frames without the fixed-pattern correction (with\n"
+    "--fpn; '-': not measured). model_s / model_sc: the model's small dimension, uncorrected /\n"
+    "corrected (real PSF, finite size); exp_eq4: what Eq. (4) is expected to read.\n"
     "background: what Eq. (4)'s mean and std were taken over ('rim': the 7x7 box's rim;\n"
     "'extent_rim': outside the segmented drone and a 2 px guard, for a drone wider than the\n"
     "box's 5x5 guard; 'rect': the clear-sky rectangle), most used first. target: the model's\n"
