@@ -87,12 +87,21 @@ class PsfEstimate:
 
     def psf(self) -> AiryGaussianPsf:
         """The fitted physical PSF, for ``model.snr.predict(corrected_psf=...)``."""
-        return AiryGaussianPsf(_airy(self.f_number, self.pitch_um, self.band_um), self.blur_px)
+        return psf_from_record(self.as_dict())
 
     def as_dict(self) -> dict:
         out = asdict(self)
         out["band_um"] = list(self.band_um)
         return out
+
+
+def psf_from_record(d: dict) -> AiryGaussianPsf:
+    """The physical PSF of an estimate as :meth:`PsfEstimate.as_dict` gives it (a session's
+    ``model_psf`` event): the camera's Airy pattern blurred by the fitted Gaussian."""
+    band = (float(d["band_um"][0]), float(d["band_um"][1]))
+    return AiryGaussianPsf(
+        _airy(float(d["f_number"]), float(d["pitch_um"]), band), float(d["blur_px"])
+    )
 
 
 @functools.lru_cache(maxsize=8)

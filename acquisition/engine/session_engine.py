@@ -52,7 +52,9 @@ class EngineSink(Protocol):
 
     def row_final(self, row: StopRow) -> None: ...
 
-    def model_background(self, camera: str, temp_k: float, t_host_ns: int) -> None: ...
+    def model_changed(self, camera: str, kind: str, payload: dict, t_host_ns: int) -> None:
+        """One of the model's inputs changed: "model_background" {"temp_k"} (the measured
+        sky) or "model_psf" (a PSF measured from the flight, ``PsfEstimate.as_dict``)."""
 
 
 class SessionEngine:
@@ -138,6 +140,23 @@ class SessionEngine:
         predictor = self.predictor
         if hasattr(predictor, "set_background"):
             predictor.set_background(camera, temp_k)  # type: ignore[union-attr]
+
+    def adopt_psf(self, camera: str, estimate: dict, t_host_ns: int) -> None:
+        """The corrected curves and the expected Eq. (4) use the PSF measured from the flight
+        (``acquisition.calibrate.psf_estimate.PsfEstimate.as_dict``), recorded so a replay
+        uses it from the same time on."""
+        self.apply_model_input(camera, "model_psf", estimate)
+        if self.sink is not None:
+            self.sink.model_changed(camera, "model_psf", estimate, int(t_host_ns))
+
+    def apply_model_input(self, camera: str, kind: str, payload: dict) -> None:
+        """A change of the model's inputs as :meth:`EngineSink.model_changed` records it."""
+        if kind == "model_background":
+            self.set_background(camera, float(payload["temp_k"]))
+        elif kind == "model_psf" and hasattr(self.predictor, "set_psf"):
+            from acquisition.calibrate.psf_estimate import psf_from_record
+
+            self.predictor.set_psf(camera, psf_from_record(payload))  # type: ignore[union-attr]
 
     # ------------------------------------------------------------------ commands
     def camera(self, name: str) -> CameraEngine:
@@ -282,7 +301,7 @@ class SessionEngine:
         if math.isfinite(temp) and (current is None or abs(temp - current) > SKY_CHANGE_K):
             predictor.set_background(camera, temp)  # type: ignore[union-attr]
             if self.sink is not None:
-                self.sink.model_background(camera, temp, t_ns)
+                self.sink.model_changed(camera, "model_background", {"temp_k": temp}, t_ns)
 
     # ------------------------------------------------------------------ the table
     def stops(self) -> list[StopRow]:

@@ -149,7 +149,7 @@ class Feeder:
         self.tally = {n: CameraTally(n, f.cameras[n].n_frames) for n in inputs.cameras}
         self._crops = {n: FrameCrops(f.cameras[n].frames) for n in inputs.cameras} if fast else {}
         self._next_command = dict.fromkeys(inputs.cameras, 0)
-        self._next_background = dict.fromkeys(inputs.cameras, 0)
+        self._next_model_input = dict.fromkeys(inputs.cameras, 0)
 
     # ------------------------------------------------------------------ seeking
     def skip_to(self, k: int) -> None:
@@ -178,13 +178,7 @@ class Feeder:
                 elif kind == "reference_cleared":
                     reference = None
             self._next_command[name] = i
-            backgrounds = c.backgrounds
-            b = self._next_background[name]
-            while b < len(backgrounds) and backgrounds[b][0] < t_k:
-                if self.exact_inputs:
-                    self.engine.set_background(name, backgrounds[b][1])
-                b += 1
-            self._next_background[name] = b
+            self._apply_model_inputs(name, t_k, inclusive=False)
             if reference is not None:
                 engine.post(self._reference(name, reference))
             meas = self.f.cameras[name].measurements
@@ -247,13 +241,17 @@ class Feeder:
         return out
 
     def _after(self, name: str, t: int) -> None:
-        backgrounds = self.inputs.per_camera[name].backgrounds
-        k = self._next_background[name]
-        while k < len(backgrounds) and backgrounds[k][0] <= t:
+        self._apply_model_inputs(name, t, inclusive=True)
+
+    def _apply_model_inputs(self, name: str, t: int, *, inclusive: bool) -> None:
+        """The model's recorded input changes (the measured sky, a measured PSF) up to ``t``."""
+        inputs = self.inputs.per_camera[name].model_inputs
+        k = self._next_model_input[name]
+        while k < len(inputs) and (inputs[k][0] <= t if inclusive else inputs[k][0] < t):
             if self.exact_inputs:
-                self.engine.set_background(name, backgrounds[k][1])
+                self.engine.apply_model_input(name, inputs[k][1], inputs[k][2])
             k += 1
-        self._next_background[name] = k
+        self._next_model_input[name] = k
 
     def _pixels(self, name: str, i: int) -> np.ndarray:
         crops = self._crops.get(name)

@@ -40,12 +40,13 @@ class CameraInputs:
     """The commands recorded for one camera, in time order, each at the host time of the frame
     it took effect on: ``commands`` are (t_ns, kind, payload) with kind "roi_set",
     "roi_cleared", "background_reference", "reference_cleared" (applied before the first frame
-    at or after t); ``backgrounds`` are (t_ns, temp_k) model background changes (applied after
-    that frame); ``states`` maps a frame counter to the engine state recorded before it.
-    Format 1 files hold clicks and references only."""
+    at or after t); ``model_inputs`` are (t_ns, kind, payload) changes of the model's inputs
+    ("model_background": the measured sky; "model_psf": a PSF measured from the flight;
+    applied after that frame); ``states`` maps a frame counter to the engine state recorded
+    before it. Format 1 files hold clicks and references only."""
 
     commands: list[tuple[int, str, dict]] = field(default_factory=list)
-    backgrounds: list[tuple[int, float]] = field(default_factory=list)
+    model_inputs: list[tuple[int, str, dict]] = field(default_factory=list)
     states: dict[int, dict] = field(default_factory=dict)
     calibration: str | None = None
 
@@ -109,8 +110,8 @@ def recorded_inputs(f: SessionFile) -> RecordedInputs:
             continue
         elif kind in ("roi_set", "roi_cleared", "background_reference", "reference_cleared"):
             c.commands.append((t, kind, p))
-        elif kind == "model_background":
-            c.backgrounds.append((t, float(p["temp_k"])))
+        elif kind in ("model_background", "model_psf"):
+            c.model_inputs.append((t, kind, p))
         elif kind == "calibration" and "path" in p:
             c.calibration = p["path"]
     for name, rec in f.cameras.items():

@@ -298,11 +298,10 @@ class Session:
         if rec is not None:
             rec.add_event("stop_summary", camera=row.camera, payload=row_payload(row))
 
-    def model_background(self, camera: str, temp_k: float, t_host_ns: int) -> None:
+    def model_changed(self, camera: str, kind: str, payload: dict, t_host_ns: int) -> None:
         rec = self._current_recorder()
         if rec is not None:
-            rec.add_event("model_background", camera=camera, payload={"temp_k": temp_k},
-                          t_host_ns=t_host_ns)  # fmt: skip
+            rec.add_event(kind, camera=camera, payload=payload, t_host_ns=t_host_ns)
 
     def _current_recorder(self) -> SessionRecorder | None:
         with self._lock:

@@ -134,6 +134,7 @@ def adopt_measured_psf(rig, cam: str, finals: dict) -> None:
     corrected curves and expected Eq. (4) reading), in the background: what an operator does
     once the first unresolved stop is in."""
     import threading
+    import time
 
     from acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
 
@@ -146,7 +147,7 @@ def adopt_measured_psf(rig, cam: str, finals: dict) -> None:
             est = estimate_psf(stops, rig.cameras[cam].sensor)
         except PsfEstimateError:
             return
-        rig.predictor.set_psf(cam, est.psf())
+        rig.session.engine.adopt_psf(cam, est.as_dict(), time.monotonic_ns())
 
     threading.Thread(target=fit, name=f"psf-{cam}", daemon=True).start()
 
