@@ -122,23 +122,29 @@ def test_a_row_counts_only_frames_before_an_end_known_late():
     assert row.snr_mean == pytest.approx(np.mean([40.0 + i for i in range(60)]), rel=1e-12)
 
 
-def test_the_reports_curves_are_drawn_at_the_sky_the_rows_were_compared_with():
-    """A session whose model followed the measured sky (280 K against the model's own 288 K):
-    each row keeps the background its model values were computed for, and the report draws
-    the curves there, so a stop and the curve it is compared with agree (paper sections 8-9)."""
-    rng = np.random.default_rng(5)
+def _one_stop(predictor, range_m: float, snr: float, *, seed: int):
+    """A stop table with ``predictor`` and one 110-frame MWIR stop at ``range_m`` (GPS)."""
+    rng = np.random.default_rng(seed)
     detector = StopDetector()
-    predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
-    own = predictor.curves_background_k["mwir"]
-    predictor.set_background("mwir", 280.0, wait=True)
     table = StopTable(detector, ["mwir"], predictor=predictor)
     t0 = 10**12
     detector.mark_stop(t0)
     for _ in range(20):
-        detector.add_range(t0, 336.0, "gps")
+        detector.add_range(t0, range_m, "gps")
     for i in range(110):
-        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 40.0))
+        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, snr))
     (row,) = table.rows()
+    return table, row
+
+
+def test_the_reports_curves_are_drawn_at_the_sky_the_rows_were_compared_with():
+    """A session whose model followed the measured sky (280 K against the model's own 288 K):
+    each row keeps the background its model values were computed for, and the report draws
+    the curves there, so a stop and the curve it is compared with agree (paper sections 8-9)."""
+    predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
+    own = predictor.curves_background_k["mwir"]
+    predictor.set_background("mwir", 280.0, wait=True)
+    table, row = _one_stop(predictor, 336.0, 40.0, seed=5)
     assert own == pytest.approx(288.15) and row.model_sky_temp_k == pytest.approx(280.0)
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
     curves = data.models["mwir"]
@@ -156,21 +162,12 @@ def test_the_reports_corrected_curves_use_the_psf_the_rows_were_compared_with():
     from model.presets import load_sensor
     from model.psf import AiryGaussianPsf
 
-    rng = np.random.default_rng(6)
     sensor = load_sensor("mwir")
     measured = AiryGaussianPsf(_airy(sensor.f_number, sensor.pitch_um, tuple(sensor.band_um)), 0.57)
-    detector = StopDetector()
     predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
     preset = predictor("mwir", 393.0)["small_corrected"]
     predictor.set_psf("mwir", measured, wait=True)
-    table = StopTable(detector, ["mwir"], predictor=predictor)
-    t0 = 10**12
-    detector.mark_stop(t0)
-    for _ in range(20):
-        detector.add_range(t0, 393.0, "gps")
-    for i in range(110):
-        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 60.0))
-    (row,) = table.rows()
+    table, row = _one_stop(predictor, 393.0, 60.0, seed=6)
     assert row.model_psf is measured
     assert row.model_snr["small_corrected"] > 1.4 * preset
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
