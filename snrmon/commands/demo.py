@@ -144,6 +144,7 @@ def run(args: argparse.Namespace) -> int:
         finally:
             done.set()
             operator.join(5.0)
+        rig.finish()
         result = rig.result()
         live = None
         if report is not None and args.out is None:

@@ -114,6 +114,7 @@ class HilRig:
         self.cameras: dict[str, CameraRig] = {}
         feeds = camera_feeds(opts, self.flight_config, self.preroll_s)
         self._tmp = None
+        self._finished = False
         calibrations: dict[str, str] = {}
         if opts.calibrate:
             if opts.out:
@@ -255,14 +256,22 @@ class HilRig:
             },
         }
 
+    def finish(self) -> None:
+        """The flight is over: stop the session (its rows final, the recording closed; its
+        summary of frames written and dropped is the record's own accounting) before the
+        post-flight work (the PSF fit of :meth:`result`, a report) takes the GIL from cameras
+        that would still be streaming. Once only; ``__exit__`` calls it too."""
+        if self._finished:
+            return
+        self._finished = True
+        self.session.stop()
+        summary = getattr(self.session, "last_recording", None)
+        if summary is not None:
+            self.recording = recording_summary(summary)
+
     def __exit__(self, *exc: object) -> None:
         try:
-            # Stopping the session finalizes its rows and closes the recording; its summary
-            # (frames written, dropped and why) is the record's own accounting.
-            self.session.stop()
-            summary = getattr(self.session, "last_recording", None)
-            if summary is not None:
-                self.recording = recording_summary(summary)
+            self.finish()
         finally:
             for rig in self.cameras.values():
                 rig.producer.stop()
@@ -302,6 +311,7 @@ class HilRig:
             if progress is not None:
                 progress(self)
             time.sleep(0.05)  # the operator's pace, not synchronisation
+        self.finish()
         return self.result()
 
     # ------------------------------------------------------------------ results
