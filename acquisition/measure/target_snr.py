@@ -52,6 +52,7 @@ from acquisition.measure.peak_snr import (
     peak_snr_with,
     saturation_level,
 )
+from acquisition.measure.rim_kernel import pixel_kind, rim_excesses, rim_stats
 
 
 def background_rule(blob: Blob, cfg: PeakSnrConfig) -> str:
@@ -95,6 +96,23 @@ def rim_excess(pixels: np.ndarray, rect: Rect, sigma: float, k: int) -> float:
     return (here[0] - far[0]) / (sigma * math.sqrt(1.0 / here[1] + 1.0 / far[1]))
 
 
+def _excesses(pixels: np.ndarray, rect: Rect, sigma: float, most: int) -> list[float] | None:
+    """:func:`rim_excess` for k = 0..most in one compiled pass over the pixels around the
+    largest rim (:func:`acquisition.measure.rim_kernel.rim_excesses`); None when its sums are
+    not provably exact (the caller sums with NumPy)."""
+    rows, cols = pixels.shape
+    x0, y0, x1, y1 = rect
+    g = most + 2
+    ry0, ry1 = max(y0 - g, 0), min(y1 + g, rows - 1)
+    rx0, rx1 = max(x0 - g, 0), min(x1 + g, cols - 1)
+    if ry1 < ry0 or rx1 < rx0:
+        return None
+    region = pixels[ry0 : ry1 + 1, rx0 : rx1 + 1]
+    kind = pixel_kind(region.dtype)
+    exact, out = rim_excesses(region, ry0, rx0, rows, cols, rect, float(sigma), most, kind)
+    return out.tolist() if exact else None
+
+
 class WingProfile:
     """Where the background rim must lie to be clear of the target's PSF wings.
 
@@ -120,8 +138,9 @@ class WingProfile:
         steps the decision reaches are measured (NaN for the others: left out of the means)."""
         now = [math.nan] * (self.most + 1)
         self._recent.append(now)
+        excess = _excesses(pixels, rect, sigma, self.most)
         for k in range(self.most + 1):
-            now[k] = rim_excess(pixels, rect, sigma, k)
+            now[k] = excess[k] if excess is not None else rim_excess(pixels, rect, sigma, k)
             if not math.isfinite(now[k]):
                 return k  # the rims leave the image: no farther
             past = [e[k] for e in self._recent if math.isfinite(e[k])]
@@ -176,6 +195,7 @@ def measure_target(
     px, py = blob.peak_x, blob.peak_y
     peak = float(pixels[py, px])
     bits: set[str] = set()
+    n_rim = 0
     if cfg.background is not None:
         method = BACKGROUND_RECT
         x0, y0, x1, y1 = cfg.background
@@ -194,22 +214,28 @@ def measure_target(
         if x0 < 0 or y0 < 0 or x1 >= cols or y1 >= rows:
             bits |= {FLAG_EDGE, FLAG_UNDEFINED}
             values = None
+        elif width >= 3 and height >= 3 and 2 * (width + height) - 4 > cfg.ddof:
+            values = None  # compiled: background_stats of the rim, bit for bit (rim_kernel)
+            region = pixels[y0 : y1 + 1, x0 : x1 + 1]
+            bg_mean, bg_std, gx, gy, n_rim = rim_stats(region, cfg.detrend, cfg.ddof)
+            gradient = float(np.hypot(gx, gy))
         else:
             mask, dy, dx = _rect_rim(width, height)
             values = pixels[y0 : y1 + 1, x0 : x1 + 1][mask].reshape(1, -1).astype(np.float64)
-    if values is None:
-        bg_mean = bg_std = gradient = math.nan
-    else:
+    n_pixels: int | None = n_rim or None
+    if values is not None:
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             mean, std, grad = background_stats(values, dy, dx, detrend=cfg.detrend, ddof=cfg.ddof)
         bg_mean, bg_std, gradient = float(mean[0]), float(std[0]), float(grad[0])
+        n_pixels = None if method == BACKGROUND_RECT else values.shape[1]
+    elif not n_rim:
+        bg_mean = bg_std = gradient = math.nan
     if not (math.isfinite(bg_std) and bg_std != 0 and math.isfinite(peak)):
         bits.add(FLAG_UNDEFINED)
     snr = math.nan if FLAG_UNDEFINED in bits else (peak - bg_mean) / bg_std
     sat = saturation_level(cfg, pixels.dtype)
     if sat is not None and math.isfinite(peak) and peak >= sat:
         bits.add(FLAG_SATURATED)
-    n_pixels = None if method == BACKGROUND_RECT or values is None else values.shape[1]
     if FLAG_UNDEFINED not in bits and is_contaminated(
         bg_std, gradient, reference_noise, cfg, extent_px=extent, n_pixels=n_pixels
     ):

@@ -9,12 +9,18 @@ image's edge. Equality is of the repr (a float's every bit, and its type).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
+from acquisition.measure.background import background_stats
 from acquisition.measure.blob import BlobConfig, analyse_blob
 from acquisition.measure.jit import median32, pairwise_sum32, pairwise_sum64
 from acquisition.measure.local_sky import median
+from acquisition.measure.rim_kernel import rim_stats
+from acquisition.measure.target_snr import _excesses, _rect_rim, rim_excess
+from acquisition.track.search import brightest_in, clip_box
 from tests.reference import blob_numpy
 
 
@@ -100,3 +106,75 @@ def test_median_is_local_skys():
         if rng.random() < 0.3:
             a = np.round(a) + np.float32(0.0)  # ties (no -0.0: blob_kernel.window_stats)
         assert repr(median32(a.copy(), n)) == repr(median(a))
+
+
+def _old_brightest_in(frame, box):
+    """search.brightest_in at the branch point."""
+    b = clip_box(box, frame.shape)
+    if b is None:
+        return None
+    x0, y0, x1, y1 = b
+    win = frame[y0 : y1 + 1, x0 : x1 + 1]
+    if win.dtype.kind == "f":
+        if not np.isfinite(win).any():
+            return None
+        win = np.where(np.isnan(win), -np.inf, win)
+    i = int(np.argmax(win))
+    w = x1 - x0 + 1
+    return x0 + i % w, y0 + i // w
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_brightest_in_equals_the_numpy_reference(kind):
+    rng = np.random.default_rng(100 + len(kind))
+    for _ in range(300):
+        frame, _ = scene(rng, kind)
+        if rng.random() < 0.2:
+            frame = np.round(frame / 50) * 50 if frame.dtype.kind == "f" else frame // 50
+        if kind == "float32_bad" and rng.random() < 0.2:
+            frame[:10, :10] = rng.choice([np.nan, -np.inf, np.inf])
+        x0, y0 = int(rng.integers(-5, 70)), int(rng.integers(-5, 60))
+        box = (x0, y0, x0 + int(rng.integers(0, 15)), y0 + int(rng.integers(0, 15)))
+        assert brightest_in(frame, box) == _old_brightest_in(frame, box)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_wing_excesses_equal_the_numpy_sums(kind):
+    rng = np.random.default_rng(200 + len(kind))
+    exact = 0
+    for _ in range(200):
+        frame, (px, py) = scene(rng, kind)
+        r = int(rng.integers(1, 6))
+        rect = (px - r, py - r, px + r + int(rng.integers(0, 3)), py + r)
+        sigma = float(rng.choice([0.0, rng.uniform(0.1, 30)]))
+        most = int(rng.integers(0, 10))
+        got = _excesses(frame, rect, sigma, most)
+        with np.errstate(invalid="ignore"):
+            want = [rim_excess(frame, rect, sigma, k) for k in range(most + 1)]
+        if got is None:
+            continue
+        exact += 1
+        for k in range(most + 1):  # the decision reads up to the first NaN
+            assert repr(got[k]) == repr(want[k])
+            if not math.isfinite(want[k]):
+                break
+    assert exact > (100 if kind in ("uint16", "uint8", "float32") else -1)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("detrend", [False, True])
+def test_rim_stats_equal_background_stats(kind, detrend):
+    rng = np.random.default_rng(300 + len(kind) + detrend)
+    for _ in range(200):
+        frame, _ = scene(rng, kind)
+        w, h = int(rng.integers(3, 40)), int(rng.integers(3, 40))
+        x0, y0 = int(rng.integers(0, 70 - w + 1)), int(rng.integers(0, 60 - h + 1))
+        ddof = int(rng.integers(0, 2))
+        mask, dy, dx = _rect_rim(w, h)
+        values = frame[y0 : y0 + h, x0 : x0 + w][mask].reshape(1, -1).astype(np.float64)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            mean, std, grad = background_stats(values, dy, dx, detrend=detrend, ddof=ddof)
+            got = rim_stats(frame[y0 : y0 + h, x0 : x0 + w], detrend, ddof)
+        assert repr(got[:2]) == repr((float(mean[0]), float(std[0])))
+        assert repr(float(np.hypot(got[2], got[3]))) == repr(float(grad[0]))
+        assert got[4] == values.shape[1]
