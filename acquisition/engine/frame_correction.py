@@ -25,9 +25,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from acquisition.calibrate.kernels import correct_box
 from acquisition.engine.lazy_frame import LazyFrame, Region
 
 TILE_PX = 32  # a read corrects the tiles it falls in (within the square): few, small passes
+_NONE = np.zeros((1, 1), np.float32)  # an absent map, for the compiled correction
+
+
+def _float32_maps(cal, corrector: FrameCorrector) -> bool:
+    """The calibration's maps are float32 of the frame's shape (what the compiled correction
+    computes with; any other is NumPy's to promote)."""
+    return (
+        cal.shape == corrector.shape
+        and cal.offset_dn.dtype == np.float32
+        and cal._safe_resp.dtype == np.float32
+    )
 
 
 class FrameCorrector:
@@ -133,7 +145,7 @@ class FrameCorrector:
         x0, x1 = max(x - h, 0), min(x + h + 1, self.shape[1])
         self._square = (y0, y1, x0, x1)
         if not self.lazy:
-            self._correct(pixels, self._square)
+            self._correct(pixels, self._square, bad=self._has_bad(self._square))
             return self._buffer
         self._pixels = pixels
         self._done = []
@@ -159,9 +171,10 @@ class FrameCorrector:
         y0, y1 = max(y0 // t * t, sy0), min(-(-y1 // t) * t, sy1)
         x0, x1 = max(x0 // t * t, sx0), min(-(-x1 // t) * t, sx1)
         box = (y0, y1, x0, x1)
-        if self._has_bad(box):  # its replacement depends on the whole square: correct it all
+        bad = self._has_bad(box)
+        if bad:  # its replacement depends on the whole square: correct it all
             box = self._square
-        self._correct(self._pixels, box)
+        self._correct(self._pixels, box, bad=bad)
         self._done.append(box)
 
     def _has_bad(self, box: Region) -> bool:
@@ -182,10 +195,25 @@ class FrameCorrector:
         y0, y1, x0, x1 = box
         return bool(table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0] > 0)
 
-    def _correct(self, pixels: np.ndarray, box: Region) -> None:
+    def _correct(self, pixels: np.ndarray, box: Region, *, bad: bool = True) -> None:
         """The correction of ``box`` into the buffer. The calibration's bad-pixel replacement
-        depends on the box (a median over it); every other pixel's value does not."""
+        depends on the box (a median over it); every other pixel's value does not. A box
+        without bad pixels (``bad`` False: :meth:`_has_bad` said so) is corrected by compiled
+        code, bit for bit the same (:func:`acquisition.calibrate.kernels.correct_box`)."""
         y0, y1, x0, x1 = box
+        cal = self.calibration
+        if not bad and pixels.shape == self.shape and (cal is None or _float32_maps(cal, self)):
+            ref = self.reference_offset
+            correct_box(
+                pixels, y0, y1, x0, x1,
+                _NONE if cal is None else cal.offset_dn,
+                _NONE if cal is None else cal._safe_resp,
+                0.0 if cal is None else cal.mean_offset_dn,
+                0.0 if cal is None else cal.mean_responsivity,
+                _NONE if ref is None else ref,
+                cal is not None, ref is not None, self._buffer,
+            )  # fmt: skip
+            return
         if self.calibration is not None:
             win = self.calibration.correct(pixels, (y0, y1, x0, x1))
         else:

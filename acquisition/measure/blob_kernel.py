@@ -135,7 +135,7 @@ def flood(v, sx, sy, level, lab, stamp, stack):
     ``lab == stamp``; returns (area, x0, y0, x1, y1, max value) of the set."""
     h, w = v.shape
     v0 = v[sy, sx]
-    d = float(v0) - level
+    d = np.float64(v0) - level
     lo = -np.float32(pymax(d, 0.0))
     lab[sy, sx] = stamp
     stack[0] = sy * w + sx
@@ -180,18 +180,37 @@ def _near_border(geo, x0, y0, x1, y1, room):
 
 @kernel
 def _is_open(v, sx, sy, level, peak, lab, stamp, stack):
+    """blob._Window.is_open: the fill at ``level`` reaches the window's border or a pixel
+    brighter than ``peak`` (the fill stops at the first such pixel)."""
     h, w = v.shape
-    _, x0, y0, x1, y1, vmax = flood(v, sx, sy, level, lab, stamp, stack)
-    if x0 == 0 or y0 == 0 or x1 == w - 1 or y1 == h - 1:
-        return True
-    return float(vmax) > peak
+    v0 = v[sy, sx]
+    lo = -np.float32(pymax(np.float64(v0) - level, 0.0))
+    lab[sy, sx] = stamp
+    stack[0] = sy * w + sx
+    top = 1
+    while top > 0:
+        top -= 1
+        p = stack[top]
+        y = p // w
+        x = p - y * w
+        if x == 0 or y == 0 or x == w - 1 or y == h - 1 or np.float64(v[y, x]) > peak:
+            return True
+        for yy in range(y - 1, y + 2):
+            for xx in range(x - 1, x + 2):
+                if lab[yy, xx] != stamp:
+                    diff = np.float32(v[yy, xx] - v0)
+                    if lo <= diff and diff <= UP_DIFF:
+                        lab[yy, xx] = stamp
+                        stack[top] = yy * w + xx
+                        top += 1
+    return False
 
 
 @kernel
 def _climb(v, sx, sy, k_climb, sigma, lab, stamp, stack):
     h, w = v.shape
     for _ in range(16):
-        peak = float(v[sy, sx])
+        peak = np.float64(v[sy, sx])
         stamp += 1
         _, x0, y0, x1, y1, _ = flood(v, sx, sy, peak - k_climb * sigma, lab, stamp, stack)
         if x0 == 0 or y0 == 0 or x1 == w - 1 or y1 == h - 1:
@@ -202,7 +221,7 @@ def _climb(v, sx, sy, k_climb, sigma, lab, stamp, stack):
             for x in range(x0, x1 + 1):
                 if lab[y, x] == stamp and (first or v[y, x] > top):
                     tx, ty, top, first = x, y, v[y, x], False
-        t = float(top)
+        t = np.float64(top)
         if not (t > peak or (t == peak and (ty < sy or (ty == sy and tx < sx)))):
             break
         sx, sy = tx, ty
@@ -220,7 +239,7 @@ def _centroid(v, lab, stamp, cx0, cy0, cw, ch, saddle):
         for j in range(cw):
             if lab[cy0 + i, cx0 + j] == stamp:
                 wts[i * cw + j] = np.float32(v[cy0 + i, cx0 + j] - s32)
-    total = float(pairwise_sum32(wts, 0, ch * cw))
+    total = np.float64(pairwise_sum32(wts, 0, ch * cw))
     if not total > 0:
         return True, total, 0.0, 0.0
     col = np.zeros(cw, np.float32)
@@ -234,20 +253,20 @@ def _centroid(v, lab, stamp, cx0, cy0, cw, ch, saddle):
     for i in range(ch):
         row[i] = pairwise_sum32(wts, i * cw, cw)
     sx = sy = bx = by = 0.0
-    ux = uy = math.inf
+    mx = my = math.inf  # the smallest nonzero magnitude has the smallest last place
     for j in range(cw):
-        c = float(col[j])
+        c = np.float64(col[j])
         sx += c * j
         bx += abs(c) * j
         if c != 0.0 and j > 0:
-            ux = min(ux, ulp32(c))
+            mx = min(mx, abs(c))
     for i in range(ch):
-        c = float(row[i])
+        c = np.float64(row[i])
         sy += c * i
         by += abs(c) * i
         if c != 0.0 and i > 0:
-            uy = min(uy, ulp32(c))
-    ok = (bx == 0.0 or sum_is_exact(bx, ux)) and (by == 0.0 or sum_is_exact(by, uy))
+            my = min(my, abs(c))
+    ok = (bx == 0.0 or sum_is_exact(bx, ulp32(mx))) and (by == 0.0 or sum_is_exact(by, ulp32(my)))
     return ok, total, sx / total, sy / total
 
 
@@ -273,7 +292,7 @@ def analyse_window(v, geo, sx, sy, sigma, background, sky_sigma, integer, cfg):
     x, y = geo[0] + sx, geo[1] + sy
     if _near_border(geo, x, y, x, y, 3):
         return 1, sx, sy, vals, boxes, lab
-    peak = float(v[sy, sx])
+    peak = np.float64(v[sy, sx])
     bg = background if math.isfinite(background) else peak
     step = pymax(pymax(0.25 * sigma, (peak - bg) / 64.0), 1.0 if integer else 0.0)
     lo = pymin(bg, peak)

@@ -168,15 +168,50 @@ def pairwise_sum32(a, lo, n):
 
 
 @kernel
+def _select(a, lo, hi, k):
+    """Moves the k-th smallest of ``a[lo:hi + 1]`` (finite) to ``a[k]``, the smaller ones
+    before it (Hoare's quickselect)."""
+    while hi > lo:
+        mid = (lo + hi) // 2
+        if a[mid] < a[lo]:
+            a[mid], a[lo] = a[lo], a[mid]
+        if a[hi] < a[lo]:
+            a[hi], a[lo] = a[lo], a[hi]
+        if a[hi] < a[mid]:
+            a[hi], a[mid] = a[mid], a[hi]
+        pivot = a[mid]
+        i, j = lo, hi
+        while i <= j:
+            while a[i] < pivot:
+                i += 1
+            while a[j] > pivot:
+                j -= 1
+            if i <= j:
+                a[i], a[j] = a[j], a[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            return
+
+
+@kernel
 def median32(buf, n):
-    """:func:`acquisition.measure.local_sky.median` of ``buf[:n]`` (float32, finite), as a
-    float64. Sorts ``buf[:n]`` in place."""
-    s = buf[:n]
-    s.sort()
+    """:func:`acquisition.measure.local_sky.median` of ``buf[:n]`` (float32, finite, no -0.0:
+    the k-th value is then the same whatever the selection), as a float64. Reorders
+    ``buf[:n]``."""
     k = n // 2
+    _select(buf, 0, n - 1, k)
     if n % 2:
-        return float(s[k])
-    return float(np.float32(s[k - 1] + s[k])) / 2.0
+        return np.float64(buf[k])
+    below = buf[0]
+    for i in range(1, k):
+        if buf[i] > below:
+            below = buf[i]
+    return np.float64(np.float32(below + buf[k])) / 2.0
 
 
 @kernel

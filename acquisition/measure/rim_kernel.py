@@ -36,34 +36,37 @@ def _exact_unit(region, kind):
     if kind == OTHER:
         return math.inf, 0.0
     biggest = 0.0
-    unit = 1.0 if kind == INTEGER else math.inf
+    smallest = math.inf  # the smallest nonzero magnitude has the smallest last place
     for i in range(region.shape[0]):
         for j in range(region.shape[1]):
-            v = float(region[i, j])
-            if not math.isfinite(v):
+            v = abs(np.float64(region[i, j]))
+            if not v < math.inf:
                 return math.inf, 0.0
-            biggest = max(biggest, abs(v))
-            if kind == FLOAT32 and v != 0.0:
-                unit = min(unit, ulp32(v))
-    return biggest, unit
+            biggest = max(biggest, v)
+            if v != 0.0:
+                smallest = min(smallest, v)
+    if kind == INTEGER or smallest == math.inf:
+        return biggest, 1.0
+    return biggest, ulp32(smallest)
 
 
 @kernel
 def _rim_mean(region, oy, ox, rows, cols, x0, y0, x1, y1):
     """(mean, count) of the one-pixel rim of a frame rectangle; count 0 when it leaves the
-    image (target_snr._rim_mean's None). ``region`` holds frame rows oy.., columns ox..."""
+    image (target_snr._rim_mean's None). ``region`` holds frame rows oy.., columns ox...
+    target_snr sums the rectangle and its inside and subtracts: with exact sums (the caller's
+    proof) that is the rim's own sum, taken here side by side."""
     if x0 < 0 or y0 < 0 or x1 >= cols or y1 >= rows or x1 - x0 < 2 or y1 - y0 < 2:
         return math.nan, 0
-    outer = 0.0
-    inner = 0.0
-    for y in range(y0, y1 + 1):
-        for x in range(x0, x1 + 1):
-            v = float(region[y - oy, x - ox])
-            outer += v
-            if y0 < y < y1 and x0 < x < x1:
-                inner += v
+    total = 0.0  # float64 throughout (numba's float() keeps a float32 a float32)
+    for x in range(x0, x1 + 1):
+        total += np.float64(region[y0 - oy, x - ox])
+        total += np.float64(region[y1 - oy, x - ox])
+    for y in range(y0 + 1, y1):
+        total += np.float64(region[y - oy, x0 - ox])
+        total += np.float64(region[y - oy, x1 - ox])
     n = (x1 - x0 + 1) * (y1 - y0 + 1) - (x1 - x0 - 1) * (y1 - y0 - 1)
-    return (outer - inner) / n, n
+    return total / n, n
 
 
 @kernel
@@ -101,7 +104,7 @@ def rim_stats(region, detrend, ddof):
     for i in range(h):
         for j in range(w):
             if i == 0 or i == h - 1 or j == 0 or j == w - 1:
-                values[k] = float(region[i, j])
+                values[k] = np.float64(region[i, j])
                 dy[k] = i - (h - 1) / 2.0
                 dx[k] = j - (w - 1) / 2.0
                 k += 1

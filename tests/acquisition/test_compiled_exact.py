@@ -178,3 +178,88 @@ def test_rim_stats_equal_background_stats(kind, detrend):
         assert repr(got[:2]) == repr((float(mean[0]), float(std[0])))
         assert repr(float(np.hypot(got[2], got[3]))) == repr(float(grad[0]))
         assert got[4] == values.shape[1]
+
+
+def _calibration(rng, shape=(60, 70), bad_share=0.0):
+    from acquisition.calibrate.calibration import Calibration
+
+    resp = rng.uniform(0.5, 2.0, shape).astype(np.float32) * np.float32(1e-15)
+    offset = rng.uniform(-500, 3000, shape).astype(np.float32)
+    bad = (rng.random(shape) < bad_share).astype(np.uint8)
+    zeros = np.zeros(shape, np.float32)
+    return Calibration("mwir", (3.0, 5.0), 0.005, (290.0, 320.0), resp, offset, bad, zeros, zeros)
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.float32, np.float64])
+def test_compiled_correction_equals_calibration_correct(dtype):
+    from acquisition.calibrate.kernels import correct_box
+
+    rng = np.random.default_rng(400 + np.dtype(dtype).itemsize)
+    for _ in range(60):
+        cal = _calibration(rng)
+        raw = rng.uniform(0, 16000, cal.shape).astype(dtype)
+        ref = rng.normal(0, 5, cal.shape).astype(np.float32)
+        y0, x0 = int(rng.integers(0, 50)), int(rng.integers(0, 60))
+        y1, x1 = y0 + int(rng.integers(1, 11)), x0 + int(rng.integers(1, 11))
+        for use_ref in (False, True):
+            want = cal.correct(raw, (y0, y1, x0, x1))
+            if use_ref:
+                want = want - ref[y0:y1, x0:x1]
+            out = np.zeros(cal.shape, np.float32)
+            maps = (cal.offset_dn, cal._safe_resp, cal.mean_offset_dn, cal.mean_responsivity)
+            correct_box(raw, y0, y1, x0, x1, *maps, ref, True, use_ref, out)
+            assert out[y0:y1, x0:x1].tobytes() == want.tobytes()
+
+
+def _old_sky_add(sky, frame, result):
+    """SkyTemperature.add at the branch point (the sample, without keeping it)."""
+    from acquisition.calibrate.calibration import temperature_of
+    from acquisition.calibrate.sky_temperature import SkySample
+
+    dy, dx, y, x = sky._region(result)
+    rows, cols = dy + y, dx + x
+    h, w = sky.calibration.shape
+    if rows.min() < 0 or cols.min() < 0 or rows.max() >= h or cols.max() >= w:
+        return None
+    keep = sky.calibration.bad[rows, cols] == 0
+    rows, cols = rows[keep], cols[keep]
+    if rows.size < 2:
+        return None
+    cal = sky.calibration
+    lq = (frame[rows, cols].astype(np.float64) - cal.offset_dn[rows, cols]) / (
+        cal.responsivity[rows, cols]
+    )
+    mean_lq = float(lq.mean())
+    temps = temperature_of(cal.band_um, lq, cal.qe_curve)
+    return SkySample(
+        0,
+        mean_lq,
+        float(temperature_of(cal.band_um, mean_lq, cal.qe_curve)),
+        float(np.std(temps, ddof=1)),
+        int(rows.size),
+    )
+
+
+def test_compiled_sky_sample_equals_the_numpy_reference():
+    from acquisition.calibrate.calibration import radiance_of
+    from acquisition.calibrate.sky_temperature import SkyTemperature
+    from acquisition.measure.peak_snr import BACKGROUND_EXTENT, BACKGROUND_RIM, PeakSnr
+
+    rng = np.random.default_rng(500)
+    finite = 0
+    for i in range(200):
+        cal = _calibration(rng, bad_share=float(rng.choice([0.0, 0.05, 0.9])))
+        level = float(radiance_of(cal.band_um, rng.uniform(200, 330)))
+        raw = (cal.offset_dn + cal.responsivity * np.float32(level)).astype(np.float32)
+        raw = np.clip(raw + rng.normal(0, 3, cal.shape), 0, 65535).astype(np.uint16)
+        rect = (5, 6, 5 + int(rng.integers(1, 9)), 6 + int(rng.integers(0, 9)))
+        sky = SkyTemperature("mwir", cal, rect=rect if i % 4 == 0 else None)
+        px, py = int(rng.integers(-2, 72)), int(rng.integers(-2, 62))
+        ext = int(rng.integers(0, 12))
+        method = BACKGROUND_EXTENT if rng.random() < 0.5 else BACKGROUND_RIM
+        result = PeakSnr(px, py, 1.0, 0.0, 1.0, 1.0, frozenset(), method, ext, ext)
+        want = _old_sky_add(sky, raw, result)
+        got = sky.add(0, raw, result)
+        assert repr(got) == repr(want)
+        finite += got is not None and math.isfinite(got.temp_std_k)
+    assert finite > 50
