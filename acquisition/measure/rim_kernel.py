@@ -91,6 +91,32 @@ def rim_excesses(region, oy, ox, rows, cols, rect, sigma, most, kind):
 
 
 @kernel
+def wing_decision(recent, first, n, row, excess, z, min_frames):
+    """WingProfile.growth's decision: this frame's ``excess`` goes into ``recent[row]`` step
+    by step; the first k whose excess (alone, until ``min_frames`` are known) or whose mean
+    over the recent frames (summed oldest first, as Python's ``sum``) is not significant."""
+    frames, steps = recent.shape
+    for k in range(steps):
+        now = excess[k]
+        recent[row, k] = now
+        if not math.isfinite(now):
+            return k
+        total = 0.0
+        m = 0
+        for i in range(n):
+            e = recent[(first + i) % frames, k]
+            if math.isfinite(e):
+                total += e
+                m += 1
+        if m < min_frames:
+            if now <= z:
+                return k
+        elif total / m <= z / math.sqrt(m):
+            return k
+    return steps - 1
+
+
+@kernel
 def rim_stats(region, detrend, ddof):
     """(mean, std, gx, gy, n) of the rim of ``region`` (the rectangle's pixels), as
     background_stats computes them for one frame: values in row-major order as float64, the

@@ -32,7 +32,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from collections import deque
 
 import numpy as np
 
@@ -52,7 +51,7 @@ from acquisition.measure.peak_snr import (
     peak_snr_with,
     saturation_level,
 )
-from acquisition.measure.rim_kernel import pixel_kind, rim_excesses, rim_stats
+from acquisition.measure.rim_kernel import pixel_kind, rim_excesses, rim_stats, wing_decision
 
 
 def background_rule(blob: Blob, cfg: PeakSnrConfig) -> str:
@@ -96,7 +95,7 @@ def rim_excess(pixels: np.ndarray, rect: Rect, sigma: float, k: int) -> float:
     return (here[0] - far[0]) / (sigma * math.sqrt(1.0 / here[1] + 1.0 / far[1]))
 
 
-def _excesses(pixels: np.ndarray, rect: Rect, sigma: float, most: int) -> list[float] | None:
+def _excesses(pixels: np.ndarray, rect: Rect, sigma: float, most: int) -> np.ndarray | None:
     """:func:`rim_excess` for k = 0..most in one compiled pass over the pixels around the
     largest rim (:func:`acquisition.measure.rim_kernel.rim_excesses`); None when its sums are
     not provably exact (the caller sums with NumPy)."""
@@ -110,7 +109,7 @@ def _excesses(pixels: np.ndarray, rect: Rect, sigma: float, most: int) -> list[f
     region = pixels[ry0 : ry1 + 1, rx0 : rx1 + 1]
     kind = pixel_kind(region.dtype)
     exact, out = rim_excesses(region, ry0, rx0, rows, cols, rect, float(sigma), most, kind)
-    return out.tolist() if exact else None
+    return out if exact else None
 
 
 class WingProfile:
@@ -131,36 +130,60 @@ class WingProfile:
         self.most = most
         self.z = z
         self.min_frames = min_frames
-        self._recent: deque[list[float]] = deque(maxlen=frames)
+        # The last ``frames`` frames' excesses (NaN: not measured), a ring from row _first on.
+        self._recent = np.full((frames, most + 1), math.nan)
+        self._first = 0
+        self._n = 0
+
+    def _append(self) -> int:
+        """A new frame's row (all NaN), the oldest dropped when the ring is full."""
+        if self._n < self.frames:
+            row = (self._first + self._n) % self.frames
+            self._n += 1
+        else:
+            row = self._first
+            self._first = (self._first + 1) % self.frames
+        self._recent[row] = math.nan
+        return row
 
     def growth(self, pixels: np.ndarray, rect: Rect, sigma: float) -> int:
         """Add this frame's excess; how many pixels the rim of ``rect`` moves out. Only the
         steps the decision reaches are measured (NaN for the others: left out of the means)."""
-        now = [math.nan] * (self.most + 1)
-        self._recent.append(now)
+        row = self._append()
         excess = _excesses(pixels, rect, sigma, self.most)
+        if excess is not None:  # compiled: the same decision on the same numbers
+            return wing_decision(
+                self._recent, self._first, self._n, row, excess, self.z, self.min_frames
+            )
         for k in range(self.most + 1):
-            now[k] = excess[k] if excess is not None else rim_excess(pixels, rect, sigma, k)
-            if not math.isfinite(now[k]):
+            now = rim_excess(pixels, rect, sigma, k)
+            self._recent[row, k] = now
+            if not math.isfinite(now):
                 return k  # the rims leave the image: no farther
-            past = [e[k] for e in self._recent if math.isfinite(e[k])]
+            column = self._recent[(self._first + np.arange(self._n)) % self.frames, k].tolist()
+            past = [e for e in column if math.isfinite(e)]
             if len(past) < self.min_frames:
-                if now[k] <= self.z:
+                if now <= self.z:
                     return k
             elif sum(past) / len(past) <= self.z / math.sqrt(len(past)):
                 return k
         return self.most
 
     def clear(self) -> None:
-        self._recent.clear()
+        self._first = self._n = 0
+
+    def _rows(self) -> list[list[float]]:
+        order = (self._first + np.arange(self._n)) % self.frames
+        return self._recent[order].tolist()
 
     def snapshot(self) -> dict:
-        return {"recent": [[None if math.isnan(v) else v for v in e] for e in self._recent]}
+        return {"recent": [[None if math.isnan(v) else v for v in e] for e in self._rows()]}
 
     def restore(self, state: dict) -> None:
-        self._recent.clear()
-        for e in state["recent"]:
-            self._recent.append([math.nan if v is None else float(v) for v in e])
+        rows = state["recent"][-self.frames :]
+        self._first, self._n = 0, len(rows)
+        for i, e in enumerate(rows):
+            self._recent[i] = [math.nan if v is None else float(v) for v in e]
 
 
 @functools.lru_cache(maxsize=256)

@@ -15,6 +15,7 @@ kB around the track); otherwise the whole frame is read through h5py.
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass, field
 
@@ -31,14 +32,11 @@ from acquisition.engine.inputs import (
     SetRoi,
 )
 from acquisition.engine.session_engine import SessionEngine
+from acquisition.measure.peak_snr import flags_from_bits
 from acquisition.record.frame_access import FrameCrops
 from acquisition.record.reader import SessionFile
-from acquisition.record.stream_rows import (
-    fix_from_row,
-    measurement_from_row,
-    peak_snr_from_row,
-    reading_from_row,
-)
+from acquisition.record.schema import text_value
+from acquisition.record.stream_rows import fix_from_row, measurement_from_row, reading_from_row
 from acquisition.replay.recorded import (
     FIX,
     FRAME,
@@ -93,18 +91,23 @@ def _same(a: float, b: float) -> bool:
     return a == b or (a != a and b != b)  # NaN equals NaN
 
 
-def same_result(row: np.void, m: Measurement) -> bool:
+@functools.lru_cache(maxsize=256)
+def _flags(bits: int) -> frozenset[str]:
+    return flags_from_bits(bits)
+
+
+def same_result(row, m: Measurement) -> bool:
     """The replayed frame reads exactly what the live one recorded: Eq. (4) (peak, SNR,
     flags) and, where the file has them (format 2), the running statistics after it and the
-    track's state and window."""
-    rec = peak_snr_from_row(row)
+    track's state and window. ``row``: a measurement row (np.void, or a dict of its fields);
+    the fields compared are those of :func:`peak_snr_from_row`, read without building it."""
     r = m.result
     same = (
-        _same(rec.snr, r.snr)
-        and rec.peak_x == r.peak_x
-        and rec.peak_y == r.peak_y
-        and rec.flags == r.flags
-        and rec.background == r.background
+        _same(float(row["snr"]), r.snr)
+        and int(row["peak_x"]) == r.peak_x
+        and int(row["peak_y"]) == r.peak_y
+        and _flags(int(row["flags"])) == r.flags
+        and text_value(row["background"]) == r.background
     )
     if same and bytes(row["track_state"]):  # format 2
         same = (
@@ -149,6 +152,7 @@ class Feeder:
         self.tally = {n: CameraTally(n, f.cameras[n].n_frames) for n in inputs.cameras}
         self._crops = {n: FrameCrops(f.cameras[n].frames) for n in inputs.cameras} if fast else {}
         self._next_command = dict.fromkeys(inputs.cameras, 0)
+        self._names = {n: f.cameras[n].measurements.dtype.names or () for n in inputs.cameras}
         self._next_background = dict.fromkeys(inputs.cameras, 0)
 
     # ------------------------------------------------------------------ seeking
@@ -215,10 +219,12 @@ class Feeder:
     def _frame(self, name: str, i: int, r: int, t: int):
         cam = self.f.cameras[name]
         tally = self.tally[name]
-        row = cam.measurements[r] if r >= 0 else None
+        row = None
+        if r >= 0:  # its fields as a dict: one conversion, then cheap lookups
+            row = dict(zip(self._names[name], cam.measurements[r].item(), strict=True))
         if i < 0:  # measured live, not in the file
             assert row is not None  # a timeline entry without a frame always has its row
-            m = measurement_from_row(name, row)
+            m = measurement_from_row(name, cam.measurements[r])
             self.engine.on_recorded(m)
             if cam.n_frames and t < int(cam.t_host_ns[0]):
                 tally.before_recording += 1

@@ -51,31 +51,40 @@ class ObjectHistory:
         self.areas: deque[int] = deque(maxlen=frames)
         self.rel: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
         self.size_px = 0
+        self._medians: tuple[float | None, float | None] | None = None  # until the next change
 
     def clear(self) -> None:
         self.prominences.clear()
         self.areas.clear()
         self.rel = (0.0, 0.0, 0.0, 0.0)
         self.size_px = 0
+        self._medians = None
 
     def add(self, blob: Blob) -> None:
         self.prominences.append(blob.prominence)
         self.areas.append(blob.core_area)
         self.rel = box_rel(blob)
         self.size_px = size_hint(blob)
+        self._medians = None
+
+    def _median_pair(self) -> tuple[float | None, float | None]:
+        # Asked two or three times a frame between changes: computed once.
+        if self._medians is None:
+            enough = len(self.prominences) >= self.min_frames
+            self._medians = (
+                statistics.median(self.prominences) if enough else None,
+                statistics.median(self.areas) if len(self.areas) >= self.min_frames else None,
+            )
+        return self._medians
 
     @property
     def prominence(self) -> float | None:
         """Median prominence once ``min_frames`` are known (None before)."""
-        if len(self.prominences) < self.min_frames:
-            return None
-        return statistics.median(self.prominences)
+        return self._median_pair()[0]
 
     @property
     def area(self) -> float | None:
-        if len(self.areas) < self.min_frames:
-            return None
-        return statistics.median(self.areas)
+        return self._median_pair()[1]
 
     def snapshot(self) -> dict:
         return {
@@ -86,6 +95,7 @@ class ObjectHistory:
         }
 
     def restore(self, state: dict) -> None:
+        self._medians = None
         self.prominences.clear()
         self.prominences.extend(float(v) for v in state["prominences"])
         self.areas.clear()

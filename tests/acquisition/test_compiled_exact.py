@@ -153,6 +153,7 @@ def test_wing_excesses_equal_the_numpy_sums(kind):
             want = [rim_excess(frame, rect, sigma, k) for k in range(most + 1)]
         if got is None:
             continue
+        got = got.tolist()
         exact += 1
         for k in range(most + 1):  # the decision reads up to the first NaN
             assert repr(got[k]) == repr(want[k])
@@ -263,3 +264,56 @@ def test_compiled_sky_sample_equals_the_numpy_reference():
         assert repr(got) == repr(want)
         finite += got is not None and math.isfinite(got.temp_std_k)
     assert finite > 50
+
+
+class _OldWingProfile:
+    """target_snr.WingProfile at the branch point (a deque of lists, Python's sum)."""
+
+    def __init__(self, frames=25, most=8, z=4.0, min_frames=5):
+        from collections import deque
+
+        self.most, self.z, self.min_frames = most, z, min_frames
+        self._recent = deque(maxlen=frames)
+
+    def growth(self, pixels, rect, sigma):
+        now = [math.nan] * (self.most + 1)
+        self._recent.append(now)
+        for k in range(self.most + 1):
+            now[k] = rim_excess(pixels, rect, sigma, k)
+            if not math.isfinite(now[k]):
+                return k
+            past = [e[k] for e in self._recent if math.isfinite(e[k])]
+            if len(past) < self.min_frames:
+                if now[k] <= self.z:
+                    return k
+            elif sum(past) / len(past) <= self.z / math.sqrt(len(past)):
+                return k
+        return self.most
+
+    def snapshot(self):
+        return {"recent": [[None if math.isnan(v) else v for v in e] for e in self._recent]}
+
+
+@pytest.mark.parametrize("kind", ["float32", "uint16", "float64"])
+def test_wing_profile_decides_and_remembers_as_before(kind):
+    from acquisition.measure.target_snr import WingProfile
+
+    rng = np.random.default_rng(600 + len(kind))
+    for _ in range(4):
+        frames, z = int(rng.integers(3, 30)), float(rng.uniform(1, 6))
+        new, old = WingProfile(frames=frames, z=z), _OldWingProfile(frames=frames, z=z)
+        ks = []
+        for i in range(80):
+            frame, (px, py) = scene(rng, kind)
+            rect = (px - 3, py - 3, px + 3, py + 3)
+            sigma = float(rng.uniform(0.5, 20))
+            with np.errstate(invalid="ignore"):
+                k = old.growth(frame, rect, sigma)
+            assert new.growth(frame, rect, sigma) == k
+            ks.append(k)
+            if i % 20 == 19:  # a snapshot restored continues the same
+                assert new.snapshot() == old.snapshot()
+                again = WingProfile(frames=frames, z=z)
+                again.restore(new.snapshot())
+                new = again
+        assert len(set(ks)) > 1
