@@ -17,7 +17,9 @@ import math
 
 import numpy as np
 
-from acquisition.measure.jit import kernel, pairwise_sum64
+from acquisition.measure.jit import kernel, pairwise_sum64, std_ddof
+
+__all__ = ["correct_box", "rim_radiance", "std_ddof"]
 
 
 @kernel
@@ -57,15 +59,3 @@ def rim_radiance(frame, offset, resp, bad, dy, dx, py, px):
     if m < 2:
         return m, lq[:m], math.nan
     return m, lq[:m], pairwise_sum64(lq, 0, m) / m
-
-
-@kernel
-def std_ddof(values, ddof):
-    """``np.std(values, ddof=ddof)`` of a 1-D float64 array of more than ``ddof`` values."""
-    n = values.size
-    mean = pairwise_sum64(values, 0, n) / n
-    sq = np.empty(n)
-    for i in range(n):
-        d = values[i] - mean
-        sq[i] = d * d
-    return math.sqrt(pairwise_sum64(sq, 0, n) / (n - ddof))

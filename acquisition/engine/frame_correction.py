@@ -28,7 +28,7 @@ import numpy as np
 from acquisition.calibrate.kernels import correct_box
 from acquisition.engine.lazy_frame import LazyFrame, Region
 
-TILE_PX = 32  # a read corrects the tiles it falls in (within the square): few, small passes
+TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
 _NONE = np.zeros((1, 1), np.float32)  # an absent map, for the compiled correction
 
 

@@ -238,3 +238,15 @@ def sum_is_exact(bound, unit):
     """True when every sum of values that are multiples of ``unit`` with absolute sum at most
     ``bound`` is exact in float64 (so its order cannot change it)."""
     return bound * (1.0 + 1e-12) < unit * 4503599627370496.0  # 2**52
+
+
+@kernel
+def std_ddof(values, ddof):
+    """``np.std(values, ddof=ddof)`` of a 1-D float64 array of more than ``ddof`` values."""
+    n = values.size
+    mean = pairwise_sum64(values, 0, n) / n
+    sq = np.empty(n)
+    for i in range(n):
+        d = values[i] - mean
+        sq[i] = d * d
+    return math.sqrt(pairwise_sum64(sq, 0, n) / (n - ddof))

@@ -317,3 +317,27 @@ def test_wing_profile_decides_and_remembers_as_before(kind):
                 again.restore(new.snapshot())
                 new = again
         assert len(set(ks)) > 1
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.float32])
+def test_track_noise_ring_equals_estimate_noise(dtype):
+    from acquisition.measure.noise import estimate_noise
+    from acquisition.measure.track_noise import TrackNoise, ring_pixels
+
+    rng = np.random.default_rng(700 + np.dtype(dtype).itemsize)
+    shape = (60, 70)
+    for _ in range(40):
+        region = int(rng.choice([9, 21, 41]))
+        ddof = int(rng.integers(0, 2))
+        noise = TrackNoise(shape, region_px=region, ddof=ddof, interval_s=1e-9)
+        first = (rng.normal(1000, 20, shape)).astype(dtype)
+        second = (rng.normal(1000, 20, shape)).astype(dtype)
+        peak = (int(rng.integers(0, 70)), int(rng.integers(0, 60)))
+        noise.update(first, 0, peak)
+        noise.update(second, 1, (peak[0] + 3, peak[1]))  # the armed pixels, not the new peak's
+        sel = ring_pixels(shape, peak, region, 7)
+        if sel[0].size <= ddof + 1:
+            assert noise.latest is None
+            continue
+        here, previous = second[sel].reshape(1, -1), first[sel].reshape(1, -1)
+        assert repr(noise.latest) == repr(estimate_noise(here, previous, ddof=ddof))
