@@ -19,7 +19,17 @@ import numpy as np
 
 from acquisition.measure.jit import kernel, pairwise_sum64, std_ddof
 
-__all__ = ["correct_box", "rim_radiance", "std_ddof"]
+__all__ = ["any_set", "correct_box", "rim_radiance", "std_ddof"]
+
+
+@kernel
+def any_set(mask, y0, y1, x0, x1):
+    """True when ``mask[y0:y1, x0:x1]`` holds a nonzero value."""
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            if mask[y, x] != 0:
+                return True
+    return False
 
 
 @kernel

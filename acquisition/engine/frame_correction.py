@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from acquisition.calibrate.kernels import correct_box
+from acquisition.calibrate.kernels import any_set, correct_box
 from acquisition.engine.lazy_frame import LazyFrame, Region
 
 TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
@@ -59,7 +59,6 @@ class FrameCorrector:
         self._pixels: np.ndarray | None = None  # the frame being read (lazy)
         self._square: Region = (0, 0, 0, 0)  # what apply() corrects this frame
         self._done: list[Region] = []  # regions corrected this frame
-        self._bad_sum: tuple[object, np.ndarray | None] = (None, None)  # (calibration, table)
         self._sum: np.ndarray | None = None
         self._wanted = 0
         self._counters: list[int] = []
@@ -178,22 +177,13 @@ class FrameCorrector:
         self._done.append(box)
 
     def _has_bad(self, box: Region) -> bool:
-        """True when the calibration marks a bad pixel in ``box`` (a summed-area table)."""
+        """True when the calibration marks a bad pixel in ``box`` (looked at directly: a box
+        is a few hundred pixels)."""
         cal = self.calibration
         if cal is None:
             return False
-        if self._bad_sum[0] is not cal:
-            bad = np.asarray(cal.bad) != 0
-            table = None
-            if bad.any():
-                table = np.zeros((bad.shape[0] + 1, bad.shape[1] + 1), np.int64)
-                table[1:, 1:] = bad.cumsum(0).cumsum(1)
-            self._bad_sum = (cal, table)
-        table = self._bad_sum[1]
-        if table is None:
-            return False
         y0, y1, x0, x1 = box
-        return bool(table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0] > 0)
+        return any_set(cal.bad, y0, y1, x0, x1)
 
     def _correct(self, pixels: np.ndarray, box: Region, *, bad: bool = True) -> None:
         """The correction of ``box`` into the buffer. The calibration's bad-pixel replacement

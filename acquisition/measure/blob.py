@@ -54,7 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.measure.blob_kernel import analyse_window, window_stats
+from acquisition.measure.blob_kernel import analyse_auto, analyse_window, window_stats
 from acquisition.measure.local_sky import (
     darkest_side_level,
     flatten_sky,
@@ -204,19 +204,31 @@ def _analyse(frame: np.ndarray, cx: int, cy: int, half: int, x: int, y: int, cfg
     y0, y1 = max(cy - half, 0), min(cy + half, rows - 1)
     v = np.array(frame[y0 : y1 + 1, x0 : x1 + 1], np.float32)
     integer = frame.dtype.kind in "ui"
-    finite, estimate, side, spread = _stats(v, cfg.ring_px)
-    sig = max(estimate if sigma is None else float(sigma), cfg.sigma_floor_dn if integer else 1e-6)
-    if cfg.flatten and finite and not looks_level(side, sig) and flatten_sky(v, sig):
-        integer = False  # levels are no longer whole numbers
-        _, _, side, spread = _stats(v, cfg.ring_px)
-    background = darkest_side_level(side)
-    # The extent's noise: the sky's own roughness around the window (a curved gradient an AGC
-    # leaves, structure) where it exceeds the pixel noise.
-    sky_sigma = max(sig, spread)
+    floor = cfg.sigma_floor_dn if integer else 1e-6
     geo = (x0, y0, x1, y1, rows, cols)
-    status, sx, sy, vals, boxes, labels = analyse_window(
-        v, geo, x - x0, y - y0, sig, background, sky_sigma, integer, _numbers(cfg)
-    )
+    given = 0.0 if sigma is None else float(sigma)
+    args = (geo, x - x0, y - y0)
+    out = analyse_auto(v, *args, given, sigma is not None, floor, integer, cfg.flatten,
+                       cfg.ring_px, _numbers(cfg))  # fmt: skip
+    after_plane = False
+    if out[0] == 5:  # a sloping sky: the plane fit is NumPy's (LAPACK)
+        sig, after_plane = out[6], True
+        if flatten_sky(v, sig):
+            integer = False  # levels are no longer whole numbers
+        out = analyse_auto(v, *args, sig, True, floor, integer, False, cfg.ring_px, _numbers(cfg))
+    if out[0] == 4:  # a -0.0 pixel: NumPy's medians
+        finite, estimate, side, spread = _stats(v, cfg.ring_px)
+        if not after_plane:  # else the sigma before the plane fit stands
+            sig = max(estimate if sigma is None else float(sigma), floor)
+        plane = cfg.flatten and not after_plane and finite
+        if plane and not looks_level(side, sig) and flatten_sky(v, sig):
+            integer = False
+            _, _, side, spread = _stats(v, cfg.ring_px)
+        # The extent's noise: the sky's own roughness around the window (a curved gradient
+        # an AGC leaves, structure) where it exceeds the pixel noise.
+        out = (*analyse_window(v, *args, sig, darkest_side_level(side), max(sig, spread),
+                               integer, _numbers(cfg)), sig)  # fmt: skip
+    status, sx, sy, vals, boxes, labels, sig = out
     x, y = x0 + sx, y0 + sy
     if status < 2:
         return None, (x, y), status == 1, False

@@ -350,3 +350,44 @@ def analyse_window(v, geo, sx, sy, sigma, background, sky_sigma, integer, cfg):
     boxes[5], boxes[6], boxes[7], boxes[8], boxes[9] = ext_area, ex0, ey0, ex1, ey1
     boxes[10] = core_stamp
     return status, sx, sy, vals, boxes, lab
+
+
+@kernel
+def _looks_level(sides, levels, sigma):
+    """local_sky.looks_level: four finite sides, opposite ones within 2 sigma."""
+    if sides != 4:
+        return False
+    for i in range(4):
+        if not math.isfinite(levels[i]):
+            return False
+    return abs(levels[1] - levels[0]) < 2.0 * sigma and abs(levels[3] - levels[2]) < 2.0 * sigma
+
+
+@kernel
+def _darkest(sides, levels):
+    """local_sky.darkest_side_level: the first lowest finite side (NaN: none)."""
+    out = math.nan
+    for i in range(sides):
+        if math.isfinite(levels[i]) and (out != out or levels[i] < out):
+            out = levels[i]
+    return out
+
+
+@kernel
+def analyse_auto(v, geo, sx, sy, given, has_given, floor, integer, flatten, ring_px, cfg):
+    """blob._analyse's choice of the noise, background and sky sigma (window_stats), then
+    :func:`analyse_window`; returns its values and the sigma. Two statuses more: 4, a -0.0
+    pixel (the caller takes NumPy's medians); 5, the sides are not level and ``flatten`` is on
+    (the caller fits the plane, then calls again with ``flatten`` off, the sigma given, and
+    ``integer`` off if the plane changed the window)."""
+    finite, estimate, sides, levels, spread = window_stats(v, ring_px)
+    sig = pymax(given if has_given else estimate, floor)
+    if sides == 0 or (flatten and finite and not _looks_level(sides, levels, sig)):
+        h, w = v.shape
+        empty = np.zeros((h, w), np.int32)
+        return 4 if sides == 0 else 5, sx, sy, np.zeros(9), np.zeros(11, np.int64), empty, sig
+    sky_sigma = pymax(sig, spread)
+    status, sx, sy, vals, boxes, lab = analyse_window(
+        v, geo, sx, sy, sig, _darkest(sides, levels), sky_sigma, integer, cfg
+    )
+    return status, sx, sy, vals, boxes, lab, sig

@@ -150,7 +150,8 @@ class Feeder:
         self.keep = keep
         self.exact_inputs = inputs.version >= 2
         self.tally = {n: CameraTally(n, f.cameras[n].n_frames) for n in inputs.cameras}
-        self._crops = {n: FrameCrops(f.cameras[n].frames) for n in inputs.cameras} if fast else {}
+        self.fast = fast
+        self._crops: dict[str, FrameCrops] = {}  # made at a camera's first frame (fast only)
         self._next_command = dict.fromkeys(inputs.cameras, 0)
         self._names = {n: f.cameras[n].measurements.dtype.names or () for n in inputs.cameras}
         self._next_background = dict.fromkeys(inputs.cameras, 0)
@@ -263,6 +264,8 @@ class Feeder:
 
     def _pixels(self, name: str, i: int) -> np.ndarray:
         crops = self._crops.get(name)
+        if crops is None and self.fast:
+            crops = self._crops[name] = FrameCrops(self.f.cameras[name].frames)
         if crops is not None:
             view = crops.frame_view(i)
             if view is not None:
