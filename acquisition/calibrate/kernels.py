@@ -19,7 +19,7 @@ import numpy as np
 
 from acquisition.measure.jit import kernel, pairwise_sum64, std_ddof
 
-__all__ = ["any_set", "correct_box", "rim_radiance", "std_ddof"]
+__all__ = ["any_set", "correct_box", "lazy_correct", "rim_radiance", "sky_sample", "std_ddof"]
 
 
 @kernel
@@ -50,6 +50,36 @@ def correct_box(raw, y0, y1, x0, x1, offset, resp, mo, mr, ref, calibrate, refer
 
 
 @kernel
+def lazy_correct(
+    raw, ry0, ry1, rx0, rx1, state, done, offset, resp, ref, bad, mo, mr, cal, sub, out
+):
+    """FrameCorrector.ensure of a read of rows ry0:ry1, columns rx0:rx1 in one call: cut to
+    the square, nothing when a box corrected this frame holds it, else the 8 px tiles it falls
+    in corrected into ``out`` (:func:`correct_box`; ``cal``, ``sub``: calibrate, subtract the
+    reference) and their box added to ``done``. ``state`` = (square y0, y1, x0, x1, tile,
+    boxes done). Returns 0, or 1 when the tiles hold a bad pixel (nothing done: the caller
+    corrects the whole square)."""
+    sy0, sy1, sx0, sx1, t = state[0], state[1], state[2], state[3], state[4]
+    y0, y1 = max(ry0, sy0), min(ry1, sy1)
+    x0, x1 = max(rx0, sx0), min(rx1, sx1)
+    if y0 >= y1 or x0 >= x1:
+        return 0  # outside the square: never read (reach_px), left as it stands
+    n = state[5]
+    for i in range(n):
+        if done[i, 0] <= y0 and y1 <= done[i, 1] and done[i, 2] <= x0 and x1 <= done[i, 3]:
+            return 0
+    y0, y1 = max(y0 // t * t, sy0), min(-(-y1 // t) * t, sy1)
+    x0, x1 = max(x0 // t * t, sx0), min(-(-x1 // t) * t, sx1)
+    if cal and any_set(bad, y0, y1, x0, x1):
+        return 1
+    correct_box(raw, y0, y1, x0, x1, offset, resp, mo, mr, ref, cal, sub, out)
+    if n < done.shape[0]:  # (a full list only costs a correction again: the same values)
+        done[n, 0], done[n, 1], done[n, 2], done[n, 3] = y0, y1, x0, x1
+        state[5] = n + 1
+    return 0
+
+
+@kernel
 def rim_radiance(frame, offset, resp, bad, dy, dx, py, px):
     """(count, radiances, their mean) of the good pixels at (py + dy, px + dx); count -1 when
     a pixel leaves the frame (no sample), the mean NaN below two pixels."""
@@ -69,3 +99,25 @@ def rim_radiance(frame, offset, resp, bad, dy, dx, py, px):
     if m < 2:
         return m, lq[:m], math.nan
     return m, lq[:m], pairwise_sum64(lq, 0, m) / m
+
+
+@kernel
+def _temperature(x, table, t):
+    """``np.interp(x, table, t, left=nan, right=nan)`` of one value (numba's np.interp is
+    NumPy's algorithm; outside the table and for NaN it is NaN, as NumPy's is)."""
+    if not (table[0] <= x <= table[-1]):
+        return math.nan
+    return np.interp(x, table, t)
+
+
+@kernel
+def sky_sample(frame, offset, resp, bad, dy, dx, py, px, table, t):
+    """(count, mean radiance, its temperature, the std (ddof 1) of the pixels' temperatures)
+    of the good pixels at (py + dy, px + dx); count below 2: no sample."""
+    n, lq, mean = rim_radiance(frame, offset, resp, bad, dy, dx, py, px)
+    if n < 2:
+        return n, math.nan, math.nan, math.nan
+    temps = np.empty(n)
+    for i in range(n):
+        temps[i] = _temperature(lq[i], table, t)
+    return n, mean, _temperature(mean, table, t), std_ddof(temps, 1)

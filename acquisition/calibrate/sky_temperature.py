@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from acquisition.calibrate.calibration import Calibration, _table, temperature_of
-from acquisition.calibrate.kernels import rim_radiance, std_ddof
+from acquisition.calibrate.kernels import sky_sample
 from acquisition.measure.background import Rect, rim_offsets, validate_rect
 from acquisition.measure.peak_snr import BACKGROUND_EXTENT, PeakSnr
 
@@ -67,6 +67,8 @@ class SkyTemperature:
             rows, cols = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]
             self._rect_pixels = (rows.ravel().astype(np.intp), cols.ravel().astype(np.intp))
         self._samples: deque[SkySample] = deque(maxlen=int(maxlen))
+        t, radiance = _table(tuple(map(float, calibration.band_um)), tuple(calibration.qe_curve))
+        self._table = (radiance, t)  # radiance -> temperature (temperature_of's table)
 
     def _region(self, result: PeakSnr | None) -> tuple[np.ndarray, np.ndarray, int, int]:
         """(dy, dx, y, x): the region's pixels are (y + dy, x + dx)."""
@@ -84,22 +86,15 @@ class SkyTemperature:
     def add(self, t_host_ns: int, frame: np.ndarray, result: PeakSnr | None = None):
         """The frame's :class:`SkySample` (also kept), or None when the region is unusable
         (it leaves the image: the measurement flags that too; fewer than two good pixels).
-        The radiances, their mean and the temperatures' spread are compiled
-        (:mod:`acquisition.calibrate.kernels`), the table lookup is ``np.interp``."""
+        One compiled call (:func:`acquisition.calibrate.kernels.sky_sample`): the radiances,
+        their mean, the table lookups (numba's np.interp, NumPy's algorithm) and the spread."""
         dy, dx, y, x = self._region(result)
         cal = self.calibration
-        n, lq, mean_lq = rim_radiance(frame, cal.offset_dn, cal.responsivity, cal.bad, dy, dx, y, x)
+        maps = (cal.offset_dn, cal.responsivity, cal.bad)
+        n, mean_lq, temp, spread = sky_sample(frame, *maps, dy, dx, y, x, *self._table)
         if n < 2:
             return None
-        t, table = _table(tuple(map(float, cal.band_um)), tuple(cal.qe_curve))
-        temps = np.interp(lq, table, t, left=np.nan, right=np.nan)
-        sample = SkySample(
-            int(t_host_ns),
-            mean_lq,
-            float(np.interp(mean_lq, table, t, left=np.nan, right=np.nan)),
-            std_ddof(temps, 1),
-            n,
-        )
+        sample = SkySample(int(t_host_ns), mean_lq, temp, spread, n)
         self._samples.append(sample)
         return sample
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from acquisition.calibrate.kernels import any_set, correct_box
+from acquisition.calibrate.kernels import any_set, correct_box, lazy_correct
 from acquisition.engine.lazy_frame import LazyFrame, Region
 
 TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
@@ -59,6 +59,10 @@ class FrameCorrector:
         self._pixels: np.ndarray | None = None  # the frame being read (lazy)
         self._square: Region = (0, 0, 0, 0)  # what apply() corrects this frame
         self._done: list[Region] = []  # regions corrected this frame
+        # The same for the compiled path: (square y0, y1, x0, x1, tile, boxes), the boxes.
+        self._state = np.zeros(6, np.int64)
+        self._boxes = np.zeros((64, 4), np.int64)
+        self._fast: tuple | None = None
         self._sum: np.ndarray | None = None
         self._wanted = 0
         self._counters: list[int] = []
@@ -148,11 +152,34 @@ class FrameCorrector:
             return self._buffer
         self._pixels = pixels
         self._done = []
+        self._state[:] = (y0, y1, x0, x1, TILE_PX, 0)
+        self._fast = self._compiled(pixels)
         return self._lazy_frame
+
+    def _compiled(self, pixels: np.ndarray) -> tuple | None:
+        """The maps :func:`acquisition.calibrate.kernels.lazy_correct` corrects with, or None
+        where NumPy must (maps of another type or shape: NumPy's promotions)."""
+        cal, ref = self.calibration, self.reference_offset
+        if pixels.shape != self.shape or not (cal is None or _float32_maps(cal, self)):
+            return None
+        if cal is None:
+            return (_NONE, _NONE, _NONE if ref is None else ref, _NONE, 0.0, 0.0, False,
+                    ref is not None, self._buffer)  # fmt: skip
+        return (cal.offset_dn, cal._safe_resp, _NONE if ref is None else ref, cal.bad,
+                cal.mean_offset_dn, cal.mean_responsivity, True, ref is not None,
+                self._buffer)  # fmt: skip
 
     def ensure(self, region: Region | None) -> None:
         """Correct ``region`` of the frame given to :meth:`apply` (within its square; None: the
         whole square) unless this frame has corrected it already (:class:`LazyFrame`)."""
+        fast, pixels = self._fast, self._pixels
+        if fast is not None and region is not None and pixels is not None:
+            y0, y1, x0, x1 = region
+            if lazy_correct(pixels, y0, y1, x0, x1, self._state, self._boxes, *fast):
+                # A bad pixel: its replacement depends on the whole square (NumPy).
+                self._correct(pixels, self._square)
+                self._done_box(self._square)
+            return
         sy0, sy1, sx0, sx1 = self._square
         if region is None:
             y0, y1, x0, x1 = sy0, sy1, sx0, sx1
@@ -174,7 +201,15 @@ class FrameCorrector:
         if bad:  # its replacement depends on the whole square: correct it all
             box = self._square
         self._correct(self._pixels, box, bad=bad)
+        self._done_box(box)
+
+    def _done_box(self, box: Region) -> None:
+        """``box`` is corrected this frame (for both paths of :meth:`ensure`)."""
         self._done.append(box)
+        n = int(self._state[5])
+        if n < len(self._boxes):
+            self._boxes[n] = box
+            self._state[5] = n + 1
 
     def _has_bad(self, box: Region) -> bool:
         """True when the calibration marks a bad pixel in ``box`` (looked at directly: a box

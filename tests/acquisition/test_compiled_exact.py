@@ -341,3 +341,22 @@ def test_track_noise_ring_equals_estimate_noise(dtype):
             continue
         here, previous = second[sel].reshape(1, -1), first[sel].reshape(1, -1)
         assert repr(noise.latest) == repr(estimate_noise(here, previous, ddof=ddof))
+
+
+def test_compiled_table_lookup_is_np_interp():
+    from acquisition.calibrate.calibration import _table
+    from acquisition.calibrate.kernels import _temperature
+
+    rng = np.random.default_rng(800)
+    for band in ((3.0, 5.0), (8.0, 12.0)):
+        t, table = _table(band, ())
+        x = np.concatenate(
+            [
+                rng.uniform(table[0] * 0.9, table[-1] * 1.1, 20000),
+                table[rng.integers(0, table.size, 2000)],  # the nodes themselves
+                [table[0], table[-1], np.nan, np.inf, -np.inf],
+            ]
+        )
+        want = np.interp(x, table, t, left=np.nan, right=np.nan)
+        got = np.array([_temperature(v, table, t) for v in x])
+        assert got.tobytes() == want.tobytes()
