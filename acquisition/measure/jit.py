@@ -168,34 +168,35 @@ def pairwise_sum32(a, lo, n):
 
 
 @kernel
-def _select(a, lo, hi, k):
-    """Moves the k-th smallest of ``a[lo:hi + 1]`` (finite) to ``a[k]``, the smaller ones
-    before it (Hoare's quickselect)."""
+def _select(a, n, k):
+    """Moves the k-th smallest of ``a[:n]`` (finite) to ``a[k]``, the smaller ones before it:
+    quickselect with a branch-free Lomuto partition (every element swapped, the boundary moved
+    by the comparison's 0 or 1), since on noise half of a branching partition's comparisons
+    are mispredicted."""
+    lo, hi = 0, n - 1
     while hi > lo:
-        mid = (lo + hi) // 2
+        mid = (lo + hi) // 2  # the median of three as the pivot, at hi
         if a[mid] < a[lo]:
             a[mid], a[lo] = a[lo], a[mid]
         if a[hi] < a[lo]:
             a[hi], a[lo] = a[lo], a[hi]
-        if a[hi] < a[mid]:
-            a[hi], a[mid] = a[mid], a[hi]
-        pivot = a[mid]
-        i, j = lo, hi
-        while i <= j:
-            while a[i] < pivot:
-                i += 1
-            while a[j] > pivot:
-                j -= 1
-            if i <= j:
-                a[i], a[j] = a[j], a[i]
-                i += 1
-                j -= 1
-        if k <= j:
-            hi = j
-        elif k >= i:
-            lo = i
-        else:
+        if a[mid] < a[hi]:
+            a[mid], a[hi] = a[hi], a[mid]
+        pivot = a[hi]
+        store = lo
+        for i in range(lo, hi):
+            x = a[i]
+            a[i] = a[store]
+            a[store] = x
+            store += x < pivot
+        a[hi] = a[store]
+        a[store] = pivot
+        if k == store:
             return
+        if k < store:
+            hi = store - 1
+        else:
+            lo = store + 1
 
 
 @kernel
@@ -204,13 +205,12 @@ def median32(buf, n):
     the k-th value is then the same whatever the selection), as a float64. Reorders
     ``buf[:n]``."""
     k = n // 2
-    _select(buf, 0, n - 1, k)
+    _select(buf, n, k)
     if n % 2:
         return np.float64(buf[k])
     below = buf[0]
     for i in range(1, k):
-        if buf[i] > below:
-            below = buf[i]
+        below = max(below, buf[i])
     return np.float64(np.float32(below + buf[k])) / 2.0
 
 
