@@ -48,13 +48,18 @@ def _median_of(values, n, buf):
 
 @kernel
 def _mad_spread(values, n, buf, buf2):
-    """(median of |values - median|, count) of the finite ``values[:n]`` (float32 steps)."""
+    """(median of |values - median|, count) of the finite ``values[:n]`` (float32 steps).
+    The deviations are taken in the values' own order, not the selection's (a half-sorted
+    array is a quickselect's slow case)."""
     med, m = _median_of(values, n, buf)
     if m == 0:
         return 0.0, 0
     c = np.float32(med)
-    for i in range(m):
-        buf2[i] = abs(np.float32(buf[i] - c))
+    j = 0
+    for i in range(n):
+        if math.isfinite(values[i]):
+            buf2[j] = abs(np.float32(values[i] - c))
+            j += 1
     return median32(buf2, m), m
 
 
