@@ -94,9 +94,11 @@ def rim_excesses(region, oy, ox, rows, cols, rect, sigma, most, kind):
 def wing_decision(recent, first, n, row, excess, z, min_frames):
     """WingProfile.growth's decision: this frame's ``excess`` goes into ``recent[row]`` step
     by step; the first k whose excess (alone, until ``min_frames`` are known) or whose mean
-    over the recent frames (summed oldest first, as Python's ``sum``) is not significant."""
+    over the recent frames (summed oldest first, as Python's ``sum``) is not significant.
+    -1 when ``excess`` holds fewer steps than ``recent`` and none of them decided (the caller
+    measures the rest and asks again: the same steps decide the same)."""
     frames, steps = recent.shape
-    for k in range(steps):
+    for k in range(excess.size):
         now = excess[k]
         recent[row, k] = now
         if not math.isfinite(now):
@@ -113,7 +115,7 @@ def wing_decision(recent, first, n, row, excess, z, min_frames):
                 return k
         elif total / m <= z / math.sqrt(m):
             return k
-    return steps - 1
+    return steps - 1 if excess.size == steps else -1
 
 
 @kernel

@@ -112,6 +112,9 @@ def _excesses(pixels: np.ndarray, rect: Rect, sigma: float, most: int) -> np.nda
     return out if exact else None
 
 
+FIRST_STEPS = 2  # the wing profile's first look: growths 0..2 (a 7x7 rim: 15 x 15 pixels)
+
+
 class WingProfile:
     """Where the background rim must lie to be clear of the target's PSF wings.
 
@@ -150,11 +153,17 @@ class WingProfile:
         """Add this frame's excess; how many pixels the rim of ``rect`` moves out. Only the
         steps the decision reaches are measured (NaN for the others: left out of the means)."""
         row = self._append()
-        excess = _excesses(pixels, rect, sigma, self.most)
-        if excess is not None:  # compiled: the same decision on the same numbers
-            return wing_decision(
+        # Compiled: the same decision on the same numbers, first on the steps most frames
+        # stop at (the pixels within FIRST_STEPS + 2 of the rim), then on all of them.
+        for steps in (min(FIRST_STEPS, self.most), self.most):
+            excess = _excesses(pixels, rect, sigma, steps)
+            if excess is None:
+                break
+            k = wing_decision(
                 self._recent, self._first, self._n, row, excess, self.z, self.min_frames
             )
+            if k >= 0:
+                return k
         for k in range(self.most + 1):
             now = rim_excess(pixels, rect, sigma, k)
             self._recent[row, k] = now
