@@ -63,6 +63,7 @@ class FrameCorrector:
         self._state = np.zeros(6, np.int64)
         self._boxes = np.zeros((64, 4), np.int64)
         self._fast: tuple | None = None
+        self._fast_for: tuple | None = None  # ((calibration, reference, shape), its maps)
         self._sum: np.ndarray | None = None
         self._wanted = 0
         self._counters: list[int] = []
@@ -158,8 +159,18 @@ class FrameCorrector:
 
     def _compiled(self, pixels: np.ndarray) -> tuple | None:
         """The maps :func:`acquisition.calibrate.kernels.lazy_correct` corrects with, or None
-        where NumPy must (maps of another type or shape: NumPy's promotions)."""
+        where NumPy must (maps of another type or shape: NumPy's promotions); the same tuple
+        for as long as the calibration, the reference and the frames' shape are."""
         cal, ref = self.calibration, self.reference_offset
+        key = (cal, ref, pixels.shape)
+        cached = self._fast_for
+        if cached is not None and all(a is b for a, b in zip(cached[0], key, strict=True)):
+            return cached[1]
+        fast = self._maps(pixels, cal, ref)
+        self._fast_for = (key, fast)
+        return fast
+
+    def _maps(self, pixels: np.ndarray, cal, ref) -> tuple | None:
         if pixels.shape != self.shape or not (cal is None or _float32_maps(cal, self)):
             return None
         if cal is None:

@@ -360,3 +360,27 @@ def test_compiled_table_lookup_is_np_interp():
         want = np.interp(x, table, t, left=np.nan, right=np.nan)
         got = np.array([_temperature(v, table, t) for v in x])
         assert got.tobytes() == want.tobytes()
+
+
+def test_object_history_medians_are_statistics_median():
+    import statistics
+
+    from acquisition.measure.blob import Blob
+    from acquisition.track.candidate import ObjectHistory
+
+    rng = np.random.default_rng(900)
+    hist = ObjectHistory(frames=25, min_frames=5)
+    for i in range(400):
+        p = float(rng.choice([rng.uniform(0, 100), 7.5, 12.0]))  # ties too
+        a = int(rng.integers(1, 9))
+        blob = Blob(1, 1, p, 0.0, 1.0, 0.0, 0.5, a, (0, 0, 2, 2), 1.0, 1.0, 0.1, a,
+                    (0, 0, 2, 2), (0, 0, 9, 9))  # fmt: skip
+        hist.add(blob)
+        enough = len(hist.prominences) >= 5
+        assert hist.prominence == (statistics.median(hist.prominences) if enough else None)
+        assert hist.area == (statistics.median(hist.areas) if enough else None)
+        if i % 50 == 49:  # restored from a snapshot: the same medians on
+            again = ObjectHistory(frames=25, min_frames=5)
+            again.restore(hist.snapshot())
+            assert (again.prominence, again.area) == (hist.prominence, hist.area)
+            hist = again
