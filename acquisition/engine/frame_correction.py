@@ -63,7 +63,7 @@ class FrameCorrector:
         self._state = np.zeros(6, np.int64)
         self._boxes = np.zeros((64, 4), np.int64)
         self._fast: tuple | None = None
-        self._fast_for: tuple | None = None  # ((calibration, reference, shape), its maps)
+        self._fast_for: tuple | None = None  # (calibration, reference, shape, their maps)
         self._sum: np.ndarray | None = None
         self._wanted = 0
         self._counters: list[int] = []
@@ -162,12 +162,16 @@ class FrameCorrector:
         where NumPy must (maps of another type or shape: NumPy's promotions); the same tuple
         for as long as the calibration, the reference and the frames' shape are."""
         cal, ref = self.calibration, self.reference_offset
-        key = (cal, ref, pixels.shape)
         cached = self._fast_for
-        if cached is not None and all(a is b for a, b in zip(cached[0], key, strict=True)):
-            return cached[1]
+        if (
+            cached is not None
+            and cached[0] is cal
+            and cached[1] is ref
+            and cached[2] == pixels.shape
+        ):
+            return cached[3]
         fast = self._maps(pixels, cal, ref)
-        self._fast_for = (key, fast)
+        self._fast_for = (cal, ref, pixels.shape, fast)
         return fast
 
     def _maps(self, pixels: np.ndarray, cal, ref) -> tuple | None:

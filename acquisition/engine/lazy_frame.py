@@ -79,9 +79,11 @@ class LazyFrame(np.ndarray):
     """The corrector's buffer, corrected where it is read (module docstring)."""
 
     owner: Corrects | None = None
+    _plain: np.ndarray | None = None  # the buffer itself (plain ndarray), on the frame of of()
 
     def __array_finalize__(self, obj: Any) -> None:
         self.owner = getattr(obj, "owner", None)
+        self._plain = None  # a view of another shape: indexed through ndarray's own path
 
     def __getitem__(self, key: Any) -> Any:
         owner = self.owner
@@ -92,6 +94,9 @@ class LazyFrame(np.ndarray):
                 owner.ensure(_box2(key[0], key[1], self.shape))  # the common reads, directly
             else:
                 owner.ensure(read_box(key, self.shape))
+        plain = self._plain
+        if plain is not None:  # the same memory as a plain array: no subclass view to undo
+            return plain[key]
         out = super().__getitem__(key)
         return out.view(np.ndarray) if isinstance(out, LazyFrame) else out
 
@@ -99,4 +104,5 @@ class LazyFrame(np.ndarray):
     def of(cls, buffer: np.ndarray, owner: Corrects) -> LazyFrame:
         frame = buffer.view(cls)
         frame.owner = owner
+        frame._plain = buffer.view(np.ndarray)
         return frame
