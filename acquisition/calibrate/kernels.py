@@ -102,12 +102,35 @@ def rim_radiance(frame, offset, resp, bad, dy, dx, py, px):
 
 
 @kernel
-def _temperature(x, table, t):
-    """``np.interp(x, table, t, left=nan, right=nan)`` of one value (numba's np.interp is
-    NumPy's algorithm; outside the table and for NaN it is NaN, as NumPy's is)."""
+def _temperature(x, table, t, j):
+    """(``np.interp(x, table, t, left=nan, right=nan)``, the table index it used) of one value,
+    the search starting from the index ``j`` of the last value (the pixels of a rim lie close
+    together in the table); NumPy's arithmetic (compiled_base.c's arr_interp): its slope, its
+    retry from the right end on NaN, the node's own value on a node."""
+    n = table.size
     if not (table[0] <= x <= table[-1]):
-        return math.nan
-    return np.interp(x, table, t)
+        return math.nan, j
+    if x == table[n - 1]:
+        return t[n - 1], n - 1
+    j = min(max(j, 0), n - 2)
+    if not (table[j] <= x < table[j + 1]):  # bisect: table[j] <= x < table[j + 1]
+        lo, hi = 0, n - 1
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if table[mid] <= x:
+                lo = mid
+            else:
+                hi = mid
+        j = lo
+    if table[j] == x:
+        return t[j], j
+    slope = (t[j + 1] - t[j]) / (table[j + 1] - table[j])
+    out = slope * (x - table[j]) + t[j]
+    if out != out:
+        out = slope * (x - table[j + 1]) + t[j + 1]
+        if out != out and t[j] == t[j + 1]:
+            out = t[j]
+    return out, j
 
 
 @kernel
@@ -118,6 +141,7 @@ def sky_sample(frame, offset, resp, bad, dy, dx, py, px, table, t):
     if n < 2:
         return n, math.nan, math.nan, math.nan
     temps = np.empty(n)
+    j = 0
     for i in range(n):
-        temps[i] = _temperature(lq[i], table, t)
-    return n, mean, _temperature(mean, table, t), std_ddof(temps, 1)
+        temps[i], j = _temperature(lq[i], table, t, j)
+    return n, mean, _temperature(mean, table, t, j)[0], std_ddof(temps, 1)
