@@ -154,6 +154,8 @@ class Feeder:
         self._crops: dict[str, FrameCrops] = {}  # made at a camera's first frame (fast only)
         self._next_command = dict.fromkeys(inputs.cameras, 0)
         self._names = {n: f.cameras[n].measurements.dtype.names or () for n in inputs.cameras}
+        self._entries: list[tuple[int, int, int, int, int]] | None = None  # the timeline
+        self._counters: dict[str, list[int]] = {}  # each camera's frame counters
         self._next_background = dict.fromkeys(inputs.cameras, 0)
 
     # ------------------------------------------------------------------ seeking
@@ -203,18 +205,21 @@ class Feeder:
     # ------------------------------------------------------------------ one entry
     def apply(self, k: int) -> tuple[str, FrameOutput | Measurement | None] | None:
         """Apply timeline entry ``k``; for a frame, returns (camera, what it gave)."""
-        e = self.inputs.timeline[k]
-        kind = int(e["kind"])
+        if self._entries is None:  # the timeline's columns as Python ints, once
+            tl = self.inputs.timeline
+            columns = (tl[f].tolist() for f in ("kind", "camera", "frame", "row", "t_ns"))
+            self._entries = list(zip(*columns, strict=True))
+        kind, camera, frame, row, t_ns = self._entries[k]
         if kind == RANGE:
-            self.engine.on_range(reading_from_row(self.f.rangefinder[int(e["row"])]))
+            self.engine.on_range(reading_from_row(self.f.rangefinder[row]))
         elif kind == FIX:
-            self.engine.on_fix(fix_from_row(self.f.gps[int(e["row"])]))
+            self.engine.on_fix(fix_from_row(self.f.gps[row]))
         elif kind == STOP:
             if self.recorded_stops is not None:
-                self.recorded_stops.apply(self.inputs.stops[int(e["row"])][1])
+                self.recorded_stops.apply(self.inputs.stops[row][1])
         elif kind == FRAME:
-            name = self.inputs.cameras[int(e["camera"])]
-            return name, self._frame(name, int(e["frame"]), int(e["row"]), int(e["t_ns"]))
+            name = self.inputs.cameras[camera]
+            return name, self._frame(name, frame, row, t_ns)
         return None
 
     def _frame(self, name: str, i: int, r: int, t: int):
@@ -235,9 +240,13 @@ class Feeder:
                 tally.measurements.append(m)
             self._after(name, t)
             return m
-        self._post_commands(name, i, t, row)
+        counters = self._counters.get(name)
+        if counters is None:
+            counters = self._counters[name] = cam.counter.tolist()
+        counter = counters[i]
+        self._post_commands(name, counter, t, row)
         pixels = self._pixels(name, i)
-        out = self.engine.on_frame(name, pixels, seq=i, counter=int(cam.counter[i]), t_host_ns=t)
+        out = self.engine.on_frame(name, pixels, seq=i, counter=counter, t_host_ns=t)
         measured = out.measurement
         if measured is not None:
             m = measured
@@ -272,11 +281,10 @@ class Feeder:
                 return view
         return self.f.cameras[name].frames[i]
 
-    def _post_commands(self, name: str, i: int, t: int, row) -> None:
+    def _post_commands(self, name: str, counter: int, t: int, row) -> None:
         engine = self.engine.cameras[name]
         c = self.inputs.per_camera[name]
-        cam = self.f.cameras[name]
-        state = c.states.get(int(cam.counter[i]))
+        state = c.states.get(counter)
         k = self._next_command[name]
         if state is not None and self.exact_inputs:
             engine.post(Restore(state))
