@@ -22,14 +22,77 @@ Where no such guarantee is possible (a product sum that BLAS orders its own way,
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import math
+from pathlib import Path
 
 import numpy as np
 from numba import njit
+from numba.core import caching
+
+# Every module whose functions are kernels (compiled with :func:`kernel`).
+_KERNEL_FILES = frozenset(
+    str((Path(__file__).resolve().parents[1] / f).resolve())
+    for f in (
+        "measure/jit.py",
+        "measure/blob_kernel.py",
+        "measure/rim_kernel.py",
+        "measure/track_noise.py",
+        "calibrate/kernels.py",
+    )
+)
+
+
+@functools.lru_cache(maxsize=1)
+def _kernels_stamp() -> bytes:
+    """One hash of all the kernel modules' sources."""
+    h = hashlib.sha256()
+    for path in sorted(_KERNEL_FILES):
+        h.update(Path(path).read_bytes())
+    return h.digest()
+
+
+class _AllKernels:
+    """A cache locator's freshness judged on all the kernel modules together: numba compiles
+    the kernels a kernel calls, from other modules too, into its cached machine code, but
+    judges a cache by the caller's own source file, so a changed helper (a median in this
+    module) would be served stale to its callers in the others."""
+
+    def get_source_stamp(self):
+        return _kernels_stamp()
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if str(Path(py_file).resolve()) not in _KERNEL_FILES:
+            return None
+        return super().from_function(py_func, py_file)
+
+
+def _judge_all_kernels() -> None:
+    """Put the locators above first in numba's list (the user's cache directory, the
+    package's __pycache__, the user's cache: numba's order); other files keep numba's own."""
+    impl = getattr(caching, "CacheImpl", None)
+    classes = getattr(impl, "_locator_classes", None)
+    if impl is None or not isinstance(classes, list):
+        return  # another numba: its own judgement (a changed helper: clear the caches)
+    ours = [
+        type(f"AllKernels{base.__name__}", (_AllKernels, base), {})
+        for base in (
+            caching.UserProvidedCacheLocator,
+            caching.InTreeCacheLocator,
+            caching.UserWideCacheLocator,
+        )
+    ]
+    impl._locator_classes = [*ours, *(c for c in classes if not issubclass(c, _AllKernels))]
+
+
+_judge_all_kernels()
 
 
 def kernel(fn):
-    """``numba.njit`` as every kernel here uses it: cached on disk, releasing the GIL."""
+    """``numba.njit`` as every kernel here uses it: cached on disk (judged on all the kernel
+    modules' sources, :class:`_AllKernels`), releasing the GIL."""
     return njit(cache=True, nogil=True)(fn)
 
 
@@ -170,33 +233,32 @@ def pairwise_sum32(a, lo, n):
 @kernel
 def _select(a, n, k):
     """Moves the k-th smallest of ``a[:n]`` (finite) to ``a[k]``, the smaller ones before it:
-    quickselect with a branch-free Lomuto partition (every element swapped, the boundary moved
-    by the comparison's 0 or 1), since on noise half of a branching partition's comparisons
-    are mispredicted."""
+    quickselect whose partitions have no branch on the data (every element swapped, the
+    boundary moved by the comparison's 0 or 1: on noise half of a branching partition's
+    comparisons are mispredicted), in two passes (below the pivot, then equal to it) so that
+    the many equal values of 8-bit video do not make it quadratic."""
     lo, hi = 0, n - 1
     while hi > lo:
-        mid = (lo + hi) // 2  # the median of three as the pivot, at hi
-        if a[mid] < a[lo]:
-            a[mid], a[lo] = a[lo], a[mid]
-        if a[hi] < a[lo]:
-            a[hi], a[lo] = a[lo], a[hi]
-        if a[mid] < a[hi]:
-            a[mid], a[hi] = a[hi], a[mid]
-        pivot = a[hi]
+        p, q, r = a[lo], a[(lo + hi) // 2], a[hi]
+        pivot = max(min(p, q), min(max(p, q), r))  # the median of the three
         store = lo
-        for i in range(lo, hi):
+        for i in range(lo, hi + 1):  # a[lo:store] < pivot <= a[store:hi + 1]
             x = a[i]
             a[i] = a[store]
             a[store] = x
             store += x < pivot
-        a[hi] = a[store]
-        a[store] = pivot
-        if k == store:
-            return
         if k < store:
             hi = store - 1
-        else:
-            lo = store + 1
+            continue
+        equal = store
+        for i in range(store, hi + 1):  # a[store:equal] == pivot < a[equal:hi + 1]
+            x = a[i]
+            a[i] = a[equal]
+            a[equal] = x
+            equal += x <= pivot
+        if k < equal:
+            return
+        lo = equal
 
 
 @kernel

@@ -105,6 +105,8 @@ def test_median_is_local_skys():
         a = (rng.standard_normal(n) * 10.0 ** rng.integers(-3, 5)).astype(np.float32)
         if rng.random() < 0.3:
             a = np.round(a) + np.float32(0.0)  # ties (no -0.0: blob_kernel.window_stats)
+        if rng.random() < 0.2:  # 8-bit video: a few levels, mostly equal
+            a = rng.integers(0, 4, n).astype(np.float32)
         assert repr(median32(a.copy(), n)) == repr(median(a))
 
 
@@ -387,3 +389,20 @@ def test_object_history_medians_are_statistics_median():
             again.restore(hist.snapshot())
             assert (again.prominence, again.area) == (hist.prominence, hist.area)
             hist = again
+
+
+def test_every_kernel_cache_is_judged_on_all_kernel_modules():
+    """numba compiles a kernel's callees from other modules into its cache but judges the
+    cache by the caller's file: jit._AllKernels makes a change in any kernel module
+    recompile every kernel."""
+    from acquisition.calibrate import kernels as cal_kernels
+    from acquisition.measure import blob_kernel, jit, rim_kernel, track_noise
+
+    checked = 0
+    for module in (jit, blob_kernel, rim_kernel, track_noise, cal_kernels):
+        for value in vars(module).values():
+            func = getattr(value, "py_func", None)
+            if func is not None and func.__module__ == module.__name__:
+                assert isinstance(value._cache._impl.locator, jit._AllKernels), value
+                checked += 1
+    assert checked >= 20
