@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.calibrate.calibration import Calibration, temperature_of
+from acquisition.calibrate.calibration import Calibration, _table, temperature_of
+from acquisition.calibrate.kernels import sky_sample
 from acquisition.measure.background import Rect, rim_offsets, validate_rect
 from acquisition.measure.peak_snr import BACKGROUND_EXTENT, PeakSnr
 
@@ -64,12 +65,15 @@ class SkyTemperature:
         if self.rect is not None:
             x0, y0, x1, y1 = self.rect
             rows, cols = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]
-            self._rect_pixels = (rows.ravel(), cols.ravel())
+            self._rect_pixels = (rows.ravel().astype(np.intp), cols.ravel().astype(np.intp))
         self._samples: deque[SkySample] = deque(maxlen=int(maxlen))
+        t, radiance = _table(tuple(map(float, calibration.band_um)), tuple(calibration.qe_curve))
+        self._table = (radiance, t)  # radiance -> temperature (temperature_of's table)
 
-    def _region(self, result: PeakSnr | None) -> tuple[np.ndarray, np.ndarray] | None:
+    def _region(self, result: PeakSnr | None) -> tuple[np.ndarray, np.ndarray, int, int]:
+        """(dy, dx, y, x): the region's pixels are (y + dy, x + dx)."""
         if self.rect is not None:
-            return self._rect_pixels
+            return (*self._rect_pixels, 0, 0)
         if result is None:
             raise ValueError("the rim background needs the frame's PeakSnr (or set a rect)")
         dy, dx = self._rim
@@ -77,36 +81,20 @@ class SkyTemperature:
             # Any extent pixel lies within max(w, h) - 1 of the peak; the guard adds 2 more.
             half = max(self.box_px // 2, max(result.extent_w_px, result.extent_h_px) + 2)
             dy, dx = rim_offsets(2 * half + 1)
-        rows = dy + result.peak_y
-        cols = dx + result.peak_x
-        h, w = self.calibration.shape
-        if rows.min() < 0 or cols.min() < 0 or rows.max() >= h or cols.max() >= w:
-            return None  # the rim leaves the image: no sample (the measurement flags it too)
-        return rows, cols
+        return dy, dx, result.peak_y, result.peak_x
 
     def add(self, t_host_ns: int, frame: np.ndarray, result: PeakSnr | None = None):
-        """The frame's :class:`SkySample` (also kept), or None when the region is unusable."""
-        region = self._region(result)
-        if region is None:
-            return None
-        rows, cols = region
-        keep = self.calibration.bad[rows, cols] == 0
-        rows, cols = rows[keep], cols[keep]
-        if rows.size < 2:
-            return None
+        """The frame's :class:`SkySample` (also kept), or None when the region is unusable
+        (it leaves the image: the measurement flags that too; fewer than two good pixels).
+        One compiled call (:func:`acquisition.calibrate.kernels.sky_sample`): the radiances,
+        their mean, the table lookups (numba's np.interp, NumPy's algorithm) and the spread."""
+        dy, dx, y, x = self._region(result)
         cal = self.calibration
-        lq = (frame[rows, cols].astype(np.float64) - cal.offset_dn[rows, cols]) / (
-            cal.responsivity[rows, cols]
-        )
-        mean_lq = float(lq.mean())
-        temps = temperature_of(cal.band_um, lq, cal.qe_curve)
-        sample = SkySample(
-            int(t_host_ns),
-            mean_lq,
-            float(temperature_of(cal.band_um, mean_lq, cal.qe_curve)),
-            float(np.std(temps, ddof=1)),
-            int(rows.size),
-        )
+        maps = (cal.offset_dn, cal.responsivity, cal.bad)
+        n, mean_lq, temp, spread = sky_sample(frame, *maps, dy, dx, y, x, *self._table)
+        if n < 2:
+            return None
+        sample = SkySample(int(t_host_ns), mean_lq, temp, spread, n)
         self._samples.append(sample)
         return sample
 

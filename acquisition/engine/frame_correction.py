@@ -25,9 +25,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from acquisition.calibrate.kernels import any_set, correct_box, lazy_correct
 from acquisition.engine.lazy_frame import LazyFrame, Region
 
-TILE_PX = 32  # a read corrects the tiles it falls in (within the square): few, small passes
+TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
+_NONE = np.zeros((1, 1), np.float32)  # an absent map, for the compiled correction
+
+
+def _float32_maps(cal, corrector: FrameCorrector) -> bool:
+    """The calibration's maps are float32 of the frame's shape (what the compiled correction
+    computes with; any other is NumPy's to promote)."""
+    return (
+        cal.shape == corrector.shape
+        and cal.offset_dn.dtype == np.float32
+        and cal._safe_resp.dtype == np.float32
+    )
 
 
 class FrameCorrector:
@@ -47,7 +59,11 @@ class FrameCorrector:
         self._pixels: np.ndarray | None = None  # the frame being read (lazy)
         self._square: Region = (0, 0, 0, 0)  # what apply() corrects this frame
         self._done: list[Region] = []  # regions corrected this frame
-        self._bad_sum: tuple[object, np.ndarray | None] = (None, None)  # (calibration, table)
+        # The same for the compiled path: (square y0, y1, x0, x1, tile, boxes), the boxes.
+        self._state = np.zeros(6, np.int64)
+        self._boxes = np.zeros((64, 4), np.int64)
+        self._fast: tuple | None = None
+        self._fast_for: tuple | None = None  # (calibration, reference, shape, their maps)
         self._sum: np.ndarray | None = None
         self._wanted = 0
         self._counters: list[int] = []
@@ -133,15 +149,52 @@ class FrameCorrector:
         x0, x1 = max(x - h, 0), min(x + h + 1, self.shape[1])
         self._square = (y0, y1, x0, x1)
         if not self.lazy:
-            self._correct(pixels, self._square)
+            self._correct(pixels, self._square, bad=self._has_bad(self._square))
             return self._buffer
         self._pixels = pixels
         self._done = []
+        self._state[:] = (y0, y1, x0, x1, TILE_PX, 0)
+        self._fast = self._compiled(pixels)
         return self._lazy_frame
+
+    def _compiled(self, pixels: np.ndarray) -> tuple | None:
+        """The maps :func:`acquisition.calibrate.kernels.lazy_correct` corrects with, or None
+        where NumPy must (maps of another type or shape: NumPy's promotions); the same tuple
+        for as long as the calibration, the reference and the frames' shape are."""
+        cal, ref = self.calibration, self.reference_offset
+        cached = self._fast_for
+        if (
+            cached is not None
+            and cached[0] is cal
+            and cached[1] is ref
+            and cached[2] == pixels.shape
+        ):
+            return cached[3]
+        fast = self._maps(pixels, cal, ref)
+        self._fast_for = (cal, ref, pixels.shape, fast)
+        return fast
+
+    def _maps(self, pixels: np.ndarray, cal, ref) -> tuple | None:
+        if pixels.shape != self.shape or not (cal is None or _float32_maps(cal, self)):
+            return None
+        if cal is None:
+            return (_NONE, _NONE, _NONE if ref is None else ref, _NONE, 0.0, 0.0, False,
+                    ref is not None, self._buffer)  # fmt: skip
+        return (cal.offset_dn, cal._safe_resp, _NONE if ref is None else ref, cal.bad,
+                cal.mean_offset_dn, cal.mean_responsivity, True, ref is not None,
+                self._buffer)  # fmt: skip
 
     def ensure(self, region: Region | None) -> None:
         """Correct ``region`` of the frame given to :meth:`apply` (within its square; None: the
         whole square) unless this frame has corrected it already (:class:`LazyFrame`)."""
+        fast, pixels = self._fast, self._pixels
+        if fast is not None and region is not None and pixels is not None:
+            y0, y1, x0, x1 = region
+            if lazy_correct(pixels, y0, y1, x0, x1, self._state, self._boxes, *fast):
+                # A bad pixel: its replacement depends on the whole square (NumPy).
+                self._correct(pixels, self._square)
+                self._done_box(self._square)
+            return
         sy0, sy1, sx0, sx1 = self._square
         if region is None:
             y0, y1, x0, x1 = sy0, sy1, sx0, sx1
@@ -159,33 +212,48 @@ class FrameCorrector:
         y0, y1 = max(y0 // t * t, sy0), min(-(-y1 // t) * t, sy1)
         x0, x1 = max(x0 // t * t, sx0), min(-(-x1 // t) * t, sx1)
         box = (y0, y1, x0, x1)
-        if self._has_bad(box):  # its replacement depends on the whole square: correct it all
+        bad = self._has_bad(box)
+        if bad:  # its replacement depends on the whole square: correct it all
             box = self._square
-        self._correct(self._pixels, box)
+        self._correct(self._pixels, box, bad=bad)
+        self._done_box(box)
+
+    def _done_box(self, box: Region) -> None:
+        """``box`` is corrected this frame (for both paths of :meth:`ensure`)."""
         self._done.append(box)
+        n = int(self._state[5])
+        if n < len(self._boxes):
+            self._boxes[n] = box
+            self._state[5] = n + 1
 
     def _has_bad(self, box: Region) -> bool:
-        """True when the calibration marks a bad pixel in ``box`` (a summed-area table)."""
+        """True when the calibration marks a bad pixel in ``box`` (looked at directly: a box
+        is a few hundred pixels)."""
         cal = self.calibration
         if cal is None:
             return False
-        if self._bad_sum[0] is not cal:
-            bad = np.asarray(cal.bad) != 0
-            table = None
-            if bad.any():
-                table = np.zeros((bad.shape[0] + 1, bad.shape[1] + 1), np.int64)
-                table[1:, 1:] = bad.cumsum(0).cumsum(1)
-            self._bad_sum = (cal, table)
-        table = self._bad_sum[1]
-        if table is None:
-            return False
         y0, y1, x0, x1 = box
-        return bool(table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0] > 0)
+        return any_set(cal.bad, y0, y1, x0, x1)
 
-    def _correct(self, pixels: np.ndarray, box: Region) -> None:
+    def _correct(self, pixels: np.ndarray, box: Region, *, bad: bool = True) -> None:
         """The correction of ``box`` into the buffer. The calibration's bad-pixel replacement
-        depends on the box (a median over it); every other pixel's value does not."""
+        depends on the box (a median over it); every other pixel's value does not. A box
+        without bad pixels (``bad`` False: :meth:`_has_bad` said so) is corrected by compiled
+        code, bit for bit the same (:func:`acquisition.calibrate.kernels.correct_box`)."""
         y0, y1, x0, x1 = box
+        cal = self.calibration
+        if not bad and pixels.shape == self.shape and (cal is None or _float32_maps(cal, self)):
+            ref = self.reference_offset
+            correct_box(
+                pixels, y0, y1, x0, x1,
+                _NONE if cal is None else cal.offset_dn,
+                _NONE if cal is None else cal._safe_resp,
+                0.0 if cal is None else cal.mean_offset_dn,
+                0.0 if cal is None else cal.mean_responsivity,
+                _NONE if ref is None else ref,
+                cal is not None, ref is not None, self._buffer,
+            )  # fmt: skip
+            return
         if self.calibration is not None:
             win = self.calibration.correct(pixels, (y0, y1, x0, x1))
         else:

@@ -61,20 +61,42 @@ def read_box(key: Any, shape: tuple[int, ...]) -> Region | None:
     return rows[0], rows[1], cols[0], cols[1]
 
 
+def _box2(rows: Any, cols: Any, shape: tuple[int, ...]) -> Region | None:
+    """:func:`read_box` of ``frame[rows, cols]`` on a 2-D frame, its plain slices and integers
+    without the general path."""
+    if type(rows) is slice and type(cols) is slice:
+        a, b, da = rows.indices(shape[0])
+        c, d, dc = cols.indices(shape[1])
+        if da == 1 and dc == 1:
+            return a, max(b, a), c, max(d, c)
+        return None
+    if type(rows) is int and type(cols) is int and 0 <= rows < shape[0] and 0 <= cols < shape[1]:
+        return rows, rows + 1, cols, cols + 1
+    return read_box((rows, cols), shape)
+
+
 class LazyFrame(np.ndarray):
     """The corrector's buffer, corrected where it is read (module docstring)."""
 
     owner: Corrects | None = None
+    _plain: np.ndarray | None = None  # the buffer itself (plain ndarray), on the frame of of()
 
     def __array_finalize__(self, obj: Any) -> None:
         self.owner = getattr(obj, "owner", None)
+        self._plain = None  # a view of another shape: indexed through ndarray's own path
 
     def __getitem__(self, key: Any) -> Any:
         owner = self.owner
         if key is None and self.ndim == 2:  # frame[None]: a stack of one, read through later
             return super().__getitem__(key)
         if owner is not None:
-            owner.ensure(read_box(key, self.shape))
+            if type(key) is tuple and len(key) == 2 and self.ndim == 2:
+                owner.ensure(_box2(key[0], key[1], self.shape))  # the common reads, directly
+            else:
+                owner.ensure(read_box(key, self.shape))
+        plain = self._plain
+        if plain is not None:  # the same memory as a plain array: no subclass view to undo
+            return plain[key]
         out = super().__getitem__(key)
         return out.view(np.ndarray) if isinstance(out, LazyFrame) else out
 
@@ -82,4 +104,5 @@ class LazyFrame(np.ndarray):
     def of(cls, buffer: np.ndarray, owner: Corrects) -> LazyFrame:
         frame = buffer.view(cls)
         frame.owner = owner
+        frame._plain = buffer.view(np.ndarray)
         return frame

@@ -41,16 +41,20 @@ extent is the larger of that and the robust spread of the border ring (an AGC'd 
 Conventions: x = column, y = row, zero-based, integers at pixel centres; boxes ``(x0, y0, x1,
 y1)`` with both corners included; levels in the frame's DN after the flattening. Only the
 window is read.
+
+The analysis of a window is compiled (:mod:`acquisition.measure.blob_kernel`): the same sets,
+levels and sums as the NumPy/OpenCV code it replaced, bit for bit (the reference is kept in
+``tests/reference/blob_numpy.py`` and compared on random scenes); the plane fit stays NumPy's.
 """
 
 from __future__ import annotations
 
-import math
+import functools
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
+from acquisition.measure.blob_kernel import analyse_auto, analyse_window, window_stats
 from acquisition.measure.local_sky import (
     darkest_side_level,
     flatten_sky,
@@ -140,85 +144,9 @@ class Blob:
         return max(px - x0, x1 - px, py - y0, y1 - py) <= half_px
 
 
-_FLAGS = 8 | cv2.FLOODFILL_FIXED_RANGE | cv2.FLOODFILL_MASK_ONLY | (1 << 8)
-
-
-class _Window:
-    """The float32 window of a frame, its noise, the sky's tilt removed, and the connected set
-    at a level. One per window: every climb and level of an analysis reuses it."""
-
-    def __init__(self, frame: np.ndarray, x: int, y: int, half: int, cfg, sigma) -> None:
-        rows, cols = frame.shape
-        self.frame_shape: tuple[int, int] = (rows, cols)
-        self.x0, self.x1 = max(x - half, 0), min(x + half, cols - 1)
-        self.y0, self.y1 = max(y - half, 0), min(y + half, rows - 1)
-        self.v = np.array(frame[self.y0 : self.y1 + 1, self.x0 : self.x1 + 1], np.float32)
-        h, w = self.v.shape
-        self.mask = np.zeros((h + 2, w + 2), np.uint8)
-        self.integer = frame.dtype.kind in "ui"
-        self.finite = bool(np.isfinite(self.v).all())
-        sig = robust_sigma(self.v) if sigma is None else float(sigma)
-        floor = cfg.sigma_floor_dn if self.integer else 1e-6
-        self.sigma = max(sig, floor)
-        levels = side_levels(self.v, cfg.ring_px)
-        if (
-            cfg.flatten
-            and self.finite
-            and not looks_level(levels, self.sigma)
-            and flatten_sky(self.v, self.sigma)
-        ):
-            self.integer = False  # levels are no longer whole numbers
-            levels = side_levels(self.v, cfg.ring_px)
-        self.background = darkest_side_level(levels)
-        # The extent's noise: the sky's own roughness around the window (a curved gradient
-        # an AGC leaves, structure) where it exceeds the pixel noise.
-        ring = np.concatenate(ring_sides(self.v, cfg.ring_px))
-        if not np.isfinite(ring).all():
-            ring = ring[np.isfinite(ring)]
-        spread = 1.4826 * median(np.abs(ring - median(ring))) if ring.size else 0.0
-        self.sky_sigma = max(self.sigma, spread)
-
-    def inside(self, x: int, y: int, room: int) -> bool:
-        """True when frame pixel (x, y) is at least ``room`` px inside the window's border
-        (an image edge counts as inside: the window cannot move past it)."""
-        return not _near_border(self, (x, y, x, y), room)
-
-    def component(self, sx: int, sy: int, level: float):
-        """(mask view, area, (x, y, w, h)) of the set >= level containing the seed (window px)."""
-        self.mask.fill(0)
-        lo = max(float(self.v[sy, sx]) - level, 0.0)
-        area, _, _, rect = cv2.floodFill(self.v, self.mask, (sx, sy), 0, (lo,), (1e30,), _FLAGS)
-        return self.mask[1:-1, 1:-1], int(area), rect
-
-    def touches(self, rect) -> bool:
-        rx, ry, rw, rh = rect
-        h, w = self.v.shape
-        return rx == 0 or ry == 0 or rx + rw == w or ry + rh == h
-
-    def is_open(self, sx: int, sy: int, level: float, peak: float) -> bool:
-        m, _, rect = self.component(sx, sy, level)
-        if self.touches(rect):
-            return True
-        rx, ry, rw, rh = rect
-        sub = (slice(ry, ry + rh), slice(rx, rx + rw))
-        return cv2.minMaxLoc(self.v[sub], m[sub])[1] > peak
-
-    def frame_box(self, rect) -> Box:
-        rx, ry, rw, rh = rect
-        return (self.x0 + rx, self.y0 + ry, self.x0 + rx + rw - 1, self.y0 + ry + rh - 1)
-
-
-def _near_border(win: _Window, box: Box, room: int) -> bool:
-    """True when ``box`` comes within ``room`` px of a window border that is not the image's
-    edge (the window's clipped sides)."""
-    x0, y0, x1, y1 = box
-    rows, cols = win.frame_shape
-    return (
-        (win.x0 > 0 and x0 - win.x0 < room)
-        or (win.y0 > 0 and y0 - win.y0 < room)
-        or (win.x1 < cols - 1 and win.x1 - x1 < room)
-        or (win.y1 < rows - 1 and win.y1 - y1 < room)
-    )
+@functools.lru_cache(maxsize=16)
+def _numbers(cfg: BlobConfig) -> tuple[float, float, float, float]:
+    return (cfg.k_climb, cfg.k_ext, cfg.core_fraction, float(cfg.margin_px))
 
 
 def analyse_blob(
@@ -244,8 +172,7 @@ def analyse_blob(
     for _ in range(8):  # recentrings and doublings, both bounded
         if max(abs(x - cx), abs(y - cy)) > half - 2:
             cx, cy = x, y
-        win = _Window(frame, cx, cy, half, cfg, sigma)
-        blob, (x, y), redo, grow = _analyse(win, x, y, cfg)
+        blob, (x, y), redo, grow = _analyse(frame, cx, cy, half, x, y, cfg, sigma)
         if redo:
             cx, cy = x, y  # the climb left the window's middle: centre on the new seed
         elif grow and half < cfg.max_half_px:
@@ -255,113 +182,81 @@ def analyse_blob(
     return blob
 
 
-def _argmax_in(win: _Window, m: np.ndarray, rect) -> tuple[int, int, float]:
-    """Window (x, y) and value of the brightest pixel of a set, first in row-major order."""
-    rx, ry, rw, rh = rect
-    sub = np.where(m[ry : ry + rh, rx : rx + rw] > 0, win.v[ry : ry + rh, rx : rx + rw], -np.inf)
-    i = int(np.argmax(sub))
-    return rx + i % rw, ry + i // rw, float(sub.flat[i])
+def _stats(v: np.ndarray, ring_px: int) -> tuple[bool, float, list[float], float]:
+    """(finite, robust sigma, side levels, ring spread) of a float32 window."""
+    finite, estimate, sides, levels, spread = window_stats(v, ring_px)
+    if sides:
+        return finite, estimate, levels[:sides].tolist(), spread
+    # A -0.0 pixel: NumPy's medians (module docstring of blob_kernel).
+    ring = np.concatenate(ring_sides(v, ring_px))
+    if not np.isfinite(ring).all():
+        ring = ring[np.isfinite(ring)]
+    spread = 1.4826 * median(np.abs(ring - median(ring))) if ring.size else 0.0
+    return finite, robust_sigma(v), side_levels(v, ring_px), spread
 
 
-def _climb(win: _Window, sx: int, sy: int, cfg: BlobConfig) -> tuple[int, int]:
-    """The top of the seed's hill (window px): the brightest pixel reachable without dipping
-    more than ``k_climb`` sigma below the seed, first in row-major order among equals. An
-    object behind a deeper valley is another object; a set that reaches the window's border is
-    the sky's or the clutter's, where there is nothing to climb. Each step goes up (or to an
-    equal pixel earlier in row-major order), so it ends; it is bounded all the same."""
-    for _ in range(16):
-        peak = float(win.v[sy, sx])
-        m, _, rect = win.component(sx, sy, peak - cfg.k_climb * win.sigma)
-        if win.touches(rect):
-            break
-        tx, ty, top = _argmax_in(win, m, rect)
-        if not (top > peak or (top == peak and (ty, tx) < (sy, sx))):
-            break
-        sx, sy = tx, ty
-    return sx, sy
-
-
-def _analyse(win: _Window, x: int, y: int, cfg: BlobConfig):
-    """(blob, seed, recentre, window too small) of the seed's object in one window."""
-    sx, sy = x - win.x0, y - win.y0
-    if not math.isfinite(float(win.v[sy, sx])):
-        return None, (x, y), False, False
-    sx, sy = _climb(win, sx, sy, cfg)
-    x, y = win.x0 + sx, win.y0 + sy
-    if not win.inside(x, y, 3):
-        return None, (x, y), True, False
-    peak = float(win.v[sy, sx])
-    sig = win.sigma
-    background = win.background if math.isfinite(win.background) else peak
-    # Levels to a quarter of the noise, or 1/64 of the contrast, are plenty (whole DN for
-    # integer frames).
-    step = max(0.25 * sig, (peak - background) / 64.0, 1.0 if win.integer else 0.0)
-
-    # Bisection for the saddle: the highest level at which the seed's set is open. An object
-    # on clear sky is closed at the extent's level, which leaves a short interval to bisect.
-    lo = min(background, peak)
-    probe = min(background + cfg.k_ext * sig, peak)
-    if win.is_open(sx, sy, peak, peak):
-        saddle = peak
-    elif not win.is_open(sx, sy, lo, peak):
-        saddle = lo
-    else:
-        hi = peak
-        if win.is_open(sx, sy, probe, peak):
-            lo = probe
-        else:
-            hi = probe
-        while hi - lo > step:
-            mid = (lo + hi) / 2.0
-            if win.integer:
-                mid = float(math.floor(mid))
-                if mid <= lo:
-                    break
-            if win.is_open(sx, sy, mid, peak):
-                lo = mid
-            else:
-                hi = mid
-        saddle = lo
-    core_level = saddle + cfg.core_fraction * (peak - saddle)
-    if win.integer:  # the set >= L of integer pixels is the set >= ceil(L)
-        core_level = min(max(float(math.ceil(core_level)), saddle + 1.0), peak)
-    core_mask, core_area, crect = win.component(sx, sy, core_level)
-    cx, cy, cw, ch = crect
-    core_in = core_mask[cy : cy + ch, cx : cx + cw] > 0
-    weights = np.where(core_in, win.v[cy : cy + ch, cx : cx + cw] - saddle, 0.0)
-    total = float(weights.sum())
-    if total > 0:
-        centroid_x = win.x0 + cx + float(weights.sum(axis=0) @ np.arange(cw)) / total
-        centroid_y = win.y0 + cy + float(weights.sum(axis=1) @ np.arange(ch)) / total
-    else:
-        centroid_x, centroid_y = float(x), float(y)
-    # Everything connected to the object more than k_ext sky-sigma above the sky it stands on
-    # (the saddle, for an object on clear sky a little above the window's background).
-    extent_level = min(max(background, saddle) + cfg.k_ext * win.sky_sigma, core_level)
-    _, ext_area, erect = win.component(sx, sy, extent_level)
-    extent_box = win.frame_box(erect)
-    # Too small a window: the extent nears a border that is not the image's edge, or the
-    # object stands less than half its contrast out of a set that meets such a border (a
-    # large object cut by the window, rather than one merged with clutter: a larger window
-    # tells).
-    grow = _near_border(win, extent_box, 2 + cfg.margin_px)
-    if not grow and saddle - background > 0.5 * (peak - background) and saddle < peak:
-        grow = _near_border(win, win.frame_box(win.component(sx, sy, saddle)[2]), 1)
+def _analyse(frame: np.ndarray, cx: int, cy: int, half: int, x: int, y: int, cfg, sigma):
+    """(blob, seed, recentre, window too small) of the seed (x, y)'s object in the window of
+    half-size ``half`` around (cx, cy): its float32 pixels, their noise and levels, the sky's
+    tilt removed (NumPy), then the compiled analysis (:mod:`acquisition.measure.blob_kernel`)."""
+    rows, cols = frame.shape
+    x0, x1 = max(cx - half, 0), min(cx + half, cols - 1)
+    y0, y1 = max(cy - half, 0), min(cy + half, rows - 1)
+    v = np.array(frame[y0 : y1 + 1, x0 : x1 + 1], np.float32)
+    integer = frame.dtype.kind in "ui"
+    floor = cfg.sigma_floor_dn if integer else 1e-6
+    geo = (x0, y0, x1, y1, rows, cols)
+    given = 0.0 if sigma is None else float(sigma)
+    args = (geo, x - x0, y - y0)
+    out = analyse_auto(v, *args, given, sigma is not None, floor, integer, cfg.flatten,
+                       cfg.ring_px, _numbers(cfg))  # fmt: skip
+    after_plane = False
+    if out[0] == 5:  # a sloping sky: the plane fit is NumPy's (LAPACK)
+        sig, after_plane = out[6], True
+        if flatten_sky(v, sig):
+            integer = False  # levels are no longer whole numbers
+        out = analyse_auto(v, *args, sig, True, floor, integer, False, cfg.ring_px, _numbers(cfg))
+    if out[0] == 4:  # a -0.0 pixel: NumPy's medians
+        finite, estimate, side, spread = _stats(v, cfg.ring_px)
+        if not after_plane:  # else the sigma before the plane fit stands
+            sig = max(estimate if sigma is None else float(sigma), floor)
+        plane = cfg.flatten and not after_plane and finite
+        if plane and not looks_level(side, sig) and flatten_sky(v, sig):
+            integer = False
+            _, _, side, spread = _stats(v, cfg.ring_px)
+        # The extent's noise: the sky's own roughness around the window (a curved gradient
+        # an AGC leaves, structure) where it exceeds the pixel noise.
+        out = (*analyse_window(v, *args, sig, darkest_side_level(side), max(sig, spread),
+                               integer, _numbers(cfg)), sig)  # fmt: skip
+    status, sx, sy, vals, boxes, labels, sig = out
+    x, y = x0 + sx, y0 + sy
+    if status < 2:
+        return None, (x, y), status == 1, False
+    peak, bg, saddle, core_level, centroid_x, centroid_y, extent_level, grow, _ = vals.tolist()
+    area, cx0, cy0, cx1, cy1, ext_area, ex0, ey0, ex1, ey1, core = boxes.tolist()
+    if status == 3:  # the centroid's sums not provably exact in any order: NumPy's own
+        cw, ch = cx1 - cx0 + 1, cy1 - cy0 + 1
+        core_in = labels[cy0 : cy0 + ch, cx0 : cx0 + cw] == core
+        weights = np.where(core_in, v[cy0 : cy0 + ch, cx0 : cx0 + cw] - saddle, 0.0)
+        total = float(weights.sum())
+        if total > 0:
+            centroid_x = x0 + cx0 + float(weights.sum(axis=0) @ np.arange(cw)) / total
+            centroid_y = y0 + cy0 + float(weights.sum(axis=1) @ np.arange(ch)) / total
     blob = Blob(
         peak_x=x,
         peak_y=y,
         peak=peak,
-        background=background,
+        background=bg,
         sigma=sig,
         saddle=saddle,
         core_level=core_level,
-        core_area=core_area,
-        core_box=win.frame_box(crect),
+        core_area=area,
+        core_box=(x0 + cx0, y0 + cy0, x0 + cx1, y0 + cy1),
         centroid_x=centroid_x,
         centroid_y=centroid_y,
         extent_level=extent_level,
         extent_area=ext_area,
-        extent_box=extent_box,
-        window=(win.x0, win.y0, win.x1, win.y1),
+        extent_box=(ex0, ey0, ex1, ey1),
+        window=(x0, y0, x1, y1),
     )
-    return blob, (x, y), False, grow
+    return blob, (x, y), False, grow > 0

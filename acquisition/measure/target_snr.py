@@ -32,7 +32,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from collections import deque
 
 import numpy as np
 
@@ -52,6 +51,7 @@ from acquisition.measure.peak_snr import (
     peak_snr_with,
     saturation_level,
 )
+from acquisition.measure.rim_kernel import pixel_kind, rim_excesses, rim_stats, wing_decision
 
 
 def background_rule(blob: Blob, cfg: PeakSnrConfig) -> str:
@@ -95,6 +95,26 @@ def rim_excess(pixels: np.ndarray, rect: Rect, sigma: float, k: int) -> float:
     return (here[0] - far[0]) / (sigma * math.sqrt(1.0 / here[1] + 1.0 / far[1]))
 
 
+def _excesses(pixels: np.ndarray, rect: Rect, sigma: float, most: int) -> np.ndarray | None:
+    """:func:`rim_excess` for k = 0..most in one compiled pass over the pixels around the
+    largest rim (:func:`acquisition.measure.rim_kernel.rim_excesses`); None when its sums are
+    not provably exact (the caller sums with NumPy)."""
+    rows, cols = pixels.shape
+    x0, y0, x1, y1 = rect
+    g = most + 2
+    ry0, ry1 = max(y0 - g, 0), min(y1 + g, rows - 1)
+    rx0, rx1 = max(x0 - g, 0), min(x1 + g, cols - 1)
+    if ry1 < ry0 or rx1 < rx0:
+        return None
+    region = pixels[ry0 : ry1 + 1, rx0 : rx1 + 1]
+    kind = pixel_kind(region.dtype)
+    exact, out = rim_excesses(region, ry0, rx0, rows, cols, rect, float(sigma), most, kind)
+    return out if exact else None
+
+
+FIRST_STEPS = 2  # the wing profile's first look: growths 0..2 (a 7x7 rim: 15 x 15 pixels)
+
+
 class WingProfile:
     """Where the background rim must lie to be clear of the target's PSF wings.
 
@@ -113,35 +133,66 @@ class WingProfile:
         self.most = most
         self.z = z
         self.min_frames = min_frames
-        self._recent: deque[list[float]] = deque(maxlen=frames)
+        # The last ``frames`` frames' excesses (NaN: not measured), a ring from row _first on.
+        self._recent = np.full((frames, most + 1), math.nan)
+        self._first = 0
+        self._n = 0
+
+    def _append(self) -> int:
+        """A new frame's row (all NaN), the oldest dropped when the ring is full."""
+        if self._n < self.frames:
+            row = (self._first + self._n) % self.frames
+            self._n += 1
+        else:
+            row = self._first
+            self._first = (self._first + 1) % self.frames
+        self._recent[row] = math.nan
+        return row
 
     def growth(self, pixels: np.ndarray, rect: Rect, sigma: float) -> int:
         """Add this frame's excess; how many pixels the rim of ``rect`` moves out. Only the
         steps the decision reaches are measured (NaN for the others: left out of the means)."""
-        now = [math.nan] * (self.most + 1)
-        self._recent.append(now)
+        row = self._append()
+        # Compiled: the same decision on the same numbers, first on the steps most frames
+        # stop at (the pixels within FIRST_STEPS + 2 of the rim), then on all of them.
+        for steps in (min(FIRST_STEPS, self.most), self.most):
+            excess = _excesses(pixels, rect, sigma, steps)
+            if excess is None:
+                break
+            k = wing_decision(
+                self._recent, self._first, self._n, row, excess, self.z, self.min_frames
+            )
+            if k >= 0:
+                return k
         for k in range(self.most + 1):
-            now[k] = rim_excess(pixels, rect, sigma, k)
-            if not math.isfinite(now[k]):
+            now = rim_excess(pixels, rect, sigma, k)
+            self._recent[row, k] = now
+            if not math.isfinite(now):
                 return k  # the rims leave the image: no farther
-            past = [e[k] for e in self._recent if math.isfinite(e[k])]
+            column = self._recent[(self._first + np.arange(self._n)) % self.frames, k].tolist()
+            past = [e for e in column if math.isfinite(e)]
             if len(past) < self.min_frames:
-                if now[k] <= self.z:
+                if now <= self.z:
                     return k
             elif sum(past) / len(past) <= self.z / math.sqrt(len(past)):
                 return k
         return self.most
 
     def clear(self) -> None:
-        self._recent.clear()
+        self._first = self._n = 0
+
+    def _rows(self) -> list[list[float]]:
+        order = (self._first + np.arange(self._n)) % self.frames
+        return self._recent[order].tolist()
 
     def snapshot(self) -> dict:
-        return {"recent": [[None if math.isnan(v) else v for v in e] for e in self._recent]}
+        return {"recent": [[None if math.isnan(v) else v for v in e] for e in self._rows()]}
 
     def restore(self, state: dict) -> None:
-        self._recent.clear()
-        for e in state["recent"]:
-            self._recent.append([math.nan if v is None else float(v) for v in e])
+        rows = state["recent"][-self.frames :]
+        self._first, self._n = 0, len(rows)
+        for i, e in enumerate(rows):
+            self._recent[i] = [math.nan if v is None else float(v) for v in e]
 
 
 @functools.lru_cache(maxsize=256)
@@ -176,6 +227,7 @@ def measure_target(
     px, py = blob.peak_x, blob.peak_y
     peak = float(pixels[py, px])
     bits: set[str] = set()
+    n_rim = 0
     if cfg.background is not None:
         method = BACKGROUND_RECT
         x0, y0, x1, y1 = cfg.background
@@ -194,22 +246,28 @@ def measure_target(
         if x0 < 0 or y0 < 0 or x1 >= cols or y1 >= rows:
             bits |= {FLAG_EDGE, FLAG_UNDEFINED}
             values = None
+        elif width >= 3 and height >= 3 and 2 * (width + height) - 4 > cfg.ddof:
+            values = None  # compiled: background_stats of the rim, bit for bit (rim_kernel)
+            region = pixels[y0 : y1 + 1, x0 : x1 + 1]
+            bg_mean, bg_std, gx, gy, n_rim = rim_stats(region, cfg.detrend, cfg.ddof)
+            gradient = float(np.hypot(gx, gy))
         else:
             mask, dy, dx = _rect_rim(width, height)
             values = pixels[y0 : y1 + 1, x0 : x1 + 1][mask].reshape(1, -1).astype(np.float64)
-    if values is None:
-        bg_mean = bg_std = gradient = math.nan
-    else:
+    n_pixels: int | None = n_rim or None
+    if values is not None:
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             mean, std, grad = background_stats(values, dy, dx, detrend=cfg.detrend, ddof=cfg.ddof)
         bg_mean, bg_std, gradient = float(mean[0]), float(std[0]), float(grad[0])
+        n_pixels = None if method == BACKGROUND_RECT else values.shape[1]
+    elif not n_rim:
+        bg_mean = bg_std = gradient = math.nan
     if not (math.isfinite(bg_std) and bg_std != 0 and math.isfinite(peak)):
         bits.add(FLAG_UNDEFINED)
     snr = math.nan if FLAG_UNDEFINED in bits else (peak - bg_mean) / bg_std
     sat = saturation_level(cfg, pixels.dtype)
     if sat is not None and math.isfinite(peak) and peak >= sat:
         bits.add(FLAG_SATURATED)
-    n_pixels = None if method == BACKGROUND_RECT or values is None else values.shape[1]
     if FLAG_UNDEFINED not in bits and is_contaminated(
         bg_std, gradient, reference_noise, cfg, extent_px=extent, n_pixels=n_pixels
     ):

@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 
 from acquisition.measure.background import Rect, validate_rect
-from acquisition.measure.noise import NoiseEstimate, estimate_noise
+from acquisition.measure.jit import kernel, std_ddof
+from acquisition.measure.noise import SQRT2, NoiseEstimate, _quadrature_rest, estimate_noise
 
 NAN = math.nan
 
@@ -45,6 +46,46 @@ def ring_pixels(
     rows, cols = np.meshgrid(ys, xs, indexing="ij")
     keep = (np.abs(rows - y) > b) | (np.abs(cols - x) > b)
     return rows[keep].astype(np.intp), cols[keep].astype(np.intp)
+
+
+@kernel
+def ring_values(pixels, x, y, r, b, h, w):
+    """The pixels of :func:`ring_pixels` (image ``h`` x ``w``) as float64, in its order."""
+    ys0, ys1 = max(y - r, 0), min(y + r, h - 1)
+    xs0, xs1 = max(x - r, 0), min(x + r, w - 1)
+    out = np.empty(max(ys1 - ys0 + 1, 0) * max(xs1 - xs0 + 1, 0))
+    n = 0
+    for yy in range(ys0, ys1 + 1):
+        for xx in range(xs0, xs1 + 1):
+            if abs(yy - y) > b or abs(xx - x) > b:
+                out[n] = np.float64(pixels[yy, xx])
+                n += 1
+    return out[:n]
+
+
+@kernel
+def _difference(here, previous):
+    out = np.empty(here.size)
+    for i in range(here.size):
+        out[i] = here[i] - previous[i]
+    return out
+
+
+def _ring_estimate(here: np.ndarray, previous: np.ndarray, ddof: int) -> NoiseEstimate:
+    """:func:`acquisition.measure.noise.estimate_noise` of the ring's pixels as one row (no
+    detrend): the same pairwise sums, compiled (:func:`acquisition.measure.jit.std_ddof`)."""
+    total = std_ddof(here, ddof)
+    temporal_paper = std_ddof(_difference(here, previous), ddof)
+    temporal = temporal_paper / SQRT2
+    return NoiseEstimate(
+        total_dn=total,
+        temporal_dn=temporal,
+        spatial_dn=_quadrature_rest(total, temporal),
+        temporal_paper_dn=temporal_paper,
+        spatial_paper_dn=_quadrature_rest(total, temporal_paper),
+        n_pixels=here.size,
+        detrended=False,
+    )
 
 
 class TrackNoise:
@@ -91,6 +132,13 @@ class TrackNoise:
 
     def update(self, pixels: np.ndarray, t_host_ns: int, peak_xy: tuple[int, int] | None) -> None:
         """Feed one measured frame (raw pixels) and the tracked peak (None: no track)."""
+        if self._armed is not None and self.rect is None:  # the ring: compiled
+            (x, y), previous = self._armed
+            self._armed = None
+            here = self._ring(pixels, x, y)
+            self.latest = _ring_estimate(here, previous, self.ddof)
+            self.estimates += 1
+            return
         if self._armed is not None:
             sel, previous = self._armed
             self._armed = None
@@ -102,12 +150,26 @@ class TrackNoise:
             return
         if self._last_ns is not None and t_host_ns - self._last_ns < self.interval_ns:
             return
+        if self.rect is None and peak_xy is not None:
+            x, y = int(peak_xy[0]), int(peak_xy[1])
+            values = self._ring(pixels, x, y)
+            if values.size <= self.ddof + 1:
+                self.latest = None
+                return
+            self._armed = ((x, y), values)
+            self._last_ns = t_host_ns
+            return
         sel = self._selection(peak_xy)
         if sel is None:
             self.latest = None  # no background to measure: unknown, not a stale figure
             return
         self._armed = (sel, pixels[sel].copy())
         self._last_ns = t_host_ns
+
+    def _ring(self, pixels: np.ndarray, x: int, y: int) -> np.ndarray:
+        """The :func:`ring_pixels` of (x, y) as float64, row-major (compiled)."""
+        r, b = self.region_px // 2, self.box_px // 2
+        return ring_values(pixels, x, y, r, b, self.shape[0], self.shape[1])
 
     def figures(self) -> tuple[float, float, float]:
         """(total_dn, temporal_dn, spatial_dn) of the latest estimate, NaN when unknown."""

@@ -28,6 +28,7 @@ class FrameCrops:
         self._nbytes = int(np.prod(self._shape)) * self._dtype.itemsize
         self._offsets = self._chunk_offsets()
         self._map: mmap.mmap | None = None
+        self._bytes: np.ndarray | None = None
         if self._offsets:
             # A plain mmap, and plain ndarrays over it (np.frombuffer): numpy.memmap wraps every
             # slice in a memmap object, which cost more than the measurement per frame.
@@ -63,9 +64,10 @@ class FrameCrops:
         offset = self._offsets.get(i) if self._map is not None else None
         if offset is None or self._map is None:
             return None
-        count = self._nbytes // self._dtype.itemsize
-        flat = np.frombuffer(self._map, self._dtype, count=count, offset=offset)
-        return flat.reshape(self._shape)
+        if self._bytes is None:  # one array over the whole map; a frame is a slice of it
+            self._bytes = np.frombuffer(self._map, np.uint8)
+        view = self._bytes[offset : offset + self._nbytes].view(self._dtype)
+        return view.reshape(self._shape)
 
     def crop(self, i: int, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
         """Rows ``y0:y1`` and columns ``x0:x1`` of frame ``i`` (a view where direct)."""

@@ -15,6 +15,7 @@ kB around the track); otherwise the whole frame is read through h5py.
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass, field
 
@@ -31,14 +32,11 @@ from acquisition.engine.inputs import (
     SetRoi,
 )
 from acquisition.engine.session_engine import SessionEngine
+from acquisition.measure.peak_snr import flags_from_bits
 from acquisition.record.frame_access import FrameCrops
 from acquisition.record.reader import SessionFile
-from acquisition.record.stream_rows import (
-    fix_from_row,
-    measurement_from_row,
-    peak_snr_from_row,
-    reading_from_row,
-)
+from acquisition.record.schema import text_value
+from acquisition.record.stream_rows import fix_from_row, measurement_from_row, reading_from_row
 from acquisition.replay.recorded import (
     FIX,
     FRAME,
@@ -93,18 +91,23 @@ def _same(a: float, b: float) -> bool:
     return a == b or (a != a and b != b)  # NaN equals NaN
 
 
-def same_result(row: np.void, m: Measurement) -> bool:
+@functools.lru_cache(maxsize=256)
+def _flags(bits: int) -> frozenset[str]:
+    return flags_from_bits(bits)
+
+
+def same_result(row, m: Measurement) -> bool:
     """The replayed frame reads exactly what the live one recorded: Eq. (4) (peak, SNR,
     flags) and, where the file has them (format 2), the running statistics after it and the
-    track's state and window."""
-    rec = peak_snr_from_row(row)
+    track's state and window. ``row``: a measurement row (np.void, or a dict of its fields);
+    the fields compared are those of :func:`peak_snr_from_row`, read without building it."""
     r = m.result
     same = (
-        _same(rec.snr, r.snr)
-        and rec.peak_x == r.peak_x
-        and rec.peak_y == r.peak_y
-        and rec.flags == r.flags
-        and rec.background == r.background
+        _same(float(row["snr"]), r.snr)
+        and int(row["peak_x"]) == r.peak_x
+        and int(row["peak_y"]) == r.peak_y
+        and _flags(int(row["flags"])) == r.flags
+        and text_value(row["background"]) == r.background
     )
     if same and bytes(row["track_state"]):  # format 2
         same = (
@@ -147,9 +150,13 @@ class Feeder:
         self.keep = keep
         self.exact_inputs = inputs.version >= 2
         self.tally = {n: CameraTally(n, f.cameras[n].n_frames) for n in inputs.cameras}
-        self._crops = {n: FrameCrops(f.cameras[n].frames) for n in inputs.cameras} if fast else {}
+        self.fast = fast
+        self._crops: dict[str, FrameCrops] = {}  # made at a camera's first frame (fast only)
         self._next_command = dict.fromkeys(inputs.cameras, 0)
         self._next_model_input = dict.fromkeys(inputs.cameras, 0)
+        self._names = {n: f.cameras[n].measurements.dtype.names or () for n in inputs.cameras}
+        self._entries: list[tuple[int, int, int, int, int]] | None = None  # the timeline
+        self._counters: dict[str, list[int]] = {}  # each camera's frame counters
 
     # ------------------------------------------------------------------ seeking
     def skip_to(self, k: int) -> None:
@@ -192,27 +199,32 @@ class Feeder:
     # ------------------------------------------------------------------ one entry
     def apply(self, k: int) -> tuple[str, FrameOutput | Measurement | None] | None:
         """Apply timeline entry ``k``; for a frame, returns (camera, what it gave)."""
-        e = self.inputs.timeline[k]
-        kind = int(e["kind"])
+        if self._entries is None:  # the timeline's columns as Python ints, once
+            tl = self.inputs.timeline
+            columns = (tl[f].tolist() for f in ("kind", "camera", "frame", "row", "t_ns"))
+            self._entries = list(zip(*columns, strict=True))
+        kind, camera, frame, row, t_ns = self._entries[k]
         if kind == RANGE:
-            self.engine.on_range(reading_from_row(self.f.rangefinder[int(e["row"])]))
+            self.engine.on_range(reading_from_row(self.f.rangefinder[row]))
         elif kind == FIX:
-            self.engine.on_fix(fix_from_row(self.f.gps[int(e["row"])]))
+            self.engine.on_fix(fix_from_row(self.f.gps[row]))
         elif kind == STOP:
             if self.recorded_stops is not None:
-                self.recorded_stops.apply(self.inputs.stops[int(e["row"])][1])
+                self.recorded_stops.apply(self.inputs.stops[row][1])
         elif kind == FRAME:
-            name = self.inputs.cameras[int(e["camera"])]
-            return name, self._frame(name, int(e["frame"]), int(e["row"]), int(e["t_ns"]))
+            name = self.inputs.cameras[camera]
+            return name, self._frame(name, frame, row, t_ns)
         return None
 
     def _frame(self, name: str, i: int, r: int, t: int):
         cam = self.f.cameras[name]
         tally = self.tally[name]
-        row = cam.measurements[r] if r >= 0 else None
+        row = None
+        if r >= 0:  # its fields as a dict: one conversion, then cheap lookups
+            row = dict(zip(self._names[name], cam.measurements[r].item(), strict=True))
         if i < 0:  # measured live, not in the file
             assert row is not None  # a timeline entry without a frame always has its row
-            m = measurement_from_row(name, row)
+            m = measurement_from_row(name, cam.measurements[r])
             self.engine.on_recorded(m)
             if cam.n_frames and t < int(cam.t_host_ns[0]):
                 tally.before_recording += 1
@@ -222,9 +234,13 @@ class Feeder:
                 tally.measurements.append(m)
             self._after(name, t)
             return m
-        self._post_commands(name, i, t, row)
+        counters = self._counters.get(name)
+        if counters is None:
+            counters = self._counters[name] = cam.counter.tolist()
+        counter = counters[i]
+        self._post_commands(name, counter, t, row)
         pixels = self._pixels(name, i)
-        out = self.engine.on_frame(name, pixels, seq=i, counter=int(cam.counter[i]), t_host_ns=t)
+        out = self.engine.on_frame(name, pixels, seq=i, counter=counter, t_host_ns=t)
         measured = out.measurement
         if measured is not None:
             m = measured
@@ -255,17 +271,18 @@ class Feeder:
 
     def _pixels(self, name: str, i: int) -> np.ndarray:
         crops = self._crops.get(name)
+        if crops is None and self.fast:
+            crops = self._crops[name] = FrameCrops(self.f.cameras[name].frames)
         if crops is not None:
             view = crops.frame_view(i)
             if view is not None:
                 return view
         return self.f.cameras[name].frames[i]
 
-    def _post_commands(self, name: str, i: int, t: int, row) -> None:
+    def _post_commands(self, name: str, counter: int, t: int, row) -> None:
         engine = self.engine.cameras[name]
         c = self.inputs.per_camera[name]
-        cam = self.f.cameras[name]
-        state = c.states.get(int(cam.counter[i]))
+        state = c.states.get(counter)
         k = self._next_command[name]
         if state is not None and self.exact_inputs:
             engine.post(Restore(state))

@@ -10,8 +10,8 @@ dicts with floats kept exactly (``Tracker.state``).
 
 from __future__ import annotations
 
+import bisect
 import math
-import statistics
 from collections import deque
 from dataclasses import asdict, dataclass
 
@@ -42,6 +42,14 @@ def size_hint(blob: Blob) -> int:
     return max(w, h) // 2 + 4
 
 
+def _push(kept: deque, ordered: list, value) -> None:
+    """Append ``value`` to ``kept`` (the oldest leaving a full deque) and to its sorted copy."""
+    if len(kept) == kept.maxlen:
+        del ordered[bisect.bisect_left(ordered, kept[0])]
+    kept.append(value)
+    bisect.insort(ordered, value)
+
+
 class ObjectHistory:
     """Recent prominences and core areas of the accepted object, and its last core box."""
 
@@ -51,31 +59,40 @@ class ObjectHistory:
         self.areas: deque[int] = deque(maxlen=frames)
         self.rel: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
         self.size_px = 0
+        # The same values kept sorted (the medians' statistics.median sorts them every time).
+        self._sorted_p: list[float] = []
+        self._sorted_a: list[int] = []
 
     def clear(self) -> None:
         self.prominences.clear()
         self.areas.clear()
         self.rel = (0.0, 0.0, 0.0, 0.0)
         self.size_px = 0
+        self._sorted_p, self._sorted_a = [], []
 
     def add(self, blob: Blob) -> None:
-        self.prominences.append(blob.prominence)
-        self.areas.append(blob.core_area)
+        _push(self.prominences, self._sorted_p, blob.prominence)
+        _push(self.areas, self._sorted_a, blob.core_area)
         self.rel = box_rel(blob)
         self.size_px = size_hint(blob)
+
+    def _median(self, ordered: list) -> float | None:
+        """statistics.median of the values, once ``min_frames`` are known (None before)."""
+        n = len(ordered)
+        if n < self.min_frames:
+            return None
+        if n % 2:
+            return ordered[n // 2]
+        return (ordered[n // 2 - 1] + ordered[n // 2]) / 2
 
     @property
     def prominence(self) -> float | None:
         """Median prominence once ``min_frames`` are known (None before)."""
-        if len(self.prominences) < self.min_frames:
-            return None
-        return statistics.median(self.prominences)
+        return self._median(self._sorted_p)
 
     @property
     def area(self) -> float | None:
-        if len(self.areas) < self.min_frames:
-            return None
-        return statistics.median(self.areas)
+        return self._median(self._sorted_a)
 
     def snapshot(self) -> dict:
         return {
@@ -90,6 +107,7 @@ class ObjectHistory:
         self.prominences.extend(float(v) for v in state["prominences"])
         self.areas.clear()
         self.areas.extend(int(v) for v in state["areas"])
+        self._sorted_p, self._sorted_a = sorted(self.prominences), sorted(self.areas)
         r = state["rel"]
         self.rel = (float(r[0]), float(r[1]), float(r[2]), float(r[3]))
         self.size_px = int(state["size_px"])

@@ -25,6 +25,7 @@ from scipy import ndimage
 
 from acquisition.measure.blob import Blob, BlobConfig, Box, analyse_blob
 from acquisition.measure.local_sky import robust_sigma
+from acquisition.measure.rim_kernel import brightest
 
 
 def clip_box(box: Box, shape: tuple[int, int]) -> Box | None:
@@ -42,12 +43,9 @@ def brightest_in(frame: np.ndarray, box: Box) -> tuple[int, int] | None:
     if b is None:
         return None
     x0, y0, x1, y1 = b
-    win = frame[y0 : y1 + 1, x0 : x1 + 1]
-    if win.dtype.kind == "f":
-        if not np.isfinite(win).any():
-            return None
-        win = np.where(np.isnan(win), -np.inf, win)
-    i = int(np.argmax(win))
+    i = brightest(frame[y0 : y1 + 1, x0 : x1 + 1])  # compiled argmax (rim_kernel)
+    if i < 0:
+        return None
     w = x1 - x0 + 1
     return x0 + i % w, y0 + i // w
 
