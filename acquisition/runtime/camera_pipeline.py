@@ -38,6 +38,7 @@ from acquisition.engine.inputs import (
     StartReference,
 )
 from acquisition.engine.status import CameraStatus, FrameAccounting
+from acquisition.engine.warm_up import warm_up
 from acquisition.runtime.click_news import ClickNews
 from acquisition.streams.ring import FrameRing, RingFrame
 from drivers.camera.frame import Frame
@@ -89,7 +90,9 @@ class CameraPipeline:
 
     # ------------------------------------------------------------------ control
     def start(self) -> None:
-        """Open the device and start the measurement thread."""
+        """Load the compiled analysis (:func:`acquisition.engine.warm_up.warm_up`), open the
+        device and start the measurement thread."""
+        warm_up(self.engine)
         self._stop.clear()
         self._unsubscribe = self.device.subscribe(self._on_frame)
         self._thread = threading.Thread(target=self._run, name=f"measure-{self.name}", daemon=True)

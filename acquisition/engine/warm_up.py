@@ -1,0 +1,53 @@
+"""The compiled kernels loaded before a live camera's first frame, not during it.
+
+The per-frame analysis is compiled with numba (``acquisition.measure.jit``); each kernel's machine
+code is loaded from numba's cache the first time it is called in a process (about 0.2 s for
+them all; on a machine that has never run snrmon it is compiled: 15-22 s). A live engine paid
+that inside its first measured frames, which then waited in the frame ring: the acquisition
+benchmark's latency p99 was 150-160 ms over 20 s, all of it from the first second.
+:func:`warm_up` runs the whole per-frame path (click, tracking, Eq. 4, the lazy correction with
+the engine's calibration, the sky temperature, the section 6 noise) on synthetic frames in a
+throwaway engine of the same settings, so the live engine's state is not touched.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from acquisition.engine.camera_engine import CameraEngine
+from acquisition.engine.inputs import SetRoi
+
+WARM_UP_FRAMES = 3  # the click's frame, then frames that follow the track
+
+
+def warm_up(engine: CameraEngine) -> float:
+    """Measure a few synthetic frames (a Gaussian spot on a noisy sky, the engine's frame
+    shape, uint16 as a camera gives them) with a copy of ``engine``'s settings; returns the
+    seconds it took."""
+    t0 = time.perf_counter()
+    m = engine.measurer
+    twin = CameraEngine(
+        engine.name,
+        engine.shape,
+        engine.config,
+        window=m.meter.running.window,
+        track=m.track,
+        tracker_config=m.tracker_config,
+    )
+    if engine.corrector.calibration is not None:
+        twin.set_calibration(engine.corrector.calibration)
+    h, w = engine.shape
+    rng = np.random.default_rng(0)  # the frames' content does not matter, only their types
+    sky = rng.normal(1000.0, 5.0, (h, w))
+    y0, x0 = h // 2, w // 2
+    yy, xx = np.mgrid[y0 - 6 : y0 + 7, x0 - 6 : x0 + 7]
+    sky[y0 - 6 : y0 + 7, x0 - 6 : x0 + 7] += 200.0 * np.exp(
+        -((xx - x0) ** 2 + (yy - y0) ** 2) / (2 * 0.8**2)
+    )
+    frame = np.clip(np.rint(sky), 0, 65535).astype(np.uint16)
+    twin.post(SetRoi(x0, y0))
+    for i in range(WARM_UP_FRAMES):
+        twin.process(frame, seq=i, counter=i, t_host_ns=i)
+    return time.perf_counter() - t0

@@ -1,0 +1,90 @@
+"""A live camera's compiled kernels are loaded before its first frame (acquisition/engine/
+warm_up.py): the first real frame, calibrated or not, finds every kernel it calls ready (numba
+adds a signature to a kernel when it loads or compiles one), and the live engine's own state is
+not touched by the warm-up."""
+
+from __future__ import annotations
+
+import importlib
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from numba.core.registry import CPUDispatcher
+
+from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from acquisition.engine.camera_engine import CameraEngine
+from acquisition.engine.inputs import SetRoi
+from acquisition.engine.warm_up import warm_up
+from tests.acquisition.calibration_scene import camera
+
+KERNEL_MODULES = (
+    "acquisition.measure.jit",
+    "acquisition.measure.blob_kernel",
+    "acquisition.measure.rim_kernel",
+    "acquisition.measure.track_noise",
+    "acquisition.calibrate.kernels",
+)
+
+
+def _signatures() -> dict[str, int]:
+    out = {}
+    for name in KERNEL_MODULES:
+        mod = importlib.import_module(name)
+        for attr, value in vars(mod).items():
+            if isinstance(value, CPUDispatcher):
+                out[f"{name}.{attr}"] = len(value.signatures)
+    return out
+
+
+def _frames(shape, n: int, seed: int) -> list[np.ndarray]:
+    """A drone-sized spot drifting on a noisy sky, as a camera gives it (uint16)."""
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    out = []
+    for i in range(n):
+        x, y = w / 2 + 0.3 * i, h / 2 - 0.2 * i
+        spot = 300.0 * np.exp(-((xx - x) ** 2 + (yy - y) ** 2) / (2 * 0.9**2))
+        out.append(np.rint(2000.0 + spot + rng.normal(0, 6.0, shape)).astype(np.uint16))
+    return out
+
+
+def _first_frames_load(calibrated: bool, warm: bool) -> dict[str, int]:
+    """The kernel signatures the first real frames added (in this process)."""
+    cam = camera("mwir", shape=(96, 128), seed=3)
+    engine = CameraEngine("mwir", cam.shape)
+    if calibrated:
+        caps = [
+            BlackbodyCapture(t, cam.blackbody(t, 8, seed=i)) for i, t in enumerate((283.0, 318.0))
+        ]
+        engine.set_calibration(calibrate_sensor(caps, cam.sensor))
+    if warm:
+        warm_up(engine)
+        assert engine.roi is None and engine.measurer.tracker is None  # the live engine untouched
+    before = _signatures()
+    engine.post(SetRoi(64, 48))
+    for i, f in enumerate(_frames(cam.shape, 4, seed=8)):
+        assert engine.process(f, seq=i, counter=i, t_host_ns=i).measurement is not None
+    after = _signatures()
+    return {k: after[k] - before[k] for k in after if after[k] != before[k]}
+
+
+@pytest.mark.parametrize("calibrated", [False, True])
+def test_the_first_real_frame_loads_no_kernel(calibrated):
+    # Each case in a fresh interpreter: kernels loaded by other tests would hide a cold start.
+    def first_frames_load(warm: bool) -> dict[str, int]:
+        code = (
+            "import json; from tests.acquisition.test_warm_up import _first_frames_load as f; "
+            f"print(json.dumps(f({calibrated}, {warm})))"
+        )
+        run = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        )
+        return json.loads(run.stdout.strip().splitlines()[-1])
+
+    cold = first_frames_load(False)
+    assert "acquisition.measure.blob_kernel.analyse_auto" in cold  # a cold engine loads them...
+    assert first_frames_load(True) == {}  # ... a warmed-up one finds them loaded
