@@ -140,10 +140,9 @@ class CameraEngine:
         # Tell the tracker about frames dropped before measurement (off to replay a session
         # recorded before it was told: format 2.0).
         self.tell_gaps = True
-        # The same track on the raw frames, for the raw-SNR figure beside a corrected one (the
-        # console's status and the HIL's FPN check); a batch replay, which reports neither,
-        # turns it off: it is half of a frame's work.
-        self.raw_figures = True
+        # Figures only a display shows, off in a batch replay: the raw-SNR track beside a
+        # corrected one (the console, the HIL's FPN check; half a frame's work), the noise.
+        self.display_figures = True
         self._series: deque[tuple[int, float, float, float, float]] = deque(maxlen=series_length)
 
     def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
@@ -217,7 +216,8 @@ class CameraEngine:
         fr = self.measurer.measure(corrector.apply(pixels, self.measurer.read_xy))
         raw = self.raw_measurer.measure(pixels) if self._raw_track else None
         peak_xy = None if fr is None else (fr.result.peak_x, fr.result.peak_y)
-        self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
+        if self.display_figures:
+            self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
         if fr is not None and self.sky is not None:
             self.sky.add(t_host_ns, pixels, fr.result)
         if fr is None:
@@ -300,7 +300,7 @@ class CameraEngine:
     # ------------------------------------------------------------------ state (owner)
     @property
     def _raw_track(self) -> bool:
-        return self.raw_figures and self.corrector.active
+        return self.display_figures and self.corrector.active
 
     def snapshot(self) -> dict:
         """The measurement state that carries over from frame to frame, exactly (JSON-able)."""

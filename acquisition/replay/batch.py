@@ -135,10 +135,12 @@ def engine_for(
     for name in cameras:
         # Format 2.1 on: the live engine told the tracker about dropped frames (schema.py).
         engine.cameras[name].tell_gaps = f.version >= (2, 1)
-        engine.cameras[name].raw_figures = display  # no display, no raw-SNR figure to show
+        engine.cameras[name].display_figures = display  # no display: no raw-SNR or noise figure
         cal = recorded_calibration(f, name, inputs, (calibrations or {}).get(name))
         if cal is not None:
             engine.cameras[name].set_calibration(cal)
+            if exact and not display:  # the model's sky is the recorded one: nobody reads it
+                engine.cameras[name].sky = None
     feeder = Feeder(f, inputs, engine, fast=fast, recorded_stops=stops)
     feeder.exact_inputs = exact
     return engine, feeder

@@ -114,7 +114,7 @@ def test_an_index_of_another_kind_corrects_the_whole_square():
 
 def _engine(lazy: bool, cal) -> CameraEngine:
     engine = CameraEngine("test", SHAPE, window=10)
-    engine.raw_figures = False
+    engine.display_figures = False
     engine.set_calibration(cal)
     engine.corrector.lazy = lazy
     return engine
