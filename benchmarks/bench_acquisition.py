@@ -13,12 +13,13 @@ stops recording, the finished file is deleted and a new one starts (the operator
 button, pressed twice); the last segment is replayed. The resident memory is sampled every
 ``RSS_EVERY_S`` so a soak shows its curve, not only its ends.
 
-Targets: 0 dropped frames over 60 s; p99 latency under 10 ms; ``--fast`` replay at least 50x
-real time for MWIR.
+Targets: 0 dropped frames over 60 s; p99 latency under 10 ms; ``--fast`` replay at least 100x
+real time for MWIR (issue 16), the median of five replays.
 """
 
 from __future__ import annotations
 
+import statistics
 import tempfile
 import time
 from pathlib import Path
@@ -30,6 +31,7 @@ TOP_LEVEL = True  # reports {"acquisition": ..., "replay": ...}
 
 
 SEGMENT_S = 120.0  # 15.5 GB of raw frames
+MWIR_REPEATS = 5
 RSS_EVERY_S = 60.0
 
 
@@ -104,8 +106,11 @@ def run(duration_s: float) -> dict:
         full = replay_session(path)
         fast = replay_session(path, fast=True)
         # MWIR alone, from the page cache (the file was just written and read): the target is
-        # >= 100x real time.
-        fast_mwir = replay_session(path, fast=True, cameras=["mwir"])
+        # >= 100x real time. A shared machine's speed swings by up to 2x within seconds (the
+        # same replay's CPU time with it), so one replay is not a measurement: the median of
+        # MWIR_REPEATS, with the runs.
+        mwir = [replay_session(path, fast=True, cameras=["mwir"]) for _ in range(MWIR_REPEATS)]
+        mwir_factors = sorted(r.realtime_factor for r in mwir)
 
     def fps(r) -> float:
         return sum(c.n_frames for c in r.cameras.values()) / r.seconds if r.seconds else 0.0
@@ -117,7 +122,8 @@ def run(duration_s: float) -> dict:
             "realtime_factor": full.realtime_factor,
             "fast_fps": fps(fast),
             "fast_realtime_factor": fast.realtime_factor,
-            "fast_realtime_factor_mwir": fast_mwir.realtime_factor,
+            "fast_realtime_factor_mwir": statistics.median(mwir_factors),
+            "fast_realtime_factor_mwir_runs": mwir_factors,
             "identical": sum(c.identical for c in fast.cameras.values()),
             "compared": sum(c.compared for c in fast.cameras.values()),
         },
