@@ -67,7 +67,8 @@ def test_doctor_passes_on_the_simulated_devices(rig, tmp_path, capsys):
     failed = {n: c["detail"] for n, c in checks.items() if c["status"] == FAIL and c["needed"]}
     assert code == 0 and report["ok"] and not failed, failed
     for name in ("model:target", "model:cam", "port:gps", "port:lrf", "camera:cam", "lrf",
-                 "gps-fix", "gps-clock", "disk-speed", "disk-space"):  # fmt: skip
+                 "gps-fix", "gps-clock", "disk-speed", "disk-space",
+                 "compiled-analysis"):  # fmt: skip
         assert checks[name]["status"] == PASS and checks[name]["needed"], checks[name]
     cam = checks["camera:cam"]["data"]
     assert cam["fps"] == pytest.approx(FPS, rel=0.05) and cam["expected_fps"] == FPS
@@ -76,6 +77,7 @@ def test_doctor_passes_on_the_simulated_devices(rig, tmp_path, capsys):
     # 128 x 96 x 2 bytes at 60 fps, twice over for the recorder's overhead
     assert checks["disk-speed"]["data"]["needed_mb_s"] == pytest.approx(W * H * 2 * FPS * 2 / 1e6)
     assert checks["qt-display"]["needed"] is False  # --headless
+    assert checks["compiled-analysis"]["data"]["seconds"] > 0
 
 
 def test_missing_port_fails_with_its_fix(rig, tmp_path, capsys):
@@ -223,3 +225,16 @@ def test_qt_display_on_a_real_x_server(xvfb_display, tmp_path):
     assert "libxcb-cursor0" in broken.fix
     gone = check_qt_display({**env, "DISPLAY": ":9999"})
     assert gone.status == FAIL and "cannot connect to X display :9999" in gone.detail
+
+
+def test_an_analysis_that_does_not_compile_fails_with_its_fix(monkeypatch):
+    import acquisition.engine.warm_up as wu
+    from snrmon.doctor.compiled import check_compiled_analysis
+
+    def broken(engine):
+        raise ImportError("numba needs NumPy <= 2.3")
+
+    monkeypatch.setattr(wu, "warm_up", broken)
+    c = check_compiled_analysis((96, 128))
+    assert c.status == FAIL and c.needed
+    assert "numba needs NumPy <= 2.3" in c.detail and "constraints.txt" in c.fix

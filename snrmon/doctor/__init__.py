@@ -9,7 +9,8 @@ Modules: :mod:`.qt` (the console's window on this display), :mod:`.ports` (seria
 the user's access), :mod:`.backends` (libusb, V4L2, Aravis), :mod:`.devices` (each configured
 device answers: camera rate, rangefinder, GPS fix, its age and the host clock), :mod:`.disk`
 (sequential write speed against the cameras' data rate, free space for the planned duration),
-:mod:`.runner` (which checks a config needs, in what order).
+:mod:`.compiled` (the per-frame analysis compiles or loads), :mod:`.runner` (which checks a
+config needs, in what order).
 """
 
 from __future__ import annotations

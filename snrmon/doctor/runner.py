@@ -7,6 +7,7 @@ from pathlib import Path
 
 from snrmon.doctor import FAIL, PASS, Check
 from snrmon.doctor.backends import check_aravis, check_libusb, check_v4l2
+from snrmon.doctor.compiled import check_compiled_analysis
 from snrmon.doctor.devices import check_devices
 from snrmon.doctor.disk import cameras_rate, check_disk_speed, check_free_space
 from snrmon.doctor.ports import check_port
@@ -71,6 +72,7 @@ def run_doctor(config, opts: DoctorOptions) -> list[Check]:
         check_libusb(needed=bool(sources & {"v4l2", "aravis"})),
         check_v4l2([str(c.address) for c in cams if c.source == "v4l2"], needed="v4l2" in sources),
         check_aravis(needed="aravis" in sources),
+        check_compiled_analysis(),
     ]
     formats: dict = {}
     if config is not None:
