@@ -233,7 +233,11 @@ def psf_label(psf) -> str:
     name = {"AiryGaussianPsf": "Airy x Gaussian blur", "GaussianPsf": "Gaussian sigma"}.get(
         type(psf).__name__, type(psf).__name__
     )
-    return f"the rows' ({name} {sigma:.2f} px)" if sigma is not None else f"the rows' ({name})"
+    return (
+        f"the stop rows' ({name} {sigma:.2f} px)"
+        if sigma is not None
+        else f"the stop rows' ({name})"
+    )
 
 
 def rows_sky_k(rows: list[StopRow], camera: str) -> float | None:

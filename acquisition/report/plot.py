@@ -157,7 +157,7 @@ def _snr_axes(ax, data: ReportData, camera: str, paper_curves: bool = True) -> N
     ax.legend(fontsize=6, loc="lower left")
     ax.set_title(
         f"{camera} ({m.sensor}) - target {m.target}; atmosphere {m.atmosphere}, "
-        f"background {m.background_temp_k:.1f} K; corrected PSF: {m.psf_label}",
+        f"background {m.background_temp_k:.1f} K\ncorrected curves' PSF: {m.psf_label}",
         fontsize=8.5,
     )
 
