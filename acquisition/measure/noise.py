@@ -86,6 +86,14 @@ def estimate_noise(
     else:
         diff = here - previous[y0 : y1 + 1, x0 : x1 + 1].astype(np.float64)
         temporal_paper = _std(diff, dy, dx, detrend, ddof)
+    return noise_estimate(total, temporal_paper, here.size, detrend)
+
+
+def noise_estimate(
+    total: float, temporal_paper: float, n_pixels: int, detrended: bool
+) -> NoiseEstimate:
+    """Section 6's three figures from the total noise and the std of the frame difference (the
+    paper's temporal noise, sqrt(2) times a single frame's)."""
     temporal = temporal_paper / SQRT2
     return NoiseEstimate(
         total_dn=total,
@@ -93,8 +101,8 @@ def estimate_noise(
         spatial_dn=_quadrature_rest(total, temporal),
         temporal_paper_dn=temporal_paper,
         spatial_paper_dn=_quadrature_rest(total, temporal_paper),
-        n_pixels=here.size,
-        detrended=detrend,
+        n_pixels=n_pixels,
+        detrended=detrended,
     )
 
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from acquisition.measure.background import Rect, validate_rect
 from acquisition.measure.jit import kernel, std_ddof
-from acquisition.measure.noise import SQRT2, NoiseEstimate, _quadrature_rest, estimate_noise
+from acquisition.measure.noise import NoiseEstimate, estimate_noise, noise_estimate
 
 NAN = math.nan
 
@@ -76,16 +76,7 @@ def _ring_estimate(here: np.ndarray, previous: np.ndarray, ddof: int) -> NoiseEs
     detrend): the same pairwise sums, compiled (:func:`acquisition.measure.jit.std_ddof`)."""
     total = std_ddof(here, ddof)
     temporal_paper = std_ddof(_difference(here, previous), ddof)
-    temporal = temporal_paper / SQRT2
-    return NoiseEstimate(
-        total_dn=total,
-        temporal_dn=temporal,
-        spatial_dn=_quadrature_rest(total, temporal),
-        temporal_paper_dn=temporal_paper,
-        spatial_paper_dn=_quadrature_rest(total, temporal_paper),
-        n_pixels=here.size,
-        detrended=False,
-    )
+    return noise_estimate(total, temporal_paper, here.size, False)
 
 
 class TrackNoise:

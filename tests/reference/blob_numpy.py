@@ -1,15 +1,17 @@
 """The NumPy/OpenCV segmentation as it was before it was compiled (branch point 717d7ff of
-acquisition/measure/blob.py, unchanged but for this docstring): the reference the compiled
-analysis must equal bit for bit (tests/acquisition/test_compiled_exact.py)."""
+acquisition/measure/blob.py, unchanged but for this docstring and the imports): the reference
+the compiled analysis must equal bit for bit (tests/acquisition/test_compiled_exact.py). Its
+configuration and result types are imported from the product, not copied."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
+# The data it works with are the product's own (their fields are not what is compared).
+from acquisition.measure.blob import Blob, BlobConfig, Box
 from acquisition.measure.local_sky import (
     darkest_side_level,
     flatten_sky,
@@ -19,85 +21,6 @@ from acquisition.measure.local_sky import (
     robust_sigma,
     side_levels,
 )
-
-Box = tuple[int, int, int, int]
-
-
-@dataclass(frozen=True)
-class BlobConfig:
-    """Every number of the object analysis (module docstring)."""
-
-    min_half_px: int = 8
-    max_half_px: int = 48
-    margin_px: int = 2
-    ring_px: int = 2
-    k_ext: float = 3.0
-    core_fraction: float = 0.5
-    k_climb: float = 3.0
-    sigma_floor_dn: float = 0.5
-    flatten: bool = True
-
-    def __post_init__(self) -> None:
-        if not 3 <= self.min_half_px <= self.max_half_px:
-            raise ValueError(
-                f"need 3 <= min_half_px <= max_half_px, got {self.min_half_px}, {self.max_half_px}"
-            )
-        if not 0.0 < self.core_fraction < 1.0:
-            raise ValueError(f"core_fraction must be in (0, 1), got {self.core_fraction}")
-        if self.k_ext <= 0 or self.ring_px < 1 or self.margin_px < 0 or self.sigma_floor_dn < 0:
-            raise ValueError("k_ext > 0, ring_px >= 1, margin_px >= 0, sigma_floor_dn >= 0")
-
-
-@dataclass(frozen=True, slots=True)
-class Blob:
-    """One object (module docstring). Levels and values in DN, positions in frame pixels."""
-
-    peak_x: int
-    peak_y: int
-    peak: float
-    background: float
-    sigma: float
-    saddle: float
-    core_level: float
-    core_area: int
-    core_box: Box
-    centroid_x: float
-    centroid_y: float
-    extent_level: float
-    extent_area: int
-    extent_box: Box
-    window: Box  # the window the analysis read (inclusive)
-
-    @property
-    def prominence(self) -> float:
-        return self.peak - self.saddle
-
-    @property
-    def contrast(self) -> float:
-        """Peak above the local background level."""
-        return self.peak - self.background
-
-    @property
-    def significance(self) -> float:
-        """Prominence in units of the noise."""
-        return self.prominence / self.sigma
-
-    @property
-    def core_size(self) -> tuple[int, int]:
-        x0, y0, x1, y1 = self.core_box
-        return x1 - x0 + 1, y1 - y0 + 1
-
-    @property
-    def extent_size(self) -> tuple[int, int]:
-        x0, y0, x1, y1 = self.extent_box
-        return x1 - x0 + 1, y1 - y0 + 1
-
-    def extent_within(self, half_px: int) -> bool:
-        """True when every extent pixel is within ``half_px`` (Chebyshev) of the peak."""
-        x0, y0, x1, y1 = self.extent_box
-        px, py = self.peak_x, self.peak_y
-        return max(px - x0, x1 - px, py - y0, y1 - py) <= half_px
-
 
 _FLAGS = 8 | cv2.FLOODFILL_FIXED_RANGE | cv2.FLOODFILL_MASK_ONLY | (1 << 8)
 
