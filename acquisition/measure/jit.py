@@ -97,11 +97,12 @@ def kernel(fn):
 
 
 @kernel
-def _block64(a, lo, n):
+def _block(a, lo, n, zero):
     # NumPy's pairwise_sum (loops_utils.h) of at most 128 values: sequential below 8, else
-    # 8 partial sums combined as a tree, then the remainder.
+    # 8 partial sums combined as a tree, then the remainder; every partial sum in the type of
+    # ``zero`` (float64 or float32, as NumPy sums a float64 or float32 array).
     if n < 8:
-        res = 0.0
+        res = zero
         for i in range(n):
             res += a[lo + i]
         return res
@@ -127,32 +128,6 @@ def _block64(a, lo, n):
 
 
 @kernel
-def _block32(a, lo, n):
-    if n < 8:
-        res = np.float32(0.0)
-        for i in range(n):
-            res = np.float32(res + a[lo + i])
-        return res
-    r = np.empty(8, np.float32)
-    for j in range(8):
-        r[j] = a[lo + j]
-    i = 8
-    end = n - n % 8
-    while i < end:
-        for j in range(8):
-            r[j] = np.float32(r[j] + a[lo + i + j])
-        i += 8
-    res = np.float32(
-        np.float32(np.float32(r[0] + r[1]) + np.float32(r[2] + r[3]))
-        + np.float32(np.float32(r[4] + r[5]) + np.float32(r[6] + r[7]))
-    )
-    while i < n:
-        res = np.float32(res + a[lo + i])
-        i += 1
-    return res
-
-
-@kernel
 def _halves(n):
     # Beyond 128 values NumPy sums two halves, the first a multiple of 8.
     n2 = n // 2
@@ -160,23 +135,23 @@ def _halves(n):
 
 
 @kernel
-def pairwise_sum64(a, lo, n):
-    """NumPy's sum of ``a[lo:lo + n]`` (float64, 1-D): its pairwise sum (the halving done
-    with an explicit stack: numba's cache cannot hold recursive functions), added to the
-    reduction's initial 0."""
+def _pairwise(a, lo, n, zero):
+    """NumPy's sum of ``a[lo:lo + n]`` (1-D): its pairwise sum (the halving done with an
+    explicit stack: numba's cache cannot hold recursive functions), added to the reduction's
+    initial 0, in the type of ``zero``."""
     if n <= 128:
-        return 0.0 + _block64(a, lo, n)
+        return zero + _block(a, lo, n, zero)
     los = np.empty(64, np.int64)
     ns = np.empty(64, np.int64)
     state = np.empty(64, np.int64)
-    values = np.empty(64)
+    values = np.full(64, zero)
     sp, vp = 1, 0
     los[0], ns[0], state[0] = lo, n, 0
     while sp > 0:
         t = sp - 1
         m = ns[t]
         if m <= 128:
-            values[vp] = _block64(a, los[t], m)
+            values[vp] = _block(a, los[t], m, zero)
             vp += 1
             sp -= 1
         elif state[t] == 0:
@@ -192,42 +167,19 @@ def pairwise_sum64(a, lo, n):
             values[vp - 2] = values[vp - 2] + values[vp - 1]
             vp -= 1
             sp -= 1
-    return 0.0 + values[0]
+    return zero + values[0]
+
+
+@kernel
+def pairwise_sum64(a, lo, n):
+    """NumPy's sum of ``a[lo:lo + n]`` (float64, 1-D)."""
+    return _pairwise(a, lo, n, 0.0)
 
 
 @kernel
 def pairwise_sum32(a, lo, n):
     """The same in float32 (a float32 array's ``sum``: float32 partial sums)."""
-    zero = np.float32(0.0)
-    if n <= 128:
-        return np.float32(zero + _block32(a, lo, n))
-    los = np.empty(64, np.int64)
-    ns = np.empty(64, np.int64)
-    state = np.empty(64, np.int64)
-    values = np.empty(64, np.float32)
-    sp, vp = 1, 0
-    los[0], ns[0], state[0] = lo, n, 0
-    while sp > 0:
-        t = sp - 1
-        m = ns[t]
-        if m <= 128:
-            values[vp] = _block32(a, los[t], m)
-            vp += 1
-            sp -= 1
-        elif state[t] == 0:
-            state[t] = 1
-            los[sp], ns[sp], state[sp] = los[t], _halves(m), 0
-            sp += 1
-        elif state[t] == 1:
-            state[t] = 2
-            m2 = _halves(m)
-            los[sp], ns[sp], state[sp] = los[t] + m2, m - m2, 0
-            sp += 1
-        else:
-            values[vp - 2] = np.float32(values[vp - 2] + values[vp - 1])
-            vp -= 1
-            sp -= 1
-    return np.float32(zero + values[0])
+    return _pairwise(a, lo, n, np.float32(0.0))
 
 
 @kernel

@@ -95,7 +95,11 @@ def test_pairwise_sums_are_numpys():
         a = rng.standard_normal(n) * 10.0 ** rng.integers(-4, 8, n)
         assert repr(pairwise_sum64(a, 0, n)) == repr(float(a.sum()))
         b = a.astype(np.float32)
-        assert pairwise_sum32(b, 0, n) == b.sum()
+        s32 = pairwise_sum32(b, 0, n)  # a float32 value (numba hands it back as a float)
+        assert s32 == float(b.sum()) and float(np.float32(s32)) == s32
+        lo = int(rng.integers(0, n))  # a run inside the array, as the segmentation sums rows
+        assert repr(pairwise_sum64(a, lo, n - lo)) == repr(float(a[lo:].sum()))
+        assert pairwise_sum32(b, lo, n - lo) == float(b[lo:].sum())
 
 
 def test_median_is_local_skys():
