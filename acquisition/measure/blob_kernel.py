@@ -135,10 +135,26 @@ def window_stats(v, ring_px):
 
 
 @kernel
+def _spread(v, x, y, v0, lo, lab, stamp, stack, top):
+    """One step of the fixed-range fill: (x, y)'s neighbours whose value minus the seed's ``v0``
+    lies in [lo, UP_DIFF] join the set and the stack; returns the stack's new top."""
+    h, w = v.shape
+    for yy in range(max(y - 1, 0), min(y + 2, h)):
+        for xx in range(max(x - 1, 0), min(x + 2, w)):
+            if lab[yy, xx] != stamp:
+                diff = np.float32(v[yy, xx] - v0)
+                if lo <= diff and diff <= UP_DIFF:
+                    lab[yy, xx] = stamp
+                    stack[top] = yy * w + xx
+                    top += 1
+    return top
+
+
+@kernel
 def flood(v, sx, sy, level, lab, stamp, stack):
     """OpenCV's fixed-range fill from (sx, sy) at ``level`` (module docstring): marks
     ``lab == stamp``; returns (area, x0, y0, x1, y1, max value) of the set."""
-    h, w = v.shape
+    w = v.shape[1]
     v0 = v[sy, sx]
     d = np.float64(v0) - level
     lo = -np.float32(pymax(d, 0.0))
@@ -160,14 +176,7 @@ def flood(v, sx, sy, level, lab, stamp, stack):
         y1 = max(y1, y)
         if v[y, x] > vmax:
             vmax = v[y, x]
-        for yy in range(max(y - 1, 0), min(y + 2, h)):
-            for xx in range(max(x - 1, 0), min(x + 2, w)):
-                if lab[yy, xx] != stamp:
-                    diff = np.float32(v[yy, xx] - v0)
-                    if lo <= diff and diff <= UP_DIFF:
-                        lab[yy, xx] = stamp
-                        stack[top] = yy * w + xx
-                        top += 1
+        top = _spread(v, x, y, v0, lo, lab, stamp, stack, top)
     return area, x0, y0, x1, y1, vmax
 
 
@@ -200,14 +209,7 @@ def _is_open(v, sx, sy, level, peak, lab, stamp, stack):
         x = p - y * w
         if x == 0 or y == 0 or x == w - 1 or y == h - 1 or np.float64(v[y, x]) > peak:
             return True
-        for yy in range(y - 1, y + 2):
-            for xx in range(x - 1, x + 2):
-                if lab[yy, xx] != stamp:
-                    diff = np.float32(v[yy, xx] - v0)
-                    if lo <= diff and diff <= UP_DIFF:
-                        lab[yy, xx] = stamp
-                        stack[top] = yy * w + xx
-                        top += 1
+        top = _spread(v, x, y, v0, lo, lab, stamp, stack, top)
     return False
 
 
