@@ -21,13 +21,12 @@ import math
 import numpy as np
 
 from acquisition.measure.jit import (
+    index_weighted_sum,
     kernel,
     median32,
     pairwise_sum32,
     pymax,
     pymin,
-    sum_is_exact,
-    ulp32,
 )
 
 UP_DIFF = np.float32(1e30)  # blob.py's upper difference: any finite pixel above the level
@@ -259,22 +258,9 @@ def _centroid(v, lab, stamp, cx0, cy0, cw, ch, saddle):
     row = np.empty(ch, np.float32)
     for i in range(ch):
         row[i] = pairwise_sum32(wts, i * cw, cw)
-    sx = sy = bx = by = 0.0
-    mx = my = math.inf  # the smallest nonzero magnitude has the smallest last place
-    for j in range(cw):
-        c = np.float64(col[j])
-        sx += c * j
-        bx += abs(c) * j
-        if c != 0.0 and j > 0:
-            mx = min(mx, abs(c))
-    for i in range(ch):
-        c = np.float64(row[i])
-        sy += c * i
-        by += abs(c) * i
-        if c != 0.0 and i > 0:
-            my = min(my, abs(c))
-    ok = (bx == 0.0 or sum_is_exact(bx, ulp32(mx))) and (by == 0.0 or sum_is_exact(by, ulp32(my)))
-    return ok, total, sx / total, sy / total
+    sx, x_exact = index_weighted_sum(col, cw)
+    sy, y_exact = index_weighted_sum(row, ch)
+    return x_exact and y_exact, total, sx / total, sy / total
 
 
 @kernel

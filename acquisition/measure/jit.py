@@ -264,3 +264,18 @@ def std_ddof(values, ddof):
         d = values[i] - mean
         sq[i] = d * d
     return math.sqrt(pairwise_sum64(sq, 0, n) / (n - ddof))
+
+
+@kernel
+def index_weighted_sum(sums, n):
+    """sum(sums[k] * k) in float64, and whether that sum is exact whatever its order (its
+    absolute sum checked against the last place of the smallest nonzero term)."""
+    s = b = 0.0
+    m = math.inf  # the smallest nonzero magnitude has the smallest last place
+    for k in range(n):
+        c = np.float64(sums[k])
+        s += c * k
+        b += abs(c) * k
+        if c != 0.0 and k > 0:
+            m = min(m, abs(c))
+    return s, b == 0.0 or sum_is_exact(b, ulp32(m))
