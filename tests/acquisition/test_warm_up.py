@@ -39,20 +39,23 @@ def _signatures() -> dict[str, int]:
     return out
 
 
-def _frames(shape, n: int, seed: int) -> list[np.ndarray]:
-    """A drone-sized spot drifting on a noisy sky, as a camera gives it (uint16)."""
+def _frames(shape, n: int, seed: int, resolved: bool) -> list[np.ndarray]:
+    """A drone drifting on a noisy sky, as a camera gives it (uint16): a spot, or a drone
+    25 x 13 px (the 37 m stop: measured against its extent's rim)."""
     rng = np.random.default_rng(seed)
     h, w = shape
     yy, xx = np.mgrid[0:h, 0:w]
+    hw, hh = (12, 6) if resolved else (0, 0)
     out = []
     for i in range(n):
         x, y = w / 2 + 0.3 * i, h / 2 - 0.2 * i
-        spot = 300.0 * np.exp(-((xx - x) ** 2 + (yy - y) ** 2) / (2 * 0.9**2))
+        d2 = np.maximum(np.abs(xx - x) - hw, 0) ** 2 + np.maximum(np.abs(yy - y) - hh, 0) ** 2
+        spot = 300.0 * np.exp(-d2 / (2 * 0.9**2))
         out.append(np.rint(2000.0 + spot + rng.normal(0, 6.0, shape)).astype(np.uint16))
     return out
 
 
-def _first_frames_load(calibrated: bool, warm: bool) -> dict[str, int]:
+def _first_frames_load(calibrated: bool, warm: bool, resolved: bool) -> dict[str, int]:
     """The kernel signatures the first real frames added (in this process)."""
     cam = camera("mwir", shape=(96, 128), seed=3)
     engine = CameraEngine("mwir", cam.shape)
@@ -66,19 +69,19 @@ def _first_frames_load(calibrated: bool, warm: bool) -> dict[str, int]:
         assert engine.roi is None and engine.measurer.tracker is None  # the live engine untouched
     before = _signatures()
     engine.post(SetRoi(64, 48))
-    for i, f in enumerate(_frames(cam.shape, 4, seed=8)):
+    for i, f in enumerate(_frames(cam.shape, 4, seed=8, resolved=resolved)):
         assert engine.process(f, seq=i, counter=i, t_host_ns=i).measurement is not None
     after = _signatures()
     return {k: after[k] - before[k] for k in after if after[k] != before[k]}
 
 
-@pytest.mark.parametrize("calibrated", [False, True])
-def test_the_first_real_frame_loads_no_kernel(calibrated):
+@pytest.mark.parametrize(("calibrated", "resolved"), [(False, False), (True, True)])
+def test_the_first_real_frame_loads_no_kernel(calibrated, resolved):
     # Each case in a fresh interpreter: kernels loaded by other tests would hide a cold start.
     def first_frames_load(warm: bool) -> dict[str, int]:
         code = (
             "import json; from tests.acquisition.test_warm_up import _first_frames_load as f; "
-            f"print(json.dumps(f({calibrated}, {warm})))"
+            f"print(json.dumps(f({calibrated}, {warm}, {resolved})))"
         )
         run = subprocess.run(
             [sys.executable, "-c", code], capture_output=True, text=True, check=True
