@@ -87,12 +87,22 @@ class CameraPipeline:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._unsubscribe: Callable[[], None] | None = None
+        self._warm_s: float | None = None
 
     # ------------------------------------------------------------------ control
+    def warm_up(self) -> float:
+        """Load the compiled analysis (:func:`acquisition.engine.warm_up.warm_up`; the first
+        run on a machine compiles it, 15-22 s) unless done already; returns the seconds the
+        first call took. :meth:`start` calls it before it opens the device; call it earlier
+        where something else must not start its clock meanwhile (a simulated flight)."""
+        if self._warm_s is None:
+            self._warm_s = warm_up(self.engine)
+            log.info("%s: compiled analysis ready in %.2f s", self.name, self._warm_s)
+        return self._warm_s
+
     def start(self) -> None:
-        """Load the compiled analysis (:func:`acquisition.engine.warm_up.warm_up`), open the
-        device and start the measurement thread."""
-        warm_up(self.engine)
+        """Warm up (:meth:`warm_up`), open the device and start the measurement thread."""
+        self.warm_up()
         self._stop.clear()
         self._unsubscribe = self.device.subscribe(self._on_frame)
         self._thread = threading.Thread(target=self._run, name=f"measure-{self.name}", daemon=True)

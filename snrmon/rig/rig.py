@@ -97,9 +97,8 @@ class HilRig:
         if predictor is None:
             from acquisition.prediction import ModelPredictor
 
-            # the model is told what a field team would know: the air temperature; the sky
-            # it measures (a calibration is made before the flight). Asynchronous: a new sky
-            # is asked for on a camera's measurement thread, which must not stop for the model.
+            # The model knows what a field team would: the air temperature; the sky it measures
+            # (calibrated before the flight). Asynchronous: a measurement thread asks for it.
             predictor = ModelPredictor(
                 {c: c for c in opts.cameras}, opts.target, air_temp_k=opts.air_temp_k,
                 asynchronous=True,
@@ -220,6 +219,8 @@ class HilRig:
 
     # ------------------------------------------------------------------ run
     def __enter__(self) -> HilRig:
+        for pipe in self.session.pipelines.values():
+            pipe.warm_up()  # a first run on a machine compiles: before the flight's clock
         for rig in self.cameras.values():
             rig.producer.start()
         self.gps_sim.start()
@@ -257,10 +258,9 @@ class HilRig:
         }
 
     def finish(self) -> None:
-        """The flight is over: stop the session (its rows final, the recording closed; its
-        summary of frames written and dropped is the record's own accounting) before the
-        post-flight work (the PSF fit of :meth:`result`, a report) takes the GIL from cameras
-        that would still be streaming. Once only; ``__exit__`` calls it too."""
+        """The flight is over: stop the session (rows final, the recording closed with its
+        accounting) before the post-flight work (the PSF fit of :meth:`result`, a report) takes
+        the GIL from cameras still streaming. Once only; ``__exit__`` calls it too."""
         if self._finished:
             return
         self._finished = True
