@@ -219,10 +219,7 @@ class SessionEngine:
                 self.gps_range.append(fix.t_host_ns, r)
             except ValueError:
                 log.warning("GPS fix out of order dropped from the history")
-            # StopDetector.add_fix of this fix, with the slant range just computed (the same
-            # call on the same fix: computed once).
-            if r > 0:
-                self._feed_stops(lambda d: d.add_range(fix.t_host_ns, r, "gps"))
+            self._feed_stops(lambda d: d.add_gps_range(fix.t_host_ns, r))
         if not self.project_gps:
             return
         for name, (x, y) in self.projector.pixels(fix).items():

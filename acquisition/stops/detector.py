@@ -42,7 +42,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acquisition.geo.projection import Site, gps_slant_range_m
 from acquisition.measure.peak_snr import (
     FLAG_EDGE,
     FLAG_LOST,
@@ -51,7 +50,6 @@ from acquisition.measure.peak_snr import (
     FLAG_UNDEFINED,
     PeakSnr,
 )
-from drivers.gps.fix import GpsFix
 from drivers.rangefinder.reading import RangeReading, RangeStatus
 
 #: A frame carrying any of these is not valid for a stop's summary.
@@ -184,10 +182,11 @@ class StopDetector:
             return None
         return self.add_range(reading.t_host_ns, reading.range_m, "lrf")
 
-    def add_fix(self, fix: GpsFix, site: Site) -> Stop | None:
-        """A GPS fix, as its slant range from the camera site; fixes without position skipped."""
-        r = gps_slant_range_m(fix, site)
-        return None if r is None or r <= 0 else self.add_range(fix.t_host_ns, r, "gps")
+    def add_gps_range(self, t_ns: int, range_m: float) -> Stop | None:
+        """A GPS fix's slant range from the camera site
+        (:func:`acquisition.geo.projection.gps_slant_range_m`, computed once by the caller,
+        which keeps it for the frames' ranges too); a range of 0 or less is skipped."""
+        return None if range_m <= 0 else self.add_range(t_ns, range_m, "gps")
 
     def mark_stop(self, t_ns: int) -> Stop:
         """The operator marks a stop at ``t_ns``: any open stop ends there, a manual one opens."""
