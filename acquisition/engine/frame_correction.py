@@ -241,18 +241,11 @@ class FrameCorrector:
         without bad pixels (``bad`` False: :meth:`_has_bad` said so) is corrected by compiled
         code, bit for bit the same (:func:`acquisition.calibrate.kernels.correct_box`)."""
         y0, y1, x0, x1 = box
-        cal = self.calibration
-        if not bad and pixels.shape == self.shape and (cal is None or _float32_maps(cal, self)):
-            ref = self.reference_offset
-            correct_box(
-                pixels, y0, y1, x0, x1,
-                _NONE if cal is None else cal.offset_dn,
-                _NONE if cal is None else cal._safe_resp,
-                0.0 if cal is None else cal.mean_offset_dn,
-                0.0 if cal is None else cal.mean_responsivity,
-                _NONE if ref is None else ref,
-                cal is not None, ref is not None, self._buffer,
-            )  # fmt: skip
+        fast = None if bad else self._compiled(pixels)  # the maps lazy_correct uses
+        if fast is not None:
+            offset, resp, ref, _, mo, mr, calibrate, subtract, out = fast
+            correct_box(pixels, y0, y1, x0, x1, offset, resp, mo, mr, ref, calibrate, subtract,
+                        out)  # fmt: skip
             return
         if self.calibration is not None:
             win = self.calibration.correct(pixels, (y0, y1, x0, x1))
