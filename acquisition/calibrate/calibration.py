@@ -40,7 +40,11 @@ Window = tuple[int, int, int, int]
 
 # ------------------------------------------------------------------------------ radiance scale
 @functools.lru_cache(maxsize=16)
-def _table(band_um: tuple[float, float], qe_curve: tuple) -> tuple[np.ndarray, np.ndarray]:
+def temperature_table(
+    band_um: tuple[float, float], qe_curve: tuple
+) -> tuple[np.ndarray, np.ndarray]:
+    """(temperatures [K], band photon radiances) on the 0.025 K grid that
+    :func:`temperature_of` inverts (the sky temperature's compiled lookup reads it too)."""
     t = np.arange(_T_GRID_K[0], _T_GRID_K[1] + _T_GRID_K[2], _T_GRID_K[2])
     wl, w = band_nodes(band_um, 64)
     return t, np.sum((w * _qe(wl, qe_curve))[:, None] * spectral_photon_radiance(wl, t), axis=0)
@@ -73,7 +77,7 @@ def radiance_dt_of(band_um: Sequence[float], temp_k: float, qe_curve: tuple = ()
 def temperature_of(band_um: Sequence[float], radiance, qe_curve: tuple = ()) -> np.ndarray:
     """Brightness temperature [K] of an in-band radiance (inverse of :func:`radiance_of` by
     interpolation on a 0.025 K table, 150-700 K; outside it NaN)."""
-    t, lq = _table(tuple(map(float, band_um)), tuple(qe_curve))
+    t, lq = temperature_table(tuple(map(float, band_um)), tuple(qe_curve))
     r = np.asarray(radiance, float)
     return np.interp(r, lq, t, left=np.nan, right=np.nan)
 
@@ -125,8 +129,9 @@ class Calibration:
         return float(np.mean(self.offset_dn[self.good]))
 
     @functools.cached_property
-    def _safe_resp(self) -> np.ndarray:
-        # dead pixels may have ~0 responsivity; their values are replaced after the division
+    def safe_responsivity(self) -> np.ndarray:
+        """The responsivity map divided by in :meth:`correct`: dead pixels' (~0) replaced by
+        the mean (their values are replaced after the division anyway)."""
         r = self.responsivity
         return np.where(self.good & (r > 0), r, np.float32(self.mean_responsivity))
 
@@ -142,7 +147,7 @@ class Calibration:
         ``window`` (row0, row1, col0, col1), half-open, computes only that part of the frame."""
         self._check_shape(frame)
         sl = np.s_[:, :] if window is None else np.s_[window[0] : window[1], window[2] : window[3]]
-        lq = (np.asarray(frame[sl], np.float32) - self.offset_dn[sl]) / self._safe_resp[sl]
+        lq = (np.asarray(frame[sl], np.float32) - self.offset_dn[sl]) / self.safe_responsivity[sl]
         return _fill_bad(lq.astype(np.float32), self.bad[sl])
 
     def correct(self, frame: np.ndarray, window: Window | None = None) -> np.ndarray:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.calibrate.calibration import Calibration, _table, temperature_of
+from acquisition.calibrate.calibration import Calibration, temperature_of, temperature_table
 from acquisition.calibrate.kernels import sky_sample
 from acquisition.measure.background import Rect, rim_offsets, validate_rect
 from acquisition.measure.peak_snr import BACKGROUND_EXTENT, PeakSnr
@@ -67,7 +67,9 @@ class SkyTemperature:
             rows, cols = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]
             self._rect_pixels = (rows.ravel().astype(np.intp), cols.ravel().astype(np.intp))
         self._samples: deque[SkySample] = deque(maxlen=int(maxlen))
-        t, radiance = _table(tuple(map(float, calibration.band_um)), tuple(calibration.qe_curve))
+        t, radiance = temperature_table(
+            tuple(map(float, calibration.band_um)), tuple(calibration.qe_curve)
+        )
         self._table = (radiance, t)  # radiance -> temperature (temperature_of's table)
 
     def _region(self, result: PeakSnr | None) -> tuple[np.ndarray, np.ndarray, int, int]:

@@ -38,7 +38,7 @@ def _float32_maps(cal, corrector: FrameCorrector) -> bool:
     return (
         cal.shape == corrector.shape
         and cal.offset_dn.dtype == np.float32
-        and cal._safe_resp.dtype == np.float32
+        and cal.safe_responsivity.dtype == np.float32
     )
 
 
@@ -180,7 +180,7 @@ class FrameCorrector:
         if cal is None:
             return (_NONE, _NONE, _NONE if ref is None else ref, _NONE, 0.0, 0.0, False,
                     ref is not None, self._buffer)  # fmt: skip
-        return (cal.offset_dn, cal._safe_resp, _NONE if ref is None else ref, cal.bad,
+        return (cal.offset_dn, cal.safe_responsivity, _NONE if ref is None else ref, cal.bad,
                 cal.mean_offset_dn, cal.mean_responsivity, True, ref is not None,
                 self._buffer)  # fmt: skip
 

@@ -213,7 +213,7 @@ def test_compiled_correction_equals_calibration_correct(dtype):
             if use_ref:
                 want = want - ref[y0:y1, x0:x1]
             out = np.zeros(cal.shape, np.float32)
-            maps = (cal.offset_dn, cal._safe_resp, cal.mean_offset_dn, cal.mean_responsivity)
+            maps = (cal.offset_dn, cal.safe_responsivity, cal.mean_offset_dn, cal.mean_responsivity)
             correct_box(raw, y0, y1, x0, x1, *maps, ref, True, use_ref, out)
             assert out[y0:y1, x0:x1].tobytes() == want.tobytes()
 
@@ -350,12 +350,12 @@ def test_track_noise_ring_equals_estimate_noise(dtype):
 
 
 def test_compiled_table_lookup_is_np_interp():
-    from acquisition.calibrate.calibration import _table
+    from acquisition.calibrate.calibration import temperature_table
     from acquisition.calibrate.kernels import _temperature
 
     rng = np.random.default_rng(800)
     for band in ((3.0, 5.0), (8.0, 12.0)):
-        t, table = _table(band, ())
+        t, table = temperature_table(band, ())
         x = np.concatenate(
             [
                 rng.uniform(table[0] * 0.9, table[-1] * 1.1, 20000),
