@@ -7,16 +7,27 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 # The exact versions CI tested (pyproject.toml keeps the ranges); `make constraints` rewrites it.
 CONSTRAINTS := constraints.txt
+# Every extra the demo and the tests use: the console, the campaign's cluster, the test tools.
+EXTRAS := gui,campaign,dev,mavlink,compress
+# The folders that install as snrmon.<name> (setup.py). The editable install is a link tree
+# (build/__editable__*, strict mode, so that mypy and import-linter see one namespace): a module
+# added or removed needs a re-install, so the list of the package's files is an input of it.
+PACKAGE_DIRS := snrmon acquisition benchmarks drivers gui model sim
+MODULES := $(VENV)/.modules
+$(shell mkdir -p $(VENV) && find $(PACKAGE_DIRS) -name '*.py' -o -name '*.toml' -o -name py.typed \
+	| sort > $(MODULES).new && (cmp -s $(MODULES).new $(MODULES) || mv $(MODULES).new $(MODULES)); \
+	rm -f $(MODULES).new)
 
-.PHONY: demo test setup lint clean constraints dist-check
+.PHONY: demo test setup lint clean constraints constraints-check dist-check
 
-$(STAMP): pyproject.toml $(CONSTRAINTS)
+$(STAMP): pyproject.toml setup.py $(CONSTRAINTS) $(MODULES)
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) -e '.[dev,mavlink,compress]'
+	$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) -e '.[$(EXTRAS)]' \
+		--config-settings editable_mode=strict
 	@# Aravis (GigE/USB3 Vision) needs PyGObject, which builds only where gobject-introspection
 	@# headers are installed (.ci/run installs them); without it the Aravis tests skip.
-	-$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) -e '.[aravis]' \
+	-$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) 'PyGObject<3.51' \
 		> $(VENV)/aravis-install.log 2>&1 \
 		|| echo 'PyGObject not built (see $(VENV)/aravis-install.log): Aravis tests will skip'
 	touch $(STAMP)
@@ -26,9 +37,12 @@ setup: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/snrmon demo
 
+# import-linter runs outside the checkout so that it reads the installed namespace (the
+# checkout's own snrmon/ folder holds only the command line).
 test: $(STAMP)
-	$(BIN)/lint-imports
+	cd build && ../$(BIN)/lint-imports --config ../pyproject.toml
 	$(BIN)/mypy
+	$(BIN)/python .ci/freeze_constraints.py --check $(CONSTRAINTS)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
 
 # After a green `make test` with new versions: pin them as the tested ones.
@@ -36,7 +50,8 @@ constraints: $(STAMP)
 	$(BIN)/python .ci/freeze_constraints.py > $(CONSTRAINTS).new && mv $(CONSTRAINTS).new $(CONSTRAINTS)
 
 # The package as a user gets it: wheel and sdist with licence and metadata, the wheel installed
-# into a fresh venv with the tested versions, `snrmon --help` run from there.
+# into a fresh venv with the tested versions, no Qt and no Dask, only `snrmon` at the top of
+# site-packages, the API's examples run from a folder that holds model.py, gui.py and sim.py.
 dist-check: $(STAMP)
 	PYTHON=$(PYTHON) BIN=$(BIN) bash .ci/dist-check
 

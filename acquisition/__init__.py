@@ -2,18 +2,21 @@
 
 One subpackage per job (each says what it owns in its own docstring):
 
-- :mod:`acquisition.measure`: Eq. (4), the peak-pixel SNR, and its statistics (paper sections 5-6);
-- :mod:`acquisition.track`: following the drone from the operator's click;
-- :mod:`acquisition.engine`: the ONE per-frame engine that live acquisition, the console's
+- :mod:`snrmon.acquisition.measure`: Eq. (4), the peak-pixel SNR, and its statistics (paper sections
+  5-6);
+- :mod:`snrmon.acquisition.track`: following the drone from the operator's click;
+- :mod:`snrmon.acquisition.engine`: the ONE per-frame engine that live acquisition, the console's
   replay and batch replay all run;
-- :mod:`acquisition.runtime`: the live session: device threads, frame rings, time base;
-- :mod:`acquisition.stops`: range stops and the SNR-versus-range table;
-- :mod:`acquisition.record`: the HDF5 session file (schema, writer, recorder, reader);
-- :mod:`acquisition.replay`: recordings and frame stacks played back through the engine;
-- :mod:`acquisition.calibrate`: radiometric calibration, sky temperature, target characterization;
-- :mod:`acquisition.geo`: GPS geometry, pointing, GPS cues;
-- :mod:`acquisition.report`: the paper's figures and the stop table of a session.
+- :mod:`snrmon.acquisition.runtime`: the live session: device threads, frame rings, time base;
+- :mod:`snrmon.acquisition.stops`: range stops and the SNR-versus-range table;
+- :mod:`snrmon.acquisition.record`: the HDF5 session file (schema, writer, recorder, reader);
+- :mod:`snrmon.acquisition.replay`: recordings and frame stacks played back through the engine;
+- :mod:`snrmon.acquisition.calibrate`: radiometric calibration, sky temperature, target
+  characterization;
+- :mod:`snrmon.acquisition.geo`: GPS geometry, pointing, GPS cues;
+- :mod:`snrmon.acquisition.report`: the paper's figures and the stop table of a session.
 
-At the top level: :mod:`acquisition.config` (the session configuration, its one factory) and
-:mod:`acquisition.prediction` (the seam to :mod:`model`: the model's SNR at a stop's range).
+At the top level: :mod:`snrmon.acquisition.config` (the session configuration, its one factory) and
+:mod:`snrmon.acquisition.prediction` (the seam to :mod:`snrmon.model`: the model's SNR at a stop's
+range).
 """

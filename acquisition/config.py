@@ -31,10 +31,10 @@ Example (``session.toml``)::
     port = "/dev/ttyUSB1"
 
 Every key is checked against the schema below (``TOP_FIELDS``, ``SITE_FIELDS``,
-``MEASUREMENT_FIELDS``, ``CAMERA_FIELDS``; the device tables by :mod:`drivers.config`): an
+``MEASUREMENT_FIELDS``, ``CAMERA_FIELDS``; the device tables by :mod:`snrmon.drivers.config`): an
 unknown key, a missing one, or a value of the wrong type or range is one
-:class:`drivers.errors.ConfigError` naming the file, the table, the key, the value and what was
-expected, e.g. ``session.toml: [site] lat_deg = "north": expected a latitude in degrees, -90 to
+:class:`snrmon.drivers.errors.ConfigError` naming the file, the table, the key, the value and what
+was expected, e.g. ``session.toml: [site] lat_deg = "north": expected a latitude in degrees, -90 to
 90``.
 """
 
@@ -47,10 +47,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from acquisition.geo.projection import Pointing, Site
-from acquisition.measure.peak_snr import PeakSnrConfig
-from drivers.config import check_device_table
-from drivers.errors import ConfigError, toml_repr
+from snrmon.acquisition.geo.projection import Pointing, Site
+from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
+from snrmon.drivers.config import check_device_table
+from snrmon.drivers.errors import ConfigError, toml_repr
 
 CAMERA_SOURCES = ("shm", "v4l2", "aravis")
 
@@ -271,13 +271,13 @@ def load_session_config(path: str | Path) -> SessionConfig:
 def camera_device(cfg: CameraConfig):
     """The camera driver for a camera table (imported lazily: Aravis needs gi)."""
     if cfg.source == "shm":
-        from drivers.camera.shm import ShmCamera
+        from snrmon.drivers.camera.shm import ShmCamera
 
         return ShmCamera(cfg.name, cfg.address)
     if cfg.source == "v4l2":
-        from drivers.camera.v4l2 import V4l2Camera
+        from snrmon.drivers.camera.v4l2 import V4l2Camera
 
         return V4l2Camera(cfg.name, cfg.address)
-    from drivers.camera.aravis import AravisCamera
+    from snrmon.drivers.camera.aravis import AravisCamera
 
     return AravisCamera(cfg.name, cfg.address)

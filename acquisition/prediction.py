@@ -5,8 +5,8 @@ diffraction-limited / corrected real PSF, both with the drone as a square of its
 continuous through the resolved/unresolved transition), the expected Eq. (4) reading
 (``expected_eq4``: what the 7x7 estimator should read on the corrected small target) and the
 paper's own switched curves are computed once per camera on a dense logarithmic range grid by
-:func:`model.snr.predict` and interpolated in log-range, so a lookup per frame costs
-microseconds and every number still comes from :mod:`model`.
+:func:`snrmon.model.snr.predict` and interpolated in log-range, so a lookup per frame costs
+microseconds and every number still comes from :mod:`snrmon.model`.
 
 A recomputation (a new sky temperature, a PSF measured from the flight) takes ~0.5 s per camera.
 With ``asynchronous=True`` :meth:`ModelPredictor.set_background` returns at once and the new
@@ -28,7 +28,7 @@ PAPER_CURVES = tuple(f"paper_{c}" for c in CURVES)
 class ModelPredictor:
     """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
     "large_corrected", "expected_eq4", "resolved_small"}`` for each camera's sensor preset and
-    one target. ``predict_options`` go to :func:`model.snr.predict` (``background_temp_k``,
+    one target. ``predict_options`` go to :func:`snrmon.model.snr.predict` (``background_temp_k``,
     ``air_temp_k``, ``atmosphere``, ``corrected_psf``...)."""
 
     def __init__(
@@ -40,8 +40,8 @@ class ModelPredictor:
         asynchronous: bool = False,
         **predict_options,
     ) -> None:
-        from model.presets import load_sensor, load_target
-        from model.snr import predict
+        from snrmon.model.presets import load_sensor, load_target
+        from snrmon.model.snr import predict
 
         self.target = load_target(target)
         self._predict = predict

@@ -1,9 +1,9 @@
 """The typed seams between the console and what it drives.
 
-The window (:mod:`gui`) drives a live :class:`acquisition.runtime.session.Session` or a recording's
-:class:`acquisition.replay.player.ReplayPlayer` through :class:`ConsoleSession`; a replay adds
-:class:`ReplayControls`, and the window tells the two apart by that protocol, not by an
-attribute's name. Each camera is a :class:`CameraView`.
+The window (:mod:`snrmon.gui`) drives a live :class:`snrmon.acquisition.runtime.session.Session` or
+a recording's :class:`snrmon.acquisition.replay.player.ReplayPlayer` through
+:class:`ConsoleSession`; a replay adds :class:`ReplayControls`, and the window tells the two apart
+by that protocol, not by an attribute's name. Each camera is a :class:`CameraView`.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from acquisition.config import SessionConfig
-from acquisition.engine.status import CameraStatus, SessionStatus
-from acquisition.stops.table import Predictor, StopRow
-from acquisition.streams.ring import RingFrame
+from snrmon.acquisition.config import SessionConfig
+from snrmon.acquisition.engine.status import CameraStatus, SessionStatus
+from snrmon.acquisition.stops.table import Predictor, StopRow
+from snrmon.acquisition.streams.ring import RingFrame
 
 
 class CameraView(Protocol):

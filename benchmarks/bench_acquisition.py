@@ -40,7 +40,7 @@ def _rss_mb(proc: psutil.Process) -> float:
 
 
 def run(duration_s: float) -> dict:
-    from acquisition.replay.batch import replay_session
+    from snrmon.acquisition.replay.batch import replay_session
     from snrmon.rig.rig import HilOptions, HilRig
 
     proc = psutil.Process()

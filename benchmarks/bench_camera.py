@@ -14,9 +14,9 @@ import uuid
 
 import numpy as np
 
-from drivers.camera.frame import Frame
-from drivers.camera.shm import ShmCamera
-from sim.devices.shm_camera import ShmProducer, StampPattern
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.camera.shm import ShmCamera
+from snrmon.sim.devices.shm_camera import ShmProducer, StampPattern
 
 KEY = "camera_shm"
 W, H = 1280, 720

@@ -20,6 +20,7 @@ from dataclasses import replace
 from pathlib import Path
 
 KEY = "campaign"
+EXTRA = "campaign"  # Dask and pyarrow
 N_FLIGHTS = 2
 COPIES = 3
 

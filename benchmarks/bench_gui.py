@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 KEY = "gui"
+EXTRA = "gui"  # the console (PySide6, pyqtgraph)
 
 CAMERAS = {"mwir": (1280, 720, 60.0), "lwir": (640, 480, 30.0)}
 
@@ -51,12 +52,12 @@ def run(duration_s: float) -> dict:
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     from PySide6.QtCore import QEventLoop, QSettings, Qt, QTimer
 
-    from acquisition.config import session_config_from_dict
-    from acquisition.runtime.session import Session
-    from drivers.camera.shm import ShmCamera
-    from gui.app import console_application
-    from gui.main_window import ConsoleWindow
-    from sim.devices.shm_camera import ShmProducer
+    from snrmon.acquisition.config import session_config_from_dict
+    from snrmon.acquisition.runtime.session import Session
+    from snrmon.drivers.camera.shm import ShmCamera
+    from snrmon.gui.app import console_application
+    from snrmon.gui.main_window import ConsoleWindow
+    from snrmon.sim.devices.shm_camera import ShmProducer
 
     console_application(headless=True)
     tag = uuid.uuid4().hex[:8]

@@ -7,8 +7,8 @@ import time
 
 import numpy as np
 
-from acquisition.measure.peak_snr import PeakSnrMeter
-from acquisition.measure.stack_snr import measure_stack
+from snrmon.acquisition.measure.peak_snr import PeakSnrMeter
+from snrmon.acquisition.measure.stack_snr import measure_stack
 
 KEY = "measurement"
 

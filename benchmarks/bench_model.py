@@ -8,9 +8,9 @@ import time
 
 import numpy as np
 
-from model.presets import load_sensor, load_target
-from model.pvf import pixel_energy_fractions
-from model.snr import predict
+from snrmon.model.presets import load_sensor, load_target
+from snrmon.model.pvf import pixel_energy_fractions
+from snrmon.model.snr import predict
 
 KEY = "model"
 

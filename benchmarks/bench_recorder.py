@@ -45,9 +45,9 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.record.recorder import SessionRecorder
-from acquisition.record.writer import COMPRESSIONS
-from drivers.camera.frame import Frame
+from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.acquisition.record.writer import COMPRESSIONS
+from snrmon.drivers.camera.frame import Frame
 
 KEY = "recorder"
 H, W = 720, 1280

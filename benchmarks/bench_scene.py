@@ -9,10 +9,10 @@ from __future__ import annotations
 import dataclasses
 import time
 
-from sim.example_scenes import lwir_example_scene, mwir_example_scene
-from sim.feed import FlightCameraFeed
-from sim.flight import FlightConfig
-from sim.sky import CloudConfig
+from snrmon.sim.example_scenes import lwir_example_scene, mwir_example_scene
+from snrmon.sim.feed import FlightCameraFeed
+from snrmon.sim.flight import FlightConfig
+from snrmon.sim.sky import CloudConfig
 
 KEY = "scene"
 

@@ -8,9 +8,9 @@ import time
 
 import numpy as np
 
-from acquisition.geo.projection import CameraIntrinsics, Pointing, Site, project_to_pixel
-from acquisition.stops.detector import StopDetector
-from acquisition.track.tracker import Tracker
+from snrmon.acquisition.geo.projection import CameraIntrinsics, Pointing, Site, project_to_pixel
+from snrmon.acquisition.stops.detector import StopDetector
+from snrmon.acquisition.track.tracker import Tracker
 
 KEY = "tracking"
 

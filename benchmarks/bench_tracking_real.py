@@ -1,6 +1,6 @@
 """The tracker on the 33 real thermal drone clips, from seven off-centre clicks each, against the
-trivial baseline (``snrmon bench --only tracking-real``; rules in :mod:`benchmarks.real_clips`
-and docs/tracking.md).
+trivial baseline (``snrmon bench --only tracking-real``; rules in
+:mod:`snrmon.benchmarks.real_clips` and docs/tracking.md).
 
 Per clip: the fraction of labelled frames the tracker gets right (the worst and the median of
 its clicks), the baseline's (worst click), frames LOST and ``occluded``, reacquisitions, the
@@ -15,7 +15,7 @@ from __future__ import annotations
 import statistics
 import time
 
-from benchmarks.real_clips import RunScore, clip_names, data_root, score_clip
+from snrmon.benchmarks.real_clips import RunScore, clip_names, data_root, score_clip
 
 KEY = "tracking-real"
 

@@ -16,7 +16,7 @@ Example (``devices.toml``)::
     remote = true
 
 Every key is checked: an unknown key, a wrong type or a bad value raises one
-:class:`drivers.errors.ConfigError` naming the table, the key and the value.
+:class:`snrmon.drivers.errors.ConfigError` naming the table, the key and the value.
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from drivers.device import Device
-from drivers.errors import ConfigError
-from drivers.serialport import SERIAL_BAUD_RATES
+from snrmon.drivers.device import Device
+from snrmon.drivers.errors import ConfigError
+from snrmon.drivers.serialport import SERIAL_BAUD_RATES
 
 GPS_PROTOCOLS = ("nmea", "gpsd", "mavlink")
 LRF_PROTOCOLS = ("trupulse", "ldm")
@@ -128,7 +128,7 @@ def device_from_config(table: dict[str, Any], name: str = "device") -> Device:
 def _build(protocol: str, port: str, table: dict, kw: dict, where: str) -> Device:
     # Imported here so that a config naming one protocol does not import the others.
     if protocol == "nmea":
-        from drivers.gps.nmea_device import NmeaGpsDevice
+        from snrmon.drivers.gps.nmea_device import NmeaGpsDevice
 
         allow = table.get("allow_no_checksum", False)
         if isinstance(allow, list) and not all(isinstance(a, str) for a in allow):
@@ -137,19 +137,19 @@ def _build(protocol: str, port: str, table: dict, kw: dict, where: str) -> Devic
             kw["max_line_bytes"] = table["max_line_bytes"]
         return NmeaGpsDevice(port, allow_no_checksum=allow, **kw)
     if protocol == "gpsd":
-        from drivers.gps.gpsd import GpsdDevice
+        from snrmon.drivers.gps.gpsd import GpsdDevice
 
         host, tcp_port = split_host_port(port, 2947, f"{where} port")
         return GpsdDevice(host, tcp_port, device_path=table.get("device_path"), **kw)
     if protocol == "mavlink":
-        from drivers.gps.mavlink import MavlinkGpsDevice
+        from snrmon.drivers.gps.mavlink import MavlinkGpsDevice
 
         return MavlinkGpsDevice(port, **kw)
     if protocol == "trupulse":
-        from drivers.rangefinder.trupulse import TruPulseDevice
+        from snrmon.drivers.rangefinder.trupulse import TruPulseDevice
 
         return TruPulseDevice(port, remote=table.get("remote", False), **kw)
-    from drivers.rangefinder.ldm import LdmDevice
+    from snrmon.drivers.rangefinder.ldm import LdmDevice
 
     for key in ("output_format", "averaging", "track"):
         if key in table:

@@ -15,7 +15,7 @@ The reader thread runs a reconnect state machine::
 * A data-age watchdog marks the device ``stale`` when no reading arrived for ``stale_after_s``
   and reopens it after ``reopen_after_s``: a power-cycled receiver can leave a port that gives
   neither data nor an error.
-* A :class:`drivers.errors.ParseError` is counted (checksum errors separately) and survived.
+* A :class:`snrmon.drivers.errors.ParseError` is counted (checksum errors separately) and survived.
 
 Readings are delivered to subscribers on the reader thread; subscribers must be quick (put the
 reading in a queue or a ring) and must not raise. Status changes go to status subscribers.
@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import Generic, TypeVar
 
-from drivers.errors import ChecksumError, ParseError
+from snrmon.drivers.errors import ChecksumError, ParseError
 
 log = logging.getLogger(__name__)
 

@@ -5,7 +5,8 @@ name ``/dev/ttyUSB0``, ``/dev/pts/7`` (a simulator), ``socket://host:port`` (a T
 ``rfc2217://host:port`` or ``loop://``. It frames bytes into lines (CR, LF or CRLF; real devices
 use all three), refuses lines longer than ``max_line_bytes`` (counted, never fatal), and hands each
 line with its host receive time to :meth:`SerialLineDevice._parse_line`. Commands go out with
-:meth:`SerialLineDevice.send`. Reconnect and the watchdog come from :class:`drivers.device.Device`.
+:meth:`SerialLineDevice.send`. Reconnect and the watchdog come from
+:class:`snrmon.drivers.device.Device`.
 """
 
 from __future__ import annotations
@@ -17,8 +18,8 @@ from collections.abc import Iterable
 
 import serial
 
-from drivers.device import Device, R
-from drivers.errors import ParseError
+from snrmon.drivers.device import Device, R
+from snrmon.drivers.errors import ParseError
 
 SERIAL_BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600)
 
@@ -35,7 +36,7 @@ class SerialLineDevice(Device[R]):
         read_timeout_s: how long one read waits for bytes (bounds the reader thread's latency
             to close() and to the watchdog).
         eol: line ending appended by :meth:`send`.
-        **device_kwargs: passed to :class:`drivers.device.Device` (watchdog, back-off).
+        **device_kwargs: passed to :class:`snrmon.drivers.device.Device` (watchdog, back-off).
     """
 
     def __init__(

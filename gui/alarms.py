@@ -1,8 +1,8 @@
 """Which devices are in alarm, which just came back: the banner across the top of the console.
 
 The session reports alarms as strings ``"<device>: <state> (<error>)"`` in every status snapshot
-(:attr:`acquisition.runtime.session.SessionStatus.alarms`). The tracker keys them by device, so a
-device
+(:attr:`snrmon.acquisition.runtime.session.SessionStatus.alarms`). The tracker keys them by device,
+so a device
 going from ``stale`` to ``disconnected`` stays one alarm, and remembers when each one cleared so
 the operator sees that a lost device is back, not only that the red went away.
 """
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QWidget
 
-from gui.theme import ALARM, RECOVERED
+from snrmon.gui.theme import ALARM, RECOVERED
 
 RECOVERED_SHOWN_S = 15.0
 

@@ -14,10 +14,10 @@ from pathlib import Path
 from PySide6.QtCore import QEventLoop, QSettings, QTimer, qInstallMessageHandler
 from PySide6.QtWidgets import QApplication
 
-from acquisition.runtime.session import Session
-from gui.main_window import ConsoleWindow
-from gui.range_plot import CurveSource
-from gui.theme import apply_dark_theme, configure_pyqtgraph
+from snrmon.acquisition.runtime.session import Session
+from snrmon.gui.main_window import ConsoleWindow
+from snrmon.gui.range_plot import CurveSource
+from snrmon.gui.theme import apply_dark_theme, configure_pyqtgraph
 
 # The offscreen platform warns on every dock and window resize that it cannot pass size hints
 # to a window manager it does not have: dozens of lines a minute that bury the stop table.
@@ -67,14 +67,14 @@ def run_console(
     Args:
         curves: ``curves(camera) -> {name: (ranges_m, snr)}`` (or ``(ranges_m, low, high)``
             for a band) from the model; None draws no model. Only used without a predictor.
-        predictor: the :class:`acquisition.prediction.ModelPredictor` the model options
+        predictor: the :class:`snrmon.acquisition.prediction.ModelPredictor` the model options
             rebuild (default: ``session.predictor``).
         headless: run offscreen (no display needed); only effective before the first
             QApplication of the process exists.
         duration_s: close the window after this many seconds (None: until the operator quits).
         screenshot: save the whole window to this PNG just before it closes.
         settings: QSettings to use (default: the user's snrmon/console settings).
-        status_file: keep the console's state in this JSON file (:mod:`gui.status_file`),
+        status_file: keep the console's state in this JSON file (:mod:`snrmon.gui.status_file`),
             rewritten with every status refresh.
     """
     if duration_s is not None and not duration_s > 0:
@@ -100,7 +100,7 @@ def run_console(
     }
     tick = QTimer()
     if status_file is not None:
-        from gui.status_file import write_status_file
+        from snrmon.gui.status_file import write_status_file
 
         # The idle tick is also the status file's: after the window's own refresh has run.
         tick.timeout.connect(lambda: write_status_file(window, status_file))

@@ -8,9 +8,9 @@ import math
 import numpy as np
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
-from gui.camera_view import CameraView
-from gui.roi_inset import RoiInset
-from gui.strip_chart import StripChart
+from snrmon.gui.camera_view import CameraView
+from snrmon.gui.roi_inset import RoiInset
+from snrmon.gui.strip_chart import StripChart
 
 
 class CameraPanel(QWidget):

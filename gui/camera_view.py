@@ -2,8 +2,8 @@
 operator's click that sets the ROI, and the measurement's geometry drawn on the image.
 
 The view never receives frames: the main window's timer hands it the newest
-:class:`acquisition.streams.ring.RingFrame` it peeked, and the view skips a frame it has already
-shown.
+:class:`snrmon.acquisition.streams.ring.RingFrame` it peeked, and the view skips a frame it has
+already shown.
 Drawn on the image (paper Fig. 4): the search window centred on the ROI, the box centred on the
 measured peak, and the inner edge of its one-pixel rim (the rim pixels lie between the two); and
 a cyan cross where the drone's GPS position projects into the camera (hidden with no projection).
@@ -20,10 +20,10 @@ from pyqtgraph import functions_qimage
 from PySide6.QtCore import QPoint, QPointF, QRectF, Qt, Signal
 from PySide6.QtWidgets import QGraphicsItem, QGraphicsRectItem, QVBoxLayout, QWidget
 
-from acquisition.engine.status import CameraStatus
-from acquisition.measure.peak_snr import PeakSnrConfig
-from acquisition.streams.ring import RingFrame
-from gui.levels import levels_moved, robust_levels
+from snrmon.acquisition.engine.status import CameraStatus
+from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
+from snrmon.acquisition.streams.ring import RingFrame
+from snrmon.gui.levels import levels_moved, robust_levels
 
 GPS_COLOR = "#00e5ff"  # cyan: distinct from the ROI blue, box yellow and peak red
 
@@ -253,7 +253,8 @@ class CameraView(QWidget):
 
     def show_gps(self, xy: tuple[float, float] | None) -> None:
         """The GPS cross at image coordinates ``xy`` (pixel centres on integers, as
-        :func:`acquisition.geo.projection.project_enu` gives them); hidden for None or NaN."""
+        :func:`snrmon.acquisition.geo.projection.project_enu` gives them); hidden for None or
+        NaN."""
         ok = xy is not None and all(math.isfinite(v) for v in xy)
         self.gps_marker.setVisible(ok)
         if ok:

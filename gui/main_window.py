@@ -28,20 +28,20 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from acquisition.engine.status import SessionStatus
-from acquisition.protocols import ConsoleSession, ReplayControls
-from gui import model_curves as mc
-from gui.actions import install_actions, shortcuts_text
-from gui.alarms import AlarmBanner
-from gui.camera_panel import CameraPanel, model_at_range
-from gui.model_dialog import ModelOptionsDialog
-from gui.noise_panel import NoisePanel
-from gui.range_plot import CurveSource, RangePlot
-from gui.replay_bar import ReplayBar
-from gui.status_panel import StatusPanel
-from gui.stop_table_view import StopTableView
-from gui.theme import configure_pyqtgraph
-from gui.window_settings import restore_window, save_model_options, save_window
+from snrmon.acquisition.engine.status import SessionStatus
+from snrmon.acquisition.protocols import ConsoleSession, ReplayControls
+from snrmon.gui import model_curves as mc
+from snrmon.gui.actions import install_actions, shortcuts_text
+from snrmon.gui.alarms import AlarmBanner
+from snrmon.gui.camera_panel import CameraPanel, model_at_range
+from snrmon.gui.model_dialog import ModelOptionsDialog
+from snrmon.gui.noise_panel import NoisePanel
+from snrmon.gui.range_plot import CurveSource, RangePlot
+from snrmon.gui.replay_bar import ReplayBar
+from snrmon.gui.status_panel import StatusPanel
+from snrmon.gui.stop_table_view import StopTableView
+from snrmon.gui.theme import configure_pyqtgraph
+from snrmon.gui.window_settings import restore_window, save_model_options, save_window
 
 # Twice the fastest camera's rate (33 ms caps 60 fps at 30.3; 16 ms shows MWIR ~54, LWIR ~29.6).
 FRAME_INTERVAL_MS = 16
@@ -59,7 +59,7 @@ class ConsoleWindow(QMainWindow):
         session: the session to display and command; the caller starts and stops it.
         curves: ``curves(camera) -> {name: (ranges_m, snr)}`` from the model, or None; used
             only when there is no predictor (a stand-in, or until the model options apply).
-        predictor: the :class:`acquisition.prediction.ModelPredictor` (default: the
+        predictor: the :class:`snrmon.acquisition.prediction.ModelPredictor` (default: the
             session's); the model options dialog rebuilds it and hands it to the session.
         settings: where geometry and last choices are kept (default: the user's snrmon settings).
     """
@@ -284,9 +284,11 @@ class ConsoleWindow(QMainWindow):
             folder = self.settings.value("recording/dir", str(Path.cwd()))
             stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
             chosen, _ = QFileDialog.getSaveFileName(
-                self, "Record session", str(Path(folder) / f"session-{stamp}.h5"),
+                self,
+                "Record session",
+                str(Path(folder) / f"session-{stamp}.h5"),
                 "Session files (*.h5)",
-            )  # fmt: skip
+            )
             if not chosen:
                 return False
             path = chosen
@@ -368,16 +370,18 @@ class ConsoleWindow(QMainWindow):
         self.showNormal() if self.isFullScreen() else self.showFullScreen()
 
     def show_shortcuts(self) -> None:
-        box = QMessageBox(QMessageBox.Icon.Information, "Keyboard shortcuts", shortcuts_text(),
-                          parent=self)  # fmt: skip
+        box = QMessageBox(
+            QMessageBox.Icon.Information, "Keyboard shortcuts", shortcuts_text(), parent=self
+        )
         box.setModal(False)
         box.open()
 
     def save_screenshot(self, path: str | Path | None = None) -> Path | None:
         """Save the whole window as a PNG (asks for a file name when None)."""
         if path is None:
-            chosen, _ = QFileDialog.getSaveFileName(self, "Save screenshot", "snrmon-console.png",
-                                                    "PNG (*.png)")  # fmt: skip
+            chosen, _ = QFileDialog.getSaveFileName(
+                self, "Save screenshot", "snrmon-console.png", "PNG (*.png)"
+            )
             if not chosen:
                 return None
             path = chosen

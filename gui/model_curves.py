@@ -1,6 +1,6 @@
 """Which model curves the console draws, and from which predictors (no Qt; no number made here).
 
-Two :class:`acquisition.prediction.ModelPredictor` on the same sensors, target and options:
+Two :class:`snrmon.acquisition.prediction.ModelPredictor` on the same sensors, target and options:
 
 * ``own``: the model's own background temperature (or the operator's, from the model options);
   the session never touches it;
@@ -9,7 +9,7 @@ Two :class:`acquisition.prediction.ModelPredictor` on the same sensors, target a
   path-radiance correction (sections 8-9). The session follows the sky on it too; both apply
   the same value.
 
-:meth:`ModelCurves.curves` returns what :class:`gui.range_plot.RangePlot` draws: the chosen
+:meth:`ModelCurves.curves` returns what :class:`snrmon.gui.range_plot.RangePlot` draws: the chosen
 curves of ``own`` under their model names, and, where the sky is known, the same curves of
 ``sky`` labelled ``"<name> @ sky <T> K"``.
 """
@@ -19,8 +19,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
-from acquisition.protocols import ConsoleSession
+from snrmon.acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
+from snrmon.acquisition.protocols import ConsoleSession
 
 CURVE_LABELS = {
     "small": "small, uncorrected",

@@ -1,6 +1,6 @@
 """The model options dialog: target preset, which curves are shown, background temperature.
 
-It only collects choices into a :class:`gui.model_curves.ModelOptions` and hands them to the
+It only collects choices into a :class:`snrmon.gui.model_curves.ModelOptions` and hands them to the
 window's ``apply(options) -> error message | None``; the window rebuilds the predictors. A bad
 entry is refused with its message shown in the dialog, which stays open.
 """
@@ -21,7 +21,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gui.model_curves import ALL_CURVES, CURVE_LABELS, ModelOptions, parse_background_temp
+from snrmon.gui.model_curves import ALL_CURVES, CURVE_LABELS, ModelOptions, parse_background_temp
 
 TARGET_CHOICES = ("uav1", "uav2")  # the model's target presets; a target TOML path also works
 

@@ -1,8 +1,8 @@
 """The noise panel (paper section 6): per camera, total, temporal and spatial noise in DN.
 
-Every value is a field of :class:`acquisition.engine.status.CameraStatus` computed on the processing
-side (acquisition/measure/track_noise.py); the panel only formats it. "--" until the pipeline has a
-background to measure (a track, or a clear-sky rectangle in the measurement config).
+Every value is a field of :class:`snrmon.acquisition.engine.status.CameraStatus` computed on the
+processing side (acquisition/measure/track_noise.py); the panel only formats it. "--" until the
+pipeline has a background to measure (a track, or a clear-sky rectangle in the measurement config).
 """
 
 from __future__ import annotations
@@ -11,18 +11,23 @@ import math
 
 from PySide6.QtWidgets import QGridLayout, QLabel, QVBoxLayout, QWidget
 
-from acquisition.engine.status import SessionStatus
+from snrmon.acquisition.engine.status import SessionStatus
 
 COLUMNS = (
-    ("noise_total_dn", "total",
-     "Total noise (DN): std of the background pixels of one frame"),
-    ("noise_temporal_dn", "temporal",
-     "Temporal noise (DN): std of the difference with the previous frame over the same pixels, "
-     "divided by sqrt(2) (a difference of two frames carries sqrt(2) times the single-frame "
-     "temporal noise)"),
-    ("noise_spatial_dn", "spatial",
-     "Spatial (fixed-pattern) noise (DN): sqrt(total^2 - temporal^2)"),
-)  # fmt: skip
+    ("noise_total_dn", "total", "Total noise (DN): std of the background pixels of one frame"),
+    (
+        "noise_temporal_dn",
+        "temporal",
+        "Temporal noise (DN): std of the difference with the previous frame over the same pixels, "
+        "divided by sqrt(2) (a difference of two frames carries sqrt(2) times the single-frame "
+        "temporal noise)",
+    ),
+    (
+        "noise_spatial_dn",
+        "spatial",
+        "Spatial (fixed-pattern) noise (DN): sqrt(total^2 - temporal^2)",
+    ),
+)
 REGION_TIP = (
     "Background: the clear-sky rectangle of the measurement config if there is one, else a "
     "41 x 41 px square around the tracked peak without the 7 x 7 box; raw camera pixels, "

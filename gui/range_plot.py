@@ -7,7 +7,7 @@ as a shaded band (the model's uncertainty) instead of a line.
 
 The status timer calls :meth:`RangePlot.show_live` 5 times a second; an unchanged live point or
 stop list is not set again (each ``setData`` repaints the whole plot, ~7 ms with its axes), and
-the axes are cached as pixmaps (:func:`gui.strip_chart.cache_axes`).
+the axes are cached as pixmaps (:func:`snrmon.gui.strip_chart.cache_axes`).
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
-from acquisition.stops.table import StopRow
-from gui.strip_chart import cache_axes
-from gui.theme import CAMERA_COLORS, MODEL_COLORS
+from snrmon.acquisition.stops.table import StopRow
+from snrmon.gui.strip_chart import cache_axes
+from snrmon.gui.theme import CAMERA_COLORS, MODEL_COLORS
 
 Curves = Mapping[str, Sequence[np.ndarray]]
 CurveSource = Callable[[str], Curves | None]
@@ -71,9 +71,13 @@ class RangePlot(QWidget):
         self.errors = pg.ErrorBarItem(x=np.array([]), y=np.array([]), pen=pg.mkPen(colour))
         self.plot.addItem(self.errors)
         self.stops = self.plot.plot(
-            pen=None, symbol="s", symbolSize=8, symbolBrush=colour, symbolPen="k",
+            pen=None,
+            symbol="s",
+            symbolSize=8,
+            symbolBrush=colour,
+            symbolPen="k",
             name="stops (mean +/- error of the mean)",
-        )  # fmt: skip
+        )
         self.live_errors = pg.ErrorBarItem(x=np.array([]), y=np.array([]), pen=pg.mkPen("#ffffff"))
         self.plot.addItem(self.live_errors)
         self.live = self.plot.plot(

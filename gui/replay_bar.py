@@ -1,8 +1,8 @@
 """The replay toolbar: play/pause, step, a seek slider, the speed and where the replay is.
 
-Shown only when the console runs on a :class:`acquisition.replay.player.ReplayPlayer`. It only
-commands the player and shows its :class:`acquisition.replay.player.ReplayPosition`; the
-shortcuts live in :data:`gui.actions.ACTIONS` (menu "Replay").
+Shown only when the console runs on a :class:`snrmon.acquisition.replay.player.ReplayPlayer`. It
+only commands the player and shows its :class:`snrmon.acquisition.replay.player.ReplayPosition`; the
+shortcuts live in :data:`snrmon.gui.actions.ACTIONS` (menu "Replay").
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ from PySide6.QtCore import QRectF, Qt
 from PySide6.QtGui import QColor, QFont, QPainter, QPen
 from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
-from acquisition.engine.status import CameraStatus
+from snrmon.acquisition.engine.status import CameraStatus
 
 
 def box_pixels(pixels: np.ndarray, cx: int, cy: int, box_px: int) -> np.ndarray:

@@ -1,6 +1,6 @@
 """The always-visible status: rangefinder, GPS, each camera, recording (from one snapshot).
 
-Every value is a field of :class:`acquisition.runtime.session.SessionStatus`; the panel only
+Every value is a field of :class:`snrmon.acquisition.runtime.session.SessionStatus`; the panel only
 formats it,
 with units in the text and in each row's tooltip.
 """
@@ -11,7 +11,7 @@ import math
 
 from PySide6.QtWidgets import QFormLayout, QGroupBox, QLabel, QVBoxLayout, QWidget
 
-from acquisition.engine.status import SessionStatus
+from snrmon.acquisition.engine.status import SessionStatus
 
 
 def _fmt(value: float | None, fmt: str, unit: str) -> str:
@@ -124,8 +124,10 @@ class StatusPanel(QWidget):
             self._set("gps_fix", "--")
         else:
             sats = "--" if fix.sats is None else str(fix.sats)
-            self._set("gps_fix", f"{'fix' if fix.has_fix else 'no fix'} (q {fix.fix_quality}), "
-                      f"{sats} sats")  # fmt: skip
+            self._set(
+                "gps_fix",
+                f"{'fix' if fix.has_fix else 'no fix'} (q {fix.fix_quality}), {sats} sats",
+            )
         self._set("gps_range", _fmt(st.gps_range_m, ".1f", "m"))
         for cam, cs in st.cameras.items():
             f = cs.frames

@@ -7,7 +7,7 @@ import math
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QTableWidget, QTableWidgetItem
 
-from acquisition.stops.table import StopRow
+from snrmon.acquisition.stops.table import StopRow
 
 COLUMNS = (
     ("stop", "Stop number (M = marked by the operator)"),

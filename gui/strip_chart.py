@@ -1,8 +1,8 @@
 """One camera's strip chart: per-frame peak SNR (Eq. 4), its 100-frame running mean with a
 +/- one std band, and the model's prediction at the current range as a horizontal line.
 
-Every number is the session's (:meth:`acquisition.runtime.camera_pipeline.CameraPipeline.series`,
-rows of
+Every number is the session's
+(:meth:`snrmon.acquisition.runtime.camera_pipeline.CameraPipeline.series`, rows of
 t_host_ns, snr, running mean, running std, range_m); the chart only converts times to seconds
 before now and adds mean +/- std for the band's edges.
 
@@ -24,7 +24,7 @@ from PySide6.QtCore import QRectF, Qt
 from PySide6.QtGui import QPainter, QPolygonF
 from PySide6.QtWidgets import QGraphicsItem, QVBoxLayout, QWidget
 
-from gui.theme import MEAN_COLOR, MODEL_COLORS, SNR_COLOR
+from snrmon.gui.theme import MEAN_COLOR, MODEL_COLORS, SNR_COLOR
 
 WINDOW_S = 30.0
 
@@ -105,28 +105,32 @@ class StripChart(QWidget):
         legend = self.plot.addLegend(offset=(5, 5), labelTextSize="8pt")
         # mean - std along the times, then mean + std back: one closed polygon, outlined
         self.band = pg.PlotCurveItem(
-            pen=pg.mkPen(MEAN_COLOR, width=0.5), brush=pg.mkBrush(255, 211, 77, 50),
+            pen=pg.mkPen(MEAN_COLOR, width=0.5),
+            brush=pg.mkBrush(255, 211, 77, 50),
             fillLevel="enclosed",
-        )  # fmt: skip
+        )
         self.plot.addItem(self.band)
         self.snr_curve = DotsItem(SNR_COLOR, 3.0)
         self.plot.addItem(self.snr_curve)
         legend.addItem(
-            pg.PlotDataItem(pen=None, symbol="o", symbolSize=3, symbolPen=None,
-                            symbolBrush=SNR_COLOR),
+            pg.PlotDataItem(
+                pen=None, symbol="o", symbolSize=3, symbolPen=None, symbolBrush=SNR_COLOR
+            ),
             "per-frame SNR",
-        )  # fmt: skip
+        )
         self.mean_curve = self.plot.plot(pen=pg.mkPen(MEAN_COLOR, width=2), name="100-frame mean")
         cache_axes(self.plot)
         self._model_shown: tuple[str, float] | None = None
         dash = pg.mkPen(MODEL_COLORS[0], width=2, style=Qt.PenStyle.DashLine)
         self.model_line = pg.InfiniteLine(
-            angle=0, movable=False, pen=dash,
+            angle=0,
+            movable=False,
+            pen=dash,
             label="model {value:.1f}",
             # Left-aligned just above the line: centred (pyqtgraph's default for a horizontal
             # line) near the left edge, the label's first characters fell off the plot.
             labelOpts={"position": 0.02, "anchors": [(0, 1), (0, 1)], "color": MODEL_COLORS[0]},
-        )  # fmt: skip
+        )
         self.model_line.setVisible(False)
         self.plot.addItem(self.model_line)
         self.setToolTip(

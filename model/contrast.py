@@ -13,7 +13,7 @@ infinite path of the model's own atmosphere; then dLq = tau (L_t - S_air) as bef
 corrected the background with the measured sky (its path-radiance correction, sections 8-9);
 using the sky temperature for the path as well understates the contrast when the air is warmer
 than the sky (7-10 % with a 280 K sky and 288 K air in the MWIR). tau is the contrast-weighted
-transmission (:meth:`model.atmosphere.Atmosphere.signal_transmission`).
+transmission (:meth:`snrmon.model.atmosphere.Atmosphere.signal_transmission`).
 
 Electrons: the contrast radiance times A_opt t_int and the photon response tau_o tau_cf QE,
 integrated over the band (48-node Gauss-Legendre), per unit (target area / range^2): multiply
@@ -28,11 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.atmosphere import Atmosphere, band_key, resolve_atmosphere
-from model.detector import spectral_grid
-from model.radiometry import spectral_photon_radiance
-from model.sensor import Sensor
-from model.target import Target
+from snrmon.model.atmosphere import Atmosphere, band_key, resolve_atmosphere
+from snrmon.model.detector import spectral_grid
+from snrmon.model.radiometry import spectral_photon_radiance
+from snrmon.model.sensor import Sensor
+from snrmon.model.target import Target
 
 
 def _check_temp(what: str, value) -> float:
@@ -63,9 +63,11 @@ class Contrast:
         given (scalar or an array of samples, shape (n,)) replaces the chain's value: the
         result is then (n, n_ranges)."""
         sampled = not (
-            target_temp_k is None and air_temp_k is None and sky_temp_k is None
+            target_temp_k is None
+            and air_temp_k is None
+            and sky_temp_k is None
             and np.ndim(tau_scale) == 0
-        )  # fmt: skip
+        )
         wl = self.wavelengths_um
 
         def rad(t, default):

@@ -13,7 +13,7 @@ and Pd(R) is its mean over phases uniform in the cell: the PVF's phase distribut
 average alone (a point that lands on a pixel corner is detected later). The target is the
 corrected small curve's (the real PSF, a square of the small dimension). The detection range is
 where Pd falls through ``pd_goal``; its confidence comes from the Monte-Carlo draws of the
-model's inputs (:mod:`model.montecarlo`): the draws scale the pixel means, each draw gives a
+model's inputs (:mod:`snrmon.model.montecarlo`): the draws scale the pixel means, each draw gives a
 detection range, and the 16th-84th percentiles bound it.
 """
 
@@ -25,10 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import ndtr, ndtri
 
-from model.footprint import phase_grid, pixel_patterns
-from model.sensor import Sensor
-from model.snr import predict
-from model.target import Target
+from snrmon.model.footprint import phase_grid, pixel_patterns
+from snrmon.model.sensor import Sensor
+from snrmon.model.snr import predict
+from snrmon.model.target import Target
 
 
 @dataclass(frozen=True)
@@ -84,7 +84,7 @@ def detection(
     **predict_kwargs,
 ) -> Detection:
     """Pd(R) and the detection range (module docstring); ``n_pixels`` defaults to the whole
-    frame, ``predict_kwargs`` go to :func:`model.snr.predict` (atmosphere, sky, PSF...)."""
+    frame, ``predict_kwargs`` go to :func:`snrmon.model.snr.predict` (atmosphere, sky, PSF...)."""
     if not 0.0 < pd_goal < 1.0:
         raise ValueError(f"Pd goal must be in (0, 1), got {pd_goal!r}")
     r = np.sort(np.atleast_1d(np.asarray(ranges_m, float)))

@@ -6,7 +6,8 @@ F-number, projected solid angle pi / (4F^2 + 1) (exact for a cone of half-angle
 atan(1/2F)); target signals use A_opt x solid angle (Eq. 2, paraxial pi / 4F^2 per detector
 area). The cold shield (photon detector) fills the rest of the hemisphere. For the uncooled
 bolometer these are EQUIVALENT electrons (absorbed photons x absorptance ``qe``), the scale on
-which :mod:`model.noise` expresses its NETD-derived noise; it has no cold shield or dark current.
+which :mod:`snrmon.model.noise` expresses its NETD-derived noise; it has no cold shield or dark
+current.
 """
 
 from __future__ import annotations
@@ -16,9 +17,13 @@ import math
 
 import numpy as np
 
-from model.constants import Q_E
-from model.radiometry import band_nodes, spectral_photon_radiance, spectral_photon_radiance_dt
-from model.sensor import Sensor
+from snrmon.model.constants import Q_E
+from snrmon.model.radiometry import (
+    band_nodes,
+    spectral_photon_radiance,
+    spectral_photon_radiance_dt,
+)
+from snrmon.model.sensor import Sensor
 
 N_SPECTRAL = 48
 

@@ -52,8 +52,8 @@ import math
 import numpy as np
 from scipy.special import gammaln, ndtr
 
-from model.footprint import phase_grid, pixel_patterns
-from model.psf import Psf
+from snrmon.model.footprint import phase_grid, pixel_patterns
+from snrmon.model.psf import Psf
 
 _X_STEP = 0.1  # integration step of E[max] in noise sigmas (trapezoid: < 1e-5 sigma error)
 _TAIL = 6.5  # sigmas: F(top - 6.5) < 1e-10, and 1 - F(max(top, 0) + 6.5) < 1e-8
@@ -255,9 +255,10 @@ def expected_eq4(
     over those frames. 100 frames of a hover do not sample the cell evenly; over the phases
     they sampled, the expectation is of what those frames read."""
     amp, d, s = np.broadcast_arrays(
-        np.asarray(amplitude, float), np.asarray(target_square_px, float),
+        np.asarray(amplitude, float),
+        np.asarray(target_square_px, float),
         np.asarray(target_sigma_px, float),
-    )  # fmt: skip
+    )
     if np.any(~np.isfinite(amp)) or np.any(amp < 0):
         raise ValueError(f"signal amplitude must be >= 0, got {amplitude!r}")
     base_half = search_px // 2 + box_px // 2 + 1
@@ -276,14 +277,22 @@ def expected_eq4(
             key = (float(d[idx]), float(s[idx]), half)
             if key not in cache:
                 cache[key] = pixel_patterns(
-                    psf, fill_factor, ph_x, ph_y, half_size_px=half,
-                    target_square_px=key[0], target_sigma_px=key[1],
-                )  # fmt: skip
+                    psf,
+                    fill_factor,
+                    ph_x,
+                    ph_y,
+                    half_size_px=half,
+                    target_square_px=key[0],
+                    target_sigma_px=key[1],
+                )
             try:
                 readings = readings_of_patterns(
-                    float(amp[idx]) * cache[key], search_px=search_px, box_px=box_px,
-                    ddof=ddof, background=background,
-                )  # fmt: skip
+                    float(amp[idx]) * cache[key],
+                    search_px=search_px,
+                    box_px=box_px,
+                    ddof=ddof,
+                    background=background,
+                )
                 break
             except PatternTooSmallError:
                 if half >= MAX_HALF_PX:

@@ -1,18 +1,18 @@
 """The target's footprint on the pixels: a square of side D (or the paper's Gaussian of sigma_t)
 convolved with the PSF, integrated over each pixel's active area (paper Eq. 2 and section 8).
 
-Conventions are :mod:`model.pvf`'s: lengths in pixel pitches, the active detector a centred
+Conventions are :mod:`snrmon.model.pvf`'s: lengths in pixel pitches, the active detector a centred
 square of side a = sqrt(FF) (FF an AREA fill factor), every PSF of unit energy, the target
 normalised to the same total flux, phases uniform over one pixel cell.
 
 * :func:`average_pvf_square`: the phase-averaged ensquared energy of a D x D square target
   convolved with the PSF. It is continuous in D: for D -> 0 it is the point-source average PVF
-  of :func:`model.pvf.average_pvf`; for a target that covers the pixel and the PSF's core it
+  of :func:`snrmon.model.pvf.average_pvf`; for a target that covers the pixel and the PSF's core it
   tends to FF / D^2, so that ``point signal x PVF`` becomes the resolved, pixel-filling radiance
   formula of the paper (section 2) exactly. This replaces the paper's switch between the two.
 * :func:`pixel_patterns`: the fraction of the energy on every pixel of a (2h+1)^2 window for a
   grid of sub-pixel phases at once (square or Gaussian target), used by the expected Eq. (4)
-  reading (:mod:`model.eq4`) and the PSF estimate from flight data.
+  reading (:mod:`snrmon.model.eq4`) and the PSF estimate from flight data.
 
 Numerics: the OTF is integrated on a Cartesian frequency grid (trapezoid over the quadrant
 f >= 0 with the even multiplicities), which by Poisson summation is exact up to aliasing at the
@@ -29,7 +29,7 @@ import math
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-from model.psf import Psf
+from snrmon.model.psf import Psf
 
 _TABLE_PERIOD_PX = 256.0
 _PATTERN_PERIOD_PX = 128.0
@@ -144,7 +144,8 @@ def pixel_patterns(
     rows = y, columns = x; the target's centroid at (dx, dy) pitches from the middle pixel's
     centre. The target is a square of side ``target_square_px`` and/or a Gaussian of
     ``target_sigma_px`` (0: a point). Averaged over phases uniform in the cell, the middle pixel
-    gives :func:`average_pvf_square` (or :func:`model.pvf.average_pvf` for a Gaussian target)."""
+    gives :func:`average_pvf_square` (or :func:`snrmon.model.pvf.average_pvf` for a Gaussian
+    target)."""
     ff = _check_ff(fill_factor)
     h = int(half_size_px)
     if h < 0:

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model.constants import C, H
+from snrmon.model.constants import C, H
 
 
 @dataclass(frozen=True, eq=False)

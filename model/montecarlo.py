@@ -1,8 +1,8 @@
 """The model's uncertainty as a Monte-Carlo band over its inputs (paper section 9, Fig. 12).
 
 Each draw perturbs the inputs of the corrected curves and recomputes the SNR through the same
-chain (:mod:`model.contrast`, :mod:`model.noise`, :mod:`model.footprint`); the band is the
-16th-84th percentile of the draws at each range (a one-sigma equivalent that need not be
+chain (:mod:`snrmon.model.contrast`, :mod:`snrmon.model.noise`, :mod:`snrmon.model.footprint`); the
+band is the 16th-84th percentile of the draws at each range (a one-sigma equivalent that need not be
 symmetric). Inputs and their spreads (:class:`InputUncertainty`; one sigma unless stated):
 
 * target outline: area +/- 3 % (section 9), so the characteristic dimension +/- 1.5 %;
@@ -29,13 +29,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.contrast import Contrast
-from model.footprint import average_pvf_square
-from model.noise import noise_breakdown
-from model.psf import Psf
-from model.pvf import average_pvf, solve_blur_sigma
-from model.radiometry import spectral_photon_radiance, spectral_photon_radiance_dt
-from model.sensor import Sensor
+from snrmon.model.contrast import Contrast
+from snrmon.model.footprint import average_pvf_square
+from snrmon.model.noise import noise_breakdown
+from snrmon.model.psf import Psf
+from snrmon.model.pvf import average_pvf, solve_blur_sigma
+from snrmon.model.radiometry import spectral_photon_radiance, spectral_photon_radiance_dt
+from snrmon.model.sensor import Sensor
 
 BAND_QUANTILES = (0.16, 0.84)
 
@@ -55,8 +55,15 @@ class InputUncertainty:
     seed: int = 2019
 
     def __post_init__(self) -> None:
-        for name in ("outline_area", "target_temp_k", "sky_radiance", "air_temp_k",
-                     "transmission", "psf_pvf", "size_rule"):  # fmt: skip
+        for name in (
+            "outline_area",
+            "target_temp_k",
+            "sky_radiance",
+            "air_temp_k",
+            "transmission",
+            "psf_pvf",
+            "size_rule",
+        ):
             v = getattr(self, name)
             if not (0.0 <= v < 100.0):
                 raise ValueError(f"input uncertainty {name} must be >= 0, got {v!r}")
@@ -67,7 +74,7 @@ class InputUncertainty:
 def widened_psf(psf: Psf, fill_factor: float, pvf_drop: float) -> Psf:
     """The PSF blurred (Gaussian, or Airy/real base (x) Gaussian) until its point-source
     average PVF is (1 - pvf_drop) times ``psf``'s: the MTF error of the band."""
-    from model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf
+    from snrmon.model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf
 
     target = (1.0 - pvf_drop) * average_pvf(psf, fill_factor)
     if isinstance(psf, GaussianPsf):

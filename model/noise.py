@@ -6,7 +6,7 @@ noise = sqrt(electrons); the cold shield's (tiny) emission is counted with the b
 Uncooled bolometer: photon shot noise does not describe it (Johnson, 1/f and thermal-fluctuation
 noise dominate), so its temporal noise is taken from its NETD: noise_e = NETD x d(electrons)/dT
 at the NETD reference scene temperature (300 K), in the equivalent-electron scale of
-:mod:`model.detector`. The breakdown then reports the (negligible) photon shot noise as
+:mod:`snrmon.model.detector`. The breakdown then reports the (negligible) photon shot noise as
 background/lens and the rest, sqrt(temporal^2 - shot^2), as "read". Its model NETD therefore
 equals the specification at 300 K by construction.
 
@@ -20,14 +20,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from model.detector import (
+from snrmon.model.detector import (
     cold_shield_electrons,
     dark_electrons,
     extended_responsivity_e_per_k,
     lens_electrons,
     scene_electrons,
 )
-from model.sensor import Sensor
+from snrmon.model.sensor import Sensor
 
 CLUTTER_SPATIAL_FACTOR = {"none": 0.0, "low": 1.0, "medium": 2.5, "high": 4.0}
 """Spatial noise as a multiple of the temporal noise per clutter category (chosen: section 6

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model.snr import SnrPrediction
+from snrmon.model.snr import SnrPrediction
 
 _STYLE = {
     "small": ("tab:blue", "-", "Model SNR small"),
@@ -43,8 +43,16 @@ def plot_prediction(
     ):
         if r.min() <= rt <= r.max():
             ax.axvline(rt, color="grey", ls=":", lw=1)
-            ax.text(rt, 0.98, f" {name} unresolved", transform=ax.get_xaxis_transform(),
-                    rotation=90, va="top", fontsize=7, color="grey")  # fmt: skip
+            ax.text(
+                rt,
+                0.98,
+                f" {name} unresolved",
+                transform=ax.get_xaxis_transform(),
+                rotation=90,
+                va="top",
+                fontsize=7,
+                color="grey",
+            )
     if measured is not None:
         ax.plot(measured[0], measured[1], "ko-", label="Measured")
     ax.set_yscale("log")

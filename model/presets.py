@@ -2,8 +2,8 @@
 
 Built-in names are the files in ``model/presets/`` (sensors "mwir", "lwir"; targets "uav1",
 "uav2"); anything else is read as a path. Sensor TOML: a ``[sensor]`` table with the fields of
-:class:`model.sensor.Sensor`; target TOML: ``[target]`` with those of
-:class:`model.target.Target` (``temp_c`` a table by band or one number for all bands);
+:class:`snrmon.model.sensor.Sensor`; target TOML: ``[target]`` with those of
+:class:`snrmon.model.target.Target` (``temp_c`` a table by band or one number for all bands);
 atmosphere TOML: ``[atmosphere]`` with ``model`` (a standard atmosphere of the power-law table),
 ``transmission`` (constant), ``aerosol_beta_per_km``, ``air_temp_k``, and optionally
 ``modtran_file`` or ``csv_file`` (relative to the TOML) with ``path_length_m``.
@@ -16,8 +16,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from model.sensor import DETECTOR_KINDS, REAL_PSF_KINDS, Sensor
-from model.target import Target
+from snrmon.model.sensor import DETECTOR_KINDS, REAL_PSF_KINDS, Sensor
+from snrmon.model.target import Target
 
 PRESET_DIR = Path(__file__).with_name("presets")
 SENSOR_PRESETS = ("mwir", "lwir")
@@ -215,10 +215,10 @@ def load_target(name_or_path: str) -> Target:
 
 
 def load_atmosphere(path_like, band_um: tuple[float, float], path_length_m: float | None = None):
-    """An :class:`model.atmosphere.Atmosphere` from a TOML, a MODTRAN tape7 or a CSV file.
+    """An :class:`snrmon.model.atmosphere.Atmosphere` from a TOML, a MODTRAN tape7 or a CSV file.
     tape7 and CSV files describe one path: ``path_length_m`` is required for them."""
-    from model.atmosphere import Atmosphere, default_atmosphere
-    from model.modtran import read_spectral_csv, read_tape7
+    from snrmon.model.atmosphere import Atmosphere, default_atmosphere
+    from snrmon.model.modtran import read_spectral_csv, read_tape7
 
     p = Path(path_like)
     if not p.is_file():

@@ -2,7 +2,7 @@
 
 Frequencies are in cycles per pixel pitch; lengths in pitches. Every PSF is normalised to unit
 energy (OTF(0) = 1). Each PSF splits into ``components()``: (weight, otf, cutoff) triples whose
-OTF is smooth on [0, cutoff] and ~0 beyond, so quadratures in :mod:`model.pvf` stay accurate
+OTF is smooth on [0, cutoff] and ~0 beyond, so quadratures in :mod:`snrmon.model.pvf` stay accurate
 (a polychromatic Airy has one cutoff per wavelength).
 
 * :class:`AiryPsf`: diffraction of a clear circular aperture, q = F lambda / pitch; monochromatic

@@ -26,7 +26,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import ndtr
 
-from model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf, Psf
+from snrmon.model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf, Psf
 
 _SQ2PI = math.sqrt(2.0 * math.pi)
 _N_R, _N_THETA = 96, 24
@@ -185,7 +185,7 @@ def pixel_energy_fractions(
         fx = ndtr((k - dx_px + half) / s) - ndtr((k - dx_px - half) / s)
         fy = ndtr((k - dy_px + half) / s) - ndtr((k - dy_px - half) / s)
         return np.outer(fy, fx)
-    from model.footprint import pixel_patterns
+    from snrmon.model.footprint import pixel_patterns
 
     return pixel_patterns(psf, ff, dx_px, dy_px, half_size_px=h, target_sigma_px=st)[0, 0]
 

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from model.constants import C2, SIGMA_SB, C, H
+from snrmon.model.constants import C2, SIGMA_SB, C, H
 
 _C1 = 2.0 * H * C * C  # 2hc^2 [W m^2 sr^-1]
 

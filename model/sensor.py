@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf, Psf
+from snrmon.model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf, Psf
 
 DETECTOR_KINDS = ("photon", "bolometer")
 REAL_PSF_KINDS = ("airy", "gaussian", "airy+gaussian")
@@ -112,7 +112,7 @@ def _diffraction_psf(f_number: float, pitch_um: float, band_um: tuple[float, flo
 
 @functools.lru_cache(maxsize=32)
 def _real_psf(sensor: Sensor) -> Psf:
-    from model.pvf import solve_blur_sigma
+    from snrmon.model.pvf import solve_blur_sigma
 
     airy = sensor.diffraction_psf()
     if sensor.real_psf == "airy":

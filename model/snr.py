@@ -2,14 +2,14 @@
 Eq. (4) is expected to read.
 
 Signal (Eq. 2), in photons over the band through tau_optics tau_cold_filter QE(lambda): the
-contrast radiance of :mod:`model.contrast` (separate sky and air temperatures, the
+contrast radiance of :mod:`snrmon.model.contrast` (separate sky and air temperatures, the
 contrast-weighted transmission) over the target's area A_t at range R gives the point-source
 contrast S_pt = A_opt t_int A_t / R^2 integral tau dLq resp (PVF = 1); the pixel's share of it
 depends on the geometry:
 
 * ``geometry="square"`` (default, continuous): the target is a square of side D = size / (R
   IFOV) pixels convolved with the PSF and the PVF is its phase-averaged ensquared energy
-  (:func:`model.footprint.average_pvf_square`) at EVERY range: S_e = S_pt x PVF(D). It is the
+  (:func:`snrmon.model.footprint.average_pvf_square`) at EVERY range: S_e = S_pt x PVF(D). It is the
   point-source average PVF for D -> 0 and FF / D^2 for D >> 1, where S_e becomes the paper's
   pixel-filling radiance A_opt t_int FF IFOV^2 dLq exactly; in between it has no jump.
 * ``geometry="paper"``: the paper's switched curves: resolved (D >= 1) pixel-filling radiance,
@@ -22,8 +22,8 @@ over the band) / corrected (the sensor's real PSF, or one measured from flight d
 SNR = S_e / sqrt(temporal^2 + spatial^2) (Eq. 3), temporal from Eq. 1 against the sky.
 
 ``expected_eq4`` is the mean of what the Eq. (4) estimator reads on the corrected small curve's
-target (:mod:`model.eq4`: peak-search bias, the rim's share of the PSF, the 24-pixel std); the
-band (``lower``/``upper``) is the Monte-Carlo band of :mod:`model.montecarlo`.
+target (:mod:`snrmon.model.eq4`: peak-search bias, the rim's share of the PSF, the 24-pixel std);
+the band (``lower``/``upper``) is the Monte-Carlo band of :mod:`snrmon.model.montecarlo`.
 """
 
 from __future__ import annotations
@@ -34,17 +34,17 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-from model.contrast import contrast
-from model.detector import spectral_grid
-from model.eq4 import expected_eq4 as _expected_eq4
-from model.footprint import average_pvf_square
-from model.montecarlo import InputUncertainty, McDraws, draw_corrected
-from model.noise import NoiseBreakdown, noise_breakdown
-from model.psf import Psf
-from model.pvf import average_pvf, average_pvf_vs_target_sigma
-from model.sensor import Sensor
-from model.target import Target
-from model.uncertainty import UncertaintyBudget
+from snrmon.model.contrast import contrast
+from snrmon.model.detector import spectral_grid
+from snrmon.model.eq4 import expected_eq4 as _expected_eq4
+from snrmon.model.footprint import average_pvf_square
+from snrmon.model.montecarlo import InputUncertainty, McDraws, draw_corrected
+from snrmon.model.noise import NoiseBreakdown, noise_breakdown
+from snrmon.model.psf import Psf
+from snrmon.model.pvf import average_pvf, average_pvf_vs_target_sigma
+from snrmon.model.sensor import Sensor
+from snrmon.model.target import Target
+from snrmon.model.uncertainty import UncertaintyBudget
 
 CURVES = ("small", "large", "small_corrected", "large_corrected")
 GEOMETRIES = ("square", "paper")
@@ -164,10 +164,17 @@ def target_contrast_electrons(
 ) -> float:
     """Contrast electrons per frame that the whole target puts on the focal plane (point-source
     equivalent, PVF = 1, no fill factor): A_opt t_int A_t / R^2 integral dLq resp dlambda with
-    the contrast of :mod:`model.contrast`. Spread it with :mod:`model.footprint` to get pixels."""
+    the contrast of :mod:`snrmon.model.contrast`. Spread it with :mod:`snrmon.model.footprint` to
+    get pixels."""
     r = _check_ranges(range_m)
-    c = contrast(sensor, target, r, atmosphere=atmosphere, sky_temp_k=background_temp_k,
-                 air_temp_k=air_temp_k)  # fmt: skip
+    c = contrast(
+        sensor,
+        target,
+        r,
+        atmosphere=atmosphere,
+        sky_temp_k=background_temp_k,
+        air_temp_k=air_temp_k,
+    )
     return float(c.intensity_e()[0] * target.area_m2(size) / r[0] ** 2)
 
 
@@ -189,21 +196,23 @@ def expected_reading(
     nodes: int = _EXPECTED_NODES,
     phases_xy=None,
 ) -> np.ndarray:
-    """:func:`model.eq4.expected_eq4` along a range grid (amplitude = point contrast / noise,
+    """:func:`snrmon.model.eq4.expected_eq4` along a range grid (amplitude = point contrast / noise,
     d_px the target's side in pixels): exact at up to ``nodes`` log-spaced ranges, PCHIP in
     log-log between them (the reading is smooth in range). ``phases_xy``: over these observed
     sub-pixel phases instead of the whole cell (``expected_eq4``)."""
     r = np.asarray(ranges_m, float)
 
     def at(idx):
-        kw = ({"target_square_px": d_px[idx]} if geometry == "square"
-              else {"target_sigma_px": target_sigma_per_size * d_px[idx]})  # fmt: skip
+        kw = (
+            {"target_square_px": d_px[idx]}
+            if geometry == "square"
+            else {"target_sigma_px": target_sigma_per_size * d_px[idx]}
+        )
         # A target no brighter than its background (the contrast can cross zero at long range
         # where a warm sky's path radiance catches up) gives Eq. (4) no peak of its own: the
         # estimator reads the noise, as for a zero contrast.
         amp = np.clip(amplitude[idx], 0.0, None)
-        return _expected_eq4(psf, fill_factor, amp, background="target", phases_xy=phases_xy,
-                             **kw)  # fmt: skip
+        return _expected_eq4(psf, fill_factor, amp, background="target", phases_xy=phases_xy, **kw)
 
     if r.size <= nodes:
         return at(np.arange(r.size))
@@ -241,11 +250,11 @@ def predict(
     ``atmosphere``: None or "default" (built-in US Std 1976 power law), "none", a number (constant
     transmission), an :class:`Atmosphere` or a file path. ``background_temp_k``: the measured sky
     temperature (the paper's path-radiance correction); ``air_temp_k``: the air along the path
-    (default the atmosphere's). ``spatial_noise``: see :func:`model.noise.spatial_noise_e`.
+    (default the atmosphere's). ``spatial_noise``: see :func:`snrmon.model.noise.spatial_noise_e`.
     ``corrected_psf``: the real PSF (default the sensor's). ``expected``: compute the expected
     Eq. (4) reading, over the sub-pixel phases ``phases_xy`` (N, 2) that a stop's frames
-    sampled if given (:func:`model.eq4.expected_eq4`), else over the whole cell; ``band``: the
-    Monte-Carlo band (``inputs``, default :class:`model.montecarlo.InputUncertainty`).
+    sampled if given (:func:`snrmon.model.eq4.expected_eq4`), else over the whole cell; ``band``:
+    the Monte-Carlo band (``inputs``, default :class:`snrmon.model.montecarlo.InputUncertainty`).
     """
     ranges = _check_ranges(ranges_m)
     if geometry not in GEOMETRIES:
@@ -253,8 +262,14 @@ def predict(
     if not (target_sigma_per_size >= 0 and math.isfinite(target_sigma_per_size)):
         raise ValueError(f"target_sigma_per_size must be >= 0, got {target_sigma_per_size!r}")
     budget = uncertainty or UncertaintyBudget()
-    c = contrast(sensor, target, ranges, atmosphere=atmosphere, sky_temp_k=background_temp_k,
-                 air_temp_k=air_temp_k)  # fmt: skip
+    c = contrast(
+        sensor,
+        target,
+        ranges,
+        atmosphere=atmosphere,
+        sky_temp_k=background_temp_k,
+        air_temp_k=air_temp_k,
+    )
     noise = noise_breakdown(sensor, c.sky_temp_k, spatial_noise)
     denom = noise.total
     intensity = c.intensity_e()
@@ -288,14 +303,24 @@ def predict(
     expected_curve, draws = None, None
     if expected:
         expected_curve = expected_reading(
-            real, ff, ranges, point["small"] / denom, d_of["small"], geometry=geometry,
-            target_sigma_per_size=target_sigma_per_size, phases_xy=phases_xy,
-        )  # fmt: skip
+            real,
+            ff,
+            ranges,
+            point["small"] / denom,
+            d_of["small"],
+            geometry=geometry,
+            target_sigma_per_size=target_sigma_per_size,
+            phases_xy=phases_xy,
+        )
     if band:
         draws = draw_corrected(
-            sensor, c, {s: target.size_m(s) for s in ("small", "large")}, real, spatial_noise,
+            sensor,
+            c,
+            {s: target.size_m(s) for s in ("small", "large")},
+            real,
+            spatial_noise,
             inputs or InputUncertainty(),
-        )  # fmt: skip
+        )
         for name in ("small_corrected", "large_corrected"):
             lo, hi = draws.band(name)
             # the draws are of the square geometry: as relative spreads about their own nominal

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from model.constants import ZERO_C_K
+from snrmon.model.constants import ZERO_C_K
 
 SIZES = ("small", "large")
 

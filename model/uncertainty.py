@@ -3,8 +3,8 @@
 Relative (1-sigma-like) uncertainties, defaults from section 9: target outline 3 % (area and
 radiometry), path radiance 5 % (of the measured background radiance), real MTF 5 %, target-size
 blur 10 %; radiometry (blackbody calibration, spectral) 2 % and transmission (actual vs
-modelled) 3 %, the spreads of the Monte-Carlo band (:mod:`model.montecarlo`); they were 0 before
-issue 15 and left the band blind to both. Outline, radiometry and transmission scale the
+modelled) 3 %, the spreads of the Monte-Carlo band (:mod:`snrmon.model.montecarlo`); they were 0
+before issue 15 and left the band blind to both. Outline, radiometry and transmission scale the
 signal directly. The path
 radiance term is propagated through the contrast: the signal is tau (L_target - L_background),
 so a fraction u of the background radiance moves the SNR by u L_bg / (L_t - L_bg) -- the
@@ -34,8 +34,14 @@ class UncertaintyBudget:
     combine: str = "rss"
 
     def __post_init__(self) -> None:
-        for name in ("target_outline", "path_radiance", "mtf", "target_size_blur",
-                     "radiometry", "transmission"):  # fmt: skip
+        for name in (
+            "target_outline",
+            "path_radiance",
+            "mtf",
+            "target_size_blur",
+            "radiometry",
+            "transmission",
+        ):
             v = getattr(self, name)
             if not (0.0 <= v < 10.0):
                 raise ValueError(f"uncertainty {name} must be a fraction >= 0, got {v!r}")

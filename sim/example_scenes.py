@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import dataclasses
 
-from sim.noise import floor_noise_for
-from sim.scene import SceneConfig, TargetSignal
+from snrmon.sim.noise import floor_noise_for
+from snrmon.sim.scene import SceneConfig, TargetSignal
 
 PHANTOM_SMALL_M = 0.157
 

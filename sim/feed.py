@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.flight import CameraPointing, FlightConfig, FlightPlan
-from sim.scene import FrameTruth, SceneConfig, SceneRenderer, TargetState
+from snrmon.sim.flight import CameraPointing, FlightConfig, FlightPlan
+from snrmon.sim.scene import FrameTruth, SceneConfig, SceneRenderer, TargetState
 
 
 class FlightCameraFeed:

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta
 from pathlib import Path
 
-from sim.devices.nmea_sim import gga_rmc
-from sim.flight import FlightPlan
+from snrmon.sim.devices.nmea_sim import gga_rmc
+from snrmon.sim.flight import FlightPlan
 
 FEET = 0.3048
 AIRDATA_HEADER = (

@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from sim.drone import GaussianSpread, TabulatedSpread
-from sim.scene import SceneConfig, TargetSignal
+from snrmon.sim.drone import GaussianSpread, TabulatedSpread
+from snrmon.sim.scene import SceneConfig, TargetSignal
 
 DEFAULT_SKY_TEMP_K = 280.0
 """The simulated clear sky's apparent temperature: a cold clear sky (the paper's LWIR sky read
@@ -32,7 +32,7 @@ def _airy_equivalent_sigma_px(sensor) -> float:
 
 
 def _energy_fractions(psf, fill_factor, dx, dy, target_sigma_px):
-    from model.pvf import pixel_energy_fractions
+    from snrmon.model.pvf import pixel_energy_fractions
 
     return pixel_energy_fractions(
         psf, dx, dy, half_size_px=3, fill_factor=fill_factor, target_sigma_px=target_sigma_px
@@ -62,9 +62,9 @@ def scene_config_from_model(
     of ``psf_sigma_px`` (default: the Airy-core equivalent 0.42 lambda F / pitch). Any other
     :class:`SceneConfig` field may be overridden by keyword.
     """
-    from model.detector import background_electrons
-    from model.noise import temporal_noise_e
-    from model.snr import target_contrast_electrons
+    from snrmon.model.detector import background_electrons
+    from snrmon.model.noise import temporal_noise_e
+    from snrmon.model.snr import target_contrast_electrons
 
     if size not in ("small", "large"):
         raise ValueError(f"target size must be 'small' or 'large', got {size!r}")
@@ -109,7 +109,7 @@ def scene_config_from_model(
 def blackbody_scene(config: SceneConfig, sensor, temp_k: float) -> SceneConfig:
     """``config`` looking into a uniform blackbody at ``temp_k`` (calibration captures): the
     model's background electrons at that temperature, through the same FPN and noise floor."""
-    from model.detector import background_electrons
+    from snrmon.model.detector import background_electrons
 
     if not temp_k > 0:
         raise ValueError(f"blackbody temperature must be > 0 K, got {temp_k}")

@@ -20,8 +20,8 @@ blur. The light of the far Airy wings, outside +/- ``reach_px`` (~3 % in the MWI
 rendered: spread over the hundreds of pixels it would reach, it is below a thousandth of the
 noise in any of them (and folding it back in would brighten the core by 3 %).
 
-:class:`TwinSpread` renders the drone's :class:`sim.silhouette.Silhouette` through the PRF at
-any range and sub-pixel phase (the renderer's spread protocol of :mod:`sim.drone`).
+:class:`TwinSpread` renders the drone's :class:`snrmon.sim.silhouette.Silhouette` through the PRF at
+any range and sub-pixel phase (the renderer's spread protocol of :mod:`snrmon.sim.drone`).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ import numpy as np
 from scipy.signal import fftconvolve
 from scipy.special import j1
 
-from sim.silhouette import Silhouette
+from snrmon.sim.silhouette import Silhouette
 
 TWIN_ABERRATION_PX = {"mwir": 0.57, "lwir": 0.10}
 """Gaussian aberration blur [px] of each twin camera (module docstring)."""
@@ -138,7 +138,7 @@ def contrast_weights(sensor, target_temp_k: float, sky_temp_k: float, n: int = 1
     """(wavelengths, weights): the band's midpoints and the target-minus-sky photon radiance
     through the camera's response (QE, optics) at each: the spectrum the Airy is averaged
     over (a warm drone against a cold sky is brighter at the band's long end)."""
-    from model.radiometry import spectral_photon_radiance
+    from snrmon.model.radiometry import spectral_photon_radiance
 
     lo, hi = float(sensor.band_um[0]), float(sensor.band_um[1])
     wl = lo + (np.arange(n) + 0.5) * (hi - lo) / n
@@ -155,14 +155,18 @@ def twin_optics(sensor, target_temp_k: float, sky_temp_k: float, aberration_px=N
     blur = TWIN_ABERRATION_PX.get(sensor.name, 0.0) if aberration_px is None else aberration_px
     wl, w = contrast_weights(sensor, target_temp_k, sky_temp_k)
     return TwinOptics(
-        float(sensor.f_number), float(sensor.pitch_um), float(sensor.fill_factor), float(blur),
-        wl, w,
-    )  # fmt: skip
+        float(sensor.f_number),
+        float(sensor.pitch_um),
+        float(sensor.fill_factor),
+        float(blur),
+        wl,
+        w,
+    )
 
 
 class TwinSpread:
     """The drone's silhouette through the twin's optics (the spread protocol of
-    :mod:`sim.drone`): ``fractions(dx, dy, size_px)`` with ``size_px`` the small dimension in
+    :mod:`snrmon.sim.drone`): ``fractions(dx, dy, size_px)`` with ``size_px`` the small dimension in
     pixels at the current range. One FFT convolution of the rasterised silhouette with the PRF
     per size (cached by 1 % steps, 3 % above 4 px) serves every phase: a phase is a strided
     read of it, rounded to 1/16 px (1/8 px once the drone spans 8 px, 1/4 px from 24 px)."""

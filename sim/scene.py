@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.drone import DronePatch, GaussianSpread, TabulatedSpread, drone_patch
-from sim.noise import (
+from snrmon.sim.drone import DronePatch, GaussianSpread, TabulatedSpread, drone_patch
+from snrmon.sim.noise import (
     FixedPattern,
     NoiseBank,
     fixed_pattern,
@@ -31,7 +31,7 @@ from sim.noise import (
     no_fixed_pattern,
     quantize_dn,
 )
-from sim.sky import CloudConfig, CloudField, Confuser, sky_electrons
+from snrmon.sim.sky import CloudConfig, CloudField, Confuser, sky_electrons
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ pods, legs) would be opened away and the segmented box would lose them.
 
 :meth:`Silhouette.coverage` rasterises it onto a fine grid (the fraction of each cell inside,
 exactly), which the renderer convolves with the camera's pixel response
-(:mod:`sim.optics`).
+(:mod:`snrmon.sim.optics`).
 """
 
 from __future__ import annotations
@@ -37,8 +37,12 @@ class Part:
 
     @property
     def edges(self) -> tuple[float, float, float, float]:
-        return (self.x_m - 0.5 * self.w_m, self.y_m - 0.5 * self.h_m,
-                self.x_m + 0.5 * self.w_m, self.y_m + 0.5 * self.h_m)  # fmt: skip
+        return (
+            self.x_m - 0.5 * self.w_m,
+            self.y_m - 0.5 * self.h_m,
+            self.x_m + 0.5 * self.w_m,
+            self.y_m + 0.5 * self.h_m,
+        )
 
     def intersection(self, other: Part) -> Part | None:
         a, b = self.edges, other.edges

@@ -1,10 +1,10 @@
 """The digital twin of one of the paper's cameras on the collection day: its own optics
-(:mod:`sim.optics`), the drone's outline (:mod:`sim.silhouette`), and the scenario's sky and air
-as two temperatures.
+(:mod:`snrmon.sim.optics`), the drone's outline (:mod:`snrmon.sim.silhouette`), and the scenario's
+sky and air as two temperatures.
 
 Owns :class:`Scenario` (every input of the simulated day that the console must not be told:
 the apparent sky temperature, the air temperature along the path, the twin's aberration) and
-:func:`twin_scene_config`, the :class:`sim.scene.SceneConfig` of one camera:
+:func:`twin_scene_config`, the :class:`snrmon.sim.scene.SceneConfig` of one camera:
 
 * the sky: the model's detector chain (``model.detector.background_electrons``) at the sky
   temperature, what a calibrated camera measures as the background;
@@ -21,10 +21,10 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-from sim.from_model import DEFAULT_SKY_TEMP_K, scene_config_from_model
-from sim.optics import TWIN_ABERRATION_PX, TwinSpread, twin_optics
-from sim.scene import SceneConfig
-from sim.silhouette import silhouette_for
+from snrmon.sim.from_model import DEFAULT_SKY_TEMP_K, scene_config_from_model
+from snrmon.sim.optics import TWIN_ABERRATION_PX, TwinSpread, twin_optics
+from snrmon.sim.scene import SceneConfig
+from snrmon.sim.silhouette import silhouette_for
 
 DEFAULT_AIR_TEMP_K = 288.15
 """The air along the path (US Standard 1976 sea level, the model's own default)."""
@@ -59,7 +59,7 @@ class Scenario:
 def twin_scene_config(sensor, target, scenario: Scenario, **overrides) -> SceneConfig:
     """The twin of ``sensor`` (``model.presets.load_sensor``) watching ``target`` fly against
     the scenario's sky; any :class:`SceneConfig` field may be overridden by keyword."""
-    from model.atmosphere import band_key
+    from snrmon.model.atmosphere import band_key
 
     t_target = target.temp_k(band_key(sensor.band_um))
     optics = twin_optics(sensor, t_target, scenario.sky_temp_k, scenario.blur_px(sensor.name))

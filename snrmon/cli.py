@@ -75,13 +75,31 @@ def _add_common(p: argparse.ArgumentParser, top: bool) -> None:
     # A subcommand that defines one of these itself keeps its own.
     g = p.add_argument_group("logging")
     for flags, kw in (
-        (("-v", "--verbose"), {"action": "count", "default": 0,
-         "help": "more on stderr: -v info, -vv debug (and tracebacks of errors)"}),
-        (("-q", "--quiet"), {"action": "store_true", "default": False,
-         "help": "errors only on stderr, no progress bars"}),
-        (("--log-file",), {"metavar": "FILE", "default": None,
-         "help": "also write the log (info, or debug with -vv) to FILE"}),
-    ):  # fmt: skip
+        (
+            ("-v", "--verbose"),
+            {
+                "action": "count",
+                "default": 0,
+                "help": "more on stderr: -v info, -vv debug (and tracebacks of errors)",
+            },
+        ),
+        (
+            ("-q", "--quiet"),
+            {
+                "action": "store_true",
+                "default": False,
+                "help": "errors only on stderr, no progress bars",
+            },
+        ),
+        (
+            ("--log-file",),
+            {
+                "metavar": "FILE",
+                "default": None,
+                "help": "also write the log (info, or debug with -vv) to FILE",
+            },
+        ),
+    ):
         if any(f in p._option_string_actions for f in flags):
             continue
         if not top:

@@ -6,7 +6,7 @@ errors only. Lines on stderr carry the one message prefix of every snrmon messag
 timestamps and thread names, whatever ``-q`` says: a field day's log is for reading afterwards.
 Python ``warnings`` (e.g. a simulator's baud budget) go through logging too.
 
-A session's own log beside its recording is :mod:`acquisition.record.session_log`.
+A session's own log beside its recording is :mod:`snrmon.acquisition.record.session_log`.
 """
 
 from __future__ import annotations

@@ -80,9 +80,15 @@ def status_progress(total_s: float | None, desc: str) -> Iterator[Callable[[floa
             if bar is None:
                 from tqdm import tqdm
 
-                bar = tqdm(total=total_s, unit="s", desc=desc, file=sys.stderr,
-                           bar_format="{desc}: {n:.0f}/{total_fmt} s |{bar}| {postfix}"
-                           if total_s else "{desc}: {n:.0f} s {postfix}")  # fmt: skip
+                bar = tqdm(
+                    total=total_s,
+                    unit="s",
+                    desc=desc,
+                    file=sys.stderr,
+                    bar_format="{desc}: {n:.0f}/{total_fmt} s |{bar}| {postfix}"
+                    if total_s
+                    else "{desc}: {n:.0f} s {postfix}",
+                )
             bar.n = min(elapsed_s, total_s) if total_s else elapsed_s
             bar.set_postfix_str(line, refresh=True)
         if time.monotonic() - last_plain[0] < PLAIN_EVERY_S:

@@ -48,7 +48,7 @@ def wait_until(predicate, timeout_s: float, what: str) -> None:
 def sensor_toml(path: Path, fps: float = 60.0) -> Path:
     """The LWIR preset, resized to the test cameras' format (W x H) at ``fps``: a sensor the
     model accepts for a simulated camera of this size."""
-    from model.presets import PRESET_DIR
+    from snrmon.model.presets import PRESET_DIR
 
     lines = []
     for line in (PRESET_DIR / "lwir.toml").read_text().splitlines():
@@ -84,9 +84,9 @@ def field_devices(
     ``lrf_hz`` and an NMEA GPS at a fixed point (its clock starting at ``gps_utc``; the
     simulator's fixed 2019 date by default). Yields (camera, rangefinder, gps); all are stopped
     on exit."""
-    from sim.devices.ldm_sim import LdmSimulator
-    from sim.devices.nmea_sim import NmeaSimulator
-    from sim.devices.shm_camera import ShmProducer
+    from snrmon.sim.devices.ldm_sim import LdmSimulator
+    from snrmon.sim.devices.nmea_sim import NmeaSimulator
+    from snrmon.sim.devices.shm_camera import ShmProducer
 
     producer = ShmProducer(ring, W, H, SpotOnNoise(seed), fps=fps, slots=16)
     producer.start()
@@ -118,7 +118,20 @@ def twin_recording(path: Path, *, stops: str, speed: float, hover_s: float = 4.0
     flight over ``stops`` (metres, comma-separated) as a session file."""
     from snrmon.cli import main
 
-    argv = ["hil", "--seed", "0", "--stops", stops, "--hover-s", str(hover_s),
-            "--speed", str(speed), "--out", str(path), "--json", "--quiet"]  # fmt: skip
+    argv = [
+        "hil",
+        "--seed",
+        "0",
+        "--stops",
+        stops,
+        "--hover-s",
+        str(hover_s),
+        "--speed",
+        str(speed),
+        "--out",
+        str(path),
+        "--json",
+        "--quiet",
+    ]
     assert main(argv) == 0
     return path

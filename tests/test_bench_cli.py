@@ -22,7 +22,7 @@ def test_bench_duration_must_be_positive(capsys):
 def test_acquisition_soak_rolls_its_recording_and_samples_memory(monkeypatch):
     """A run longer than a segment records in segments (an hour raw would fill the disk) and
     samples the resident memory along the way; the last segment replays."""
-    from benchmarks import bench_acquisition
+    from snrmon.benchmarks import bench_acquisition
 
     monkeypatch.setattr(bench_acquisition, "SEGMENT_S", 1.0)
     monkeypatch.setattr(bench_acquisition, "RSS_EVERY_S", 0.5)
@@ -38,8 +38,8 @@ def test_acquisition_soak_rolls_its_recording_and_samples_memory(monkeypatch):
 def test_tracking_real_summary_and_table_from_scored_runs():
     """The tracking-real benchmark's figures and table (the runs themselves take minutes on all
     33 clips: tests/acquisition/test_tracker_real.py scores a subset)."""
-    from benchmarks.bench_tracking_real import _summary, format_text
-    from benchmarks.real_clips import RunScore
+    from snrmon.benchmarks.bench_tracking_real import _summary, format_text
+    from snrmon.benchmarks.real_clips import RunScore
 
     runs = [
         RunScore("IR_DRONE_048", "right", (250, 160), 320, 0, 0.988, 0.191, 2, 0, 1, 4),

@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import pytest
 
-from model.presets import load_target
 from snrmon.cli import main
+from snrmon.model.presets import load_target
 from tests.helpers import strict_json, twin_recording
 
 UAV1 = load_target("uav1")
@@ -34,8 +34,16 @@ def close_stop(tmp_path_factory):
 @pytest.mark.slow
 def test_the_twins_drone_dimensions_from_its_close_stop(close_stop, capsys):
     capsys.readouterr()
-    argv = ["characterize", str(close_stop), "--camera", "mwir", "--stop", "0", "--json",
-            "--no-record"]  # fmt: skip
+    argv = [
+        "characterize",
+        str(close_stop),
+        "--camera",
+        "mwir",
+        "--stop",
+        "0",
+        "--json",
+        "--no-record",
+    ]
     assert main(argv) == 0
     out = strict_json(capsys.readouterr().out)
     assert out["range_m"] == pytest.approx(37.0, abs=1.0)

@@ -38,8 +38,23 @@ EXTRA = {
 OUTPUT_SUFFIX = {("model", "plot"): ".png", ("report",): ".pdf", ("calibrate",): ".npz"}
 # Commands whose samples above are complete: the error must name the very option under test.
 # A command added later is held to one line naming some argument it was given.
-STRICT = {"bench", "calibrate", "characterize", "demo", "devices", "doctor", "geo", "gui", "hil",
-          "listen", "measure", "model", "record", "replay", "report"}  # fmt: skip
+STRICT = {
+    "bench",
+    "calibrate",
+    "characterize",
+    "demo",
+    "devices",
+    "doctor",
+    "geo",
+    "gui",
+    "hil",
+    "listen",
+    "measure",
+    "model",
+    "record",
+    "replay",
+    "report",
+}
 
 
 def _leaves() -> list[tuple[tuple[str, ...], argparse.ArgumentParser]]:
@@ -175,8 +190,11 @@ def test_bad_arguments_exit_2_with_one_line(words, dest, case, samples, capsys):
         bad = "no-such-choice"
     elif action.type in (int, float):
         bad = "not-a-number"
-    elif action.type is not None and action.type is not str and getattr(action.type, "__name__",
-                                                                         "") != "Path":  # fmt: skip
+    elif (
+        action.type is not None
+        and action.type is not str
+        and getattr(action.type, "__name__", "") != "Path"
+    ):
         bad = "@@garbage@@"  # a custom parser (X,Y, STACK:TEMP_C, odd integers, ...)
     else:
         bad = bad_path  # a file, folder or free text: a path that cannot exist

@@ -71,10 +71,22 @@ def test_commands_print_json_only_through_the_strict_helper():
 
 
 def test_strict_json_has_no_nan_and_plain_types():
-    obj = {"a": math.nan, "b": [np.float32(1.5), np.inf, -math.inf], "c": np.int64(3),
-           "d": np.array([[1.0, np.nan]]), "e": (Path("/x"), np.bool_(True)), 7: None}  # fmt: skip
-    assert strict(obj) == {"a": None, "b": [1.5, None, None], "c": 3, "d": [[1.0, None]],
-                           "e": ["/x", True], "7": None}  # fmt: skip
+    obj = {
+        "a": math.nan,
+        "b": [np.float32(1.5), np.inf, -math.inf],
+        "c": np.int64(3),
+        "d": np.array([[1.0, np.nan]]),
+        "e": (Path("/x"), np.bool_(True)),
+        7: None,
+    }
+    assert strict(obj) == {
+        "a": None,
+        "b": [1.5, None, None],
+        "c": 3,
+        "d": [[1.0, None]],
+        "e": ["/x", True],
+        "7": None,
+    }
     text = dumps(obj)
     json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in strict JSON"))
     with pytest.raises(TypeError, match="cannot write object"):

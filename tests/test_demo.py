@@ -13,8 +13,9 @@ def test_demo_headless_flies_a_stop_prints_the_table_saves_a_screenshot_and_repo
     tmp_path, capsys
 ):
     shot, report = tmp_path / "demo.png", tmp_path / "report.png"
-    code = main(["demo", "--headless", "--stops", "126", "--screenshot", str(shot),
-                 "--report", str(report)])  # fmt: skip
+    code = main(
+        ["demo", "--headless", "--stops", "126", "--screenshot", str(shot), "--report", str(report)]
+    )
     out, err = capsys.readouterr()
     assert code == 0
     rows = [line.split() for line in out.splitlines() if line.startswith(("mwir", "lwir"))]

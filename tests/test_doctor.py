@@ -14,15 +14,15 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.config import session_config_from_dict
-from sim.devices.nmea_sim import NmeaReplaySimulator, NmeaSimulator, gga_rmc
-from sim.devices.shm_camera import ShmProducer
+from snrmon.acquisition.config import session_config_from_dict
 from snrmon.cli import main
 from snrmon.doctor import FAIL, PASS
 from snrmon.doctor.devices import check_devices
 from snrmon.doctor.disk import BLOCK_BYTES, check_disk_speed, check_free_space
 from snrmon.doctor.ports import check_port
 from snrmon.doctor.qt import check_qt_display
+from snrmon.sim.devices.nmea_sim import NmeaReplaySimulator, NmeaSimulator, gga_rmc
+from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.helpers import (
     H,
     SpotOnNoise,
@@ -61,14 +61,25 @@ def by_name(report: dict) -> dict[str, dict]:
 
 
 def test_doctor_passes_on_the_simulated_devices(rig, tmp_path, capsys):
-    code, report = doctor(capsys, "--config", str(rig["config"]), "--record-dir", str(tmp_path),
-                          "--duration", "60")  # fmt: skip
+    code, report = doctor(
+        capsys, "--config", str(rig["config"]), "--record-dir", str(tmp_path), "--duration", "60"
+    )
     checks = by_name(report)
     failed = {n: c["detail"] for n, c in checks.items() if c["status"] == FAIL and c["needed"]}
     assert code == 0 and report["ok"] and not failed, failed
-    for name in ("model:target", "model:cam", "port:gps", "port:lrf", "camera:cam", "lrf",
-                 "gps-fix", "gps-clock", "disk-speed", "disk-space",
-                 "compiled-analysis"):  # fmt: skip
+    for name in (
+        "model:target",
+        "model:cam",
+        "port:gps",
+        "port:lrf",
+        "camera:cam",
+        "lrf",
+        "gps-fix",
+        "gps-clock",
+        "disk-speed",
+        "disk-space",
+        "compiled-analysis",
+    ):
         assert checks[name]["status"] == PASS and checks[name]["needed"], checks[name]
     cam = checks["camera:cam"]["data"]
     assert cam["fps"] == pytest.approx(FPS, rel=0.05) and cam["expected_fps"] == FPS
@@ -81,10 +92,20 @@ def test_doctor_passes_on_the_simulated_devices(rig, tmp_path, capsys):
 
 
 def test_missing_port_fails_with_its_fix(rig, tmp_path, capsys):
-    config = write_config(tmp_path / "s.toml", rig["ring"], rig["sensor"], "/dev/ttyUSB-gone",
-                          rig["lrf"].path)  # fmt: skip
-    code, report = doctor(capsys, "--config", str(config), "--wait", "1", "--record-dir",
-                          str(tmp_path), "--duration", "60")  # fmt: skip
+    config = write_config(
+        tmp_path / "s.toml", rig["ring"], rig["sensor"], "/dev/ttyUSB-gone", rig["lrf"].path
+    )
+    code, report = doctor(
+        capsys,
+        "--config",
+        str(config),
+        "--wait",
+        "1",
+        "--record-dir",
+        str(tmp_path),
+        "--duration",
+        "60",
+    )
     checks = by_name(report)
     assert code == 1 and not report["ok"]
     port = checks["port:gps"]
@@ -95,10 +116,23 @@ def test_missing_port_fails_with_its_fix(rig, tmp_path, capsys):
 
 
 def test_text_output_gives_each_failure_its_fix(rig, tmp_path, capsys):
-    config = write_config(tmp_path / "s.toml", rig["ring"], rig["sensor"], "/dev/ttyUSB-gone",
-                          rig["lrf"].path)  # fmt: skip
-    code = main(["doctor", "--config", str(config), "--wait", "1", "--headless",
-                 "--disk-test-mb", "8", "--record-dir", str(tmp_path)])  # fmt: skip
+    config = write_config(
+        tmp_path / "s.toml", rig["ring"], rig["sensor"], "/dev/ttyUSB-gone", rig["lrf"].path
+    )
+    code = main(
+        [
+            "doctor",
+            "--config",
+            str(config),
+            "--wait",
+            "1",
+            "--headless",
+            "--disk-test-mb",
+            "8",
+            "--record-dir",
+            str(tmp_path),
+        ]
+    )
     lines = capsys.readouterr().out.splitlines()
     at = next(i for i, line in enumerate(lines) if line.startswith("FAIL  port:gps"))
     assert code == 1 and lines[at + 1].strip().startswith("fix: plug in the gps")
@@ -144,19 +178,34 @@ def test_devices_that_do_not_answer_or_disagree(rig, tmp_path):
     for s in sims:
         s.start()
     try:
-        cfg = lambda gps: session_config_from_dict({  # noqa: E731
-            "cameras": {"gone": {"source": "shm", "address": "snrmon-doc-no-such-ring",
-                                 "sensor": str(rig["sensor"])},
-                        "slow": {"source": "shm", "address": slow_ring,
-                                 "sensor": str(rig["sensor"])}},
-            "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
-        })  # fmt: skip
+
+        def cfg(gps):
+            return session_config_from_dict(
+                {
+                    "cameras": {
+                        "gone": {
+                            "source": "shm",
+                            "address": "snrmon-doc-no-such-ring",
+                            "sensor": str(rig["sensor"]),
+                        },
+                        "slow": {
+                            "source": "shm",
+                            "address": slow_ring,
+                            "sensor": str(rig["sensor"]),
+                        },
+                    },
+                    "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
+                }
+            )
+
         checks, _ = check_devices(cfg(nofix), wait_s=2, window_s=1)
         c = {k.name: k for k in checks}
         assert c["camera:gone"].status == FAIL and "no frames" in c["camera:gone"].detail
         assert "writer" in c["camera:gone"].fix
-        assert c["camera:slow"].status == FAIL and "runs at 30 fps but sensor" in c[
-            "camera:slow"].detail  # fmt: skip
+        assert (
+            c["camera:slow"].status == FAIL
+            and "runs at 30 fps but sensor" in c["camera:slow"].detail
+        )
         assert c["gps-fix"].status == FAIL and "no fix" in c["gps-fix"].detail
         assert "open sky" in c["gps-fix"].fix
         checks, _ = check_devices(cfg(old_clock), wait_s=2, window_s=1)
@@ -173,7 +222,7 @@ def test_devices_that_do_not_answer_or_disagree(rig, tmp_path):
 
 
 def _checksum(body: str) -> int:
-    from drivers.checksum import xor_checksum
+    from snrmon.drivers.checksum import xor_checksum
 
     return xor_checksum(body)
 
@@ -197,8 +246,17 @@ def test_full_disk_fails_with_its_fix(tmp_path, rig, capsys):
     assert "--record-dir" in c.fix
     # Through the command: a planned duration the real free space cannot hold.
     free_s = shutil.disk_usage(tmp_path).free / (W * H * 2 * FPS)
-    code, report = doctor(capsys, "--config", str(rig["config"]), "--record-dir", str(tmp_path),
-                          "--duration", f"{free_s * 2:.0f}", "--wait", "3")  # fmt: skip
+    code, report = doctor(
+        capsys,
+        "--config",
+        str(rig["config"]),
+        "--record-dir",
+        str(tmp_path),
+        "--duration",
+        f"{free_s * 2:.0f}",
+        "--wait",
+        "3",
+    )
     space = by_name(report)["disk-space"]
     assert code == 1 and space["status"] == FAIL and space["needed"]
 
@@ -228,7 +286,7 @@ def test_qt_display_on_a_real_x_server(xvfb_display, tmp_path):
 
 
 def test_an_analysis_that_does_not_compile_fails_with_its_fix(monkeypatch):
-    import acquisition.engine.warm_up as wu
+    import snrmon.acquisition.engine.warm_up as wu
     from snrmon.doctor.compiled import check_compiled_analysis
 
     def broken(engine):

@@ -16,14 +16,14 @@ import math
 import numpy as np
 import pytest
 
-from model.footprint import average_pvf_square
-from model.presets import load_sensor, load_target
-from sim.feed import FlightCameraFeed
-from sim.flight import FlightConfig, FlightPlan
-from sim.optics import twin_optics
-from sim.twin import Scenario, twin_scene_config
+from snrmon.model.footprint import average_pvf_square
+from snrmon.model.presets import load_sensor, load_target
 from snrmon.rig import rig as hil
 from snrmon.rig.rig import HilOptions, HilRig
+from snrmon.sim.feed import FlightCameraFeed
+from snrmon.sim.flight import FlightConfig, FlightPlan
+from snrmon.sim.optics import twin_optics
+from snrmon.sim.twin import Scenario, twin_scene_config
 
 UAV1 = load_target("uav1")
 
@@ -43,8 +43,15 @@ def test_unresolved_stops_read_the_expected_eq4_of_the_measured_psf(seed):
     through the day's calibration, the PSF is fitted to the stops' own frames, and every
     unresolved stop reads its expected Eq. (4) within 10 %; the diffraction-limited curve
     over-predicts the twin's MWIR by the factor its PVFs imply."""
-    opts = HilOptions(seed=seed, speed=1.5, stops_m=(393.0, 508.0), transit_mps=30.0,
-                      start_range_m=360.0, window_px=(256, 192), hover_s=6.0)  # fmt: skip
+    opts = HilOptions(
+        seed=seed,
+        speed=1.5,
+        stops_m=(393.0, 508.0),
+        transit_mps=30.0,
+        start_range_m=360.0,
+        window_px=(256, 192),
+        hover_s=6.0,
+    )
     with HilRig(opts) as rig:
         result = rig.run()
     assert result["scenario"]["sky_temp_k"] == 280.0 and result["scenario"]["air_temp_k"] == 288.15
@@ -57,13 +64,20 @@ def test_unresolved_stops_read_the_expected_eq4_of_the_measured_psf(seed):
     assert mw["pvf"] == pytest.approx(twin_pvf, rel=0.10)
     stops = result["stops"]
     assert sorted((s["camera"], s["planned_range_m"]) for s in stops) == [
-        ("lwir", 393.0), ("lwir", 508.0), ("mwir", 393.0), ("mwir", 508.0)
-    ]  # fmt: skip
+        ("lwir", 393.0),
+        ("lwir", 508.0),
+        ("mwir", 393.0),
+        ("mwir", 508.0),
+    ]
     for s in stops:
         _check_truth(s)
         assert set(s["model_snr"]) == {
-            "small", "large", "small_corrected", "large_corrected", "expected_eq4"
-        }  # fmt: skip
+            "small",
+            "large",
+            "small_corrected",
+            "large_corrected",
+            "expected_eq4",
+        }
         where = f"{s['camera']} at {s['planned_range_m']:.0f} m, seed {seed}"
         # what Eq. (4) should read on this stop's frames: the flight's own PSF, over the
         # sub-pixel phases those frames sampled (the cell average is reported beside it)
@@ -85,10 +99,11 @@ def test_unresolved_stops_read_the_expected_eq4_of_the_measured_psf(seed):
 
 
 def _measured(psf_dict):
-    from model.psf import AiryGaussianPsf, AiryPsf
+    from snrmon.model.psf import AiryGaussianPsf, AiryPsf
 
-    airy = AiryPsf.polychromatic(psf_dict["f_number"], psf_dict["pitch_um"],
-                                 tuple(psf_dict["band_um"]))  # fmt: skip
+    airy = AiryPsf.polychromatic(
+        psf_dict["f_number"], psf_dict["pitch_um"], tuple(psf_dict["band_um"])
+    )
     return AiryGaussianPsf(airy, psf_dict["blur_px"])
 
 
@@ -122,9 +137,16 @@ def test_hil_low_snr_stops_and_a_bounded_log(monkeypatch):
     """A stop is summarised when the console freezes its row, so its truth survives its
     frames leaving the rig's bounded log (5 s here, 120 s in use) before the flight ends."""
     monkeypatch.setattr(hil, "LOG_S", 5.0)
-    opts = HilOptions(seed=2, speed=2.0, cameras=("lwir",), stops_m=(393.0, 760.0),
-                      transit_mps=40.0, start_range_m=350.0, window_px=(160, 128),
-                      calibrate=False)  # fmt: skip
+    opts = HilOptions(
+        seed=2,
+        speed=2.0,
+        cameras=("lwir",),
+        stops_m=(393.0, 760.0),
+        transit_mps=40.0,
+        start_range_m=350.0,
+        window_px=(160, 128),
+        calibrate=False,
+    )
     with HilRig(opts) as rig:
         result = rig.run()
     stops = {s["planned_range_m"]: s for s in result["stops"]}
@@ -143,8 +165,16 @@ def test_fixed_pattern_noise_removed_by_the_days_calibration():
     """With fixed-pattern noise 2.5x the temporal noise, the blackbody calibration made before
     the flight (through the same gain and offset maps) brings the measurement back to the
     truth; on raw frames the console reports an SNR lower by about sqrt(1 + 2.5^2)."""
-    opts = HilOptions(seed=3, speed=1.0, cameras=("lwir",), stops_m=(393.0,), transit_mps=30.0,
-                      start_range_m=360.0, fpn=True, window_px=(160, 128))  # fmt: skip
+    opts = HilOptions(
+        seed=3,
+        speed=1.0,
+        cameras=("lwir",),
+        stops_m=(393.0,),
+        transit_mps=30.0,
+        start_range_m=360.0,
+        fpn=True,
+        window_px=(160, 128),
+    )
     with HilRig(opts) as rig:
         result = rig.run()
     (stop,) = result["stops"]
@@ -158,8 +188,8 @@ def test_twin_truth_is_the_twin_optics_average_pvf_snr(camera, range_m):
     """Over a hover whose drift covers the sub-pixel phases, the mean noise-free peak over the
     rendered noise is the model's contrast times the twin's OWN average PVF of its outline
     (the triangle-wave drift samples the phases uniformly), not the model's PSF's."""
-    from model.noise import temporal_noise_e
-    from model.snr import target_contrast_electrons
+    from snrmon.model.noise import temporal_noise_e
+    from snrmon.model.snr import target_contrast_electrons
 
     sensor = load_sensor(camera)
     scenario = Scenario()

@@ -54,8 +54,24 @@ def test_stop_detection_runs_on_flight_time():
 @pytest.mark.slow
 def test_hil_speed_max_keeps_every_frame_and_replays_exactly(capsys, tmp_path):
     path = tmp_path / "s.h5"
-    rc = main(["hil", "--speed", "max", "--seed", "4", "--camera", "lwir", "--stops", "393",
-               "--transit-mps", "40", "--out", str(path), "--json"])  # fmt: skip
+    rc = main(
+        [
+            "hil",
+            "--speed",
+            "max",
+            "--seed",
+            "4",
+            "--camera",
+            "lwir",
+            "--stops",
+            "393",
+            "--transit-mps",
+            "40",
+            "--out",
+            str(path),
+            "--json",
+        ]
+    )
     out, err = capsys.readouterr()
     assert rc == 0
     m = re.search(r"speed max = ([0-9.]+) x real time on (\d+) cores", err)

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from acquisition.record.reader import open_session
-from acquisition.replay.batch import replay_session
+from snrmon.acquisition.record.reader import open_session
+from snrmon.acquisition.replay.batch import replay_session
 from snrmon.cli import main
 from tests.helpers import H, W, field_config, field_devices
 
@@ -25,16 +25,26 @@ def devices(tmp_path):
     that names them."""
     ring = f"snrmon-rec-{time.monotonic_ns() % 10**9}"
     with field_devices(ring) as (_, lrf, gps):
-        yield field_config(tmp_path / "session.toml", ring, gps.path, lrf.path,
-                           f"width_px = {W}\nheight_px = {H}")  # fmt: skip
+        yield field_config(
+            tmp_path / "session.toml", ring, gps.path, lrf.path, f"width_px = {W}\nheight_px = {H}"
+        )
 
 
 def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):
     out = tmp_path / "rec.h5"
     code = main(
-        ["record", "--config", str(devices), "--out", str(out), "--duration", "2",
-         "--roi", "cam:64,41"]
-    )  # fmt: skip
+        [
+            "record",
+            "--config",
+            str(devices),
+            "--out",
+            str(out),
+            "--duration",
+            "2",
+            "--roi",
+            "cam:64,41",
+        ]
+    )
     captured = capsys.readouterr()
     assert code == 0, captured.err
     assert "MB written" in captured.err
@@ -110,8 +120,18 @@ def test_kill_9_loses_at_most_a_second_and_the_file_replays(devices, tmp_path):
     holds measures as it did live."""
     out = tmp_path / "killed.h5"
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
-    cmd = [sys.executable, "-m", "snrmon", "record", "--config", str(devices), "--out", str(out),
-           "--roi", "cam:66,39"]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "snrmon",
+        "record",
+        "--config",
+        str(devices),
+        "--out",
+        str(out),
+        "--roi",
+        "cam:66,39",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
     seen, counted = b"", 0
     try:

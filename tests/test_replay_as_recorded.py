@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from acquisition.record.reader import open_session
-from acquisition.replay.batch import replay_session
-from acquisition.replay.recorded import recorded_inputs
+from snrmon.acquisition.record.reader import open_session
+from snrmon.acquisition.replay.batch import replay_session
+from snrmon.acquisition.replay.recorded import recorded_inputs
 from snrmon.campaign.settings import AnalysisSettings
 from snrmon.campaign.tasks import analyse_camera
 from tests.helpers import twin_recording
@@ -66,8 +66,11 @@ def test_fast_full_and_explicit_settings_replay_every_frame_of_a_37m_stop(record
     # The campaign's own task (fast, the recorded settings given explicitly) gives the same rows.
     for name in inputs.cameras:
         task = analyse_camera(str(recording), name, AnalysisSettings(), frames=True)
-        want = [(r.stop, r.n_frames, _none(r.snr_mean), _none(r.snr_std))
-                for r in full.stops if r.camera == name]  # fmt: skip
+        want = [
+            (r.stop, r.n_frames, _none(r.snr_mean), _none(r.snr_std))
+            for r in full.stops
+            if r.camera == name
+        ]
         got = [(r["stop"], r["n_frames"], r["snr_mean"], r["snr_std"]) for r in task.stops]
         assert got == want, name
         assert task.frames is not None

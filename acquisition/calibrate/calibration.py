@@ -26,7 +26,11 @@ from dataclasses import dataclass, field, replace
 import cv2
 import numpy as np
 
-from model.radiometry import band_nodes, spectral_photon_radiance, spectral_photon_radiance_dt
+from snrmon.model.radiometry import (
+    band_nodes,
+    spectral_photon_radiance,
+    spectral_photon_radiance_dt,
+)
 
 RADIANCE_UNIT = "photons s^-1 m^-2 sr^-1 (in-band, QE-weighted)"
 DEAD, HOT, NOISY = 1, 2, 4
@@ -254,9 +258,15 @@ def calibrate(
         stds.append(f.std(axis=0, ddof=1, dtype=np.float64).astype(np.float32))
     counts = [int(np.shape(c.frames)[0]) for c in captures]
     return calibrate_means(
-        [c.temp_k for c in captures], means, stds, counts, camera=camera, band_um=band_um,
-        t_int_s=t_int_s, qe_curve=qe_curve,
-    )  # fmt: skip
+        [c.temp_k for c in captures],
+        means,
+        stds,
+        counts,
+        camera=camera,
+        band_um=band_um,
+        t_int_s=t_int_s,
+        qe_curve=qe_curve,
+    )
 
 
 def calibrate_means(

@@ -17,7 +17,11 @@ from pathlib import Path
 import numpy as np
 import tomli_w
 
-from acquisition.calibrate.calibration import RADIANCE_UNIT, Calibration, check_matches_sensor
+from snrmon.acquisition.calibrate.calibration import (
+    RADIANCE_UNIT,
+    Calibration,
+    check_matches_sensor,
+)
 
 FORMAT = "snrmon-calibration-1"
 _MAPS = ("responsivity", "offset_dn", "bad", "fit_rms_dn", "temporal_noise_dn")

@@ -38,7 +38,7 @@ import cv2
 import numpy as np
 import tomli_w
 
-from acquisition.calibrate.calibration import Calibration, temperature_of
+from snrmon.acquisition.calibrate.calibration import Calibration, temperature_of
 
 ZERO_C_K = 273.15
 METHODS = ("otsu", "ksigma")
@@ -222,9 +222,18 @@ def characterize_frame(
         bgk = float(temperature_of(calibration.band_um, float(np.mean(lq[outside]))))
         rss = math.hypot(temp - bgk, sig)
     return FrameTarget(
-        area, box, math.sqrt(area) * px_m, math.sqrt(box) * px_m, float(thr), temp, sig, bgk, rss,
-        outline, n_core,
-    )  # fmt: skip
+        area,
+        box,
+        math.sqrt(area) * px_m,
+        math.sqrt(box) * px_m,
+        float(thr),
+        temp,
+        sig,
+        bgk,
+        rss,
+        outline,
+        n_core,
+    )
 
 
 def _mean_std(values: list[float | None]) -> tuple[float | None, float | None]:
@@ -251,10 +260,13 @@ def characterize_frames(
     rows = [
         r
         for f, at in frames
-        if (r := characterize_frame(
-            f, at, range_m=range_m, ifov_rad=ifov_rad, calibration=calibration, config=cfg
-        )) is not None
-    ]  # fmt: skip
+        if (
+            r := characterize_frame(
+                f, at, range_m=range_m, ifov_rad=ifov_rad, calibration=calibration, config=cfg
+            )
+        )
+        is not None
+    ]
     if not rows:
         raise ValueError(f"no target segmented in any frame of {camera!r} at {range_m:.1f} m")
     small = _mean_std([r.small_m for r in rows])
@@ -262,15 +274,27 @@ def characterize_frames(
     temp = _mean_std([None if r.temp_k is None else r.temp_k - ZERO_C_K for r in rows])
     bg = _mean_std([None if r.background_k is None else r.background_k - ZERO_C_K for r in rows])
     rss = _mean_std([r.rss_delta_t_k for r in rows])
-    outline, _ = _mean_std([None if r.outline_temp_k is None else r.outline_temp_k - ZERO_C_K
-                            for r in rows])  # fmt: skip
+    outline, _ = _mean_std(
+        [None if r.outline_temp_k is None else r.outline_temp_k - ZERO_C_K for r in rows]
+    )
     n_core, _ = _mean_std([None if r.core_px is None else float(r.core_px) for r in rows])
     (small_m, small_std), (large_m, large_std) = small, large
     assert small_m is not None and large_m is not None  # every row has its dimensions
     return Characterization(
-        camera, float(range_m), len(rows), small_m, small_std or 0.0, large_m,
-        large_std or 0.0, *temp, *bg, *rss, cfg.method, outline, n_core,
-    )  # fmt: skip
+        camera,
+        float(range_m),
+        len(rows),
+        small_m,
+        small_std or 0.0,
+        large_m,
+        large_std or 0.0,
+        *temp,
+        *bg,
+        *rss,
+        cfg.method,
+        outline,
+        n_core,
+    )
 
 
 def target_toml(

@@ -1,13 +1,13 @@
-"""Compiled per-frame work of the calibration (numba; :mod:`acquisition.measure.jit` says how
+"""Compiled per-frame work of the calibration (numba; :mod:`snrmon.acquisition.measure.jit` says how
 they stay bit-identical to the NumPy they replace).
 
 - :func:`correct_box`: the two-point correction and the background reference of a box of a
-  frame without bad pixels (:meth:`acquisition.calibrate.calibration.Calibration.correct`,
+  frame without bad pixels (:meth:`snrmon.acquisition.calibrate.calibration.Calibration.correct`,
   then minus the reference offset): float32 steps, the calibration's Python-float means
   rounded to float32 first, as NumPy does for a float32 array.
 - :func:`rim_radiance` and :func:`std_ddof`: the sky temperature's region
-  (:class:`acquisition.calibrate.sky_temperature.SkyTemperature`): its good pixels' radiance in
-  float64, their mean, and ``np.std`` of their temperatures (NumPy's pairwise sums). The
+  (:class:`snrmon.acquisition.calibrate.sky_temperature.SkyTemperature`): its good pixels' radiance
+  in float64, their mean, and ``np.std`` of their temperatures (NumPy's pairwise sums). The
   radiance-to-temperature table lookup stays ``np.interp``.
 """
 
@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from acquisition.measure.jit import kernel, pairwise_sum64, std_ddof
+from snrmon.acquisition.measure.jit import kernel, pairwise_sum64, std_ddof
 
 __all__ = ["any_set", "correct_box", "lazy_correct", "rim_radiance", "sky_sample", "std_ddof"]
 

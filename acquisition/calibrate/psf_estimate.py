@@ -36,9 +36,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from model.footprint import matmul, pixel_patterns
-from model.psf import AiryGaussianPsf, GaussianPsf
-from model.pvf import average_pvf
+from snrmon.model.footprint import matmul, pixel_patterns
+from snrmon.model.psf import AiryGaussianPsf, GaussianPsf
+from snrmon.model.pvf import average_pvf
 
 CROP_HALF = 6
 FIT_HALF = 3
@@ -106,7 +106,7 @@ def psf_from_record(d: dict) -> AiryGaussianPsf:
 
 @functools.lru_cache(maxsize=8)
 def _airy(f_number: float, pitch_um: float, band_um: tuple[float, float]):
-    from model.psf import AiryPsf
+    from snrmon.model.psf import AiryPsf
 
     return AiryPsf.polychromatic(f_number, pitch_um, band_um)
 
@@ -160,8 +160,9 @@ def observed_phases(stop: StopCrops, psf, fill_factor: float) -> np.ndarray:
     fitted one, :meth:`PsfEstimate.psf`). The phases the stop's frames actually sampled, for
     ``model.eq4.expected_eq4(phases_xy=...)``."""
     data, _ = _prepare(stop.crops)
-    pats = pixel_patterns(psf, fill_factor, _OFFSETS, _OFFSETS, half_size_px=FIT_HALF,
-                          target_square_px=stop.target_px)  # fmt: skip
+    pats = pixel_patterns(
+        psf, fill_factor, _OFFSETS, _OFFSETS, half_size_px=FIT_HALF, target_square_px=stop.target_px
+    )
     p = pats.reshape(-1, data.shape[1])
     dots = matmul(data, p.T)
     gain = np.where(dots > 0, dots * dots / np.sum(p * p, axis=1)[None, :], 0.0)
@@ -188,8 +189,15 @@ def _chi2_table(stops, family, grid, airy, ff) -> np.ndarray:
             blur = math.sqrt(max(theta**2 - _GAUSS_BASE_PX**2, 0.0))
         per_stop = []
         for s, (data, noise) in zip(stops, prepared, strict=True):
-            pats = pixel_patterns(base, ff, _OFFSETS, _OFFSETS, half_size_px=FIT_HALF,
-                                  target_square_px=s.target_px, target_sigma_px=blur)  # fmt: skip
+            pats = pixel_patterns(
+                base,
+                ff,
+                _OFFSETS,
+                _OFFSETS,
+                half_size_px=FIT_HALF,
+                target_square_px=s.target_px,
+                target_sigma_px=blur,
+            )
             per_stop.append(_frame_chi2(data, noise, pats))
         cols.append(np.concatenate(per_stop))
     return np.stack(cols, axis=1)

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.calibrate.calibration import BAD_NAMES, BlackbodyCapture, Calibration
+from snrmon.acquisition.calibrate.calibration import BAD_NAMES, BlackbodyCapture, Calibration
 
 
 @dataclass(frozen=True)

@@ -1,10 +1,10 @@
 """Live apparent sky (background) temperature per camera, as a time series (issue 9).
 
 The background region is the one Eq. 4 uses (paper section 5): the 24 rim pixels of the 7x7 box
-around the frame's peak (from its :class:`acquisition.measure.peak_snr.PeakSnr`), or the operator's
-clear-sky rectangle. For a frame measured against the ``extent_rim`` background (a drone wider
-than the box's guard, issue 14) the 7x7 rim lies on the drone itself and would read it, not the
-sky: the rim of the square around the peak that holds the segmented extent and its 2 px guard
+around the frame's peak (from its :class:`snrmon.acquisition.measure.peak_snr.PeakSnr`), or the
+operator's clear-sky rectangle. For a frame measured against the ``extent_rim`` background (a drone
+wider than the box's guard, issue 14) the 7x7 rim lies on the drone itself and would read it, not
+the sky: the rim of the square around the peak that holds the segmented extent and its 2 px guard
 (half-size max(extent width, height) + 2) is used instead, the sky outside the drone.
 
 Per frame the region's raw DN are turned into in-band radiance through the
@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.calibrate.calibration import Calibration, temperature_of, temperature_table
-from acquisition.calibrate.kernels import sky_sample
-from acquisition.measure.background import Rect, rim_offsets, validate_rect
-from acquisition.measure.peak_snr import BACKGROUND_EXTENT, PeakSnr
+from snrmon.acquisition.calibrate.calibration import Calibration, temperature_of, temperature_table
+from snrmon.acquisition.calibrate.kernels import sky_sample
+from snrmon.acquisition.measure.background import Rect, rim_offsets, validate_rect
+from snrmon.acquisition.measure.peak_snr import BACKGROUND_EXTENT, PeakSnr
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,7 +88,7 @@ class SkyTemperature:
     def add(self, t_host_ns: int, frame: np.ndarray, result: PeakSnr | None = None):
         """The frame's :class:`SkySample` (also kept), or None when the region is unusable
         (it leaves the image: the measurement flags that too; fewer than two good pixels).
-        One compiled call (:func:`acquisition.calibrate.kernels.sky_sample`): the radiances,
+        One compiled call (:func:`snrmon.acquisition.calibrate.kernels.sky_sample`): the radiances,
         their mean, the table lookups (numba's np.interp, NumPy's algorithm) and the spread."""
         dy, dx, y, x = self._region(result)
         cal = self.calibration

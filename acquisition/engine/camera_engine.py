@@ -7,15 +7,15 @@ Per frame (:meth:`CameraEngine.process`), in this order:
    reference, restore of a recorded state, GPS cue), and returned so the caller can record them
    at this frame;
 2. a background reference capture in progress is fed
-   (:class:`acquisition.engine.frame_correction.FrameCorrector`);
+   (:class:`snrmon.acquisition.engine.frame_correction.FrameCorrector`);
 3. Eq. (4) with the tracker on the corrected window
-   (:class:`acquisition.engine.frame_measurer.FrameMeasurer`) and, while a correction is on, the
-   same track on the raw frame (the console reports the SNR with and without it, section 6);
+   (:class:`snrmon.acquisition.engine.frame_measurer.FrameMeasurer`) and, while a correction is on,
+   the same track on the raw frame (the console reports the SNR with and without it, section 6);
 4. the section 6 noise figures of the raw pixels around the track
-   (:class:`acquisition.measure.track_noise.TrackNoise`, a few times a second) and, with a
+   (:class:`snrmon.acquisition.measure.track_noise.TrackNoise`, a few times a second) and, with a
    radiometric calibration, the apparent sky temperature of the background (sections 8-9);
-5. the range at the frame's time, the :class:`~acquisition.engine.inputs.Measurement`, the chart
-   series and the published status.
+5. the range at the frame's time, the :class:`~snrmon.acquisition.engine.inputs.Measurement`, the
+   chart series and the published status.
 
 Threads: one thread (a live camera's measurement thread, or a replay worker) owns an engine and
 calls :meth:`process`; :meth:`post` may be called from any thread; :meth:`status`, :meth:`series`
@@ -23,12 +23,12 @@ and :meth:`figures` read only whole values the owner publishes under a lock.
 
 Replay across a recording gap: the live engine records :meth:`snapshot` (JSON-able, exact) before
 the first recorded frame after frames it measured but the recorder dropped; the replay posts
-:class:`~acquisition.engine.inputs.Restore` before that frame and so continues exactly as live.
-Frame gaps: the frames elapsed since the last processed frame come from the camera's counter
+:class:`~snrmon.acquisition.engine.inputs.Restore` before that frame and so continues exactly as
+live. Frame gaps: the frames elapsed since the last processed frame come from the camera's counter
 (more than 1 after camera or ring drops; a counter that repeats, restarts or goes backwards
 counts as 1) and are told to the trackers before the frame is read
-(:meth:`acquisition.track.tracker.Tracker.skip`). The last counter is part of the snapshot, so a
-replay, which feeds the recorded counters, sees the same gaps.
+(:meth:`snrmon.acquisition.track.tracker.Tracker.skip`). The last counter is part of the snapshot,
+so a replay, which feeds the recorded counters, sees the same gaps.
 The noise and sky figures are not part of the snapshot (they are figures, not measurements):
 after a gap they restart from the frames at hand.
 """
@@ -45,9 +45,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from acquisition.engine.frame_correction import FrameCorrector
-from acquisition.engine.frame_measurer import FrameMeasurer, crop_half_px
-from acquisition.engine.inputs import (
+from snrmon.acquisition.engine.frame_correction import FrameCorrector
+from snrmon.acquisition.engine.frame_measurer import FrameMeasurer, crop_half_px
+from snrmon.acquisition.engine.inputs import (
     ApplyReference,
     ClearReference,
     ClearRoi,
@@ -60,14 +60,14 @@ from acquisition.engine.inputs import (
     SetRoi,
     StartReference,
 )
-from acquisition.engine.status import CameraStatus, FrameAccounting
-from acquisition.measure.peak_snr import PeakSnrConfig
-from acquisition.measure.track_noise import TrackNoise
-from acquisition.track.tracker import TrackerConfig
+from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
+from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
+from snrmon.acquisition.measure.track_noise import TrackNoise
+from snrmon.acquisition.track.tracker import TrackerConfig
 
 if TYPE_CHECKING:
-    from acquisition.calibrate.sky_temperature import SkyTemperature
-from drivers.device import DeviceState, DeviceStatus
+    from snrmon.acquisition.calibrate.sky_temperature import SkyTemperature
+from snrmon.drivers.device import DeviceState, DeviceStatus
 
 log = logging.getLogger(__name__)
 
@@ -147,8 +147,13 @@ class CameraEngine:
 
     def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
         try:
-            return TrackNoise(self.shape, box_px=cfg.box_px, background=cfg.background,
-                              detrend=cfg.detrend, ddof=cfg.ddof)  # fmt: skip
+            return TrackNoise(
+                self.shape,
+                box_px=cfg.box_px,
+                background=cfg.background,
+                detrend=cfg.detrend,
+                ddof=cfg.ddof,
+            )
         except ValueError as exc:  # a rectangle off this image: noise around the track instead
             log.warning("%s: clear-sky rectangle not used for the noise: %s", self.name, exc)
             return TrackNoise(self.shape, box_px=cfg.box_px, detrend=cfg.detrend, ddof=cfg.ddof)
@@ -182,8 +187,9 @@ class CameraEngine:
     def set_calibration(self, calibration) -> None:
         """Correct the measured window with a radiometric calibration and follow the apparent
         sky temperature of the background pixels
-        (:class:`acquisition.calibrate.calibration.Calibration`). Call before the first frame."""
-        from acquisition.calibrate.sky_temperature import SkyTemperature
+        (:class:`snrmon.acquisition.calibrate.calibration.Calibration`). Call before the first
+        frame."""
+        from snrmon.acquisition.calibrate.sky_temperature import SkyTemperature
 
         self.corrector.calibration = calibration
         self.sky = SkyTemperature(self.name, calibration, box_px=self.config.box_px, maxlen=600)
@@ -365,8 +371,12 @@ class CameraEngine:
         device's health, the frame accounting, the frame rate, the latency)."""
         with self._lock:
             last, roi, state, gps_xy, measured = (
-                self._last, self._roi, self._state, self._gps_xy, self._measured
-            )  # fmt: skip
+                self._last,
+                self._roi,
+                self._state,
+                self._gps_xy,
+                self._measured,
+            )
         fig = self.figures()
         if device is None:
             device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)

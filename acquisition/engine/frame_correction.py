@@ -5,14 +5,15 @@
   launch, or with the drone out of the field), minus its own spatial mean, is each pixel's
   fixed-pattern offset; subtracting it leaves the temporal noise. Frames with the drone in view
   would put the drone into the reference, so the operator captures it on empty sky.
-- Radiometric calibration (:class:`acquisition.calibrate.calibration.Calibration`): per-pixel
+- Radiometric calibration (:class:`snrmon.acquisition.calibrate.calibration.Calibration`): per-pixel
 two-point
   non-uniformity correction; the reference, if any, is then taken on corrected frames.
 
 Both are applied only inside the square around the track that the measurement may read
-(:func:`acquisition.engine.frame_measurer.crop_half_px`-sized), written into a float32 full-frame
-buffer, so the cost does not grow with the frame. Within that square only what the measurement
-reads is corrected, as it reads it (:class:`acquisition.engine.lazy_frame.LazyFrame`, in
+(:func:`snrmon.acquisition.engine.frame_measurer.crop_half_px`-sized), written into a float32
+full-frame buffer, so the cost does not grow with the frame. Within that square only what the
+measurement reads is corrected, as it reads it
+(:class:`snrmon.acquisition.engine.lazy_frame.LazyFrame`, in
 ``TILE_PX`` tiles): each pixel's correction is its own (per-pixel gain, offset and reference), so
 a pixel corrected alone equals the same pixel of the whole square, bit for bit. Two cases are
 corrected whole, as before: a region holding a bad pixel of the calibration (its replacement is
@@ -25,8 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from acquisition.calibrate.kernels import any_set, correct_box, lazy_correct
-from acquisition.engine.lazy_frame import LazyFrame, Region
+from snrmon.acquisition.calibrate.kernels import any_set, correct_box, lazy_correct
+from snrmon.acquisition.engine.lazy_frame import LazyFrame, Region
 
 TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
 _NONE = np.zeros((1, 1), np.float32)  # an absent map, for the compiled correction
@@ -158,7 +159,7 @@ class FrameCorrector:
         return self._lazy_frame
 
     def _compiled(self, pixels: np.ndarray) -> tuple | None:
-        """The maps :func:`acquisition.calibrate.kernels.lazy_correct` corrects with, or None
+        """The maps :func:`snrmon.acquisition.calibrate.kernels.lazy_correct` corrects with, or None
         where NumPy must (maps of another type or shape: NumPy's promotions); the same tuple
         for as long as the calibration, the reference and the frames' shape are."""
         cal, ref = self.calibration, self.reference_offset
@@ -178,11 +179,28 @@ class FrameCorrector:
         if pixels.shape != self.shape or not (cal is None or _float32_maps(cal, self)):
             return None
         if cal is None:
-            return (_NONE, _NONE, _NONE if ref is None else ref, _NONE, 0.0, 0.0, False,
-                    ref is not None, self._buffer)  # fmt: skip
-        return (cal.offset_dn, cal.safe_responsivity, _NONE if ref is None else ref, cal.bad,
-                cal.mean_offset_dn, cal.mean_responsivity, True, ref is not None,
-                self._buffer)  # fmt: skip
+            return (
+                _NONE,
+                _NONE,
+                _NONE if ref is None else ref,
+                _NONE,
+                0.0,
+                0.0,
+                False,
+                ref is not None,
+                self._buffer,
+            )
+        return (
+            cal.offset_dn,
+            cal.safe_responsivity,
+            _NONE if ref is None else ref,
+            cal.bad,
+            cal.mean_offset_dn,
+            cal.mean_responsivity,
+            True,
+            ref is not None,
+            self._buffer,
+        )
 
     def ensure(self, region: Region | None) -> None:
         """Correct ``region`` of the frame given to :meth:`apply` (within its square; None: the
@@ -239,13 +257,12 @@ class FrameCorrector:
         """The correction of ``box`` into the buffer. The calibration's bad-pixel replacement
         depends on the box (a median over it); every other pixel's value does not. A box
         without bad pixels (``bad`` False: :meth:`_has_bad` said so) is corrected by compiled
-        code, bit for bit the same (:func:`acquisition.calibrate.kernels.correct_box`)."""
+        code, bit for bit the same (:func:`snrmon.acquisition.calibrate.kernels.correct_box`)."""
         y0, y1, x0, x1 = box
         fast = None if bad else self._compiled(pixels)  # the maps lazy_correct uses
         if fast is not None:
             offset, resp, ref, _, mo, mr, calibrate, subtract, out = fast
-            correct_box(pixels, y0, y1, x0, x1, offset, resp, mo, mr, ref, calibrate, subtract,
-                        out)  # fmt: skip
+            correct_box(pixels, y0, y1, x0, x1, offset, resp, mo, mr, ref, calibrate, subtract, out)
             return
         if self.calibration is not None:
             win = self.calibration.correct(pixels, (y0, y1, x0, x1))

@@ -10,8 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.measure.peak_snr import RUNNING_EXCLUDED, PeakSnr, PeakSnrConfig, PeakSnrMeter
-from acquisition.track.tracker import Tracker, TrackerConfig, reach_px
+from snrmon.acquisition.measure.peak_snr import (
+    RUNNING_EXCLUDED,
+    PeakSnr,
+    PeakSnrConfig,
+    PeakSnrMeter,
+)
+from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, reach_px
 
 
 def crop_half_px(config: PeakSnrConfig, tracker: TrackerConfig) -> int:
@@ -102,7 +107,7 @@ class FrameMeasurer:
 
     def skip(self, frames: int) -> None:
         """``frames`` camera frames were dropped before the next :meth:`measure`
-        (:meth:`acquisition.track.tracker.Tracker.skip`; nothing without a tracker). Call it
+        (:meth:`snrmon.acquisition.track.tracker.Tracker.skip`; nothing without a tracker). Call it
         before reading :attr:`read_xy`."""
         if self.tracker is not None:
             self.tracker.skip(frames)

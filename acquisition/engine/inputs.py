@@ -1,10 +1,11 @@
 """What goes into and comes out of the per-frame engine, as data.
 
 Commands change a camera engine's state; they are posted from any thread and applied by the
-engine's owner at the next frame (:meth:`acquisition.engine.camera_engine.CameraEngine.post`), so a
-measurement never mixes two ROIs. The frame they took effect on is part of the record: a replay
-applies the same commands at the same frames (``roi_set`` events, the measurement row's cue, the
-recorded background reference, state snapshots at recording gaps).
+engine's owner at the next frame
+(:meth:`snrmon.acquisition.engine.camera_engine.CameraEngine.post`), so a measurement never mixes
+two ROIs. The frame they took effect on is part of the record: a replay applies the same commands at
+the same frames (``roi_set`` events, the measurement row's cue, the recorded background reference,
+state snapshots at recording gaps).
 
 :class:`Measurement` is one measured frame as every listener receives it (recorder, stop table,
 charts, the HIL rig), live and in replay alike.
@@ -16,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.measure.peak_snr import PeakSnr
+from snrmon.acquisition.measure.peak_snr import PeakSnr
 
 
 @dataclass(frozen=True, slots=True)

@@ -3,8 +3,8 @@
 :class:`LazyFrame` is the corrector's full-frame float32 buffer seen as an array whose
 indexing (``frame[y0:y1, x0:x1]``, ``frame[y, x]``, ``frame[None]`` and the index arrays
 Eq. (4) gathers its box with) first asks its owner to correct the rows and columns it is about
-to return (:meth:`acquisition.engine.frame_correction.FrameCorrector.ensure`). The tracker and
-Eq. (4) read only such rectangles near the track, so a frame costs the few thousand pixels
+to return (:meth:`snrmon.acquisition.engine.frame_correction.FrameCorrector.ensure`). The tracker
+and Eq. (4) read only such rectangles near the track, so a frame costs the few thousand pixels
 they touch instead of the whole square the next frame may read. Everything else (shape, dtype)
 is the buffer's own; a whole-array operation that does not index first would see pixels not
 yet corrected this frame, so the measurement code indexes before it reads (it always has: it

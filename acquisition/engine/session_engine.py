@@ -1,7 +1,7 @@
 """The session's engine: every camera's :class:`CameraEngine`, the range at each frame, the stops
-and the SNR-versus-range table. The live :class:`acquisition.runtime.session.Session` feeds it from
-its device threads; a replay feeds it the recorded streams on the recorded clock. No devices, no
-threads of its own, no files.
+and the SNR-versus-range table. The live :class:`snrmon.acquisition.runtime.session.Session` feeds
+it from its device threads; a replay feeds it the recorded streams on the recorded clock. No
+devices, no threads of its own, no files.
 
 Inputs (any thread; each camera's frames from one thread, in order):
 
@@ -27,16 +27,16 @@ from typing import Protocol
 
 import numpy as np
 
-from acquisition.config import SessionConfig
-from acquisition.engine.camera_engine import CameraEngine
-from acquisition.engine.inputs import Cue, FrameOutput, Measurement, SetRoi
-from acquisition.geo.gps_cue import GpsProjector
-from acquisition.geo.projection import gps_slant_range_m
-from acquisition.stops.detector import Stop, StopConfig, StopDetector
-from acquisition.stops.table import Predictor, StopRow, StopSource, StopTable
-from acquisition.streams.history import ScalarHistory
-from drivers.gps.fix import GpsFix
-from drivers.rangefinder.reading import RangeReading, RangeStatus
+from snrmon.acquisition.config import SessionConfig
+from snrmon.acquisition.engine.camera_engine import CameraEngine
+from snrmon.acquisition.engine.inputs import Cue, FrameOutput, Measurement, SetRoi
+from snrmon.acquisition.geo.gps_cue import GpsProjector
+from snrmon.acquisition.geo.projection import gps_slant_range_m
+from snrmon.acquisition.stops.detector import Stop, StopConfig, StopDetector
+from snrmon.acquisition.stops.table import Predictor, StopRow, StopSource, StopTable
+from snrmon.acquisition.streams.history import ScalarHistory
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
 log = logging.getLogger(__name__)
 
@@ -154,7 +154,7 @@ class SessionEngine:
         if kind == "model_background":
             self.set_background(camera, float(payload["temp_k"]))
         elif kind == "model_psf" and hasattr(self.predictor, "set_psf"):
-            from acquisition.calibrate.psf_estimate import psf_from_record
+            from snrmon.acquisition.calibrate.psf_estimate import psf_from_record
 
             self.predictor.set_psf(camera, psf_from_record(payload))  # type: ignore[union-attr]
 
@@ -241,8 +241,9 @@ class SessionEngine:
             # Under the lock: the rangefinder's and the GPS's threads record their stop changes
             # in the order the detector made them.
             if stop is not None and self.sink is not None:
-                self.sink.stop_changed("stop_ended" if stop.t_end_ns is not None else
-                                       "stop_detected", stop)  # fmt: skip
+                self.sink.stop_changed(
+                    "stop_ended" if stop.t_end_ns is not None else "stop_detected", stop
+                )
 
     def range_at(self, t_host_ns: int) -> tuple[float | None, str]:
         """The range for a frame received at ``t_host_ns``: the rangefinder if its reading is

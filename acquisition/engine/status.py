@@ -9,9 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from acquisition.measure.peak_snr import PeakSnr
-from drivers.device import DeviceStatus
-from drivers.gps.fix import GpsFix
+from snrmon.acquisition.measure.peak_snr import PeakSnr
+from snrmon.drivers.device import DeviceStatus
+from snrmon.drivers.gps.fix import GpsFix
 
 
 @dataclass(frozen=True, slots=True)

@@ -18,8 +18,8 @@ import time
 
 import numpy as np
 
-from acquisition.engine.camera_engine import CameraEngine
-from acquisition.engine.inputs import SetRoi
+from snrmon.acquisition.engine.camera_engine import CameraEngine
+from snrmon.acquisition.engine.inputs import SetRoi
 
 WARM_UP_FRAMES = 3  # the click's frame, then frames that follow the track
 

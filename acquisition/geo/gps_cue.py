@@ -2,15 +2,15 @@
 
 The paper's operators found a lost drone again from its GPS position; the console does the same:
 each fix is projected into every camera whose pointing (azimuth, elevation, roll) is configured,
-through the intrinsics of its sensor preset (:mod:`acquisition.geo.projection`). The result cues the
-tracker and draws the GPS cross.
+through the intrinsics of its sensor preset (:mod:`snrmon.acquisition.geo.projection`). The result
+cues the tracker and draws the GPS cross.
 """
 
 from __future__ import annotations
 
-from acquisition.config import SessionConfig
-from acquisition.geo.projection import CameraIntrinsics, fix_position, project_to_pixel
-from drivers.gps.fix import GpsFix
+from snrmon.acquisition.config import SessionConfig
+from snrmon.acquisition.geo.projection import CameraIntrinsics, fix_position, project_to_pixel
+from snrmon.drivers.gps.fix import GpsFix
 
 
 class GpsProjector:
@@ -22,7 +22,7 @@ class GpsProjector:
         for cam in config.cameras:
             if cam.pointing is None:
                 continue
-            from model.presets import load_sensor  # focal length, pitch and format
+            from snrmon.model.presets import load_sensor  # focal length, pitch and format
 
             intrinsics = CameraIntrinsics.from_sensor(load_sensor(cam.sensor))
             self._cameras.append((cam.name, cam.pointing, intrinsics))

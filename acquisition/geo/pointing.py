@@ -4,7 +4,7 @@ The operator tracks the drone at close range, where it is bright and its GPS pos
 inside the field of view; each pair is the tracked pixel and the GPS position at that frame.
 Least squares (``scipy.optimize.least_squares``, plain squares) over
 (az, el, roll) minimises the pixel distance between each tracked pixel and the projection of its
-GPS position (conventions of :mod:`acquisition.geo.projection`). The residual is reported in
+GPS position (conventions of :mod:`snrmon.acquisition.geo.projection`). The residual is reported in
 pixels, per
 pair and as RMS and maximum, so the operator sees at once whether the fit can cue the search.
 
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from acquisition.geo.projection import CameraIntrinsics, Pointing, Site, enu_of, project_enu
+from snrmon.acquisition.geo.projection import CameraIntrinsics, Pointing, Site, enu_of, project_enu
 
 # Pixel residual given to a pair that lands behind the camera during the search: large and
 # smooth enough that the optimiser turns back toward the front.

@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 import pymap3d
 
-from drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.fix import GpsFix
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,7 +96,7 @@ class CameraIntrinsics:
     @classmethod
     def from_sensor(cls, sensor: Any) -> CameraIntrinsics:
         """From a model sensor (attributes ``focal_length_m``, ``pitch_um``, ``width_px``,
-        ``height_px``, as in :mod:`model.presets`)."""
+        ``height_px``, as in :mod:`snrmon.model.presets`)."""
         return cls(
             float(sensor.focal_length_m),
             float(sensor.pitch_um) * 1e-6,

@@ -3,7 +3,7 @@
 What the tracker follows and what the target-aware measurement keeps out of its background.
 Given a seed pixel, the object is analysed in a square window by the connected set of pixels at
 or above a level that contains the seed (8-connectivity), on the window with a sloping sky
-flattened (:func:`acquisition.measure.local_sky.flatten_sky`):
+flattened (:func:`snrmon.acquisition.measure.local_sky.flatten_sky`):
 
 - **climb**: the seed first moves to the top of its hill, the brightest pixel reachable without
   dipping more than ``k_climb`` (3) sigma below it (a plateau's noise, a flank), the first in
@@ -24,7 +24,7 @@ flattened (:func:`acquisition.measure.local_sky.flatten_sky`):
 - **extent**: the set at ``max(background, saddle) + k_ext x sky sigma`` (``k_ext`` = 3, capped
   at the core's level): every pixel connected to the object that carries more than 3 sigma of
   its signal above the sky it stands on, cut where it joins clutter. The measurement's
-  background must lie outside it (:mod:`acquisition.measure.target_snr`).
+  background must lie outside it (:mod:`snrmon.acquisition.measure.target_snr`).
 
 The window starts at ``min_half_px`` (8) and doubles, up to ``max_half_px`` (48), while the
 extent comes within ``2 + margin_px`` pixels of a border that is not the image's edge, or while
@@ -42,7 +42,7 @@ Conventions: x = column, y = row, zero-based, integers at pixel centres; boxes `
 y1)`` with both corners included; levels in the frame's DN after the flattening. Only the
 window is read.
 
-The analysis of a window is compiled (:mod:`acquisition.measure.blob_kernel`): the same sets,
+The analysis of a window is compiled (:mod:`snrmon.acquisition.measure.blob_kernel`): the same sets,
 levels and sums as the NumPy/OpenCV code it replaced, bit for bit (the reference is kept in
 ``tests/reference/blob_numpy.py`` and compared on random scenes); the plane fit stays NumPy's.
 """
@@ -54,8 +54,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.measure.blob_kernel import analyse_auto, analyse_window, window_stats
-from acquisition.measure.local_sky import (
+from snrmon.acquisition.measure.blob_kernel import analyse_auto, analyse_window, window_stats
+from snrmon.acquisition.measure.local_sky import (
     darkest_side_level,
     flatten_sky,
     looks_level,
@@ -198,7 +198,8 @@ def _stats(v: np.ndarray, ring_px: int) -> tuple[bool, float, list[float], float
 def _analyse(frame: np.ndarray, cx: int, cy: int, half: int, x: int, y: int, cfg, sigma):
     """(blob, seed, recentre, window too small) of the seed (x, y)'s object in the window of
     half-size ``half`` around (cx, cy): its float32 pixels, their noise and levels, the sky's
-    tilt removed (NumPy), then the compiled analysis (:mod:`acquisition.measure.blob_kernel`)."""
+    tilt removed (NumPy), then the compiled analysis
+    (:mod:`snrmon.acquisition.measure.blob_kernel`)."""
     rows, cols = frame.shape
     x0, x1 = max(cx - half, 0), min(cx + half, cols - 1)
     y0, y1 = max(cy - half, 0), min(cy + half, rows - 1)
@@ -208,8 +209,9 @@ def _analyse(frame: np.ndarray, cx: int, cy: int, half: int, x: int, y: int, cfg
     geo = (x0, y0, x1, y1, rows, cols)
     given = 0.0 if sigma is None else float(sigma)
     args = (geo, x - x0, y - y0)
-    out = analyse_auto(v, *args, given, sigma is not None, floor, integer, cfg.flatten,
-                       cfg.ring_px, _numbers(cfg))  # fmt: skip
+    out = analyse_auto(
+        v, *args, given, sigma is not None, floor, integer, cfg.flatten, cfg.ring_px, _numbers(cfg)
+    )
     after_plane = False
     if out[0] == 5:  # a sloping sky: the plane fit is NumPy's (LAPACK)
         sig, after_plane = out[6], True
@@ -226,8 +228,12 @@ def _analyse(frame: np.ndarray, cx: int, cy: int, half: int, x: int, y: int, cfg
             _, _, side, spread = _stats(v, cfg.ring_px)
         # The extent's noise: the sky's own roughness around the window (a curved gradient
         # an AGC leaves, structure) where it exceeds the pixel noise.
-        out = (*analyse_window(v, *args, sig, darkest_side_level(side), max(sig, spread),
-                               integer, _numbers(cfg)), sig)  # fmt: skip
+        out = (
+            *analyse_window(
+                v, *args, sig, darkest_side_level(side), max(sig, spread), integer, _numbers(cfg)
+            ),
+            sig,
+        )
     status, sx, sy, vals, boxes, labels, sig = out
     x, y = x0 + sx, y0 + sy
     if status < 2:

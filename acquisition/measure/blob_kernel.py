@@ -1,8 +1,9 @@
-"""The compiled body of :func:`acquisition.measure.blob.analyse_blob` (one window's analysis).
+"""The compiled body of :func:`snrmon.acquisition.measure.blob.analyse_blob` (one window's
+analysis).
 
 :func:`window_stats` is the window's noise and levels (``robust_sigma``, ``side_levels`` and the
-border ring's spread of :mod:`acquisition.measure.local_sky`); :func:`analyse_window` the climb,
-the saddle's bisection, the core, its centroid and the extent, each connected set found by
+border ring's spread of :mod:`snrmon.acquisition.measure.local_sky`); :func:`analyse_window` the
+climb, the saddle's bisection, the core, its centroid and the extent, each connected set found by
 :func:`flood`: OpenCV's ``floodFill`` with ``FLOODFILL_FIXED_RANGE`` on a float32 window, 8-way,
 whose test for a pixel ``v`` against the seed's ``v0`` is ``-lo <= v - v0 <= up`` in float32
 with ``lo``, ``up`` the float32 roundings of the differences given (so exactly the pixels
@@ -11,7 +12,7 @@ OpenCV's fill takes, not ``v >= level``). The plane fit of a sloping sky stays i
 the sides are not level, then analyses the flattened window.
 
 Everything is float32 where the NumPy code was (the window, differences, weights) and float64
-where it was Python floats; :mod:`acquisition.measure.jit` says how sums and medians match.
+where it was Python floats; :mod:`snrmon.acquisition.measure.jit` says how sums and medians match.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import math
 
 import numpy as np
 
-from acquisition.measure.jit import (
+from snrmon.acquisition.measure.jit import (
     index_weighted_sum,
     kernel,
     median32,

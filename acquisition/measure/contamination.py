@@ -50,8 +50,8 @@ def is_contaminated(
 
 class NoiseReference:
     """The recent noise for the ``rim_contaminated`` test: the median background std of the last
-    ``frames`` accepted frames (no flag of :data:`acquisition.measure.peak_snr.RUNNING_EXCLUDED`);
-    None
+    ``frames`` accepted frames (no flag of
+    :data:`snrmon.acquisition.measure.peak_snr.RUNNING_EXCLUDED`); None
     until ``min_frames``.
 
     A genuinely changed sky must not stay "contaminated" forever: after ``frames`` consecutive

@@ -10,8 +10,8 @@ Exactness is the contract: every compiled routine gives the bits the NumPy code 
 - :func:`pairwise_sum64` / :func:`pairwise_sum32` are NumPy's own summation of a contiguous
   run (``sum`` of float arrays: blocks of 8 partial sums up to 128 values, halves beyond that,
   added to the reduction's initial 0), not a plain loop.
-- :func:`median32` is :func:`acquisition.measure.local_sky.median` (the mean of the two middle
-  values added in float32, for an even count).
+- :func:`median32` is :func:`snrmon.acquisition.measure.local_sky.median` (the mean of the two
+  middle values added in float32, for an even count).
 - Elementwise float32 arithmetic is done in float32 (NumPy's rule for a float32 array and a
   Python float: the float is rounded to float32 first), never contracted into fused
   multiply-adds (numba compiles without ``fastmath``).
@@ -215,7 +215,7 @@ def _select(a, n, k):
 
 @kernel
 def median32(buf, n):
-    """:func:`acquisition.measure.local_sky.median` of ``buf[:n]`` (float32, finite, no -0.0:
+    """:func:`snrmon.acquisition.measure.local_sky.median` of ``buf[:n]`` (float32, finite, no -0.0:
     the k-th value is then the same whatever the selection), as a float64. Reorders
     ``buf[:n]``."""
     k = n // 2

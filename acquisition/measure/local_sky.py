@@ -1,6 +1,6 @@
 """The local sky around a target: its level, its noise, its tilt (issue 14).
 
-Helpers of :mod:`acquisition.measure.blob`, on a float window of the frame:
+Helpers of :mod:`snrmon.acquisition.measure.blob`, on a float window of the frame:
 
 - :func:`robust_sigma`: the pixel noise from horizontal neighbour differences, 1.4826 MAD /
   sqrt(2): smooth gradients and a small object barely move it.

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.measure.background import Rect, detrended, rect_offsets, validate_rect
+from snrmon.acquisition.measure.background import Rect, detrended, rect_offsets, validate_rect
 
 SQRT2 = math.sqrt(2.0)
 

@@ -31,9 +31,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acquisition.measure.background import Rect, background_stats, rect_offsets, rim_offsets
-from acquisition.measure.contamination import NoiseReference, is_contaminated
-from acquisition.measure.running_stats import RunningSnr
+from snrmon.acquisition.measure.background import Rect, background_stats, rect_offsets, rim_offsets
+from snrmon.acquisition.measure.contamination import NoiseReference, is_contaminated
+from snrmon.acquisition.measure.running_stats import RunningSnr
 
 FLAG_SATURATED = "saturated"
 FLAG_EDGE = "edge"
@@ -90,7 +90,7 @@ class PeakSnr:
         flags: names from :data:`FLAG_NAMES`.
         background: which background the mean and std are of (:data:`BACKGROUNDS`): ``rim``
             (the 24 rim pixels of Eq. 4's 7x7 box), ``extent_rim`` (the rim of the segmented
-            target's box grown by a guard band; :mod:`acquisition.measure.target_snr`) or
+            target's box grown by a guard band; :mod:`snrmon.acquisition.measure.target_snr`) or
             ``rect`` (the operator's clear-sky rectangle).
         extent_w_px, extent_h_px: the segmented target's extent (box width and height, px)
             when the tracker segmented it; 0 when not segmented. Metadata of the segmentation:

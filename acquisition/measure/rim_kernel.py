@@ -1,15 +1,15 @@
-"""Compiled backgrounds of the target-aware Eq. (4) (:mod:`acquisition.measure.target_snr`).
+"""Compiled backgrounds of the target-aware Eq. (4) (:mod:`snrmon.acquisition.measure.target_snr`).
 
-- :func:`rim_excesses`: :func:`acquisition.measure.target_snr.rim_excess` for every growth
+- :func:`rim_excesses`: :func:`snrmon.acquisition.measure.target_snr.rim_excess` for every growth
   ``k`` of the wing profile in one pass over the pixels around the rim. A rim's mean is a
   difference of two float64 sums of pixels; the compiled sums are used only where they are
   provably exact (integer pixels, or float32 pixels whose magnitudes and last places fit 52
   bits: then no order of summation can change them), else the caller sums with NumPy.
-- :func:`rim_stats`: :func:`acquisition.measure.background.background_stats` of one rectangle's
-  rim (N = 1): NumPy's pairwise sums of the same float64 products, in the same order; the
-  gradient's ``hypot`` stays NumPy's (libm's), done by the caller.
-- :func:`brightest`: :func:`acquisition.track.search.brightest_in`'s argmax (NaN never, first in
-  row-major order among equals).
+- :func:`rim_stats`: :func:`snrmon.acquisition.measure.background.background_stats` of one
+  rectangle's rim (N = 1): NumPy's pairwise sums of the same float64 products, in the same order;
+  the gradient's ``hypot`` stays NumPy's (libm's), done by the caller.
+- :func:`brightest`: :func:`snrmon.acquisition.track.search.brightest_in`'s argmax (NaN never, first
+  in row-major order among equals).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from acquisition.measure.jit import kernel, pairwise_sum64, sum_is_exact, ulp32
+from snrmon.acquisition.measure.jit import kernel, pairwise_sum64, sum_is_exact, ulp32
 
 INTEGER, FLOAT32, OTHER = 0, 1, 2  # pixel kinds for the exactness proof
 

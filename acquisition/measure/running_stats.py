@@ -5,7 +5,8 @@ deviation of the 100 peak SNR values constituted the peak SNR."
 
 Policy for values that are not numbers: a NaN or infinite SNR never enters the window (it is
 skipped, so the window always holds the last N *finite* values pushed). Which flagged frames are
-pushed at all is the caller's decision (see :class:`acquisition.measure.peak_snr.PeakSnrMeter`).
+pushed at all is the caller's decision (see
+:class:`snrmon.acquisition.measure.peak_snr.PeakSnrMeter`).
 
 Cost: O(1) per push (Welford update with removal of the value leaving the window); to stop
 rounding drift accumulating over a long session, the sums are recomputed exactly from the window

@@ -1,5 +1,6 @@
 """The vectorised Eq. (4) path for a stack of frames (replay): the same numbers as the per-frame
-:class:`acquisition.measure.peak_snr.PeakSnrMeter`, bit for bit, flags and running state included.
+:class:`snrmon.acquisition.measure.peak_snr.PeakSnrMeter`, bit for bit, flags and running state
+included.
 
 The peak search, the background gather and the statistics run on all frames at once (the same
 reductions as the per-frame path, which calls the same core with N = 1); only the
@@ -13,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acquisition.measure.peak_snr import (
+from snrmon.acquisition.measure.peak_snr import (
     PeakSnr,
     PeakSnrMeter,
     background_of,
@@ -89,6 +90,12 @@ def measure_stack(
         return np.concatenate([getattr(p, name) for p in parts])
 
     return StackSnr(
-        joined("peak_x"), joined("peak_y"), joined("peak"), joined("bg_mean"), joined("bg_std"),
-        joined("snr"), joined("bits"), background_of(meter.config),
-    )  # fmt: skip
+        joined("peak_x"),
+        joined("peak_y"),
+        joined("peak"),
+        joined("bg_mean"),
+        joined("bg_std"),
+        joined("snr"),
+        joined("bits"),
+        background_of(meter.config),
+    )

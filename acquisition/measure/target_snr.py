@@ -8,13 +8,13 @@ truth is hundreds. The paper's second method, a clear-sky region chosen by the o
 not differ significantly" where both apply (section 5).
 
 The rule (:func:`background_rule`), per frame, from the target's segmented extent
-(:class:`acquisition.measure.blob.Blob`: every pixel connected to the target that carries more
-than 3 sigma of its signal):
+(:class:`snrmon.acquisition.measure.blob.Blob`: every pixel connected to the target that carries
+more than 3 sigma of its signal):
 
 - ``rect``: the operator's clear-sky rectangle, when one is configured (always preferred: the
   operator chose it).
 - ``rim``: the extent lies within the 5x5 guard around the peak (Chebyshev distance <= box_px//2
-  - 1). The target does not reach the rim: Eq. (4) exactly as :func:`acquisition.measure.
+  - 1). The target does not reach the rim: Eq. (4) exactly as :func:`snrmon.acquisition.measure.
   peak_snr.peak_snr_with` computes it, bit for bit.
 - ``extent_rim``: otherwise. The background is the one-pixel rim of the rectangle made of the
   extent's box grown by ``guard_px`` (2) guard pixels and the rim itself, so it lies
@@ -22,7 +22,7 @@ than 3 sigma of its signal):
   Eq. (4)'s box (core, guard ring, rim), scaled to the target. The peak is the target's
   brightest pixel (first in row-major order among equals); mean, std (``ddof``), detrend and the
   contamination test (with the rectangle's longer side - 1 as the gradient's extent) are those of
-  Eq. (4) (:func:`acquisition.measure.background.background_stats`).
+  Eq. (4) (:func:`snrmon.acquisition.measure.background.background_stats`).
 
 Conventions: x = column, y = row, zero-based; rectangles ``(x0, y0, x1, y1)`` both included.
 """
@@ -35,10 +35,10 @@ import math
 
 import numpy as np
 
-from acquisition.measure.background import Rect, background_stats
-from acquisition.measure.blob import Blob
-from acquisition.measure.contamination import is_contaminated
-from acquisition.measure.peak_snr import (
+from snrmon.acquisition.measure.background import Rect, background_stats
+from snrmon.acquisition.measure.blob import Blob
+from snrmon.acquisition.measure.contamination import is_contaminated
+from snrmon.acquisition.measure.peak_snr import (
     BACKGROUND_EXTENT,
     BACKGROUND_RECT,
     BACKGROUND_RIM,
@@ -51,7 +51,7 @@ from acquisition.measure.peak_snr import (
     peak_snr_with,
     saturation_level,
 )
-from acquisition.measure.rim_kernel import pixel_kind, rim_excesses, rim_stats, wing_decision
+from snrmon.acquisition.measure.rim_kernel import pixel_kind, rim_excesses, rim_stats, wing_decision
 
 
 def background_rule(blob: Blob, cfg: PeakSnrConfig) -> str:
@@ -97,7 +97,7 @@ def rim_excess(pixels: np.ndarray, rect: Rect, sigma: float, k: int) -> float:
 
 def _excesses(pixels: np.ndarray, rect: Rect, sigma: float, most: int) -> np.ndarray | None:
     """:func:`rim_excess` for k = 0..most in one compiled pass over the pixels around the
-    largest rim (:func:`acquisition.measure.rim_kernel.rim_excesses`); None when its sums are
+    largest rim (:func:`snrmon.acquisition.measure.rim_kernel.rim_excesses`); None when its sums are
     not provably exact (the caller sums with NumPy)."""
     rows, cols = pixels.shape
     x0, y0, x1, y1 = rect
@@ -290,7 +290,7 @@ def measure_target(
 class TargetMeter:
     """Eq. (4) of a tracked object with the background :func:`background_rule` picks.
 
-    ``measure`` is :func:`acquisition.measure.peak_snr.peak_snr_with` with the search window
+    ``measure`` is :func:`snrmon.acquisition.measure.peak_snr.peak_snr_with` with the search window
     set per call (one configuration per size, built once: each keeps its cached offsets).
     ``measure_object``: the extent within the 5x5 guard (or a rectangle configured) -> Eq. (4)
     in the search window centred on ``at``, bit-identical to the fixed-point measurement; if

@@ -8,8 +8,8 @@ else (no ROI, no rectangle) none, and the figures are unknown (NaN).
 
 How: every ``interval_s`` (default 0.25 s, so at most 4 estimates per second whatever the frame
 rate) the chosen pixels of one frame are copied; on the NEXT measured frame the same pixels (same
-coordinates, even if the track moved) give :func:`acquisition.measure.noise.estimate_noise` its
-frame and
+coordinates, even if the track moved) give :func:`snrmon.acquisition.measure.noise.estimate_noise`
+its frame and
 previous frame. Temporal noise follows acquisition/measure/noise.py's convention: the std of the
 difference of two frames divided by sqrt(2) (the difference carries sqrt(2) times the
 single-frame temporal noise); spatial = sqrt(max(total^2 - temporal^2, 0)). The ring of pixels
@@ -26,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from acquisition.measure.background import Rect, validate_rect
-from acquisition.measure.jit import kernel, std_ddof
-from acquisition.measure.noise import NoiseEstimate, estimate_noise, noise_estimate
+from snrmon.acquisition.measure.background import Rect, validate_rect
+from snrmon.acquisition.measure.jit import kernel, std_ddof
+from snrmon.acquisition.measure.noise import NoiseEstimate, estimate_noise, noise_estimate
 
 NAN = math.nan
 
@@ -72,8 +72,8 @@ def _difference(here, previous):
 
 
 def _ring_estimate(here: np.ndarray, previous: np.ndarray, ddof: int) -> NoiseEstimate:
-    """:func:`acquisition.measure.noise.estimate_noise` of the ring's pixels as one row (no
-    detrend): the same pairwise sums, compiled (:func:`acquisition.measure.jit.std_ddof`)."""
+    """:func:`snrmon.acquisition.measure.noise.estimate_noise` of the ring's pixels as one row (no
+    detrend): the same pairwise sums, compiled (:func:`snrmon.acquisition.measure.jit.std_ddof`)."""
     total = std_ddof(here, ddof)
     temporal_paper = std_ddof(_difference(here, previous), ddof)
     return noise_estimate(total, temporal_paper, here.size, False)

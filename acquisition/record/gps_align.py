@@ -28,7 +28,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from acquisition.geo.projection import Site, enu_of
+from snrmon.acquisition.geo.projection import Site, enu_of
 
 
 def _clock_rows(clock: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -2,9 +2,9 @@
 
 A campaign often has sessions whose live GPS feed was missing. The drone kept its own log (a DJI
 flight record exported by AirData, a receiver's NMEA log, a MAVLink ``.tlog``); its fixes are
-placed on the session's clock on UTC (:mod:`acquisition.record.gps_align`, with the offset search
-against the rangefinder where the session has one) and written as the session's ``/gps``, so the
-GPS range, the stop detector and the cueing of a replay and of a campaign use them as they would
+placed on the session's clock on UTC (:mod:`snrmon.acquisition.record.gps_align`, with the offset
+search against the rangefinder where the session has one) and written as the session's ``/gps``, so
+the GPS range, the stop detector and the cueing of a replay and of a campaign use them as they would
 a live feed.
 
 The file is a finished SWMR session; it is opened ``r+`` with plain h5py and stays readable by
@@ -27,18 +27,18 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from acquisition.config import session_config_from_dict
-from acquisition.geo.projection import Site
-from acquisition.record import schema as S  # noqa: N812
-from acquisition.record.gps_align import (
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.geo.projection import Site
+from snrmon.acquisition.record import schema as S  # noqa: N812
+from snrmon.acquisition.record.gps_align import (
     OffsetSearch,
     search_offset,
     slant_ranges_m,
     utc_to_host_ns,
 )
-from acquisition.record.reader import append_event, clear_status_flags
-from acquisition.record.stream_rows import gps_row
-from drivers.gps.fix import GpsFix
+from snrmon.acquisition.record.reader import append_event, clear_status_flags
+from snrmon.acquisition.record.stream_rows import gps_row
+from snrmon.drivers.gps.fix import GpsFix
 
 LIVE_COPY = "gps_live"
 SOURCE_ATTR = "source"
@@ -85,15 +85,15 @@ def _utc_ns(fix: GpsFix) -> int:
 def read_log(kind: str, path: str | Path) -> tuple[list[GpsFix], str]:
     """(fixes, how their UTC was obtained) of a flight log of ``kind`` (:data:`KINDS`)."""
     if kind == "dji_csv":
-        from drivers.gps.dji_csv import read_dji_csv
+        from snrmon.drivers.gps.dji_csv import read_dji_csv
 
         return read_dji_csv(path), "datetime(utc) + time(millisecond)"
     if kind == "nmea":
-        from drivers.gps.nmea_log import read_nmea_log
+        from snrmon.drivers.gps.nmea_log import read_nmea_log
 
         return read_nmea_log(path).fixes, "NMEA RMC/ZDA date + GGA/RMC time"
     if kind == "tlog":
-        from drivers.gps.tlog import read_tlog
+        from snrmon.drivers.gps.tlog import read_tlog
 
         log = read_tlog(path)
         return log.fixes, log.utc_source
@@ -142,7 +142,7 @@ def import_gps_log(
     """Align the flight log ``log`` to ``session`` on UTC and write it as its ``/gps``.
 
     ``offset_s`` None searches the offset against the rangefinder (applied only when it is
-    identifiable, :func:`acquisition.record.gps_align.search_offset`); a number is applied as
+    identifiable, :func:`snrmon.acquisition.record.gps_align.search_offset`); a number is applied as
     given (the search still runs and is reported). Fixes more than ``margin_s`` outside the
     session's recorded span are left out.
     """

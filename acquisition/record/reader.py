@@ -28,7 +28,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from acquisition.record import schema
+from snrmon.acquisition.record import schema
 
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _M32 = 0xFFFFFFFF

@@ -31,15 +31,19 @@ from typing import Any
 import h5py
 import numpy as np
 
-from acquisition.engine.inputs import Measurement
-from acquisition.record import schema as S  # noqa: N812
-from acquisition.record.recorder_status import RecorderStatus, RecorderSummary, describe_failure
-from acquisition.record.stream_rows import gps_row, measurement_row, range_row, values_row
-from acquisition.record.writer import SessionWriter, frame_filter
-from acquisition.streams.ring import Reader
-from acquisition.streams.timebase import ClockMap
-from drivers.gps.fix import GpsFix
-from drivers.rangefinder.reading import RangeReading
+from snrmon.acquisition.engine.inputs import Measurement
+from snrmon.acquisition.record import schema as S  # noqa: N812
+from snrmon.acquisition.record.recorder_status import (
+    RecorderStatus,
+    RecorderSummary,
+    describe_failure,
+)
+from snrmon.acquisition.record.stream_rows import gps_row, measurement_row, range_row, values_row
+from snrmon.acquisition.record.writer import SessionWriter, frame_filter
+from snrmon.acquisition.streams.ring import Reader
+from snrmon.acquisition.streams.timebase import ClockMap
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.rangefinder.reading import RangeReading
 
 BACKLOG = "recorder_backlog"
 STOPPED = "recording_stopped"
@@ -147,7 +151,7 @@ class SessionRecorder:
         return index
 
     def add_measurement(self, camera: str, index: int | None, **values: Any) -> None:
-        """Queue one frame's Eq. (4) result from its values (:func:`acquisition.record.
+        """Queue one frame's Eq. (4) result from its values (:func:`snrmon.acquisition.record.
         stream_rows.values_row`: counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr,
         flags). ``index``: the frame's index from ``add_frame``, or ``None`` to look it up by
         ``t_host_ns`` (-1 in the file when the frame is not recorded)."""
@@ -236,8 +240,8 @@ class SessionRecorder:
 
     def attach_reader(self, camera: str, reader: Reader) -> None:
         """Feed ``camera`` from a ring reader on a pump thread
-        (:func:`acquisition.record.ring_feed.pump_reader`); ``stop()`` waits for it."""
-        from acquisition.record.ring_feed import pump_reader
+        (:func:`snrmon.acquisition.record.ring_feed.pump_reader`); ``stop()`` waits for it."""
+        from snrmon.acquisition.record.ring_feed import pump_reader
 
         self._pumps.append((pump_reader(self, camera, reader), reader))
 

@@ -6,10 +6,10 @@ from __future__ import annotations
 import threading
 from typing import TYPE_CHECKING
 
-from acquisition.streams.ring import Reader
+from snrmon.acquisition.streams.ring import Reader
 
 if TYPE_CHECKING:
-    from acquisition.record.recorder import SessionRecorder
+    from snrmon.acquisition.record.recorder import SessionRecorder
 
 
 def pump_reader(recorder: SessionRecorder, camera: str, reader: Reader) -> threading.Thread:

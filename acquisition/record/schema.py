@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
+from snrmon.acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
 
 FORMAT = "snrmon-session"
 FORMAT_VERSION = "2.1"
@@ -69,8 +69,18 @@ MEASUREMENT_DTYPE = np.dtype(
         ("range_source", "S8"),
     ]
 )
-MEASUREMENT_FIELDS_V1 = ("frame_index", "counter", "t_host_ns", "peak_x", "peak_y", "peak",
-                         "bg_mean", "bg_std", "snr", "flags")  # fmt: skip
+MEASUREMENT_FIELDS_V1 = (
+    "frame_index",
+    "counter",
+    "t_host_ns",
+    "peak_x",
+    "peak_y",
+    "peak",
+    "bg_mean",
+    "bg_std",
+    "snr",
+    "flags",
+)
 MEASUREMENT_UNITS = {
     "frame_index": "index into frames (-1: frame not in the file)",
     "counter": "camera frame counter",

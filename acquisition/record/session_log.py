@@ -57,8 +57,12 @@ class RecordingLog:
             root.setLevel(logging.INFO)
         root.addHandler(handler)
         self._handler = handler
-        log.info("recording %s; snrmon %s; %s", Path(self.path).with_suffix(".h5").name,
-                 _version(), _command_line())  # fmt: skip
+        log.info(
+            "recording %s; snrmon %s; %s",
+            Path(self.path).with_suffix(".h5").name,
+            _version(),
+            _command_line(),
+        )
         return self
 
     def stop(self) -> None:

@@ -1,6 +1,6 @@
 """The rows of the recorded streams (``docs/session-format.md``): what a rangefinder reading, a
 GPS fix or a measured frame becomes in the session file (:func:`range_row`, :func:`gps_row`,
-:func:`measurement_row`, in the field order of :mod:`acquisition.record.schema`), and what a
+:func:`measurement_row`, in the field order of :mod:`snrmon.acquisition.record.schema`), and what a
 recorded row becomes again (:func:`reading_from_row`, :func:`fix_from_row`,
 :func:`measurement_from_row`), so that a replay sees what the operator saw. Missing values are
 NaN (floats) or -1 (integers) in the file and None in the data types.
@@ -14,11 +14,11 @@ from datetime import UTC, datetime, timedelta
 
 import numpy as np
 
-from acquisition.engine.inputs import Measurement
-from acquisition.measure.peak_snr import PeakSnr, flags_from_bits, flags_to_bits
-from acquisition.record import schema as S  # noqa: N812
-from drivers.gps.fix import GpsFix
-from drivers.rangefinder.reading import RangeReading, RangeStatus
+from snrmon.acquisition.engine.inputs import Measurement
+from snrmon.acquisition.measure.peak_snr import PeakSnr, flags_from_bits, flags_to_bits
+from snrmon.acquisition.record import schema as S  # noqa: N812
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
 EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
 
@@ -157,9 +157,31 @@ def values_row(
     context: the track state is empty, the window is the peak, the rest is "not given")."""
     bits = int(flags) if isinstance(flags, (int, np.integer)) else flags_to_bits(flags)
     nan = math.nan
-    return (index, counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr, bits,
-            background.encode(), extent_w_px, extent_h_px,
-            b"", peak_x, peak_y, nan, nan, nan, nan, 0, nan, b"")  # fmt: skip
+    return (
+        index,
+        counter,
+        t_host_ns,
+        peak_x,
+        peak_y,
+        peak,
+        bg_mean,
+        bg_std,
+        snr,
+        bits,
+        background.encode(),
+        extent_w_px,
+        extent_h_px,
+        b"",
+        peak_x,
+        peak_y,
+        nan,
+        nan,
+        nan,
+        nan,
+        0,
+        nan,
+        b"",
+    )
 
 
 def peak_snr_from_row(row: np.void) -> PeakSnr:

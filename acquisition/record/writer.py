@@ -18,8 +18,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from acquisition.record import schema
-from acquisition.streams.timebase import ClockMap
+from snrmon.acquisition.record import schema
+from snrmon.acquisition.streams.timebase import ClockMap
 
 COMPRESSIONS = ("gzip", "lz4", "zstd", "bitshuffle-lz4")
 LIBVER = ("v110", "v110")

@@ -2,8 +2,8 @@
 
 :func:`replay_session` builds the session's engine with the recording's own settings (or the ones
 given: a re-analysis), plays the recording's timeline into it
-(:class:`acquisition.replay.feeder.Feeder`), paced to the recorded clock or as fast as the disk
-allows, and returns every per-frame measurement, the comparison with the recorded ones, the
+(:class:`snrmon.acquisition.replay.feeder.Feeder`), paced to the recorded clock or as fast as the
+disk allows, and returns every per-frame measurement, the comparison with the recorded ones, the
 stop table, and the file's own frame accounting (what the recorder dropped, and why).
 """
 
@@ -16,12 +16,17 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from acquisition.engine.session_engine import SessionEngine
-from acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
-from acquisition.record.reader import SessionFile, open_session
-from acquisition.replay.feeder import CameraTally, Feeder, RecordedStops
-from acquisition.replay.recorded import FRAME, RecordedInputs, recorded_inputs, recording_drops
-from acquisition.stops.table import Predictor, StopRow, row_values_equal
+from snrmon.acquisition.engine.session_engine import SessionEngine
+from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
+from snrmon.acquisition.record.reader import SessionFile, open_session
+from snrmon.acquisition.replay.feeder import CameraTally, Feeder, RecordedStops
+from snrmon.acquisition.replay.recorded import (
+    FRAME,
+    RecordedInputs,
+    recorded_inputs,
+    recording_drops,
+)
+from snrmon.acquisition.stops.table import Predictor, StopRow, row_values_equal
 
 
 @dataclass
@@ -71,7 +76,7 @@ def recorded_calibration(f: SessionFile, name: str, inputs: RecordedInputs, path
     path = path or inputs.per_camera[name].calibration
     if path is None:
         return None
-    from acquisition.calibrate.calibration_file import load_calibration
+    from snrmon.acquisition.calibrate.calibration_file import load_calibration
 
     shape = tuple(f.cameras[name].frames.shape[1:])
     return load_calibration(path, frame_shape=shape)

@@ -1,4 +1,5 @@
-"""One recorded camera as the console sees a live one (:class:`acquisition.protocols.CameraView`):
+"""One recorded camera as the console sees a live one
+(:class:`snrmon.acquisition.protocols.CameraView`):
 its shape, the frame shown last, and the numbers of the engine the replay runs."""
 
 from __future__ import annotations
@@ -7,9 +8,9 @@ import threading
 
 import numpy as np
 
-from acquisition.engine.camera_engine import CameraEngine
-from acquisition.engine.status import CameraStatus, FrameAccounting
-from acquisition.streams.ring import RingFrame
+from snrmon.acquisition.engine.camera_engine import CameraEngine
+from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
+from snrmon.acquisition.streams.ring import RingFrame
 
 
 class ReplayCamera:

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acquisition.engine.inputs import (
+from snrmon.acquisition.engine.inputs import (
     ApplyReference,
     ClearReference,
     ClearRoi,
@@ -31,13 +31,17 @@ from acquisition.engine.inputs import (
     Restore,
     SetRoi,
 )
-from acquisition.engine.session_engine import SessionEngine
-from acquisition.measure.peak_snr import flags_from_bits
-from acquisition.record.frame_access import FrameCrops
-from acquisition.record.reader import SessionFile
-from acquisition.record.schema import text_value
-from acquisition.record.stream_rows import fix_from_row, measurement_from_row, reading_from_row
-from acquisition.replay.recorded import (
+from snrmon.acquisition.engine.session_engine import SessionEngine
+from snrmon.acquisition.measure.peak_snr import flags_from_bits
+from snrmon.acquisition.record.frame_access import FrameCrops
+from snrmon.acquisition.record.reader import SessionFile
+from snrmon.acquisition.record.schema import text_value
+from snrmon.acquisition.record.stream_rows import (
+    fix_from_row,
+    measurement_from_row,
+    reading_from_row,
+)
+from snrmon.acquisition.replay.recorded import (
     FIX,
     FRAME,
     RANGE,
@@ -45,7 +49,7 @@ from acquisition.replay.recorded import (
     RecordedInputs,
     frames_between,
 )
-from acquisition.stops.detector import Stop
+from snrmon.acquisition.stops.detector import Stop
 
 log = logging.getLogger(__name__)
 
@@ -125,7 +129,7 @@ class Feeder:
 
     Args:
         f: the open session file.
-        inputs: what it recorded (:func:`acquisition.replay.recorded.recorded_inputs`).
+        inputs: what it recorded (:func:`snrmon.acquisition.replay.recorded.recorded_inputs`).
         engine: a fresh engine built from the recording's settings.
         fast: read frames through a memory map (same numbers, a few kB a frame).
         recorded_stops: the stop source the engine was built with, when the file's own stops
@@ -317,8 +321,9 @@ class Feeder:
             return ApplyReference(offset, payload, restart_raw=not payload.get("in_force"))
         # Format 1: rebuild it from its frames, through the live accumulation.
         engine = self.engine.cameras[name]
-        frames, counters = frames_between(cam, int(payload["first_counter"]),
-                                          int(payload["last_counter"]))  # fmt: skip
+        frames, counters = frames_between(
+            cam, int(payload["first_counter"]), int(payload["last_counter"])
+        )
         corrector = type(engine.corrector)(engine.shape, engine.corrector.half_px)
         corrector.calibration = engine.corrector.calibration
         summary = corrector.set_reference(frames, counters)

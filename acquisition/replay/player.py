@@ -1,21 +1,21 @@
 """The console's replay of a recorded session: a :class:`ReplayPlayer` with the live Session's face.
 
-The console drives a live :class:`acquisition.runtime.session.Session` through a small surface
-(:class:`acquisition.protocols.ConsoleSession`); the player offers the same surface on a
-recording, so the same window shows a replay. One worker thread plays the recording's timeline
-(:class:`acquisition.replay.feeder.Feeder`) into a fresh
-:class:`acquisition.engine.session_engine.SessionEngine` built with the recording's settings: the
-live engine itself, so the replay shows the numbers the operator saw (per-frame SNR, running
+The console drives a live :class:`snrmon.acquisition.runtime.session.Session` through a small
+surface (:class:`snrmon.acquisition.protocols.ConsoleSession`); the player offers the same surface
+on a recording, so the same window shows a replay. One worker thread plays the recording's timeline
+(:class:`snrmon.acquisition.replay.feeder.Feeder`) into a fresh
+:class:`snrmon.acquisition.engine.session_engine.SessionEngine` built with the recording's settings:
+the live engine itself, so the replay shows the numbers the operator saw (per-frame SNR, running
 statistics, noise and sky figures, the stop table filling as it did), the recorded GPS fix and its
 projection.
 
-Controls (:class:`acquisition.protocols.ReplayControls`, any thread): :meth:`play`, :meth:`pause`,
-:meth:`step` (one recorded frame of one camera), :meth:`seek` (a frame index), :meth:`set_speed`
-(x real time, paced by the recorded ``t_host_ns``). A seek restarts the measurement at the
-target: the track starts at the recorded window of the camera's last measured frame before it,
-the running statistics and the stop table hold what is measured from there on. A click measures
-the shown frame again around the new point. Recording, stop marks, references and notes are
-refused (ValueError "not available in replay").
+Controls (:class:`snrmon.acquisition.protocols.ReplayControls`, any thread): :meth:`play`,
+:meth:`pause`, :meth:`step` (one recorded frame of one camera), :meth:`seek` (a frame index),
+:meth:`set_speed` (x real time, paced by the recorded ``t_host_ns``). A seek restarts the
+measurement at the target: the track starts at the recorded window of the camera's last measured
+frame before it, the running statistics and the stop table hold what is measured from there on. A
+click measures the shown frame again around the new point. Recording, stop marks, references and
+notes are refused (ValueError "not available in replay").
 """
 
 from __future__ import annotations
@@ -28,18 +28,18 @@ from typing import Any
 
 import numpy as np
 
-from acquisition.engine.inputs import SetRoi
-from acquisition.engine.session_engine import SessionEngine
-from acquisition.engine.status import RecordingStatus, SessionStatus
-from acquisition.record.reader import open_session
-from acquisition.record.stream_rows import fix_from_row
-from acquisition.replay.batch import engine_for
-from acquisition.replay.camera import ReplayCamera
-from acquisition.replay.feeder import Feeder
-from acquisition.replay.recorded import FIX, FRAME, recorded_inputs
-from acquisition.stops.table import Predictor, StopRow
-from acquisition.streams.ring import RingFrame
-from drivers.gps.fix import GpsFix
+from snrmon.acquisition.engine.inputs import SetRoi
+from snrmon.acquisition.engine.session_engine import SessionEngine
+from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
+from snrmon.acquisition.record.reader import open_session
+from snrmon.acquisition.record.stream_rows import fix_from_row
+from snrmon.acquisition.replay.batch import engine_for
+from snrmon.acquisition.replay.camera import ReplayCamera
+from snrmon.acquisition.replay.feeder import Feeder
+from snrmon.acquisition.replay.recorded import FIX, FRAME, recorded_inputs
+from snrmon.acquisition.stops.table import Predictor, StopRow
+from snrmon.acquisition.streams.ring import RingFrame
+from snrmon.drivers.gps.fix import GpsFix
 
 NOT_IN_REPLAY = "not available in replay"
 
@@ -190,10 +190,13 @@ class ReplayPlayer:
         """Wait until every step, seek and ROI asked for has been shown (tests, scripts)."""
         with self._cond:
             return self._cond.wait_for(
-                lambda: not (self._steps or self._seek_to is not None or self._roi_requests
-                             or self._busy),
+                lambda: (
+                    not (
+                        self._steps or self._seek_to is not None or self._roi_requests or self._busy
+                    )
+                ),
                 timeout,
-            )  # fmt: skip
+            )
 
     @property
     def predictor(self) -> Predictor | None:
@@ -216,8 +219,9 @@ class ReplayPlayer:
         with self._cond:
             i, playing, speed = self._index, self._playing, self._speed
         t_s = (int(self._t[max(i, 0)]) - self._t0) / 1e9 if i >= 0 else 0.0
-        return ReplayPosition(i, len(self._t), t_s, (int(self._t[-1]) - self._t0) / 1e9,
-                              playing, speed)  # fmt: skip
+        return ReplayPosition(
+            i, len(self._t), t_s, (int(self._t[-1]) - self._t0) / 1e9, playing, speed
+        )
 
     def now_ns(self) -> int:
         """The recorded time of the last shown frame (the replay's 'now' for charts)."""
@@ -314,8 +318,9 @@ class ReplayPlayer:
         engine.cameras[name].post(SetRoi(x, y))
         frame = self.pipelines[name].latest_frame()
         if frame is not None:
-            engine.on_frame(name, frame.pixels, seq=frame.seq, counter=frame.counter,
-                            t_host_ns=frame.t_host_ns)  # fmt: skip
+            engine.on_frame(
+                name, frame.pixels, seq=frame.seq, counter=frame.counter, t_host_ns=frame.t_host_ns
+            )
 
     def _next_job(self) -> tuple[str, Any] | None:
         """Wait for something to do; returns the job (under the condition's lock)."""

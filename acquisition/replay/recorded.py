@@ -4,8 +4,8 @@
 time-ordered *timeline* of everything that reached the live engine (each camera's frames, the
 frames it measured but the recorder dropped, rangefinder readings, GPS fixes, stop events), and
 per camera the commands applied at each frame (clicks, background references, the GPS cue, the
-model background, engine states at recording gaps). :class:`acquisition.replay.feeder.Feeder`
-plays it into a :class:`acquisition.engine.session_engine.SessionEngine`.
+model background, engine states at recording gaps). :class:`snrmon.acquisition.replay.feeder.Feeder`
+plays it into a :class:`snrmon.acquisition.engine.session_engine.SessionEngine`.
 
 Format 1 files (no cues, states or reference images recorded) replay as before: cues are
 projected from the recorded fixes, a reference is rebuilt from its recorded frames, and the
@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acquisition.config import SessionConfig, session_config_from_dict
-from acquisition.record.reader import SessionFile
-from acquisition.stops.detector import Stop, StopConfig
+from snrmon.acquisition.config import SessionConfig, session_config_from_dict
+from snrmon.acquisition.record.reader import SessionFile
+from snrmon.acquisition.stops.detector import Stop, StopConfig
 
 # Timeline entry kinds, in the order entries of the same time are applied.
 RANGE, FIX, STOP, FRAME = 0, 1, 2, 3

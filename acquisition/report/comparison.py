@@ -8,7 +8,7 @@
 * :func:`reference_table`: the paper's reference numbers beside ours, each with the reason
   where they differ (docs/model.md).
 * :func:`detection_summary`: probability of detection versus range and the detection range
-  with its confidence (:mod:`model.detection`).
+  with its confidence (:mod:`snrmon.model.detection`).
 """
 
 from __future__ import annotations
@@ -18,8 +18,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-FIT_CURVES = ("small", "large", "small_corrected", "large_corrected", "expected_eq4",
-              "paper_small", "paper_small_corrected")  # fmt: skip
+FIT_CURVES = (
+    "small",
+    "large",
+    "small_corrected",
+    "large_corrected",
+    "expected_eq4",
+    "paper_small",
+    "paper_small_corrected",
+)
 
 
 @dataclass(frozen=True)
@@ -41,9 +48,16 @@ def fit_statistics(rows, models) -> list[FitStatistic]:
     points) against each curve of ``models`` ({camera: ModelCurves})."""
     out = []
     for cam, m in models.items():
-        keep = [r for r in rows if r.camera == cam and r.range_m is not None and r.n_frames >= 2
-                and math.isfinite(r.snr_mean) and r.resolved is False
-                and _error_of_mean(r) > 0]  # a stop without an error has no weight  # fmt: skip
+        keep = [
+            r
+            for r in rows
+            if r.camera == cam
+            and r.range_m is not None
+            and r.n_frames >= 2
+            and math.isfinite(r.snr_mean)
+            and r.resolved is False
+            and _error_of_mean(r) > 0
+        ]  # a stop without an error has no weight
         if not keep:
             continue
         x = np.log([r.range_m for r in keep])
@@ -58,10 +72,15 @@ def fit_statistics(rows, models) -> list[FitStatistic]:
             if curve in m.lower:
                 half = 0.5 * (np.interp(x, lr, m.upper[curve]) - np.interp(x, lr, m.lower[curve]))
             r2 = (meas - model) ** 2
-            out.append(FitStatistic(
-                cam, curve, len(keep), float(np.mean(r2 / (sem**2 + half**2))),
-                float(np.mean(r2 / sem**2)),
-            ))  # fmt: skip
+            out.append(
+                FitStatistic(
+                    cam,
+                    curve,
+                    len(keep),
+                    float(np.mean(r2 / (sem**2 + half**2))),
+                    float(np.mean(r2 / sem**2)),
+                )
+            )
     return out
 
 
@@ -75,11 +94,11 @@ class Reference:
 
 def reference_table(sensors: dict[str, str], target: str) -> list[Reference]:
     """The paper's numbers (sections 8-9, Table 1) beside the model's."""
-    from model.footprint import average_pvf_square
-    from model.noise import model_netd_mk
-    from model.presets import load_sensor, load_target
-    from model.pvf import average_pvf, average_pvf_vs_target_sigma
-    from model.snr import predict
+    from snrmon.model.footprint import average_pvf_square
+    from snrmon.model.noise import model_netd_mk
+    from snrmon.model.presets import load_sensor, load_target
+    from snrmon.model.pvf import average_pvf, average_pvf_vs_target_sigma
+    from snrmon.model.snr import predict
 
     mw, lw = load_sensor("mwir"), load_sensor("lwir")
     real = mw.corrected_psf()
@@ -89,28 +108,48 @@ def reference_table(sensors: dict[str, str], target: str) -> list[Reference]:
     cascade = p.snr_small_corrected[0] / p.snr_small[0]
     fmt3 = "/".join
     return [
-        Reference("MWIR average PVF, diffraction limited", "0.25",
-                  f"{average_pvf(mw.diffraction_psf(), 0.8):.4f}",
-                  "polychromatic Airy, flat in wavelength, FF 0.8 as area; the paper's spectral "
-                  "weighting is not given (weighting by dLq/dT gives 0.2415)"),
-        Reference("LWIR average PVF, diffraction limited", "0.45",
-                  f"{average_pvf(lw.diffraction_psf(), 0.9):.4f}", "as for the MWIR (+3.5 %)"),
-        Reference("MWIR average PVF, real PSF", "0.082", f"{average_pvf(real, 0.8):.4f}",
-                  "the preset solves the blur for 0.082; the paper's own 0.8-px Gaussian fit "
-                  "gives 0.160 and the twin's measured PSF ~0.14 (snrmon psf)"),
-        Reference("finite-size PVF, D = 0.25/0.5/1 px", "0.080/0.076/0.062",
-                  fmt3(f"{v:.4f}" for v in sq),
-                  "a square of side D (ours) spreads less than the paper's Gaussian target; "
-                  "sigma_t = D/2 gives " + fmt3(f"{v:.4f}" for v in ga)),
-        Reference("NETD MWIR / LWIR (mK)", "41 / 50",
-                  f"{model_netd_mk(mw):.1f} / {model_netd_mk(lw):.1f}",
-                  "MWIR from Eq. 1 with chosen t_int, QE, optics; LWIR equal by construction "
-                  "(its noise is taken from the NETD)"),
-        Reference("cascaded modelling errors (corrected / uncorrected)", "23 %",
-                  f"{100 * cascade:.0f} % (MWIR, 508 m)",
-                  "ours is one model pair (real PSF and square target against the Airy), not "
-                  "the paper's worst-case linear cascade with a 20 % path-radiance error"),
-    ]  # fmt: skip
+        Reference(
+            "MWIR average PVF, diffraction limited",
+            "0.25",
+            f"{average_pvf(mw.diffraction_psf(), 0.8):.4f}",
+            "polychromatic Airy, flat in wavelength, FF 0.8 as area; the paper's spectral "
+            "weighting is not given (weighting by dLq/dT gives 0.2415)",
+        ),
+        Reference(
+            "LWIR average PVF, diffraction limited",
+            "0.45",
+            f"{average_pvf(lw.diffraction_psf(), 0.9):.4f}",
+            "as for the MWIR (+3.5 %)",
+        ),
+        Reference(
+            "MWIR average PVF, real PSF",
+            "0.082",
+            f"{average_pvf(real, 0.8):.4f}",
+            "the preset solves the blur for 0.082; the paper's own 0.8-px Gaussian fit "
+            "gives 0.160 and the twin's measured PSF ~0.14 (snrmon psf)",
+        ),
+        Reference(
+            "finite-size PVF, D = 0.25/0.5/1 px",
+            "0.080/0.076/0.062",
+            fmt3(f"{v:.4f}" for v in sq),
+            "a square of side D (ours) spreads less than the paper's Gaussian target; "
+            "sigma_t = D/2 gives " + fmt3(f"{v:.4f}" for v in ga),
+        ),
+        Reference(
+            "NETD MWIR / LWIR (mK)",
+            "41 / 50",
+            f"{model_netd_mk(mw):.1f} / {model_netd_mk(lw):.1f}",
+            "MWIR from Eq. 1 with chosen t_int, QE, optics; LWIR equal by construction "
+            "(its noise is taken from the NETD)",
+        ),
+        Reference(
+            "cascaded modelling errors (corrected / uncorrected)",
+            "23 %",
+            f"{100 * cascade:.0f} % (MWIR, 508 m)",
+            "ours is one model pair (real PSF and square target against the Airy), not "
+            "the paper's worst-case linear cascade with a 20 % path-radiance error",
+        ),
+    ]
 
 
 @dataclass(frozen=True)
@@ -129,11 +168,24 @@ class DetectionSummary:
 
 def detection_summary(camera: str, sensor_name: str, target: str, **predict_kwargs):
     """Pd versus range (one false alarm per hour over the frame) and the detection range."""
-    from model.detection import detection
-    from model.presets import load_sensor, load_target
+    from snrmon.model.detection import detection
+    from snrmon.model.presets import load_sensor, load_target
 
-    d = detection(load_sensor(sensor_name), load_target(target), np.geomspace(100.0, 5000.0, 90),
-                  **predict_kwargs)  # fmt: skip
-    return DetectionSummary(camera, d.ranges_m, d.pd, d.pd_lower, d.pd_upper, d.range_m,
-                            d.range_lower_m, d.range_upper_m, d.threshold_sigma,
-                            d.false_alarms_per_hour)  # fmt: skip
+    d = detection(
+        load_sensor(sensor_name),
+        load_target(target),
+        np.geomspace(100.0, 5000.0, 90),
+        **predict_kwargs,
+    )
+    return DetectionSummary(
+        camera,
+        d.ranges_m,
+        d.pd,
+        d.pd_lower,
+        d.pd_upper,
+        d.range_m,
+        d.range_lower_m,
+        d.range_upper_m,
+        d.threshold_sigma,
+        d.false_alarms_per_hour,
+    )

@@ -4,16 +4,16 @@ measurement; live (:func:`live_report_data`, the headless demo's end-of-flight r
 table's own rows and the frames each summarised are used as measured.
 
 - Fig. 6: per stop and camera, the 100-frame series of peak value, background (rim) mean,
-  background std and peak SNR: the frames :func:`acquisition.stops.detector.summarise_stop` chose
-  from a replay of the session through the live measurement.
+  background std and peak SNR: the frames :func:`snrmon.acquisition.stops.detector.summarise_stop`
+  chose from a replay of the session through the live measurement.
 - Figs. 7-10: per camera, the measured points (mean with the sample std as error bar, against the
   stop's range: the rangefinder's, else the GPS slant range) over the model's four curves
-  (:func:`model.snr.predict`), the Fig. 12 band around the corrected curves and the
+  (:func:`snrmon.model.snr.predict`), the Fig. 12 band around the corrected curves and the
   resolved/unresolved transition ranges (characteristic dimension = pixel footprint).
-- Fig. 12: the uncertainty budget (:class:`model.uncertainty.UncertaintyBudget`) of the session's
-  sensor and target at each stop's range, term by term, for the small dimension.
-- The CSV rows (:mod:`acquisition.report.stop_csv`): one per stop and camera, with the ratio of
-  the measured SNR mean to each model curve at the stop's range.
+- Fig. 12: the uncertainty budget (:class:`snrmon.model.uncertainty.UncertaintyBudget`) of the
+  session's sensor and target at each stop's range, term by term, for the small dimension.
+- The CSV rows (:mod:`snrmon.acquisition.report.stop_csv`): one per stop and camera, with the ratio
+  of the measured SNR mean to each model curve at the stop's range.
 
 The sensors are the session's ``[cameras.<name>] sensor`` presets and the target is the
 session's ``target`` unless one is given.
@@ -28,13 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.config import session_config_from_dict
-from acquisition.prediction import CURVES, ModelPredictor
-from acquisition.record.reader import open_session
-from acquisition.replay.batch import ReplayResult, replay_session
-from acquisition.report.stop_csv import csv_rows
-from acquisition.stops.detector import summarise_stop
-from acquisition.stops.table import StopRow, StopTable
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.prediction import CURVES, ModelPredictor
+from snrmon.acquisition.record.reader import open_session
+from snrmon.acquisition.replay.batch import ReplayResult, replay_session
+from snrmon.acquisition.report.stop_csv import csv_rows
+from snrmon.acquisition.stops.detector import summarise_stop
+from snrmon.acquisition.stops.table import StopRow, StopTable
 
 BUDGET_TERMS: tuple[str, ...] = (
     "target_outline",
@@ -200,10 +200,10 @@ def model_range_grid(stop_ranges_m: list[float]) -> np.ndarray:
 def model_curves(
     camera: str, sensor_name: str, target_name: str, ranges_m, **predict_options
 ) -> ModelCurves:
-    """The four curves and their bands; ``predict_options`` go to :func:`model.snr.predict`
+    """The four curves and their bands; ``predict_options`` go to :func:`snrmon.model.snr.predict`
     (a campaign's ``[model]`` settings)."""
-    from model.presets import load_sensor, load_target
-    from model.snr import predict
+    from snrmon.model.presets import load_sensor, load_target
+    from snrmon.model.snr import predict
 
     p = predict(load_sensor(sensor_name), load_target(target_name), ranges_m, **predict_options)
     psf = predict_options.get("corrected_psf")
@@ -265,9 +265,9 @@ def uncertainty_budget(
     The path-radiance term is the budget's fraction times L_bg / (L_t - L_bg) (section 9's
     amplification); the model exposes that factor through a budget holding only that term at
     1, so every number here is the model's own."""
-    from model.presets import load_sensor, load_target
-    from model.snr import predict
-    from model.uncertainty import UncertaintyBudget
+    from snrmon.model.presets import load_sensor, load_target
+    from snrmon.model.snr import predict
+    from snrmon.model.uncertainty import UncertaintyBudget
 
     if not ranges_m:
         return []
@@ -275,9 +275,13 @@ def uncertainty_budget(
     r = np.asarray(ranges_m, float)
     budget = UncertaintyBudget()
     unit_path = UncertaintyBudget(
-        target_outline=0.0, radiometry=0.0, transmission=0.0, path_radiance=1.0, mtf=0.0,
+        target_outline=0.0,
+        radiometry=0.0,
+        transmission=0.0,
+        path_radiance=1.0,
+        mtf=0.0,
         target_size_blur=0.0,
-    )  # fmt: skip
+    )
     p = predict(sensor, target, r, uncertainty=unit_path)
     amp = np.asarray(p.relative_uncertainty["small_corrected"], float)
     unresolved = ~np.asarray(p.resolved_small, bool)
@@ -359,7 +363,11 @@ def assemble_report(
     for c in cameras:
         ranges = sorted({r.range_m for r in rows if r.camera == c and r.range_m is not None})
         budgets[c] = uncertainty_budget(c, sensors[c], target, ranges)
-    from acquisition.report.comparison import detection_summary, fit_statistics, reference_table
+    from snrmon.acquisition.report.comparison import (
+        detection_summary,
+        fit_statistics,
+        reference_table,
+    )
 
     models = {}
     for c in cameras:

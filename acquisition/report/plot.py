@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.prediction import CURVES
-from acquisition.report.data import BUDGET_TERMS, ReportData, StopSeries
+from snrmon.acquisition.prediction import CURVES
+from snrmon.acquisition.report.data import BUDGET_TERMS, ReportData, StopSeries
 
 PAGE_IN = (8.5, 11.0)
 PNG_DPI = 100
@@ -91,15 +91,30 @@ def summary_page(data: ReportData):
     cells = []
     for r in data.csv_rows:
         cells.append(
-            [str(r["stop"]), str(r["camera"]), _fmt(r["lrf_range_m"], ".1f"),
-             _fmt(r["gps_range_m"], ".1f"), str(r["n_frames"]), _fmt(r["snr_mean"], ".2f"),
-             _fmt(r["snr_std"], ".2f"), _background(r["background"])]
+            [
+                str(r["stop"]),
+                str(r["camera"]),
+                _fmt(r["lrf_range_m"], ".1f"),
+                _fmt(r["gps_range_m"], ".1f"),
+                str(r["n_frames"]),
+                _fmt(r["snr_mean"], ".2f"),
+                _fmt(r["snr_std"], ".2f"),
+                _background(r["background"]),
+            ]
             + [_fmt(r[f"model_{c}"], ".1f") for c in CURVES]
             + [_fmt(r["ratio_small_corrected"], ".3f")]
-        )  # fmt: skip
+        )
     empty = "no range stop was found in this session"
-    draw_table(fig, (0.04, 0.05, 0.92, 0.74), head, cells, max_rows=40, fontsize=6.5,
-               more="more rows in the CSV", empty=empty)  # fmt: skip
+    draw_table(
+        fig,
+        (0.04, 0.05, 0.92, 0.74),
+        head,
+        cells,
+        max_rows=40,
+        fontsize=6.5,
+        more="more rows in the CSV",
+        empty=empty,
+    )
     return fig
 
 
@@ -133,23 +148,54 @@ def _snr_axes(ax, data: ReportData, camera: str, paper_curves: bool = True) -> N
     for rt, name in ((m.transition_small_m, "small"), (m.transition_large_m, "large")):
         if m.ranges_m[0] <= rt <= m.ranges_m[-1]:
             ax.axvline(rt, color="grey", ls=":", lw=1)
-            ax.text(rt, 0.98, f" {name} D = 1 px at {rt:.0f} m", rotation=90, va="top",
-                    fontsize=6.5, color="grey", transform=ax.get_xaxis_transform())  # fmt: skip
+            ax.text(
+                rt,
+                0.98,
+                f" {name} D = 1 px at {rt:.0f} m",
+                rotation=90,
+                va="top",
+                fontsize=6.5,
+                color="grey",
+                transform=ax.get_xaxis_transform(),
+            )
     p = data.measured[camera]
     if len(p.range_m):
-        ax.errorbar(p.range_m, p.snr_mean, yerr=np.nan_to_num(p.snr_sem), fmt="ko", ms=4,
-                    capsize=3, label="measured (mean, error of the mean)")  # fmt: skip
+        ax.errorbar(
+            p.range_m,
+            p.snr_mean,
+            yerr=np.nan_to_num(p.snr_sem),
+            fmt="ko",
+            ms=4,
+            capsize=3,
+            label="measured (mean, error of the mean)",
+        )
         partial = ~p.complete
         if partial.any():
-            ax.plot(p.range_m[partial], p.snr_mean[partial], "o", mfc="none", mec="red", ms=9,
-                    label="fewer than 100 valid frames")  # fmt: skip
+            ax.plot(
+                p.range_m[partial],
+                p.snr_mean[partial],
+                "o",
+                mfc="none",
+                mec="red",
+                ms=9,
+                label="fewer than 100 valid frames",
+            )
     fits = [f for f in data.fits if f.camera == camera]
     if fits:
         text = "chi2/dof of the unresolved stops\n" + "\n".join(
             f"{f.curve}: {f.chi2_per_dof:.2f} (n={f.n_stops})" for f in fits
         )
-        ax.text(0.99, 0.99, text, transform=ax.transAxes, ha="right", va="top", fontsize=6,
-                family="monospace", bbox={"fc": "white", "alpha": 0.8, "lw": 0.3})  # fmt: skip
+        ax.text(
+            0.99,
+            0.99,
+            text,
+            transform=ax.transAxes,
+            ha="right",
+            va="top",
+            fontsize=6,
+            family="monospace",
+            bbox={"fc": "white", "alpha": 0.8, "lw": 0.3},
+        )
     ax.set_yscale("log")
     ax.set_xlabel("range (m)")
     ax.set_ylabel("peak SNR")
@@ -198,9 +244,11 @@ def reference_page(data: ReportData):
     ax2.grid(True, which="both", alpha=0.3)
     if data.detections:
         k = next(iter(data.detections.values()))
-        ax2.set_title(f"one false alarm per {1 / k.false_alarms_per_hour:g} h over the frame: "
-                      f"threshold {k.threshold_sigma:.2f} sigma; band: the model's inputs",
-                      fontsize=8)  # fmt: skip
+        ax2.set_title(
+            f"one false alarm per {1 / k.false_alarms_per_hour:g} h over the frame: "
+            f"threshold {k.threshold_sigma:.2f} sigma; band: the model's inputs",
+            fontsize=8,
+        )
     ax2.legend(fontsize=7)
     return fig
 
@@ -249,8 +297,12 @@ def budget_page(data: ReportData):
 
 def _series_column(axes, s: StopSeries) -> None:
     n = np.arange(1, len(s.snr) + 1)
-    rows = (("peak", s.peak, "peak (DN)"), ("bg_mean", s.bg_mean, "background mean (DN)"),
-            ("bg_std", s.bg_std, "background std (DN)"), ("snr", s.snr, "peak SNR"))  # fmt: skip
+    rows = (
+        ("peak", s.peak, "peak (DN)"),
+        ("bg_mean", s.bg_mean, "background mean (DN)"),
+        ("bg_std", s.bg_std, "background std (DN)"),
+        ("snr", s.snr, "peak SNR"),
+    )
     rng = "-" if s.range_m is None else f"{s.range_m:.1f} m"
     for ax, (_, values, label) in zip(axes, rows, strict=True):
         ax.plot(n, values, "-", lw=0.9, marker=".", ms=3)

@@ -8,8 +8,8 @@ import csv
 import math
 from pathlib import Path
 
-from acquisition.prediction import CURVES
-from acquisition.stops.table import StopRow
+from snrmon.acquisition.prediction import CURVES
+from snrmon.acquisition.stops.table import StopRow
 
 CSV_COLUMNS: tuple[str, ...] = (
     "camera",

@@ -3,10 +3,10 @@
 Threads (DESIGN "The data that flows", anchors (b) item 5):
 
 - the camera device's own reader thread copies each frame into a preallocated
-  :class:`acquisition.streams.ring.FrameRing` and returns at once (the producer never waits);
+  :class:`snrmon.acquisition.streams.ring.FrameRing` and returns at once (the producer never waits);
 - this pipeline's measurement thread pops EVERY frame from its ring reader in order and hands it
-  to the session's engine (:meth:`acquisition.engine.session_engine.SessionEngine.on_frame`: the
-  same per-frame engine a replay runs), then records the frame, the commands the engine applied
+  to the session's engine (:meth:`snrmon.acquisition.engine.session_engine.SessionEngine.on_frame`:
+  the same per-frame engine a replay runs), then records the frame, the commands the engine applied
   before it, and its measurement; the recorder's queue never blocks (a backlog is counted as
   frames dropped by the recorder, and the measurement of a dropped frame is kept all the same);
 - a display takes only the newest frame with :meth:`CameraPipeline.latest_frame` on its own
@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from acquisition.engine.camera_engine import CameraEngine
-from acquisition.engine.inputs import (
+from snrmon.acquisition.engine.camera_engine import CameraEngine
+from snrmon.acquisition.engine.inputs import (
     ClearReference,
     ClearRoi,
     Cue,
@@ -37,16 +37,16 @@ from acquisition.engine.inputs import (
     SetRoi,
     StartReference,
 )
-from acquisition.engine.status import CameraStatus, FrameAccounting
-from acquisition.engine.warm_up import warm_up
-from acquisition.runtime.click_news import ClickNews
-from acquisition.streams.ring import FrameRing, RingFrame
-from drivers.camera.frame import Frame
-from drivers.device import Device
+from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
+from snrmon.acquisition.engine.warm_up import warm_up
+from snrmon.acquisition.runtime.click_news import ClickNews
+from snrmon.acquisition.streams.ring import FrameRing, RingFrame
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.device import Device
 
 if TYPE_CHECKING:
-    from acquisition.engine.session_engine import SessionEngine
-    from acquisition.record.recorder import SessionRecorder
+    from snrmon.acquisition.engine.session_engine import SessionEngine
+    from snrmon.acquisition.record.recorder import SessionRecorder
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +56,7 @@ class CameraPipeline:
 
     Args:
         name: the camera's name ("mwir", "lwir").
-        device: the camera driver (any :class:`drivers.device.Device` of :class:`Frame`).
+        device: the camera driver (any :class:`snrmon.drivers.device.Device` of :class:`Frame`).
         engine: the session's engine, which holds this camera's :class:`CameraEngine`.
         ring_capacity: frames held for the slowest consumer (default 2 s at 60 fps).
     """
@@ -91,7 +91,7 @@ class CameraPipeline:
 
     # ------------------------------------------------------------------ control
     def warm_up(self) -> float:
-        """Load the compiled analysis (:func:`acquisition.engine.warm_up.warm_up`; the first
+        """Load the compiled analysis (:func:`snrmon.acquisition.engine.warm_up.warm_up`; the first
         run on a machine compiles it, 15-22 s) unless done already; returns the seconds the
         first call took. :meth:`start` calls it before it opens the device; call it earlier
         where something else must not start its clock meanwhile (a simulated flight)."""
@@ -133,7 +133,8 @@ class CameraPipeline:
         self.engine.post(Cue(float(x), float(y)))
 
     def set_calibration(self, calibration) -> None:
-        """Apply a radiometric calibration (:class:`acquisition.calibrate.calibration.Calibration`)
+        """Apply a radiometric calibration
+        (:class:`snrmon.acquisition.calibrate.calibration.Calibration`)
         to the measured window and follow the sky temperature (issue 9). Call before ``start``."""
         self.engine.set_calibration(calibration)
 
@@ -264,10 +265,22 @@ class CameraPipeline:
         without frames, so a replay builds the same stop table. Taken on the measurement thread
         (or once it has stopped), so exactly the frames measured before the first recorded one."""
         for t, r in self.session_engine.stop_table.history(self.name):
-            rec.add_measurement(self.name, -1, counter=-1, t_host_ns=t, peak_x=r.peak_x,
-                                peak_y=r.peak_y, peak=r.peak, bg_mean=r.bg_mean, bg_std=r.bg_std,
-                                snr=r.snr, flags=r.flags, background=r.background,
-                                extent_w_px=r.extent_w_px, extent_h_px=r.extent_h_px)  # fmt: skip
+            rec.add_measurement(
+                self.name,
+                -1,
+                counter=-1,
+                t_host_ns=t,
+                peak_x=r.peak_x,
+                peak_y=r.peak_y,
+                peak=r.peak,
+                bg_mean=r.bg_mean,
+                bg_std=r.bg_std,
+                snr=r.snr,
+                flags=r.flags,
+                background=r.background,
+                extent_w_px=r.extent_w_px,
+                extent_h_px=r.extent_h_px,
+            )
 
     def _record_resume(self, rec: SessionRecorder, item: RingFrame) -> None:
         """The first recorded frame after frames the file does not hold: the engine's state and
@@ -275,8 +288,9 @@ class CameraPipeline:
         corrector = self.engine.corrector
         if corrector.reference_offset is not None and corrector.reference_summary is not None:
             summary = {**corrector.reference_summary, "in_force": True}
-            rec.add_reference(self.name, corrector.reference_offset, summary,
-                              t_host_ns=item.t_host_ns)  # fmt: skip
+            rec.add_reference(
+                self.name, corrector.reference_offset, summary, t_host_ns=item.t_host_ns
+            )
         rec.add_state(self.name, item.counter, item.t_host_ns, self.engine.snapshot())
 
     def _record(
@@ -286,15 +300,27 @@ class CameraPipeline:
             # At the frame they took effect on, so a replay applies them there too.
             if isinstance(c, SetRoi):
                 payload = {"x": c.x, "y": c.y, "counter": item.counter}
-                rec.add_event("roi_set", camera=self.name, payload=payload,
-                              t_host_ns=item.t_host_ns)  # fmt: skip
+                rec.add_event(
+                    "roi_set", camera=self.name, payload=payload, t_host_ns=item.t_host_ns
+                )
             elif isinstance(c, ClearRoi | ClearReference | StartReference):
-                kind = {ClearRoi: "roi_cleared", ClearReference: "reference_cleared",
-                        StartReference: "reference_started"}[type(c)]  # fmt: skip
-                rec.add_event(kind, camera=self.name, payload={"counter": item.counter},
-                              t_host_ns=item.t_host_ns)  # fmt: skip
+                kind = {
+                    ClearRoi: "roi_cleared",
+                    ClearReference: "reference_cleared",
+                    StartReference: "reference_started",
+                }[type(c)]
+                rec.add_event(
+                    kind,
+                    camera=self.name,
+                    payload={"counter": item.counter},
+                    t_host_ns=item.t_host_ns,
+                )
         if out.reference_done is not None:
-            rec.add_reference(self.name, out.reference_done.offset, out.reference_done.summary,
-                              t_host_ns=item.t_host_ns)  # fmt: skip
+            rec.add_reference(
+                self.name,
+                out.reference_done.offset,
+                out.reference_done.summary,
+                t_host_ns=item.t_host_ns,
+            )
         if out.measurement is not None:
             rec.add_measured(self.name, index, out.measurement)

@@ -17,8 +17,8 @@ from __future__ import annotations
 import math
 import threading
 
-from acquisition.engine.inputs import Measurement, SetRoi
-from acquisition.measure.peak_snr import FLAG_LOST
+from snrmon.acquisition.engine.inputs import Measurement, SetRoi
+from snrmon.acquisition.measure.peak_snr import FLAG_LOST
 
 HOLDING = ("tracking", "gps_cued")
 

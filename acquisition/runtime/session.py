@@ -1,13 +1,14 @@
 """The live Session: the one object the CLI and the GUI drive on real (or simulated) devices. No Qt.
 
-It owns the devices of a :class:`acquisition.config.SessionConfig` and feeds the session's engine
-(:class:`acquisition.engine.session_engine.SessionEngine`, the same engine a replay feeds from a
-recording): each camera through a :class:`acquisition.runtime.camera_pipeline.CameraPipeline`
-(device -> ring -> engine -> recorder), the rangefinder and GPS readings from their device
-threads. While recording it writes everything raw, plus what the engine decided that a replay
-must apply again (stop events, final rows, the model background following the sky). Commands:
-start/stop, set the ROI per camera, start/stop recording, mark a stop, add a note. Reading: status
-snapshots and the latest frame per camera.
+It owns the devices of a :class:`snrmon.acquisition.config.SessionConfig` and feeds the session's
+engine (:class:`snrmon.acquisition.engine.session_engine.SessionEngine`, the same engine a replay
+feeds from a recording): each camera through a
+:class:`snrmon.acquisition.runtime.camera_pipeline.CameraPipeline` (device -> ring -> engine ->
+recorder), the rangefinder and GPS readings from their device threads. While recording it writes
+everything raw, plus what the engine decided that a replay must apply again (stop events, final
+rows, the model background following the sky). Commands: start/stop, set the ROI per camera,
+start/stop recording, mark a stop, add a note. Reading: status snapshots and the latest frame per
+camera.
 """
 
 from __future__ import annotations
@@ -24,20 +25,20 @@ from typing import Any
 
 import numpy as np
 
-from acquisition.config import SessionConfig, camera_device
-from acquisition.engine.inputs import Measurement
-from acquisition.engine.session_engine import SessionEngine
-from acquisition.engine.status import RecordingStatus, SessionStatus
-from acquisition.record.recorder import SessionRecorder
-from acquisition.record.session_log import RecordingLog
-from acquisition.runtime.camera_pipeline import CameraPipeline
-from acquisition.stops.detector import Stop, StopConfig
-from acquisition.stops.table import Predictor, StopRow
-from acquisition.streams.ring import RingFrame
-from acquisition.streams.timebase import ClockMap
-from drivers.device import Device
-from drivers.gps.fix import GpsFix
-from drivers.rangefinder.reading import RangeReading
+from snrmon.acquisition.config import SessionConfig, camera_device
+from snrmon.acquisition.engine.inputs import Measurement
+from snrmon.acquisition.engine.session_engine import SessionEngine
+from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
+from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.acquisition.record.session_log import RecordingLog
+from snrmon.acquisition.runtime.camera_pipeline import CameraPipeline
+from snrmon.acquisition.stops.detector import Stop, StopConfig
+from snrmon.acquisition.stops.table import Predictor, StopRow
+from snrmon.acquisition.streams.ring import RingFrame
+from snrmon.acquisition.streams.timebase import ClockMap
+from snrmon.drivers.device import Device
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.rangefinder.reading import RangeReading
 
 log = logging.getLogger(__name__)
 
@@ -118,15 +119,15 @@ class Session:
     def _shape_of(cam) -> tuple[int, int]:
         if cam.width_px and cam.height_px:
             return int(cam.height_px), int(cam.width_px)
-        from model.presets import load_sensor  # the sensor preset knows the array format
+        from snrmon.model.presets import load_sensor  # the sensor preset knows the array format
 
         sensor = load_sensor(cam.sensor)
         return int(sensor.height_px), int(sensor.width_px)
 
     @staticmethod
     def _calibration(cam, shape: tuple[int, int]):
-        from acquisition.calibrate.calibration_file import load_calibration
-        from model.presets import load_sensor
+        from snrmon.acquisition.calibrate.calibration_file import load_calibration
+        from snrmon.model.presets import load_sensor
 
         # Checked against the camera's sensor (camera, band, integration time) and frame size:
         # a calibration of another camera or band is refused, nothing applied.
@@ -136,7 +137,7 @@ class Session:
     def _serial_device(table: dict | None, name: str) -> Device | None:
         if not table:
             return None
-        from drivers.config import device_from_config
+        from snrmon.drivers.config import device_from_config
 
         return device_from_config(dict(table), name)
 
@@ -234,14 +235,17 @@ class Session:
                 raise ValueError(f"already recording to {self._recorder.path}")
         shapes = {n: p.shape for n, p in self.pipelines.items()}
         rec = SessionRecorder(
-            path, config=self._config_record(), cameras=shapes, clock=self.clock,
+            path,
+            config=self._config_record(),
+            cameras=shapes,
+            clock=self.clock,
             **recorder_options,
-        )  # fmt: skip
+        )
         self._recording_log = RecordingLog(path).start()  # FILE.log beside FILE.h5
         for pipe in self.pipelines.values():
             cal = pipe.corrector.calibration
             if cal is not None:
-                from acquisition.calibrate.calibration_file import calibration_metadata
+                from snrmon.acquisition.calibrate.calibration_file import calibration_metadata
 
                 meta = calibration_metadata(cal)
                 meta["path"] = next(

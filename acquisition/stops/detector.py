@@ -2,7 +2,8 @@
 
 A stop is the drone hovering at a surveyed range (37, 126, 199, 336, 393, 451, 508 m in the paper).
 :class:`StopDetector` finds them from the laser rangefinder's slant ranges and/or the GPS slant
-range (:func:`acquisition.geo.projection.gps_slant_range_m`), and takes the operator's manual marks.
+range (:func:`snrmon.acquisition.geo.projection.gps_slant_range_m`), and takes the operator's manual
+marks.
 
 Detection rules (every number is a :class:`StopConfig` field):
 
@@ -42,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from acquisition.measure.peak_snr import (
+from snrmon.acquisition.measure.peak_snr import (
     FLAG_EDGE,
     FLAG_LOST,
     FLAG_RIM_CONTAMINATED,
@@ -50,7 +51,7 @@ from acquisition.measure.peak_snr import (
     FLAG_UNDEFINED,
     PeakSnr,
 )
-from drivers.rangefinder.reading import RangeReading, RangeStatus
+from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
 #: A frame carrying any of these is not valid for a stop's summary.
 INVALID_FLAGS: frozenset[str] = frozenset(
@@ -184,7 +185,7 @@ class StopDetector:
 
     def add_gps_range(self, t_ns: int, range_m: float) -> Stop | None:
         """A GPS fix's slant range from the camera site
-        (:func:`acquisition.geo.projection.gps_slant_range_m`, computed once by the caller,
+        (:func:`snrmon.acquisition.geo.projection.gps_slant_range_m`, computed once by the caller,
         which keeps it for the frames' ranges too); a range of 0 or less is skipped."""
         return None if range_m <= 0 else self.add_range(t_ns, range_m, "gps")
 

@@ -2,8 +2,9 @@
 
 Each row is one stop and one camera: the stop's rangefinder and GPS ranges, the mean and sample
 std of the peak SNR over the first 100 consecutive valid frames
-(:func:`acquisition.stops.detector.summarise_stop`), and the model's curves at that range. Stops
-are found by :class:`acquisition.stops.detector.StopDetector` (or marked by the operator).
+(:func:`snrmon.acquisition.stops.detector.summarise_stop`), and the model's curves at that range.
+Stops are found by :class:`snrmon.acquisition.stops.detector.StopDetector` (or marked by the
+operator).
 
 When a row becomes final is fixed by the data alone, never by when someone asks, so a replay of
 the same frames and readings builds the same table as the live console:
@@ -30,8 +31,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from acquisition.measure.peak_snr import PeakSnr
-from acquisition.stops.detector import Stop, is_valid, summarise_stop
+from snrmon.acquisition.measure.peak_snr import PeakSnr
+from snrmon.acquisition.stops.detector import Stop, is_valid, summarise_stop
 
 Predictor = Callable[[str, float], dict[str, float]]
 """``predict(camera, range_m) -> {"small": snr, "large": ..., "small_corrected": ..., ...}``."""
@@ -293,6 +294,17 @@ def row_values_equal(a: StopRow, b: StopRow) -> bool:
             return True
         return x == y
 
-    keys = ("camera", "stop", "manual", "t_start_ns", "t_end_ns", "lrf_range_m", "gps_range_m",
-            "n_frames", "complete", "snr_mean", "snr_std")  # fmt: skip
+    keys = (
+        "camera",
+        "stop",
+        "manual",
+        "t_start_ns",
+        "t_end_ns",
+        "lrf_range_m",
+        "gps_range_m",
+        "n_frames",
+        "complete",
+        "snr_mean",
+        "snr_std",
+    )
     return all(same(getattr(a, k), getattr(b, k)) for k in keys)

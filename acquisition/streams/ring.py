@@ -31,7 +31,7 @@ from enum import StrEnum
 
 import numpy as np
 
-from drivers.camera.frame import Frame
+from snrmon.drivers.camera.frame import Frame
 
 NO_DEVICE_TIME = np.iinfo(np.int64).min
 """Stored in ``t_device_ns`` when the camera gives no timestamp of its own."""

@@ -15,8 +15,8 @@ import math
 from collections import deque
 from dataclasses import asdict, dataclass
 
-from acquisition.measure.blob import Blob, Box
-from acquisition.track.search import is_object
+from snrmon.acquisition.measure.blob import Blob, Box
+from snrmon.acquisition.track.search import is_object
 
 
 def box_rel(blob: Blob) -> tuple[float, float, float, float]:

@@ -1,4 +1,4 @@
-"""The tracker's numbers, states and per-frame outcome (:mod:`acquisition.track.tracker`).
+"""The tracker's numbers, states and per-frame outcome (:mod:`snrmon.acquisition.track.tracker`).
 
 Every number is a :class:`TrackerConfig` field; docs/tracking.md says what each one does and why
 it has its default.
@@ -10,9 +10,9 @@ import math
 from dataclasses import dataclass, field
 from enum import Enum
 
-from acquisition.measure.blob import BlobConfig
-from acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
-from acquisition.track.motion import MotionConfig
+from snrmon.acquisition.measure.blob import BlobConfig
+from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
+from snrmon.acquisition.track.motion import MotionConfig
 
 WING_PX = 8  # the farthest the background rim moves out past PSF wings (target_snr.wing_growth)
 
@@ -63,10 +63,18 @@ class TrackerConfig:
 
     def __post_init__(self) -> None:
         ints = (
-            "gate_px", "cue_radius_px", "lost_frames", "confirm_frames", "brightness_frames",
-            "cue_max_age_frames", "click_radius_px", "reacquire_frames", "search_after_misses",
-            "search_start_px", "search_max_px",
-        )  # fmt: skip
+            "gate_px",
+            "cue_radius_px",
+            "lost_frames",
+            "confirm_frames",
+            "brightness_frames",
+            "cue_max_age_frames",
+            "click_radius_px",
+            "reacquire_frames",
+            "search_after_misses",
+            "search_start_px",
+            "search_max_px",
+        )
         for name in ints:
             v = getattr(self, name)
             if int(v) != v or v < 1:

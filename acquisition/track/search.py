@@ -1,7 +1,7 @@
 """Finding compact objects in a square of the frame: the click, the lost-track search.
 
-:func:`find_objects` proposes seeds and lets :func:`acquisition.measure.blob.analyse_blob` judge
-each one. Seeds: the brightest pixel of each connected group of pixels that stand
+:func:`find_objects` proposes seeds and lets :func:`snrmon.acquisition.measure.blob.analyse_blob`
+judge each one. Seeds: the brightest pixel of each connected group of pixels that stand
 ``seed_sigma`` noise above a local mean (a ``k x k`` box blur, ``k`` about three times the
 expected object size, so a large drone is not blurred into its own background) and whose
 brightest pixel stands 0.6 x ``min_significance`` sigma above it (the noise's own groups do
@@ -23,9 +23,9 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from acquisition.measure.blob import Blob, BlobConfig, Box, analyse_blob
-from acquisition.measure.local_sky import robust_sigma
-from acquisition.measure.rim_kernel import brightest
+from snrmon.acquisition.measure.blob import Blob, BlobConfig, Box, analyse_blob
+from snrmon.acquisition.measure.local_sky import robust_sigma
+from snrmon.acquisition.measure.rim_kernel import brightest
 
 
 def clip_box(box: Box, shape: tuple[int, int]) -> Box | None:

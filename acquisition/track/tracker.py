@@ -1,17 +1,18 @@
 """The track: follows the object the operator clicked, measures it, and finds it again.
 
 The operator clicks the drone once; the tracker follows *the compact bright object nearest the
-click* (an :func:`acquisition.measure.blob.analyse_blob` object, significant and isolated: a
+click* (an :func:`snrmon.acquisition.measure.blob.analyse_blob` object, significant and isolated: a
 treeline, a cloud bank or a saturated region is not one) and measures every frame with paper
-Eq. (4), the background chosen by the target's extent (:mod:`acquisition.measure.target_snr`).
-Per frame (rules and numbers in docs/tracking.md and :class:`TrackerConfig`):
+Eq. (4), the background chosen by the target's extent
+(:mod:`snrmon.acquisition.measure.target_snr`). Per frame (rules and numbers in docs/tracking.md and
+:class:`TrackerConfig`):
 
 1. **Click**: the nearest object within ``click_radius_px``; none -> LOST, reason ``no_object``.
-2. **Follow**: a constant-velocity model (:mod:`acquisition.track.motion`) predicts the core
-   box; the object there is judged (:func:`acquisition.track.candidate.judge`: occluded,
+2. **Follow**: a constant-velocity model (:mod:`snrmon.acquisition.track.motion`) predicts the core
+   box; the object there is judged (:func:`snrmon.acquisition.track.candidate.judge`: occluded,
    faint, gate, bright, size) without ever looking at the SNR, which a contaminated background
    can make meaningless.
-3. **Measure**: :class:`acquisition.measure.target_snr.TargetMeter`; a miss is Eq. (4) at the
+3. **Measure**: :class:`snrmon.acquisition.measure.target_snr.TargetMeter`; a miss is Eq. (4) at the
    held window, flagged ``lost`` when refused as occluded, gate, bright or size.
 4. **States**: tracking, occluded, lost (``lost_frames`` misses), reacquiring, gps_cued.
 5. **Reacquisition**: a square growing around the prediction (around a fresh GPS cue while
@@ -21,14 +22,26 @@ Per frame (rules and numbers in docs/tracking.md and :class:`TrackerConfig`):
    move the motion model on without decay; a ``gate`` miss right after them is searched for at
    once, in a square widened by ``max_speed_px`` per dropped frame.
 
+Finding a lost drone again (rules 5 and 6 in detail): while misses last, a square around the
+predicted position grows by ``search_growth_px`` per missed frame from ``search_start_px`` to
+``search_max_px``; once LOST with a fresh GPS cue, the ``2 cue_radius_px + 1`` square around the cue
+is searched on the frame the cue arrives and then every other frame (one square a frame: the engine
+corrects only around :attr:`read_centre`). Objects in it with prominence >= ``reacquire_snr`` sigma
+that look like the drone (prominence and core area within ``brightness_factor`` / ``size_factor`` of
+its history) are candidates; the nearest is followed with its own motion and accepted after
+``reacquire_frames`` consecutive frames in which it is found again where that motion puts it (within
+``gate_px``), no faster than ``max_speed_px`` per frame and still looking like the drone. A bird
+crossing near the old position moves too fast or does not look like the drone, and is dropped. A
+candidate at a fresh GPS cue is accepted at once (state ``gps_cued``).
+
 The complete state is :meth:`Tracker.snapshot` (JSON-able; floats exact) and
 :meth:`Tracker.restore`: a tracker built with the same configuration and restored from the
 state after frame k gives bit-identical steps from frame k + 1 on. Everything a frame reads lies
 within :func:`reach_px` of :attr:`Tracker.read_centre`.
 
 The rim-contamination reference (``reference_noise``): ``"recent"`` (default) keeps the same
-recent-noise median as :class:`acquisition.measure.peak_snr.PeakSnrMeter`, fed with the tracker's
-output frames; a number fixes it (DN); None skips the contamination test.
+recent-noise median as :class:`snrmon.acquisition.measure.peak_snr.PeakSnrMeter`, fed with the
+tracker's output frames; a number fixes it (DN); None skips the contamination test.
 """
 
 from __future__ import annotations
@@ -39,9 +52,9 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from acquisition.measure.blob import Blob, analyse_blob
-from acquisition.measure.contamination import NoiseReference
-from acquisition.measure.peak_snr import (
+from snrmon.acquisition.measure.blob import Blob, analyse_blob
+from snrmon.acquisition.measure.contamination import NoiseReference
+from snrmon.acquisition.measure.peak_snr import (
     FLAG_GPS_CUED,
     FLAG_LOST,
     FLAG_RIM_CONTAMINATED,
@@ -50,9 +63,9 @@ from acquisition.measure.peak_snr import (
     PeakSnrConfig,
     pixel_of,
 )
-from acquisition.measure.target_snr import TargetMeter
-from acquisition.track.candidate import Candidate, ObjectHistory, box_at, judge
-from acquisition.track.config import (
+from snrmon.acquisition.measure.target_snr import TargetMeter
+from snrmon.acquisition.track.candidate import Candidate, ObjectHistory, box_at, consistent, judge
+from snrmon.acquisition.track.config import (
     ON_TARGET,
     REFUSED,
     WING_PX,
@@ -61,9 +74,8 @@ from acquisition.track.config import (
     TrackStep,
     reach_px,
 )
-from acquisition.track.motion import MotionModel
-from acquisition.track.reacquire import Reacquisition
-from acquisition.track.search import box_distance, brightest_in, find_objects
+from snrmon.acquisition.track.motion import MotionModel
+from snrmon.acquisition.track.search import box_distance, brightest_in, find_objects, is_object
 
 __all__ = [
     "ON_TARGET",
@@ -76,7 +88,7 @@ __all__ = [
 ]
 
 
-class Tracker(Reacquisition):
+class Tracker:
     """Follows the drone from the operator's click (:meth:`click`) frame by frame."""
 
     def __init__(
@@ -107,9 +119,9 @@ class Tracker(Reacquisition):
         self._reference = NoiseReference(m.reference_frames, m.reference_min_frames)
         self._history = ObjectHistory(c.brightness_frames, c.brightness_min_frames)
         self.motion = MotionModel(c.motion)
-        self._cue = None
+        self._cue: tuple[float, float] | None = None
         self._cue_age = 0
-        self._shape = None
+        self._shape: tuple[int, int] | None = None
         self._search_reason = "searching"
         self.reacquisitions = 0
         self._gap = 1  # camera frames from the last update to the next (> 1 after drops)
@@ -233,10 +245,14 @@ class Tracker(Reacquisition):
             )
         near = brightest_in(pixels, (cx - 2, cy - 2, cx + 2, cy + 2))
         objects = find_objects(
-            pixels, (cx, cy), c.click_radius_px + 2, config=c.blob,
-            min_significance=c.reacquire_snr, min_isolation=c.reacquire_isolation,
+            pixels,
+            (cx, cy),
+            c.click_radius_px + 2,
+            config=c.blob,
+            min_significance=c.reacquire_snr,
+            min_isolation=c.reacquire_isolation,
             seeds=() if near is None else (near,),
-        )  # fmt: skip
+        )
         objects = [b for b in objects if box_distance(b.core_box, (cx, cy)) <= c.click_radius_px]
         if not objects:
             self._misses = 1
@@ -323,6 +339,117 @@ class Tracker(Reacquisition):
         if extra - m.flags:
             m = dataclasses.replace(m, flags=m.flags | extra)
         return TrackStep(m, self.track_state, int(at[0]), int(at[1]), size, reason, self._misses)
+
+    # ------------------------------------------------------------------ reacquisition
+    def _fresh_cue(self, ahead: int = 0) -> tuple[float, float] | None:
+        """The GPS cue if it is no older than ``cue_max_age_frames`` (``ahead`` frames from
+        now) and in the image."""
+        if self._cue is None or self._cue_age + ahead > self.config.cue_max_age_frames:
+            return None
+        rows, cols = self._shape or (1 << 30, 1 << 30)
+        x, y = pixel_of(self._cue)
+        return self._cue if (0 <= x < cols and 0 <= y < rows) else None
+
+    def _plan(self, misses: int, use_cue: bool, ahead: int = 0) -> tuple[str, tuple[int, int]]:
+        """Where this frame's search runs: ("candidate", its predicted position) while one is
+        being confirmed; ("cue", the cue) while lost with a fresh cue, on the frame it arrives
+        and then every other frame; ("grow", the predicted position) otherwise. One place a
+        frame: the engine corrects only the square around it (:attr:`read_centre` asks the same
+        with ``ahead`` = 1)."""
+        if self._pending is not None:
+            return "candidate", pixel_of(self._pending.predict())
+        cue = self._fresh_cue(ahead) if use_cue else None
+        if cue is not None and (misses % 2 == 1 or self._cue_age + ahead <= 1):
+            return "cue", pixel_of(cue)
+        return "grow", pixel_of(self.motion.predict())
+
+    def _lost(self, pixels, ref) -> TrackStep:
+        self._misses += 1
+        self.motion.coast()
+        found, kind, centre = self._reacquire(pixels, ref, use_cue=True)
+        if found is not None:
+            return found
+        # A candidate dropped before lost_frames misses of a track: it coasts on (still
+        # flagged). Without a track (nothing at the click) it stays lost until found.
+        lost = self._misses >= self.config.lost_frames or not self._anchored
+        self.track_state = TrackState.LOST if lost else TrackState.TRACKING
+        if kind == "grow":  # the measurement holds at the last good position
+            at, size = self._window, self.measurement.search_px
+        else:  # measured where it was looked for
+            at, size = centre, 2 * self.config.cue_radius_px + 1
+        m = self._meter.measure(pixels, at, size, ref)
+        return self._step(m, at, size, self._search_reason, {FLAG_LOST})
+
+    def _reacquire(self, pixels, ref, *, use_cue: bool):
+        """(step or None, plan kind, plan centre): confirm the pending candidate, or look for
+        one at the cue or in the growing square (:meth:`_plan`)."""
+        c = self.config
+        self._search_reason = "searching"
+        kind, centre = self._plan(self._misses, use_cue)
+        if kind == "candidate":
+            cand, self._pending = self._pending, None
+            assert cand is not None  # the plan says so
+            pred = cand.predict()
+            seed = brightest_in(pixels, box_at(cand.rel, pred[0], pred[1], grow=c.gate_px))
+            blob = self._analyse(pixels, seed, cand.size_px, pred)
+            if not (
+                is_object(blob, c.reacquire_snr, c.reacquire_isolation)
+                and max(abs(blob.centroid_x - pred[0]), abs(blob.centroid_y - pred[1])) <= c.gate_px
+                and math.hypot(blob.centroid_x - cand.x, blob.centroid_y - cand.y) <= c.max_speed_px
+                and consistent(blob, self._history, c)
+            ):  # dropped; the search goes on from the next frame
+                return None, kind, centre
+            cand.follow(blob)
+            if cand.count >= c.reacquire_frames:
+                return self._reacquired(pixels, blob, cand, ref), kind, centre
+            self._pending = cand
+            return self._confirming(pixels, blob, ref), kind, centre
+        if kind == "cue":
+            half = c.cue_radius_px
+        else:
+            grow = c.search_start_px + c.search_growth_px * (self._misses - 1) + self._widen
+            half = min(grow, c.search_max_px)
+        objects = find_objects(
+            pixels,
+            centre,
+            half,
+            config=c.blob,
+            min_significance=c.reacquire_snr,
+            min_isolation=c.reacquire_isolation,
+            size_px=max(self._history.size_px, 1),
+            min_contrast=(self._history.prominence or 0.0) / c.brightness_factor,
+        )
+        objects = [b for b in objects if consistent(b, self._history, c)]
+        if not objects:
+            if use_cue and self._fresh_cue() is not None:
+                self._search_reason = "faint"  # not where its GPS position says it is
+            return None, kind, centre
+        blob = objects[0]
+        if kind == "cue":  # the GPS position is a strong prior: accepted at once
+            self._cue = None  # used: a later loss needs a fresh position
+            self.motion.reset(blob.centroid_x, blob.centroid_y)
+            m, _, _ = self._meter.measure_object(pixels, blob, centre, ref)
+            self._accept(blob)
+            self.track_state = TrackState.GPS_CUED
+            self._confirmed = 1
+            return self._step(m, centre, 2 * half + 1, "", {FLAG_GPS_CUED}), kind, centre
+        self._pending = Candidate.of(blob, cued=False)
+        return self._confirming(pixels, blob, ref), kind, centre
+
+    def _confirming(self, pixels, blob: Blob, ref) -> TrackStep:
+        self.track_state = TrackState.REACQUIRING
+        m, at, size = self._meter.measure_object(pixels, blob, (blob.peak_x, blob.peak_y), ref)
+        return self._step(m, at, size, "confirming", {FLAG_LOST})
+
+    def _reacquired(self, pixels, blob: Blob, cand: Candidate, ref) -> TrackStep:
+        self.motion.reset(blob.centroid_x, blob.centroid_y, cand.vx, cand.vy)
+        m, at, size = self._meter.measure_object(pixels, blob, (blob.peak_x, blob.peak_y), ref)
+        self._accept(blob)
+        self.track_state = TrackState.TRACKING
+        self.reacquisitions += 1
+        return self._step(m, at, size, "", set())
+
+    # ------------------------------------------------------------------ measurement
 
     # ------------------------------------------------------------------ state
     def snapshot(self) -> dict:

@@ -1,1 +1,1 @@
-"""Camera drivers: every source delivers :class:`drivers.camera.frame.Frame` objects."""
+"""Camera drivers: every source delivers :class:`snrmon.drivers.camera.frame.Frame` objects."""

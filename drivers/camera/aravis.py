@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from drivers.camera.base import CameraDevice
-from drivers.camera.format import CameraFormat
-from drivers.camera.frame import Frame
+from snrmon.drivers.camera.base import CameraDevice
+from snrmon.drivers.camera.format import CameraFormat
+from snrmon.drivers.camera.frame import Frame
 
 INSTALL_HINT = (
     "Aravis cameras need PyGObject and the Aravis 0.8 typelib: "
@@ -91,7 +91,7 @@ class AravisCamera(CameraDevice):
         exposure_us: exposure time to set, ``None`` to leave it.
         n_buffers: buffers queued to the stream.
         packet_size: GigE Vision packet size in bytes (jumbo frames), ``None`` to leave it.
-        **kw: passed to :class:`drivers.device.Device`.
+        **kw: passed to :class:`snrmon.drivers.device.Device`.
     """
 
     def __init__(

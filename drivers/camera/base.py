@@ -1,4 +1,4 @@
-"""What every camera driver shares on top of :class:`drivers.device.Device`: the negotiated
+"""What every camera driver shares on top of :class:`snrmon.drivers.device.Device`: the negotiated
 format, drop counting from the camera's own counter, and the measured frame rate."""
 
 from __future__ import annotations
@@ -7,10 +7,10 @@ import logging
 import time
 from collections import deque
 
-from drivers.camera.counter import FrameCounterGaps
-from drivers.camera.format import CameraFormat
-from drivers.camera.frame import Frame
-from drivers.device import Device
+from snrmon.drivers.camera.counter import FrameCounterGaps
+from snrmon.drivers.camera.format import CameraFormat
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.device import Device
 
 log = logging.getLogger(__name__)
 

@@ -23,9 +23,9 @@ from multiprocessing import resource_tracker, shared_memory
 
 import numpy as np
 
-from drivers.camera.base import CameraDevice
-from drivers.camera.format import CameraFormat
-from drivers.camera.frame import Frame
+from snrmon.drivers.camera.base import CameraDevice
+from snrmon.drivers.camera.format import CameraFormat
+from snrmon.drivers.camera.frame import Frame
 
 MAGIC = b"SNRMRING"
 VERSION = 1
@@ -77,7 +77,7 @@ class ShmCamera(CameraDevice):
         reuse_buffers: 0 (default) copies each frame into a new array, which consumers may keep
             forever; ``N >= 2`` copies round-robin into N preallocated arrays, so a consumer may
             hold a frame only while fewer than N newer frames arrived.
-        **kw: passed to :class:`drivers.device.Device` (``stale_after_s`` ...).
+        **kw: passed to :class:`snrmon.drivers.device.Device` (``stale_after_s`` ...).
     """
 
     def __init__(
@@ -113,8 +113,21 @@ class ShmCamera(CameraDevice):
     def _attach(self, shm: shared_memory.SharedMemory) -> None:
         if shm.size < HEADER_BYTES:
             raise OSError(f"frame ring {self.shm_name!r} is too small ({shm.size} bytes)")
-        (magic, version, header_bytes, width, height, dtype, slots, flags, stride, session, pid,
-         fps_milli, write_index) = _HEADER.unpack_from(shm.buf, 0)  # fmt: skip
+        (
+            magic,
+            version,
+            header_bytes,
+            width,
+            height,
+            dtype,
+            slots,
+            flags,
+            stride,
+            session,
+            pid,
+            fps_milli,
+            write_index,
+        ) = _HEADER.unpack_from(shm.buf, 0)
         if magic != MAGIC or version != VERSION:
             raise OSError(
                 f"{self.shm_name!r} is not a version-{VERSION} frame ring "
@@ -138,9 +151,12 @@ class ShmCamera(CameraDevice):
         self._slot_hdr = np.ndarray((slots, 4), "<u8", buf, header_bytes, (stride, 8))
         self._slot_flags = np.ndarray((slots,), "<u4", buf, header_bytes + 32, (stride,))
         self._slot_px = np.ndarray(
-            (slots, height, width), "<u2", buf, header_bytes + SLOT_HEADER_BYTES,
+            (slots, height, width),
+            "<u2",
+            buf,
+            header_bytes + SLOT_HEADER_BYTES,
             (stride, width * 2, 2),
-        )  # fmt: skip
+        )
         self._slots = slots
         self._session = session
         self._pid = pid

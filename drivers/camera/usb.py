@@ -2,8 +2,9 @@
 is, and whether a configured format and rate can fit through it.
 
 pyusb is used here only to enumerate and identify: the video itself goes through the kernel's UVC
-driver (:mod:`drivers.camera.v4l2`) or Aravis's USB3 Vision stack (:mod:`drivers.camera.aravis`).
-Reading descriptors needs no open device, so no permissions beyond listing.
+driver (:mod:`snrmon.drivers.camera.v4l2`) or Aravis's USB3 Vision stack
+(:mod:`snrmon.drivers.camera.aravis`). Reading descriptors needs no open device, so no permissions
+beyond listing.
 
 Link budgets are the largest bulk payload each USB speed can carry per second (USB 2.0 spec
 5.8.4: 13 x 512-byte packets per 125 us microframe at high speed = 53.2 MB/s; 19 x 64 bytes per
@@ -19,7 +20,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
 
-from drivers.camera.format import CameraFormat
+from snrmon.drivers.camera.format import CameraFormat
 
 
 class UsbSpeed(IntEnum):

@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from drivers.camera.base import CameraDevice
-from drivers.camera.format import CameraFormat
-from drivers.camera.frame import Frame
+from snrmon.drivers.camera.base import CameraDevice
+from snrmon.drivers.camera.format import CameraFormat
+from snrmon.drivers.camera.frame import Frame
 
 
 def _opencv_capture(device: int | str, api: int) -> Any:
@@ -43,7 +43,7 @@ class V4l2Camera(CameraDevice):
         width, height, fps: requested mode; ``None`` keeps the camera's default.
         capture_factory: ``factory(device, api) -> capture`` with OpenCV's ``VideoCapture``
             methods (``isOpened``, ``set``, ``get``, ``read``, ``release``); OpenCV's by default.
-        **kw: passed to :class:`drivers.device.Device`.
+        **kw: passed to :class:`snrmon.drivers.device.Device`.
     """
 
     def __init__(

@@ -1,1 +1,1 @@
-"""GPS and drone-telemetry drivers: every source delivers :class:`drivers.gps.fix.GpsFix`."""
+"""GPS and drone-telemetry drivers: every source delivers :class:`snrmon.drivers.gps.fix.GpsFix`."""

@@ -30,8 +30,8 @@ from dataclasses import replace
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
-from drivers.errors import ParseError
-from drivers.gps.fix import GpsFix
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.gps.fix import GpsFix
 
 _UNIT_TO_M = {"feet": 0.3048, "ft": 0.3048, "meters": 1.0, "metres": 1.0, "m": 1.0}
 _UNIT = re.compile(r"^(?P<name>.+?)\s*[\(\[](?P<unit>[A-Za-z]+)[\)\]]$")
@@ -53,8 +53,12 @@ def _columns(header: list[str]) -> dict[str, tuple[int, float]]:
 
 
 def _time(text: str, where: str) -> datetime:
-    for fmt in ("%Y-%m-%d %H:%M:%S.%f", "%Y-%m-%d %H:%M:%S", "%Y/%m/%d %H:%M:%S.%f",
-                "%Y/%m/%d %H:%M:%S"):  # fmt: skip
+    for fmt in (
+        "%Y-%m-%d %H:%M:%S.%f",
+        "%Y-%m-%d %H:%M:%S",
+        "%Y/%m/%d %H:%M:%S.%f",
+        "%Y/%m/%d %H:%M:%S",
+    ):
         try:
             return datetime.strptime(text.strip(), fmt).replace(tzinfo=UTC)
         except ValueError:

@@ -13,9 +13,9 @@ import socket
 import time
 from datetime import datetime
 
-from drivers.device import Device
-from drivers.errors import ParseError
-from drivers.gps.fix import GpsFix
+from snrmon.drivers.device import Device
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.gps.fix import GpsFix
 
 # gpsd TPV status -> GGA fix quality
 _STATUS_TO_QUALITY = {2: 2, 3: 4, 4: 5, 5: 6, 6: 6, 8: 8}
@@ -65,7 +65,7 @@ class GpsdDevice(Device[GpsFix]):
     Args:
         host, port: where gpsd listens (default 127.0.0.1:2947).
         device_path: watch only this device (gpsd's ``"device"`` field); all devices if None.
-        name: the device's name; **kwargs go to :class:`drivers.device.Device`.
+        name: the device's name; **kwargs go to :class:`snrmon.drivers.device.Device`.
     """
 
     def __init__(

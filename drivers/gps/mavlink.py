@@ -12,9 +12,9 @@ import importlib
 import time
 from datetime import UTC, datetime
 
-from drivers.device import Device
-from drivers.errors import MissingDependencyError
-from drivers.gps.fix import GpsFix
+from snrmon.drivers.device import Device
+from snrmon.drivers.errors import MissingDependencyError
+from snrmon.drivers.gps.fix import GpsFix
 
 # MAVLink GPS_FIX_TYPE -> GGA fix quality
 FIX_TYPE_TO_QUALITY = {0: 0, 1: 0, 2: 1, 3: 1, 4: 2, 5: 5, 6: 4, 7: 1, 8: 1}
@@ -37,7 +37,7 @@ class MavlinkGpsDevice(Device[GpsFix]):
         url: a pymavlink connection string: ``udpin:0.0.0.0:14550``, ``udpout:host:port``,
             ``tcp:host:port`` or a serial path (with ``baudrate``).
         baudrate: for serial links.
-        name: the device's name; **kwargs go to :class:`drivers.device.Device`.
+        name: the device's name; **kwargs go to :class:`snrmon.drivers.device.Device`.
     """
 
     def __init__(self, url: str, *, baudrate: int = 57600, name: str = "gps", **kwargs) -> None:

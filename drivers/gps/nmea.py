@@ -1,11 +1,12 @@
-"""NMEA 0183 sentences to :class:`drivers.gps.fix.GpsFix`: a pure parser and a stateful assembler.
+"""NMEA 0183 sentences to :class:`snrmon.drivers.gps.fix.GpsFix`: a pure parser and a stateful
+assembler.
 
 Our own parser rather than pynmeagps, because the contract here is narrower and stricter than a
-general library's: every failure must be a :class:`drivers.errors.ParseError` (the fuzz tests hold
-us to it), checksum-less sentences are accepted only for the addresses a configuration names,
+general library's: every failure must be a :class:`snrmon.drivers.errors.ParseError` (the fuzz tests
+hold us to it), checksum-less sentences are accepted only for the addresses a configuration names,
 over-long lines are accepted, and proprietary sentences are counted and ignored.
 
-Framing and checksums: :mod:`drivers.gps.nmea_frame` (re-exported here). GGA carries time of
+Framing and checksums: :mod:`snrmon.drivers.gps.nmea_frame` (re-exported here). GGA carries time of
 day, position, quality, satellites, HDOP and altitude but no date; RMC and ZDA carry the date,
 so :class:`NmeaAssembler` combines them.
 
@@ -23,9 +24,9 @@ from collections.abc import Collection
 from dataclasses import dataclass, field
 from datetime import UTC, date, datetime, time, timedelta
 
-from drivers.errors import ParseError
-from drivers.gps.fix import GpsFix
-from drivers.gps.nmea_frame import (  # noqa: F401 (re-exported: the module's public names)
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.nmea_frame import (  # noqa: F401 (re-exported: the module's public names)
     KNOWN_TYPES,
     POSITION_TYPES,
     TALKERS,
@@ -209,8 +210,9 @@ def decode_rmc(s: Sentence) -> Rmc:
 
 
 def decode_gsa(s: Sentence) -> Gsa:
-    return Gsa(_int(s, 1, "fix mode"), _float(s, 14, "PDOP"), _float(s, 15, "HDOP"),
-               _float(s, 16, "VDOP"))  # fmt: skip
+    return Gsa(
+        _int(s, 1, "fix mode"), _float(s, 14, "PDOP"), _float(s, 15, "HDOP"), _float(s, 16, "VDOP")
+    )
 
 
 def decode_vtg(s: Sentence) -> Vtg:

@@ -1,12 +1,12 @@
-"""NMEA 0183 GPS receiver on a serial link: lines -> :class:`drivers.gps.fix.GpsFix`."""
+"""NMEA 0183 GPS receiver on a serial link: lines -> :class:`snrmon.drivers.gps.fix.GpsFix`."""
 
 from __future__ import annotations
 
 from collections.abc import Collection
 
-from drivers.gps.fix import GpsFix
-from drivers.gps.nmea import NmeaAssembler
-from drivers.serialport import SerialLineDevice
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.nmea import NmeaAssembler
+from snrmon.drivers.serialport import SerialLineDevice
 
 
 class NmeaGpsDevice(SerialLineDevice[GpsFix]):

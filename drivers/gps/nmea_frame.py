@@ -2,7 +2,7 @@
 
 Rules (gpsd ``www/NMEA.adoc``): ``$`` + address (talker GP/GN/GL/GA/GB/BD/QZ + type, or ``P`` +
 maker for proprietary) + ``,`` fields + ``*hh`` where hh is the XOR of the bytes between ``$`` and
-``*``. The decoding of the fields is :mod:`drivers.gps.nmea`.
+``*``. The decoding of the fields is :mod:`snrmon.drivers.gps.nmea`.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import re
 from collections.abc import Collection
 from dataclasses import dataclass
 
-from drivers.checksum import xor_checksum
-from drivers.errors import ChecksumError, ParseError
+from snrmon.drivers.checksum import xor_checksum
+from snrmon.drivers.errors import ChecksumError, ParseError
 
 TALKERS = frozenset({"GP", "GN", "GL", "GA", "GB", "BD", "QZ", "GI"})
 POSITION_TYPES = frozenset({"GGA", "RMC"})

@@ -2,7 +2,7 @@
 it) as one :class:`GpsFix` per epoch, for importing a drone's or a receiver's own log into a
 session (``snrmon gps-import --nmea``).
 
-The lines go through the same :class:`drivers.gps.nmea.NmeaAssembler` as a live receiver.
+The lines go through the same :class:`snrmon.drivers.gps.nmea.NmeaAssembler` as a live receiver.
 An epoch's GGA and RMC (same UTC) are merged into one fix, each field taken from whichever
 sentence carries it (GGA: altitude, quality, satellites, HDOP; RMC: the date). Lines starting
 with ``#`` and blank lines are skipped (gpsd's regression logs carry comments); a line that does
@@ -18,9 +18,9 @@ from dataclasses import dataclass, field, replace
 from datetime import datetime
 from pathlib import Path
 
-from drivers.errors import ParseError
-from drivers.gps.fix import GpsFix
-from drivers.gps.nmea import NmeaAssembler
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.nmea import NmeaAssembler
 
 
 @dataclass

@@ -26,9 +26,9 @@ from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
-from drivers.errors import ParseError
-from drivers.gps.fix import GpsFix
-from drivers.gps.mavlink import FIX_TYPE_TO_QUALITY, mavutil
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.mavlink import FIX_TYPE_TO_QUALITY, mavutil
 
 UNIX_USEC_2001 = 978_307_200_000_000  # a time_usec below this is time since boot, not UTC
 

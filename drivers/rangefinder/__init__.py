@@ -1,2 +1,2 @@
 """Laser rangefinder drivers; every one delivers
-:class:`drivers.rangefinder.reading.RangeReading`."""
+:class:`snrmon.drivers.rangefinder.reading.RangeReading`."""

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import re
 
-from drivers.errors import ParseError
-from drivers.rangefinder.reading import RangeReading, RangeStatus
-from drivers.serialport import SerialLineDevice
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
+from snrmon.drivers.serialport import SerialLineDevice
 
 _DEC = re.compile(r"^(-?\d{1,6}\.\d{1,4})(?: +(\d{1,6}))?$")
 _HEX = re.compile(r"^ ?([0-9A-Fa-f]{6,8})$")

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import re
 
-from drivers.checksum import xor_checksum
-from drivers.errors import ChecksumError, ParseError
-from drivers.rangefinder.reading import RangeReading, RangeStatus
-from drivers.serialport import SerialLineDevice
+from snrmon.drivers.checksum import xor_checksum
+from snrmon.drivers.errors import ChecksumError, ParseError
+from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
+from snrmon.drivers.serialport import SerialLineDevice
 
 UNIT_TO_M = {"M": 1.0, "F": 0.3048, "Y": 0.9144}
 _VALUE = re.compile(r"^-?\d+\.(\d{1,2})$")

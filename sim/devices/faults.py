@@ -1,8 +1,8 @@
 """Faults a simulated serial device can inject into the lines it sends.
 
 One-shot faults are queued and applied to the next lines sent; silence holds until cleared.
-The port vanishing and returning is :meth:`sim.devices.line_sim.LineSimulator.unplug` (it is a
-property of the port, not of a line).
+The port vanishing and returning is :meth:`snrmon.sim.devices.line_sim.LineSimulator.unplug` (it is
+a property of the port, not of a line).
 """
 
 from __future__ import annotations

@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from sim.devices.line_sim import LineSimulator
-from sim.devices.pty_port import check_baud_budget
+from snrmon.sim.devices.line_sim import LineSimulator
+from snrmon.sim.devices.pty_port import check_baud_budget
 
 
 def ldm_line(range_m: float | None, fmt: str, quality: int = 900) -> bytes:

@@ -1,9 +1,9 @@
 """Base of the line-oriented serial device simulators (GPS, rangefinders) on a pty.
 
-A :class:`LineSimulator` owns a :class:`sim.devices.pty_port.PtyPort` and one thread that
+A :class:`LineSimulator` owns a :class:`snrmon.sim.devices.pty_port.PtyPort` and one thread that
 answers command lines (:meth:`LineSimulator.handle`) and streams lines on a schedule
 (:meth:`LineSimulator.tick`), passing everything it sends through a
-:class:`sim.devices.faults.FaultInjector`. Time given to the protocol hooks is seconds since
+:class:`snrmon.sim.devices.faults.FaultInjector`. Time given to the protocol hooks is seconds since
 :meth:`LineSimulator.start`.
 """
 
@@ -14,8 +14,8 @@ import time
 from abc import ABC, abstractmethod
 from pathlib import Path
 
-from sim.devices.faults import FaultInjector
-from sim.devices.pty_port import PtyPort
+from snrmon.sim.devices.faults import FaultInjector
+from snrmon.sim.devices.pty_port import PtyPort
 
 
 def xor_checksum(body: str) -> str:

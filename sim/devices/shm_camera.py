@@ -286,9 +286,16 @@ class ShmProducer:
         self._ctx = mp.get_context("spawn")
         self.name = name
         self._args = (
-            name, width, height, slots, render, fps, first_counter,
-            frozenset(drop_counters), max_frames,
-        )  # fmt: skip
+            name,
+            width,
+            height,
+            slots,
+            render,
+            fps,
+            first_counter,
+            frozenset(drop_counters),
+            max_frames,
+        )
         self._proc: mp.process.BaseProcess | None = None
         self._new_sync()
 

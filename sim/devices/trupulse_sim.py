@@ -12,8 +12,8 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 
-from sim.devices.line_sim import LineSimulator, sentence
-from sim.devices.pty_port import check_baud_budget
+from snrmon.sim.devices.line_sim import LineSimulator, sentence
+from snrmon.sim.devices.pty_port import check_baud_budget
 
 UNIT_FROM_M = {"M": 1.0, "F": 1 / 0.3048, "Y": 1 / 0.9144}
 

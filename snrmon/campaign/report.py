@@ -1,7 +1,7 @@
 """The campaign report (PDF or PNG): every session's stops against the model, and the fit
 statistics per session.
 
-Pages (8.5 x 11 in, :func:`acquisition.report.plot.write_pages`):
+Pages (8.5 x 11 in, :func:`snrmon.acquisition.report.plot.write_pages`):
 
 1. summary: the settings, the sessions and the failures, and per session and camera the fit
    statistics against the corrected small-dimension curve (the paper's best fit, section 9):
@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.prediction import CURVES
-from acquisition.report.data import model_curves, model_range_grid
-from acquisition.report.plot import _STYLE, _figure, _fmt, draw_table, write_pages
+from snrmon.acquisition.prediction import CURVES
+from snrmon.acquisition.report.data import model_curves, model_range_grid
+from snrmon.acquisition.report.plot import _STYLE, _figure, _fmt, draw_table, write_pages
 
 FIT_CURVE = "small_corrected"
 MARKERS = "osD^v<>pPX*h"

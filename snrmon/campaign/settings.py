@@ -34,7 +34,7 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from acquisition.measure.peak_snr import PeakSnrConfig
+from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 
 MEASUREMENT_KEYS = {"box_px", "search_px", "background", "detrend"}
 MODEL_KEYS = {"target", "background_temp_k", "atmosphere", "spatial_noise", "sensors"}
@@ -155,7 +155,7 @@ def load_settings(path: str | Path | None) -> AnalysisSettings:
     """``analysis.toml`` at ``path``; None gives the recorded settings of each session."""
     if path is None:
         return AnalysisSettings()
-    from acquisition.config import read_toml
+    from snrmon.acquisition.config import read_toml
 
     p = Path(path)
     data = read_toml(p, "analysis settings")

@@ -16,7 +16,7 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from acquisition.prediction import CURVES
+from snrmon.acquisition.prediction import CURVES
 
 _F = pa.float64()
 STOP_COLUMNS: dict[str, tuple[pa.DataType, str]] = {

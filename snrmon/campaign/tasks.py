@@ -3,7 +3,7 @@
 A worker opens the session file by path (shared filesystem; nothing large travels through the
 scheduler) and returns only rows: one dict per stop (:data:`snrmon.campaign.tables.STOP_COLUMNS`)
 and, on request, the per-frame columns. The measurement is
-:func:`acquisition.replay.batch.replay_session` restricted to the camera, with the analysis's
+:func:`snrmon.acquisition.replay.batch.replay_session` restricted to the camera, with the analysis's
 Eq. (4) settings and calibration, so a campaign's stop rows equal ``snrmon replay``'s.
 """
 
@@ -38,7 +38,7 @@ class TaskResult:
 
 def session_cameras(path: str) -> list[str]:
     """The cameras of a session file (the planning task; fails clearly on a bad file)."""
-    from acquisition.record.reader import open_session
+    from snrmon.acquisition.record.reader import open_session
 
     with open_session(path) as f:
         if not f.cameras:
@@ -54,9 +54,9 @@ def background_method(config) -> str:
 
 def _model_sky_temp_k(sensor: str, target: str, options: dict) -> float:
     """The background (sky) temperature the model curves used: the analysis's, else the
-    model's own for the sensor's band (:func:`model.snr.predict`)."""
-    from model.presets import load_sensor, load_target
-    from model.snr import predict
+    model's own for the sensor's band (:func:`snrmon.model.snr.predict`)."""
+    from snrmon.model.presets import load_sensor, load_target
+    from snrmon.model.snr import predict
 
     p = predict(load_sensor(sensor), load_target(target), np.array([100.0]), **options)
     return float(p.background_temp_k)
@@ -76,13 +76,13 @@ def analyse_camera(
 ) -> TaskResult:
     """Replay ``camera`` of the session at ``path`` with ``settings``; the stop rows (and the
     per-frame columns with ``frames``). ``label`` is the session's name in the table."""
-    from acquisition.config import session_config_from_dict
-    from acquisition.measure.peak_snr import RUNNING_EXCLUDED, PeakSnrConfig, flags_to_bits
-    from acquisition.prediction import CURVES, ModelPredictor
-    from acquisition.record.gps_align import host_to_utc_ns
-    from acquisition.record.gps_import import gps_source
-    from acquisition.record.reader import open_session
-    from acquisition.replay.batch import replay_session
+    from snrmon.acquisition.config import session_config_from_dict
+    from snrmon.acquisition.measure.peak_snr import RUNNING_EXCLUDED, PeakSnrConfig, flags_to_bits
+    from snrmon.acquisition.prediction import CURVES, ModelPredictor
+    from snrmon.acquisition.record.gps_align import host_to_utc_ns
+    from snrmon.acquisition.record.gps_import import gps_source
+    from snrmon.acquisition.record.reader import open_session
+    from snrmon.acquisition.replay.batch import replay_session
 
     t0 = time.perf_counter()
     with open_session(path) as f:

@@ -8,8 +8,9 @@ import pkgutil
 import platform
 import sys
 
-import benchmarks
+from snrmon import benchmarks
 from snrmon.cli import UsageError
+from snrmon.extras import MissingExtraError, require
 from snrmon.output import emit_json
 
 
@@ -37,7 +38,7 @@ def _modules() -> dict:
     out = {}
     for info in sorted(pkgutil.iter_modules(benchmarks.__path__), key=lambda m: m.name):
         if info.name.startswith("bench_"):
-            module = importlib.import_module(f"benchmarks.{info.name}")
+            module = importlib.import_module(f"{benchmarks.__name__}.{info.name}")
             out[getattr(module, "KEY", info.name.removeprefix("bench_"))] = module
     return out
 
@@ -60,6 +61,16 @@ def run(args: argparse.Namespace) -> int:
     for key, module in modules.items():
         if only and key not in only:
             continue
+        extra = getattr(module, "EXTRA", None)  # e.g. "gui": the console's benchmark
+        if extra is not None:
+            if only:
+                require(extra, f"bench --only {key}")
+            else:
+                try:
+                    require(extra, f"the {key} benchmark")
+                except MissingExtraError as exc:
+                    print(f"{args.prog}: warning: skipped: {exc}", file=sys.stderr)
+                    continue
         if not args.json:
             print(f"running {key} ...", file=sys.stderr, flush=True)
         figures = module.run(args.duration)

@@ -13,16 +13,16 @@ from __future__ import annotations
 
 import argparse
 
-from acquisition.calibrate.calibration import (
+from snrmon.acquisition.calibrate.calibration import (
     BlackbodyCapture,
     calibrate_sensor,
 )
-from acquisition.calibrate.calibration_file import save_calibration
-from acquisition.calibrate.quality import calibration_quality
-from acquisition.replay.stack_io import load_stack
-from model.presets import load_sensor
+from snrmon.acquisition.calibrate.calibration_file import save_calibration
+from snrmon.acquisition.calibrate.quality import calibration_quality
+from snrmon.acquisition.replay.stack_io import load_stack
 from snrmon.cli import UsageError
 from snrmon.inputs import output_file
+from snrmon.model.presets import load_sensor
 from snrmon.output import emit_json
 
 ZERO_C_K = 273.15

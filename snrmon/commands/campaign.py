@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from snrmon.cli import UsageError
+from snrmon.extras import require
 from snrmon.progress import frame_progress
 
 STOP_TABLE = "stops.parquet"
@@ -56,6 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    require("campaign", "a campaign")
     from snrmon.campaign.run import run_dask, run_serial
     from snrmon.campaign.settings import load_settings
 

@@ -24,15 +24,19 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.calibrate.calibration_file import load_calibration
-from acquisition.calibrate.characterize import CharacterizeConfig, characterize_frames, target_toml
-from acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
-from acquisition.record.reader import append_event, open_session
-from acquisition.replay.batch import replay_session
-from acquisition.replay.recorded import recorded_calibration_path
-from model.presets import load_sensor
+from snrmon.acquisition.calibrate.calibration_file import load_calibration
+from snrmon.acquisition.calibrate.characterize import (
+    CharacterizeConfig,
+    characterize_frames,
+    target_toml,
+)
+from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
+from snrmon.acquisition.record.reader import append_event, open_session
+from snrmon.acquisition.replay.batch import replay_session
+from snrmon.acquisition.replay.recorded import recorded_calibration_path
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, output_file, session_file
+from snrmon.model.presets import load_sensor
 from snrmon.output import emit_json
 
 # A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
@@ -87,7 +91,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _air_temp_k(args) -> float | None:
     if args.air_temp_c is not None:
         return args.air_temp_c + 273.15
-    from acquisition.config import session_config_from_dict
+    from snrmon.acquisition.config import session_config_from_dict
 
     with open_session(args.file) as f:
         raw = f.config.get("session") if isinstance(f.config, dict) else None
@@ -100,8 +104,8 @@ def through_the_air(result, sensor, range_m: float, air_temp_k: float | None) ->
     L_t = (L_app - (1 - tau) L_air) / tau with the model's contrast-weighted transmission at
     the stop's range. The apparent value stays as ``apparent_temp_c``; the eroded outline's
     mean (``outline_temp_c``) is corrected the same way."""
-    from acquisition.calibrate.calibration import radiance_of, temperature_of
-    from model.atmosphere import default_atmosphere
+    from snrmon.acquisition.calibrate.calibration import radiance_of, temperature_of
+    from snrmon.model.atmosphere import default_atmosphere
 
     atm = default_atmosphere(tuple(sensor.band_um))
     t_air = air_temp_k or atm.air_temp_k
@@ -175,8 +179,18 @@ def run(args: argparse.Namespace) -> int:
                 f"stop {args.stop} of {args.camera}: the session has no calibration and none was "
                 "given (--calibration): a target file needs the drone's temperature"
             )
-        index = np.searchsorted(cam.t_host_ns, [t for t, _ in picks])
-        pairs = ((cam.frames[int(i)], at) for i, (_, at) in zip(index, picks, strict=True))
+        # The replay measures frames the recorder dropped too (from its recorded state); only
+        # the frames the file holds can be read: each pick by its exact receipt time.
+        t_file = np.asarray(cam.t_host_ns[: cam.frames.shape[0]])
+        index = np.searchsorted(t_file, [t for t, _ in picks])
+        held = [
+            (int(i), at)
+            for i, (t, at) in zip(index, picks, strict=True)
+            if i < t_file.size and t_file[i] == t
+        ]
+        if not held:
+            raise UsageError(f"stop {args.stop}: none of its tracked frames is in {args.file}")
+        pairs = ((cam.frames[i], at) for i, at in held)
         result = characterize_frames(
             pairs,
             camera=args.camera,

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from snrmon.cli import UsageError
 from snrmon.commands.gui import add_status_file_option
+from snrmon.extras import require
 from snrmon.inputs import output_file
 
 
@@ -83,8 +84,9 @@ def _operate(rig, done: threading.Event, printed: set, verbose: bool) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gui.app import run_console
+    require("gui", "the console demo")
     from snrmon.commands.hil import _floats
+    from snrmon.gui.app import run_console
     from snrmon.rig.rig import HilOptions, HilRig
     from snrmon.rig.table import TABLE_HEADER, format_result
 
@@ -148,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
         result = rig.result()
         live = None
         if report is not None and args.out is None:
-            from acquisition.report.data import live_report_data
+            from snrmon.acquisition.report.data import live_report_data
 
             live = live_report_data(
                 rig.session.stop_table,
@@ -161,8 +163,8 @@ def run(args: argparse.Namespace) -> int:
     if screenshot is not None:
         print(f"screenshot: {screenshot}", file=sys.stderr)
     if report is not None:
-        from acquisition.report.data import report_data
-        from acquisition.report.plot import render_report
+        from snrmon.acquisition.report.data import report_data
+        from snrmon.acquisition.report.plot import render_report
 
         data = live if live is not None else report_data(args.out, target=opts.target)
         render_report(data, report)

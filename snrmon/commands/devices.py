@@ -11,7 +11,7 @@ import glob
 import os
 from pathlib import Path
 
-from drivers.camera.usb import list_usb_cameras
+from snrmon.drivers.camera.usb import list_usb_cameras
 from snrmon.output import emit_json
 
 
@@ -81,7 +81,7 @@ def v4l2_devices(dev_dir: str = "/dev", sysfs: str = "/sys/class/video4linux") -
 
 def aravis_cameras() -> dict:
     """GigE Vision / USB3 Vision cameras Aravis discovers (about 1 s)."""
-    from drivers.camera.aravis import AravisUnavailableError, list_aravis_cameras
+    from snrmon.drivers.camera.aravis import AravisUnavailableError, list_aravis_cameras
 
     try:
         cams = list_aravis_cameras()

@@ -28,19 +28,45 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="go/no-go before a flight: display, ports, backends, devices, disk",
         description=__doc__.split("\n\n")[0],
     )
-    p.add_argument("--config", type=Path, metavar="FILE.toml",
-                   help="the session config to check (without it: this machine only)")  # fmt: skip
-    p.add_argument("--record-dir", type=Path, default=Path("."), metavar="DIR",
-                   help="where the recordings will go (default: here)")  # fmt: skip
-    p.add_argument("--duration", type=float, default=3600.0, metavar="S",
-                   help="planned recording, for the free-space check (default 3600)")  # fmt: skip
-    p.add_argument("--wait", type=float, default=5.0, metavar="S",
-                   help="how long each device may take to answer (default 5)")  # fmt: skip
-    p.add_argument("--disk-test-mb", type=int, default=256, metavar="MB",
-                   help="how much to write when measuring the disk (default 256)")  # fmt: skip
-    p.add_argument("--headless", action="store_true",
-                   help="the session runs without a window (snrmon record): the display is not "
-                   "needed")  # fmt: skip
+    p.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE.toml",
+        help="the session config to check (without it: this machine only)",
+    )
+    p.add_argument(
+        "--record-dir",
+        type=Path,
+        default=Path("."),
+        metavar="DIR",
+        help="where the recordings will go (default: here)",
+    )
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=3600.0,
+        metavar="S",
+        help="planned recording, for the free-space check (default 3600)",
+    )
+    p.add_argument(
+        "--wait",
+        type=float,
+        default=5.0,
+        metavar="S",
+        help="how long each device may take to answer (default 5)",
+    )
+    p.add_argument(
+        "--disk-test-mb",
+        type=int,
+        default=256,
+        metavar="MB",
+        help="how much to write when measuring the disk (default 256)",
+    )
+    p.add_argument(
+        "--headless",
+        action="store_true",
+        help="the session runs without a window (snrmon record): the display is not needed",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
@@ -58,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
         raise FileNotFoundError(f"--record-dir {args.record_dir} is not a folder")
     config = None
     if args.config is not None:
-        from acquisition.config import load_session_config
+        from snrmon.acquisition.config import load_session_config
 
         config = load_session_config(input_file(args.config, "--config"))
     opts = DoctorOptions(
@@ -71,12 +97,24 @@ def run(args: argparse.Namespace) -> int:
     checks = run_doctor(config, opts)
     ok = all_needed_pass(checks)
     if args.json:
-        emit_json({
-            "ok": ok,
-            "config": str(args.config) if args.config is not None else None,
-            "checks": [{"name": c.name, "status": c.status, "label": c.label, "needed": c.needed,
-                        "detail": c.detail, "fix": c.fix, "data": c.data} for c in checks],
-        })  # fmt: skip
+        emit_json(
+            {
+                "ok": ok,
+                "config": str(args.config) if args.config is not None else None,
+                "checks": [
+                    {
+                        "name": c.name,
+                        "status": c.status,
+                        "label": c.label,
+                        "needed": c.needed,
+                        "detail": c.detail,
+                        "fix": c.fix,
+                        "data": c.data,
+                    }
+                    for c in checks
+                ],
+            }
+        )
         return EXIT_OK if ok else EXIT_FAILURE
     for c in checks:
         print(f"{c.label:4s}  {c.name:14s} {c.detail}")

@@ -10,7 +10,7 @@ the intrinsics directly instead of a sensor preset.
 [--json]``: least-squares pointing from a CSV with the header ``x_px,y_px,lat_deg,lon_deg,alt_m``
 (one tracked pixel and its GPS position per row); prints the pointing and the residual in pixels.
 
-Angles are degrees; conventions in :mod:`acquisition.geo.projection`.
+Angles are degrees; conventions in :mod:`snrmon.acquisition.geo.projection`.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ import csv
 import math
 from pathlib import Path
 
-from acquisition.geo.pointing import calibrate_pointing
-from acquisition.geo.projection import (
+from snrmon.acquisition.geo.pointing import calibrate_pointing
+from snrmon.acquisition.geo.projection import (
     CameraIntrinsics,
     Pointing,
     Site,
@@ -59,7 +59,7 @@ def intrinsics_of(args: argparse.Namespace) -> CameraIntrinsics:
     if args.sensor is None:
         raise UsageError("give --sensor mwir|lwir|FILE or --camera F_M,PITCH_UM,W,H")
     try:
-        from model.presets import load_sensor
+        from snrmon.model.presets import load_sensor
     except ImportError as exc:
         raise UsageError(
             f"--sensor needs the sensor presets (model.presets), not available here: {exc}; "

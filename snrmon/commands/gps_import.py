@@ -1,6 +1,6 @@
 """``snrmon gps-import``: a drone's own flight log (DJI AirData CSV, NMEA log, MAVLink tlog)
 aligned to a session on UTC and recorded as its GPS stream, marked as imported
-(:mod:`acquisition.record.gps_import`; docs/session-format.md)."""
+(:mod:`snrmon.acquisition.record.gps_import`; docs/session-format.md)."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.record.gps_import import gps_source, import_gps_log
+    from snrmon.acquisition.record.gps_import import gps_source, import_gps_log
     from snrmon.output import emit_json
 
     if not Path(args.session).is_file():

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from snrmon.cli import UsageError
+from snrmon.extras import require
 from snrmon.inputs import input_file, output_file, session_file
 
 
@@ -44,6 +45,7 @@ def check_console_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    require("gui", "the console")
     check_console_outputs(args)
     if args.replay is not None:
         if args.config is not None:
@@ -53,10 +55,10 @@ def run(args: argparse.Namespace) -> int:
     if args.config is None:
         raise UsageError("needs --config FILE.toml (or --replay FILE.h5)")
     input_file(args.config, "--config")
-    from acquisition.config import load_session_config
-    from acquisition.prediction import ModelPredictor
-    from acquisition.runtime.session import Session
-    from gui.app import run_console
+    from snrmon.acquisition.config import load_session_config
+    from snrmon.acquisition.prediction import ModelPredictor
+    from snrmon.acquisition.runtime.session import Session
+    from snrmon.gui.app import run_console
 
     config = load_session_config(args.config)
     # Asynchronous: the measured sky's new curves are computed beside the cameras' measurement
@@ -76,9 +78,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_replay(args: argparse.Namespace) -> int:
-    from acquisition.prediction import ModelPredictor
-    from acquisition.replay.player import ReplayPlayer
-    from gui.app import run_console
+    from snrmon.acquisition.prediction import ModelPredictor
+    from snrmon.acquisition.replay.player import ReplayPlayer
+    from snrmon.gui.app import run_console
 
     player = ReplayPlayer(args.replay)
     cfg = player.config

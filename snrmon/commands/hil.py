@@ -68,14 +68,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target", default="uav1", help="target preset or TOML file")
     p.add_argument("--hover-s", type=float, default=7.0, help="hover time per stop (flight s)")
     p.add_argument("--transit-mps", type=float, default=8.0, help="transit speed between stops")
-    p.add_argument("--sky-temp-c", type=float, default=280.0 - 273.15,
-                   help="the scenario's clear-sky apparent temperature, C (6.85)")  # fmt: skip
-    p.add_argument("--air-temp-c", type=float, default=15.0,
-                   help="the scenario's air temperature along the path, C (15)")  # fmt: skip
-    p.add_argument("--window", metavar="WxH",
-                   help="read a sub-array of W x H pixels around the line of sight")  # fmt: skip
-    p.add_argument("--no-calibration", action="store_true",
-                   help="skip the blackbody calibration before the flight")  # fmt: skip
+    p.add_argument(
+        "--sky-temp-c",
+        type=float,
+        default=280.0 - 273.15,
+        help="the scenario's clear-sky apparent temperature, C (6.85)",
+    )
+    p.add_argument(
+        "--air-temp-c",
+        type=float,
+        default=15.0,
+        help="the scenario's air temperature along the path, C (15)",
+    )
+    p.add_argument(
+        "--window", metavar="WxH", help="read a sub-array of W x H pixels around the line of sight"
+    )
+    p.add_argument(
+        "--no-calibration",
+        action="store_true",
+        help="skip the blackbody calibration before the flight",
+    )
     p.add_argument("--fpn", action="store_true", help="add fixed-pattern noise to the frames")
     p.add_argument(
         "--no-track",
@@ -144,6 +156,8 @@ def run(args: argparse.Namespace) -> int:
         r = rig.recording
         for cam, written in r["frames_written"].items():
             lost = ", ".join(f"{k} {v}" for k, v in r["dropped"].get(cam, {}).items()) or "none"
-            print(f"recording {cam}: {written} of {r['frames_received'][cam]} frames written "
-                  f"(dropped: {lost})")  # fmt: skip
+            print(
+                f"recording {cam}: {written} of {r['frames_received'][cam]} frames written "
+                f"(dropped: {lost})"
+            )
     return 0

@@ -13,10 +13,10 @@ import sys
 import threading
 import time
 
-from drivers.config import GPS_PROTOCOLS, LRF_PROTOCOLS, device_from_config
-from drivers.device import DeviceState, DeviceStatus
-from drivers.gps.fix import GpsFix
-from drivers.rangefinder.reading import RangeReading
+from snrmon.drivers.config import GPS_PROTOCOLS, LRF_PROTOCOLS, device_from_config
+from snrmon.drivers.device import DeviceState, DeviceStatus
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.rangefinder.reading import RangeReading
 from snrmon.output import dumps
 
 DEFAULT_PROTOCOL = {"gps": "nmea", "lrf": "trupulse"}
@@ -26,18 +26,30 @@ DEFAULT_COUNT_TIMEOUT_S = 30.0
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("listen", help="print readings from a GPS or rangefinder as they arrive")
     p.add_argument("kind", choices=("gps", "lrf"), help="what is on the port")
-    p.add_argument("--port", required=True, metavar="URL",
-                   help="path or pyserial URL (/dev/ttyUSB0, socket://h:p); gpsd: host:port; "
-                   "mavlink: udpin:0.0.0.0:14550")  # fmt: skip
-    p.add_argument("--protocol", choices=GPS_PROTOCOLS + LRF_PROTOCOLS,
-                   help="default nmea for gps, trupulse for lrf")  # fmt: skip
+    p.add_argument(
+        "--port",
+        required=True,
+        metavar="URL",
+        help="path or pyserial URL (/dev/ttyUSB0, socket://h:p); gpsd: host:port; "
+        "mavlink: udpin:0.0.0.0:14550",
+    )
+    p.add_argument(
+        "--protocol",
+        choices=GPS_PROTOCOLS + LRF_PROTOCOLS,
+        help="default nmea for gps, trupulse for lrf",
+    )
     p.add_argument("--baud", type=int, help="line speed (default: the protocol's)")
     p.add_argument("--count", type=int, metavar="N", help="exit after N readings of any status")
-    p.add_argument("--timeout", type=float, metavar="S",
-                   help=f"give up after S seconds (default {DEFAULT_COUNT_TIMEOUT_S:g} with "
-                   "--count, otherwise run until interrupted)")  # fmt: skip
-    p.add_argument("--allow-no-checksum", action="store_true",
-                   help="NMEA: accept sentences without *hh")  # fmt: skip
+    p.add_argument(
+        "--timeout",
+        type=float,
+        metavar="S",
+        help=f"give up after S seconds (default {DEFAULT_COUNT_TIMEOUT_S:g} with "
+        "--count, otherwise run until interrupted)",
+    )
+    p.add_argument(
+        "--allow-no-checksum", action="store_true", help="NMEA: accept sentences without *hh"
+    )
     p.add_argument("--json", action="store_true", help="one JSON object per line")
     p.set_defaults(func=run)
 

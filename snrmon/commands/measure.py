@@ -10,7 +10,7 @@ JSON contract (``--json``), on stdout::
 flagged or not; a value that is not a finite number (an undefined SNR) is written as ``null``.
 The readable table adds the running mean/std over the last ``--window`` valid frames.
 
-``--track`` runs :func:`acquisition.track.tracker.track_stack` from ``--at`` (the compact
+``--track`` runs :func:`snrmon.acquisition.track.tracker.track_stack` from ``--at`` (the compact
 object nearest the click, followed, measured against the background its extent allows, found
 again after a loss; docs/tracking.md) instead of keeping the window fixed. The contract is the
 same, the frames carry the tracker's flags (``lost``, ``gps_cued``) and each frame gains
@@ -28,18 +28,18 @@ import math
 
 import numpy as np
 
-from acquisition.measure.background import parse_rect, validate_rect
-from acquisition.measure.peak_snr import (
+from snrmon.acquisition.measure.background import parse_rect, validate_rect
+from snrmon.acquisition.measure.peak_snr import (
     FLAG_NAMES,
     RUNNING_EXCLUDED,
     PeakSnr,
     PeakSnrMeter,
     saturation_level,
 )
-from acquisition.measure.running_stats import RunningSnr
-from acquisition.measure.stack_snr import StackSnr, measure_stack
-from acquisition.replay.stack_io import load_stack
-from acquisition.track.tracker import Tracker, TrackerConfig, TrackStep, track_stack
+from snrmon.acquisition.measure.running_stats import RunningSnr
+from snrmon.acquisition.measure.stack_snr import StackSnr, measure_stack
+from snrmon.acquisition.replay.stack_io import load_stack
+from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackStep, track_stack
 from snrmon.cli import UsageError
 from snrmon.output import emit_json
 

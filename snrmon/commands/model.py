@@ -67,8 +67,8 @@ def _bg_k(args) -> float | None:
 
 
 def _atmosphere(args, sensor):
-    from model.atmosphere import resolve_atmosphere
-    from model.presets import load_atmosphere
+    from snrmon.model.atmosphere import resolve_atmosphere
+    from snrmon.model.presets import load_atmosphere
 
     spec = args.atmosphere
     if spec in ("default", "none"):
@@ -92,44 +92,88 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
     p.add_argument("--sensor", required=True, metavar="mwir|lwir|FILE", help="sensor preset")
     if target:
         p.add_argument("--target", required=True, metavar="uav1|uav2|FILE", help="target preset")
-        p.add_argument("--atmosphere", default="default", metavar="default|none|TAU|FILE",
-                       help="built-in US Std 1976 fit (default), none, a constant "
-                       "transmission, or a TOML/tape7/CSV file")  # fmt: skip
-        p.add_argument("--atmosphere-path-m", type=float, default=None, metavar="M",
-                       help="path length of a tape7/CSV spectrum")  # fmt: skip
-        p.add_argument("--spatial-noise", default=None, metavar="E|Kx|CLUTTER",
-                       help="spatial noise: electrons, K x temporal, or a clutter category "
-                       "none/low/medium/high")  # fmt: skip
-    p.add_argument("--background-temp-c", type=float, default=None, metavar="T",
-                   help="measured background (sky) temperature, C")  # fmt: skip
+        p.add_argument(
+            "--atmosphere",
+            default="default",
+            metavar="default|none|TAU|FILE",
+            help="built-in US Std 1976 fit (default), none, a constant "
+            "transmission, or a TOML/tape7/CSV file",
+        )
+        p.add_argument(
+            "--atmosphere-path-m",
+            type=float,
+            default=None,
+            metavar="M",
+            help="path length of a tape7/CSV spectrum",
+        )
+        p.add_argument(
+            "--spatial-noise",
+            default=None,
+            metavar="E|Kx|CLUTTER",
+            help="spatial noise: electrons, K x temporal, or a clutter category "
+            "none/low/medium/high",
+        )
+    p.add_argument(
+        "--background-temp-c",
+        type=float,
+        default=None,
+        metavar="T",
+        help="measured background (sky) temperature, C",
+    )
     p.add_argument("--json", action="store_true", help="JSON on stdout")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("model", help="the sensor model: SNR vs range, PVF, radiance, NETD, plots",
-                       description=__doc__.split("\n\n")[0])  # fmt: skip
+    p = sub.add_parser(
+        "model",
+        help="the sensor model: SNR vs range, PVF, radiance, NETD, plots",
+        description=__doc__.split("\n\n")[0],
+    )
     msub = p.add_subparsers(dest="model_command", metavar="SUBCOMMAND", required=True)
 
     s = msub.add_parser("snr", help="the four SNR curves at given ranges (Eqs. 1-3)")
     _add_common(s)
-    s.add_argument("--ranges", type=str, default="37,126,199,336,393,451,508", metavar="R,...",
-                   help="slant ranges in metres (default: the paper's stops)")  # fmt: skip
+    s.add_argument(
+        "--ranges",
+        type=str,
+        default="37,126,199,336,393,451,508",
+        metavar="R,...",
+        help="slant ranges in metres (default: the paper's stops)",
+    )
     s.set_defaults(func=run_snr)
 
     v = msub.add_parser("pvf", help="average PVF and ensquared energy of a PSF")
-    v.add_argument("--psf", required=True, choices=("airy", "gaussian", "airy+gaussian"),
-                   help="diffraction (Airy), Gaussian blur, or both convolved")  # fmt: skip
+    v.add_argument(
+        "--psf",
+        required=True,
+        choices=("airy", "gaussian", "airy+gaussian"),
+        help="diffraction (Airy), Gaussian blur, or both convolved",
+    )
     v.add_argument("--f-number", type=float, default=None, help="optics f-number (Airy)")
     v.add_argument("--pitch-um", type=float, default=None, help="detector pitch in um (Airy)")
     g = v.add_mutually_exclusive_group()
-    g.add_argument("--wavelength-um", type=float, default=None,
-                   help="one wavelength in um (monochromatic Airy)")  # fmt: skip
-    g.add_argument("--band", type=str, default=None, metavar="L1,L2",
-                   help="band in um (polychromatic Airy over the band)")  # fmt: skip
+    g.add_argument(
+        "--wavelength-um",
+        type=float,
+        default=None,
+        help="one wavelength in um (monochromatic Airy)",
+    )
+    g.add_argument(
+        "--band",
+        type=str,
+        default=None,
+        metavar="L1,L2",
+        help="band in um (polychromatic Airy over the band)",
+    )
     v.add_argument("--sigma-px", type=float, default=None, help="Gaussian sigma in pixels")
     v.add_argument("--fill-factor", type=float, default=1.0, help="area fill factor (1.0)")
-    v.add_argument("--target-size-px", type=float, default=0.0, metavar="D",
-                   help="Gaussian target of sigma D/2 convolved with the PSF")  # fmt: skip
+    v.add_argument(
+        "--target-size-px",
+        type=float,
+        default=0.0,
+        metavar="D",
+        help="Gaussian target of sigma D/2 convolved with the PSF",
+    )
     v.add_argument("--json", action="store_true", help="JSON on stdout")
     v.set_defaults(func=run_pvf)
 
@@ -146,13 +190,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     pl = msub.add_parser("plot", help="SNR vs range figure like Figs. 7-10")
     _add_common(pl)
     pl.add_argument("--max-range-m", type=float, default=600.0, help="last range plotted (600 m)")
-    pl.add_argument("-o", "--output", required=True, metavar="FILE.png",
-                    help="figure to write (.png, .pdf or .svg)")  # fmt: skip
+    pl.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        metavar="FILE.png",
+        help="figure to write (.png, .pdf or .svg)",
+    )
     pl.set_defaults(func=run_plot)
 
 
 def _load(args):
-    from model.presets import load_sensor, load_target
+    from snrmon.model.presets import load_sensor, load_target
 
     sensor = load_sensor(args.sensor)
     target = load_target(args.target) if getattr(args, "target", None) else None
@@ -160,11 +209,17 @@ def _load(args):
 
 
 def run_snr(args) -> int:
-    from model.snr import predict
+    from snrmon.model.snr import predict
 
     sensor, target = _load(args)
-    pred = predict(sensor, target, _ranges(args.ranges), atmosphere=_atmosphere(args, sensor),
-                   background_temp_k=_bg_k(args), spatial_noise=args.spatial_noise)  # fmt: skip
+    pred = predict(
+        sensor,
+        target,
+        _ranges(args.ranges),
+        atmosphere=_atmosphere(args, sensor),
+        background_temp_k=_bg_k(args),
+        spatial_noise=args.spatial_noise,
+    )
     records = pred.to_records()
     head = f"{'range_m':>8} {'res_s':>5} {'res_l':>5} {'small':>9} {'large':>9} {'small_c':>9} "
     head += f"{'large_c':>9} {'tau':>6}"
@@ -183,8 +238,8 @@ def run_snr(args) -> int:
 
 
 def run_pvf(args) -> int:
-    from model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf
-    from model.pvf import average_pvf, ensquared_energy
+    from snrmon.model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf
+    from snrmon.model.pvf import average_pvf, ensquared_energy
 
     airy = None
     if args.psf in ("airy", "airy+gaussian"):
@@ -215,7 +270,7 @@ def run_pvf(args) -> int:
 
 
 def run_radiance(args) -> int:
-    from model import radiometry as rad
+    from snrmon.model import radiometry as rad
 
     band = _band(args.band)
     if not (args.temp_k > 0 and math.isfinite(args.temp_k)):
@@ -230,7 +285,7 @@ def run_radiance(args) -> int:
 
 
 def run_netd(args) -> int:
-    from model.noise import model_netd_mk, temporal_noise_e
+    from snrmon.model.noise import model_netd_mk, temporal_noise_e
 
     sensor, _ = _load(args)
     bg = _bg_k(args) or NOISE_REFERENCE_SKY_K
@@ -246,16 +301,22 @@ def run_netd(args) -> int:
 
 
 def run_plot(args) -> int:
-    from model.plot import plot_prediction
-    from model.snr import predict
+    from snrmon.model.plot import plot_prediction
+    from snrmon.model.snr import predict
 
     sensor, target = _load(args)
     if not args.max_range_m > 10:
         raise UsageError(f"--max-range-m must be > 10, got {args.max_range_m}")
     output_file(args.output, "-o", suffixes=(".png", ".pdf", ".svg"))
     ranges = np.linspace(10.0, args.max_range_m, 500)
-    pred = predict(sensor, target, ranges, atmosphere=_atmosphere(args, sensor),
-                   background_temp_k=_bg_k(args), spatial_noise=args.spatial_noise)  # fmt: skip
+    pred = predict(
+        sensor,
+        target,
+        ranges,
+        atmosphere=_atmosphere(args, sensor),
+        background_temp_k=_bg_k(args),
+        spatial_noise=args.spatial_noise,
+    )
     path = plot_prediction(pred, args.output)
     print(path)
     return 0

@@ -26,33 +26,45 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("psf", help="the PSF and its average PVF from an unresolved stop")
     p.add_argument("file", help="session file (.h5)")
     p.add_argument("--camera", required=True, help="the recorded camera (mwir, lwir, ...)")
-    p.add_argument("--stop", type=int, action="append", required=True,
-                   help="stop number as in the stop table (repeat to pool stops)")  # fmt: skip
+    p.add_argument(
+        "--stop",
+        type=int,
+        action="append",
+        required=True,
+        help="stop number as in the stop table (repeat to pool stops)",
+    )
     p.add_argument("--calibration", help="calibration .npz (default: the session's)")
     p.add_argument("--sensor", help="sensor preset/TOML (default: the session's)")
     p.add_argument("--target", help="target preset/TOML (default: the session's)")
-    p.add_argument("--min-frames", type=int, default=50,
-                   help="fewest valid frames a stop must give (at least 10)")  # fmt: skip
+    p.add_argument(
+        "--min-frames",
+        type=int,
+        default=50,
+        help="fewest valid frames a stop must give (at least 10)",
+    )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    p.add_argument("--no-record", action="store_true",
-                   help="do not add the result to the session as a psf_measured event")  # fmt: skip
+    p.add_argument(
+        "--no-record",
+        action="store_true",
+        help="do not add the result to the session as a psf_measured event",
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.calibrate.calibration_file import load_calibration
-    from acquisition.calibrate.psf_estimate import (
+    from snrmon.acquisition.calibrate.calibration_file import load_calibration
+    from snrmon.acquisition.calibrate.psf_estimate import (
         PsfEstimateError,
         StopCrops,
         crop_frames,
         estimate_psf,
         target_px,
     )
-    from acquisition.record.reader import append_event, open_session
-    from acquisition.replay.batch import replay_session
-    from acquisition.replay.recorded import recorded_calibration_path
-    from acquisition.report.data import session_models
-    from model.presets import load_sensor, load_target
+    from snrmon.acquisition.record.reader import append_event, open_session
+    from snrmon.acquisition.replay.batch import replay_session
+    from snrmon.acquisition.replay.recorded import recorded_calibration_path
+    from snrmon.acquisition.report.data import session_models
+    from snrmon.model.presets import load_sensor, load_target
 
     if args.min_frames < 10:
         raise UsageError(f"--min-frames must be >= 10, got {args.min_frames}")
@@ -84,10 +96,16 @@ def run(args: argparse.Namespace) -> int:
             except PsfEstimateError as exc:
                 raise UsageError(f"{label}: {exc}") from None
             lo = np.searchsorted(rep.t_host_ns, row.t_start_ns)
-            hi = len(rep.t_host_ns) if row.t_end_ns is None else np.searchsorted(
-                rep.t_host_ns, row.t_end_ns)  # fmt: skip
-            picks = [(t, r) for t, r in zip(rep.t_host_ns[lo:hi], rep.results[lo:hi], strict=True)
-                     if not r.flags and np.isfinite(r.snr)]  # fmt: skip
+            hi = (
+                len(rep.t_host_ns)
+                if row.t_end_ns is None
+                else np.searchsorted(rep.t_host_ns, row.t_end_ns)
+            )
+            picks = [
+                (t, r)
+                for t, r in zip(rep.t_host_ns[lo:hi], rep.results[lo:hi], strict=True)
+                if not r.flags and np.isfinite(r.snr)
+            ]
             index = np.searchsorted(cam.t_host_ns, [t for t, _ in picks])
             crops = crop_frames(
                 (cam.frames[int(i)] for i in index), [(r.peak_x, r.peak_y) for _, r in picks], cal

@@ -59,8 +59,8 @@ def progress_line(session, t0: float) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.config import load_session_config
-    from acquisition.runtime.session import Session
+    from snrmon.acquisition.config import load_session_config
+    from snrmon.acquisition.runtime.session import Session
 
     if args.duration is not None and not args.duration > 0:
         raise UsageError(f"--duration must be positive, got {args.duration}")

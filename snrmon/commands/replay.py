@@ -128,7 +128,7 @@ def result_json(result) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.replay.batch import replay_session
+    from snrmon.acquisition.replay.batch import replay_session
 
     if not _is_session(args.file):
         return _replay_foreign(args)

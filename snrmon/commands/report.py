@@ -1,8 +1,9 @@
 """``snrmon report``: the SNR-versus-range report of a session file (PDF or PNG) and its CSV.
 
 The session is replayed through the live measurement (a tqdm bar on a terminal shows the frames),
-stops are rebuilt, and the pages of :mod:`acquisition.report.plot` are written; ``--csv`` writes
-the stop table with :data:`acquisition.report.stop_csv.CSV_COLUMNS`. See docs/report.md.
+stops are rebuilt, and the pages of :mod:`snrmon.acquisition.report.plot` are written; ``--csv``
+writes the stop table with :data:`snrmon.acquisition.report.stop_csv.CSV_COLUMNS`. See
+docs/report.md.
 """
 
 from __future__ import annotations
@@ -23,15 +24,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", required=True, metavar="REPORT.pdf|png", help="report file")
     p.add_argument("--csv", metavar="TABLE.csv", help="also write the stop table as CSV")
     p.add_argument("--target", metavar="T", help="target preset or TOML (default: the session's)")
-    p.add_argument("--no-paper-curves", action="store_true",
-                   help="leave out the paper's switched resolved/unresolved curves")  # fmt: skip
+    p.add_argument(
+        "--no-paper-curves",
+        action="store_true",
+        help="leave out the paper's switched resolved/unresolved curves",
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from acquisition.report.data import report_data
-    from acquisition.report.plot import FORMATS, render_report
-    from acquisition.report.stop_csv import write_csv
+    from snrmon.acquisition.report.data import report_data
+    from snrmon.acquisition.report.plot import FORMATS, render_report
+    from snrmon.acquisition.report.stop_csv import write_csv
 
     out = output_file(args.output, "-o", suffixes=tuple(FORMATS))
     src = session_file(args.file)

@@ -22,8 +22,13 @@ def check_libusb(needed: bool) -> Check:
         why = "no libusb-1.0 library found"
     if backend is not None:
         return Check("libusb", PASS, "pyusb has a libusb-1.0 backend", needed=needed)
-    return Check("libusb", FAIL, f"pyusb has no libusb backend ({why})",
-                 "sudo apt-get install libusb-1.0-0", needed=needed)  # fmt: skip
+    return Check(
+        "libusb",
+        FAIL,
+        f"pyusb has no libusb backend ({why})",
+        "sudo apt-get install libusb-1.0-0",
+        needed=needed,
+    )
 
 
 def check_v4l2(devices: list[str], needed: bool) -> Check:
@@ -33,27 +38,42 @@ def check_v4l2(devices: list[str], needed: bool) -> Check:
 
     info = cv2.getBuildInformation()
     if not re.search(r"v4l/v4l2:\s+YES", info):
-        return Check("v4l2", FAIL, "this OpenCV has no V4L2 capture",
-                     "reinstall opencv-contrib-python-headless (make setup)", needed)  # fmt: skip
+        return Check(
+            "v4l2",
+            FAIL,
+            "this OpenCV has no V4L2 capture",
+            "reinstall opencv-contrib-python-headless (make setup)",
+            needed,
+        )
     nodes = sorted(glob.glob("/dev/video*"))
     for dev in devices:
         path = dev if dev.startswith("/") else f"/dev/video{dev}"
         if not os.path.exists(path):
-            return Check("v4l2", FAIL, f"V4L2 device {path} does not exist (found: "
-                         f"{', '.join(nodes) or 'none'})", "plug in the camera; `snrmon devices` "
-                         "lists V4L2 devices; set [cameras.NAME] address", needed)  # fmt: skip
+            return Check(
+                "v4l2",
+                FAIL,
+                f"V4L2 device {path} does not exist (found: {', '.join(nodes) or 'none'})",
+                "plug in the camera; `snrmon devices` "
+                "lists V4L2 devices; set [cameras.NAME] address",
+                needed,
+            )
         if not os.access(path, os.R_OK | os.W_OK):
-            return Check("v4l2", FAIL, f"V4L2 device {path} is not readable and writable by "
-                         "this user", "sudo usermod -aG video $USER, then log out and back in",
-                         needed)  # fmt: skip
+            return Check(
+                "v4l2",
+                FAIL,
+                f"V4L2 device {path} is not readable and writable by this user",
+                "sudo usermod -aG video $USER, then log out and back in",
+                needed,
+            )
     found = ", ".join(nodes) or "no /dev/video* now"
-    return Check("v4l2", PASS, f"OpenCV has V4L2 capture ({found})", needed=needed,
-                 data={"devices": nodes})  # fmt: skip
+    return Check(
+        "v4l2", PASS, f"OpenCV has V4L2 capture ({found})", needed=needed, data={"devices": nodes}
+    )
 
 
 def check_aravis(needed: bool) -> Check:
     """gi and the Aravis 0.8 typelib import."""
-    from drivers.camera.aravis import INSTALL_HINT, AravisUnavailableError, aravis_module
+    from snrmon.drivers.camera.aravis import INSTALL_HINT, AravisUnavailableError, aravis_module
 
     try:
         arv = aravis_module()

@@ -15,23 +15,27 @@ from snrmon.doctor import FAIL, PASS, Check
 
 
 def check_compiled_analysis(shape: tuple[int, int] = (720, 1280)) -> Check:
-    """Run the per-frame path once on synthetic frames (:func:`acquisition.engine.warm_up`)."""
+    """Run the per-frame path once on synthetic frames
+    (:func:`snrmon.acquisition.engine.warm_up`)."""
     t0 = time.perf_counter()
     try:
-        from acquisition.engine.camera_engine import CameraEngine
-        from acquisition.engine.warm_up import warm_up
+        from snrmon.acquisition.engine.camera_engine import CameraEngine
+        from snrmon.acquisition.engine.warm_up import warm_up
 
         warm_up(CameraEngine("doctor", shape))
     except Exception as exc:  # an import or compile failure of numba/llvmlite, whatever it is
         return Check(
-            "compiled-analysis", FAIL, f"the per-frame analysis does not compile: {exc}",
+            "compiled-analysis",
+            FAIL,
+            f"the per-frame analysis does not compile: {exc}",
             "reinstall snrmon in a fresh venv with its tested versions "
             "(pip install -c constraints.txt snrmon): numba and llvmlite must match NumPy",
-        )  # fmt: skip
+        )
     seconds = time.perf_counter() - t0
     return Check(
-        "compiled-analysis", PASS,
+        "compiled-analysis",
+        PASS,
         f"the per-frame analysis compiled or loaded in {seconds:.1f} s (a first run on a "
         "machine compiles it once)",
         data={"seconds": seconds},
-    )  # fmt: skip
+    )

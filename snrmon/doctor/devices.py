@@ -45,8 +45,8 @@ class _Watch:
 
 
 def _open(config) -> list[_Watch]:
-    from acquisition.config import camera_device
-    from drivers.config import device_from_config
+    from snrmon.acquisition.config import camera_device
+    from snrmon.drivers.config import device_from_config
 
     watches = []
     for cam in config.cameras:
@@ -103,7 +103,7 @@ def _expected_fps(w: _Watch, cam) -> float | None:
     if fmt is not None and fmt.fps:
         return float(fmt.fps)
     try:
-        from model.presets import load_sensor
+        from snrmon.model.presets import load_sensor
 
         return float(load_sensor(cam.sensor).fps)
     except (ValueError, OSError):
@@ -114,34 +114,58 @@ def _camera(w: _Watch, cam, wait_s: float) -> Check:
     name = f"camera:{w.name}"
     where = f"[cameras.{w.name}] {cam.source} {cam.address!r}"
     if len(w.readings) < 2:
-        return Check(name, FAIL, f"{where}: no frames in {wait_s:g} s"
-                     + (f" ({w.error})" if w.error else ""),
-                     "check the camera's power and cable, and its address with `snrmon devices`; "
-                     "a shared-memory camera needs its writer running")  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"{where}: no frames in {wait_s:g} s" + (f" ({w.error})" if w.error else ""),
+            "check the camera's power and cable, and its address with `snrmon devices`; "
+            "a shared-memory camera needs its writer running",
+        )
     (t0, c0), (t1, c1) = w.readings[0], w.readings[-1]
     fps = (len(w.readings) - 1) / ((t1 - t0) / 1e9)
     lost = max(0, (c1 - c0 + 1) - len(w.readings))
     expected = _expected_fps(w, cam)
     fmt = w.device.format
-    data = {"fps": fps, "expected_fps": expected, "frames": len(w.readings), "lost": lost,
-            "format": str(fmt) if fmt else None}  # fmt: skip
+    data = {
+        "fps": fps,
+        "expected_fps": expected,
+        "frames": len(w.readings),
+        "lost": lost,
+        "format": str(fmt) if fmt else None,
+    }
     shown = f"{where}: {len(w.readings)} frames at {fps:.1f} fps"
     if fmt is not None:
         shown += f", {fmt.width}x{fmt.height} {fmt.pixel_format}"
     if expected is not None and fps < MIN_FPS_FRACTION * expected:
-        return Check(name, FAIL, f"{shown}: below its {expected:g} fps ({lost} lost)",
-                     "check the link speed (USB 3 port, GigE with jumbo frames: `snrmon devices`),"
-                     " the camera's trigger and exposure, and the CPU load", data=data)  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"{shown}: below its {expected:g} fps ({lost} lost)",
+            "check the link speed (USB 3 port, GigE with jumbo frames: `snrmon devices`),"
+            " the camera's trigger and exposure, and the CPU load",
+            data=data,
+        )
     size, sensor_fps = _sensor_format(cam)
     if fmt is not None and size is not None and size != (fmt.width, fmt.height):
-        return Check(name, FAIL, f"{shown}; but sensor {cam.sensor!r} is {size[0]}x{size[1]}",
-                     f"set [cameras.{w.name}] sensor to this camera's sensor TOML (the model "
-                     "needs its true format)", data=data)  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"{shown}; but sensor {cam.sensor!r} is {size[0]}x{size[1]}",
+            f"set [cameras.{w.name}] sensor to this camera's sensor TOML (the model "
+            "needs its true format)",
+            data=data,
+        )
     if fmt is not None and fmt.fps and sensor_fps and abs(fmt.fps / sensor_fps - 1) > 0.01:
-        return Check(name, FAIL, f"{shown}; the camera runs at {fmt.fps:g} fps but sensor "
-                     f"{cam.sensor!r} says {sensor_fps:g}", "set the camera's frame rate to the "
-                     "sensor's (the model's integration and noise assume it), or use a sensor "
-                     "TOML for this rate", data=data)  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"{shown}; the camera runs at {fmt.fps:g} fps but sensor "
+            f"{cam.sensor!r} says {sensor_fps:g}",
+            "set the camera's frame rate to the "
+            "sensor's (the model's integration and noise assume it), or use a sensor "
+            "TOML for this rate",
+            data=data,
+        )
     rate = f" of {expected:g}" if expected is not None else ""
     return Check(name, PASS, f"{shown} ({fps:.1f}{rate} fps)", data=data)
 
@@ -149,7 +173,7 @@ def _camera(w: _Watch, cam, wait_s: float) -> Check:
 def _sensor_format(cam) -> tuple[tuple[int, int] | None, float | None]:
     """(width, height) the config or the sensor preset says, and the preset's rate."""
     try:
-        from model.presets import load_sensor
+        from snrmon.model.presets import load_sensor
 
         s = load_sensor(cam.sensor)
     except (ValueError, OSError):
@@ -163,38 +187,72 @@ def _lrf(w: _Watch, table: dict, wait_s: float) -> Check:
     port = table.get("port")
     if not w.readings:
         fired = table.get("protocol") == "trupulse"
-        fix = ("fire the TruPulse at a target while snrmon doctor waits (it speaks only when "
-               "fired); " if fired else "") + "check its power, [lrf] port and baud"  # fmt: skip
-        return Check("lrf", FAIL, f"rangefinder on {port}: no reading in {wait_s:g} s"
-                     + (f" ({w.error})" if w.error else ""), fix)  # fmt: skip
+        fix = (
+            "fire the TruPulse at a target while snrmon doctor waits (it speaks only when fired); "
+            if fired
+            else ""
+        ) + "check its power, [lrf] port and baud"
+        return Check(
+            "lrf",
+            FAIL,
+            f"rangefinder on {port}: no reading in {wait_s:g} s"
+            + (f" ({w.error})" if w.error else ""),
+            fix,
+        )
     r = w.readings[-1][1]
     rng = f"{r.range_m:.1f} m" if r.range_m is not None else "no range"
-    return Check("lrf", PASS, f"rangefinder on {port} answers: {rng} ({r.status})",
-                 data={"readings": len(w.readings), "range_m": r.range_m})  # fmt: skip
+    return Check(
+        "lrf",
+        PASS,
+        f"rangefinder on {port} answers: {rng} ({r.status})",
+        data={"readings": len(w.readings), "range_m": r.range_m},
+    )
 
 
 def _gps(w: _Watch, wait_s: float) -> list[Check]:
     fixes = [(t, f) for t, f in w.readings if f.has_fix]
     if not w.readings:
-        no_data = Check("gps-fix", FAIL, f"GPS: no sentence in {wait_s:g} s"
-                        + (f" ({w.error})" if w.error else ""),
-                        "check the receiver's power, [gps] port and baud")  # fmt: skip
+        no_data = Check(
+            "gps-fix",
+            FAIL,
+            f"GPS: no sentence in {wait_s:g} s" + (f" ({w.error})" if w.error else ""),
+            "check the receiver's power, [gps] port and baud",
+        )
         return [no_data, Check("gps-clock", FAIL, "GPS: no time to compare", no_data.fix)]
     if not fixes:
         fix = "give the antenna open sky and wait for the first fix (minutes after a cold start)"
-        return [Check("gps-fix", FAIL, f"GPS answers but has no fix ({len(w.readings)} "
-                      "sentences, quality 0)", fix),
-                Check("gps-clock", FAIL, "GPS: no fix, no time to compare", fix)]  # fmt: skip
+        return [
+            Check(
+                "gps-fix",
+                FAIL,
+                f"GPS answers but has no fix ({len(w.readings)} sentences, quality 0)",
+                fix,
+            ),
+            Check("gps-clock", FAIL, "GPS: no fix, no time to compare", fix),
+        ]
     now = time.monotonic_ns()
     t_last, last = fixes[-1]
     age_s = (now - t_last) / 1e9
-    data = {"sats": last.sats, "hdop": last.hdop, "quality": last.fix_quality, "age_s": age_s,
-            "lat_deg": last.lat_deg, "lon_deg": last.lon_deg}  # fmt: skip
-    shown = (f"GPS fix: quality {last.fix_quality}, {last.sats} satellites, HDOP "
-             f"{last.hdop}, last fix {age_s:.2f} s old")  # fmt: skip
+    data = {
+        "sats": last.sats,
+        "hdop": last.hdop,
+        "quality": last.fix_quality,
+        "age_s": age_s,
+        "lat_deg": last.lat_deg,
+        "lon_deg": last.lon_deg,
+    }
+    shown = (
+        f"GPS fix: quality {last.fix_quality}, {last.sats} satellites, HDOP "
+        f"{last.hdop}, last fix {age_s:.2f} s old"
+    )
     if age_s > MAX_FIX_AGE_S:
-        fix_check = Check("gps-fix", FAIL, shown, "the receiver stopped sending fixes: check the "
-                          "cable and its output rate", data=data)  # fmt: skip
+        fix_check = Check(
+            "gps-fix",
+            FAIL,
+            shown,
+            "the receiver stopped sending fixes: check the cable and its output rate",
+            data=data,
+        )
     else:
         fix_check = Check("gps-fix", PASS, shown, data=data)
     return [fix_check, _clock(fixes, now)]
@@ -206,15 +264,25 @@ def _clock(fixes: list, now_ns: int) -> Check:
         (f.utc.timestamp() - (wall_now - (now_ns - t) / 1e9)) for t, f in fixes if f.utc is not None
     ]
     if not offsets:
-        return Check("gps-clock", FAIL, "the receiver gives no valid date/time (a firmware "
-                     "with the 2019 week-rollover bug sends impossible dates)",
-                     "update the receiver's firmware; until then positions are used and "
-                     "times come from the host clock alone")  # fmt: skip
+        return Check(
+            "gps-clock",
+            FAIL,
+            "the receiver gives no valid date/time (a firmware "
+            "with the 2019 week-rollover bug sends impossible dates)",
+            "update the receiver's firmware; until then positions are used and "
+            "times come from the host clock alone",
+        )
     offset = statistics.median(offsets)
     data = {"offset_s": offset, "fixes": len(offsets)}
     shown = f"GPS UTC - host UTC = {offset:+.3f} s (median of {len(offsets)} fixes)"
     if abs(offset) > CLOCK_TOLERANCE_S:
-        return Check("gps-clock", FAIL, shown, "set the host clock from the GPS (chrony with "
-                     "gpsd's SHM refclock, or `sudo date -u -s` to the receiver's time): "
-                     "recordings stamp UTC with the host clock", data=data)  # fmt: skip
+        return Check(
+            "gps-clock",
+            FAIL,
+            shown,
+            "set the host clock from the GPS (chrony with "
+            "gpsd's SHM refclock, or `sudo date -u -s` to the receiver's time): "
+            "recordings stamp UTC with the host clock",
+            data=data,
+        )
     return Check("gps-clock", PASS, f"{shown}, within {CLOCK_TOLERANCE_S:g} s", data=data)

@@ -60,16 +60,28 @@ def check_disk_speed(
     data = {"write_mb_s": speed / MB, "needed_mb_s": None, "test_mb": n_bytes / MB}
     shown = f"{directory}: sequential write {speed / MB:.0f} MB/s ({n_bytes / MB:.0f} MB, fsync)"
     if rate_bytes_per_s is None:
-        return Check("disk-speed", SKIP, f"{shown}; no cameras configured to compare with",
-                     needed=False, data=data)  # fmt: skip
+        return Check(
+            "disk-speed",
+            SKIP,
+            f"{shown}; no cameras configured to compare with",
+            needed=False,
+            data=data,
+        )
     need = rate_bytes_per_s * SPEED_MARGIN
     data["needed_mb_s"] = need / MB
-    compare = (f"the cameras' {rate_bytes_per_s / MB:.1f} MB/s x {SPEED_MARGIN:g} margin = "
-               f"{need / MB:.0f} MB/s")  # fmt: skip
+    compare = (
+        f"the cameras' {rate_bytes_per_s / MB:.1f} MB/s x {SPEED_MARGIN:g} margin = "
+        f"{need / MB:.0f} MB/s"
+    )
     if speed < need:
-        return Check("disk-speed", FAIL, f"{shown}: slower than {compare}",
-                     "record to a faster disk (an internal SSD/NVMe, not a USB 2 stick or a "
-                     "network share), or record fewer cameras", data=data)  # fmt: skip
+        return Check(
+            "disk-speed",
+            FAIL,
+            f"{shown}: slower than {compare}",
+            "record to a faster disk (an internal SSD/NVMe, not a USB 2 stick or a "
+            "network share), or record fewer cameras",
+            data=data,
+        )
     return Check("disk-speed", PASS, f"{shown}: enough for {compare}", data=data)
 
 
@@ -84,18 +96,30 @@ def check_free_space(
     free = usage(directory).free
     data = {"free_gb": free / 1e9, "needed_gb": None, "duration_s": duration_s}
     if rate_bytes_per_s is None:
-        return Check("disk-space", SKIP, f"{directory}: {free / 1e9:.1f} GB free; no cameras "
-                     "configured to compare with", needed=False, data=data)  # fmt: skip
+        return Check(
+            "disk-space",
+            SKIP,
+            f"{directory}: {free / 1e9:.1f} GB free; no cameras configured to compare with",
+            needed=False,
+            data=data,
+        )
     need = rate_bytes_per_s * duration_s * SPACE_MARGIN
     data["needed_gb"] = need / 1e9
     hours = duration_s / 3600
-    shown = (f"{directory}: {free / 1e9:.1f} GB free; {hours:.2f} h at "
-             f"{rate_bytes_per_s / MB:.1f} MB/s needs {need / 1e9:.1f} GB")  # fmt: skip
+    shown = (
+        f"{directory}: {free / 1e9:.1f} GB free; {hours:.2f} h at "
+        f"{rate_bytes_per_s / MB:.1f} MB/s needs {need / 1e9:.1f} GB"
+    )
     if free < need:
         fits_h = free / SPACE_MARGIN / rate_bytes_per_s / 3600
-        return Check("disk-space", FAIL, f"{shown}: room for only {fits_h:.2f} h",
-                     "free space on this disk, record to a bigger one (--record-dir), or plan "
-                     "shorter recordings (--duration)", data=data)  # fmt: skip
+        return Check(
+            "disk-space",
+            FAIL,
+            f"{shown}: room for only {fits_h:.2f} h",
+            "free space on this disk, record to a bigger one (--record-dir), or plan "
+            "shorter recordings (--duration)",
+            data=data,
+        )
     return Check("disk-space", PASS, shown, data=data)
 
 
@@ -105,7 +129,7 @@ def cameras_rate(config, formats: dict) -> float | None:
     sensor preset's. A camera with neither is left out (its own check says why)."""
     if config is None or not config.cameras:
         return None
-    from model.presets import load_sensor
+    from snrmon.model.presets import load_sensor
 
     total = 0.0
     for cam in config.cameras:

@@ -68,18 +68,31 @@ def check_port(
     name = f"port:{kind}"
     path = port_path(table)
     if path is None:
-        return Check(name, SKIP, f"[{kind}] port {table.get('port')!r} is a network link "
-                     "(checked when the device answers)", needed=False)  # fmt: skip
+        return Check(
+            name,
+            SKIP,
+            f"[{kind}] port {table.get('port')!r} is a network link "
+            "(checked when the device answers)",
+            needed=False,
+        )
     if not os.path.exists(path):
-        return Check(name, FAIL, f"[{kind}] port {path} does not exist",
-                     f"plug in the {kind} (its USB serial adapter) and look for its port with "
-                     f"`snrmon devices` (or ls /dev/serial/by-id/); then set [{kind}] port",
-                     data={"path": path})  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"[{kind}] port {path} does not exist",
+            f"plug in the {kind} (its USB serial adapter) and look for its port with "
+            f"`snrmon devices` (or ls /dev/serial/by-id/); then set [{kind}] port",
+            data={"path": path},
+        )
     st = os.stat(path)
     if not stat.S_ISCHR(st.st_mode):
-        return Check(name, FAIL, f"[{kind}] port {path} is not a character device",
-                     f"[{kind}] port must name a serial device (/dev/ttyUSB0, "
-                     "/dev/serial/by-id/...)", data={"path": path})  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"[{kind}] port {path} is not a character device",
+            f"[{kind}] port must name a serial device (/dev/ttyUSB0, /dev/serial/by-id/...)",
+            data={"path": path},
+        )
     me = os.getuid() if uid is None else uid
     groups = set(os.getgroups()) | {os.getgid()} if gids is None else set(gids)
     ok = may_read_write(st, me, groups) if uid is not None else os.access(path, os.R_OK | os.W_OK)
@@ -87,15 +100,24 @@ def check_port(
     mode = stat.filemode(st.st_mode)
     data = {"path": path, "mode": mode, "owner": owner, "group": group}
     if ok:
-        return Check(name, PASS, f"[{kind}] port {path} ({mode} {owner}:{group}) is readable "
-                     "and writable by this user", data=data)  # fmt: skip
+        return Check(
+            name,
+            PASS,
+            f"[{kind}] port {path} ({mode} {owner}:{group}) is readable and writable by this user",
+            data=data,
+        )
     user = _user_name(me)
     members = set(grp.getgrgid(st.st_gid).gr_mem) if group != str(st.st_gid) else set()
     if user in members:
-        fix = (f"{user} is in group {group} but this login is not yet: log out and back in "
-               f"(or run `newgrp {group}`)")  # fmt: skip
+        fix = (
+            f"{user} is in group {group} but this login is not yet: log out and back in "
+            f"(or run `newgrp {group}`)"
+        )
     else:
-        fix = (f"sudo usermod -aG {group} {user}, then log out and back in (the port is "
-               f"{mode} {owner}:{group})")  # fmt: skip
-    return Check(name, FAIL, f"[{kind}] port {path} is not readable and writable by {user}",
-                 fix, data=data)  # fmt: skip
+        fix = (
+            f"sudo usermod -aG {group} {user}, then log out and back in (the port is "
+            f"{mode} {owner}:{group})"
+        )
+    return Check(
+        name, FAIL, f"[{kind}] port {path} is not readable and writable by {user}", fix, data=data
+    )

@@ -132,40 +132,81 @@ def check_qt_display(
     name = "qt-display"
     plugin = xcb_plugin()
     if not plugin.is_file():
-        return Check(name, FAIL, f"PySide6 has no xcb platform plugin at {plugin}",
-                     "reinstall PySide6-Essentials in the venv (make setup)", needed)  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"PySide6 has no xcb platform plugin at {plugin}",
+            "reinstall PySide6-Essentials in the venv (make setup)",
+            needed,
+        )
     missing = unloadable_libraries(plugin, env)
     display = env.get("DISPLAY", "")
     if not display:
         detail = "no X display here (DISPLAY unset): the console can run only --headless"
         if missing:
-            return Check(name, FAIL, f"{detail}; and Qt's xcb platform could not load "
-                         f"{', '.join(missing)}", _install_fix(missing), needed=False,
-                         data={"missing": missing})  # fmt: skip
+            return Check(
+                name,
+                FAIL,
+                f"{detail}; and Qt's xcb platform could not load {', '.join(missing)}",
+                _install_fix(missing),
+                needed=False,
+                data={"missing": missing},
+            )
         return Check(name, SKIP, detail, needed=False, data={"missing": []})
     env["QT_QPA_PLATFORM"] = "xcb"
     env["QT_DEBUG_PLUGINS"] = "1"  # the loader's own reason when the plugin does not load
     try:
-        proc = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True,
-                              env=env, timeout=timeout_s, check=False)  # fmt: skip
+        proc = subprocess.run(
+            [sys.executable, "-c", PROBE],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=timeout_s,
+            check=False,
+        )
     except subprocess.TimeoutExpired:
-        return Check(name, FAIL, f"Qt did not open display {display} within {timeout_s:g} s",
-                     "check the X server (xdpyinfo) and XAUTHORITY", needed)  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"Qt did not open display {display} within {timeout_s:g} s",
+            "check the X server (xdpyinfo) and XAUTHORITY",
+            needed,
+        )
     screen = re.search(r"SCREEN (\d+) (\d+)", proc.stdout)
     if proc.returncode == 0 and screen:
         w, h = int(screen[1]), int(screen[2])
-        return Check(name, PASS, f"Qt's xcb platform opens on {display} ({w}x{h})", needed=needed,
-                     data={"display": display, "width": w, "height": h, "missing": []})  # fmt: skip
+        return Check(
+            name,
+            PASS,
+            f"Qt's xcb platform opens on {display} ({w}x{h})",
+            needed=needed,
+            data={"display": display, "width": w, "height": h, "missing": []},
+        )
     libs = list(dict.fromkeys(missing + libraries_in_message(proc.stderr)))
     if not libs and "could not connect to display" in proc.stderr:
-        return Check(name, FAIL, f"cannot connect to X display {display}",
-                     "is the X server running, and may this user use it (XAUTHORITY, xhost)?",
-                     needed, data={"display": display, "missing": []})  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"cannot connect to X display {display}",
+            "is the X server running, and may this user use it (XAUTHORITY, xhost)?",
+            needed,
+            data={"display": display, "missing": []},
+        )
     if libs:
-        return Check(name, FAIL, f"Qt's xcb platform cannot load on {display}: missing or "
-                     f"unloadable {', '.join(libs)}", _install_fix(libs), needed,
-                     data={"display": display, "missing": libs})  # fmt: skip
+        return Check(
+            name,
+            FAIL,
+            f"Qt's xcb platform cannot load on {display}: missing or unloadable {', '.join(libs)}",
+            _install_fix(libs),
+            needed,
+            data={"display": display, "missing": libs},
+        )
     last = next((ln for ln in reversed(proc.stderr.splitlines()) if ln.strip()), "no message")
-    return Check(name, FAIL, f"Qt's xcb platform failed on {display}: {last}",
-                 f"QT_DEBUG_PLUGINS=1 snrmon gui ... shows why; else {_install_fix([])}", needed,
-                 data={"display": display, "missing": []})  # fmt: skip
+    return Check(
+        name,
+        FAIL,
+        f"Qt's xcb platform failed on {display}: {last}",
+        f"QT_DEBUG_PLUGINS=1 snrmon gui ... shows why; else {_install_fix([])}",
+        needed,
+        data={"display": display, "missing": []},
+    )

@@ -29,33 +29,51 @@ class DoctorOptions:
 def check_model(config) -> list[Check]:
     """The sensor model of each camera and the target load (the console draws the model beside
     every measurement), and each camera's calibration file fits its sensor."""
-    from acquisition.calibrate.calibration_file import load_calibration
-    from model.presets import load_sensor, load_target
+    from snrmon.acquisition.calibrate.calibration_file import load_calibration
+    from snrmon.model.presets import load_sensor, load_target
 
     checks = []
     try:
         target = load_target(config.target)
         checks.append(Check("model:target", PASS, f"target {config.target!r}: {target.name}"))
     except (ValueError, OSError) as exc:
-        checks.append(Check("model:target", FAIL, f"target {config.target!r}: {exc}",
-                            'set target to "uav1", "uav2" or a target TOML file'))  # fmt: skip
+        checks.append(
+            Check(
+                "model:target",
+                FAIL,
+                f"target {config.target!r}: {exc}",
+                'set target to "uav1", "uav2" or a target TOML file',
+            )
+        )
     for cam in config.cameras:
         name = f"model:{cam.name}"
         try:
             sensor = load_sensor(cam.sensor)
         except (ValueError, OSError) as exc:
-            checks.append(Check(name, FAIL, f"[cameras.{cam.name}] sensor {cam.sensor!r}: {exc}",
-                                f'set [cameras.{cam.name}] sensor to "mwir", "lwir" or a sensor '
-                                "TOML file describing this camera"))  # fmt: skip
+            checks.append(
+                Check(
+                    name,
+                    FAIL,
+                    f"[cameras.{cam.name}] sensor {cam.sensor!r}: {exc}",
+                    f'set [cameras.{cam.name}] sensor to "mwir", "lwir" or a sensor '
+                    "TOML file describing this camera",
+                )
+            )
             continue
         detail = f"sensor {cam.sensor!r}: {sensor.width_px}x{sensor.height_px} @ {sensor.fps:g} fps"
         if cam.calibration is not None:
             try:
                 load_calibration(cam.calibration, sensor)
             except (ValueError, OSError) as exc:
-                checks.append(Check(name, FAIL, f"{detail}; calibration: {exc}",
-                                    "calibrate again (snrmon calibrate) or fix [cameras."
-                                    f"{cam.name}] calibration"))  # fmt: skip
+                checks.append(
+                    Check(
+                        name,
+                        FAIL,
+                        f"{detail}; calibration: {exc}",
+                        "calibrate again (snrmon calibrate) or fix [cameras."
+                        f"{cam.name}] calibration",
+                    )
+                )
                 continue
             detail += f", calibration {cam.calibration}"
         checks.append(Check(name, PASS, detail))

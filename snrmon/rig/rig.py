@@ -1,10 +1,10 @@
 """Hardware-in-loop wiring: simulated devices on real interfaces feeding a real Session.
 
 The CLI's job is to wire packages together; this module does it for ``snrmon hil`` and
-``snrmon demo``. The simulators come from :mod:`sim` (camera processes writing shared-memory
+``snrmon demo``. The simulators come from :mod:`snrmon.sim` (camera processes writing shared-memory
 frame rings, NMEA GPS and an LDM rangefinder on pseudo-terminals); the console side is the
-ordinary :class:`acquisition.runtime.session.Session`, which opens those devices by name and path
-exactly as it would open real ones. The flight clock: the serial simulators follow
+ordinary :class:`snrmon.acquisition.runtime.session.Session`, which opens those devices by name and
+path exactly as it would open real ones. The flight clock: the serial simulators follow
 ``(monotonic - t0) * speed``; each camera process takes frame ``n`` at ``n / fps`` of the flight
 and runs at ``fps * speed`` (the cameras start within about a second of ``t0``).
 """
@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from acquisition.config import session_config_from_dict
-from acquisition.runtime.session import Session
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.runtime.session import Session
 from snrmon.rig.support import flight_config_of, recording_summary, stop_config_at
 from snrmon.rig.twin_day import (
     CropLog,
@@ -60,7 +60,7 @@ class HilOptions:
 
     @property
     def scenario(self):
-        from sim.twin import Scenario
+        from snrmon.sim.twin import Scenario
 
         return Scenario(sky_temp_k=self.sky_temp_k, air_temp_k=self.air_temp_k)
 
@@ -86,23 +86,25 @@ class HilRig:
     """Builds and runs the simulated collection against a Session (context manager)."""
 
     def __init__(self, opts: HilOptions, *, predictor=None) -> None:
-        from sim.devices.ldm_sim import LdmSimulator
-        from sim.devices.nmea_sim import NmeaSimulator
-        from sim.devices.shm_camera import ShmProducer
-        from sim.flight import FlightPlan
+        from snrmon.sim.devices.ldm_sim import LdmSimulator
+        from snrmon.sim.devices.nmea_sim import NmeaSimulator
+        from snrmon.sim.devices.shm_camera import ShmProducer
+        from snrmon.sim.flight import FlightPlan
 
         if opts.speed <= 0:
             raise ValueError(f"speed must be positive, got {opts.speed}")
         self.opts = opts
         if predictor is None:
-            from acquisition.prediction import ModelPredictor
+            from snrmon.acquisition.prediction import ModelPredictor
 
             # The model knows what a field team would: the air temperature; the sky it measures
             # (calibrated before the flight). Asynchronous: a measurement thread asks for it.
             predictor = ModelPredictor(
-                {c: c for c in opts.cameras}, opts.target, air_temp_k=opts.air_temp_k,
+                {c: c for c in opts.cameras},
+                opts.target,
+                air_temp_k=opts.air_temp_k,
                 asynchronous=True,
-            )  # fmt: skip
+            )
         self.predictor = predictor
         self.flight_config = flight_config_of(opts)
         self.plan = FlightPlan(self.flight_config)

@@ -17,7 +17,7 @@ a display, the operating system and the machine's other work.
 
 With a recording (``--out``) the disk is measured too: the probe records (its CPU is then part of
 the console's load), and a plain sequential write past the write cache
-(:func:`acquisition.record.disk_speed.sequential_write`) gives what the disk sustains; the
+(:func:`snrmon.acquisition.record.disk_speed.sequential_write`) gives what the disk sustains; the
 cameras' data rate at the chosen speed stays within ``RECORD_SHARE`` of it, so the recorder's
 backlog never fills on a steady disk.
 """
@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 
-from acquisition.record.disk_speed import sequential_write
+from snrmon.acquisition.record.disk_speed import sequential_write
 
 RENDER_SHARE = 0.7  # of one core per camera process
 CONSOLE_SHARE = 0.6  # of one core for the console process (GIL-bound)
@@ -116,8 +116,13 @@ def max_speed(opts, *, probe_s: float = PROBE_S) -> SpeedChoice:
         sum(r.sensor.width_px * r.sensor.height_px * 2 * r.fps for r in rig_ctx.cameras.values())
         / 1e6
     )
-    speed = speed_from_loads(choice.console_load, choice.camera_load, choice.cores,
-                             disk_mb_per_s=disk.mb_per_s, data_mb_per_s=data)  # fmt: skip
+    speed = speed_from_loads(
+        choice.console_load,
+        choice.camera_load,
+        choice.cores,
+        disk_mb_per_s=disk.mb_per_s,
+        data_mb_per_s=data,
+    )
     return replace(choice, speed=speed, disk_mb_per_s=disk.mb_per_s, data_mb_per_s=data)
 
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from acquisition.stops.detector import StopConfig
+from snrmon.acquisition.stops.detector import StopConfig
 
 
 def flight_config_of(opts):
-    """The simulated flight (:class:`sim.flight.FlightConfig`) of the options."""
-    from sim.flight import FlightConfig
+    """The simulated flight (:class:`snrmon.sim.flight.FlightConfig`) of the options."""
+    from snrmon.sim.flight import FlightConfig
 
     return FlightConfig(
         stops_m=tuple(opts.stops_m),
@@ -29,7 +29,7 @@ def stop_config_at(speed: float) -> StopConfig:
 
 
 def recording_summary(summary) -> dict:
-    """What a closed recording holds and lost (:class:`acquisition.record.recorder.
+    """What a closed recording holds and lost (:class:`snrmon.acquisition.record.recorder.
     RecorderSummary`), for the run's JSON: frames written and dropped per camera, with reasons."""
     return {
         "path": summary.path,

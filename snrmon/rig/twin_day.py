@@ -1,8 +1,8 @@
 """The simulated collection day's twin cameras, their calibration at the start of the day, and
 the PSF measured from the flight at its end (issue 15).
 
-* :func:`camera_feeds`: each camera's renderer is the digital twin of :mod:`sim.twin` (its own
-  optics and the drone's outline; the scenario's sky and air), not the model's PSF.
+* :func:`camera_feeds`: each camera's renderer is the digital twin of :mod:`snrmon.sim.twin` (its
+  own optics and the drone's outline; the scenario's sky and air), not the model's PSF.
 * :func:`calibrate_cameras`: as a field day starts, each camera looks into an extended
   blackbody at two temperatures; the frames go through the camera's very fixed-pattern gain and
   offset (the same renderer, the same seed) and are accumulated into the per-pixel mean and
@@ -30,10 +30,10 @@ BLACKBODY_FRAMES = 128
 
 
 def camera_feeds(opts, flight_config, preroll_s: float) -> dict:
-    """{camera: (sensor preset, :class:`sim.feed.FlightCameraFeed`)}: each camera's twin."""
-    from model.presets import load_sensor, load_target
-    from sim.feed import FlightCameraFeed
-    from sim.twin import twin_scene_config
+    """{camera: (sensor preset, :class:`snrmon.sim.feed.FlightCameraFeed`)}: each camera's twin."""
+    from snrmon.model.presets import load_sensor, load_target
+    from snrmon.sim.feed import FlightCameraFeed
+    from snrmon.sim.twin import twin_scene_config
 
     target = load_target(opts.target)
     out = {}
@@ -49,9 +49,14 @@ def camera_feeds(opts, flight_config, preroll_s: float) -> dict:
         # lands at a seeded sub-pixel offset, not always on a pixel corner
         offset = np.random.default_rng([opts.seed, i, 0xB0]).uniform(-0.5, 0.5, 2)
         feed = FlightCameraFeed(
-            scene, flight_config, fps=sensor.fps, seed=opts.seed + i, t0_s=-preroll_s,
-            launch_s=0.0, boresight_offset_px=(float(offset[0]), float(offset[1])),
-        )  # fmt: skip
+            scene,
+            flight_config,
+            fps=sensor.fps,
+            seed=opts.seed + i,
+            t0_s=-preroll_s,
+            launch_s=0.0,
+            boresight_offset_px=(float(offset[0]), float(offset[1])),
+        )
         out[cam] = (sensor, feed)
     return out
 
@@ -59,10 +64,10 @@ def camera_feeds(opts, flight_config, preroll_s: float) -> dict:
 def calibrate_cameras(feeds: dict, seeds: dict, directory: Path, stem: str) -> dict[str, str]:
     """Blackbody captures of every camera through its own fixed pattern, fitted and saved as
     ``<directory>/<stem>.<camera>-calibration.npz``; returns {camera: path}."""
-    from acquisition.calibrate.calibration import calibrate_means
-    from acquisition.calibrate.calibration_file import save_calibration
-    from sim.from_model import blackbody_scene
-    from sim.scene import SceneRenderer
+    from snrmon.acquisition.calibrate.calibration import calibrate_means
+    from snrmon.acquisition.calibrate.calibration_file import save_calibration
+    from snrmon.sim.from_model import blackbody_scene
+    from snrmon.sim.scene import SceneRenderer
 
     paths = {}
     for cam, (sensor, feed) in feeds.items():
@@ -81,9 +86,15 @@ def calibrate_cameras(feeds: dict, seeds: dict, directory: Path, stem: str) -> d
             means.append(mean.astype(np.float32))
             stds.append(np.sqrt(np.maximum(square - n * mean * mean, 0.0) / (n - 1)))
         cal = calibrate_means(
-            BLACKBODY_K, means, stds, [BLACKBODY_FRAMES] * 2, camera=sensor.name,
-            band_um=tuple(sensor.band_um), t_int_s=sensor.t_int_s, qe_curve=tuple(sensor.qe_curve),
-        )  # fmt: skip
+            BLACKBODY_K,
+            means,
+            stds,
+            [BLACKBODY_FRAMES] * 2,
+            camera=sensor.name,
+            band_um=tuple(sensor.band_um),
+            t_int_s=sensor.t_int_s,
+            qe_curve=tuple(sensor.qe_curve),
+        )
         path = directory / f"{stem}.{cam}-calibration.npz"
         save_calibration(cal, path)
         paths[cam] = str(path)
@@ -99,7 +110,7 @@ class CropLog:
         self.calibration = calibration
 
     def add(self, t_host_ns: int, pixels: np.ndarray, result) -> None:
-        from acquisition.calibrate.psf_estimate import crop_frames
+        from snrmon.acquisition.calibrate.psf_estimate import crop_frames
 
         if result is None or result.flags or not math.isfinite(result.snr):
             return
@@ -115,7 +126,7 @@ class CropLog:
 
 
 def _unresolved_stops(rig, cam: str, finals: dict) -> list:
-    from acquisition.calibrate.psf_estimate import StopCrops, target_px
+    from snrmon.acquisition.calibrate.psf_estimate import StopCrops, target_px
 
     sensor = rig.cameras[cam].sensor
     stops = []
@@ -136,7 +147,7 @@ def adopt_measured_psf(rig, cam: str, finals: dict) -> None:
     import threading
     import time
 
-    from acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
+    from snrmon.acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
 
     stops = _unresolved_stops(rig, cam, finals)
     if not stops:
@@ -157,8 +168,12 @@ def measured_psf(rig, finals: dict) -> dict:
     stop's expected Eq. (4) with it: {camera: {"psf": {...} | {"error": ...}}} and, in the
     stop entries of ``finals``, ``"expected_eq4_measured_psf"`` (over the whole cell) and, at
     an unresolved stop, ``"expected_eq4_stop_phases"`` (over the phases its frames sampled)."""
-    from acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf, observed_phases
-    from model.snr import predict
+    from snrmon.acquisition.calibrate.psf_estimate import (
+        PsfEstimateError,
+        estimate_psf,
+        observed_phases,
+    )
+    from snrmon.model.snr import predict
 
     out = {}
     target = rig.predictor.target
@@ -180,8 +195,12 @@ def measured_psf(rig, finals: dict) -> dict:
             rng = entry.get("lrf_range_m")
             if c != cam or rng is None:
                 continue
-            kw = {"corrected_psf": est.psf(), "background_temp_k": sky,
-                  "air_temp_k": rig.opts.scenario.air_temp_k, "band": False}  # fmt: skip
+            kw = {
+                "corrected_psf": est.psf(),
+                "background_temp_k": sky,
+                "air_temp_k": rig.opts.scenario.air_temp_k,
+                "band": False,
+            }
             p = predict(sensor, target, [rng], **kw)
             entry["expected_eq4_measured_psf"] = float(p.expected_eq4[0])
             entry["model_small_corrected_measured_psf"] = float(p.snr_small_corrected[0])

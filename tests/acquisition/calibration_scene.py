@@ -18,12 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.detector import background_electrons
-from model.presets import load_sensor, load_target
-from sim.drone import box_gaussian_fractions_1d
-from sim.from_model import scene_config_from_model
-from sim.noise import FixedPattern, fixed_pattern, quantize_dn
-from sim.scene import SceneConfig
+from snrmon.model.detector import background_electrons
+from snrmon.model.presets import load_sensor, load_target
+from snrmon.sim.drone import box_gaussian_fractions_1d
+from snrmon.sim.from_model import scene_config_from_model
+from snrmon.sim.noise import FixedPattern, fixed_pattern, quantize_dn
+from snrmon.sim.scene import SceneConfig
 
 
 @dataclass

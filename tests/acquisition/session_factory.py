@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pymap3d
 
-from acquisition.record.recorder import SessionRecorder
-from drivers.camera.frame import Frame
-from drivers.gps.fix import GpsFix
-from drivers.rangefinder.reading import RangeReading
+from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.rangefinder.reading import RangeReading
 
 T0_NS = 10**12
 SITE = {"lat_deg": 32.38, "lon_deg": -106.48, "alt_m": 1200.0}
@@ -90,8 +90,12 @@ def write_session(
     spot = np.exp(-((xx - SPOT_XY[0]) ** 2 + (yy - SPOT_XY[1]) ** 2) / (2 * 0.8**2))
     frames: dict[str, np.ndarray] = {}
     for cam in cameras:
-        rec.add_event("roi_set", camera=cam, payload={"x": SPOT_XY[0], "y": SPOT_XY[1]},
-                      t_host_ns=int(t_ns[0]))  # fmt: skip
+        rec.add_event(
+            "roi_set",
+            camera=cam,
+            payload={"x": SPOT_XY[0], "y": SPOT_XY[1]},
+            t_host_ns=int(t_ns[0]),
+        )
         amp = amplitude_dn * (reference_range_m / frame_ranges) ** 2
         stack = rng.normal(SKY_DN, NOISE_DN, (n, *SHAPE)) + amp[:, None, None] * spot
         stack = np.rint(stack).astype(np.uint16)
@@ -103,9 +107,13 @@ def write_session(
         rec.add_range(RangeReading(T0_NS + int(tr * 1e9), r, raw=f"{r:.1f}"))
     for tg in np.arange(0.0, total_s, 0.1):
         r = float(_range_at(np.array([tg]), plan)[0]) + rng.normal(0.0, 0.3)
-        lat, lon, alt = pymap3d.enu2geodetic(0.0, r, 0.0, SITE["lat_deg"], SITE["lon_deg"],
-                                             SITE["alt_m"])  # fmt: skip
-        rec.add_gps(GpsFix(T0_NS + int(tg * 1e9), None, float(lat), float(lon), float(alt), None,
-                           1, 9, 0.8, ""))  # fmt: skip
+        lat, lon, alt = pymap3d.enu2geodetic(
+            0.0, r, 0.0, SITE["lat_deg"], SITE["lon_deg"], SITE["alt_m"]
+        )
+        rec.add_gps(
+            GpsFix(
+                T0_NS + int(tg * 1e9), None, float(lat), float(lon), float(alt), None, 1, 9, 0.8, ""
+            )
+        )
     rec.stop()
     return SimulatedSession(path, tuple(ranges_m), tuple(cameras), fps, t_ns, frames)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.measure.background import (
+from snrmon.acquisition.measure.background import (
     background_stats,
     detrended,
     parse_rect,

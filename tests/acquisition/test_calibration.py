@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.calibrate.calibration import (
+from snrmon.acquisition.calibrate.calibration import (
     DEAD,
     HOT,
     NOISY,
@@ -15,7 +15,7 @@ from acquisition.calibrate.calibration import (
     radiance_of,
     temperature_of,
 )
-from acquisition.calibrate.quality import calibration_quality
+from snrmon.acquisition.calibrate.quality import calibration_quality
 from tests.acquisition.calibration_scene import camera
 from tests.helpers import strict_json
 
@@ -42,7 +42,7 @@ def test_radiance_table_inverts_the_band_integral():
     t = np.array([200.0, 260.0, 300.0, 333.3, 450.0])
     assert np.allclose(temperature_of(band, radiance_of(band, t)), t, atol=2e-4)
     # same number as the model's Widger-Woodall band integral
-    from model.radiometry import band_photon_radiance
+    from snrmon.model.radiometry import band_photon_radiance
 
     assert radiance_of(band, 300.0) == pytest.approx(band_photon_radiance(band, 300.0), 1e-10)
 

@@ -8,9 +8,13 @@ import tomllib
 import numpy as np
 import pytest
 
-from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
-from acquisition.calibrate.calibration_file import load_calibration, save_calibration, sidecar_path
-from model.presets import load_sensor
+from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from snrmon.acquisition.calibrate.calibration_file import (
+    load_calibration,
+    save_calibration,
+    sidecar_path,
+)
+from snrmon.model.presets import load_sensor
 from tests.acquisition.calibration_scene import camera
 
 

@@ -19,19 +19,19 @@ import tomllib
 import numpy as np
 import pytest
 
-from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
-from acquisition.calibrate.calibration_file import save_calibration
-from acquisition.calibrate.characterize import (
+from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from snrmon.acquisition.calibrate.calibration_file import save_calibration
+from snrmon.acquisition.calibrate.characterize import (
     CharacterizeConfig,
     characterize_frame,
     characterize_frames,
     target_toml,
 )
-from acquisition.record.recorder import SessionRecorder
-from drivers.camera.frame import Frame
-from drivers.rangefinder.reading import RangeReading
-from model.presets import load_target
+from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.cli import main
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.rangefinder.reading import RangeReading
+from snrmon.model.presets import load_target
 from tests.acquisition.calibration_scene import camera, cross_drone, rect_electrons
 from tests.helpers import strict_json
 
@@ -53,15 +53,22 @@ def cal(cam):
 
 def drone_scene(cam, range_m=RANGE_M, dx=0.3, dy=0.6, blades=True):
     e, area, box = cross_drone(
-        cam, range_m=range_m, xc=XC + dx, yc=YC + dy, span_m=SPAN_M, arm_m=ARM_M,
-        temp_k=DRONE_K, sky_temp_k=SKY_K,
-    )  # fmt: skip
+        cam,
+        range_m=range_m,
+        xc=XC + dx,
+        yc=YC + dy,
+        span_m=SPAN_M,
+        arm_m=ARM_M,
+        temp_k=DRONE_K,
+        sky_temp_k=SKY_K,
+    )
     if blades:  # 2 cm x 12 cm blades beyond each end of the horizontal bar, as warm as the body
         px = range_m * cam.sensor.ifov_rad
         de = cam.electrons(DRONE_K) - cam.electrons(SKY_K)
         half = SPAN_M / 2 / px
-        rects = [(XC + dx + s * (half + 0.07 / px), YC + dy, 0.12 / px, 0.02 / px, de)
-                 for s in (-1, 1)]  # fmt: skip
+        rects = [
+            (XC + dx + s * (half + 0.07 / px), YC + dy, 0.12 / px, 0.02 / px, de) for s in (-1, 1)
+        ]
         e = e + rect_electrons(cam.shape, rects, cam.config.psf_sigma_px, cam.sensor.fill_factor)
     return e, math.sqrt(area), math.sqrt(box)
 
@@ -71,8 +78,11 @@ def test_recovers_dimensions_within_10pct_and_temperature_within_half_a_kelvin(c
     frames = cam.frames(e, 30, seed=5)
     res = characterize_frames(
         ((f, (XC, YC)) for f in frames),
-        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
-    )  # fmt: skip
+        camera="mwir",
+        range_m=RANGE_M,
+        ifov_rad=cam.sensor.ifov_rad,
+        calibration=cal,
+    )
     assert res.n_frames == 30
     assert res.small_m == pytest.approx(small, rel=0.10)
     assert res.large_m == pytest.approx(large, rel=0.10)
@@ -89,13 +99,22 @@ def test_thin_arms_read_on_the_core_where_the_outline_mean_reads_low(cam, cal):
     # paper's MWIR fit, a Gaussian of 0.8 px.
     blurred = dataclasses.replace(cam, config=dataclasses.replace(cam.config, psf_sigma_px=0.8))
     e, _, _ = cross_drone(
-        blurred, range_m=RANGE_M, xc=XC + 0.3, yc=YC + 0.6, span_m=0.24, arm_m=0.06,
-        temp_k=DRONE_K, sky_temp_k=SKY_K,
-    )  # fmt: skip
+        blurred,
+        range_m=RANGE_M,
+        xc=XC + 0.3,
+        yc=YC + 0.6,
+        span_m=0.24,
+        arm_m=0.06,
+        temp_k=DRONE_K,
+        sky_temp_k=SKY_K,
+    )
     res = characterize_frames(
         ((f, (XC, YC)) for f in cam.frames(e, 20, seed=8)),
-        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
-    )  # fmt: skip
+        camera="mwir",
+        range_m=RANGE_M,
+        ifov_rad=cam.sensor.ifov_rad,
+        calibration=cal,
+    )
     assert res.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
     assert res.outline_temp_c < DRONE_K - 273.15 - 1.5  # the mean a thick drone would read
     assert 1 <= res.core_pixels < 10
@@ -116,12 +135,19 @@ def test_rss_delta_t_includes_the_target_spread(cam, cal):
     e, _, _ = drone_scene(cam, blades=False)
     px = RANGE_M * cam.sensor.ifov_rad
     de = cam.electrons(DRONE_K + 20.0) - cam.electrons(DRONE_K)
-    e = e + rect_electrons(cam.shape, [(XC + 0.3, YC + 0.6, 0.08 / px, 0.08 / px, de)],
-                           cam.config.psf_sigma_px, cam.sensor.fill_factor)  # fmt: skip
+    e = e + rect_electrons(
+        cam.shape,
+        [(XC + 0.3, YC + 0.6, 0.08 / px, 0.08 / px, de)],
+        cam.config.psf_sigma_px,
+        cam.sensor.fill_factor,
+    )
     r = characterize_frame(
-        cam.frames(e, 1, seed=3)[0], (XC, YC),
-        range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
-    )  # fmt: skip
+        cam.frames(e, 1, seed=3)[0],
+        (XC, YC),
+        range_m=RANGE_M,
+        ifov_rad=cam.sensor.ifov_rad,
+        calibration=cal,
+    )
     assert r.sigma_target_k > 5.0
     assert r.rss_delta_t_k == pytest.approx(math.hypot(r.temp_k - r.background_k, r.sigma_target_k))
     assert r.rss_delta_t_k > r.temp_k - r.background_k + 0.3
@@ -131,8 +157,11 @@ def test_target_toml_is_read_by_the_model(cam, cal, tmp_path):
     e, _, _ = drone_scene(cam)
     res = characterize_frames(
         ((f, (XC, YC)) for f in cam.frames(e, 5, seed=1)),
-        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
-    )  # fmt: skip
+        camera="mwir",
+        range_m=RANGE_M,
+        ifov_rad=cam.sensor.ifov_rad,
+        calibration=cal,
+    )
     path = tmp_path / "uav_today.toml"
     path.write_text(target_toml(res, "uav_today"))
     t = load_target(str(path))
@@ -148,8 +177,11 @@ def three_frames(cam, cal):
     e, _, _ = drone_scene(cam)
     return characterize_frames(
         ((f, (XC, YC)) for f in cam.frames(e, 3, seed=1)),
-        camera="mwir", range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal,
-    )  # fmt: skip
+        camera="mwir",
+        range_m=RANGE_M,
+        ifov_rad=cam.sensor.ifov_rad,
+        calibration=cal,
+    )
 
 
 @pytest.mark.parametrize("name", ["Bob's quad", 'the "big" one', "back\\slash\ttab", "Ωmega"])
@@ -214,8 +246,18 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     cal_path = save_calibration(cal, tmp_path / "mwir.npz")
     target = tmp_path / "t.toml"
     # this scene's drone has no air in front of it: its apparent temperature is its own
-    argv = ["characterize", str(session), "--camera", "mwir", "--calibration", str(cal_path),
-            "--json", "--target-out", str(target), "--apparent"]  # fmt: skip
+    argv = [
+        "characterize",
+        str(session),
+        "--camera",
+        "mwir",
+        "--calibration",
+        str(cal_path),
+        "--json",
+        "--target-out",
+        str(target),
+        "--apparent",
+    ]
     rc = main([*argv, "--stop", "99"])
     assert rc != 0
     assert "no stop 99 for mwir" in capsys.readouterr().err
@@ -237,7 +279,7 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     assert out["mean_temp_c"] == pytest.approx(DRONE_K - 273.15, abs=0.5)
     assert load_target(str(target)).large_m == pytest.approx(out["large_m"], abs=1e-4)
     # The result is recorded in the session it was measured from.
-    from acquisition.record.reader import open_session
+    from snrmon.acquisition.record.reader import open_session
 
     with open_session(session) as f:
         (event,) = [e for e in f.event_list() if e["kind"] == "target_characterized"]
@@ -249,7 +291,7 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     own = json.loads(capsys.readouterr().out)
     assert own["apparent_temp_c"] == pytest.approx(out["mean_temp_c"])
     assert own["transmission"] == pytest.approx(0.834, abs=0.002)
-    from acquisition.calibrate.calibration import radiance_of
+    from snrmon.acquisition.calibrate.calibration import radiance_of
 
     band = (3.45, 5.25)
     seen = 0.834 * radiance_of(band, own["mean_temp_c"] + 273.15) + 0.166 * radiance_of(
@@ -259,7 +301,7 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
 
 
 def _stops_json(session) -> str:
-    from acquisition.replay.batch import replay_session
+    from snrmon.acquisition.replay.batch import replay_session
 
     rows = replay_session(session).stops
     return json.dumps([r.stop for r in rows if r.camera == "mwir" and r.lrf_range_m < 45])

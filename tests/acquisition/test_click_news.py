@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from acquisition.engine.inputs import SetRoi
-from acquisition.runtime.click_news import ClickNews
+from snrmon.acquisition.engine.inputs import SetRoi
+from snrmon.acquisition.runtime.click_news import ClickNews
 
 
 def _m(state: str, reason: str = "", x: int = 0, y: int = 0, lost: bool = False):
@@ -17,8 +17,9 @@ def test_a_click_on_empty_sky_then_the_search_finding_the_drone_is_told_once_eac
     news = ClickNews()
     news.frame((), _m("tracking", x=5, y=5))  # the previous track: nothing to tell
     news.frame((SetRoi(20, 70),), _m("lost", "no_object", 20, 70, lost=True))
-    assert news.take() == ["no object at the click (column 20, row 70): the track searches "
-                           "around it"]  # fmt: skip
+    assert news.take() == [
+        "no object at the click (column 20, row 70): the track searches around it"
+    ]
     news.frame((), _m("reacquiring", "confirming", 60, 45, lost=True))  # not held yet
     assert news.take() == []
     news.frame((), _m("tracking", x=64, y=41))

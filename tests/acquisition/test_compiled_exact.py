@@ -14,13 +14,13 @@ import math
 import numpy as np
 import pytest
 
-from acquisition.measure.background import background_stats
-from acquisition.measure.blob import BlobConfig, analyse_blob
-from acquisition.measure.jit import median32, pairwise_sum32, pairwise_sum64
-from acquisition.measure.local_sky import median
-from acquisition.measure.rim_kernel import rim_stats
-from acquisition.measure.target_snr import _excesses, _rect_rim, rim_excess
-from acquisition.track.search import brightest_in, clip_box
+from snrmon.acquisition.measure.background import background_stats
+from snrmon.acquisition.measure.blob import BlobConfig, analyse_blob
+from snrmon.acquisition.measure.jit import median32, pairwise_sum32, pairwise_sum64
+from snrmon.acquisition.measure.local_sky import median
+from snrmon.acquisition.measure.rim_kernel import rim_stats
+from snrmon.acquisition.measure.target_snr import _excesses, _rect_rim, rim_excess
+from snrmon.acquisition.track.search import brightest_in, clip_box
 from tests.reference import blob_numpy
 
 
@@ -188,7 +188,7 @@ def test_rim_stats_equal_background_stats(kind, detrend):
 
 
 def _calibration(rng, shape=(60, 70), bad_share=0.0):
-    from acquisition.calibrate.calibration import Calibration
+    from snrmon.acquisition.calibrate.calibration import Calibration
 
     resp = rng.uniform(0.5, 2.0, shape).astype(np.float32) * np.float32(1e-15)
     offset = rng.uniform(-500, 3000, shape).astype(np.float32)
@@ -199,7 +199,7 @@ def _calibration(rng, shape=(60, 70), bad_share=0.0):
 
 @pytest.mark.parametrize("dtype", [np.uint16, np.float32, np.float64])
 def test_compiled_correction_equals_calibration_correct(dtype):
-    from acquisition.calibrate.kernels import correct_box
+    from snrmon.acquisition.calibrate.kernels import correct_box
 
     rng = np.random.default_rng(400 + np.dtype(dtype).itemsize)
     for _ in range(60):
@@ -220,8 +220,8 @@ def test_compiled_correction_equals_calibration_correct(dtype):
 
 def _old_sky_add(sky, frame, result):
     """SkyTemperature.add at the branch point (the sample, without keeping it)."""
-    from acquisition.calibrate.calibration import temperature_of
-    from acquisition.calibrate.sky_temperature import SkySample
+    from snrmon.acquisition.calibrate.calibration import temperature_of
+    from snrmon.acquisition.calibrate.sky_temperature import SkySample
 
     dy, dx, y, x = sky._region(result)
     rows, cols = dy + y, dx + x
@@ -248,9 +248,9 @@ def _old_sky_add(sky, frame, result):
 
 
 def test_compiled_sky_sample_equals_the_numpy_reference():
-    from acquisition.calibrate.calibration import radiance_of
-    from acquisition.calibrate.sky_temperature import SkyTemperature
-    from acquisition.measure.peak_snr import BACKGROUND_EXTENT, BACKGROUND_RIM, PeakSnr
+    from snrmon.acquisition.calibrate.calibration import radiance_of
+    from snrmon.acquisition.calibrate.sky_temperature import SkyTemperature
+    from snrmon.acquisition.measure.peak_snr import BACKGROUND_EXTENT, BACKGROUND_RIM, PeakSnr
 
     rng = np.random.default_rng(500)
     finite = 0
@@ -302,7 +302,7 @@ class _OldWingProfile:
 
 @pytest.mark.parametrize("kind", ["float32", "uint16", "float64"])
 def test_wing_profile_decides_and_remembers_as_before(kind):
-    from acquisition.measure.target_snr import WingProfile
+    from snrmon.acquisition.measure.target_snr import WingProfile
 
     rng = np.random.default_rng(600 + len(kind))
     for _ in range(4):
@@ -327,8 +327,8 @@ def test_wing_profile_decides_and_remembers_as_before(kind):
 
 @pytest.mark.parametrize("dtype", [np.uint16, np.float32])
 def test_track_noise_ring_equals_estimate_noise(dtype):
-    from acquisition.measure.noise import estimate_noise
-    from acquisition.measure.track_noise import TrackNoise, ring_pixels
+    from snrmon.acquisition.measure.noise import estimate_noise
+    from snrmon.acquisition.measure.track_noise import TrackNoise, ring_pixels
 
     rng = np.random.default_rng(700 + np.dtype(dtype).itemsize)
     shape = (60, 70)
@@ -350,8 +350,8 @@ def test_track_noise_ring_equals_estimate_noise(dtype):
 
 
 def test_compiled_table_lookup_is_np_interp():
-    from acquisition.calibrate.calibration import temperature_table
-    from acquisition.calibrate.kernels import _temperature
+    from snrmon.acquisition.calibrate.calibration import temperature_table
+    from snrmon.acquisition.calibrate.kernels import _temperature
 
     rng = np.random.default_rng(800)
     for band in ((3.0, 5.0), (8.0, 12.0)):

@@ -9,7 +9,7 @@ import re
 
 import pytest
 
-from acquisition.config import (
+from snrmon.acquisition.config import (
     CAMERA_FIELDS,
     MEASUREMENT_FIELDS,
     SITE_FIELDS,
@@ -20,10 +20,10 @@ from acquisition.config import (
     load_session_config,
     session_config_from_dict,
 )
-from acquisition.measure.peak_snr import PeakSnrConfig
-from drivers.config import PROTOCOLS, device_fields, device_from_config
-from drivers.errors import ConfigError, toml_repr
-from model.presets import _ATM_FIELDS, _SENSOR_FIELDS, _TARGET_FIELDS, _check
+from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
+from snrmon.drivers.config import PROTOCOLS, device_fields, device_from_config
+from snrmon.drivers.errors import ConfigError, toml_repr
+from snrmon.model.presets import _ATM_FIELDS, _SENSOR_FIELDS, _TARGET_FIELDS, _check
 
 # Values of every TOML type; each field must reject at least one of them.
 WRONG = ["north", 1.5, -3, True, [1, "a"], {"x": 1}, 0, ""]
@@ -114,11 +114,18 @@ def test_a_valid_config_keeps_its_values():
             "target": "uav2",
             "site": {"lat_deg": 32, "lon_deg": -106.5, "alt_m": 1200},
             "measurement": {"search_px": 15, "window": 50, "background": [0, 0, 9, 9]},
-            "cameras": {"m": {"source": "v4l2", "address": 0, "width_px": 640, "height_px": 480,
-                              "pointing_deg": [40, 8]}},
+            "cameras": {
+                "m": {
+                    "source": "v4l2",
+                    "address": 0,
+                    "width_px": 640,
+                    "height_px": 480,
+                    "pointing_deg": [40, 8],
+                }
+            },
             "gps": {"protocol": "nmea", "port": "/dev/ttyUSB0", "baud": 38400},
         }
-    )  # fmt: skip
+    )
     assert cfg.site.lat_deg == 32.0 and cfg.window == 50 and cfg.measurement.search_px == 15
     assert cfg.measurement.background == (0, 0, 9, 9)
     cam = cfg.cameras[0]

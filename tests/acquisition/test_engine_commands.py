@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.engine.camera_engine import CameraEngine
-from acquisition.engine.inputs import Cue, SetRoi
+from snrmon.acquisition.engine.camera_engine import CameraEngine
+from snrmon.acquisition.engine.inputs import Cue, SetRoi
 
 H, W = 64, 96
 

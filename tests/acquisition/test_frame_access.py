@@ -6,8 +6,8 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from acquisition.record.frame_access import FrameCrops
-from acquisition.record.reader import open_session
+from snrmon.acquisition.record.frame_access import FrameCrops
+from snrmon.acquisition.record.reader import open_session
 from tests.acquisition.session_factory import write_session
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pymap3d
 import pytest
 
-from acquisition.geo.projection import (
+from snrmon.acquisition.geo.projection import (
     CameraIntrinsics,
     Pointing,
     Site,
@@ -17,9 +17,9 @@ from acquisition.geo.projection import (
     project_to_pixel,
     slant_range_m,
 )
-from drivers.gps.fix import GpsFix
-from model.presets import load_sensor
 from snrmon.cli import main
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.model.presets import load_sensor
 from tests.helpers import strict_json
 
 SITE = Site(32.38, -106.48, 1200.0)
@@ -131,14 +131,19 @@ def test_cli_geo_pixel_json(capsys):
     lat, lon, alt = _target(SITE, pointing, 1.0, 0.0, 200.0)
     code = main(
         [
-            "geo", "pixel",
-            "--site", f"{SITE.lat_deg},{SITE.lon_deg},{SITE.alt_m}",
-            "--pointing", "40,8,0",
-            "--camera", "0.016,8,1280,720",
-            "--target", f"{float(lat)!r},{float(lon)!r},{float(alt)!r}",
+            "geo",
+            "pixel",
+            "--site",
+            f"{SITE.lat_deg},{SITE.lon_deg},{SITE.alt_m}",
+            "--pointing",
+            "40,8,0",
+            "--camera",
+            "0.016,8,1280,720",
+            "--target",
+            f"{float(lat)!r},{float(lon)!r},{float(alt)!r}",
             "--json",
         ]
-    )  # fmt: skip
+    )
     assert code == 0
     out = strict_json(capsys.readouterr().out)
     assert set(out) == {"x", "y", "range_m", "in_view"}
@@ -149,8 +154,20 @@ def test_cli_geo_pixel_json(capsys):
 
 
 def test_cli_geo_pixel_bad_site_is_one_line(capsys):
-    code = main(["geo", "pixel", "--site", "1,2", "--pointing", "0,0,0", "--camera",
-                 "0.016,8,1280,720", "--target", "1,2,3"])  # fmt: skip
+    code = main(
+        [
+            "geo",
+            "pixel",
+            "--site",
+            "1,2",
+            "--pointing",
+            "0,0,0",
+            "--camera",
+            "0.016,8,1280,720",
+            "--target",
+            "1,2,3",
+        ]
+    )
     err = capsys.readouterr().err
     assert code != 0 and "--site" in err and len(err.strip().splitlines()) == 1
 
@@ -158,7 +175,7 @@ def test_cli_geo_pixel_bad_site_is_one_line(capsys):
 def test_agrees_with_the_simulated_flight_camera():
     # The simulator renders the drone where its own pinhole puts it; the GPS cue must land on
     # the same pixel (same az/el convention, roll 0, IFOV = pitch / f).
-    flight = pytest.importorskip("sim.flight")
+    flight = pytest.importorskip("snrmon.sim.flight")
     plan = flight.FlightPlan(flight.FlightConfig(azimuth_deg=40.0, elevation_deg=8.0, seed=3))
     s = plan.config.site
     site = Site(s.lat_deg, s.lon_deg, s.alt_m)
@@ -187,9 +204,21 @@ def test_cli_with_sensor_preset(name, f_m, pitch_m, w, h, capsys):
         h,
     )
     lat, lon, alt = _target(SITE, Pointing(40.0, 8.0, 0.0), 1.0, 0.0, 200.0)
-    code = main(["geo", "pixel", "--site", "32.38,-106.48,1200", "--pointing", "40,8,0",
-                 "--sensor", name, "--target", f"{float(lat)!r},{float(lon)!r},{float(alt)!r}",
-                 "--json"])  # fmt: skip
+    code = main(
+        [
+            "geo",
+            "pixel",
+            "--site",
+            "32.38,-106.48,1200",
+            "--pointing",
+            "40,8,0",
+            "--sensor",
+            name,
+            "--target",
+            f"{float(lat)!r},{float(lon)!r},{float(alt)!r}",
+            "--json",
+        ]
+    )
     assert code == 0
     out = strict_json(capsys.readouterr().out)
     assert out["x"] == pytest.approx((w - 1) / 2 + f_m * math.tan(math.radians(1.0)) / pitch_m)

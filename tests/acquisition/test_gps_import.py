@@ -10,13 +10,13 @@ import h5py
 import numpy as np
 import pytest
 
-from acquisition.record.gps_align import host_to_utc_ns, search_offset, utc_to_host_ns
-from acquisition.record.gps_import import gps_source, import_gps_log
-from acquisition.record.recorder import SessionRecorder
-from acquisition.streams.timebase import ClockMap
-from drivers.camera.frame import Frame
-from drivers.gps.nmea_log import read_nmea_log
+from snrmon.acquisition.record.gps_align import host_to_utc_ns, search_offset, utc_to_host_ns
+from snrmon.acquisition.record.gps_import import gps_source, import_gps_log
+from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.acquisition.streams.timebase import ClockMap
 from snrmon.cli import main
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.gps.nmea_log import read_nmea_log
 from tests.drivers.test_nmea_logs import golden_tpvs
 
 T0_NS = 5 * 10**12
@@ -132,9 +132,9 @@ def test_import_refuses_a_live_stream_and_missing_files(tmp_path, capsys):
 
 
 def test_dji_csv_sub_second_utc_and_satellites(tmp_path):
-    from drivers.gps.dji_csv import read_dji_csv
-    from sim.flight import FlightPlan
-    from sim.flight_logs import flight_epochs, write_airdata_csv
+    from snrmon.drivers.gps.dji_csv import read_dji_csv
+    from snrmon.sim.flight import FlightPlan
+    from snrmon.sim.flight_logs import flight_epochs, write_airdata_csv
 
     u0 = datetime(2019, 5, 14, 15, 0, 0, 300000, tzinfo=UTC)  # the log starts at .3 s
     times = [0.1 * k for k in range(25)]

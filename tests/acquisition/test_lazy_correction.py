@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.calibrate.calibration import Calibration
-from acquisition.engine.camera_engine import CameraEngine
-from acquisition.engine.frame_correction import FrameCorrector
-from acquisition.engine.inputs import ApplyReference, SetRoi
-from acquisition.engine.lazy_frame import LazyFrame, read_box
+from snrmon.acquisition.calibrate.calibration import Calibration
+from snrmon.acquisition.engine.camera_engine import CameraEngine
+from snrmon.acquisition.engine.frame_correction import FrameCorrector
+from snrmon.acquisition.engine.inputs import ApplyReference, SetRoi
+from snrmon.acquisition.engine.lazy_frame import LazyFrame, read_box
 
 SHAPE = (200, 260)
 
@@ -86,8 +86,10 @@ def test_pixels_read_equal_the_whole_square_corrected(bad_pixels, reference):
             assert view[y0, x0] == full[y0, x0]
         rows = np.array([[y - 3, y - 1]]).clip(0, SHAPE[0] - 1)
         cols = np.array([[x, x]]).clip(0, SHAPE[1] - 1)
-        np.testing.assert_array_equal(view[None][np.zeros((1, 1), int), rows, cols],
-                                      full[None][np.zeros((1, 1), int), rows, cols])  # fmt: skip
+        np.testing.assert_array_equal(
+            view[None][np.zeros((1, 1), int), rows, cols],
+            full[None][np.zeros((1, 1), int), rows, cols],
+        )
 
 
 def test_read_box_names_the_rectangle_read_or_none():
@@ -96,8 +98,11 @@ def test_read_box_names_the_rectangle_read_or_none():
     assert read_box((3, -1), shape) == (3, 4, 19, 20)
     assert read_box((slice(None), slice(1, 4), slice(5, 9)), (1, *shape)) == (1, 4, 5, 9)
     assert read_box((np.array([0]), np.array([[2, 7]]), np.array([[3, 3]])), (1, *shape)) == (
-        2, 8, 3, 4,
-    )  # fmt: skip
+        2,
+        8,
+        3,
+        4,
+    )
     assert read_box(np.ones(shape, bool), shape) is None
     assert read_box((slice(0, 10, 2), slice(None)), shape) is None
     assert read_box(Ellipsis, shape) is None

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.measure.stack_snr import measure_stack
+from snrmon.acquisition.measure.stack_snr import measure_stack
 from snrmon.cli import main
 from tests.helpers import strict_json
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from acquisition.measure.noise import NoiseMeter, estimate_noise
+from snrmon.acquisition.measure.noise import NoiseMeter, estimate_noise
 
 
 def _frames(seed, temporal=6.6, spatial=15.0, shape=(240, 320)):

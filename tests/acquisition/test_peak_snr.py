@@ -9,14 +9,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from acquisition.measure.peak_snr import (
+from snrmon.acquisition.measure.peak_snr import (
     FLAG_NAMES,
     PeakSnrMeter,
     flags_from_bits,
     flags_to_bits,
     measure_peak_snr,
 )
-from acquisition.measure.stack_snr import measure_stack
+from snrmon.acquisition.measure.stack_snr import measure_stack
 
 
 def _frame_with_rim(rim_values, peak=150.0, size=15, fill=100.0):

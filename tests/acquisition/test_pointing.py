@@ -8,8 +8,8 @@ import numpy as np
 import pymap3d
 import pytest
 
-from acquisition.geo.pointing import calibrate_pointing
-from acquisition.geo.projection import (
+from snrmon.acquisition.geo.pointing import calibrate_pointing
+from snrmon.acquisition.geo.projection import (
     CameraIntrinsics,
     Pointing,
     Site,
@@ -92,8 +92,19 @@ def test_cli_geo_calibrate(tmp_path, capsys):
     rows = ["x_px,y_px,lat_deg,lon_deg,alt_m"]
     rows += [",".join(repr(v) for v in p) for p in _pairs(truth, 5, 0.3, seed=11)]
     path.write_text("\n".join(rows) + "\n")
-    code = main(["geo", "calibrate", "--pairs", str(path), "--site", "32.38,-106.48,1200",
-                 "--camera", "0.016,8,1280,720", "--json"])  # fmt: skip
+    code = main(
+        [
+            "geo",
+            "calibrate",
+            "--pairs",
+            str(path),
+            "--site",
+            "32.38,-106.48,1200",
+            "--camera",
+            "0.016,8,1280,720",
+            "--json",
+        ]
+    )
     assert code == 0
     out = strict_json(capsys.readouterr().out)
     assert out["az_deg"] == pytest.approx(40.0, abs=0.05)

@@ -7,11 +7,11 @@ import time
 import numpy as np
 import pytest
 
-from acquisition.config import session_config_from_dict
-from acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
-from model.presets import load_sensor, load_target
-from model.psf import GaussianPsf
-from model.snr import predict
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
+from snrmon.model.presets import load_sensor, load_target
+from snrmon.model.psf import GaussianPsf
+from snrmon.model.snr import predict
 
 
 def test_lookup_has_the_four_curves_and_the_expected_reading():
@@ -41,8 +41,9 @@ def test_a_measured_psf_replaces_the_presets_and_asynchronous_recompute():
 
 def test_session_weather_and_simulation_tables():
     base = {"cameras": {"mwir": {"sensor": "mwir"}}}
-    cfg = session_config_from_dict({**base, "weather": {"air_temp_c": 21.5},
-                                    "simulation": {"sky_temp_k": 280.0}})  # fmt: skip
+    cfg = session_config_from_dict(
+        {**base, "weather": {"air_temp_c": 21.5}, "simulation": {"sky_temp_k": 280.0}}
+    )
     assert cfg.air_temp_k == pytest.approx(294.65)
     assert session_config_from_dict(base).air_temp_k is None
     with pytest.raises(ValueError, match=r'\[weather\] air_temp_c = "warm": expected an air temp'):

@@ -7,16 +7,16 @@ import json
 import numpy as np
 import pytest
 
-from acquisition.calibrate.psf_estimate import (
+from snrmon.acquisition.calibrate.psf_estimate import (
     PsfEstimateError,
     StopCrops,
     crop_frames,
     estimate_psf,
     observed_phases,
 )
-from model.presets import load_sensor, load_target
-from sim.optics import TwinSpread, twin_optics
-from sim.silhouette import silhouette_for
+from snrmon.model.presets import load_sensor, load_target
+from snrmon.sim.optics import TwinSpread, twin_optics
+from snrmon.sim.silhouette import silhouette_for
 
 UAV1 = load_target("uav1")
 
@@ -57,7 +57,7 @@ def test_the_fit_recovers_the_twins_pvf(camera, range_m):
         # (the LWIR's sharp PSF at SNR ~300 sees the 1/12-px offset grid: chi2/dof ~12)
         assert est.chi2_per_dof["airy+gaussian"] < 2.0
     # the fitted PSF is a model PSF the corrected curve can take
-    from model.pvf import average_pvf
+    from snrmon.model.pvf import average_pvf
 
     # (est.pvf is interpolated on the fit's 0.1-px grid of blurs)
     assert average_pvf(est.psf(), sensor.fill_factor) == pytest.approx(est.pvf, rel=0.01)

@@ -11,7 +11,7 @@ import csv
 import cv2
 import pytest
 
-from acquisition.measure.peak_snr import measure_peak_snr
+from snrmon.acquisition.measure.peak_snr import measure_peak_snr
 
 # IR_DRONE_151 (the smallest drone in the set, 2x2 hot pixels at DN 32) hovers 3-4 rows above
 # a treeline that is brighter (DN 46-144) in the AGC'd video: the brightest pixel of an 11x11

@@ -17,16 +17,16 @@ import h5py
 import numpy as np
 import pytest
 
-from acquisition.measure.peak_snr import FLAG_NAMES, PeakSnr
-from acquisition.record.reader import clear_status_flags, open_session
-from acquisition.record.recorder import BACKLOG, STOPPED, SessionRecorder
-from acquisition.record.schema import MEASUREMENT_FIELDS_V1
-from acquisition.record.writer import SessionWriter
-from acquisition.streams.ring import FrameRing
-from acquisition.streams.timebase import ClockMap
-from drivers.camera.frame import Frame
-from drivers.gps.fix import GpsFix
-from drivers.rangefinder.reading import RangeReading, RangeStatus
+from snrmon.acquisition.measure.peak_snr import FLAG_NAMES, PeakSnr
+from snrmon.acquisition.record.reader import clear_status_flags, open_session
+from snrmon.acquisition.record.recorder import BACKLOG, STOPPED, SessionRecorder
+from snrmon.acquisition.record.schema import MEASUREMENT_FIELDS_V1
+from snrmon.acquisition.record.writer import SessionWriter
+from snrmon.acquisition.streams.ring import FrameRing
+from snrmon.acquisition.streams.timebase import ClockMap
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
 REPO = Path(__file__).resolve().parents[2]
 H, W = 64, 80
@@ -149,10 +149,18 @@ def test_measurement_index_lookup_peak_snr_and_clock_update(tmp_path: Path) -> N
     for fr in frames:
         rec.add_frame("mwir", fr)
     r = PeakSnr(5, 6, 900.0, 100.0, 10.0, 80.0, frozenset({"saturated", "lost"}))
-    kw = dict(peak_x=r.peak_x, peak_y=r.peak_y, peak=r.peak, bg_mean=r.bg_mean, bg_std=r.bg_std,
-              snr=r.snr, flags=r.flags)  # fmt: skip
-    rec.add_measurement("mwir", None, counter=frames[2].counter, t_host_ns=frames[2].t_host_ns,
-                        **kw)  # fmt: skip
+    kw = dict(
+        peak_x=r.peak_x,
+        peak_y=r.peak_y,
+        peak=r.peak,
+        bg_mean=r.bg_mean,
+        bg_std=r.bg_std,
+        snr=r.snr,
+        flags=r.flags,
+    )
+    rec.add_measurement(
+        "mwir", None, counter=frames[2].counter, t_host_ns=frames[2].t_host_ns, **kw
+    )
     rec.add_measurement("mwir", None, counter=1, t_host_ns=123, **kw)  # no such frame recorded
     clock.update_from_gps(frames[1].t_host_ns, datetime(2020, 1, 1, tzinfo=UTC))
     rec.stop()
@@ -296,8 +304,8 @@ def test_real_full_filesystem_stops_with_message_and_file_stays_readable(tiny_fs
 
 WRITER = """
 import sys, time, numpy as np
-from acquisition.record.recorder import SessionRecorder
-from drivers.camera.frame import Frame
+from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.drivers.camera.frame import Frame
 cams = {"mwir": (64, 80)}
 rec = SessionRecorder(sys.argv[1], config={"k": 1}, cameras=cams, flush_interval_s=0.2)
 t0 = time.monotonic()
@@ -360,9 +368,18 @@ def test_bad_input_is_one_clear_error(tmp_path: Path) -> None:
         rec.add_event("note", payload={"text": "x" * 5000})
     with pytest.raises(ValueError, match="unknown flag 'hot'"):
         rec.add_measurement(
-            "mwir", 0, counter=0, t_host_ns=0, peak_x=0, peak_y=0, peak=0, bg_mean=0,
-            bg_std=1, snr=0, flags={"hot"},
-        )  # fmt: skip
+            "mwir",
+            0,
+            counter=0,
+            t_host_ns=0,
+            peak_x=0,
+            peak_y=0,
+            peak=0,
+            bg_mean=0,
+            bg_std=1,
+            snr=0,
+            flags={"hot"},
+        )
     rec.stop()
     with pytest.raises(FileExistsError):
         SessionRecorder(tmp_path / "a.h5", config={}, cameras=CAMS)

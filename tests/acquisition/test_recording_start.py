@@ -10,14 +10,14 @@ import time
 
 import pytest
 
-from acquisition.config import session_config_from_dict
-from acquisition.engine.camera_engine import CameraEngine
-from acquisition.replay.batch import replay_session
-from acquisition.runtime.session import Session
-from acquisition.stops.detector import StopConfig
-from acquisition.stops.table import row_values_equal
-from sim.devices.ldm_sim import LdmSimulator
-from sim.devices.shm_camera import ShmProducer
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.engine.camera_engine import CameraEngine
+from snrmon.acquisition.replay.batch import replay_session
+from snrmon.acquisition.runtime.session import Session
+from snrmon.acquisition.stops.detector import StopConfig
+from snrmon.acquisition.stops.table import row_values_equal
+from snrmon.sim.devices.ldm_sim import LdmSimulator
+from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.helpers import H, SpotOnNoise, W, wait_until
 
 
@@ -83,8 +83,11 @@ def test_a_frame_measured_across_the_recording_start_is_in_the_replayed_row(
     session.start_recording(path)  # while that frame is being measured
     held.release.set()
     measured = session.status().cameras["cam"].frames.measured
-    wait_until(lambda: session.status().cameras["cam"].frames.measured >= measured + 120, 10.0,
-               "two more seconds")  # fmt: skip
+    wait_until(
+        lambda: session.status().cameras["cam"].frames.measured >= measured + 120,
+        10.0,
+        "two more seconds",
+    )
     session.stop()
     live_rows = session.stops()
     (row,) = live_rows

@@ -16,17 +16,17 @@ import time
 
 import pytest
 
-from acquisition.config import session_config_from_dict
-from acquisition.record.recorder import BACKLOG
-from acquisition.record.writer import SessionWriter
-from acquisition.replay.batch import replay_session
-from acquisition.runtime.session import Session
-from acquisition.stops.detector import StopConfig
-from acquisition.stops.table import row_values_equal
-from sim.devices.ldm_sim import LdmSimulator
-from sim.devices.nmea_sim import NmeaSimulator
-from sim.devices.shm_camera import ShmProducer
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.record.recorder import BACKLOG
+from snrmon.acquisition.record.writer import SessionWriter
+from snrmon.acquisition.replay.batch import replay_session
+from snrmon.acquisition.runtime.session import Session
+from snrmon.acquisition.stops.detector import StopConfig
+from snrmon.acquisition.stops.table import row_values_equal
 from snrmon.cli import main
+from snrmon.sim.devices.ldm_sim import LdmSimulator
+from snrmon.sim.devices.nmea_sim import NmeaSimulator
+from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.helpers import H, SpotOnNoise, W, wait_until
 
 
@@ -80,8 +80,11 @@ def test_replay_after_forced_recorder_drops_reproduces_every_recorded_frame(live
     session.start_recording(path, max_backlog_bytes=3 * H * W * 2)
     wait_until(lambda: any(r.complete for r in session.stops()), 20.0, "a complete stop")
     measured = session.status().cameras["cam"].frames.measured
-    wait_until(lambda: session.status().cameras["cam"].frames.measured >= measured + 120, 10.0,
-               "two more seconds")  # fmt: skip
+    wait_until(
+        lambda: session.status().cameras["cam"].frames.measured >= measured + 120,
+        10.0,
+        "two more seconds",
+    )
     session.stop()  # the session ends: its rows are final, the recording closes
     live_rows = session.stops()
     summary = session.last_recording
@@ -116,8 +119,11 @@ def test_replay_json_reports_the_files_drops(live, capsys):
     path = tmp_path / "gappy.h5"
     session.start_recording(path, max_backlog_bytes=3 * H * W * 2)
     measured = session.status().cameras["cam"].frames.measured
-    wait_until(lambda: session.status().cameras["cam"].frames.measured >= measured + 90, 10.0,
-               "1.5 s recorded")  # fmt: skip
+    wait_until(
+        lambda: session.status().cameras["cam"].frames.measured >= measured + 90,
+        10.0,
+        "1.5 s recorded",
+    )
     session.stop()
     dropped = session.last_recording.dropped["cam"].get(BACKLOG, 0)
     capsys.readouterr()
@@ -168,8 +174,11 @@ def test_disk_full_stops_the_recording_not_the_session_and_the_file_replays(tmp_
         (alarm,) = [a for a in st.alarms if a.startswith("recording:")]
         assert "disk full" in alarm and str(path) in alarm
         measured = st.cameras["cam"].frames.measured
-        wait_until(lambda: session.status().cameras["cam"].frames.measured >= measured + 60,
-                   10.0, "measurement to go on")  # fmt: skip
+        wait_until(
+            lambda: session.status().cameras["cam"].frames.measured >= measured + 60,
+            10.0,
+            "measurement to go on",
+        )
         assert session.status().cameras["cam"].snr_n > 0
     finally:
         session.stop()

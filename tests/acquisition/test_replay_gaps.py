@@ -14,13 +14,13 @@ import json
 import numpy as np
 import pytest
 
-from acquisition.config import session_config_from_dict
-from acquisition.engine.session_engine import SessionEngine
-from acquisition.record.reader import open_session
-from acquisition.record.recorder import BACKLOG, SessionRecorder
-from acquisition.replay.batch import replay_session
-from acquisition.runtime.camera_pipeline import CameraPipeline
-from acquisition.streams.ring import RingFrame
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.engine.session_engine import SessionEngine
+from snrmon.acquisition.record.reader import open_session
+from snrmon.acquisition.record.recorder import BACKLOG, SessionRecorder
+from snrmon.acquisition.replay.batch import replay_session
+from snrmon.acquisition.runtime.camera_pipeline import CameraPipeline
+from snrmon.acquisition.streams.ring import RingFrame
 
 H, W = 64, 96
 N = 200
@@ -63,8 +63,9 @@ def _rig(path, recorder_class):
     )
     engine = SessionEngine(config, {"cam": (H, W)})
     pipe = CameraPipeline("cam", _NoDevice(), engine)
-    rec = recorder_class(path, config={"session": config.raw, "track": True},
-                         cameras={"cam": (H, W)}, fsync=False)  # fmt: skip
+    rec = recorder_class(
+        path, config={"session": config.raw, "track": True}, cameras={"cam": (H, W)}, fsync=False
+    )
     return engine, pipe, rec
 
 
@@ -186,8 +187,10 @@ def test_ring_drops_are_told_to_the_tracker_live_and_in_replay(tmp_path):
         assert after[i].track_reason == "" and after[i].track_state == "tracking", i
         assert abs(after[i].result.peak_x - (15.0 + 0.5 * i)) <= 1.5, i
     with open_session(path) as f:
-        states = {int(s["counter"]): json.loads(bytes(s["state"]).decode())
-                  for s in f.cameras["cam"].states}  # fmt: skip
+        states = {
+            int(s["counter"]): json.loads(bytes(s["state"]).decode())
+            for s in f.cameras["cam"].states
+        }
     assert states[85]["last_counter"] == 74  # the last frame measured live, not 69
     replay = replay_session(path)
     t = replay.cameras["cam"].tally

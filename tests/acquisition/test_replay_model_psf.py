@@ -6,22 +6,30 @@ from __future__ import annotations
 
 import pytest
 
-from acquisition.calibrate.psf_estimate import psf_from_record
-from acquisition.config import session_config_from_dict
-from acquisition.engine.session_engine import SessionEngine
-from acquisition.prediction import ModelPredictor
-from acquisition.record.reader import append_event
-from acquisition.replay.batch import replay_session
-from model.presets import load_sensor
+from snrmon.acquisition.calibrate.psf_estimate import psf_from_record
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.engine.session_engine import SessionEngine
+from snrmon.acquisition.prediction import ModelPredictor
+from snrmon.acquisition.record.reader import append_event
+from snrmon.acquisition.replay.batch import replay_session
+from snrmon.model.presets import load_sensor
 from tests.acquisition.session_factory import write_session
 
 MW = load_sensor("mwir")
 ESTIMATE = {  # PsfEstimate.as_dict of the twin's MWIR (snrmon hil, seed 5)
-    "sigma_px": 0.82, "sigma_px_std": 0.01, "blur_px": 0.57, "blur_px_std": 0.02,
-    "pvf": 0.139, "pvf_std": 0.003, "n_frames": 400, "chi2_per_dof": {"airy_gauss": 1.02},
-    "f_number": MW.f_number, "pitch_um": MW.pitch_um, "band_um": list(MW.band_um),
+    "sigma_px": 0.82,
+    "sigma_px_std": 0.01,
+    "blur_px": 0.57,
+    "blur_px_std": 0.02,
+    "pvf": 0.139,
+    "pvf_std": 0.003,
+    "n_frames": 400,
+    "chi2_per_dof": {"airy_gauss": 1.02},
+    "f_number": MW.f_number,
+    "pitch_um": MW.pitch_um,
+    "band_um": list(MW.band_um),
     "fill_factor": MW.fill_factor,
-}  # fmt: skip
+}
 
 
 class _Sink:

@@ -16,15 +16,15 @@ import numpy as np
 import pymap3d
 import pytest
 
-from acquisition.engine.camera_engine import CameraEngine
-from acquisition.engine.inputs import FrameOutput, SetRoi, StartReference
-from acquisition.geo.projection import CameraIntrinsics, Pointing, Site, project_to_pixel
-from acquisition.measure.peak_snr import PeakSnrConfig
-from acquisition.record.recorder import SessionRecorder
-from acquisition.replay.player import ReplayPlayer
-from drivers.camera.frame import Frame
-from drivers.gps.fix import GpsFix
-from model.presets import load_sensor
+from snrmon.acquisition.engine.camera_engine import CameraEngine
+from snrmon.acquisition.engine.inputs import FrameOutput, SetRoi, StartReference
+from snrmon.acquisition.geo.projection import CameraIntrinsics, Pointing, Site, project_to_pixel
+from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
+from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.acquisition.replay.player import ReplayPlayer
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.model.presets import load_sensor
 
 SHAPE = (48, 64)
 N, REF_FRAMES, DRONE_FROM = 100, 32, 40
@@ -47,8 +47,18 @@ def _frames(seed: int = 3) -> np.ndarray:
 
 def _fix(k: int) -> GpsFix:
     lat, lon, alt = pymap3d.enu2geodetic(0.0, 150.0 + 0.5 * k, 3.0, *SITE.values())
-    return GpsFix(T0_NS + k * 100_000_000 + 5, None, float(lat), float(lon), float(alt), None,
-                  1, 11, 0.7, f"$GPGGA,{k}")  # fmt: skip
+    return GpsFix(
+        T0_NS + k * 100_000_000 + 5,
+        None,
+        float(lat),
+        float(lon),
+        float(alt),
+        None,
+        1,
+        11,
+        0.7,
+        f"$GPGGA,{k}",
+    )
 
 
 @pytest.fixture(scope="module")
@@ -58,20 +68,28 @@ def recording(tmp_path_factory):
     config = {
         "session": {
             "site": SITE,
-            "cameras": {"mwir": {"source": "shm", "sensor": "mwir",
-                                 "pointing_deg": list(POINTING)}},
+            "cameras": {
+                "mwir": {"source": "shm", "sensor": "mwir", "pointing_deg": list(POINTING)}
+            },
         },
         "track": True,
-    }  # fmt: skip
+    }
     rec = SessionRecorder(path, config=config, cameras={"mwir": SHAPE}, fsync=False)
     t = [T0_NS + i * DT_NS for i in range(N)]
     # What the live pipeline records: the reference when its last frame arrives, the click at
     # the frame it took effect on.
-    rec.add_event("background_reference", camera="mwir", t_host_ns=t[REF_FRAMES - 1],
-                  payload={"n_frames": REF_FRAMES, "first_counter": 0,
-                           "last_counter": REF_FRAMES - 1})  # fmt: skip
-    rec.add_event("roi_set", camera="mwir", t_host_ns=t[DRONE_FROM],
-                  payload={"x": SPOT[0] + 1, "y": SPOT[1], "counter": DRONE_FROM})  # fmt: skip
+    rec.add_event(
+        "background_reference",
+        camera="mwir",
+        t_host_ns=t[REF_FRAMES - 1],
+        payload={"n_frames": REF_FRAMES, "first_counter": 0, "last_counter": REF_FRAMES - 1},
+    )
+    rec.add_event(
+        "roi_set",
+        camera="mwir",
+        t_host_ns=t[DRONE_FROM],
+        payload={"x": SPOT[0] + 1, "y": SPOT[1], "counter": DRONE_FROM},
+    )
     for i in range(N):
         rec.add_frame("mwir", Frame(frames[i], "mwir", i, t[i]))
     for k in range(17):
@@ -110,8 +128,10 @@ def test_replay_status_is_the_live_analysis(recording):
     assert cs.reference_frames == REF_FRAMES
     assert cs.fixed_pattern_dn == fig.fixed_pattern_dn == pytest.approx(FPN_DN, rel=0.1)
     assert (cs.noise_total_dn, cs.noise_temporal_dn, cs.noise_spatial_dn) == (
-        fig.noise_total_dn, fig.noise_temporal_dn, fig.noise_spatial_dn
-    )  # fmt: skip
+        fig.noise_total_dn,
+        fig.noise_temporal_dn,
+        fig.noise_spatial_dn,
+    )
     assert cs.noise_temporal_dn == pytest.approx(NOISE_DN, rel=0.15)
     assert cs.noise_spatial_dn == pytest.approx(FPN_DN, rel=0.2)
 
@@ -125,9 +145,13 @@ def test_replay_shows_the_recorded_gps_fix_and_its_projection(recording):
     fix = st.gps_fix
     assert fix == _fix(10)
     want = project_to_pixel(
-        Site(**SITE), Pointing(*POINTING), CameraIntrinsics.from_sensor(load_sensor("mwir")),
-        fix.lat_deg, fix.lon_deg, fix.alt_msl_m,
-    )  # fmt: skip
+        Site(**SITE),
+        Pointing(*POINTING),
+        CameraIntrinsics.from_sensor(load_sensor("mwir")),
+        fix.lat_deg,
+        fix.lon_deg,
+        fix.alt_msl_m,
+    )
     assert want.in_view
     assert st.cameras["mwir"].gps_xy == (want.x, want.y)
     assert st.gps_range_m == pytest.approx(math.hypot(155.0, 3.0), abs=0.05)

@@ -10,10 +10,10 @@ import cv2
 import numpy as np
 import pytest
 
-from acquisition.prediction import CURVES, ModelPredictor
-from acquisition.report.data import BUDGET_TERMS, report_data
-from acquisition.report.plot import PAGE_IN, PNG_DPI
-from acquisition.report.stop_csv import CSV_COLUMNS
+from snrmon.acquisition.prediction import CURVES, ModelPredictor
+from snrmon.acquisition.report.data import BUDGET_TERMS, report_data
+from snrmon.acquisition.report.plot import PAGE_IN, PNG_DPI
+from snrmon.acquisition.report.stop_csv import CSV_COLUMNS
 from snrmon.cli import main
 from tests.acquisition.session_factory import SPOT_XY, write_session
 
@@ -61,14 +61,24 @@ def _eq4(frame: np.ndarray) -> tuple[float, float, float, float]:
 def test_csv_has_exactly_the_columns(outputs):
     _, _, rows = outputs
     assert tuple(rows[0]) == CSV_COLUMNS
-    assert CSV_COLUMNS[:7] == ("camera", "stop", "lrf_range_m", "gps_range_m", "n_frames",
-                               "snr_mean", "snr_std")  # fmt: skip
+    assert CSV_COLUMNS[:7] == (
+        "camera",
+        "stop",
+        "lrf_range_m",
+        "gps_range_m",
+        "n_frames",
+        "snr_mean",
+        "snr_std",
+    )
     assert [c for c in CSV_COLUMNS if c.startswith("model_")] == [f"model_{c}" for c in CURVES]
     assert [c for c in CSV_COLUMNS if c.startswith("ratio_")] == [f"ratio_{c}" for c in CURVES]
     # Two planned stops x two cameras.
     assert sorted((r[0], r[1]) for r in rows[1:]) == [
-        ("lwir", "0"), ("lwir", "1"), ("mwir", "0"), ("mwir", "1")
-    ]  # fmt: skip
+        ("lwir", "0"),
+        ("lwir", "1"),
+        ("mwir", "0"),
+        ("mwir", "1"),
+    ]
 
 
 def test_csv_values_match_an_independent_computation(session, data, outputs):
@@ -119,8 +129,8 @@ def test_fig6_series_are_the_stop_summary_frames(session, data):
 
 
 def test_budget_and_curves_are_the_models(data):
-    from model.presets import load_sensor, load_target
-    from model.snr import predict
+    from snrmon.model.presets import load_sensor, load_target
+    from snrmon.model.snr import predict
 
     for cam, budgets in data.budgets.items():
         assert [b.range_m for b in budgets] == sorted(

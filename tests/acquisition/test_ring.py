@@ -7,8 +7,8 @@ import threading
 import numpy as np
 import pytest
 
-from acquisition.streams.ring import RING_OVERRUN, FrameRing, OverflowPolicy
-from drivers.camera.frame import Frame
+from snrmon.acquisition.streams.ring import RING_OVERRUN, FrameRing, OverflowPolicy
+from snrmon.drivers.camera.frame import Frame
 
 H, W = 64, 80
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from acquisition.measure.running_stats import RunningSnr
+from snrmon.acquisition.measure.running_stats import RunningSnr
 
 
 @pytest.mark.parametrize("window", [1, 2, 7, 100])

@@ -15,12 +15,12 @@ import time
 import numpy as np
 import pytest
 
-from acquisition.config import session_config_from_dict
-from acquisition.record.reader import open_session
-from acquisition.replay.batch import replay_session
-from acquisition.runtime.session import Session
-from acquisition.stops.detector import StopConfig
-from sim.devices.shm_camera import ShmProducer
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.record.reader import open_session
+from snrmon.acquisition.replay.batch import replay_session
+from snrmon.acquisition.runtime.session import Session
+from snrmon.acquisition.stops.detector import StopConfig
+from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.helpers import AMPLITUDE_DN, NOISE_DN, H, SpotOnNoise, W, field_devices, wait_until
 
 

@@ -9,14 +9,14 @@ import time
 import numpy as np
 import pytest
 
-from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
-from acquisition.calibrate.calibration_file import save_calibration
-from acquisition.config import session_config_from_dict
-from acquisition.record.reader import open_session
-from acquisition.replay.batch import replay_session
-from acquisition.replay.player import ReplayPlayer
-from acquisition.runtime.session import Session
-from sim.devices.shm_camera import ShmProducer
+from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from snrmon.acquisition.calibrate.calibration_file import save_calibration
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.record.reader import open_session
+from snrmon.acquisition.replay.batch import replay_session
+from snrmon.acquisition.replay.player import ReplayPlayer
+from snrmon.acquisition.runtime.session import Session
+from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.acquisition.calibration_scene import camera
 from tests.helpers import wait_until
 

@@ -16,9 +16,9 @@ import h5py
 import numpy as np
 import pytest
 
-from acquisition.record.recorder import SessionRecorder
-from acquisition.record.writer import LIBVER
-from drivers.camera.frame import Frame
+from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.acquisition.record.writer import LIBVER
+from snrmon.drivers.camera.frame import Frame
 
 H5DUMP = shutil.which("h5dump")
 H5LS = shutil.which("h5ls")
@@ -56,13 +56,24 @@ def test_a_session_file_reads_in_hdf5_1_10(tmp_path):
     path = tmp_path / "s.h5"
     rng = np.random.default_rng(10)
     frames = rng.integers(900, 1100, (5, *SHAPE)).astype(np.uint16)
-    rec = SessionRecorder(path, config={"session": {"target": "uav1"}}, cameras={"cam": SHAPE},
-                          fsync=False)  # fmt: skip
+    rec = SessionRecorder(
+        path, config={"session": {"target": "uav1"}}, cameras={"cam": SHAPE}, fsync=False
+    )
     for i, px in enumerate(frames):
         rec.add_frame("cam", Frame(px, "cam", i, 10**9 + i * 16_666_667))
         t = 10**9 + i * 16_666_667
-        rec.add_measurement("cam", i, counter=i, t_host_ns=t, peak_x=3, peak_y=2, peak=1200.0,
-                            bg_mean=1000.0, bg_std=10.0, snr=20.0)  # fmt: skip
+        rec.add_measurement(
+            "cam",
+            i,
+            counter=i,
+            t_host_ns=t,
+            peak_x=3,
+            peak_y=2,
+            peak=1200.0,
+            bg_mean=1000.0,
+            bg_std=10.0,
+            snr=20.0,
+        )
     rec.add_state("cam", 0, 10**9, {"version": 1, "note": "state"})
     rec.add_reference("cam", np.zeros(SHAPE, np.float32), {"n_frames": 2}, t_host_ns=10**9)
     rec.add_event("note", payload={"text": "bird"})
@@ -71,19 +82,30 @@ def test_a_session_file_reads_in_hdf5_1_10(tmp_path):
 
     listing = subprocess.run([H5LS, "-r", str(path)], capture_output=True, text=True)
     assert listing.returncode == 0, listing.stderr
-    for name in ("/cameras/cam/frames", "/cameras/cam/measurements", "/cameras/cam/states",
-                 "/cameras/cam/references", "/events", "/gps", "/rangefinder"):  # fmt: skip
+    for name in (
+        "/cameras/cam/frames",
+        "/cameras/cam/measurements",
+        "/cameras/cam/states",
+        "/cameras/cam/references",
+        "/events",
+        "/gps",
+        "/rangefinder",
+    ):
         assert name in listing.stdout, name
     header = subprocess.run([H5DUMP, "-H", str(path)], capture_output=True, text=True)
     assert header.returncode == 0, header.stderr
     assert '"format_version"' in header.stdout
     # The pixels themselves, as HDF5 1.10 reads them, are the ones written.
-    dump = subprocess.run([H5DUMP, "-d", "/cameras/cam/frames[3,0,0;;1,1,8]", "-y", "-w", "0",
-                           str(path)], capture_output=True, text=True)  # fmt: skip
+    dump = subprocess.run(
+        [H5DUMP, "-d", "/cameras/cam/frames[3,0,0;;1,1,8]", "-y", "-w", "0", str(path)],
+        capture_output=True,
+        text=True,
+    )
     assert dump.returncode == 0, dump.stderr
     data = dump.stdout.split("DATA {", 1)[1].split("}", 1)[0]
     values = [int(v) for v in re.findall(r"\d+", data)]
     assert values == frames[3, 0].tolist()
-    meas = subprocess.run([H5DUMP, "-d", "/cameras/cam/measurements", str(path)],
-                          capture_output=True, text=True)  # fmt: skip
+    meas = subprocess.run(
+        [H5DUMP, "-d", "/cameras/cam/measurements", str(path)], capture_output=True, text=True
+    )
     assert meas.returncode == 0 and meas.stdout.count("20,") >= 5  # every frame's SNR

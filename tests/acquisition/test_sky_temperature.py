@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
-from acquisition.calibrate.sky_temperature import SkyTemperature
-from acquisition.measure.peak_snr import measure_peak_snr
+from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from snrmon.acquisition.calibrate.sky_temperature import SkyTemperature
+from snrmon.acquisition.measure.peak_snr import measure_peak_snr
 from tests.acquisition.calibration_scene import camera
 
 
@@ -54,9 +54,9 @@ def test_a_drone_wider_than_the_box_is_not_read_as_sky(setup):
     """A resolved drone (a 9-px warm square, measured against its extent rim, issue 14) puts
     itself on the 7x7 rim: the sky is read on the rim outside its extent and guard instead, as
     Eq. 4's background is, so the model's path-radiance correction gets the sky's 280 K."""
-    from acquisition.measure.blob import analyse_blob
-    from acquisition.measure.peak_snr import PeakSnrConfig
-    from acquisition.measure.target_snr import measure_target
+    from snrmon.acquisition.measure.blob import analyse_blob
+    from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
+    from snrmon.acquisition.measure.target_snr import measure_target
 
     cam, cal = setup
     scene = np.full(cam.shape, cam.electrons(280.0))

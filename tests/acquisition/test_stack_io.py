@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import tifffile
 
-from acquisition.replay.stack_io import iter_stack, load_stack
+from snrmon.acquisition.replay.stack_io import iter_stack, load_stack
 
 
 @pytest.fixture

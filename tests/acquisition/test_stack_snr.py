@@ -6,8 +6,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from acquisition.measure.peak_snr import PeakSnr, PeakSnrMeter
-from acquisition.measure.stack_snr import measure_stack
+from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrMeter
+from snrmon.acquisition.measure.stack_snr import measure_stack
 
 
 def _bits(r: PeakSnr) -> tuple:

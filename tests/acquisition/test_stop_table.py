@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.measure.peak_snr import PeakSnr
-from acquisition.prediction import ModelPredictor
-from acquisition.report.data import live_report_data
-from acquisition.report.plot import render_report
-from acquisition.stops.detector import StopDetector
-from acquisition.stops.table import StopTable
+from snrmon.acquisition.measure.peak_snr import PeakSnr
+from snrmon.acquisition.prediction import ModelPredictor
+from snrmon.acquisition.report.data import live_report_data
+from snrmon.acquisition.report.plot import render_report
+from snrmon.acquisition.stops.detector import StopDetector
+from snrmon.acquisition.stops.table import StopTable
 
 FRAME_NS = 16_666_667  # 60 fps
 
@@ -158,9 +158,9 @@ def test_the_reports_corrected_curves_use_the_psf_the_rows_were_compared_with():
     MWIR: Airy x a 0.57 px blur, average PVF ~0.14, where the preset's PVF is 0.082): a row
     keeps the PSF its model values came from and the report draws the corrected curves with
     it. Before, the live report drew them with the preset's PSF, 40 % below the rows."""
-    from acquisition.calibrate.psf_estimate import _airy
-    from model.presets import load_sensor
-    from model.psf import AiryGaussianPsf
+    from snrmon.acquisition.calibrate.psf_estimate import _airy
+    from snrmon.model.presets import load_sensor
+    from snrmon.model.psf import AiryGaussianPsf
 
     sensor = load_sensor("mwir")
     measured = AiryGaussianPsf(_airy(sensor.f_number, sensor.pitch_um, tuple(sensor.band_um)), 0.57)

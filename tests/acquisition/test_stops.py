@@ -7,15 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from acquisition.measure.peak_snr import PeakSnr
-from acquisition.stops.detector import (
+from snrmon.acquisition.measure.peak_snr import PeakSnr
+from snrmon.acquisition.stops.detector import (
     StopConfig,
     StopDetector,
     detect_stops,
     frames_in_stop,
     summarise_stop,
 )
-from drivers.rangefinder.reading import RangeReading, RangeStatus
+from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
 PAPER_STOPS_M = (37.0, 126.0, 199.0, 336.0, 393.0, 451.0, 508.0)
 S = 1_000_000_000
@@ -203,7 +203,7 @@ def test_a_stop_range_is_the_median_of_all_its_readings():
 
 def test_error_of_the_mean_counts_the_frames_autocorrelation():
     """White frames: sem = std / sqrt(N); a drifting, correlated series: larger (N_eff < N)."""
-    from acquisition.stops.detector import mean_error
+    from snrmon.acquisition.stops.detector import mean_error
 
     rng = np.random.default_rng(3)
     white = rng.standard_normal(100)

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.measure.blob import analyse_blob
-from acquisition.measure.peak_snr import PeakSnrConfig, measure_peak_snr
-from acquisition.measure.target_snr import background_rule, extent_rim_rect, measure_target
-from acquisition.track.tracker import Tracker, TrackState, track_stack
+from snrmon.acquisition.measure.blob import analyse_blob
+from snrmon.acquisition.measure.peak_snr import PeakSnrConfig, measure_peak_snr
+from snrmon.acquisition.measure.target_snr import background_rule, extent_rim_rect, measure_target
+from snrmon.acquisition.track.tracker import Tracker, TrackState, track_stack
 
 ROWS, COLS = 96, 128
 SKY, NOISE = 1000.0, 10.0

@@ -4,8 +4,8 @@ from datetime import UTC, datetime
 
 import pytest
 
-from acquisition.streams.history import ScalarHistory
-from acquisition.streams.timebase import ClockMap
+from snrmon.acquisition.streams.history import ScalarHistory
+from snrmon.acquisition.streams.timebase import ClockMap
 
 
 def test_interpolated_range_matches_raw_readings_at_their_own_times():

@@ -14,11 +14,11 @@ import time
 import numpy as np
 import pytest
 
-from acquisition.config import session_config_from_dict
-from acquisition.measure.noise import estimate_noise
-from acquisition.measure.track_noise import TrackNoise, ring_pixels
-from acquisition.runtime.session import Session
-from sim.devices.shm_camera import ShmProducer
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.measure.noise import estimate_noise
+from snrmon.acquisition.measure.track_noise import TrackNoise, ring_pixels
+from snrmon.acquisition.runtime.session import Session
+from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.helpers import NOISE_DN, H, SpotOnNoise, W, wait_until
 
 FPN_DN = 15.0

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.measure.peak_snr import (
+from snrmon.acquisition.measure.peak_snr import (
     FLAG_RIM_CONTAMINATED,
     PeakSnrConfig,
     PeakSnrMeter,
     measure_peak_snr,
 )
-from acquisition.track.tracker import Tracker, TrackerConfig, TrackState, track_stack
+from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackState, track_stack
 
 ROWS, COLS = 100, 120
 SKY_DN, NOISE_DN = 1000.0, 10.0
@@ -49,9 +49,7 @@ def test_brighter_bird_crossing_the_window_does_not_capture_the_track():
     stack, bird_x = _bird_stack(dy=5, seed=1)
     steps = track_stack(stack, (60, 50))
     # Without the tracker's gate, the plain Eq. 4 window takes the bird while it is inside:
-    captured = [
-        i for i in bird_x if measure_peak_snr(stack[i], (60, 50)).peak_y == 55
-    ]  # fmt: skip
+    captured = [i for i in bird_x if measure_peak_snr(stack[i], (60, 50)).peak_y == 55]
     assert len(captured) >= 4
     for i, s in enumerate(steps):
         assert s.state is TrackState.TRACKING

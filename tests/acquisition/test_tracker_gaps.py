@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from acquisition.track.motion import MotionModel
-from acquisition.track.tracker import Tracker, TrackerConfig, TrackState
+from snrmon.acquisition.track.motion import MotionModel
+from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackState
 
 ROWS, COLS = 100, 120
 SKY, NOISE = 1000.0, 10.0
@@ -67,8 +67,9 @@ def test_untold_the_same_gap_costs_lost_frames_of_gate_misses():
     steps, _ = _run(_hover_then_shift, n, told=False)
     first = 2 * GAP
     assert [steps[first + k].reason for k in range(5)] == ["gate"] * 5
-    assert not any(_on(steps[first + k], (64, 50)) and steps[first + k].reason == ""
-                   for k in range(5))  # fmt: skip
+    assert not any(
+        _on(steps[first + k], (64, 50)) and steps[first + k].reason == "" for k in range(5)
+    )
 
 
 def test_a_drone_flying_on_through_a_gap_is_followed_without_a_miss():

@@ -16,9 +16,9 @@ import statistics
 import numpy as np
 import pytest
 
-from acquisition.measure.blob import BlobConfig
-from acquisition.track.tracker import Tracker, TrackerConfig, TrackState, reach_px
-from benchmarks.real_clips import clicks, inseparable, load_clip, score_run
+from snrmon.acquisition.measure.blob import BlobConfig
+from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackState, reach_px
+from snrmon.benchmarks.real_clips import clicks, inseparable, load_clip, score_run
 
 SUBSET = ("IR_DRONE_048", "IR_DRONE_151", "IR_DRONE_074", "IR_DRONE_025")
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acquisition.track.tracker import Tracker, TrackerConfig, TrackState, track_stack
-from benchmarks.real_clips import inseparable
+from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackState, track_stack
+from snrmon.benchmarks.real_clips import inseparable
 
 ROWS, COLS = 100, 120
 SKY, NOISE = 1000.0, 10.0
@@ -136,7 +136,7 @@ def test_bad_input_is_one_clear_message_and_the_state_says_why():
 
 
 def test_the_console_status_says_why_the_track_is_not_tracking():
-    from acquisition.engine.frame_measurer import FrameMeasurer
+    from snrmon.acquisition.engine.frame_measurer import FrameMeasurer
 
     sat = _sky(1, 16)[0]
     sat[40:, :] = 65535.0
@@ -149,8 +149,8 @@ def test_the_console_status_says_why_the_track_is_not_tracking():
 def test_reads_stay_within_reach_of_the_read_centre_through_a_gps_cue():
     """The engine corrects only the square of reach_px around read_centre: a track lost far
     from where the cue then puts the drone must read around the cue, nowhere else."""
-    from acquisition.measure.blob import BlobConfig
-    from acquisition.track.tracker import reach_px
+    from snrmon.acquisition.measure.blob import BlobConfig
+    from snrmon.acquisition.track.tracker import reach_px
 
     rows, cols = 300, 400
     rng = np.random.default_rng(17)

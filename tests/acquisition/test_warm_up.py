@@ -14,18 +14,18 @@ import numpy as np
 import pytest
 from numba.core.registry import CPUDispatcher
 
-from acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
-from acquisition.engine.camera_engine import CameraEngine
-from acquisition.engine.inputs import SetRoi
-from acquisition.engine.warm_up import warm_up
+from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from snrmon.acquisition.engine.camera_engine import CameraEngine
+from snrmon.acquisition.engine.inputs import SetRoi
+from snrmon.acquisition.engine.warm_up import warm_up
 from tests.acquisition.calibration_scene import camera
 
 KERNEL_MODULES = (
-    "acquisition.measure.jit",
-    "acquisition.measure.blob_kernel",
-    "acquisition.measure.rim_kernel",
-    "acquisition.measure.track_noise",
-    "acquisition.calibrate.kernels",
+    "snrmon.acquisition.measure.jit",
+    "snrmon.acquisition.measure.blob_kernel",
+    "snrmon.acquisition.measure.rim_kernel",
+    "snrmon.acquisition.measure.track_noise",
+    "snrmon.acquisition.calibrate.kernels",
 )
 
 
@@ -89,5 +89,7 @@ def test_the_first_real_frame_loads_no_kernel(calibrated, resolved):
         return json.loads(run.stdout.strip().splitlines()[-1])
 
     cold = first_frames_load(False)
-    assert "acquisition.measure.blob_kernel.analyse_auto" in cold  # a cold engine loads them...
+    assert (
+        "snrmon.acquisition.measure.blob_kernel.analyse_auto" in cold
+    )  # a cold engine loads them...
     assert first_frames_load(True) == {}  # ... a warmed-up one finds them loaded

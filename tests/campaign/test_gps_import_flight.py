@@ -14,13 +14,13 @@ import h5py
 import numpy as np
 import pytest
 
-from acquisition.geo.projection import Site
-from acquisition.record.gps_align import slant_ranges_m
-from acquisition.record.reader import open_session
-from acquisition.replay.batch import replay_session
-from sim.flight import FlightConfig, FlightPlan
-from sim.flight_logs import flight_epochs, write_airdata_csv, write_nmea_log, write_tlog
+from snrmon.acquisition.geo.projection import Site
+from snrmon.acquisition.record.gps_align import slant_ranges_m
+from snrmon.acquisition.record.reader import open_session
+from snrmon.acquisition.replay.batch import replay_session
 from snrmon.cli import main
+from snrmon.sim.flight import FlightConfig, FlightPlan
+from snrmon.sim.flight_logs import flight_epochs, write_airdata_csv, write_nmea_log, write_tlog
 
 SITE = Site(32.38, -106.48, 1200.0)  # sim.flight.Site(), the rig's camera site
 WRITERS = {"dji": write_airdata_csv, "nmea": write_nmea_log, "tlog": write_tlog}
@@ -159,7 +159,7 @@ def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
 
 
 def test_offset_search_corrects_a_wrong_session_clock(session_copy, tmp_path):
-    from acquisition.record.gps_import import import_gps_log
+    from snrmon.acquisition.record.gps_import import import_gps_log
 
     session, _ = session_copy
     copy = tmp_path / "clock-off.h5"

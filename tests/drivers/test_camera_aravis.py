@@ -16,10 +16,10 @@ import time
 import numpy as np
 import pytest
 
-from drivers.camera.counter import FrameCounterGaps
-from drivers.camera.format import CameraFormat
-from drivers.camera.frame import Frame
-from drivers.device import DeviceState
+from snrmon.drivers.camera.counter import FrameCounterGaps
+from snrmon.drivers.camera.format import CameraFormat
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.device import DeviceState
 
 FAKE = "arv-fake-gv-camera-0.8"
 GVCP_PORT = 3956
@@ -65,7 +65,7 @@ class FakeGvCamera:
 @pytest.fixture
 def fake_gv():
     try:
-        from drivers.camera.aravis import aravis_module
+        from snrmon.drivers.camera.aravis import aravis_module
 
         aravis_module()
     except OSError as exc:
@@ -102,7 +102,7 @@ class Collect:
 
 @pytest.mark.integration
 def test_mono16_1280x720_at_60_fps_with_consecutive_frame_ids(fake_gv):
-    from drivers.camera.aravis import AravisCamera
+    from snrmon.drivers.camera.aravis import AravisCamera
 
     cam = AravisCamera("mwir", "127.0.0.1", exposure_us=10000, packet_size=8972)
     got = Collect(cam)
@@ -128,7 +128,7 @@ def test_mono16_1280x720_at_60_fps_with_consecutive_frame_ids(fake_gv):
 
 @pytest.mark.integration
 def test_camera_lost_and_back_is_a_counted_reconnect(fake_gv):
-    from drivers.camera.aravis import AravisCamera
+    from snrmon.drivers.camera.aravis import AravisCamera
 
     cam = AravisCamera(
         "mwir",
@@ -155,7 +155,7 @@ def test_camera_lost_and_back_is_a_counted_reconnect(fake_gv):
 
 
 def test_missing_gi_is_one_clear_error(monkeypatch):
-    from drivers.camera import aravis
+    from snrmon.drivers.camera import aravis
 
     monkeypatch.setitem(sys.modules, "gi", None)
     with pytest.raises(aravis.AravisUnavailableError, match=r"PyGObject<3\.51"):
@@ -180,7 +180,7 @@ def test_16_bit_frame_ids_wrap_without_false_drops(seq, dropped):
 
 @pytest.mark.integration
 def test_discovery_lists_the_fake_camera(fake_gv):
-    from drivers.camera.aravis import list_aravis_cameras
+    from snrmon.drivers.camera.aravis import list_aravis_cameras
 
     cams = list_aravis_cameras()
     assert any(c.address == "127.0.0.1" and c.serial == "SNRMTEST" for c in cams), cams

@@ -11,11 +11,11 @@ import time
 import numpy as np
 import pytest
 
-from drivers.camera.frame import Frame
-from drivers.camera.shm import ShmCamera
-from drivers.camera.v4l2 import V4l2Camera
-from drivers.device import DeviceState
-from sim.devices.shm_camera import RandomPattern, ShmProducer
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.camera.shm import ShmCamera
+from snrmon.drivers.camera.v4l2 import V4l2Camera
+from snrmon.drivers.device import DeviceState
+from snrmon.sim.devices.shm_camera import RandomPattern, ShmProducer
 from tests.drivers.test_camera_aravis import fake_gv  # noqa: F401 (the fixture)
 from tests.drivers.test_camera_v4l2 import FakeCapture
 
@@ -104,6 +104,6 @@ class TestAravisCameraContract(CameraContract):
 
     def make(self, request):
         request.getfixturevalue("fake_gv")  # skips with the reason where Aravis is absent
-        from drivers.camera.aravis import AravisCamera
+        from snrmon.drivers.camera.aravis import AravisCamera
 
         return None, AravisCamera("gige", "127.0.0.1", exposure_us=10000, packet_size=8972)

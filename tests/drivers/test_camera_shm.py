@@ -14,11 +14,11 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from drivers.camera.format import CameraFormat
-from drivers.camera.frame import Frame
-from drivers.camera.shm import ShmCamera
-from drivers.device import DeviceState, DeviceStatus
-from sim.devices.shm_camera import (
+from snrmon.drivers.camera.format import CameraFormat
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.camera.shm import ShmCamera
+from snrmon.drivers.device import DeviceState, DeviceStatus
+from snrmon.sim.devices.shm_camera import (
     RandomPattern,
     ShmFrameWriter,
     ShmProducer,

@@ -9,8 +9,8 @@ import pytest
 import usb.backend
 import usb.core
 
-from drivers.camera.format import CameraFormat
-from drivers.camera.usb import (
+from snrmon.drivers.camera.format import CameraFormat
+from snrmon.drivers.camera.usb import (
     LinkTooSlowError,
     UsbSpeed,
     link_utilisation,

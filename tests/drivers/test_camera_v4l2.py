@@ -10,10 +10,10 @@ import cv2
 import numpy as np
 import pytest
 
-from drivers.camera.format import CameraFormat
-from drivers.camera.frame import Frame
-from drivers.camera.v4l2 import V4l2Camera
-from drivers.device import DeviceState
+from snrmon.drivers.camera.format import CameraFormat
+from snrmon.drivers.camera.frame import Frame
+from snrmon.drivers.camera.v4l2 import V4l2Camera
+from snrmon.drivers.device import DeviceState
 
 Y16 = cv2.VideoWriter_fourcc(*"Y16 ")
 

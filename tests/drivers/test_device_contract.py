@@ -8,15 +8,15 @@ import time
 
 import pytest
 
-from drivers.device import DeviceState
-from drivers.gps.fix import GpsFix
-from drivers.gps.nmea_device import NmeaGpsDevice
-from drivers.rangefinder.ldm import LdmDevice
-from drivers.rangefinder.reading import RangeReading, RangeStatus
-from drivers.rangefinder.trupulse import TruPulseDevice
-from sim.devices.ldm_sim import LdmSimulator
-from sim.devices.nmea_sim import NmeaSimulator, fixed_position
-from sim.devices.trupulse_sim import TruPulseSimulator
+from snrmon.drivers.device import DeviceState
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.nmea_device import NmeaGpsDevice
+from snrmon.drivers.rangefinder.ldm import LdmDevice
+from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
+from snrmon.drivers.rangefinder.trupulse import TruPulseDevice
+from snrmon.sim.devices.ldm_sim import LdmSimulator
+from snrmon.sim.devices.nmea_sim import NmeaSimulator, fixed_position
+from snrmon.sim.devices.trupulse_sim import TruPulseSimulator
 
 
 def collect(device, n: int, timeout_s: float = 3.0) -> list:

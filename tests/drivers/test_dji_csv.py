@@ -6,8 +6,8 @@ from datetime import UTC, datetime
 
 import pytest
 
-from drivers.errors import ParseError
-from drivers.gps.dji_csv import read_dji_csv
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.gps.dji_csv import read_dji_csv
 
 AIRDATA_FT = (
     "time(millisecond),datetime(utc),latitude,longitude,height_above_takeoff(feet),"

@@ -9,12 +9,12 @@ import time
 
 import pytest
 
-from drivers.device import DeviceState, DeviceStatus
-from drivers.gps.nmea_device import NmeaGpsDevice
-from drivers.rangefinder.ldm import LdmDevice
-from drivers.rangefinder.reading import RangeStatus
-from sim.devices.ldm_sim import LdmSimulator
-from sim.devices.nmea_sim import NmeaSimulator
+from snrmon.drivers.device import DeviceState, DeviceStatus
+from snrmon.drivers.gps.nmea_device import NmeaGpsDevice
+from snrmon.drivers.rangefinder.ldm import LdmDevice
+from snrmon.drivers.rangefinder.reading import RangeStatus
+from snrmon.sim.devices.ldm_sim import LdmSimulator
+from snrmon.sim.devices.nmea_sim import NmeaSimulator
 
 
 class Watch:

@@ -9,8 +9,8 @@ import threading
 
 import pytest
 
-from drivers.gps.gpsd import GpsdDevice
-from sim.devices.nmea_sim import NmeaSimulator, fixed_position
+from snrmon.drivers.gps.gpsd import GpsdDevice
+from snrmon.sim.devices.nmea_sim import NmeaSimulator, fixed_position
 
 pytestmark = pytest.mark.integration
 
@@ -31,10 +31,21 @@ def gpsd_on_sim(tmp_path):
     sim = NmeaSimulator(fixed_position(41.5749659, -93.7505719, 278.161), rate_hz=10).start()
     port = free_port()
     proc = subprocess.Popen(
-        [gpsd, "-N", "-n", "-S", str(port), "-F", str(tmp_path / "gpsd.sock"),
-         "-P", str(tmp_path / "gpsd.pid"), sim.pts_path],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
+        [
+            gpsd,
+            "-N",
+            "-n",
+            "-S",
+            str(port),
+            "-F",
+            str(tmp_path / "gpsd.sock"),
+            "-P",
+            str(tmp_path / "gpsd.pid"),
+            sim.pts_path,
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         yield port
     finally:

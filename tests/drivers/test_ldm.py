@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from drivers.errors import ParseError
-from drivers.rangefinder.ldm import parse_ldm
-from drivers.rangefinder.reading import RangeStatus
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.rangefinder.ldm import parse_ldm
+from snrmon.drivers.rangefinder.reading import RangeStatus
 
 
 def test_decimal_format() -> None:

@@ -7,21 +7,30 @@ import sys
 
 import pytest
 
-from sim.devices.ldm_sim import LdmSimulator
-from sim.devices.nmea_sim import NmeaSimulator, fixed_position
-from sim.devices.trupulse_sim import TruPulseSimulator
+from snrmon.sim.devices.ldm_sim import LdmSimulator
+from snrmon.sim.devices.nmea_sim import NmeaSimulator, fixed_position
+from snrmon.sim.devices.trupulse_sim import TruPulseSimulator
 from tests.helpers import strict_json
 
 GPS_KEYS = {"t_host_ns", "utc", "lat", "lon", "alt_m", "fix_quality", "sats", "hdop"}
-LRF_KEYS = {"t_host_ns", "range_m", "horizontal_m", "azimuth_deg", "inclination_deg", "quality",
-            "status"}  # fmt: skip
+LRF_KEYS = {
+    "t_host_ns",
+    "range_m",
+    "horizontal_m",
+    "azimuth_deg",
+    "inclination_deg",
+    "quality",
+    "status",
+}
 
 
 def listen(*args: str, timeout_s: float = 20.0) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", "snrmon", "listen", *args],
-        capture_output=True, text=True, timeout=timeout_s,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=timeout_s,
+    )
 
 
 def test_gps_json_lines() -> None:
@@ -57,10 +66,22 @@ def test_lrf_ldm_text_lines() -> None:
 def test_bad_data_reported_on_stderr() -> None:
     with NmeaSimulator(rate_hz=20, baud=115200) as sim:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "snrmon", "listen", "gps", "--port", sim.path,
-             "--count", "12", "--json"],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        )  # fmt: skip
+            [
+                sys.executable,
+                "-m",
+                "snrmon",
+                "listen",
+                "gps",
+                "--port",
+                sim.path,
+                "--count",
+                "12",
+                "--json",
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         try:
             assert proc.stdout.readline()  # connected: the first reading was flushed
             sim.faults.corrupt_checksum(3)

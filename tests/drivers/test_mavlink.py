@@ -7,7 +7,7 @@ import threading
 
 import pytest
 
-from drivers.gps.mavlink import MavlinkGpsDevice
+from snrmon.drivers.gps.mavlink import MavlinkGpsDevice
 
 mavutil = pytest.importorskip("pymavlink.mavutil", reason="pymavlink not installed")
 
@@ -32,11 +32,20 @@ def test_positions_and_fix_from_udp_stream() -> None:
         k = 0
         while not stop.is_set():
             out.mav.gps_raw_int_send(
-                1_557_846_000_000_000 + k * 100_000, 3, 481000000, 115000000, 520000,
-                90, 65535, 0, 0, 14,
-            )  # fmt: skip
-            out.mav.global_position_int_send(k * 100, 481000000, 115000000, 520000, 20000,
-                                             0, 0, 0, 65535)  # fmt: skip
+                1_557_846_000_000_000 + k * 100_000,
+                3,
+                481000000,
+                115000000,
+                520000,
+                90,
+                65535,
+                0,
+                0,
+                14,
+            )
+            out.mav.global_position_int_send(
+                k * 100, 481000000, 115000000, 520000, 20000, 0, 0, 0, 65535
+            )
             k += 1
             stop.wait(0.05)
 

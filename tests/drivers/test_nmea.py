@@ -6,8 +6,8 @@ from datetime import UTC, datetime
 
 import pytest
 
-from drivers.errors import ChecksumError, ParseError
-from drivers.gps.nmea import NmeaAssembler, decode_gga, nmea_checksum, parse_sentence
+from snrmon.drivers.errors import ChecksumError, ParseError
+from snrmon.drivers.gps.nmea import NmeaAssembler, decode_gga, nmea_checksum, parse_sentence
 
 
 def s(body: str) -> str:

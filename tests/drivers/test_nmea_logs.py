@@ -7,8 +7,8 @@ from datetime import datetime
 
 import pytest
 
-from drivers.errors import ParseError
-from drivers.gps.nmea import NmeaAssembler
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.gps.nmea import NmeaAssembler
 
 LOGS = ["garmin15x", "mtk-3301", "nmea-rtk", "skytraq-err", "ublox-f9p-hpnmea"]
 

@@ -8,11 +8,11 @@ import contextlib
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drivers.errors import ChecksumError, ParseError
-from drivers.gps.gpsd import fix_from_tpv
-from drivers.gps.nmea import NmeaAssembler, nmea_checksum
-from drivers.rangefinder.ldm import parse_ldm
-from drivers.rangefinder.trupulse import parse_trupulse
+from snrmon.drivers.errors import ChecksumError, ParseError
+from snrmon.drivers.gps.gpsd import fix_from_tpv
+from snrmon.drivers.gps.nmea import NmeaAssembler, nmea_checksum
+from snrmon.drivers.rangefinder.ldm import parse_ldm
+from snrmon.drivers.rangefinder.trupulse import parse_trupulse
 
 VALID_NMEA = [
     "$GPGGA,092750.000,5321.6802,N,00630.3372,W,1,8,1.03,61.7,M,55.2,M,,*76",

@@ -10,10 +10,10 @@ import pytest
 pytest.importorskip("pymavlink")
 from pymavlink.dialects.v20 import common as mavlink2
 
-from drivers.errors import ParseError
-from drivers.gps.tlog import read_tlog
-from sim.flight import FlightPlan
-from sim.flight_logs import flight_epochs, write_tlog
+from snrmon.drivers.errors import ParseError
+from snrmon.drivers.gps.tlog import read_tlog
+from snrmon.sim.flight import FlightPlan
+from snrmon.sim.flight_logs import flight_epochs, write_tlog
 
 U0 = datetime(2019, 5, 14, 15, 0, 7, 300000, tzinfo=UTC)
 

@@ -4,15 +4,20 @@ from __future__ import annotations
 
 import pytest
 
-from drivers.errors import ChecksumError, ParseError
-from drivers.rangefinder.reading import RangeStatus
-from drivers.rangefinder.trupulse import parse_trupulse
+from snrmon.drivers.errors import ChecksumError, ParseError
+from snrmon.drivers.rangefinder.reading import RangeStatus
+from snrmon.drivers.rangefinder.trupulse import parse_trupulse
 
 
 def test_metres_high_quality() -> None:
     r = parse_trupulse("$PLTIT,HV,11.80,M,0.00,D,3.70,D,11.80,M*63", 7)
     assert (r.range_m, r.horizontal_m, r.inclination_deg, r.quality, r.status) == (
-        11.8, 11.8, 3.7, 0, RangeStatus.OK)  # fmt: skip
+        11.8,
+        11.8,
+        3.7,
+        0,
+        RangeStatus.OK,
+    )
     assert r.t_host_ns == 7
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gui.range_plot import RangePlot
-from gui.strip_chart import WINDOW_S, StripChart
+from snrmon.gui.range_plot import RangePlot
+from snrmon.gui.strip_chart import WINDOW_S, StripChart
 
 
 def _series(n: int, now_ns: int) -> np.ndarray:
@@ -82,7 +82,7 @@ def _x_range(plot: RangePlot) -> list[float]:
 
 
 def _row(rng_m: float, snr: float):
-    from acquisition.stops.table import StopRow
+    from snrmon.acquisition.stops.table import StopRow
 
     return StopRow("mwir", 0, False, 0, 1, rng_m, rng_m, 100, True, snr, 1.0)
 
@@ -126,12 +126,26 @@ def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(q
     chi2/dof of the unresolved stops against the expected Eq. (4) curve shown."""
     import numpy as np
 
-    from acquisition.stops.table import StopRow
-    from gui.range_plot import RangePlot, fit_title
+    from snrmon.acquisition.stops.table import StopRow
+    from snrmon.gui.range_plot import RangePlot, fit_title
 
     def row(stop, r, mean, sem, resolved=False):
-        return StopRow("mwir", stop, False, 0, 1, r, r, 100, True, mean, 10.0,
-                       {"expected_eq4": 0.0}, resolved, snr_sem=sem)  # fmt: skip
+        return StopRow(
+            "mwir",
+            stop,
+            False,
+            0,
+            1,
+            r,
+            r,
+            100,
+            True,
+            mean,
+            10.0,
+            {"expected_eq4": 0.0},
+            resolved,
+            snr_sem=sem,
+        )
 
     rows = [row(0, 199.0, 90.0, 2.0, True), row(1, 393.0, 60.0, 2.0), row(2, 508.0, 33.0, 1.0)]
     expected = (np.array([100.0, 1000.0]), np.array([64.0, 64.0]))

@@ -15,13 +15,13 @@ import pytest
 from PySide6.QtCore import QSettings, Qt
 from PySide6.QtGui import QImage
 
-from acquisition.config import session_config_from_dict
-from acquisition.record.reader import open_session
-from acquisition.runtime.session import Session
-from drivers.camera.shm import ShmCamera
-from gui.app import console_application, run_console
-from gui.main_window import ConsoleWindow
-from sim.devices.shm_camera import ShmProducer
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.record.reader import open_session
+from snrmon.acquisition.runtime.session import Session
+from snrmon.drivers.camera.shm import ShmCamera
+from snrmon.gui.app import console_application, run_console
+from snrmon.gui.main_window import ConsoleWindow
+from snrmon.sim.devices.shm_camera import ShmProducer
 
 W, H = 160, 128
 SPOT_X, SPOT_Y = 100, 60
@@ -108,8 +108,12 @@ def test_click_off_the_image_sets_no_roi(qtbot, window, rig):
     view = window.panels["mwir"].view
     view.view.setRange(xRange=(-200, W + 200), yRange=(-200, H + 200), padding=0)
     qtbot.wait(50)  # let the new range reach the scene transform (not a synchronisation)
-    assert view.click_at_scene(view.view.mapViewToScene(view.view.mapToView(
-        view.view.boundingRect().topLeft()))) is None  # fmt: skip
+    assert (
+        view.click_at_scene(
+            view.view.mapViewToScene(view.view.mapToView(view.view.boundingRect().topLeft()))
+        )
+        is None
+    )
     assert session.status().cameras["mwir"].roi_xy is None
 
 
@@ -129,7 +133,7 @@ def test_recording_from_the_console_creates_a_session_file(qtbot, window, tmp_pa
         assert f.cameras["mwir"].frame(0).shape == (H, W)
     # The recording's log beside it keeps what the operator did and was told.
     log = (tmp_path / "run.log").read_text()
-    assert f"gui.main_window: recording to {path}" in log
+    assert f"snrmon.gui.main_window: recording to {path}" in log
     assert "note: drone hovering at the first stop" in log
 
 

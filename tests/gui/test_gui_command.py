@@ -11,8 +11,8 @@ import uuid
 from PySide6.QtCore import QTimer
 from PySide6.QtGui import QImage
 
-from sim.devices.shm_camera import ShmProducer
 from snrmon.cli import main
+from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.acquisition.session_factory import write_session
 from tests.gui.test_console import H, SpotOnNoise, W
 
@@ -25,8 +25,18 @@ def test_gui_command_headless_runs_the_config_and_saves_a_screenshot(qtbot, tmp_
     )
     png = tmp_path / "gui.png"
     with ShmProducer(ring, W, H, SpotOnNoise(), fps=30.0):
-        rc = main(["gui", "--config", str(toml), "--headless", "--duration", "1",
-                   "--screenshot", str(png)])  # fmt: skip
+        rc = main(
+            [
+                "gui",
+                "--config",
+                str(toml),
+                "--headless",
+                "--duration",
+                "1",
+                "--screenshot",
+                str(png),
+            ]
+        )
     assert rc == 0
     img = QImage(str(png))
     assert not img.isNull() and img.width() > 400
@@ -42,8 +52,18 @@ def test_gui_replay_missing_file_is_one_line(capsys, tmp_path):
 def test_gui_replay_runs_headless_with_the_model_and_saves_a_screenshot(tmp_path):
     rec = write_session(tmp_path / "flight.h5", cameras=("mwir",), hover_s=4.0)
     shot = tmp_path / "replay.png"
-    code = main(["gui", "--replay", str(rec.path), "--headless", "--duration", "1.5",
-                 "--screenshot", str(shot)])  # fmt: skip
+    code = main(
+        [
+            "gui",
+            "--replay",
+            str(rec.path),
+            "--headless",
+            "--duration",
+            "1.5",
+            "--screenshot",
+            str(shot),
+        ]
+    )
     assert code == 0
     img = QImage(str(shot))
     assert not img.isNull() and img.width() > 400
@@ -57,8 +77,18 @@ def test_sigterm_closes_the_console_cleanly(qtbot, tmp_path):
     before = signal.getsignal(signal.SIGTERM)
     QTimer.singleShot(300, lambda: os.kill(os.getpid(), signal.SIGTERM))
     t0 = time.monotonic()
-    code = main(["gui", "--replay", str(rec.path), "--headless", "--duration", "60",
-                 "--screenshot", str(shot)])  # fmt: skip
+    code = main(
+        [
+            "gui",
+            "--replay",
+            str(rec.path),
+            "--headless",
+            "--duration",
+            "60",
+            "--screenshot",
+            str(shot),
+        ]
+    )
     assert code == 0 and time.monotonic() - t0 < 60
     assert not QImage(str(shot)).isNull()
     assert signal.getsignal(signal.SIGTERM) is before  # the handlers are put back
@@ -71,7 +101,7 @@ def test_gui_missing_config_names_the_file(capsys, tmp_path):
 
 
 def test_offscreen_noise_is_dropped_and_other_qt_messages_kept(capsys):
-    from gui.app import _offscreen_messages
+    from snrmon.gui.app import _offscreen_messages
 
     _offscreen_messages(None, None, "This plugin does not support propagateSizeHints()")
     _offscreen_messages(None, None, "QPainter::begin: Paint device returned engine == 0")

@@ -9,10 +9,10 @@ import pyqtgraph as pg
 import pytest
 from PySide6.QtGui import QImage
 
-from acquisition.measure.peak_snr import PeakSnrConfig
-from acquisition.streams.ring import RingFrame
-from gui.camera_view import CameraView, DisplayImageItem, block_mean
-from gui.levels import levels_moved, robust_levels
+from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
+from snrmon.acquisition.streams.ring import RingFrame
+from snrmon.gui.camera_view import CameraView, DisplayImageItem, block_mean
+from snrmon.gui.levels import levels_moved, robust_levels
 
 
 def _sky(h: int, w: int, seed: int = 1) -> np.ndarray:

@@ -14,14 +14,14 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings, Qt
 
-from acquisition.config import session_config_from_dict
-from acquisition.prediction import ModelPredictor
-from acquisition.runtime.session import Session
-from drivers.camera.shm import ShmCamera
-from gui.app import console_application
-from gui.main_window import ConsoleWindow
-from gui.model_curves import ModelOptions
-from sim.devices.shm_camera import ShmProducer
+from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.prediction import ModelPredictor
+from snrmon.acquisition.runtime.session import Session
+from snrmon.drivers.camera.shm import ShmCamera
+from snrmon.gui.app import console_application
+from snrmon.gui.main_window import ConsoleWindow
+from snrmon.gui.model_curves import ModelOptions
+from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.gui.test_console import NOISE_DN, SPOT_X, SPOT_Y, H, SpotOnNoise, W
 
 
@@ -118,8 +118,9 @@ def test_a_measured_sky_adds_the_curves_at_that_background(window, monkeypatch):
     plot = window.range_plots["mwir"]
     sky = ModelPredictor({"mwir": "mwir"}, "uav1", background_temp_k=255.0).curve("mwir")
     own = ModelPredictor({"mwir": "mwir"}, "uav1").curve("mwir")
-    np.testing.assert_allclose(_drawn(window, "small_corrected @ sky 255.0 K")[1],
-                               sky["small_corrected"][1])  # fmt: skip
+    np.testing.assert_allclose(
+        _drawn(window, "small_corrected @ sky 255.0 K")[1], sky["small_corrected"][1]
+    )
     np.testing.assert_allclose(_drawn(window, "small_corrected")[1], own["small_corrected"][1])
     assert not np.allclose(sky["small_corrected"][1], own["small_corrected"][1])
     assert "large @ sky 255.0 K" in plot.curve_items

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.devices.shm_camera import ShmProducer
+from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.helpers import SPOT_X, SPOT_Y, SpotOnNoise, sensor_toml
 
 pytestmark = pytest.mark.desktop
@@ -63,8 +63,12 @@ def screen_point(cam: dict, x: int, y: int) -> tuple[int, int]:
 
 def click(display: str, x: int, y: int) -> None:
     env = {**os.environ, "DISPLAY": display}
-    subprocess.run(["xdotool", "mousemove", "--sync", str(x), str(y), "click", "1"],
-                   env=env, check=True, timeout=30)  # fmt: skip
+    subprocess.run(
+        ["xdotool", "mousemove", "--sync", str(x), str(y), "click", "1"],
+        env=env,
+        check=True,
+        timeout=30,
+    )
 
 
 def test_clicking_the_drone_in_the_real_window(xvfb_display, tmp_path):
@@ -76,16 +80,35 @@ def test_clicking_the_drone_in_the_real_window(xvfb_display, tmp_path):
     config = tmp_path / "session.toml"
     config.write_text(f'[cameras.cam]\nsource = "shm"\naddress = "{ring}"\nsensor = "{sensor}"\n')
     status = tmp_path / "status.json"
-    env = {**os.environ, "DISPLAY": xvfb_display, "QT_QPA_PLATFORM": "xcb",
-           "XDG_CONFIG_HOME": str(tmp_path / "config"), "PYTHONPATH": str(REPO)}  # fmt: skip
-    cmd = [sys.executable, "-m", "snrmon", "gui", "--config", str(config),
-           "--status-file", str(status), "--duration", "300"]  # fmt: skip
+    env = {
+        **os.environ,
+        "DISPLAY": xvfb_display,
+        "QT_QPA_PLATFORM": "xcb",
+        "XDG_CONFIG_HOME": str(tmp_path / "config"),
+        "PYTHONPATH": str(REPO),
+    }
+    cmd = [
+        sys.executable,
+        "-m",
+        "snrmon",
+        "gui",
+        "--config",
+        str(config),
+        "--status-file",
+        str(status),
+        "--duration",
+        "300",
+    ]
     producer.start()
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)  # fmt: skip
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        st = poll(status, lambda s: s["window"]["visible"] and s["cameras"]["cam"]["frames_shown"]
-                  > 10, 90, "the window showing frames", proc)  # fmt: skip
+        st = poll(
+            status,
+            lambda s: s["window"]["visible"] and s["cameras"]["cam"]["frames_shown"] > 10,
+            90,
+            "the window showing frames",
+            proc,
+        )
         assert st["cameras"]["cam"]["roi"] is None and st["cameras"]["cam"]["snr_mean"] is None
 
         # 1. Empty sky, far from the drone: the ROI goes where the hand clicked and the console
@@ -94,26 +117,40 @@ def test_clicking_the_drone_in_the_real_window(xvfb_display, tmp_path):
         # search settles on it, the console says so and how far from the click it is.
         click(xvfb_display, *screen_point(st["cameras"]["cam"], 20, 70))
         nothing = "cam: no object at the click (column 20, row 70): the track searches around it"
-        sky = poll(status, lambda s: "cam: ROI set at column 20, row 70" in s["messages"]
-                   and nothing in s["messages"], 30, "the console saying the click found no "
-                   "object", proc)  # fmt: skip
+        sky = poll(
+            status,
+            lambda s: (
+                "cam: ROI set at column 20, row 70" in s["messages"] and nothing in s["messages"]
+            ),
+            30,
+            "the console saying the click found no object",
+            proc,
+        )
         sky_cam = sky["cameras"]["cam"]
         assert sky["messages"].index(nothing) > sky["messages"].index(
             "cam: ROI set at column 20, row 70"
         )
         found = [m for m in sky["messages"] if m.startswith("cam: the track found an object")]
         for message in found:  # only ever the drone, and never silently
-            assert message.startswith(f"cam: the track found an object at column {round(SPOT_X)}, "
-                                      f"row {round(SPOT_Y)}, ")  # fmt: skip
+            assert message.startswith(
+                f"cam: the track found an object at column {round(SPOT_X)}, row {round(SPOT_Y)}, "
+            )
 
         # 2. The drone (a pixel off its peak, as a hand would): the ROI moves to the click, the
         # measurement's peak lands on the drone and the readout becomes the drone's SNR.
         x, y = round(SPOT_X) - 1, round(SPOT_Y) + 1
         click(xvfb_display, *screen_point(sky_cam, x, y))
-        drone = poll(status, lambda s: f"cam: ROI set at column {x}, row {y}" in s["messages"]
-                     and s["cameras"]["cam"]["peak"] == [round(SPOT_X), round(SPOT_Y)]
-                     and (s["cameras"]["cam"]["snr_n"] or 0) >= 5,
-                     30, "the ROI on the drone", proc)  # fmt: skip
+        drone = poll(
+            status,
+            lambda s: (
+                f"cam: ROI set at column {x}, row {y}" in s["messages"]
+                and s["cameras"]["cam"]["peak"] == [round(SPOT_X), round(SPOT_Y)]
+                and (s["cameras"]["cam"]["snr_n"] or 0) >= 5
+            ),
+            30,
+            "the ROI on the drone",
+            proc,
+        )
         cam = drone["cameras"]["cam"]
         assert cam["track_state"] == "tracking"
         # The drone's SNR (its amplitude over the noise, far above any noise peak's, about 3),

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings
 
-from acquisition.engine.frame_measurer import FrameMeasurer
-from acquisition.replay.player import ReplayPlayer
-from gui.app import console_application
-from gui.main_window import ConsoleWindow
+from snrmon.acquisition.engine.frame_measurer import FrameMeasurer
+from snrmon.acquisition.replay.player import ReplayPlayer
+from snrmon.gui.app import console_application
+from snrmon.gui.main_window import ConsoleWindow
 from tests.acquisition.session_factory import SPOT_XY, write_session
 
 
@@ -113,8 +113,8 @@ def test_bad_seek_and_speed_are_refused(player):
 
 
 def test_gps_cross_is_drawn_at_the_projection_and_hidden_without_one(qtbot, window):
-    from acquisition.engine.status import CameraStatus, FrameAccounting
-    from drivers.device import DeviceStatus
+    from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
+    from snrmon.drivers.device import DeviceStatus
 
     view = window.panels["mwir"].view
     cs = CameraStatus("mwir", DeviceStatus("mwir"), FrameAccounting(), gps_xy=(12.0, 7.5))

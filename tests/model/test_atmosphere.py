@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from model.atmosphere import Atmosphere, default_atmosphere, effective_extinction_per_km
-from model.modtran import read_spectral_csv, read_tape7
-from model.presets import load_atmosphere
-from model.radiometry import spectral_photon_radiance
+from snrmon.model.atmosphere import Atmosphere, default_atmosphere, effective_extinction_per_km
+from snrmon.model.modtran import read_spectral_csv, read_tape7
+from snrmon.model.presets import load_atmosphere
+from snrmon.model.radiometry import spectral_photon_radiance
 
 FIX = Path(__file__).with_name("fixtures")
 MW, LW = (3.45, 5.25), (8.0, 12.0)

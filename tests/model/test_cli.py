@@ -17,8 +17,17 @@ def _run(capsys, *argv):
 
 
 def test_snr_json(capsys):
-    code, out, _ = _run(capsys, "snr", "--sensor", "mwir", "--target", "uav1",
-                        "--ranges", "37,126,199,336,393,451,508", "--json")  # fmt: skip
+    code, out, _ = _run(
+        capsys,
+        "snr",
+        "--sensor",
+        "mwir",
+        "--target",
+        "uav1",
+        "--ranges",
+        "37,126,199,336,393,451,508",
+        "--json",
+    )
     assert code == 0
     recs = strict_json(out)
     assert [r["range_m"] for r in recs] == [37, 126, 199, 336, 393, 451, 508]
@@ -30,20 +39,58 @@ def test_snr_json(capsys):
 
 def test_snr_with_background_and_modtran_file(capsys):
     tape = str(FIX / "tape7_radiance.txt")
-    code, out, _ = _run(capsys, "snr", "--sensor", "lwir", "--target", "uav2", "--ranges", "393",
-                        "--atmosphere", tape, "--atmosphere-path-m", "1000",
-                        "--background-temp-c", "29.5", "--json")  # fmt: skip
+    code, out, _ = _run(
+        capsys,
+        "snr",
+        "--sensor",
+        "lwir",
+        "--target",
+        "uav2",
+        "--ranges",
+        "393",
+        "--atmosphere",
+        tape,
+        "--atmosphere-path-m",
+        "1000",
+        "--background-temp-c",
+        "29.5",
+        "--json",
+    )
     assert code == 0
     rec = strict_json(out)[0]
     assert rec["transmission"] == pytest.approx(0.7 ** (393 / 1000), rel=1e-6)
 
 
 def test_pvf_radiance_netd_json(capsys):
-    code, out, _ = _run(capsys, "pvf", "--psf", "airy", "--f-number", "1.25", "--pitch-um", "17",
-                        "--wavelength-um", "10", "--fill-factor", "0.9", "--json")  # fmt: skip
+    code, out, _ = _run(
+        capsys,
+        "pvf",
+        "--psf",
+        "airy",
+        "--f-number",
+        "1.25",
+        "--pitch-um",
+        "17",
+        "--wavelength-um",
+        "10",
+        "--fill-factor",
+        "0.9",
+        "--json",
+    )
     assert code == 0 and strict_json(out)["average_pvf"] == pytest.approx(0.4654, abs=5e-4)
-    code, out, _ = _run(capsys, "pvf", "--psf", "gaussian", "--sigma-px", "0.8",
-                        "--fill-factor", "0.8", "--target-size-px", "1", "--json")  # fmt: skip
+    code, out, _ = _run(
+        capsys,
+        "pvf",
+        "--psf",
+        "gaussian",
+        "--sigma-px",
+        "0.8",
+        "--fill-factor",
+        "0.8",
+        "--target-size-px",
+        "1",
+        "--json",
+    )
     assert strict_json(out)["average_pvf"] == pytest.approx(0.1602 * 0.762, abs=2e-3)
     code, out, _ = _run(capsys, "radiance", "--band", "8,12", "--temp-k", "300", "--json")
     r = strict_json(out)

@@ -7,12 +7,12 @@ import json
 import numpy as np
 import pytest
 
-from model.atmosphere import default_atmosphere
-from model.footprint import average_pvf_square, phase_grid, pixel_patterns
-from model.presets import load_sensor, load_target
-from model.pvf import average_pvf, average_pvf_vs_target_sigma
-from model.snr import predict
 from snrmon.cli import main
+from snrmon.model.atmosphere import default_atmosphere
+from snrmon.model.footprint import average_pvf_square, phase_grid, pixel_patterns
+from snrmon.model.presets import load_sensor, load_target
+from snrmon.model.pvf import average_pvf, average_pvf_vs_target_sigma
+from snrmon.model.snr import predict
 
 MW, LW = load_sensor("mwir"), load_sensor("lwir")
 UAV1 = load_target("uav1")
@@ -76,12 +76,19 @@ def _jump(snr: np.ndarray) -> float:
 
 def test_model_snr_json_10_to_1000_m_has_no_jump(capsys):
     ranges = ",".join(str(r) for r in range(10, 1001))
-    assert main(["model", "snr", "--sensor", "mwir", "--target", "uav1", "--ranges", ranges,
-                 "--json"]) == 0  # fmt: skip
+    assert (
+        main(["model", "snr", "--sensor", "mwir", "--target", "uav1", "--ranges", ranges, "--json"])
+        == 0
+    )
     recs = json.loads(capsys.readouterr().out)
     assert len(recs) == 991 and recs[0]["range_m"] == 10.0
-    for key in ("snr_small", "snr_large", "snr_small_corrected", "snr_large_corrected",
-                "expected_eq4"):  # fmt: skip
+    for key in (
+        "snr_small",
+        "snr_large",
+        "snr_small_corrected",
+        "snr_large_corrected",
+        "expected_eq4",
+    ):
         assert _jump(np.array([r[key] for r in recs])) < 1.5, key
     # the same statistic catches the paper's switch (so the test can fail): 393 -> 130 at 314 m
     paper = np.array([r["snr_paper"]["small"] for r in recs])
@@ -91,8 +98,9 @@ def test_model_snr_json_10_to_1000_m_has_no_jump(capsys):
 
 
 def test_the_switch_the_audit_found_and_the_continuous_value():
-    below, above = predict(MW, UAV1, [313.9, 314.1], geometry="paper", expected=False,
-                           band=False).snr_small  # fmt: skip
+    below, above = predict(
+        MW, UAV1, [313.9, 314.1], geometry="paper", expected=False, band=False
+    ).snr_small
     jump = 0.8 / average_pvf(MW.diffraction_psf(), 0.8)  # FF / PVF: the paper's step
     assert below / above == pytest.approx(jump, rel=0.02)
     cont = predict(MW, UAV1, [313.9, 314.1], expected=False, band=False).snr_small

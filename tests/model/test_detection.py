@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
-from model.detection import detection, threshold_sigma
-from model.footprint import phase_grid, pixel_patterns
-from model.presets import load_sensor, load_target
-from model.snr import predict
+from snrmon.model.detection import detection, threshold_sigma
+from snrmon.model.footprint import phase_grid, pixel_patterns
+from snrmon.model.presets import load_sensor, load_target
+from snrmon.model.snr import predict
 
 MW, UAV1 = load_sensor("mwir"), load_target("uav1")
 
@@ -31,8 +31,9 @@ def test_pd_falls_with_range_through_the_goal_at_the_detection_range():
     r = d.range_m
     p = predict(MW, UAV1, [r], expected=False, band=False)
     ph = phase_grid(5)
-    pats = pixel_patterns(MW.corrected_psf(), 0.8, ph, ph,
-                          target_square_px=UAV1.small_m / (r * MW.ifov_rad))  # fmt: skip
+    pats = pixel_patterns(
+        MW.corrected_psf(), 0.8, ph, ph, target_square_px=UAV1.small_m / (r * MW.ifov_rad)
+    )
     a = p.point_contrast_e["small"][0] / p.noise.total * pats.reshape(25, -1)
     pd = np.mean(1.0 - np.prod(ndtr(d.threshold_sigma - a), axis=1))
     assert pd == pytest.approx(0.5, abs=0.02)

@@ -5,11 +5,11 @@ share of the PSF and the 24-pixel sample std."""
 import numpy as np
 import pytest
 
-from acquisition.measure.peak_snr import PeakSnrConfig, measure_core
-from model.eq4 import expected_eq4, readings_of_patterns, rim_std_factor
-from model.footprint import average_pvf_square, pixel_patterns
-from model.presets import load_sensor
-from model.psf import AiryGaussianPsf, GaussianPsf
+from snrmon.acquisition.measure.peak_snr import PeakSnrConfig, measure_core
+from snrmon.model.eq4 import expected_eq4, readings_of_patterns, rim_std_factor
+from snrmon.model.footprint import average_pvf_square, pixel_patterns
+from snrmon.model.presets import load_sensor
+from snrmon.model.psf import AiryGaussianPsf, GaussianPsf
 
 MW = load_sensor("mwir")
 
@@ -78,8 +78,8 @@ def test_resolved_drone_reading_follows_the_consoles_extent_background():
     and reads it against itself; the console measures it against the rim of its extent grown by
     the guard (acquisition.measure.target_snr), and background="target" predicts that reading:
     held to a Monte Carlo of the console's own segmentation and measurement."""
-    from acquisition.measure.blob import analyse_blob
-    from acquisition.measure.target_snr import measure_target
+    from snrmon.acquisition.measure.blob import analyse_blob
+    from snrmon.acquisition.measure.target_snr import measure_target
 
     psf, amplitude, d_px = GaussianPsf(0.5), 3000.0, 8.0
     rim_only = float(expected_eq4(psf, 0.8, amplitude, target_square_px=d_px))
@@ -138,10 +138,12 @@ def test_over_a_stops_uneven_phases_it_predicts_what_those_frames_read():
     rng = np.random.default_rng(3)
     corner = rng.uniform(0.3, 0.5, (60, 2))  # offsets near the corner: the light is shared
     half, amplitude = 12, 60.0
-    frames = np.concatenate([
-        amplitude * pixel_patterns(psf, 0.8, [x], [y], half_size_px=half).reshape(1, 25, 25)
-        for x, y in corner
-    ])  # fmt: skip
+    frames = np.concatenate(
+        [
+            amplitude * pixel_patterns(psf, 0.8, [x], [y], half_size_px=half).reshape(1, 25, 25)
+            for x, y in corner
+        ]
+    )
     frames = np.repeat(frames, 20, axis=0) + rng.standard_normal((1200, 25, 25))
     measured = float(np.nanmean(measure_core(frames, half, half, PeakSnrConfig()).snr))
     at_phases = float(expected_eq4(psf, 0.8, amplitude, phases_xy=corner))

@@ -5,9 +5,14 @@ import dataclasses
 
 import pytest
 
-from model.detector import background_electrons, dark_electrons, lens_electrons, scene_electrons
-from model.noise import model_netd_mk, noise_breakdown, spatial_noise_e, temporal_noise_e
-from model.presets import load_sensor, load_target
+from snrmon.model.detector import (
+    background_electrons,
+    dark_electrons,
+    lens_electrons,
+    scene_electrons,
+)
+from snrmon.model.noise import model_netd_mk, noise_breakdown, spatial_noise_e, temporal_noise_e
+from snrmon.model.presets import load_sensor, load_target
 
 
 @pytest.mark.parametrize(("name", "netd_mk", "dn"), [("mwir", 41.0, 6.6), ("lwir", 50.0, 5.8)])

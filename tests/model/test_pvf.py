@@ -7,8 +7,8 @@ import pytest
 from scipy.integrate import dblquad
 from scipy.special import erf
 
-from model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf, TabulatedMtfPsf
-from model.pvf import (
+from snrmon.model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf, TabulatedMtfPsf
+from snrmon.model.pvf import (
     average_pvf,
     average_pvf_spatial,
     average_pvf_vs_target_sigma,

@@ -5,8 +5,8 @@ import math
 import pytest
 from scipy.integrate import quad
 
-from model import radiometry as rad
-from model.constants import SIGMA_SB
+from snrmon.model import radiometry as rad
+from snrmon.model.constants import SIGMA_SB
 
 # physics.md section 2 (independently computed, agreeing with pyradi)
 TABLE = [

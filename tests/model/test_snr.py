@@ -4,14 +4,14 @@ square-target curves, the band, and the hooks the scene simulator uses."""
 import numpy as np
 import pytest
 
-from model.detector import background_electrons
-from model.noise import temporal_noise_e
-from model.presets import load_sensor, load_target
-from model.psf import GaussianPsf
-from model.pvf import average_pvf, pixel_energy_fractions
-from model.radiometry import band_nodes, spectral_photon_radiance
-from model.snr import detection_range_m, predict, target_contrast_electrons
-from model.target import Target
+from snrmon.model.detector import background_electrons
+from snrmon.model.noise import temporal_noise_e
+from snrmon.model.presets import load_sensor, load_target
+from snrmon.model.psf import GaussianPsf
+from snrmon.model.pvf import average_pvf, pixel_energy_fractions
+from snrmon.model.radiometry import band_nodes, spectral_photon_radiance
+from snrmon.model.snr import detection_range_m, predict, target_contrast_electrons
+from snrmon.model.target import Target
 
 MW, LW = load_sensor("mwir"), load_sensor("lwir")
 UAV1, UAV2 = load_target("uav1"), load_target("uav2")
@@ -120,10 +120,21 @@ def test_to_records_shape_and_bad_ranges():
     recs = predict(LW, UAV2, [126.0, 393.0], geometry="paper").to_records()
     assert len(recs) == 2
     assert set(recs[0]) >= {
-        "range_m", "resolved_small", "resolved_large", "snr_small", "snr_large",
-        "snr_small_corrected", "snr_large_corrected", "signal_e", "noise_e", "transmission", "pvf",
-        "expected_eq4", "snr_paper", "transmission_contrast",
-    }  # fmt: skip
+        "range_m",
+        "resolved_small",
+        "resolved_large",
+        "snr_small",
+        "snr_large",
+        "snr_small_corrected",
+        "snr_large_corrected",
+        "signal_e",
+        "noise_e",
+        "transmission",
+        "pvf",
+        "expected_eq4",
+        "snr_paper",
+        "transmission_contrast",
+    }
     assert set(recs[0]["noise_e"]) == {"background", "lens", "dark", "read", "temporal", "spatial"}
     assert recs[0]["pvf"]["small"] is None and recs[1]["pvf"]["small"] > 0.3
     with pytest.raises(ValueError, match="range"):

@@ -11,8 +11,8 @@ import cv2
 import numpy as np
 
 # The data it works with are the product's own (their fields are not what is compared).
-from acquisition.measure.blob import Blob, BlobConfig, Box
-from acquisition.measure.local_sky import (
+from snrmon.acquisition.measure.blob import Blob, BlobConfig, Box
+from snrmon.acquisition.measure.local_sky import (
     darkest_side_level,
     flatten_sky,
     looks_level,

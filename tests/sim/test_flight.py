@@ -9,7 +9,7 @@ import numpy as np
 import pymap3d
 import pytest
 
-from sim.flight import PAPER_STOPS_M, CameraPointing, FlightConfig, FlightPlan
+from snrmon.sim.flight import PAPER_STOPS_M, CameraPointing, FlightConfig, FlightPlan
 
 
 def test_the_drone_hovers_at_each_planned_range():

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.example_scenes import lwir_example_scene, mwir_example_scene
-from sim.noise import NoiseBank, floor_noise_for, max_dn, quantize_dn, temporal_noise_e
-from sim.scene import SceneRenderer, TargetState
+from snrmon.sim.example_scenes import lwir_example_scene, mwir_example_scene
+from snrmon.sim.noise import NoiseBank, floor_noise_for, max_dn, quantize_dn, temporal_noise_e
+from snrmon.sim.scene import SceneRenderer, TargetState
 
 SMALL = {"width_px": 320, "height_px": 240}
 

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
-from sim.drone import GaussianSpread, drone_patch
-from sim.example_scenes import lwir_example_scene, mwir_example_scene
-from sim.feed import FlightCameraFeed
-from sim.flight import FlightConfig, FlightPlan
-from sim.scene import SceneRenderer, TargetState
-from sim.sky import CloudConfig, Confuser
+from snrmon.sim.drone import GaussianSpread, drone_patch
+from snrmon.sim.example_scenes import lwir_example_scene, mwir_example_scene
+from snrmon.sim.feed import FlightCameraFeed
+from snrmon.sim.flight import FlightConfig, FlightPlan
+from snrmon.sim.scene import SceneRenderer, TargetState
+from snrmon.sim.sky import CloudConfig, Confuser
 
 SMALL = {"width_px": 256, "height_px": 192}
 
@@ -173,18 +173,22 @@ def _fake_model(monkeypatch):
     import types
 
     calls = {}
-    det = types.ModuleType("model.detector")
+    det = types.ModuleType("snrmon.model.detector")
     det.background_electrons = lambda sensor, t: 2000.0 * t
-    noise = types.ModuleType("model.noise")
+    noise = types.ModuleType("snrmon.model.noise")
     noise.temporal_noise_e = lambda sensor, t: 1000.0
-    snr = types.ModuleType("model.snr")
+    snr = types.ModuleType("snrmon.model.snr")
 
     def contrast(sensor, target, range_m, *, size, background_temp_k, **kw):
         calls["size"], calls["bg"] = size, background_temp_k
         return 1e5 * (100.0 / range_m) ** 2
 
     snr.target_contrast_electrons = contrast
-    for name, mod in (("model.detector", det), ("model.noise", noise), ("model.snr", snr)):
+    for name, mod in (
+        ("snrmon.model.detector", det),
+        ("snrmon.model.noise", noise),
+        ("snrmon.model.snr", snr),
+    ):
         monkeypatch.setitem(sys.modules, name, mod)
     return calls
 
@@ -192,7 +196,7 @@ def _fake_model(monkeypatch):
 def test_scene_config_from_model_uses_the_models_chain(monkeypatch):
     import types
 
-    from sim.from_model import blackbody_scene, scene_config_from_model
+    from snrmon.sim.from_model import blackbody_scene, scene_config_from_model
 
     calls = _fake_model(monkeypatch)
     sensor = types.SimpleNamespace(
@@ -222,8 +226,8 @@ def test_scene_config_from_model_uses_the_models_chain(monkeypatch):
 
 
 def test_truth_snr_with_the_real_model_approaches_its_average_pvf_snr():
-    from model import presets
-    from sim.from_model import scene_config_from_model
+    from snrmon.model import presets
+    from snrmon.sim.from_model import scene_config_from_model
 
     sensor = presets.load_sensor("mwir")
     target = presets.load_target("uav1")
@@ -243,14 +247,14 @@ def test_truth_snr_with_the_real_model_approaches_its_average_pvf_snr():
 
 def _fixed_window_fractions(dx, dy, target_sigma_px):
     """A fixed 7x7 window of fractions, as model.pvf.pixel_energy_fractions returns."""
-    from sim.drone import gaussian_fractions_1d
+    from snrmon.sim.drone import gaussian_fractions_1d
 
     s = np.hypot(0.8, target_sigma_px)
     return np.outer(gaussian_fractions_1d(3, dy, s, 0.8), gaussian_fractions_1d(3, dx, s, 0.8))
 
 
 def test_tabulated_spread_reproduces_its_function_at_the_phase_grid():
-    from sim.drone import TabulatedSpread
+    from snrmon.sim.drone import TabulatedSpread
 
     fn = _fixed_window_fractions
     tab = pickle.loads(pickle.dumps(TabulatedSpread(fn, GaussianSpread(0.8, 0.8), phases=8)))
@@ -264,8 +268,8 @@ def test_blackbody_captures_share_the_cameras_fixed_pattern():
     belongs to the camera (defined on the sky), not to the level being rendered."""
     import dataclasses
 
-    from sim.example_scenes import mwir_example_scene
-    from sim.scene import SceneRenderer
+    from snrmon.sim.example_scenes import mwir_example_scene
+    from snrmon.sim.scene import SceneRenderer
 
     base = mwir_example_scene(width_px=64, height_px=48)
     cold = SceneRenderer(dataclasses.replace(base, blackbody_e=base.sky_e * 0.5), seed=4)

@@ -9,12 +9,12 @@ from datetime import UTC, datetime
 import pytest
 import serial
 
-from sim.devices.faults import FaultInjector, corrupt_checksum
-from sim.devices.ldm_sim import LdmSimulator
-from sim.devices.line_sim import xor_checksum
-from sim.devices.nmea_sim import NmeaReplaySimulator, NmeaSimulator, gga_rmc
-from sim.devices.pty_port import BaudBudgetWarning, PtyPort
-from sim.devices.trupulse_sim import TruPulseSimulator, hv_sentence
+from snrmon.sim.devices.faults import FaultInjector, corrupt_checksum
+from snrmon.sim.devices.ldm_sim import LdmSimulator
+from snrmon.sim.devices.line_sim import xor_checksum
+from snrmon.sim.devices.nmea_sim import NmeaReplaySimulator, NmeaSimulator, gga_rmc
+from snrmon.sim.devices.pty_port import BaudBudgetWarning, PtyPort
+from snrmon.sim.devices.trupulse_sim import TruPulseSimulator, hv_sentence
 
 
 def read_lines(path: str, n: int, timeout_s: float = 3.0, send: bytes = b"") -> list[bytes]:

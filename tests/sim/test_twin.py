@@ -4,13 +4,13 @@ paper's 0.8-px Gaussian fit, the outline's two dimensions, the scenario's sky an
 import numpy as np
 import pytest
 
-from acquisition.calibrate.psf_estimate import StopCrops, estimate_psf
-from model.footprint import average_pvf_square
-from model.presets import load_sensor, load_target
-from model.pvf import average_pvf
-from sim.optics import TwinOptics, TwinSpread, twin_optics
-from sim.silhouette import SILHOUETTES, quadcopter, silhouette_for
-from sim.twin import Scenario, twin_scene_config
+from snrmon.acquisition.calibrate.psf_estimate import StopCrops, estimate_psf
+from snrmon.model.footprint import average_pvf_square
+from snrmon.model.presets import load_sensor, load_target
+from snrmon.model.pvf import average_pvf
+from snrmon.sim.optics import TwinOptics, TwinSpread, twin_optics
+from snrmon.sim.silhouette import SILHOUETTES, quadcopter, silhouette_for
+from snrmon.sim.twin import Scenario, twin_scene_config
 
 MW, LW = load_sensor("mwir"), load_sensor("lwir")
 UAV1 = load_target("uav1")
