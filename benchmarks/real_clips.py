@@ -1,4 +1,4 @@
-"""The real thermal drone clips of ``../shared/data/ir_small_targets`` as a tracking benchmark.
+"""The real thermal drone clips of ``tests/data/ir_small_targets`` as a tracking benchmark.
 
 33 clips (320x256, 8-bit AGC'd video, 30 fps) with one labelled box per frame (PROVENANCE.md
 there). Per clip and click, the tracker runs from a deterministic click off the box's centre and
@@ -39,7 +39,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from acquisition.track.tracker import Tracker, TrackState
+from snrmon.acquisition.track.tracker import Tracker, TrackState
 
 MARGIN_PX = 2
 CLUTTER_DN = 200
@@ -57,9 +57,10 @@ OFFSETS: tuple[tuple[str, tuple[int, int]], ...] = (
 
 
 def data_root() -> Path:
-    """``$SNRMON_SHARED_DATA/ir_small_targets``, else ``../shared/data`` beside the checkout."""
-    base = os.environ.get("SNRMON_SHARED_DATA")
-    root = Path(base) if base else Path(__file__).resolve().parents[2] / "shared" / "data"
+    """``$SNRMON_TEST_DATA/ir_small_targets``, else the checkout's ``tests/data`` (the real
+    clips with their provenance; an installed package has no checkout: set the variable)."""
+    base = os.environ.get("SNRMON_TEST_DATA")
+    root = Path(base) if base else Path(__file__).resolve().parents[1] / "tests" / "data"
     return root / "ir_small_targets"
 
 
@@ -69,7 +70,7 @@ def clip_names(root: Path | None = None) -> list[str]:
     table = root / "clips.csv"
     if not table.is_file():
         raise FileNotFoundError(
-            f"real clips not found: {table} (set SNRMON_SHARED_DATA to the shared data folder)"
+            f"real clips not found: {table} (set SNRMON_TEST_DATA to a folder holding ir_small_targets/)"
         )
     with open(table, newline="") as fh:
         return [row["clip"] for row in csv.DictReader(fh)]
@@ -208,9 +209,18 @@ def score_run(
     )
     n = len(frames)
     return RunScore(
-        name, label, at, n, sum(merged), correct / n, base_ok / n, lost, occluded,
-        tracker.reacquisitions, longest,
-    )  # fmt: skip
+        name,
+        label,
+        at,
+        n,
+        sum(merged),
+        correct / n,
+        base_ok / n,
+        lost,
+        occluded,
+        tracker.reacquisitions,
+        longest,
+    )
 
 
 def score_clip(name: str, root: Path | None = None, tracker_factory=Tracker) -> list[RunScore]:

@@ -10,17 +10,18 @@ import pytest
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
 REPO = Path(__file__).resolve().parent.parent
-# A checkout elsewhere (a clone in /tmp) points at the data with SNRMON_SHARED_DATA.
-SHARED_DATA = Path(os.environ.get("SNRMON_SHARED_DATA", REPO.parent / "shared" / "data"))
+# The real data the tests read lives in the repository (tests/data, each folder with its
+# provenance); SNRMON_TEST_DATA points at another copy of the same folders.
+TEST_DATA = Path(os.environ.get("SNRMON_TEST_DATA", REPO / "tests" / "data"))
 
 
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
-    """``../shared/data`` beside the checkout, or ``$SNRMON_SHARED_DATA`` (real data with
-    provenance; never edited)."""
-    if not SHARED_DATA.is_dir():
-        pytest.skip(f"shared data not found at {SHARED_DATA} (set SNRMON_SHARED_DATA)")
-    return SHARED_DATA
+    """``tests/data``: real data with provenance (never edited; a test that damages a file
+    works on its own copy)."""
+    if not TEST_DATA.is_dir():
+        pytest.fail(f"test data not found at {TEST_DATA}")
+    return TEST_DATA
 
 
 @pytest.fixture(scope="session")

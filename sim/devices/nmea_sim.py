@@ -13,8 +13,8 @@ from collections.abc import Callable
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
-from sim.devices.line_sim import LineSimulator, sentence
-from sim.devices.pty_port import check_baud_budget
+from snrmon.sim.devices.line_sim import LineSimulator, sentence
+from snrmon.sim.devices.pty_port import check_baud_budget
 
 Position = Callable[[float], tuple[float, float, float]]
 
@@ -133,10 +133,17 @@ class NmeaSimulator(LineSimulator):
             raise ValueError(f"position provider returned {lat}, {lon}, {alt} at t={t_epoch}")
         return list(
             gga_rmc(
-                utc, lat, lon, alt, talker=self.talker, quality=self.quality, sats=self.sats,
-                hdop=self.hdop, geoid_sep_m=self.geoid_sep_m,
+                utc,
+                lat,
+                lon,
+                alt,
+                talker=self.talker,
+                quality=self.quality,
+                sats=self.sats,
+                hdop=self.hdop,
+                geoid_sep_m=self.geoid_sep_m,
             )
-        )  # fmt: skip
+        )
 
 
 def log_sentences(path: str | Path) -> list[bytes]:
@@ -149,7 +156,7 @@ def log_sentences(path: str | Path) -> list[bytes]:
 
 
 class NmeaReplaySimulator(LineSimulator):
-    """Replays a real receiver log (e.g. ``shared/data/nmea/*.log``) line by line.
+    """Replays a real receiver log (e.g. ``tests/data/nmea/*.log``) line by line.
 
     Args:
         log: the log file.
