@@ -70,7 +70,8 @@ def clip_names(root: Path | None = None) -> list[str]:
     table = root / "clips.csv"
     if not table.is_file():
         raise FileNotFoundError(
-            f"real clips not found: {table} (set SNRMON_TEST_DATA to a folder holding ir_small_targets/)"
+            f"real clips not found: {table} "
+            "(set SNRMON_TEST_DATA to a folder holding ir_small_targets/)"
         )
     with open(table, newline="") as fh:
         return [row["clip"] for row in csv.DictReader(fh)]

@@ -37,7 +37,7 @@ def test_acquisition_soak_rolls_its_recording_and_samples_memory(monkeypatch):
 
 def test_tracking_real_summary_and_table_from_scored_runs():
     """The tracking-real benchmark's figures and table (the runs themselves take minutes on all
-    33 clips: tests/acquisition/test_tracker_real.py scores a subset)."""
+    33 clips: tests/acquisition/track/test_tracker_real.py scores a subset)."""
     from snrmon.benchmarks.bench_tracking_real import _summary, format_text
     from snrmon.benchmarks.real_clips import RunScore
 

@@ -10,7 +10,7 @@ import pytest
 from snrmon.cli import main
 from snrmon.commands import devices
 from snrmon.drivers.camera import usb as usb_cam
-from tests.drivers.test_camera_usb import BOSON, U3V_ON_USB2, FakeBackend
+from tests.drivers.camera.test_camera_usb import BOSON, U3V_ON_USB2, FakeBackend
 from tests.helpers import strict_json
 
 

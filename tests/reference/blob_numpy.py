@@ -1,6 +1,6 @@
 """The NumPy/OpenCV segmentation as it was before it was compiled (branch point 717d7ff of
 acquisition/measure/blob.py, unchanged but for this docstring and the imports): the reference
-the compiled analysis must equal bit for bit (tests/acquisition/test_compiled_exact.py). Its
+the compiled analysis must equal bit for bit (tests/acquisition/measure/test_compiled_exact.py). Its
 configuration and result types are imported from the product, not copied."""
 
 from __future__ import annotations

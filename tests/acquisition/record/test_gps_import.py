@@ -17,7 +17,7 @@ from snrmon.acquisition.streams.timebase import ClockMap
 from snrmon.cli import main
 from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.gps.nmea_log import read_nmea_log
-from tests.drivers.test_nmea_logs import golden_tpvs
+from tests.drivers.gps.test_nmea_logs import golden_tpvs
 
 T0_NS = 5 * 10**12
 

@@ -80,7 +80,8 @@ def test_the_first_real_frame_loads_no_kernel(calibrated, resolved):
     # Each case in a fresh interpreter: kernels loaded by other tests would hide a cold start.
     def first_frames_load(warm: bool) -> dict[str, int]:
         code = (
-            "import json; from tests.acquisition.test_warm_up import _first_frames_load as f; "
+            "import json; "
+            "from tests.acquisition.engine.test_warm_up import _first_frames_load as f; "
             f"print(json.dumps(f({calibrated}, {warm}, {resolved})))"
         )
         run = subprocess.run(

@@ -28,7 +28,7 @@ from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 H, W = 64, 80
 CAMS = {"mwir": (H, W), "lwir": (48, 40)}
 CONFIG = {"operator": "ops", "site": {"lat_deg": 34.5, "lon_deg": -117.2}, "sensor": "mwir-f4"}

@@ -16,8 +16,8 @@ from snrmon.drivers.camera.shm import ShmCamera
 from snrmon.drivers.camera.v4l2 import V4l2Camera
 from snrmon.drivers.device import DeviceState
 from snrmon.sim.devices.shm_camera import RandomPattern, ShmProducer
-from tests.drivers.test_camera_aravis import fake_gv  # noqa: F401 (the fixture)
-from tests.drivers.test_camera_v4l2 import FakeCapture
+from tests.drivers.camera.test_camera_aravis import fake_gv  # noqa: F401 (the fixture)
+from tests.drivers.camera.test_camera_v4l2 import FakeCapture
 
 
 def collect(device, n: int, timeout_s: float = 10.0) -> list[Frame]:
