@@ -66,7 +66,7 @@ class CameraConfig:
     width_px: int | None = None
     height_px: int | None = None
     pointing: Pointing | None = None
-    calibration: str | None = None  # calibration file (npz + TOML sidecar), issue 9
+    calibration: str | None = None  # calibration file (npz + TOML sidecar)
 
 
 @dataclass(frozen=True)

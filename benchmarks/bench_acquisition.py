@@ -1,4 +1,4 @@
-"""Sustained acquisition and replay (issue 6 targets), measured on this machine.
+"""Sustained acquisition and replay (the targets in the README), measured on this machine.
 
 Both simulated cameras at their real rates (MWIR 1280x720 at 60 fps, LWIR 640x480 at 30 fps,
 each rendered by its own process into a shared-memory ring), the GPS and the rangefinder on
@@ -14,7 +14,7 @@ button, pressed twice); the last segment is replayed. The resident memory is sam
 ``RSS_EVERY_S`` so a soak shows its curve, not only its ends.
 
 Targets: 0 dropped frames over 60 s; p99 latency under 10 ms; ``--fast`` replay at least 100x
-real time for MWIR (issue 16), the median of five replays.
+real time for MWIR, the median of five replays.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Campaign throughput (issue 17): the same sessions re-analysed serially in this process and on
+"""Campaign throughput: the same sessions re-analysed serially in this process and on
 a LocalCluster of 2 worker processes, as ``snrmon campaign`` runs them.
 
 Sessions: ``N_FLIGHTS`` short simulated flights recorded with the HIL rig (LWIR, two stops,

@@ -1,6 +1,6 @@
 """The console's main window: one panel per camera, status, stop table, SNR-versus-range plots.
 
-Threading (anchors (c): acq4#595, PyMoDAQ#79, bluesky#1222): no frames or measurements through
+Threading (the lessons of acq4#595, PyMoDAQ#79, bluesky#1222): no frames or measurements through
 signals; its timers, on the GUI thread, peek each camera's newest frame (60 Hz) and read the
 session's status, series and stop table (5 Hz / 1 Hz). Qt objects are touched only here.
 """

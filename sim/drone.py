@@ -7,7 +7,7 @@ factor FF, a centred square of side sqrt(FF) pitches), for a centroid at a sub-p
 mean over uniform phases at the brightest pixel is the average PVF of the model (paper Eq. 2,
 section 8; docs/simulation.md).
 
-Shape of the source (model's convention, notes/physics.md section 1):
+Shape of the source (the model's convention, docs/model.md):
 
 * unresolved (characteristic dimension D <= ``resolved_above_px`` pixels): Gaussian target of
   sigma_t = D / 2, so with a Gaussian PSF the blur is Gaussian with sqrt(sigma_psf**2 + sigma_t**2);

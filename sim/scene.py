@@ -172,7 +172,7 @@ class FrameTruth:
 
     @property
     def truth_snr(self) -> float:
-        """Noise-free peak signal / temporal noise (issue 5's truth_snr, per frame)."""
+        """Noise-free peak signal / temporal noise (the per-frame truth SNR)."""
         return self.peak_signal_dn / self.temporal_noise_dn
 
     @property

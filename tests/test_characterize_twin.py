@@ -1,4 +1,4 @@
-"""``snrmon characterize`` on the digital twin's own recording (issue 15): the drone's
+"""``snrmon characterize`` on the digital twin's own recording: the drone's
 characteristic dimensions and temperature at the 37 m stop, from the session's calibration and
 the live track.
 

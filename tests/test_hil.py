@@ -1,4 +1,4 @@
-"""Closed-loop validation of the simulated field test (issues 5 and 15).
+"""Closed-loop validation of the simulated field test.
 
 The whole console runs against the digital twin through the real interfaces (camera processes
 writing shared-memory rings, an NMEA GPS and an LDM rangefinder on pseudo-terminals). The twin
@@ -109,7 +109,7 @@ def _measured(psf_dict):
 
 @pytest.mark.slow
 def test_hil_first_click_at_37m_holds_the_resolved_drone_and_reads_its_truth():
-    """Issue 14: the operator's first act, a click on the drone at the closest stop. The drone
+    """The operator's first act, a click on the drone at the closest stop. The drone
     covers more than the 7x7 box (MWIR ~12 px across); the track holds it, the stop gets its
     100 frames, and the background outside the drone's extent gives the truth within 15 %."""
     # Real time: at 2x (MWIR 120 fps, LWIR 60 fps) a loaded 2-core machine could not keep up

@@ -1,4 +1,4 @@
-"""Radiometric calibration of one camera from extended-blackbody captures (issue 9).
+"""Radiometric calibration of one camera from extended-blackbody captures.
 
 Owns the per-pixel response model, its fit, the bad-pixel map, the conversion of frames to
 in-band radiance and apparent (brightness) temperature, the one-point offset update and the

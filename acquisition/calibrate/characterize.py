@@ -1,4 +1,4 @@
-"""Target characterization from resolved frames at a close stop (paper section 3, issue 9).
+"""Target characterization from resolved frames at a close stop (paper section 3).
 
 Per frame, in a square ROI around the tracked position:
 

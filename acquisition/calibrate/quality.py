@@ -1,4 +1,4 @@
-"""The quality of a radiometric calibration (issue 9): residual non-uniformity, fit residual,
+"""The quality of a radiometric calibration: residual non-uniformity, fit residual,
 bad pixels and the measured NETD, on the calibration's own captures or held-out ones."""
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
-"""Live apparent sky (background) temperature per camera, as a time series (issue 9).
+"""Live apparent sky (background) temperature per camera, as a time series.
 
 The background region is the one Eq. 4 uses (paper section 5): the 24 rim pixels of the 7x7 box
 around the frame's peak (from its :class:`snrmon.acquisition.measure.peak_snr.PeakSnr`), or the
 operator's clear-sky rectangle. For a frame measured against the ``extent_rim`` background (a drone
-wider than the box's guard, issue 14) the 7x7 rim lies on the drone itself and would read it, not
+wider than the box's guard) the 7x7 rim lies on the drone itself and would read it, not
 the sky: the rim of the square around the peak that holds the segmented extent and its 2 px guard
 (half-size max(extent width, height) + 2) is used instead, the sky outside the drone.
 

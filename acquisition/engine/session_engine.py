@@ -7,8 +7,9 @@ Inputs (any thread; each camera's frames from one thread, in order):
 
 - :meth:`on_range`, :meth:`on_fix`: rangefinder readings and GPS fixes, into short histories on
   the common monotonic clock from which a frame's range is interpolated (the rangefinder while its
-  reading is fresh, else the GPS slant range from the site; DESIGN "Time"), and into the stop
-  detector; a fix is projected into every pointed camera and cues its tracker (paper section 4);
+  reading is fresh, else the GPS slant range from the site; docs/architecture.md, "Time"), and into
+  the stop detector; a fix is projected into every pointed camera and cues its tracker (paper
+  section 4);
 - :meth:`on_frame`: one frame of one camera through its engine, then into the stop table;
 - :meth:`on_recorded`: a frame measured live but missing from a recording (replay only);
 - :meth:`mark_stop`: the operator's stop mark.

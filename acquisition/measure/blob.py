@@ -1,4 +1,4 @@
-"""The compact bright object around a pixel: its peak, prominence, core and extent (issue 14).
+"""The compact bright object around a pixel: its peak, prominence, core and extent.
 
 What the tracker follows and what the target-aware measurement keeps out of its background.
 Given a seed pixel, the object is analysed in a square window by the connected set of pixels at

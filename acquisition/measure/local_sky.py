@@ -1,4 +1,4 @@
-"""The local sky around a target: its level, its noise, its tilt (issue 14).
+"""The local sky around a target: its level, its noise, its tilt.
 
 Helpers of :mod:`snrmon.acquisition.measure.blob`, on a float window of the frame:
 

@@ -1,4 +1,4 @@
-"""Target-aware Eq. (4): the background measured where it is background (issue 14).
+"""Target-aware Eq. (4): the background measured where it is background.
 
 Paper Eq. (4) takes the background from the 24 rim pixels of the 7x7 box centred on the peak,
 which assumes the target lies within the box's 3x3 core and 5x5 guard (section 5). A resolved

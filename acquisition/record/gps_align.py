@@ -1,4 +1,4 @@
-"""Placing a drone's own flight log on a session's clock (``snrmon gps-import``, issue 17).
+"""Placing a drone's own flight log on a session's clock (``snrmon gps-import``).
 
 A flight log's fixes carry UTC; a session's streams run on the host's monotonic clock, with
 ``/clock`` saying which UTC each stretch of it maps to (``docs/session-format.md``). A log fix

@@ -1,4 +1,4 @@
-"""Recording a drone's own flight log as a session's GPS stream (``snrmon gps-import``, issue 17).
+"""Recording a drone's own flight log as a session's GPS stream (``snrmon gps-import``).
 
 A campaign often has sessions whose live GPS feed was missing. The drone kept its own log (a DJI
 flight record exported by AirData, a receiver's NMEA log, a MAVLink ``.tlog``); its fixes are

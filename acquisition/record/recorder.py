@@ -3,10 +3,11 @@
 Producers (camera, measurement, rangefinder, GPS and GUI threads) call ``add_*``; each call only
 puts a record on a queue and returns at once, so recording never stalls acquisition. The writer
 thread appends to datasets that were all created up front, because the file runs in SWMR mode
-(``libver=("v110", "v110")``, ``swmr_mode = True``; anchors (b) 7, h5py#1807): a reader can follow
-the file live, and after a ``kill -9`` or a power loss the file opens with everything up to the last
-flush. Flushes (HDF5 flush + ``fsync``) happen at most every ``flush_interval_s``, so at most about
-one second is lost. Frames are written as they arrive, one chunk per frame (navigate#596).
+(``libver=("v110", "v110")``, ``swmr_mode = True``, as ophyd-async's simulated HDF5 writer does;
+h5py#1807): a reader can follow the file live, and after a ``kill -9`` or a power loss the file
+opens with everything up to the last flush. Flushes (HDF5 flush + ``fsync``) happen at most every
+``flush_interval_s``, so at most about one second is lost. Frames are written as they arrive, one
+chunk per frame (navigate#596).
 
 A slow disk shows as backlog; beyond ``max_backlog_bytes`` new frames are dropped and counted
 (reason ``recorder_backlog``). A write error (disk full) ends the recording with one message in

@@ -17,7 +17,7 @@ FORMAT_VERSION = "2.1"
 (docs/tracking.md, "Frame gaps"), and the engine states hold the last counter; a 2.0 file is
 replayed with gaps not told, as it was recorded.
 
-2.0 (issues 14, 16): per-frame background method and target extent, track state, window, cue,
+2.0: per-frame background method and target extent, track state, window, cue,
 running statistics and range in /cameras/<name>/measurements; engine states at recording gaps
 (/cameras/<name>/states); background reference images (/cameras/<name>/references); stop events
 carry the stop's times. A 1.x file is still read (the new fields are missing there) and replayed

@@ -1,4 +1,4 @@
-"""Batch replay of a recorded session: the whole timeline through the live engine (issue 16).
+"""Batch replay of a recorded session: the whole timeline through the live engine.
 
 :func:`replay_session` builds the session's engine with the recording's own settings (or the ones
 given: a re-analysis), plays the recording's timeline into it

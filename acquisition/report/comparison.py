@@ -1,4 +1,4 @@
-"""The report's comparison of the stops with the model, beyond the figures (issue 15).
+"""The report's comparison of the stops with the model, beyond the figures.
 
 * :func:`fit_statistics`: chi^2 per degree of freedom of the unresolved stops against each
   curve: sum over stops of (measured mean - model)^2 / (error of the mean^2 + the model band's

@@ -1,6 +1,6 @@
 """One live camera's path: device -> ring -> the engine (every frame) -> recorder.
 
-Threads (DESIGN "The data that flows", anchors (b) item 5):
+Threads (one producer, a bounded ring, consumers that never block it; docs/architecture.md):
 
 - the camera device's own reader thread copies each frame into a preallocated
   :class:`snrmon.acquisition.streams.ring.FrameRing` and returns at once (the producer never waits);
@@ -135,7 +135,7 @@ class CameraPipeline:
     def set_calibration(self, calibration) -> None:
         """Apply a radiometric calibration
         (:class:`snrmon.acquisition.calibrate.calibration.Calibration`)
-        to the measured window and follow the sky temperature (issue 9). Call before ``start``."""
+        to the measured window and follow the sky temperature. Call before ``start``."""
         self.engine.set_calibration(calibration)
 
     def capture_reference(self, n_frames: int = 64) -> None:

@@ -1,8 +1,8 @@
 """Bounded, thread-safe histories of scalar readings, interpolated at frame times.
 
-Range and drone position for a frame are found by linear interpolation on the common monotonic
-clock (DESIGN "Time"): GPS arrives at 10 Hz, the rangefinder whenever it fires, and frames at
-30-60 Hz. The raw readings are kept by the recorder; this holds only a short history for the
+Range and drone position for a frame are found by linear interpolation on the common monotonic clock
+(docs/architecture.md, "Time"): GPS arrives at 10 Hz, the rangefinder whenever it fires, and frames
+at 30-60 Hz. The raw readings are kept by the recorder; this holds only a short history for the
 interpolation.
 """
 

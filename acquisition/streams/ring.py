@@ -1,6 +1,6 @@
 """The per-camera frame ring: one producer, readers that see every frame, a latest-frame peek.
 
-Design after pymmcore-plus ``SequenceBuffer`` (anchors (b) item 5): a preallocated pool of frame
+Design after pymmcore-plus ``SequenceBuffer``: a preallocated pool of frame
 slots (pixels plus counter, host and device time), written in place by the acquisition thread
 through ``acquire_slot``/``finalize_slot`` (zero-copy) or ``push``. Consumers:
 

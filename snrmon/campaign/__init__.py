@@ -1,4 +1,4 @@
-"""Campaign re-analysis (issue 17): every session of a field campaign through the same engine
+"""Campaign re-analysis: every session of a field campaign through the same engine
 as ``snrmon replay``, one task per (session, camera) on Dask distributed, into one Parquet stop
 table, optional per-frame tables and one report.
 

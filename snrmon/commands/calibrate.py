@@ -1,4 +1,4 @@
-"""``snrmon calibrate``: per-pixel radiometric calibration from blackbody stacks (issue 9).
+"""``snrmon calibrate``: per-pixel radiometric calibration from blackbody stacks.
 
     snrmon calibrate --camera mwir --blackbody T1.npy:15 --blackbody T2.npy:40 -o CAL.npz [--json]
 

@@ -1,5 +1,5 @@
 """``snrmon characterize``: drone dimensions and temperature from a recorded close stop
-(paper section 3, issue 9).
+(paper section 3).
 
     snrmon characterize FILE.h5 --camera mwir --stop 1 [--calibration CAL.npz] [--json]
                         [--frames 100] [--method otsu|ksigma] [--target-out T.toml]
@@ -145,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
     if args.target_out:  # (a calibration comes from the session, or from --calibration)
         output_file(args.target_out, "--target-out", suffixes=(".toml",))
     sensor = load_sensor(args.sensor or _sensor_name(args.file, args.camera))
-    # As recorded: the live track (it follows a resolved drone, issue 14) gives each frame's
+    # As recorded: the live track (it follows a resolved drone) gives each frame's
     # position. A fixed window at the click would sit where the operator clicked, which at a
     # close stop can be tens of pixels off the drone (a click on its GPS position).
     replay = replay_session(args.file, fast=True)

@@ -1,4 +1,4 @@
-"""``snrmon hil``: the simulated collection day through the real console code (issue 5).
+"""``snrmon hil``: the simulated collection day through the real console code.
 
 Simulated cameras (shared-memory frame rings written by separate processes), an NMEA GPS and an
 LDM rangefinder (pseudo-terminals) fly the paper's stops; the ordinary Session measures, tracks,

@@ -1,4 +1,4 @@
-"""``snrmon psf``: the camera's PSF from a recorded stop of an unresolved drone (issue 15).
+"""``snrmon psf``: the camera's PSF from a recorded stop of an unresolved drone.
 
     snrmon psf FILE.h5 --camera C --stop N [--stop M ...] [--calibration CAL.npz]
                [--min-frames 50] [--json] [--no-record]

@@ -1,11 +1,11 @@
 """``snrmon hil --speed max``: the fastest flight speed this machine sustains without dropping a
 frame.
 
-The console's time base is the host's monotonic clock at receipt (DESIGN "Time"): every reading
-and frame is stamped when it arrives, the stop detector and the 100-frame windows run on those
-stamps, and the serial protocols (LDM, NMEA) carry no clock the console could follow instead. So
-a HIL flight cannot run "unpaced"; it runs paced at ``speed`` x real time (the cameras at
-``fps x speed``), and ``max`` is the largest speed whose load fits this machine.
+The console's time base is the host's monotonic clock at receipt (docs/architecture.md, "Time"):
+every reading and frame is stamped when it arrives, the stop detector and the 100-frame windows run
+on those stamps, and the serial protocols (LDM, NMEA) carry no clock the console could follow
+instead. So a HIL flight cannot run "unpaced"; it runs paced at ``speed`` x real time (the cameras
+at ``fps x speed``), and ``max`` is the largest speed whose load fits this machine.
 
 It is measured, not guessed: the same rig (camera processes, serial simulators, Session with the
 ROI on the drone) runs at speed 1 for a few seconds while the CPU time of the console process

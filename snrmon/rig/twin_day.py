@@ -1,5 +1,5 @@
 """The simulated collection day's twin cameras, their calibration at the start of the day, and
-the PSF measured from the flight at its end (issue 15).
+the PSF measured from the flight at its end.
 
 * :func:`camera_feeds`: each camera's renderer is the digital twin of :mod:`snrmon.sim.twin` (its
   own optics and the drone's outline; the scenario's sky and air), not the model's PSF.

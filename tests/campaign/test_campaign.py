@@ -1,4 +1,4 @@
-"""``snrmon campaign`` against ``snrmon replay`` on the same sessions (issue 17)."""
+"""``snrmon campaign`` against ``snrmon replay`` on the same sessions."""
 
 from __future__ import annotations
 

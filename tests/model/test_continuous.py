@@ -1,4 +1,4 @@
-"""The continuous model (issue 15): the square target's phase-averaged ensquared energy, its
+"""The continuous model: the square target's phase-averaged ensquared energy, its
 limits, no jump at the transition, separate sky and air, the contrast-weighted transmission,
 and the audit's numbers each pinned."""
 

@@ -1,5 +1,5 @@
 """Presets and Eq. 1: NETD within 20 % of Table 1, temporal noise near the paper's DN values,
-the physics.md worked example, and TOML validation."""
+an independent worked example, and TOML validation."""
 
 import dataclasses
 
@@ -36,7 +36,8 @@ def test_table1_geometry():
 
 
 def test_physics_notes_worked_example():
-    # physics.md: QE 0.6, tau_o 0.8, tau_cf 0.9, 5 ms, 293 K lens eps 0.2, 1e-7 A/cm2, 100 e-
+    # the worked example: QE 0.6, tau_o 0.8, tau_cf 0.9, 5 ms, 293 K lens eps 0.2, 1e-7 A/cm2, 100
+    # e-
     s = dataclasses.replace(load_sensor("mwir"), t_int_s=0.005, lens_temp_k=293.0)
     assert scene_electrons(s, 290.0) == pytest.approx(6.57e5, rel=5e-3)
     assert lens_electrons(s) == pytest.approx(1.83e5, rel=1e-2)

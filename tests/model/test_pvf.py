@@ -1,4 +1,4 @@
-"""PSF/PVF: closed forms, two independent Airy methods, the paper's values (physics.md)."""
+"""PSF/PVF: closed forms, two independent Airy methods, the paper's values."""
 
 import math
 
@@ -62,7 +62,8 @@ def test_airy_pvf_two_independent_methods_agree(psf, ff):
 
 
 def test_paper_and_physics_notes_values():
-    # physics.md section 1 table (paper: 0.25 MWIR, 0.45 LWIR diffraction limited)
+    # independently computed (frequency- and spatial-domain integration; paper: 0.25 MWIR, 0.45 LWIR
+    # diffraction limited)
     assert average_pvf(MW_MONO, 0.8) == pytest.approx(0.2624, abs=5e-4)
     assert ensquared_energy(MW_MONO, 0.8) == pytest.approx(0.3271, abs=5e-4)
     assert average_pvf(MW_POLY, 0.8) == pytest.approx(0.2654, abs=5e-4)

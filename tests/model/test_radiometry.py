@@ -1,4 +1,5 @@
-"""Planck band integrals against scipy quadrature and the verified table of physics.md."""
+"""Planck band integrals against scipy quadrature and an independently computed table
+(agreeing with pyradi's planckInt)."""
 
 import math
 
@@ -8,7 +9,7 @@ from scipy.integrate import quad
 from snrmon.model import radiometry as rad
 from snrmon.model.constants import SIGMA_SB
 
-# physics.md section 2 (independently computed, agreeing with pyradi)
+# independently computed (adaptive quadrature and the Widger-Woodall series; pyradi agrees)
 TABLE = [
     ((3.45, 5.25), 250, 0.326056, 7.80615e18, 1.59041e-2, 3.77861e17),
     ((3.45, 5.25), 290, 1.775611, 4.19122e19, 6.53841e-2, 1.52927e18),

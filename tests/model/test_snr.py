@@ -28,7 +28,7 @@ def test_transition_range_uav1_small_mwir():
 
 
 def test_eq2_point_signal_by_hand():
-    # physics.md worked example: 5 K contrast, tau 0.8, 15.7 cm target, 290 K background
+    # an independent worked example: 5 K contrast, tau 0.8, 15.7 cm target, 290 K background
     s = MW.__class__(**{**MW.__dict__, "t_int_s": 0.005})
     t = Target("bb", 0.157, 0.157, {"mwir": 295.0 - 273.15})
     kw = {"atmosphere": 0.8, "background_temp_k": 290.0, "air_temp_k": 290.0}

@@ -1,4 +1,4 @@
-"""The digital twin's own optics and drone (issue 15): independent of the model's PSFs, the
+"""The digital twin's own optics and drone: independent of the model's PSFs, the
 paper's 0.8-px Gaussian fit, the outline's two dimensions, the scenario's sky and air."""
 
 import numpy as np

@@ -51,7 +51,7 @@ def test_bad_inputs(setup):
 
 
 def test_a_drone_wider_than_the_box_is_not_read_as_sky(setup):
-    """A resolved drone (a 9-px warm square, measured against its extent rim, issue 14) puts
+    """A resolved drone (a 9-px warm square, measured against its extent rim) puts
     itself on the 7x7 rim: the sky is read on the rim outside its extent and guard instead, as
     Eq. 4's background is, so the model's path-radiance correction gets the sky's 280 K."""
     from snrmon.acquisition.measure.blob import analyse_blob

@@ -256,5 +256,6 @@ def test_eq4_estimator_bias_at_snr_10(ddof, expected):
     ratio = float(np.mean(result.snr)) / 10.0
     # standard error of the ratio: ~1.93 / 10 / sqrt(40000) = 0.001
     assert ratio == pytest.approx(expected, abs=0.004)
-    # frame-to-frame scatter of the per-frame SNR (physics notes: 1.93 at A = 10, ddof=1)
+    # frame-to-frame scatter of the per-frame SNR (an independent Monte Carlo: 1.93 at A = 10,
+    # ddof=1)
     assert float(np.std(result.snr, ddof=1)) == pytest.approx(1.93 * expected / 1.0342, rel=0.03)

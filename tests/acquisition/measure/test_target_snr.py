@@ -1,4 +1,4 @@
-"""Target-aware Eq. (4) (issue 14): the segmented extent, the background rule, and the tracker
+"""Target-aware Eq. (4): the segmented extent, the background rule, and the tracker
 measuring a drone wider than the 7x7 box, a bright point whose PSF wings reach the rim, and a
 cloud edge entering the background."""
 

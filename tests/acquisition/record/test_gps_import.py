@@ -1,4 +1,4 @@
-"""Importing a flight log into a session (issue 17): the real gpsd NMEA logs through the import
+"""Importing a flight log into a session: the real gpsd NMEA logs through the import
 path, the clock mapping and the offset search on known data, the refusals."""
 
 from __future__ import annotations

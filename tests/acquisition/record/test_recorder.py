@@ -71,7 +71,7 @@ def test_round_trip_is_exact_and_readable_with_plain_h5py(tmp_path: Path) -> Non
         row = dict(counter=fr.counter, t_host_ns=fr.t_host_ns, peak_x=3 + i, peak_y=40 - i)
         row |= dict(peak=1234.5 + i, bg_mean=1000.25, bg_std=12.125 + i, snr=snr)
         flags = {"edge", "gps_cued"} if i == 4 else set()
-        # The background a frame was measured against, and the target's extent (issue 14).
+        # The background a frame was measured against, and the target's extent.
         bg = dict(background="extent_rim", extent_w_px=12, extent_h_px=9) if i == 5 else {}
         rec.add_measurement("mwir", i, flags=flags, **row, **bg)
         extra = (b"extent_rim", 12, 9) if i == 5 else (b"rim", 0, 0)

@@ -1,5 +1,5 @@
 """A session file opens in readers built on HDF5 1.10 (MATLAB's, Debian's h5dump), not only in the
-h5py that wrote it: the writer bounds the file format at v110 (issue 16).
+h5py that wrote it: the writer bounds the file format at v110.
 
 The independent reader is the distribution's ``h5dump``/``h5ls`` (hdf5-tools; Debian 12 ships
 HDF5 1.10.8), installed by ``.ci/run``. A file written with ``libver="latest"`` by this h5py

@@ -1,4 +1,4 @@
-"""Replay reproduces the live session exactly, across recording gaps (issue 16).
+"""Replay reproduces the live session exactly, across recording gaps.
 
 A live Session on simulated devices (a camera process writing a shared-memory ring, an LDM
 rangefinder and an NMEA GPS on pseudo-terminals) is recorded through a disk that stalls now and

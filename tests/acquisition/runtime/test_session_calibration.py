@@ -1,4 +1,4 @@
-"""A calibrated camera in a live Session (issue 9): the calibration is applied before Eq. (4),
+"""A calibrated camera in a live Session: the calibration is applied before Eq. (4),
 the sky's apparent temperature is followed live, recorded, and the replay is exact."""
 
 from __future__ import annotations

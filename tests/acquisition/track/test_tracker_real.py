@@ -1,4 +1,4 @@
-"""The tracker on real thermal drone clips (shared data; issue 14's floors on a CI subset).
+"""The tracker on real thermal drone clips (floors on a CI subset).
 
 ``snrmon bench --only tracking-real`` runs all 33 clips from seven clicks each (docs/tracking.md
 gives the figures); here four clips that each stress one thing, from two clicks: IR_DRONE_048

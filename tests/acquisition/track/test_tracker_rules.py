@@ -1,4 +1,4 @@
-"""The tracker's new rules on seeded synthetic stacks (issue 14): the click picks the compact
+"""The tracker's new rules on seeded synthetic stacks: the click picks the compact
 object, birds near a lost track are not accepted, a drone merged with a saturated treeline is
 reported occluded and found again, and bad input gets one clear message."""
 

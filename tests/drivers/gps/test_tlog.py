@@ -1,4 +1,4 @@
-"""MAVLink .tlog import (issue 17): positions and their UTC, by the best source in the log."""
+"""MAVLink .tlog import: positions and their UTC, by the best source in the log."""
 
 from __future__ import annotations
 
