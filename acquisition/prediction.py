@@ -17,12 +17,44 @@ measurement thread, whose frame ring holds half a second.
 from __future__ import annotations
 
 import threading
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
 CURVES = ("small", "large", "small_corrected", "large_corrected")
 EXPECTED = "expected_eq4"
 PAPER_CURVES = tuple(f"paper_{c}" for c in CURVES)
+
+
+@runtime_checkable
+class Predictor(Protocol):
+    """What the pipeline asks of the model (:class:`ModelPredictor` is the implementation): the
+    prediction at a range, the curves for plotting, and the two inputs a session changes while
+    it runs (the measured sky temperature, a PSF measured from the flight)."""
+
+    version: int
+    """Counts the curves swapped in: a display redraws when it changes."""
+    background_temp_k: dict[str, float | None]
+    """The background (sky) temperature asked for, per camera (None: the model's own)."""
+    curves_background_k: dict[str, float]
+    """The background temperature the current curves were computed for, per camera (K)."""
+    curves_psf: dict[str, Any]
+    """The corrected PSF the current curves were computed with, per camera (None: preset's)."""
+
+    def __call__(self, camera: str, range_m: float) -> dict[str, float]:
+        """The curves at ``range_m`` (``CURVES``, ``EXPECTED``, ``resolved_small``); empty
+        when the camera has no curves or the range is not positive."""
+        ...
+
+    def curve(self, camera: str) -> dict[str, tuple]:
+        """The curves over the range grid, for plotting (see :meth:`ModelPredictor.curve`)."""
+        ...
+
+    def set_background(
+        self, camera: str, temp_k: float | None, *, wait: bool | None = None
+    ) -> None: ...
+
+    def set_psf(self, camera: str, psf: Any, *, wait: bool | None = None) -> None: ...
 
 
 class ModelPredictor:

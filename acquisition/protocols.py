@@ -16,7 +16,8 @@ import numpy as np
 
 from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.status import CameraStatus, SessionStatus
-from snrmon.acquisition.stops.table import Predictor, StopRow
+from snrmon.acquisition.prediction import Predictor
+from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import RingFrame
 
 
@@ -31,6 +32,10 @@ class CameraView(Protocol):
     def series(self) -> np.ndarray: ...
 
     def status(self) -> CameraStatus: ...
+
+    def click_messages(self) -> list[str]:
+        """What became of the operator's last click, each message once (none in a replay)."""
+        ...
 
 
 class ConsoleSession(Protocol):

@@ -3,9 +3,6 @@ model's value at the current range read off a curve the model computed."""
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from snrmon.gui.camera_view import CameraView
@@ -33,15 +30,3 @@ class CameraPanel(QWidget):
         lay.addWidget(self.header)
         lay.addWidget(self.view, 3)
         lay.addLayout(bottom, 2)
-
-
-def model_at_range(curve: tuple, range_m: float | None) -> float | None:
-    """A model curve's value at ``range_m``, read off the curve the model computed (linear
-    between its samples; None outside its range, never extrapolated)."""
-    if range_m is None or not math.isfinite(range_m) or len(curve) != 2:
-        return None
-    r, s = np.asarray(curve[0], float), np.asarray(curve[1], float)
-    if r.size == 0 or not (r.min() <= range_m <= r.max()):
-        return None
-    order = np.argsort(r)
-    return float(np.interp(range_m, r[order], s[order]))

@@ -241,7 +241,7 @@ class CameraView(QWidget):
         self.search_rect.setVisible(roi is not None)
         if roi is not None:
             self.search_rect.setRect(square_around(roi[0], roi[1], self.config.search_px))
-        last = status.last
+        last = status.last.result if status.last is not None else None
         has_peak = roi is not None and last is not None
         for item in (self.box_rect, self.rim_inner_rect, self.peak_rect):
             item.setVisible(has_peak)

@@ -29,11 +29,12 @@ from PySide6.QtWidgets import (
 )
 
 from snrmon.acquisition.engine.status import SessionStatus
+from snrmon.acquisition.prediction import EXPECTED
 from snrmon.acquisition.protocols import ConsoleSession, ReplayControls
 from snrmon.gui import model_curves as mc
 from snrmon.gui.actions import install_actions, shortcuts_text
 from snrmon.gui.alarms import AlarmBanner
-from snrmon.gui.camera_panel import CameraPanel, model_at_range
+from snrmon.gui.camera_panel import CameraPanel
 from snrmon.gui.model_dialog import ModelOptionsDialog
 from snrmon.gui.noise_panel import NoisePanel
 from snrmon.gui.range_plot import CurveSource, RangePlot
@@ -47,7 +48,6 @@ from snrmon.gui.window_settings import restore_window, save_model_options, save_
 FRAME_INTERVAL_MS = 16
 STATUS_INTERVAL_MS = 200
 TABLE_INTERVAL_MS = 1000
-_NO_NEWS = type("NoNews", (), {"take": staticmethod(list)})()  # a replay tells no click news
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +79,7 @@ class ConsoleWindow(QMainWindow):
         self.session = session
         self.curves_source = curves
         self.model: mc.ModelCurves | None = mc.model_for_session(session, predictor)
+        self._model_version: tuple[int, int] | None = None  # of the curves drawn
         self.model_dialog: ModelOptionsDialog | None = None
         self.settings = settings or QSettings("snrmon", "console")
         self.screenshot_path: Path | None = None
@@ -178,43 +179,43 @@ class ConsoleWindow(QMainWindow):
         self.banner.show_alarms(st.alarms, now_ns / 1e9)
         self.status_panel.show_status(st)
         self.noise_panel.show_status(st)
-        version = getattr(self.model, "version", None)
-        redraw = version is not None and version != getattr(self, "_model_version", None)
+        version = self.model.version if self.model is not None else None
+        redraw = version is not None and version != self._model_version
         self._model_version = version
         for name, panel in self.panels.items():
             cs = st.cameras[name]
-            followed = self.model is not None and self.model.follow_sky(name, cs.sky_temp_k)
+            followed = self.model is not None and self.model.follow_sky(name, cs.figures.sky_temp_k)
             if followed or redraw:  # a new sky, or curves computed in the background arrived
                 self._draw_curves(name)
             panel.view.show_status(cs)
-            for message in getattr(self.session.pipelines[name], "click_news", _NO_NEWS).take():
+            for message in self.session.pipelines[name].click_messages():
                 self.report(f"{name}: {message}")  # what the track made of a click
             panel.inset.show_box(self._pixels.get(name), cs)
             panel.chart.show_series(self.session.pipelines[name].series(), now_ns)
-            mname, msnr = self._model_now(name, cs)
+            mname, msnr = self._model_now(cs)
             panel.chart.show_model(mname, msnr)
-            self.range_plots[name].show_live(cs.range_m, cs.snr_mean, cs.snr_std)
-            snr = f"{cs.snr_mean:.2f} +/- {cs.snr_std:.2f}" if cs.snr_n else "--"
-            if cs.reference_frames and cs.snr_mean_raw == cs.snr_mean_raw:  # not NaN
-                snr += f" (raw {cs.snr_mean_raw:.2f}, FPN {cs.fixed_pattern_dn:.1f} DN)"
-            if cs.sky_temp_k == cs.sky_temp_k:
-                snr += f"   sky {cs.sky_temp_k - 273.15:.1f} C"
+            m, fig = cs.last, cs.figures
+            if m is not None:
+                self.range_plots[name].show_live(m.range_m, m.snr_mean, m.snr_std)
+            snr = f"{m.snr_mean:.2f} +/- {m.snr_std:.2f}" if m is not None and m.snr_n else "--"
+            if m is not None and fig.reference_frames and m.snr_mean_raw == m.snr_mean_raw:
+                snr += f" (raw {m.snr_mean_raw:.2f}, FPN {fig.fixed_pattern_dn:.1f} DN)"
+            if fig.sky_temp_k == fig.sky_temp_k:  # not NaN
+                snr += f"   sky {fig.sky_temp_k - 273.15:.1f} C"
             panel.header.setText(
-                f"{name.upper()}   {cs.fps:.1f} fps   {cs.track_state}   SNR(100) {snr}"
+                f"{name.upper()}   {cs.fps:.1f} fps   {cs.track_state.value}   SNR(100) {snr}"
             )
         recording = st.recording.state == "recording"
         self.actions_by_key["record_start"].setEnabled(not recording)
         self.actions_by_key["record_stop"].setEnabled(recording)
 
-    def _model_now(self, camera: str, cs) -> tuple[str, float | None]:
-        # The session's own prediction when it gives one, else read off the first model curve.
-        if cs.model_snr:
-            name, value = next(iter(cs.model_snr.items()))
-            return name, value
-        curves = self._curves.get(camera) or {}
-        for name, curve in curves.items():
-            if len(curve) == 2:
-                return name, model_at_range(curve, cs.range_m)
+    @staticmethod
+    def _model_now(cs) -> tuple[str, float | None]:
+        # What the model expects the console to read at the current range (computed on the
+        # acquisition side, CameraStatus.model), else its first curve there.
+        for name in (EXPECTED, "small_corrected"):
+            if name in cs.model:
+                return name, cs.model[name]
         return "", None
 
     def refresh_stops(self) -> None:

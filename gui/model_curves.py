@@ -19,7 +19,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from snrmon.acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
+from snrmon.acquisition.prediction import (
+    CURVES,
+    EXPECTED,
+    PAPER_CURVES,
+    ModelPredictor,
+    Predictor,
+)
 from snrmon.acquisition.protocols import ConsoleSession
 
 CURVE_LABELS = {
@@ -83,7 +89,7 @@ class ModelCurves:
         sensors: dict[str, str],
         options: ModelOptions,
         *,
-        session_predictor: ModelPredictor | None = None,
+        session_predictor: Predictor | None = None,
     ) -> None:
         self.sensors = dict(sensors)
         self.options = options
@@ -108,7 +114,7 @@ class ModelCurves:
     def version(self) -> tuple[int, int]:
         """Changes whenever either predictor swapped in new curves (they may be computed in
         the background: a new sky, a PSF measured from the flight)."""
-        return (getattr(self.own, "version", 0), getattr(self.sky, "version", 0))
+        return (self.own.version, self.sky.version)
 
     def follow_sky(self, camera: str, temp_k: float) -> bool:
         """Set ``camera``'s measured sky temperature; True when its curves changed."""
@@ -141,11 +147,13 @@ def session_sensors(session: ConsoleSession) -> dict[str, str]:
     return {c.name: c.sensor for c in session.config.cameras}
 
 
-def model_for_session(session: ConsoleSession, predictor=None) -> ModelCurves | None:
+def model_for_session(
+    session: ConsoleSession, predictor: Predictor | None = None
+) -> ModelCurves | None:
     """The console's model on ``session``'s sensors and target, reusing ``predictor`` (or the
     session's own) as the sky/session predictor; None when there is no predictor to follow."""
     predictor = predictor if predictor is not None else session.predictor
-    if not (hasattr(predictor, "curve") and hasattr(predictor, "set_background")):
+    if predictor is None:
         return None
     options = default_options(session)
     model = ModelCurves(session_sensors(session), options, session_predictor=predictor)
@@ -153,7 +161,7 @@ def model_for_session(session: ConsoleSession, predictor=None) -> ModelCurves | 
     return model
 
 
-def hand_to_session(session: ConsoleSession, predictor: ModelPredictor) -> None:
+def hand_to_session(session: ConsoleSession, predictor: Predictor) -> None:
     """Make ``predictor`` the session's (its stop table's model values, its sky following)."""
     session.predictor = predictor
 

@@ -64,7 +64,7 @@ class NoisePanel(QWidget):
     def show_status(self, st: SessionStatus) -> None:
         for (cam, field), label in self.labels.items():
             cs = st.cameras.get(cam)
-            value = getattr(cs, field, math.nan) if cs is not None else math.nan
+            value = getattr(cs.figures, field) if cs is not None else math.nan
             text = f"{value:.2f}" if math.isfinite(value) else "--"
             if label.text() != text:
                 label.setText(text)

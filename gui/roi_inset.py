@@ -106,8 +106,8 @@ class RoiInset(QWidget):
         lay.addWidget(self.numbers)
 
     def show_box(self, pixels: np.ndarray | None, status: CameraStatus) -> None:
-        """Cut the box around ``status.last``'s peak out of ``pixels`` and show the numbers."""
-        last = status.last
+        """Cut the box around the last measured peak out of ``pixels`` and show the numbers."""
+        last = status.last.result if status.last is not None else None
         if pixels is None or last is None or status.roi_xy is None:
             self.grid.set_values(None)
             self.numbers.setText("no measurement")

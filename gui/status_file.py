@@ -46,14 +46,15 @@ def console_state(window) -> dict[str, Any]:
     for name, panel in window.panels.items():
         cs = st.cameras.get(name) if st is not None else None
         rows, cols = panel.view.shape
-        last = cs.last if cs is not None else None
+        m = cs.last if cs is not None else None
+        last = m.result if m is not None else None
         cameras[name] = {
             "roi": list(cs.roi_xy) if cs is not None and cs.roi_xy is not None else None,
             "peak": [last.peak_x, last.peak_y] if last is not None else None,
-            "track_state": cs.track_state if cs is not None else "",
-            "snr_mean": _num(cs.snr_mean) if cs is not None else None,
-            "snr_std": _num(cs.snr_std) if cs is not None else None,
-            "snr_n": cs.snr_n if cs is not None else 0,
+            "track_state": cs.track_state.value if cs is not None else "",
+            "snr_mean": _num(m.snr_mean) if m is not None else None,
+            "snr_std": _num(m.snr_std) if m is not None else None,
+            "snr_n": m.snr_n if m is not None else 0,
             "header": panel.header.text(),
             "frames_shown": panel.view.frames_shown,
             "shape": [rows, cols],

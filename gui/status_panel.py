@@ -140,13 +140,14 @@ class StatusPanel(QWidget):
             )
             roi = "--" if cs.roi_xy is None else f"({cs.roi_xy[0]}, {cs.roi_xy[1]})"
             why = f" ({cs.track_reason})" if cs.track_reason else ""
-            self._set(f"{cam}_track", f"{cs.track_state}{why}  ROI {roi}")
-            if cs.snr_n:
-                self._set(f"{cam}_snr", f"{cs.snr_mean:.2f} +/- {cs.snr_std:.2f} (n {cs.snr_n})")
+            self._set(f"{cam}_track", f"{cs.track_state.value}{why}  ROI {roi}")
+            m = cs.last
+            if m is not None and m.snr_n:
+                self._set(f"{cam}_snr", f"{m.snr_mean:.2f} +/- {m.snr_std:.2f} (n {m.snr_n})")
             else:
                 self._set(f"{cam}_snr", "--")
-            src = f" ({cs.range_source})" if cs.range_source else ""
-            self._set(f"{cam}_range", _fmt(cs.range_m, ".1f", "m") + src)
+            src = f" ({m.range_source})" if m is not None and m.range_source else ""
+            self._set(f"{cam}_range", _fmt(m.range_m if m else None, ".1f", "m") + src)
         rec = st.recording
         self._set("rec_state", rec.state + (f": {rec.message}" if rec.message else ""))
         self._set("rec_path", rec.path or "--")

@@ -135,3 +135,10 @@ def twin_recording(path: Path, *, stops: str, speed: float, hover_s: float = 4.0
     ]
     assert main(argv) == 0
     return path
+
+
+def running_n(status, camera: str) -> int:
+    """Frames in ``camera``'s running statistics in a session status (0 before its first
+    measured frame)."""
+    last = status.cameras[camera].last
+    return last.snr_n if last is not None else 0

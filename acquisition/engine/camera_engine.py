@@ -40,7 +40,6 @@ import math
 import threading
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -53,6 +52,7 @@ from snrmon.acquisition.engine.inputs import (
     ClearRoi,
     Command,
     Cue,
+    FrameContext,
     FrameOutput,
     Measurement,
     ReferenceDone,
@@ -60,13 +60,15 @@ from snrmon.acquisition.engine.inputs import (
     SetRoi,
     StartReference,
 )
-from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
+from snrmon.acquisition.engine.status import AnalysisFigures, CameraStatus, FrameAccounting
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.acquisition.measure.track_noise import TrackNoise
+from snrmon.acquisition.track.config import TrackState
 from snrmon.acquisition.track.tracker import TrackerConfig
 
 if TYPE_CHECKING:
     from snrmon.acquisition.calibrate.sky_temperature import SkyTemperature
+    from snrmon.acquisition.prediction import Predictor
 from snrmon.drivers.device import DeviceState, DeviceStatus
 
 log = logging.getLogger(__name__)
@@ -77,18 +79,6 @@ NAN = math.nan
 
 RangeLookup = Callable[[int], tuple[float | None, str]]
 """``range_at(t_host_ns) -> (range_m or None, source)``: the session's range for a frame time."""
-
-
-@dataclass(frozen=True, slots=True)
-class AnalysisFigures:
-    """The camera's slowly changing figures for the status (units in the names)."""
-
-    reference_frames: int
-    fixed_pattern_dn: float
-    sky_temp_k: float
-    noise_total_dn: float
-    noise_temporal_dn: float
-    noise_spatial_dn: float
 
 
 class CameraEngine:
@@ -129,11 +119,13 @@ class CameraEngine:
         self.corrector = FrameCorrector(self.shape, half, lazy=cfg.background is None)
         self.noise = self._track_noise(cfg)
         self.sky: SkyTemperature | None = None  # with a calibration
+        # The model the status reads its prediction at the last range from (the session's).
+        self.predictor: Predictor | None = None
         self._lock = threading.Lock()
         self._inbox: list[Command] = []
         self._gps_xy: tuple[float, float] | None = None
         self._last: Measurement | None = None
-        self._state = "idle"
+        self._state = TrackState.IDLE
         self._roi: tuple[int, int] | None = None
         self._measured = 0
         self._last_counter: int | None = None  # of the last frame process() was given
@@ -219,37 +211,31 @@ class CameraEngine:
             if summary is not None and corrector.reference_offset is not None:
                 done = ReferenceDone(corrector.reference_offset, summary)
                 self._raw_track_from_here()
-        fr = self.measurer.measure(corrector.apply(pixels, self.measurer.read_xy))
-        raw = self.raw_measurer.measure(pixels) if self._raw_track else None
-        peak_xy = None if fr is None else (fr.result.peak_x, fr.result.peak_y)
-        if self.display_figures:
-            self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
-        if fr is not None and self.sky is not None:
-            self.sky.add(t_host_ns, pixels, fr.result)
-        if fr is None:
-            with self._lock:
-                self._measured += 1
-                self._roi, self._state = None, "idle"
-            return FrameOutput(None, applied, done)
-        range_m, source = range_at(t_host_ns) if range_at is not None else (None, "")
-        m = Measurement(
+        measuring = self.measurer.roi is not None
+        range_m, source = (None, "")
+        if measuring and range_at is not None:
+            range_m, source = range_at(t_host_ns)
+        frame = FrameContext(
             self.name,
             seq,
             counter,
             t_host_ns,
-            fr.result,
-            fr.state,
-            fr.window_xy,
-            fr.snr_mean,
-            fr.snr_std,
-            fr.snr_n,
             range_m,
             source,
             None if cue is None else (cue.x, cue.y),
-            raw.snr_mean if raw is not None else NAN,
-            raw.snr_std if raw is not None else NAN,
-            fr.reason,
         )
+        raw = self.raw_measurer.running_figures(pixels) if self._raw_track else None
+        m = self.measurer.measure(corrector.apply(pixels, self.measurer.read_xy), frame, raw=raw)
+        peak_xy = None if m is None else (m.result.peak_x, m.result.peak_y)
+        if self.display_figures:
+            self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
+        if m is not None and self.sky is not None:
+            self.sky.add(t_host_ns, pixels, m.result)
+        if m is None:
+            with self._lock:
+                self._measured += 1
+                self._roi, self._state = None, TrackState.IDLE
+            return FrameOutput(None, applied, done)
         self._publish(m)
         return FrameOutput(m, applied, done)
 
@@ -336,7 +322,7 @@ class CameraEngine:
             return self._roi
 
     @property
-    def track_state(self) -> str:
+    def track_state(self) -> TrackState:
         with self._lock:
             return self._state
 
@@ -377,11 +363,11 @@ class CameraEngine:
                 self._gps_xy,
                 self._measured,
             )
-        fig = self.figures()
         if device is None:
             device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)
         if frames is None:
             frames = FrameAccounting(received=measured, measured=measured)
+        model = self._model_at(last)
         return CameraStatus(
             name=self.name,
             device=device,
@@ -390,21 +376,15 @@ class CameraEngine:
             roi_xy=roi,
             gps_xy=gps_xy,
             track_state=state,
-            track_reason=last.track_reason if last and state != "idle" else "",
-            last=last.result if last else None,
-            snr_mean=last.snr_mean if last else NAN,
-            snr_std=last.snr_std if last else NAN,
-            snr_n=last.snr_n if last else 0,
-            snr_mean_raw=last.snr_mean_raw if last else NAN,
-            snr_std_raw=last.snr_std_raw if last else NAN,
-            reference_frames=fig.reference_frames,
-            sky_temp_k=fig.sky_temp_k,
-            fixed_pattern_dn=fig.fixed_pattern_dn,
-            range_m=last.range_m if last else None,
-            range_source=last.range_source if last else "",
+            last=last,
+            model=model,
+            figures=self.figures(),
             latency_ms_p50=float(latency_ms[0]),
             latency_ms_p99=float(latency_ms[1]),
-            noise_total_dn=fig.noise_total_dn,
-            noise_temporal_dn=fig.noise_temporal_dn,
-            noise_spatial_dn=fig.noise_spatial_dn,
         )
+
+    def _model_at(self, last: Measurement | None) -> dict[str, float]:
+        predictor = self.predictor
+        if predictor is None or last is None or last.range_m is None:
+            return {}
+        return predictor(self.name, last.range_m)

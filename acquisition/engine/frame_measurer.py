@@ -6,16 +6,18 @@ replay driven by the recorded ROI events reproduces the recorded per-frame SNR e
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
 
 import numpy as np
 
+from snrmon.acquisition.engine.inputs import FrameContext, Measurement, RunningFigures
 from snrmon.acquisition.measure.peak_snr import (
     RUNNING_EXCLUDED,
     PeakSnr,
     PeakSnrConfig,
     PeakSnrMeter,
 )
+from snrmon.acquisition.track.config import TrackState
 from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, reach_px
 
 
@@ -24,19 +26,6 @@ def crop_half_px(config: PeakSnrConfig, tracker: TrackerConfig) -> int:
     measurement may read on the next frame (the tracker's search, the object's analysis window
     and background; the fixed window and its box without a tracker)."""
     return max(reach_px(tracker, config), config.search_px // 2 + config.box_px // 2 + 2)
-
-
-@dataclass(frozen=True, slots=True)
-class FrameResult:
-    """Eq. (4) on one frame, the track state and the running statistics after it."""
-
-    result: PeakSnr
-    state: str
-    window_xy: tuple[int, int]
-    snr_mean: float
-    snr_std: float
-    snr_n: int
-    reason: str = ""  # why the tracker did not find the drone in this frame ("" when it did)
 
 
 class FrameMeasurer:
@@ -57,10 +46,10 @@ class FrameMeasurer:
         self.tracker: Tracker | None = None
 
     @property
-    def state(self) -> str:
+    def state(self) -> TrackState:
         if self.roi is None:
-            return "idle"
-        return self.tracker.track_state.value if self.tracker is not None else "fixed"
+            return TrackState.IDLE
+        return self.tracker.track_state if self.tracker is not None else TrackState.FIXED
 
     def set_roi(self, x: int, y: int) -> None:
         """The operator's click: a fresh track (and fresh statistics) from this point."""
@@ -117,19 +106,62 @@ class FrameMeasurer:
         if self.tracker is not None:
             self.tracker.cue(x, y)
 
-    def measure(self, pixels: np.ndarray) -> FrameResult | None:
-        """Eq. (4) on ``pixels``; None while no ROI is set."""
+    def measure(
+        self,
+        pixels: np.ndarray,
+        frame: FrameContext,
+        *,
+        raw: RunningFigures | None = None,
+    ) -> Measurement | None:
+        """Eq. (4) on ``pixels`` (with the track), and the running statistics after it, as the
+        one :class:`Measurement` of this frame; None while no ROI is set. ``raw``: the running
+        statistics of the same track on the raw frame, while a correction is on."""
+        step = self._step(pixels)
+        if step is None:
+            return None
+        result, state, window, reason = step
+        r = self.meter.running
+        return Measurement(
+            camera=frame.camera,
+            seq=frame.seq,
+            counter=frame.counter,
+            t_host_ns=frame.t_host_ns,
+            result=result,
+            track_state=state,
+            window_xy=window,
+            snr_mean=r.mean,
+            snr_std=r.std,
+            snr_n=r.count,
+            range_m=frame.range_m,
+            range_source=frame.range_source,
+            cue_xy=frame.cue_xy,
+            snr_mean_raw=raw.mean if raw is not None else math.nan,
+            snr_std_raw=raw.std if raw is not None else math.nan,
+            track_reason=reason,
+        )
+
+    def running_figures(self, pixels: np.ndarray) -> RunningFigures | None:
+        """The same measurement as :meth:`measure`, for its running statistics only (the raw
+        frame's track beside a corrected one); None while no ROI is set."""
+        if self._step(pixels) is None:
+            return None
+        r = self.meter.running
+        return RunningFigures(r.mean, r.std, r.count)
+
+    def _step(self, pixels: np.ndarray) -> tuple[PeakSnr, TrackState, tuple[int, int], str] | None:
+        """One frame: (Eq. 4 result, track state, the window's centre after it, why the drone
+        was not found or "")."""
         if self.roi is None:
             return None
         reason = ""
         if self.tracker is not None:
             step = self.tracker.update(pixels)
-            result, state, reason = step.peak_snr, step.state.value, step.reason
+            result, state, reason = step.peak_snr, step.state, step.reason
             centre = (step.window_x, step.window_y)
             if not (result.flags & RUNNING_EXCLUDED):
                 self.meter.running.push(result.snr)
         else:
-            result, state, centre = self.meter.measure(pixels, self.roi), "fixed", self.roi
-        self.roi = (int(centre[0]), int(centre[1]))
-        r = self.meter.running
-        return FrameResult(result, state, self.roi, r.mean, r.std, r.count, reason)
+            result, state, centre = self.meter.measure(pixels, self.roi), TrackState.FIXED, self.roi
+        window = (int(centre[0]), int(centre[1]))
+        self.roi = window
+        return result, state, window, reason

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from snrmon.acquisition.measure.peak_snr import PeakSnr
+from snrmon.acquisition.track.config import TrackState
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,16 +74,44 @@ Command = SetRoi | ClearRoi | Cue | StartReference | ClearReference | ApplyRefer
 
 
 @dataclass(frozen=True, slots=True)
+class FrameContext:
+    """What the engine knows of a frame before measuring it: which frame, when, the range at
+    that time and the GPS cue applied just before it (None: none)."""
+
+    camera: str
+    seq: int
+    counter: int
+    t_host_ns: int
+    range_m: float | None = None
+    range_source: str = ""
+    cue_xy: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class RunningFigures:
+    """The running statistics of the per-frame SNR over the last ``window`` valid frames
+    (averaged after the SNR is formed, paper section 7; ddof as configured)."""
+
+    mean: float
+    std: float
+    n: int
+
+
+@dataclass(frozen=True, slots=True)
 class Measurement:
-    """One measured frame: Eq. (4) with the track, the running statistics after it, the range at
-    the frame's time, and the cue applied before it (None: none)."""
+    """One measured frame, the one result that flows from the measurer to every listener
+    (recorder, stop table, charts, console status, the HIL rig), live and in replay alike:
+    Eq. (4) with the track, the running statistics after it, the range at the frame's time, and
+    the cue applied before it (None: none). Built once, by
+    :meth:`snrmon.acquisition.engine.frame_measurer.FrameMeasurer.measure` (or read back from a
+    recording)."""
 
     camera: str
     seq: int
     counter: int
     t_host_ns: int
     result: PeakSnr
-    track_state: str
+    track_state: TrackState
     window_xy: tuple[int, int]
     snr_mean: float
     snr_std: float

@@ -33,8 +33,9 @@ from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import Cue, FrameOutput, Measurement, SetRoi
 from snrmon.acquisition.geo.gps_cue import GpsProjector
 from snrmon.acquisition.geo.projection import gps_slant_range_m
+from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.stops.detector import Stop, StopConfig, StopDetector
-from snrmon.acquisition.stops.table import Predictor, StopRow, StopSource, StopTable
+from snrmon.acquisition.stops.table import StopRow, StopSource, StopTable
 from snrmon.acquisition.streams.history import ScalarHistory
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
@@ -123,6 +124,8 @@ class SessionEngine:
             predictor=predictor,
             on_final=self._row_final,
         )
+        for camera in self.cameras.values():
+            camera.predictor = predictor
         self._sky_checked: dict[str, int] = {}
         self._listeners: list[Callable[[Measurement, np.ndarray | None], None]] = []
 
@@ -134,13 +137,14 @@ class SessionEngine:
     @predictor.setter
     def predictor(self, predictor: Predictor | None) -> None:
         self.stop_table.predictor = predictor
+        for camera in self.cameras.values():
+            camera.predictor = predictor
 
     def set_background(self, camera: str, temp_k: float | None) -> None:
         """The model's background temperature for ``camera`` (the measured sky; None: the
         model's own): the paper's path-radiance correction (sections 8-9)."""
-        predictor = self.predictor
-        if hasattr(predictor, "set_background"):
-            predictor.set_background(camera, temp_k)  # type: ignore[union-attr]
+        if self.predictor is not None:
+            self.predictor.set_background(camera, temp_k)
 
     def adopt_psf(self, camera: str, estimate: dict, t_host_ns: int) -> None:
         """The corrected curves and the expected Eq. (4) use the PSF measured from the flight
@@ -154,10 +158,10 @@ class SessionEngine:
         """A change of the model's inputs as :meth:`EngineSink.model_changed` records it."""
         if kind == "model_background":
             self.set_background(camera, float(payload["temp_k"]))
-        elif kind == "model_psf" and hasattr(self.predictor, "set_psf"):
+        elif kind == "model_psf" and self.predictor is not None:
             from snrmon.acquisition.calibrate.psf_estimate import psf_from_record
 
-            self.predictor.set_psf(camera, psf_from_record(payload))  # type: ignore[union-attr]
+            self.predictor.set_psf(camera, psf_from_record(payload))
 
     # ------------------------------------------------------------------ commands
     def camera(self, name: str) -> CameraEngine:
@@ -293,15 +297,15 @@ class SessionEngine:
         temperature (paper sections 8-9), re-evaluated at most every 2 s, on a 0.5 K change."""
         sky = self.cameras[camera].sky
         predictor = self.predictor
-        if sky is None or not hasattr(predictor, "set_background"):
+        if sky is None or predictor is None:
             return
         if t_ns - self._sky_checked.get(camera, 0) < SKY_CHECK_NS:
             return
         self._sky_checked[camera] = t_ns
         temp = sky.mean_temp_k(last=100)
-        current = predictor.background_temp_k.get(camera)  # type: ignore[union-attr]
+        current = predictor.background_temp_k.get(camera)
         if math.isfinite(temp) and (current is None or abs(temp - current) > SKY_CHANGE_K):
-            predictor.set_background(camera, temp)  # type: ignore[union-attr]
+            predictor.set_background(camera, temp)
             if self.sink is not None:
                 self.sink.model_changed(camera, "model_background", {"temp_k": temp}, t_ns)
 

@@ -6,10 +6,13 @@ viewer never computes a statistic itself (the lesson of PyMoDAQ #79) and never h
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from snrmon.acquisition.measure.peak_snr import PeakSnr
+from snrmon.acquisition.engine.inputs import Measurement
+from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.device import DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
 
@@ -32,8 +35,26 @@ class FrameAccounting:
 
 
 @dataclass(frozen=True, slots=True)
+class AnalysisFigures:
+    """A camera's slowly changing figures (units in the names): the background reference, the
+    apparent sky temperature (with a calibration, the mean over the last 100 frames) and the
+    section 6 noise of the background around the track
+    (:mod:`snrmon.acquisition.measure.track_noise`: temporal = std(frame - previous) / sqrt(2),
+    spatial = sqrt(total^2 - temporal^2)). NaN: not measured (yet)."""
+
+    reference_frames: int = 0  # frames in the background reference (0: none)
+    fixed_pattern_dn: float = math.nan  # spatial std of the reference
+    sky_temp_k: float = math.nan
+    noise_total_dn: float = math.nan
+    noise_temporal_dn: float = math.nan
+    noise_spatial_dn: float = math.nan
+
+
+@dataclass(frozen=True, slots=True)
 class CameraStatus:
-    """One camera's live state: device health, frame accounting, ROI and the latest numbers."""
+    """One camera's live state: device health, frame accounting, the track and its last
+    measured frame (the engine's own :class:`Measurement`, not a copy of its numbers), the
+    model's prediction at that frame's range, and the slowly changing figures."""
 
     name: str
     device: DeviceStatus
@@ -41,27 +62,21 @@ class CameraStatus:
     fps: float = 0.0
     roi_xy: tuple[int, int] | None = None
     gps_xy: tuple[float, float] | None = None  # the drone's GPS position projected (px)
-    track_state: str = "idle"
-    track_reason: str = ""  # why the track missed its last frame (docs/tracking.md), "" if not
-    last: PeakSnr | None = None
-    snr_mean: float = float("nan")
-    snr_std: float = float("nan")
-    snr_n: int = 0
-    snr_mean_raw: float = float("nan")  # without the background reference, while one is on
-    snr_std_raw: float = float("nan")
-    reference_frames: int = 0  # frames in the background reference (0: none)
-    fixed_pattern_dn: float = float("nan")  # spatial std of the reference
-    sky_temp_k: float = float("nan")  # apparent background temperature (with a calibration)
-    range_m: float | None = None
-    range_source: str = ""
-    model_snr: dict[str, float] = field(default_factory=dict)
-    latency_ms_p50: float = float("nan")
-    latency_ms_p99: float = float("nan")
-    # Section 6 noise of the background around the track (acquisition.measure.track_noise), DN:
-    # temporal = std(frame - previous) / sqrt(2); spatial = sqrt(total^2 - temporal^2).
-    noise_total_dn: float = float("nan")
-    noise_temporal_dn: float = float("nan")
-    noise_spatial_dn: float = float("nan")
+    track_state: TrackState = TrackState.IDLE
+    last: Measurement | None = None
+    # The model at ``last.range_m`` (:class:`snrmon.acquisition.prediction.Predictor`: the four
+    # curves, the expected Eq. 4 reading); empty without a model or a range.
+    model: Mapping[str, float] = field(default_factory=dict)
+    figures: AnalysisFigures = field(default_factory=AnalysisFigures)
+    latency_ms_p50: float = math.nan
+    latency_ms_p99: float = math.nan
+
+    @property
+    def track_reason(self) -> str:
+        """Why the track missed its last frame (docs/tracking.md); "" when it did not."""
+        if self.last is None or self.track_state is TrackState.IDLE:
+            return ""
+        return self.last.track_reason
 
 
 @dataclass(frozen=True, slots=True)

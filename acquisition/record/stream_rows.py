@@ -17,6 +17,7 @@ import numpy as np
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.measure.peak_snr import PeakSnr, flags_from_bits, flags_to_bits
 from snrmon.acquisition.record import schema as S  # noqa: N812
+from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
@@ -124,7 +125,7 @@ def measurement_row(index: int | None, m: Measurement) -> tuple:
         S.text_field(r.background, S.NAME_BYTES),
         r.extent_w_px,
         r.extent_h_px,
-        S.text_field(m.track_state, S.STATE_TEXT_BYTES),
+        S.text_field(m.track_state.value, S.STATE_TEXT_BYTES),
         m.window_xy[0],
         m.window_xy[1],
         float(cue[0]),
@@ -200,6 +201,13 @@ def peak_snr_from_row(row: np.void) -> PeakSnr:
     )
 
 
+def track_state_of(row: np.void) -> TrackState:
+    """The track state a measurement row records; a row written without the engine's context
+    (an empty state: a fixed window, no tracker) reads as ``fixed``."""
+    text = S.text_value(row["track_state"])
+    return TrackState(text) if text else TrackState.FIXED
+
+
 def measurement_from_row(camera: str, row: np.void, seq: int = -1) -> Measurement:
     """The :class:`Measurement` a format 2 measurement row came from."""
     cx, cy = float(row["cue_x"]), float(row["cue_y"])
@@ -210,7 +218,7 @@ def measurement_from_row(camera: str, row: np.void, seq: int = -1) -> Measuremen
         counter=int(row["counter"]),
         t_host_ns=int(row["t_host_ns"]),
         result=peak_snr_from_row(row),
-        track_state=S.text_value(row["track_state"]),
+        track_state=track_state_of(row),
         window_xy=(int(row["window_x"]), int(row["window_y"])),
         snr_mean=float(row["snr_mean"]),
         snr_std=float(row["snr_std"]),

@@ -18,6 +18,7 @@ from typing import Any
 
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
+from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.record.reader import SessionFile, open_session
 from snrmon.acquisition.replay.feeder import CameraTally, Feeder, RecordedStops
 from snrmon.acquisition.replay.recorded import (
@@ -26,7 +27,7 @@ from snrmon.acquisition.replay.recorded import (
     recorded_inputs,
     recording_drops,
 )
-from snrmon.acquisition.stops.table import Predictor, StopRow, row_values_equal
+from snrmon.acquisition.stops.table import StopRow, row_values_equal
 
 
 @dataclass

@@ -37,6 +37,10 @@ class ReplayCamera:
             self._latest = frame
             self._shown += 1
 
+    def click_messages(self) -> list[str]:
+        """A replay re-measures a click on the shown frame at once: it has nothing to tell."""
+        return []
+
     def latest_frame(self) -> RingFrame | None:
         with self._lock:
             return self._latest

@@ -40,6 +40,7 @@ from snrmon.acquisition.record.stream_rows import (
     fix_from_row,
     measurement_from_row,
     reading_from_row,
+    track_state_of,
 )
 from snrmon.acquisition.replay.recorded import (
     FIX,
@@ -119,7 +120,7 @@ def same_result(row, m: Measurement) -> bool:
             and _same(float(row["snr_std"]), m.snr_std)
             and int(row["snr_n"]) == m.snr_n
             and (int(row["window_x"]), int(row["window_y"])) == m.window_xy
-            and bytes(row["track_state"]).decode() == m.track_state
+            and track_state_of(row) is m.track_state
         )
     return same
 

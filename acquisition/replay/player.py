@@ -31,13 +31,14 @@ import numpy as np
 from snrmon.acquisition.engine.inputs import SetRoi
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
+from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.record.stream_rows import fix_from_row
 from snrmon.acquisition.replay.batch import engine_for
 from snrmon.acquisition.replay.camera import ReplayCamera
 from snrmon.acquisition.replay.feeder import Feeder
 from snrmon.acquisition.replay.recorded import FIX, FRAME, recorded_inputs
-from snrmon.acquisition.stops.table import Predictor, StopRow
+from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.drivers.gps.fix import GpsFix
 

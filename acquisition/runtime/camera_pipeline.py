@@ -173,6 +173,10 @@ class CameraPipeline:
         return self.engine.sky
 
     # ------------------------------------------------------------------ reading
+    def click_messages(self) -> list[str]:
+        """What became of the operator's click since the last call (:class:`ClickNews`)."""
+        return self.click_news.take()
+
     def latest_frame(self) -> RingFrame | None:
         """The newest frame (a copy), for a display; never waits."""
         return self.ring.peek_last()

@@ -19,8 +19,9 @@ import threading
 
 from snrmon.acquisition.engine.inputs import Measurement, SetRoi
 from snrmon.acquisition.measure.peak_snr import FLAG_LOST
+from snrmon.acquisition.track.config import TrackState
 
-HOLDING = ("tracking", "gps_cued")
+HOLDING = (TrackState.TRACKING, TrackState.GPS_CUED)
 
 
 class ClickNews:

@@ -29,11 +29,12 @@ from snrmon.acquisition.config import SessionConfig, camera_device
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
+from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.acquisition.record.session_log import RecordingLog
 from snrmon.acquisition.runtime.camera_pipeline import CameraPipeline
 from snrmon.acquisition.stops.detector import Stop, StopConfig
-from snrmon.acquisition.stops.table import Predictor, StopRow
+from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.acquisition.streams.timebase import ClockMap
 from snrmon.drivers.device import Device

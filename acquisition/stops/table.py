@@ -32,10 +32,8 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from snrmon.acquisition.measure.peak_snr import PeakSnr
+from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.stops.detector import Stop, is_valid, summarise_stop
-
-Predictor = Callable[[str, float], dict[str, float]]
-"""``predict(camera, range_m) -> {"small": snr, "large": ..., "small_corrected": ..., ...}``."""
 
 Entry = tuple[int, PeakSnr]
 
@@ -261,8 +259,8 @@ class StopTable:
         rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
         model = dict(self.predictor(camera, rng)) if (self.predictor and rng) else {}
         resolved = model.pop("resolved_small", None)
-        sky = getattr(self.predictor, "curves_background_k", {}).get(camera) if model else None
-        psf = getattr(self.predictor, "curves_psf", {}).get(camera) if model else None
+        sky = self.predictor.curves_background_k.get(camera) if self.predictor and model else None
+        psf = self.predictor.curves_psf.get(camera) if self.predictor and model else None
         row = StopRow(
             camera=camera,
             stop=stop.index,

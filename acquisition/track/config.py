@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 
 from snrmon.acquisition.measure.blob import BlobConfig
 from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
@@ -17,9 +17,12 @@ from snrmon.acquisition.track.motion import MotionConfig
 WING_PX = 8  # the farthest the background rim moves out past PSF wings (target_snr.wing_growth)
 
 
-class TrackState(Enum):
-    """What the track is doing; shown to the operator and recorded."""
+class TrackState(StrEnum):
+    """What a camera's measurement is doing: no ROI (``idle``), a fixed window without tracking
+    (``fixed``), or the tracker's state; shown to the operator and recorded (its value)."""
 
+    IDLE = "idle"
+    FIXED = "fixed"
     TRACKING = "tracking"
     LOST = "lost"
     GPS_CUED = "gps_cued"

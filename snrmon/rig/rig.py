@@ -24,6 +24,7 @@ import numpy as np
 
 from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.runtime.session import Session
+from snrmon.acquisition.track.config import TrackState
 from snrmon.rig.support import flight_config_of, recording_summary, stop_config_at
 from snrmon.rig.twin_day import (
     CropLog,
@@ -297,7 +298,7 @@ class HilRig:
         if stop_idx is not None:
             for cam in self.cameras:
                 if self.opts.track:
-                    lost = self.session.pipelines[cam].status().track_state == "lost"
+                    lost = self.session.pipelines[cam].status().track_state is TrackState.LOST
                     key = (cam, 0) if (cam, 0) not in self._clicked or not lost else (cam, stop_idx)
                 else:
                     key = (cam, stop_idx)

@@ -93,7 +93,7 @@ def test_click_on_the_spot_sets_the_roi_and_feeds_the_chart(qtbot, window, rig):
     )
     chart = window.panels["mwir"].chart
     qtbot.waitUntil(lambda: chart.points_drawn >= 20, timeout=10_000)
-    last = session.status().cameras["mwir"].last
+    last = session.status().cameras["mwir"].last.result
     assert (last.peak_x, last.peak_y) == (SPOT_X, SPOT_Y)
     # a 400 DN spot (~ 400 * 0.46 in the peak pixel after noise) on 8 DN noise: SNR well above 5
     assert last.snr > 5.0

@@ -110,7 +110,10 @@ def test_a_measured_sky_adds_the_curves_at_that_background(window, monkeypatch):
 
     def with_sky():
         st = real_status()
-        cams = {n: dataclasses.replace(c, sky_temp_k=255.0) for n, c in st.cameras.items()}
+        cams = {
+            n: dataclasses.replace(c, figures=dataclasses.replace(c.figures, sky_temp_k=255.0))
+            for n, c in st.cameras.items()
+        }
         return dataclasses.replace(st, cameras=cams)
 
     monkeypatch.setattr(session, "status", with_sky)  # as a calibrated camera would report

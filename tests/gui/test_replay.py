@@ -11,6 +11,7 @@ import pytest
 from PySide6.QtCore import QSettings
 
 from snrmon.acquisition.engine.frame_measurer import FrameMeasurer
+from snrmon.acquisition.engine.inputs import FrameContext
 from snrmon.acquisition.replay.player import ReplayPlayer
 from snrmon.gui.app import console_application
 from snrmon.gui.main_window import ConsoleWindow
@@ -66,7 +67,7 @@ def test_step_and_seek_move_the_shown_frame_exactly(qtbot, window, player, recor
     _shown(qtbot, window, 149)
     # after the seek the track restarts at the recorded peak: the spot
     qtbot.waitUntil(lambda: player.status().cameras["mwir"].last is not None, timeout=5000)
-    last = player.status().cameras["mwir"].last
+    last = player.status().cameras["mwir"].last.result
     assert (last.peak_x, last.peak_y) == SPOT_XY
     qtbot.waitUntil(lambda: "  150 / " in window.replay_bar.label.text(), timeout=5000)  # 1-based
 
@@ -97,8 +98,8 @@ def test_click_remeasures_the_shown_frame_and_recording_is_refused(
     # the same frame measured by the same class at that click, outside the console
     expected = FrameMeasurer(player.config.measurement, window=player.config.window)
     expected.set_roi(48, 34)
-    want = expected.measure(recording.frames["mwir"][4]).result
-    assert player.status().cameras["mwir"].last == want
+    want = expected.measure(recording.frames["mwir"][4], FrameContext("mwir", 4, 4, 0)).result
+    assert player.status().cameras["mwir"].last.result == want
     assert not window.start_recording(window.settings.fileName() + ".h5")
     assert "not available in replay" in window.messages[-1]
     window.mark_stop()

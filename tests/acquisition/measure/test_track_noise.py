@@ -84,7 +84,7 @@ def test_session_reports_rendered_temporal_noise_and_the_fixed_pattern():
     try:
         session.start()
         cam = session.status().cameras["cam"]
-        assert math.isnan(cam.noise_total_dn)  # no track, no rectangle: unknown
+        assert math.isnan(cam.figures.noise_total_dn)  # no track, no rectangle: unknown
         session.set_roi("cam", 65, 40)
         pipe = session.pipelines["cam"]
         wait_until(lambda: pipe.engine.noise.estimates >= 3, 10.0, "three noise estimates")
@@ -94,7 +94,7 @@ def test_session_reports_rendered_temporal_noise_and_the_fixed_pattern():
         producer.stop()
     # The spot's pixel is (64, 41) or (64, 40) depending on the frame's noise; the region
     # follows the peak, and the pattern's std over either region differs by < 1 %.
-    peak = (cam.last.peak_x, cam.last.peak_y)
+    peak = (cam.last.result.peak_x, cam.last.result.peak_y)
     assert abs(peak[0] - 64) <= 1 and abs(peak[1] - 41) <= 1
     sel = ring_pixels((H, W), peak, 41, 7)
     n = sel[0].size  # 1632 pixels
@@ -102,9 +102,9 @@ def test_session_reports_rendered_temporal_noise_and_the_fixed_pattern():
     rendered = math.sqrt(NOISE_DN**2 + 1 / 12)
     # The std of a sample std of n pixels is ~ sigma / sqrt(2 (n - 1)) (1.8 % here): 10 % is
     # over 5 sigma, and a temporal noise without the sqrt(2) would be 41 % high.
-    assert cam.noise_temporal_dn == pytest.approx(rendered, rel=0.10)
+    assert cam.figures.noise_temporal_dn == pytest.approx(rendered, rel=0.10)
     # The pattern the camera really has over those pixels (this realisation, not 15 DN).
     pattern = float(np.std(render.fpn[sel], ddof=1))
-    assert cam.noise_spatial_dn == pytest.approx(pattern, rel=0.08)
-    assert cam.noise_total_dn == pytest.approx(math.hypot(pattern, rendered), rel=0.06)
+    assert cam.figures.noise_spatial_dn == pytest.approx(pattern, rel=0.08)
+    assert cam.figures.noise_total_dn == pytest.approx(math.hypot(pattern, rendered), rel=0.06)
     assert n == 41 * 41 - 49

@@ -27,7 +27,7 @@ from snrmon.cli import main
 from snrmon.sim.devices.ldm_sim import LdmSimulator
 from snrmon.sim.devices.nmea_sim import NmeaSimulator
 from snrmon.sim.devices.shm_camera import ShmProducer
-from tests.helpers import H, SpotOnNoise, W, wait_until
+from tests.helpers import H, SpotOnNoise, W, running_n, wait_until
 
 
 @pytest.fixture
@@ -179,7 +179,7 @@ def test_disk_full_stops_the_recording_not_the_session_and_the_file_replays(tmp_
             10.0,
             "measurement to go on",
         )
-        assert session.status().cameras["cam"].snr_n > 0
+        assert running_n(session.status(), "cam") > 0
     finally:
         session.stop()
         producer.stop()

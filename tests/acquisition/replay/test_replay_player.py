@@ -118,22 +118,26 @@ def test_replay_status_is_the_live_analysis(recording):
         st = player.status()
     cs = st.cameras["mwir"]
     m = last.measurement
-    assert cs.snr_n == m.snr_n == N - DRONE_FROM
-    assert cs.last == m.result
-    assert (cs.snr_mean, cs.snr_std) == (m.snr_mean, m.snr_std)
-    assert (cs.snr_mean_raw, cs.snr_std_raw) == (m.snr_mean_raw, m.snr_std_raw)
+    assert cs.last.snr_n == m.snr_n == N - DRONE_FROM
+    assert cs.last.result == m.result
+    assert (cs.last.snr_mean, cs.last.snr_std) == (m.snr_mean, m.snr_std)
+    assert (cs.last.snr_mean_raw, cs.last.snr_std_raw) == (m.snr_mean_raw, m.snr_std_raw)
     # The reference removes the fixed pattern: the raw track reads lower, as live.
-    assert cs.snr_mean_raw < 0.7 * cs.snr_mean
+    assert cs.last.snr_mean_raw < 0.7 * cs.last.snr_mean
     fig = live.figures()
-    assert cs.reference_frames == REF_FRAMES
-    assert cs.fixed_pattern_dn == fig.fixed_pattern_dn == pytest.approx(FPN_DN, rel=0.1)
-    assert (cs.noise_total_dn, cs.noise_temporal_dn, cs.noise_spatial_dn) == (
+    assert cs.figures.reference_frames == REF_FRAMES
+    assert cs.figures.fixed_pattern_dn == fig.fixed_pattern_dn == pytest.approx(FPN_DN, rel=0.1)
+    assert (
+        cs.figures.noise_total_dn,
+        cs.figures.noise_temporal_dn,
+        cs.figures.noise_spatial_dn,
+    ) == (
         fig.noise_total_dn,
         fig.noise_temporal_dn,
         fig.noise_spatial_dn,
     )
-    assert cs.noise_temporal_dn == pytest.approx(NOISE_DN, rel=0.15)
-    assert cs.noise_spatial_dn == pytest.approx(FPN_DN, rel=0.2)
+    assert cs.figures.noise_temporal_dn == pytest.approx(NOISE_DN, rel=0.15)
+    assert cs.figures.noise_spatial_dn == pytest.approx(FPN_DN, rel=0.2)
 
 
 def test_replay_shows_the_recorded_gps_fix_and_its_projection(recording):

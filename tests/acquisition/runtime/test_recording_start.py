@@ -18,7 +18,7 @@ from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.acquisition.stops.table import row_values_equal
 from snrmon.sim.devices.ldm_sim import LdmSimulator
 from snrmon.sim.devices.shm_camera import ShmProducer
-from tests.helpers import H, SpotOnNoise, W, wait_until
+from tests.helpers import H, SpotOnNoise, W, running_n, wait_until
 
 
 class HeldFrame:
@@ -76,7 +76,7 @@ def test_a_frame_measured_across_the_recording_start_is_in_the_replayed_row(
     session.start()
     session.set_roi("cam", 66, 39)
     wait_until(lambda: bool(session.stops()), 20.0, "a stop")
-    wait_until(lambda: session.status().cameras["cam"].snr_n >= 5, 10.0, "a few measured frames")
+    wait_until(lambda: running_n(session.status(), "cam") >= 5, 10.0, "a few measured frames")
     held.armed.set()  # the next frame is held inside its measurement
     assert held.entered.wait(10.0), "no frame came to be held"
     path = tmp_path / "start.h5"

@@ -21,7 +21,16 @@ from snrmon.acquisition.replay.batch import replay_session
 from snrmon.acquisition.runtime.session import Session
 from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.sim.devices.shm_camera import ShmProducer
-from tests.helpers import AMPLITUDE_DN, NOISE_DN, H, SpotOnNoise, W, field_devices, wait_until
+from tests.helpers import (
+    AMPLITUDE_DN,
+    NOISE_DN,
+    H,
+    SpotOnNoise,
+    W,
+    field_devices,
+    running_n,
+    wait_until,
+)
 
 
 @pytest.fixture
@@ -67,7 +76,7 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     cam = st.cameras["cam"]
 
     # The peak is the spot's pixel and the SNR is the spot's amplitude over the noise.
-    assert (cam.last.peak_x, cam.last.peak_y) == (64, 41)
+    assert (cam.last.result.peak_x, cam.last.result.peak_y) == (64, 41)
     row = next(r for r in session.stops() if r.complete)
     assert row.n_frames == 100
     assert row.lrf_range_m == pytest.approx(150.0, abs=0.01)
@@ -135,19 +144,23 @@ def test_background_reference_removes_fixed_pattern_and_replays_exactly(tmp_path
         session.start()
         session.start_recording(path)
         session.capture_reference("cam", 32)
-        wait_until(lambda: session.status().cameras["cam"].reference_frames == 32, 10, "reference")
+        wait_until(
+            lambda: session.status().cameras["cam"].figures.reference_frames == 32, 10, "reference"
+        )
         session.set_roi("cam", 64, 41)
-        wait_until(lambda: session.status().cameras["cam"].snr_n >= 60, 10, "60 measured frames")
+        wait_until(lambda: running_n(session.status(), "cam") >= 60, 10, "60 measured frames")
         session.stop_recording()
         st = session.status().cameras["cam"]
     finally:
         session.stop()
         producer.stop()
     # The reference holds the 15 DN pattern (plus the temporal noise averaged over 32 frames).
-    assert st.fixed_pattern_dn == pytest.approx(math.hypot(15.0, NOISE_DN / math.sqrt(32)), rel=0.1)
+    assert st.figures.fixed_pattern_dn == pytest.approx(
+        math.hypot(15.0, NOISE_DN / math.sqrt(32)), rel=0.1
+    )
     # No spot in these frames: the corrected rim std is the temporal noise (x sqrt(1 + 1/32)
     # for the noise left in the reference), the raw one carries the pattern.
-    assert st.last.bg_std == pytest.approx(NOISE_DN * math.sqrt(1 + 1 / 32), rel=0.35)
+    assert st.last.result.bg_std == pytest.approx(NOISE_DN * math.sqrt(1 + 1 / 32), rel=0.35)
     for fast in (False, True):  # --fast applies the reference to its square only
         replay = replay_session(path, fast=fast).cameras["cam"]
         assert replay.compared >= 60 and replay.identical == replay.compared, fast

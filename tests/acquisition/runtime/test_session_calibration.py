@@ -18,7 +18,7 @@ from snrmon.acquisition.replay.player import ReplayPlayer
 from snrmon.acquisition.runtime.session import Session
 from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.acquisition.calibration_scene import camera
-from tests.helpers import wait_until
+from tests.helpers import running_n, wait_until
 
 SKY_K = 280.0
 
@@ -72,13 +72,13 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
         session.start()
         session.start_recording(path)
         session.set_roi("mwir", 60, 50)
-        wait_until(lambda: session.status().cameras["mwir"].snr_n >= 50, 10, "50 frames")
+        wait_until(lambda: running_n(session.status(), "mwir") >= 50, 10, "50 frames")
         session.stop_recording()
         st = session.status().cameras["mwir"]
     finally:
         session.stop()
         producer.stop()
-    assert st.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
+    assert st.figures.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
     with open_session(path) as f:
         (event,) = [e for e in f.event_list() if e["kind"] == "calibration"]
         assert event["camera"] == "mwir" and event["payload"]["path"] == str(calibration_file)
@@ -93,8 +93,8 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
         player.step(player.position().length)
         assert player.wait_idle(30.0)
         cs = player.status().cameras["mwir"]
-    assert cs.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
-    assert math.isfinite(cs.snr_mean_raw) and cs.snr_n >= 50
+    assert cs.figures.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
+    assert math.isfinite(cs.last.snr_mean_raw) and cs.last.snr_n >= 50
 
 
 def test_a_calibration_of_another_camera_is_refused(tmp_path, calibration_file):
