@@ -1,4 +1,5 @@
-"""The typed seams between the console and what it drives.
+"""The typed seams: between the console and what it drives, and between the live pipeline
+and the recording it writes.
 
 The window (:mod:`snrmon.gui`) drives a live :class:`snrmon.acquisition.runtime.session.Session` or
 a recording's :class:`snrmon.acquisition.replay.player.ReplayPlayer` through
@@ -15,10 +16,14 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from snrmon.acquisition.config import SessionConfig
+from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.status import CameraStatus, SessionStatus
 from snrmon.acquisition.prediction import Predictor
+from snrmon.acquisition.record.recorder_status import RecorderStatus, RecorderSummary
 from snrmon.acquisition.stops.table import StopRow
-from snrmon.acquisition.streams.ring import RingFrame
+from snrmon.acquisition.streams.ring import Reader, RingFrame
+from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.rangefinder.reading import RangeReading
 
 
 class CameraView(Protocol):
@@ -84,3 +89,49 @@ class ReplayControls(Protocol):
     def position(self) -> Any: ...
 
     def now_ns(self) -> int: ...
+
+
+class RecordingWriter(Protocol):
+    """What the live pipeline hands a recording, in the manner of ophyd-async's
+    ``DetectorWriter``: the pipeline and the session never touch the file, only this
+    (:class:`snrmon.acquisition.record.recorder.SessionRecorder` writes the HDF5 session file).
+    Every ``add_*`` returns at once (the writing happens on the recording's own thread); a
+    frame or reference index is None when the recording did not keep it."""
+
+    path: Path
+
+    def add_frame(self, camera: str, frame: Any) -> int | None: ...
+
+    def add_measured(self, camera: str, index: int | None, m: Measurement) -> None: ...
+
+    def add_measurement(self, camera: str, index: int | None, **values: Any) -> None: ...
+
+    def add_state(
+        self, camera: str, counter: int, t_host_ns: int, state: Mapping[str, Any]
+    ) -> None: ...
+
+    def add_reference(
+        self, camera: str, offset: np.ndarray, summary: Mapping[str, Any], *, t_host_ns: int
+    ) -> int | None: ...
+
+    def add_range(self, reading: RangeReading) -> None: ...
+
+    def add_gps(self, fix: GpsFix) -> None: ...
+
+    def add_event(
+        self,
+        kind: str,
+        *,
+        camera: str = "",
+        payload: Mapping[str, Any] | None = None,
+        t_host_ns: int | None = None,
+    ) -> None: ...
+
+    def attach_reader(self, camera: str, reader: Reader) -> None: ...
+
+    @property
+    def accepting(self) -> bool: ...
+
+    def status(self) -> RecorderStatus: ...
+
+    def stop(self, timeout: float = 60.0) -> RecorderSummary: ...

@@ -46,7 +46,7 @@ from snrmon.drivers.device import Device
 
 if TYPE_CHECKING:
     from snrmon.acquisition.engine.session_engine import SessionEngine
-    from snrmon.acquisition.record.recorder import SessionRecorder
+    from snrmon.acquisition.protocols import RecordingWriter
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +77,7 @@ class CameraPipeline:
         self.ring = FrameRing(ring_capacity, *self.shape, name=name)
         self._reader = self.ring.reader("measurement")
         self._lock = threading.Lock()
-        self._recorder: SessionRecorder | None = None
+        self._recorder: RecordingWriter | None = None
         self._gap = False  # the last frame is not in the recording: record the state next
         self._history_due = False  # the stop table's history is not in the recording yet
         self._wrong_shape = 0
@@ -146,7 +146,7 @@ class CameraPipeline:
     def clear_reference(self) -> None:
         self.engine.post(ClearReference())
 
-    def attach_recorder(self, recorder: SessionRecorder) -> None:
+    def attach_recorder(self, recorder: RecordingWriter) -> None:
         """Record every frame from now on (and its measurement) into ``recorder``; the
         measurements the stop table keeps to seed a backdated stop go in first (on the
         measurement thread, before the first frame it records: every frame measured before that
@@ -264,7 +264,7 @@ class CameraPipeline:
             self._latency_ns.append(latency)
             self._measured += 1
 
-    def _record_history(self, rec: SessionRecorder) -> None:
+    def _record_history(self, rec: RecordingWriter) -> None:
         """The measurements a stop begun before the recording would be summarised from: rows
         without frames, so a replay builds the same stop table. Taken on the measurement thread
         (or once it has stopped), so exactly the frames measured before the first recorded one."""
@@ -286,7 +286,7 @@ class CameraPipeline:
                 extent_h_px=r.extent_h_px,
             )
 
-    def _record_resume(self, rec: SessionRecorder, item: RingFrame) -> None:
+    def _record_resume(self, rec: RecordingWriter, item: RingFrame) -> None:
         """The first recorded frame after frames the file does not hold: the engine's state and
         the background reference in force, so a replay continues from here exactly."""
         corrector = self.engine.corrector
@@ -298,7 +298,7 @@ class CameraPipeline:
         rec.add_state(self.name, item.counter, item.t_host_ns, self.engine.snapshot())
 
     def _record(
-        self, rec: SessionRecorder, index: int | None, item: RingFrame, out: FrameOutput
+        self, rec: RecordingWriter, index: int | None, item: RingFrame, out: FrameOutput
     ) -> None:
         for c in out.applied:
             # At the frame they took effect on, so a replay applies them there too.

@@ -30,6 +30,7 @@ from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
 from snrmon.acquisition.prediction import Predictor
+from snrmon.acquisition.protocols import RecordingWriter
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.acquisition.record.session_log import RecordingLog
 from snrmon.acquisition.runtime.camera_pipeline import CameraPipeline
@@ -90,7 +91,7 @@ class Session:
         self._lock = threading.Lock()
         self._last_lrf: RangeReading | None = None
         self._last_fix: GpsFix | None = None
-        self._recorder: SessionRecorder | None = None
+        self._recorder: RecordingWriter | None = None
         self._recording_log: RecordingLog | None = None
         self.last_recording = None  # the summary of the last recording closed
         all_shapes = {
@@ -292,7 +293,7 @@ class Session:
         return self.last_recording
 
     # ------------------------------------------------------------------ the engine's sink
-    def stop_changed(self, kind: str, stop: Stop, rec: SessionRecorder | None = None) -> None:
+    def stop_changed(self, kind: str, stop: Stop, rec: RecordingWriter | None = None) -> None:
         rec = rec or self._current_recorder()
         if rec is not None:
             rec.add_event(kind, payload=stop_payload(stop))
@@ -308,7 +309,7 @@ class Session:
         if rec is not None:
             rec.add_event(kind, camera=camera, payload=payload, t_host_ns=t_host_ns)
 
-    def _current_recorder(self) -> SessionRecorder | None:
+    def _current_recorder(self) -> RecordingWriter | None:
         with self._lock:
             return self._recorder
 
