@@ -38,6 +38,7 @@ from snrmon.acquisition.record.gps_align import (
 )
 from snrmon.acquisition.record.reader import append_event, clear_status_flags
 from snrmon.acquisition.record.stream_rows import gps_row
+from snrmon.acquisition.record.writer import copy_rows, resize_rows
 from snrmon.drivers.gps.fix import GpsFix
 
 LIVE_COPY = "gps_live"
@@ -186,9 +187,9 @@ def import_gps_log(
         if live:
             kept = gps.shape[0]
             if LIVE_COPY not in f:
-                f.copy(gps, LIVE_COPY)
+                copy_rows(f, gps, LIVE_COPY)
                 f[LIVE_COPY].attrs[SOURCE_ATTR] = "live"
-        gps.resize((len(rows),))
+        resize_rows(gps, len(rows))
         if rows:
             gps[:] = np.array(rows, dtype=S.GPS_DTYPE)
         result = GpsImport(

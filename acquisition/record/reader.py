@@ -29,6 +29,7 @@ import h5py
 import numpy as np
 
 from snrmon.acquisition.record import schema
+from snrmon.acquisition.record.writer import resize_rows
 
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _M32 = 0xFFFFFFFF
@@ -164,7 +165,7 @@ def append_event(
     with h5py.File(path, "r+") as f:
         ds = f[schema.EVENTS]
         n = ds.shape[0]
-        ds.resize((n + 1,))
+        resize_rows(ds, n + 1)
         ds[n] = row[0]
 
 

@@ -12,8 +12,14 @@ import numpy as np
 from snrmon.acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
 
 FORMAT = "snrmon-session"
-FORMAT_VERSION = "2.1"
-"""2.1: frames dropped before measurement (the camera's counter skips) are told to the tracker
+FORMAT_VERSION = "2.2"
+"""2.2: self-describing: every dataset carries ``units`` and ``long_name`` attributes (CF style),
+and dimension scales name every axis (``time``, a new per-frame coordinate of the frame's UTC,
+with ``row`` and ``col`` for the frame cubes; pure dimensions ``measurement``, ``state``,
+``reference`` and one per stream), so netCDF readers (xarray with h5netcdf) see named dimensions
+and coordinates. Nothing existing changed meaning: 2.0 and 2.1 files are read as before.
+
+2.1: frames dropped before measurement (the camera's counter skips) are told to the tracker
 (docs/tracking.md, "Frame gaps"), and the engine states hold the last counter; a 2.0 file is
 replayed with gaps not told, as it was recorded.
 
@@ -26,6 +32,9 @@ as before."""
 CAMERAS = "cameras"
 FRAMES = "frames"
 FRAME_COLUMNS = ("counter", "t_host_ns", "t_device_ns", "utc_ns")
+TIME = "time"  # per-frame coordinate: the frame's UTC (the same values as utc_ns), CF time units
+ROW = "row"
+COL = "col"
 MEASUREMENTS = "measurements"
 STATES = "states"
 REFERENCES = "references"
@@ -198,6 +207,42 @@ STREAMS = {
     EVENTS: (EVENT_DTYPE, EVENT_UNITS),
     CLOCK: (CLOCK_DTYPE, CLOCK_UNITS),
 }
+
+
+UTC_UNITS = "nanoseconds since 1970-01-01 00:00:00"
+"""CF time units of a UTC in ns: netCDF readers decode the column to dates."""
+MIXED_UNITS = "mixed: per field, in units_json"
+
+ATTRS: dict[str, tuple[str, str]] = {
+    FRAMES: ("DN", "raw pixel values (digital numbers), row-major (row, column)"),
+    "counter": ("1", "the camera's own frame counter (gaps: frames lost by the camera or link)"),
+    "t_host_ns": ("ns", "host monotonic clock at receipt (arbitrary origin)"),
+    "t_device_ns": ("ns", "the camera's own timestamp (-1: none given)"),
+    "utc_ns": (UTC_UNITS, "UTC of receipt (t_host_ns through the clock reference)"),
+    TIME: (UTC_UNITS, "UTC of the frame's receipt"),
+    ROW: ("1", "pixel row, zero-based, top to bottom"),
+    COL: ("1", "pixel column, zero-based, left to right"),
+    REFERENCES: ("DN", "background reference: the fixed-pattern offset subtracted before Eq. (4)"),
+    MEASUREMENTS: (MIXED_UNITS, "per-frame peak-pixel SNR (paper Eq. 4) as measured live"),
+    STATES: (MIXED_UNITS, "the engine's state before a frame after frames the file lacks"),
+    RANGEFINDER: (MIXED_UNITS, "laser rangefinder readings as received"),
+    GPS: (MIXED_UNITS, "GPS fixes as received (or imported from a flight log)"),
+    EVENTS: (MIXED_UNITS, "operator and engine events"),
+    CLOCK: (MIXED_UNITS, "host monotonic clock to UTC references"),
+}
+"""``name -> (units, long_name)`` of every dataset (CF style attributes)."""
+
+DIMENSIONS: dict[str, str] = {
+    MEASUREMENTS: "measurement",
+    STATES: "state",
+    REFERENCES: "reference",
+    RANGEFINDER: "rangefinder_reading",
+    GPS: "gps_fix",
+    EVENTS: "event",
+    CLOCK: "clock_reference",
+}
+"""The growing datasets without a coordinate: the name of their first dimension (a netCDF
+"dimension without a variable" scale beside them, kept as long as they are)."""
 
 
 def text_field(value: str, size: int) -> bytes:

@@ -22,6 +22,8 @@ from snrmon.acquisition.record import schema
 from snrmon.acquisition.streams.timebase import ClockMap
 
 COMPRESSIONS = ("gzip", "lz4", "zstd", "bitshuffle-lz4")
+# The NAME netCDF-4 gives a dimension scale that is only a dimension (netCDF's own convention).
+NETCDF_PURE_DIMENSION = "This is a netCDF dimension but not a netCDF variable."
 LIBVER = ("v110", "v110")
 _U16 = np.dtype("<u2")
 
@@ -45,6 +47,56 @@ def frame_filter(compression: str | None) -> dict:
         "zstd": lambda: dict(hdf5plugin.Zstd(clevel=1)),
         "bitshuffle-lz4": lambda: dict(hdf5plugin.Bitshuffle(cname="lz4")),
     }[compression]()
+
+
+def pure_dimension(
+    parent: h5py.Group, name: str, of: str, length: int, chunk: int = 64
+) -> h5py.Dataset:
+    """A netCDF "dimension without a variable" named ``name`` for the rows of dataset ``of``:
+    an empty-valued scale as long as it (kept so by :func:`resize_rows`), so readers name the
+    axis."""
+    scale = parent.create_dataset(name, (length,), np.int8, chunks=(chunk,), maxshape=(None,))
+    scale.make_scale(f"{NETCDF_PURE_DIMENSION}{length:10d}")
+    scale.attrs.update(units="1", long_name=f"index of a row of {of}")
+    return scale
+
+
+def resize_rows(ds: h5py.Dataset, n: int) -> None:
+    """Resize a 1-D row dataset to ``n`` rows, and the pure dimension it is attached to."""
+    ds.resize((n,))
+    for scale in ds.dims[0].values():
+        if str(scale.attrs.get("NAME", b"").decode()).startswith(NETCDF_PURE_DIMENSION):
+            scale.resize((n,))
+
+
+def copy_rows(parent: h5py.Group, ds: h5py.Dataset, name: str) -> h5py.Dataset:
+    """A copy of the row dataset ``ds`` as ``parent[name]``: its rows and attributes, and a
+    pure dimension of its own (``<name>_row``), not the original's."""
+    new = parent.create_dataset(name, data=ds[()], chunks=ds.chunks, maxshape=(None,))
+    for key, value in ds.attrs.items():
+        if key not in ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME"):
+            new.attrs[key] = value
+    _attach(new, pure_dimension(parent, f"{name}_row", name, len(new)))
+    return new
+
+
+def _attach(ds: h5py.Dataset, *scales: h5py.Dataset) -> None:
+    """Attach one dimension scale per axis of ``ds``, in order."""
+    for axis, scale in enumerate(scales):
+        ds.dims[axis].attach_scale(scale)
+
+
+def _describe_all(f: h5py.File) -> None:
+    """``units`` and ``long_name`` on every dataset the layout names (schema.ATTRS)."""
+
+    def visit(name: str, obj: object) -> None:
+        if isinstance(obj, h5py.Dataset):
+            key = name.rsplit("/", 1)[-1]
+            if key in schema.ATTRS and "long_name" not in obj.attrs:
+                units, long_name = schema.ATTRS[key]
+                obj.attrs.update(units=units, long_name=long_name)
+
+    f.visititems(visit)
 
 
 class SessionWriter:
@@ -71,6 +123,7 @@ class SessionWriter:
         self.stream_rows = dict.fromkeys(schema.STREAMS, 0)
         self._pending: dict[tuple[str, str], list] = {}
         self._frames: dict[str, h5py.Dataset] = {}  # per camera, looked up once (not per frame)
+        self._dimensions: dict[str, h5py.Dataset] = {}  # dataset path -> its pure dimension
         self._file = self._create(config, shapes, filters, compression, flush_interval_s)
         self._fd = os.open(path, os.O_RDONLY) if fsync else None
 
@@ -114,7 +167,7 @@ class SessionWriter:
             for name, (h, w) in shapes.items():
                 g = f.create_group(f"{schema.CAMERAS}/{name}")
                 g.attrs.update(height=h, width=w, pixel_dtype="uint16")
-                self._frames[name] = g.create_dataset(
+                frames = g.create_dataset(
                     schema.FRAMES,
                     (0, h, w),
                     np.uint16,
@@ -122,8 +175,12 @@ class SessionWriter:
                     maxshape=(None, h, w),
                     **filters,
                 )
-                for col in schema.FRAME_COLUMNS:
-                    g.create_dataset(col, (0,), np.int64, chunks=(4096,), maxshape=(None,))
+                self._frames[name] = frames
+                time, row, col = self._frame_axes(g, h, w)
+                _attach(frames, time, row, col)
+                for column in schema.FRAME_COLUMNS:
+                    ds = g.create_dataset(column, (0,), np.int64, chunks=(4096,), maxshape=(None,))
+                    _attach(ds, time)
                 m = g.create_dataset(
                     schema.MEASUREMENTS,
                     (0,),
@@ -133,10 +190,12 @@ class SessionWriter:
                 )
                 m.attrs["flag_names"] = np.array([n.encode() for n in schema.FLAG_NAMES])
                 m.attrs["units_json"] = json.dumps(schema.MEASUREMENT_UNITS)
+                _attach(m, self._dimension(g, schema.MEASUREMENTS, 1024))
                 st = g.create_dataset(
                     schema.STATES, (0,), schema.STATE_DTYPE, chunks=(1,), maxshape=(None,)
                 )
                 st.attrs["units_json"] = json.dumps(schema.STATE_UNITS)
+                _attach(st, self._dimension(g, schema.STATES, 64))
                 images = g.create_dataset(
                     schema.REFERENCES,
                     (0, h, w),
@@ -144,10 +203,12 @@ class SessionWriter:
                     chunks=(1, h, w),
                     maxshape=(None, h, w),
                 )
-                images.attrs["units"] = "DN: the fixed-pattern offset subtracted before Eq. (4)"
+                _attach(images, self._dimension(g, schema.REFERENCES, 64), row, col)
             for name, (dtype, units) in schema.STREAMS.items():
                 d = f.create_dataset(name, (0,), dtype, chunks=(64,), maxshape=(None,))
                 d.attrs["units_json"] = json.dumps(units)
+                _attach(d, self._dimension(f, name, 64))
+            _describe_all(f)
             self._last_ref = ref
             self._append(f[schema.CLOCK], self._clock_row(ref))
             self.stream_rows[schema.CLOCK] = 1
@@ -178,6 +239,7 @@ class SessionWriter:
         n = ds.shape[0]
         ds.resize(n + 1, axis=0)
         ds[n] = offset
+        self._dimensions[ds.name].resize((n + 1,))
         return n
 
     def add_row(self, kind: str, key: str, row: tuple) -> None:
@@ -193,6 +255,7 @@ class SessionWriter:
                 utc = self._utc_ns(cols[:, 1])
                 for name, values in zip(schema.FRAME_COLUMNS, (*cols.T, utc), strict=True):
                     self._append(f[f"{schema.CAMERAS}/{key}/{name}"], values)
+                self._append(f[f"{schema.CAMERAS}/{key}/{schema.TIME}"], utc)
             elif kind == "meas":
                 arr = np.array(rows, schema.MEASUREMENT_DTYPE)
                 self._append(f[f"{schema.CAMERAS}/{key}/{schema.MEASUREMENTS}"], arr)
@@ -240,8 +303,27 @@ class SessionWriter:
     def _clock_row(ref) -> np.ndarray:
         return np.array([(ref.monotonic_ns, ref.utc_ns, ref.source.encode())], schema.CLOCK_DTYPE)
 
+    def _append(self, ds: h5py.Dataset, values: np.ndarray) -> None:
+        n = ds.shape[0] + len(values)
+        ds.resize((n,))
+        ds[-len(values) :] = values
+        scale = self._dimensions.get(ds.name)
+        if scale is not None:  # a pure dimension is as long as its dataset
+            scale.resize((n,))
+
     @staticmethod
-    def _append(ds: h5py.Dataset, values: np.ndarray) -> None:
-        n = ds.shape[0]
-        ds.resize((n + len(values),))
-        ds[n:] = values
+    def _frame_axes(g: h5py.Group, h: int, w: int) -> tuple[h5py.Dataset, ...]:
+        """The frame cube's coordinates as dimension scales: ``time`` (the frames' UTC, CF time
+        units, appended with them), ``row`` and ``col`` (pixel indices)."""
+        time = g.create_dataset(schema.TIME, (0,), np.int64, chunks=(4096,), maxshape=(None,))
+        time.attrs.update(standard_name="time", calendar="proleptic_gregorian")
+        row = g.create_dataset(schema.ROW, data=np.arange(h, dtype=np.int32))
+        col = g.create_dataset(schema.COL, data=np.arange(w, dtype=np.int32))
+        for axis, name in ((time, schema.TIME), (row, schema.ROW), (col, schema.COL)):
+            axis.make_scale(name)
+        return time, row, col
+
+    def _dimension(self, parent: h5py.Group, dataset: str, chunk: int) -> h5py.Dataset:
+        scale = pure_dimension(parent, schema.DIMENSIONS[dataset], dataset, 0, chunk)
+        self._dimensions[f"{parent.name.rstrip('/')}/{dataset}"] = scale
+        return scale

@@ -1,7 +1,9 @@
 """The campaign's Parquet tables: every stop of every session, and per-frame tables on request.
 
 Plain Parquet (pyarrow), readable without snrmon: ``pandas.read_parquet``, ``polars.read_parquet``,
-MATLAB's ``parquetread``. Missing values are nulls, never NaN or made-up numbers. The file's
+MATLAB's ``parquetread``. Missing values are nulls, never NaN or made-up numbers; times are
+timestamp columns (UTC, ns); integer columns with nulls stay integers (the pandas metadata asks
+for nullable integer dtypes, so pandas does not turn them into floats). The file's
 key-value metadata holds ``snrmon.settings`` (the analysis settings as JSON), ``snrmon.campaign``
 (the sessions, the failures, the snrmon version) and ``snrmon.units`` (column -> unit and meaning),
 so a table says how it was made. Columns: :data:`STOP_COLUMNS` and :data:`FRAME_COLUMNS`.
@@ -19,6 +21,7 @@ import pyarrow.parquet as pq
 from snrmon.acquisition.prediction import CURVES
 
 _F = pa.float64()
+_UTC = pa.timestamp("ns", tz="UTC")  # a timestamp column: readers get dates, not integers
 STOP_COLUMNS: dict[str, tuple[pa.DataType, str]] = {
     "session": (
         pa.string(),
@@ -30,8 +33,8 @@ STOP_COLUMNS: dict[str, tuple[pa.DataType, str]] = {
     "target": (pa.string(), "target preset or TOML of the model curves"),
     "sensor": (pa.string(), "sensor preset of the model curves"),
     "day": (pa.date32(), "UTC date of the stop's start"),
-    "t_start_utc_ns": (pa.int64(), "ns since 1970 UTC, stop start (session clock)"),
-    "t_end_utc_ns": (pa.int64(), "ns since 1970 UTC, stop end (null: open when the file ends)"),
+    "t_start_utc": (_UTC, "stop start, UTC (session clock)"),
+    "t_end_utc": (_UTC, "stop end, UTC (null: open when the file ends)"),
     "lrf_range_m": (_F, "m, median rangefinder slant range during the stop"),
     "gps_range_m": (_F, "m, median GPS slant range during the stop"),
     "range_m": (_F, "m, the rangefinder's range, else the GPS range"),
@@ -77,7 +80,7 @@ FRAME_COLUMNS: dict[str, tuple[pa.DataType, str]] = {
     "session": (pa.string(), "session name"),
     "camera": (pa.string(), "camera name"),
     "t_host_ns": (pa.int64(), "ns, host monotonic clock at receipt"),
-    "utc_ns": (pa.int64(), "ns since 1970 UTC (session clock)"),
+    "utc": (_UTC, "the frame's receipt, UTC (session clock)"),
     "stop": (pa.int32(), "stop index while a stop was open, else null"),
     "peak_x": (pa.int32(), "px, column, zero-based"),
     "peak_y": (pa.int32(), "px, row, zero-based"),
@@ -105,8 +108,29 @@ def stop_table(rows: list[dict[str, Any]]) -> pa.Table:
     return pa.Table.from_pylist(rows, schema=STOP_SCHEMA)
 
 
+def _with_nullable_integers(table: pa.Table) -> pa.Table:
+    """``table`` with pandas metadata that reads its integer columns as nullable integers
+    (``Int32``...) instead of floats where they hold nulls."""
+    frame = table.to_pandas(types_mapper=_nullable_pandas_type)
+    return pa.Table.from_pandas(frame, schema=table.schema, preserve_index=False)
+
+
+def _nullable_pandas_type(arrow_type: pa.DataType):
+    """The pandas nullable dtype of an Arrow integer type (None: pandas' default)."""
+    import pandas as pd
+
+    if pa.types.is_integer(arrow_type):
+        return pd.api.types.pandas_dtype(
+            str(arrow_type).replace("int", "Int").replace("uInt", "UInt")
+        )
+    return None
+
+
 def write_stop_table(path: Path, rows: list[dict], settings: dict, campaign: dict) -> Path:
-    table = stop_table(rows).replace_schema_metadata(_metadata(STOP_COLUMNS, settings, campaign))
+    table = _with_nullable_integers(stop_table(rows))
+    table = table.replace_schema_metadata(
+        {**(table.schema.metadata or {}), **_metadata(STOP_COLUMNS, settings, campaign)}
+    )
     pq.write_table(table, path)
     return path
 
@@ -132,8 +156,9 @@ def frame_table(columns: list[dict]) -> pa.Table:
 
 
 def write_frame_table(path: Path, columns: list[dict], settings: dict, campaign: dict) -> Path:
-    table = frame_table(columns).replace_schema_metadata(
-        _metadata(FRAME_COLUMNS, settings, campaign)
+    table = _with_nullable_integers(frame_table(columns))
+    table = table.replace_schema_metadata(
+        {**(table.schema.metadata or {}), **_metadata(FRAME_COLUMNS, settings, campaign)}
     )
     pq.write_table(table, path)
     return path

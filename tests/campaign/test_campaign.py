@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
@@ -86,6 +87,14 @@ def test_local_cluster_table_equals_serial_replay(hil_sessions, reference, tmp_p
         assert frames.num_rows == t["measured"] > 0
         assert set(frames.column("camera").to_pylist()) == {"lwir"}
         assert frames.column("stop").null_count < frames.num_rows
+        df = pd.read_parquet(out / "frames" / f"{t['session']}.parquet")
+        assert str(df["stop"].dtype) == "Int32"  # nulls outside stops, integers inside
+        assert str(df["utc"].dtype) == "datetime64[ns, UTC]"
+        assert df["utc"].dt.year.unique().tolist() == [2019]
+    stops_df = pd.read_parquet(out / "stops.parquet")
+    assert str(stops_df["t_start_utc"].dtype) == "datetime64[ns, UTC]"
+    ended = stops_df["t_end_utc"].notna()  # NaT: a stop still open when the file ended
+    assert (stops_df["t_end_utc"][ended] > stops_df["t_start_utc"][ended]).all()
     assert (out / "campaign-report.pdf").stat().st_size > 10_000
     assert json.loads((out / "campaign.json").read_text())["frames_per_s"] > 0
 
