@@ -1,5 +1,11 @@
 """snrmon: the peak-pixel SNR of unresolved drones in infrared video, beside the sensor model.
 
+The public API (:mod:`snrmon.api`, docs/api.md) is at the top: :func:`predict` (the model's
+curves as an xarray Dataset), :func:`open_session` (a recording: frames, measurements, the
+stop table), :func:`load_stack`, :func:`measure_stack`, :func:`track_stack` (paper Eq. 4 on a
+stack). They are imported when first used, so ``import snrmon`` stays cheap for the command
+line.
+
 One installed namespace. Its subpackages each own one job (docs/architecture.md):
 :mod:`snrmon.model` (the physics), :mod:`snrmon.drivers` (devices), :mod:`snrmon.acquisition`
 (the pipeline, recording, replay), :mod:`snrmon.sim` (simulated devices and scenes),
@@ -12,6 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 __version__ = "0.1.0"
+__all__ = ["Session", "load_stack", "measure_stack", "open_session", "predict", "track_stack"]
 
 # Run from a source checkout (the repository's top folder on sys.path, as pytest and
 # ``python -m snrmon`` there put it), this folder is found before the installed package, and
@@ -20,3 +27,15 @@ __version__ = "0.1.0"
 # editable link tree) has them inside and is left alone.
 if not (Path(__file__).parent / "model").is_dir():  # pragma: no cover - depends on the layout
     __path__.append(str(Path(__file__).resolve().parent.parent))
+
+
+def __getattr__(name: str):
+    if name in __all__:
+        from snrmon import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'snrmon' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *__all__])

@@ -24,6 +24,27 @@ def shared_data() -> Path:
     return TEST_DATA
 
 
+HIL_SEEDS = (0, 1)
+
+
+def _hil_record(path: Path, seed: int) -> Path:
+    from snrmon.cli import main
+
+    argv = ["hil", "--out", str(path), "--stops", "37,126", "--hover-s", "4", "--speed", "4"]
+    argv += ["--camera", "lwir", "--seed", str(seed), "--json"]
+    assert main(argv) == 0, f"snrmon hil --out {path} failed"
+    return path
+
+
+@pytest.fixture(scope="session")
+def hil_sessions(tmp_path_factory) -> list[Path]:
+    """Two small sessions recorded live by ``snrmon hil --out`` (short flights: two stops, 4 s
+    hovers at four times real time, LWIR only: ~9 s each), built once for the campaign, GPS
+    import and API tests."""
+    folder = tmp_path_factory.mktemp("hil-sessions")
+    return [_hil_record(folder / f"flight-{seed}.h5", seed) for seed in HIL_SEEDS]
+
+
 @pytest.fixture(scope="session")
 def xvfb_display():
     """A real X display (Xvfb, 1600x1000, 24 bit) for tests that open real windows; skipped,

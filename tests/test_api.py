@@ -1,0 +1,134 @@
+"""The public API (snrmon.api): its examples run, its page is current, and its labelled results
+hold the numbers the product computed, checked against an independent reading of the same data
+(plain h5py on the file, the recorded stop table, the model's own arrays)."""
+
+from __future__ import annotations
+
+import doctest
+import json
+import runpy
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pandas as pd
+import pytest
+
+import snrmon
+from snrmon import api, examples
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize("module", [api, examples], ids=lambda m: m.__name__)
+def test_every_example_in_the_docstrings_runs(module):
+    failed, tried = doctest.testmod(
+        module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
+    )
+    assert tried >= 4 and failed == 0
+
+
+def test_the_api_page_is_the_docstrings():
+    tool = runpy.run_path(str(REPO / ".ci" / "api_doc.py"))
+    assert tool["main"](["--check", str(REPO / "docs" / "api.md")]) == 0
+
+
+def test_the_top_level_names_are_the_api_and_import_lazily():
+    assert set(snrmon.__all__) == set(api.__all__)
+    code = "import sys, snrmon; "
+    code += "print(json.dumps(['xarray' in sys.modules, snrmon.predict.__module__]))"
+    out = subprocess.run(
+        [sys.executable, "-c", "import json; " + code],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=REPO,
+    ).stdout
+    assert json.loads(out) == [False, "snrmon.api"]  # the CLI's import snrmon stays cheap
+
+
+def test_predict_labels_the_models_own_arrays():
+    from snrmon.model.presets import load_sensor, load_target
+    from snrmon.model.snr import predict
+
+    ranges = np.array([37.0, 199.0, 508.0])
+    ds = snrmon.predict("lwir", "uav1", ranges, background_temp_k=280.0, band=False)
+    p = predict(
+        load_sensor("lwir"), load_target("uav1"), ranges, background_temp_k=280.0, band=False
+    )
+    np.testing.assert_array_equal(ds["range_m"].values, ranges)
+    assert ds["range_m"].attrs["units"] == "m"
+    for name in ("small", "large", "small_corrected", "large_corrected"):
+        np.testing.assert_array_equal(ds[name].values, getattr(p, f"snr_{name}"))
+    for name, snr in p.paper.items():
+        np.testing.assert_array_equal(ds[f"paper_{name}"].values, snr)
+    assert ds.attrs["background_temp_k"] == 280.0
+    assert json.loads(ds.attrs["conditions_json"]) == {"background_temp_k": 280.0, "band": False}
+    with pytest.raises(ValueError, match="unknown"):
+        snrmon.predict("swir", "uav1", ranges)
+
+
+def test_a_live_recording_reads_as_labelled_tables(hil_sessions):
+    path = hil_sessions[0]
+    with snrmon.open_session(path) as s:
+        assert s.cameras == ("lwir",)
+        m = s.measurements("lwir")
+        frames = s.frames("lwir")
+        stops = s.stops()
+    with h5py.File(path, "r", locking=False) as f:  # as every reader of a session does
+        rows = f["cameras/lwir/measurements"][()]
+        shape = f["cameras/lwir/frames"].shape
+        first = f["cameras/lwir/frames"][0]
+        events = [
+            (e["kind"].decode(), json.loads(e["payload"]))
+            for e in f["events"][()]
+            if e["kind"] == b"stop_summary"
+        ]
+    # per frame: the file's own rows, with real strings and timestamps
+    assert len(m) == len(rows)
+    np.testing.assert_array_equal(m["snr"].to_numpy(), rows["snr"])
+    assert m["track_state"].tolist() == [v.decode() for v in rows["track_state"]]
+    assert set(m["track_state"]) <= {"tracking", "lost", "reacquiring", "gps_cued", "occluded"}
+    assert m["background"].map(type).eq(str).all()
+    assert isinstance(m["utc"].dtype, pd.DatetimeTZDtype)
+    assert m["utc"].dt.year.unique().tolist() == [2019]  # the simulated receiver's date
+    flagged = m["flag_lost"].to_numpy()
+    np.testing.assert_array_equal(flagged, (rows["flags"] >> 4) & 1 == 1)
+    # frames: lazy, named, the file's pixels
+    assert frames.dims == ("time", "row", "col") and frames.shape == shape
+    np.testing.assert_array_equal(frames[0].values, first)
+    # stops: the live session's own final rows, as it recorded them
+    final = {(p["camera"], p["stop"]): p for _, p in events if p.get("final")}
+    assert len(stops) == len(final) >= 2
+    for row in stops.itertuples():
+        rec = final[(row.camera, row.stop)]
+        assert row.n_frames == rec["n_frames"]
+        assert row.snr_mean == pytest.approx(rec["snr_mean"], rel=1e-12)
+    assert (stops["model_small_corrected"] > 0).all()
+
+
+def test_measure_and_track_a_stack_from_a_file(shared_data):
+    clip = shared_data / "ir_small_targets" / "videos" / "IR_DRONE_151.mp4"
+    stack = snrmon.load_stack(clip)
+    assert stack.dims == ("frame", "row", "col") and stack.sizes["frame"] > 100
+    labels = pd.read_csv(shared_data / "ir_small_targets" / "labels_csv" / "IR_DRONE_151.csv")
+    x0, y0, w, h = labels.iloc[0][["x", "y", "w", "h"]]
+    at = (round(x0 + w / 2), round(y0 + h / 2))
+    fixed = snrmon.measure_stack(stack[:20], at=at)
+    tracked = snrmon.track_stack(stack[:20], at=at)
+    assert list(fixed.index) == list(range(20)) and fixed.index.name == "frame"
+    assert {"flag_saturated", "flag_lost"} <= set(fixed.columns)
+    assert set(tracked["track_state"]) <= {"tracking", "lost", "reacquiring"}
+    # the tracked peak stays on the labelled drone (2 px margin)
+    inside = [
+        x0 - 2 <= px <= x0 + w + 2 and y0 - 2 <= py <= y0 + h + 2
+        for px, py, (x0, y0, w, h) in zip(
+            tracked["peak_x"],
+            tracked["peak_y"],
+            labels[["x", "y", "w", "h"]].to_numpy()[:20],
+            strict=True,
+        )
+    ]
+    assert all(inside)
