@@ -22,5 +22,7 @@ packages = []
 for package, folder in FOLDERS.items():
     packages.append(package)
     packages += [f"{package}.{sub}" for sub in find_packages(folder)]
+# A folder of data files (the presets' TOML) is a package to setuptools too: name it.
+packages.append("snrmon.model.presets")
 
 setup(package_dir=FOLDERS, packages=packages)
