@@ -396,21 +396,28 @@ def _round_range(r: float | None) -> float | None:
 def _measurement_frame(rows: np.ndarray, clock: np.ndarray) -> pd.DataFrame:
     """Measurement rows (the file's compound dtype) as a DataFrame: strings decoded, flags as
     boolean columns, NaN-marked missing values as NA, ``utc`` a timestamp."""
-    from snrmon.acquisition.measure.peak_snr import FLAG_NAMES
     from snrmon.acquisition.record.gps_align import host_to_utc_ns
 
     frame = pd.DataFrame({name: rows[name] for name in rows.dtype.names})
     for name in rows.dtype.names:
         if rows.dtype[name].kind == "S":
             frame[name] = [v.decode("utf-8", errors="replace") for v in rows[name]]
-    bits = np.asarray(rows["flags"], np.int64)
-    for i, flag in enumerate(FLAG_NAMES):
-        frame[f"flag_{flag}"] = (bits >> i) & 1 == 1
+    _add_flag_columns(frame, rows["flags"])
     frame = frame.drop(columns=["flags"])
     frame["frame_index"] = frame["frame_index"].astype("Int64").where(frame["frame_index"] >= 0)
     utc = host_to_utc_ns(np.asarray(rows["t_host_ns"], np.int64), clock) if len(rows) else []
     frame.insert(3, "utc", pd.to_datetime(np.asarray(utc, np.int64), unit="ns", utc=True))
     return frame
+
+
+def _add_flag_columns(frame: pd.DataFrame, bits: np.ndarray) -> None:
+    """One boolean column per Eq. (4) flag (``flag_saturated`` ...) from the flag bit masks
+    (bit i is ``FLAG_NAMES[i]``)."""
+    from snrmon.acquisition.measure.peak_snr import FLAG_NAMES
+
+    mask = np.asarray(bits, np.int64)
+    for i, flag in enumerate(FLAG_NAMES):
+        frame[f"flag_{flag}"] = (mask >> i) & 1 == 1
 
 
 # ----------------------------------------------------------------------------- stacks
@@ -499,7 +506,6 @@ def measure_stack(
     >>> bool((m["peak_x"] == 18).all()), bool(15 < m["snr"].median() < 25)
     (True, True)
     """
-    from snrmon.acquisition.measure.peak_snr import FLAG_NAMES
     from snrmon.acquisition.measure.stack_snr import measure_stack as measure
 
     pixels = _pixels(stack)
@@ -523,9 +529,7 @@ def measure_stack(
             "background": result.background,
         }
     )
-    bits = np.asarray(result.flag_bits, np.int64)
-    for i, flag in enumerate(FLAG_NAMES):
-        frame[f"flag_{flag}"] = (bits >> i) & 1 == 1
+    _add_flag_columns(frame, result.flag_bits)
     frame.index.name = "frame"
     return frame
 
