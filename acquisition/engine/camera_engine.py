@@ -333,10 +333,6 @@ class CameraEngine:
             rows = list(self._series)
         return np.array(rows, dtype=float) if rows else np.empty((0, 5))
 
-    def clear_series(self) -> None:
-        with self._lock:
-            self._series.clear()
-
     def figures(self) -> AnalysisFigures:
         total, temporal, spatial = self.noise.figures()
         sky = self.sky.mean_temp_k(last=SKY_FRAMES) if self.sky is not None else NAN

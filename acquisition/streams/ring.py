@@ -62,10 +62,6 @@ class RingFrame:
     t_device_ns: int | None
     camera: str = ""
 
-    def to_frame(self) -> Frame:
-        """The frame as the drivers' ``Frame`` type."""
-        return Frame(self.pixels, self.camera, self.counter, self.t_host_ns, self.t_device_ns)
-
 
 @dataclass(frozen=True, slots=True)
 class ReaderStats:
