@@ -234,7 +234,7 @@ class AtmosphereTable:
         return 1e4 / self.wavenumber_cm1
 
     @functools.lru_cache(maxsize=64)  # noqa: B019 (one table, loaded once)
-    def _at(self, state: tuple) -> tuple[np.ndarray, ...]:
+    def _at(self, state: tuple) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
         t_k, rh, p, vis, aerosol = state
         it, ft = _bracket(self._temp_k, t_k)
         ip, fp = _bracket(self._ln_p, math.log(p))
@@ -266,23 +266,34 @@ class AtmosphereTable:
                 a.setflags(write=False)
         return out
 
-    def optical_depth(self, weather: Weather, ranges_m: np.ndarray) -> np.ndarray:
-        """(n_ranges, n_nu) optical depth of horizontal paths of ``ranges_m`` (>= 0)."""
+    def optical_depth(
+        self, weather: Weather, ranges_m: np.ndarray, columns: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(n_ranges, n_nu) optical depth of horizontal paths of ``ranges_m`` (>= 0), at the
+        spectral points ``columns`` (wavenumber order) or all."""
         r = np.atleast_1d(np.asarray(ranges_m, dtype=float))
         ln_dry, ln_k_rho, cont, beta = self._at(weather.state())
+        a = self._a
+        if columns is not None:
+            ln_dry, cont, beta, a = ln_dry[:, columns], cont[columns], beta[columns], a[columns]
+            ln_k_rho = None if ln_k_rho is None else ln_k_rho[columns]
         lr = np.log(np.maximum(r, 1e-6))
         i = np.clip(np.searchsorted(self._ln_path, lr) - 1, 0, self._ln_path.size - 2)
         f = ((lr - self._ln_path[i]) / (self._ln_path[i + 1] - self._ln_path[i]))[:, None]
-        od = np.exp((1 - f) * ln_dry[i] + f * ln_dry[i + 1])
+        lo = ln_dry[i]
+        od = np.exp(lo + f * (ln_dry[i + 1] - lo))
         km = (r / 1e3)[:, None]
         if ln_k_rho is not None:
-            od = od + np.exp(self._a * (ln_k_rho + np.log(np.maximum(km, 1e-9))))
-        od = od + (cont + beta) * km
-        return np.where(r[:, None] > 0, od, 0.0)
+            od += np.exp(a * (ln_k_rho + np.log(np.maximum(km, 1e-9))))
+        od += (cont + beta) * km
+        od[r <= 0] = 0.0
+        return od
 
-    def transmission(self, weather: Weather, ranges_m: np.ndarray) -> np.ndarray:
+    def transmission(
+        self, weather: Weather, ranges_m: np.ndarray, columns: np.ndarray | None = None
+    ) -> np.ndarray:
         """(n_ranges, n_nu) spectral transmittance, in the table's wavenumber order."""
-        return np.exp(-self.optical_depth(weather, ranges_m))
+        return np.exp(-self.optical_depth(weather, ranges_m, columns))
 
 
 @dataclass(frozen=True, eq=False)
@@ -311,6 +322,15 @@ class TablePath:
                 return bool(np.any((wl >= band_um[0]) & (wl <= band_um[1])))
         return False
 
+    @property
+    def grid_key(self) -> object:
+        """Identifies the wavelength grid (the spectral-bin cache's key): the table's."""
+        return ("lowtran7-table", load_table().meta["sha256"])
+
     def transmission_at_ranges(self, ranges_m, columns: np.ndarray | None = None) -> np.ndarray:
-        tau = load_table().transmission(self.weather, ranges_m)[:, ::-1]
-        return tau if columns is None else tau[:, columns]
+        """(n_ranges, n_samples) in ascending wavelength (``columns`` of that order)."""
+        table = load_table()
+        n = table.wavenumber_cm1.size
+        if columns is None:
+            return table.transmission(self.weather, ranges_m)[:, ::-1]
+        return table.transmission(self.weather, ranges_m, n - 1 - np.asarray(columns))

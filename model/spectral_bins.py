@@ -71,3 +71,29 @@ def bin_average_matrix(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
                     row[k + 1] += cr
         row /= b - a
     return out
+
+
+_CACHE: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+_CACHE_SIZE = 64
+
+
+def cell_averaging(source, nodes, weights=None) -> tuple[np.ndarray, np.ndarray]:
+    """(columns, A): the samples of ``source.wavelength_um`` that the nodes' cells touch and
+    the (n_nodes, n_columns) averaging matrix on them, cached per ``source.grid_key`` (the
+    identity of its wavelength grid) and nodes."""
+    key_nodes = tuple(np.atleast_1d(np.asarray(nodes, dtype=float)).tolist())
+    key_w = None if weights is None else tuple(np.asarray(weights, dtype=float).tolist())
+    key = (source.grid_key, key_nodes, key_w)
+    hit = _CACHE.get(key)
+    if hit is not None:
+        return hit
+    edges = cell_edges(np.asarray(key_nodes), None if key_w is None else np.asarray(key_w))
+    a = bin_average_matrix(source.wavelength_um, edges)
+    cols = np.flatnonzero(np.any(a != 0.0, axis=0))
+    sub = a[:, cols]
+    cols.setflags(write=False)
+    sub.setflags(write=False)
+    if len(_CACHE) >= _CACHE_SIZE:
+        _CACHE.clear()
+    _CACHE[key] = (cols, sub)
+    return cols, sub

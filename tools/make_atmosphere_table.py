@@ -15,8 +15,9 @@ small without approximating it:
 
 * ``ln_od_dry[T, P, L, nu]`` (float16: 0.1 % of an optical depth near 1): everything but
   water (CO2 at ``co2_ppmv``, O3, N2O, CO, CH4, O2 and the trace gases at US Standard 1976
-  sea-level mixing ratios, the N2 continuum, molecular scattering), tabulated over T, P and path length. Read with ln(OD) linear in T, in ln P and
-  in ln L (the band model's absorber amount is a power of each).
+  sea-level mixing ratios, the N2 continuum, molecular scattering), tabulated over T, P and
+  path length. Read with ln(OD) linear in T, in ln P and in ln L (the band model's absorber
+  amount is a power of each).
 * the water, in LOWTRAN7's own functional form per spectral point: line absorption
   ``(K rho L)^a`` (its double-exponential band model, ``a`` the band's exponent), plus the
   continuum ``(s rho^2 + f rho) L`` (self- and foreign-broadened). ``K``, ``s``, ``f`` are
@@ -84,7 +85,7 @@ SEASON_SEA_LEVEL = {
     "midlat_winter": (272.2, 1018.0, 4.316e3),
     "subarctic_summer": (287.2, 1010.0, 1.194e4),
     "subarctic_winter": (257.2, 1013.0, 1.405e3),
-    "us_std_1976": (288.2, 1013.0, 7.745e3),
+    "us_std_1976": (288.15, 1013.25, 7.745e3),  # the standard's own values (LOWTRAN rounds)
 }
 LOSCHMIDT_CM3 = 2.68675e19
 AVOGADRO = 6.022045e23
