@@ -99,7 +99,7 @@ def lowtran_spectrum(
     step_cm1: float = 5.0,
     emission: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """(wavenumber [cm^-1], transmittance, path thermal radiance [W cm^-2 sr^-1 (cm^-1)^-1] in
+    """(wavenumber [cm^-1], transmittance, path thermal radiance [W cm^-2 sr^-1 um^-1] in
     radiance mode, else None) of a horizontal path of ``path_m`` metres (LOWTRAN7's 20 cm^-1
     resolution, sampled every ``step_cm1``)."""
     mod = lowtran_module()
