@@ -55,7 +55,8 @@ class EngineSink(Protocol):
 
     def model_changed(self, camera: str, kind: str, payload: dict, t_host_ns: int) -> None:
         """One of the model's inputs changed: "model_background" {"temp_k"} (the measured
-        sky) or "model_psf" (a PSF measured from the flight, ``PsfEstimate.as_dict``)."""
+        sky), "model_psf" (a PSF measured from the flight, ``PsfEstimate.as_dict``) or
+        "met_readings" (the day's met readings, ``Weather.as_dict``)."""
 
 
 class SessionEngine:
@@ -158,6 +159,11 @@ class SessionEngine:
             from snrmon.acquisition.calibrate.psf_estimate import psf_from_record
 
             self.predictor.set_psf(camera, psf_from_record(payload))  # type: ignore[union-attr]
+        elif kind == "met_readings" and hasattr(self.predictor, "set_weather"):
+            from snrmon.model.atmosphere_table import Weather
+
+            weather = Weather.from_dict(dict(payload))
+            self.predictor.set_weather(weather, camera)  # type: ignore[union-attr]
 
     # ------------------------------------------------------------------ commands
     def camera(self, name: str) -> CameraEngine:
