@@ -26,7 +26,9 @@ import threading
 
 import numpy as np
 
-from snrmon.model.atmosphere_table import Weather
+from snrmon.model.atmosphere_table import AEROSOLS, SEASONS, Weather
+
+__all__ = ["AEROSOLS", "SEASONS", "ModelPredictor", "Weather", "session_model_options"]
 
 CURVES = ("small", "large", "small_corrected", "large_corrected")
 EXPECTED = "expected_eq4"

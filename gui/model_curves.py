@@ -19,7 +19,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from snrmon.acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
+from snrmon.acquisition.prediction import (
+    CURVES,
+    EXPECTED,
+    PAPER_CURVES,
+    ModelPredictor,
+    Weather,
+    session_model_options,
+)
 from snrmon.acquisition.protocols import ConsoleSession
 
 CURVE_LABELS = {
@@ -40,11 +47,13 @@ SKY_STEP_K = 0.5  # a smaller change of the measured sky does not redraw the cur
 
 @dataclass(frozen=True)
 class ModelOptions:
-    """The operator's model choices: target preset, curves shown, background temperature."""
+    """The operator's model choices: target preset, curves shown, background temperature, and
+    the day's met readings (the model's atmosphere; the session records them)."""
 
     target: str = "uav1"
     shown: tuple[str, ...] = DEFAULT_SHOWN
     background_temp_k: float | None = None  # None: the model's own
+    weather: Weather | None = None  # None: the model's default atmosphere
 
     def __post_init__(self) -> None:
         unknown = [c for c in self.shown if c not in ALL_CURVES]
@@ -67,6 +76,34 @@ def parse_background_temp(text: str) -> float | None:
     if not (math.isfinite(value) and value > 0):
         raise ValueError(f"background temperature must be > 0 K, got {text!r}")
     return value
+
+
+MET_FIELDS = (
+    ("air_temp_c", "air temperature", "C"),
+    ("rh_percent", "relative humidity", "%"),
+    ("pressure_hpa", "pressure", "hPa"),
+    ("visibility_km", "visibility", "km"),
+)
+
+
+def parse_met_readings(texts: dict[str, str], aerosol: str, season: str) -> Weather | None:
+    """The met readings as typed (``texts`` by :data:`MET_FIELDS` name; empty = not read): a
+    Weather, or None when nothing was read and the season is the default; ValueError naming
+    the reading for a bad entry."""
+    values: dict[str, float] = {}
+    for key, what, unit in MET_FIELDS:
+        text = texts.get(key, "").strip()
+        if not text:
+            continue
+        try:
+            values[key] = float(text)
+        except ValueError:
+            raise ValueError(
+                f"{what} must be a number of {unit} (or empty), got {text!r}"
+            ) from None
+    if not values and season == "us_std_1976":
+        return None
+    return Weather(aerosol=aerosol, season=season, **values)
 
 
 def sky_label(name: str, temp_k: float) -> str:
@@ -93,7 +130,10 @@ class ModelCurves:
 
     def _build(self, options: ModelOptions) -> ModelPredictor:
         return ModelPredictor(
-            self.sensors, options.target, background_temp_k=options.background_temp_k
+            self.sensors,
+            options.target,
+            background_temp_k=options.background_temp_k,
+            **session_model_options(options.weather),
         )
 
     def apply(self, options: ModelOptions) -> None:
@@ -159,7 +199,8 @@ def hand_to_session(session: ConsoleSession, predictor: ModelPredictor) -> None:
 
 
 def default_options(session: ConsoleSession) -> ModelOptions:
-    return ModelOptions(target=str(session.config.target))
+    weather = getattr(session, "met_readings", None) or getattr(session.config, "weather", None)
+    return ModelOptions(target=str(session.config.target), weather=weather)
 
 
 def applied_model(model: ModelCurves | None, session, options: ModelOptions) -> ModelCurves:
@@ -173,10 +214,18 @@ def applied_model(model: ModelCurves | None, session, options: ModelOptions) -> 
     else:
         model.apply(options)
     hand_to_session(session, model.sky)
+    record = getattr(session, "set_met_readings", None)  # a live session records them
+    new = options.weather is not None and options.weather != getattr(session, "met_readings", None)
+    if new and record is not None:
+        record(options.weather)
     return model
 
 
 def describe(options: ModelOptions) -> str:
     bg = options.background_temp_k
     background = "the model's own" if bg is None else f"{bg:g} K"
-    return f"target {options.target}, background {background}, curves {', '.join(options.shown)}"
+    air = "default atmosphere" if options.weather is None else options.weather.describe()
+    return (
+        f"target {options.target}, background {background}, air {air}, curves "
+        f"{', '.join(options.shown)}"
+    )
