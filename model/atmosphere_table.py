@@ -140,16 +140,12 @@ class Weather:
     def describe(self) -> str:
         t_k, rh, p, vis, aerosol = self.state()
         haze = "no aerosol" if vis is None else f"{aerosol} aerosol, visibility {vis:g} km"
-        given = [
-            k
-            for k in ("air_temp_c", "rh_percent", "dew_point_c", "pressure_hpa")
-            if getattr(self, k) is not None
-        ]
-        filled = (
-            ""
-            if len(given) == 4 or (len(given) == 3 and "dew_point_c" not in given)
-            else (f"; {self.season} sea level where not read")
+        complete = (
+            self.air_temp_c is not None
+            and (self.rh_percent is not None or self.dew_point_c is not None)
+            and self.pressure_hpa is not None
         )
+        filled = "" if complete else f"; {self.season} sea level where not read"
         return f"{t_k - 273.15:.1f} C, RH {rh:.0f} %, {p:.0f} hPa, {haze}{filled}"
 
     def as_dict(self) -> dict:
