@@ -7,8 +7,9 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 # The exact versions CI tested (pyproject.toml keeps the ranges); `make constraints` rewrites it.
 CONSTRAINTS := constraints.txt
-# Every extra the demo and the tests use: the console, the campaign's cluster, the test tools.
-EXTRAS := gui,campaign,dev,mavlink,compress
+# Every extra the demo and the tests use: the console, the campaign's cluster, the test tools,
+# LOWTRAN7 for the test that regenerates points of the atmosphere table (built with gfortran).
+EXTRAS := gui,campaign,dev,mavlink,compress,tables
 # The folders that install as snrmon.<name> (setup.py). The editable install is a link tree
 # (build/__editable__*, strict mode, so that mypy and import-linter see one namespace): a module
 # added or removed needs a re-install, so the list of the package's files is an input of it.

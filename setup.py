@@ -22,7 +22,8 @@ packages = []
 for package, folder in FOLDERS.items():
     packages.append(package)
     packages += [f"{package}.{sub}" for sub in find_packages(folder)]
-# A folder of data files (the presets' TOML) is a package to setuptools too: name it.
-packages.append("snrmon.model.presets")
+# A folder of data files (the presets' TOML, the atmosphere table) is a package to setuptools
+# too: name it.
+packages += ["snrmon.model.presets", "snrmon.model.tables"]
 
 setup(package_dir=FOLDERS, packages=packages)

@@ -21,6 +21,14 @@ Example (``session.toml``)::
     pointing_deg = [40.0, 8.0, 0.0] # azimuth (clockwise from north), elevation, roll
     calibration = "mwir-cal.npz"    # optional: snrmon calibrate output, applied before Eq. 4
 
+    [weather]                       # the day's met readings (the model's LOWTRAN7 atmosphere)
+    air_temp_c = 21.5
+    rh_percent = 60.0               # or dew_point_c
+    pressure_hpa = 1008.0
+    visibility_km = 20.0            # none: no aerosol
+    aerosol = "rural"               # rural | maritime | urban
+    season = "midlat_summer"        # standard atmosphere for readings not given
+
     [gps]                           # drivers.config table (nmea | gpsd | mavlink)
     protocol = "nmea"
     port = "/dev/ttyUSB0"
@@ -31,11 +39,11 @@ Example (``session.toml``)::
     port = "/dev/ttyUSB1"
 
 Every key is checked against the schema below (``TOP_FIELDS``, ``SITE_FIELDS``,
-``MEASUREMENT_FIELDS``, ``CAMERA_FIELDS``; the device tables by :mod:`snrmon.drivers.config`): an
-unknown key, a missing one, or a value of the wrong type or range is one
-:class:`snrmon.drivers.errors.ConfigError` naming the file, the table, the key, the value and what
-was expected, e.g. ``session.toml: [site] lat_deg = "north": expected a latitude in degrees, -90 to
-90``.
+``WEATHER_FIELDS``, ``MEASUREMENT_FIELDS``, ``CAMERA_FIELDS``; the device tables by
+:mod:`snrmon.drivers.config`): an unknown key, a missing one, or a value of the wrong type or
+range is one :class:`snrmon.drivers.errors.ConfigError` naming the file, the table, the key, the
+value and what was expected, e.g. ``session.toml: [site] lat_deg = "north": expected a latitude
+in degrees, -90 to 90``.
 """
 
 from __future__ import annotations
@@ -51,6 +59,14 @@ from snrmon.acquisition.geo.projection import Pointing, Site
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.drivers.config import check_device_table
 from snrmon.drivers.errors import ConfigError, toml_repr
+from snrmon.model.atmosphere_table import (
+    AEROSOLS,
+    AIR_TEMP_RANGE_C,
+    PRESSURE_RANGE_HPA,
+    SEASONS,
+    VISIBILITY_RANGE_KM,
+    Weather,
+)
 
 CAMERA_SOURCES = ("shm", "v4l2", "aravis")
 
@@ -80,6 +96,7 @@ class SessionConfig:
     window: int = 100
     lrf_fresh_s: float = 2.0
     air_temp_k: float | None = None  # [weather] air_temp_c: the model's path temperature
+    weather: Weather | None = None  # [weather]: the met readings the model's atmosphere uses
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
@@ -132,11 +149,17 @@ TOP_FIELDS = {
     "cameras": Field("tables [cameras.<name>]", _table, required=True),
     "gps": Field("a table [gps] (drivers.config)", _table),
     "lrf": Field("a table [lrf] (drivers.config)", _table),
-    "weather": Field("a table [weather] with air_temp_c", _table),
+    "weather": Field("a table [weather] with the met readings (air_temp_c, rh_percent...)", _table),
     "simulation": Field("a table [simulation] (the simulated scenario, recorded with it)", _table),
 }
 WEATHER_FIELDS = {
-    "air_temp_c": Field("an air temperature in C, -100 to 100", _between(-100, 100)),
+    "air_temp_c": Field("an air temperature in C, -30 to 45", _between(*AIR_TEMP_RANGE_C)),
+    "rh_percent": Field("a relative humidity in %, 0 to 100", _between(0, 100)),
+    "dew_point_c": Field("a dew point in C, -80 to 45", _between(-80, AIR_TEMP_RANGE_C[1])),
+    "pressure_hpa": Field("an air pressure in hPa, 700 to 1060", _between(*PRESSURE_RANGE_HPA)),
+    "visibility_km": Field("a visibility in km, 0.5 to 300", _between(*VISIBILITY_RANGE_KM)),
+    "aerosol": Field(f"one of {', '.join(AEROSOLS)}", lambda v: v in AEROSOLS),
+    "season": Field(f"a standard atmosphere: {', '.join(SEASONS)}", lambda v: v in SEASONS),
 }
 SITE_FIELDS = {
     "lat_deg": Field("a latitude in degrees, -90 to 90", _between(-90, 90), required=True),
@@ -222,6 +245,12 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
         site = Site(float(s["lat_deg"]), float(s["lon_deg"]), float(s["alt_m"]))
     weather = checked(top.get("weather", {}), WEATHER_FIELDS, "weather")
     air_temp_k = float(weather["air_temp_c"]) + 273.15 if "air_temp_c" in weather else None
+    try:  # the combination (a dew point above the air, RH and dew point both)
+        met = Weather.from_dict(
+            {k: (v if isinstance(v, str) else float(v)) for k, v in weather.items()}
+        )
+    except ValueError as exc:
+        raise ConfigError(f"[weather]: {exc}") from None
     meas = checked(top.get("measurement", {}), MEASUREMENT_FIELDS, "measurement")
     window = meas.pop("window", 100)
     lrf_fresh_s = float(meas.pop("lrf_fresh_s", 2.0))
@@ -244,6 +273,7 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
         window=window,
         lrf_fresh_s=lrf_fresh_s,
         air_temp_k=air_temp_k,
+        weather=met if weather else None,
         raw=data,
     )
 

@@ -8,7 +8,13 @@ paper's own switched curves are computed once per camera on a dense logarithmic 
 :func:`snrmon.model.snr.predict` and interpolated in log-range, so a lookup per frame costs
 microseconds and every number still comes from :mod:`snrmon.model`.
 
-A recomputation (a new sky temperature, a PSF measured from the flight) takes ~0.5 s per camera.
+The day's met readings (:class:`Weather`: air temperature, humidity, pressure, visibility; from
+the session's ``[weather]`` table, :func:`session_model_options`, or typed in the console,
+:meth:`ModelPredictor.set_weather`, which a session records as a ``met_readings`` event and a
+replay applies at the same time) drive the model's LOWTRAN7 atmosphere.
+
+A recomputation (a new sky temperature, a PSF measured from the flight, new met readings) takes
+~0.5 s per camera.
 With ``asynchronous=True`` :meth:`ModelPredictor.set_background` returns at once and the new
 curves replace the old ones, whole, when they are ready: the session calls it from a camera's
 measurement thread, whose frame ring holds half a second.
@@ -21,9 +27,26 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from snrmon.model.atmosphere_table import AEROSOLS, SEASONS, Weather
+
+__all__ = ["AEROSOLS", "SEASONS", "ModelPredictor", "Weather", "session_model_options"]
+
 CURVES = ("small", "large", "small_corrected", "large_corrected")
 EXPECTED = "expected_eq4"
 PAPER_CURVES = tuple(f"paper_{c}" for c in CURVES)
+
+
+def session_model_options(config) -> dict:
+    """The :func:`snrmon.model.snr.predict` options a session's configuration (or its
+    :class:`Weather` itself) sets: the ``[weather]`` met readings as the atmosphere (nothing
+    without them)."""
+    weather = config if isinstance(config, Weather) else getattr(config, "weather", None)
+    return {} if weather is None else {"atmosphere": weather}
+
+
+def weather_from_record(payload: dict) -> Weather:
+    """The :class:`Weather` of a recorded ``met_readings`` event (``Weather.as_dict``)."""
+    return Weather.from_dict(dict(payload))
 
 
 @runtime_checkable
@@ -55,6 +78,13 @@ class Predictor(Protocol):
     ) -> None: ...
 
     def set_psf(self, camera: str, psf: Any, *, wait: bool | None = None) -> None: ...
+
+    def set_weather(
+        self, weather: Weather | None, camera: str | None = None, *, wait: bool | None = None
+    ) -> None:
+        """The day's met readings for ``camera``'s atmosphere (every camera's when None; None
+        readings: the model's own)."""
+        ...
 
 
 class ModelPredictor:
@@ -88,6 +118,11 @@ class ModelPredictor:
         # swapped in with them, so a stop row names the curves its values came from.
         self.curves_psf: dict[str, object] = {}
         self.psf: dict[str, object] = {}
+        # The met readings each camera's curves are (being) computed for (None: the options')
+        default_weather = predict_options.get("atmosphere")
+        if not isinstance(default_weather, Weather):
+            default_weather = None
+        self.weather: dict[str, Weather | None] = {c: default_weather for c in sensors}
         self.ranges_m = (
             np.geomspace(10.0, 5000.0, 600) if ranges_m is None else np.asarray(ranges_m, float)
         )
@@ -113,6 +148,17 @@ class ModelPredictor:
         if camera in self.sensors:
             self._schedule(camera, self.background_temp_k.get(camera), psf, wait)
 
+    def set_weather(
+        self, weather: Weather | None, camera: str | None = None, *, wait: bool | None = None
+    ) -> None:
+        """Use the day's met readings ``weather`` for ``camera``'s curves (every camera's when
+        None); the same readings again recompute nothing."""
+        for cam in [camera] if camera is not None else list(self.sensors):
+            if cam not in self.sensors or self.weather.get(cam) == weather:
+                continue
+            self.weather[cam] = weather
+            self._schedule(cam, self.background_temp_k.get(cam), self.psf.get(cam), wait)
+
     def _schedule(self, camera, temp_k, psf, wait) -> None:
         # the inputs are current at once (a second request for the same value does nothing)
         self.background_temp_k[camera] = temp_k
@@ -129,6 +175,9 @@ class ModelPredictor:
             gen = self._generation.get(camera, 0) + 1
             self._generation[camera] = gen
         options = {**self._options, "background_temp_k": background_temp_k}
+        weather = self.weather.get(camera)
+        if weather is not None:
+            options["atmosphere"] = weather
         if psf is not None:
             options["corrected_psf"] = psf
         p = self._predict(self.sensors[camera], self.target, self.ranges_m, **options)

@@ -18,7 +18,7 @@ import numpy as np
 from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.status import CameraStatus, SessionStatus
-from snrmon.acquisition.prediction import Predictor
+from snrmon.acquisition.prediction import Predictor, Weather
 from snrmon.acquisition.record.recorder_status import RecorderStatus, RecorderSummary
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import Reader, RingFrame
@@ -72,6 +72,13 @@ class ConsoleSession(Protocol):
     def capture_reference(self, camera: str, n_frames: int = 64) -> None: ...
 
     def add_note(self, text: str) -> None: ...
+
+    @property
+    def met_readings(self) -> Weather | None:
+        """The day's met readings the model uses (None: the model's own atmosphere)."""
+        ...
+
+    def set_met_readings(self, weather: Weather) -> None: ...
 
 
 @runtime_checkable

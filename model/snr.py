@@ -35,7 +35,6 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 
 from snrmon.model.contrast import contrast
-from snrmon.model.detector import spectral_grid
 from snrmon.model.eq4 import expected_eq4 as _expected_eq4
 from snrmon.model.footprint import average_pvf_square
 from snrmon.model.montecarlo import InputUncertainty, McDraws, draw_corrected
@@ -80,8 +79,8 @@ class SnrPrediction:
     signal_e: dict[str, np.ndarray]
     pvf: dict[str, np.ndarray]
     noise: NoiseBreakdown
-    transmission: np.ndarray
-    transmission_contrast: np.ndarray
+    transmission: np.ndarray  # flat over the band
+    transmission_contrast: np.ndarray  # weighted by a near-ambient target's contrast
     lower: dict[str, np.ndarray]
     upper: dict[str, np.ndarray]
     relative_uncertainty: dict[str, np.ndarray]
@@ -91,6 +90,7 @@ class SnrPrediction:
     paper: dict[str, np.ndarray] = field(default_factory=dict)
     expected_eq4: np.ndarray | None = None
     draws: McDraws | None = None  # the Monte-Carlo draws behind the band
+    sky_assumed: bool = False  # no sky temperature given: assumed the air's, the band widened
 
     def snr(self, curve: str) -> np.ndarray:
         if curve == "expected_eq4":
@@ -123,6 +123,9 @@ class SnrPrediction:
                 "noise_e": self.noise_e,
                 "transmission": float(self.transmission[i]),
                 "transmission_contrast": float(self.transmission_contrast[i]),
+                "air_temp_k": float(self.air_temp_k),
+                "sky_temp_k": float(self.background_temp_k),
+                "sky_assumed_equal_to_air": bool(self.sky_assumed),
                 "pvf": {c: _none_if_nan(self.pvf[c][i]) for c in CURVES},
                 "uncertainty": {
                     c: [float(self.lower[c][i]), float(self.upper[c][i])] for c in self.lower
@@ -298,8 +301,10 @@ def predict(
             out["snr"][curve] = sig / denom
     lower, upper, rel = {}, {}, {}
     amp = c.background_over_contrast
+    od = -np.log(np.clip(c.transmission_contrast, 1e-300, 1.0))
+    sky_per_k = _sky_fraction_per_k(c) if c.sky_assumed else None
     for size in ("small", "large"):
-        rel[f"{size}_corrected"] = budget.relative(amp, ~resolved[size])
+        rel[f"{size}_corrected"] = budget.relative(amp, ~resolved[size], od, sky_per_k)
     expected_curve, draws = None, None
     if expected:
         expected_curve = expected_reading(
@@ -331,7 +336,6 @@ def predict(
             ratio = expected_curve / out["snr"]["small_corrected"]
             lower["expected_eq4"] = lower["small_corrected"] * ratio
             upper["expected_eq4"] = upper["small_corrected"] * ratio
-    wl_w = spectral_grid(sensor)[1]
     return SnrPrediction(
         sensor_name=sensor.name,
         target_name=target.name,
@@ -349,9 +353,7 @@ def predict(
         signal_e=out["sig"],
         pvf=out["pvf"],
         noise=noise,
-        transmission=c.atmosphere.spectral_transmission(ranges, c.wavelengths_um)
-        @ wl_w
-        / np.sum(wl_w),
+        transmission=c.transmission_flat,
         transmission_contrast=c.transmission_contrast,
         lower=lower,
         upper=upper,
@@ -362,7 +364,18 @@ def predict(
         paper=out["paper"],
         expected_eq4=expected_curve,
         draws=draws,
+        sky_assumed=c.sky_assumed,
     )
+
+
+def _sky_fraction_per_k(c) -> float:
+    """(dL_sky/dT) / L_sky over the response [1/K]: a sky temperature error as a fraction of
+    its radiance."""
+    from snrmon.model.radiometry import spectral_photon_radiance, spectral_photon_radiance_dt
+
+    wl = c.wavelengths_um
+    l_sky = float(np.sum(c.k_spec * spectral_photon_radiance(wl, c.sky_temp_k)))
+    return float(np.sum(c.k_spec * spectral_photon_radiance_dt(wl, c.sky_temp_k))) / l_sky
 
 
 def detection_range_m(

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
+from snrmon.model.atmosphere_table import Weather
 from snrmon.sim.from_model import DEFAULT_SKY_TEMP_K, scene_config_from_model
 from snrmon.sim.optics import TWIN_ABERRATION_PX, TwinSpread, twin_optics
 from snrmon.sim.scene import SceneConfig
@@ -38,6 +39,9 @@ class Scenario:
     sky_temp_k: float = DEFAULT_SKY_TEMP_K
     air_temp_k: float = DEFAULT_AIR_TEMP_K
     aberration_px: tuple[tuple[str, float], ...] | None = None
+    weather: Weather | None = (
+        None  # the day's met readings: the atmosphere the drone is seen through
+    )
 
     def __post_init__(self) -> None:
         for name in ("sky_temp_k", "air_temp_k"):
@@ -53,6 +57,10 @@ class Scenario:
         """What the session records of the scenario (its [simulation] table)."""
         out = asdict(self)
         out["aberration_px"] = {c: self.blur_px(c) for c in cameras}
+        if self.weather is None:
+            del out["weather"]
+        else:  # TOML has no null
+            out["weather"] = {k: v for k, v in self.weather.as_dict().items() if v is not None}
         return out
 
 
@@ -70,6 +78,7 @@ def twin_scene_config(sensor, target, scenario: Scenario, **overrides) -> SceneC
         size="small",  # the outline's area is small^2: all of the drone's light
         sky_temp_k=scenario.sky_temp_k,
         air_temp_k=scenario.air_temp_k,
+        **({} if scenario.weather is None else {"atmosphere": scenario.weather}),
         psf_sigma_px=max(0.42 * sensor.f_lambda_over_d, scenario.blur_px(sensor.name)),
         spread=spread,
         **overrides,

@@ -56,7 +56,8 @@ class EngineSink(Protocol):
 
     def model_changed(self, camera: str, kind: str, payload: dict, t_host_ns: int) -> None:
         """One of the model's inputs changed: "model_background" {"temp_k"} (the measured
-        sky) or "model_psf" (a PSF measured from the flight, ``PsfEstimate.as_dict``)."""
+        sky), "model_psf" (a PSF measured from the flight, ``PsfEstimate.as_dict``) or
+        "met_readings" (the day's met readings, ``Weather.as_dict``)."""
 
 
 class SessionEngine:
@@ -162,6 +163,10 @@ class SessionEngine:
             from snrmon.acquisition.calibrate.psf_estimate import psf_from_record
 
             self.predictor.set_psf(camera, psf_from_record(payload))
+        elif kind == "met_readings" and self.predictor is not None:
+            from snrmon.acquisition.prediction import weather_from_record
+
+            self.predictor.set_weather(weather_from_record(payload), camera)
 
     # ------------------------------------------------------------------ commands
     def camera(self, name: str) -> CameraEngine:

@@ -31,7 +31,7 @@ import numpy as np
 from snrmon.acquisition.engine.inputs import SetRoi
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
-from snrmon.acquisition.prediction import Predictor
+from snrmon.acquisition.prediction import Predictor, Weather
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.record.stream_rows import fix_from_row
 from snrmon.acquisition.replay.batch import engine_for
@@ -82,6 +82,7 @@ class ReplayPlayer:
             raise ValueError(f"replay: {self.path} holds no camera frames")
         self._inputs = recorded_inputs(f)
         self.config = self._inputs.config
+        self._met_readings: Weather | None = None
         self.track = self._inputs.track
         self._predictor = predictor
         tl = self._inputs.timeline
@@ -277,6 +278,18 @@ class ReplayPlayer:
 
     def add_note(self, text: str) -> None:
         raise ValueError(NOT_IN_REPLAY)
+
+    @property
+    def met_readings(self) -> Weather | None:
+        """The met readings the operator gave this replay's model (None: the recording's)."""
+        return self._met_readings
+
+    def set_met_readings(self, weather: Weather) -> None:
+        """Re-analyse with other met readings: the model's atmosphere from now on (a replay
+        records nothing)."""
+        self._met_readings = weather
+        if self._engine.predictor is not None:
+            self._engine.predictor.set_weather(weather)
 
     # ------------------------------------------------------------------ worker
     def _seek(self, index: int) -> None:

@@ -42,7 +42,8 @@ class CameraInputs:
     "roi_cleared", "background_reference", "reference_cleared" (applied before the first frame
     at or after t); ``model_inputs`` are (t_ns, kind, payload) changes of the model's inputs
     ("model_background": the measured sky; "model_psf": a PSF measured from the flight;
-    applied after that frame); ``states`` maps a frame counter to the engine state recorded
+    "met_readings": the day's met readings, recorded once for the session; applied after that
+    frame); ``states`` maps a frame counter to the engine state recorded
     before it. Format 1 files hold clicks and references only."""
 
     commands: list[tuple[int, str, dict]] = field(default_factory=list)
@@ -106,6 +107,9 @@ def recorded_inputs(f: SessionFile) -> RecordedInputs:
                 stop_times.append(t)
         elif kind == "stop_summary" and c is not None:
             final_rows[(int(p["stop"]), cam)] = p
+        elif kind == "met_readings":  # the session's, for every camera's model
+            for each in per.values():
+                each.model_inputs.append((t, kind, p))
         elif c is None:
             continue
         elif kind in ("roi_set", "roi_cleared", "background_reference", "reference_cleared"):

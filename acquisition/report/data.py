@@ -29,12 +29,13 @@ from pathlib import Path
 import numpy as np
 
 from snrmon.acquisition.config import session_config_from_dict
-from snrmon.acquisition.prediction import CURVES, ModelPredictor
+from snrmon.acquisition.prediction import CURVES, ModelPredictor, session_model_options
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.replay.batch import ReplayResult, replay_session
 from snrmon.acquisition.report.stop_csv import csv_rows
 from snrmon.acquisition.stops.detector import summarise_stop
 from snrmon.acquisition.stops.table import StopRow, StopTable
+from snrmon.model.atmosphere_table import Weather
 
 BUDGET_TERMS: tuple[str, ...] = (
     "target_outline",
@@ -125,6 +126,20 @@ class ReportData:
     fits: list = field(default_factory=list)  # comparison.FitStatistic per camera and curve
     references: list = field(default_factory=list)  # comparison.Reference
     detections: dict = field(default_factory=dict)  # camera -> comparison.DetectionSummary
+    weather: Weather | None = None  # the met readings the model's curves used
+
+
+def session_weather(path: str | Path) -> tuple[Weather | None, Weather | None]:
+    """(the met readings the session started with: its ``[weather]`` table, the last ones it
+    recorded: its last ``met_readings`` event, else the first); None where there are none."""
+    from snrmon.acquisition.prediction import weather_from_record
+
+    with open_session(path) as f:
+        raw = f.config.get("session") if isinstance(f.config, dict) else None
+        events = [e for e in f.event_list() if e["kind"] == "met_readings"]
+    first = session_config_from_dict(raw).weather if raw else None
+    last = weather_from_record(events[-1]["payload"]) if events else first
+    return first, last
 
 
 def session_models(path: str | Path, target: str | None = None) -> tuple[dict[str, str], str]:
@@ -258,13 +273,22 @@ def rows_psf(rows: list[StopRow], camera: str):
 
 
 def uncertainty_budget(
-    camera: str, sensor_name: str, target_name: str, ranges_m: list[float]
+    camera: str,
+    sensor_name: str,
+    target_name: str,
+    ranges_m: list[float],
+    *,
+    background_temp_k: float | None = None,
+    atmosphere=None,
 ) -> list[BudgetAtRange]:
-    """Fig. 12 terms at each range for the small dimension, with the model's default budget.
+    """Fig. 12 terms at each range for the small dimension, with the model's default budget,
+    at the sky ``background_temp_k`` (None: assumed equal to the air, with its wider path
+    term) through ``atmosphere`` (e.g. the session's met readings).
 
     The path-radiance term is the budget's fraction times L_bg / (L_t - L_bg) (section 9's
     amplification); the model exposes that factor through a budget holding only that term at
-    1, so every number here is the model's own."""
+    1; the transmission term is the budget's fraction of the band's optical depth; so every
+    number here is the model's own."""
     from snrmon.model.presets import load_sensor, load_target
     from snrmon.model.snr import predict
     from snrmon.model.uncertainty import UncertaintyBudget
@@ -277,31 +301,68 @@ def uncertainty_budget(
     unit_path = UncertaintyBudget(
         target_outline=0.0,
         radiometry=0.0,
-        transmission=0.0,
+        optical_depth=0.0,
         path_radiance=1.0,
+        sky_assumed_k=0.0,
         mtf=0.0,
         target_size_blur=0.0,
     )
-    p = predict(sensor, target, r, uncertainty=unit_path)
-    amp = np.asarray(p.relative_uncertainty["small_corrected"], float)
+    extra = {} if atmosphere is None else {"atmosphere": atmosphere}
+    p = predict(
+        sensor,
+        target,
+        r,
+        uncertainty=unit_path,
+        background_temp_k=background_temp_k,
+        band=False,
+        expected=False,
+        **extra,
+    )
     unresolved = ~np.asarray(p.resolved_small, bool)
-    total = budget.relative(amp, unresolved)
-    out = []
-    for i, rng in enumerate(r):
-        terms = {
-            "target_outline": budget.target_outline,
-            "radiometry": budget.radiometry,
-            "transmission": budget.transmission,
-            "path_radiance": budget.path_radiance * float(amp[i]),
-            "mtf": budget.mtf if unresolved[i] else 0.0,
-            "target_size_blur": budget.target_size_blur if unresolved[i] else 0.0,
-        }
-        out.append(
-            BudgetAtRange(
-                camera, float(rng), not unresolved[i], terms, float(total[i]), budget.combine
-            )
+    od = -np.log(np.clip(np.asarray(p.transmission_contrast, float), 1e-300, 1.0))
+    sky_per_k = None
+    if p.sky_assumed:  # the path term is then the assumed sky's error, not 5 % of a measured one
+        at_one_k = predict(
+            sensor,
+            target,
+            r,
+            uncertainty=UncertaintyBudget(**{**_zero(), "sky_assumed_k": 1.0}),
+            band=False,
+            expected=False,
+            **extra,
         )
-    return out
+        amp = np.asarray(at_one_k.relative_uncertainty["small_corrected"], float)
+        sky_per_k = 1.0
+    else:
+        amp = np.asarray(p.relative_uncertainty["small_corrected"], float)
+    terms = budget.terms(amp, unresolved, od, sky_per_k)
+    total = budget.relative(amp, unresolved, od, sky_per_k)
+    return [
+        BudgetAtRange(
+            camera,
+            float(rng),
+            not unresolved[i],
+            {name: float(v[i]) for name, v in terms.items()},
+            float(total[i]),
+            budget.combine,
+        )
+        for i, rng in enumerate(r)
+    ]
+
+
+def _zero() -> dict:
+    return {
+        name: 0.0
+        for name in (
+            "target_outline",
+            "path_radiance",
+            "mtf",
+            "target_size_blur",
+            "radiometry",
+            "optical_depth",
+            "sky_assumed_k",
+        )
+    }
 
 
 def report_data(
@@ -314,7 +375,10 @@ def report_data(
     """Replay the session (every frame through the live measurement) and compute the report."""
     path = Path(path)
     sensors, target_name = session_models(path, target)
-    predictor = ModelPredictor(sensors, target_name)
+    first, last = session_weather(path)
+    # the model starts from the session's [weather]; the replay applies the met readings the
+    # session recorded at the times it recorded them; the figures use the last ones
+    predictor = ModelPredictor(sensors, target_name, **session_model_options(first))
     replay = replay_session(path, predictor=predictor, progress=progress)
     rows = replay.stops
     return assemble_report(
@@ -325,11 +389,18 @@ def report_data(
         [stop_series(replay, r, frames_per_stop) for r in rows],
         seconds=replay.recording_seconds,
         replay_seconds=replay.seconds,
+        weather=last,
     )
 
 
 def live_report_data(
-    table: StopTable, sensors: dict[str, str], target: str, *, name: str, seconds: float
+    table: StopTable,
+    sensors: dict[str, str],
+    target: str,
+    *,
+    name: str,
+    seconds: float,
+    weather: Weather | None = None,
 ) -> ReportData:
     """The report of a session still in memory, from its stop table: the rows as the console
     measured them and, for Fig. 6, the frames each row summarised. Nothing is replayed, so no
@@ -341,7 +412,9 @@ def live_report_data(
         run = runs.get((r.stop, r.camera))
         if run is not None:  # a row still collecting has no final run yet
             series.append(run_series(r, [t for t, _ in run], [m for _, m in run]))
-    return assemble_report(Path(name), sensors, target, rows, series, seconds=seconds)
+    return assemble_report(
+        Path(name), sensors, target, rows, series, seconds=seconds, weather=weather
+    )
 
 
 def assemble_report(
@@ -353,16 +426,25 @@ def assemble_report(
     *,
     seconds: float,
     replay_seconds: float | None = None,
+    weather: Weather | None = None,
 ) -> ReportData:
     """Figs. 7-10 and 12 and the CSV for measured stop rows: the model at the sensors' presets
-    and the target, over a range grid that holds every stop."""
+    and the target, through the session's met readings ``weather`` (None: the model's default
+    atmosphere), over a range grid that holds every stop."""
     stop_ranges = [r.range_m for r in rows if r.range_m is not None]
     grid = model_range_grid(stop_ranges)
     cameras = list(dict.fromkeys([*sensors, *(r.camera for r in rows)]))
     budgets = {}
     for c in cameras:
         ranges = sorted({r.range_m for r in rows if r.camera == c and r.range_m is not None})
-        budgets[c] = uncertainty_budget(c, sensors[c], target, ranges)
+        budgets[c] = uncertainty_budget(
+            c,
+            sensors[c],
+            target,
+            ranges,
+            background_temp_k=rows_sky_k(rows, c),
+            atmosphere=weather,
+        )
     from snrmon.acquisition.report.comparison import (
         detection_summary,
         fit_statistics,
@@ -373,6 +455,8 @@ def assemble_report(
     for c in cameras:
         psf = rows_psf(rows, c)
         extra = {} if psf is None else {"corrected_psf": psf}
+        if weather is not None:
+            extra["atmosphere"] = weather
         models[c] = model_curves(
             c, sensors[c], target, grid, background_temp_k=rows_sky_k(rows, c), **extra
         )
@@ -390,5 +474,11 @@ def assemble_report(
         recording_seconds=seconds,
         fits=fit_statistics(rows, models),
         references=reference_table(sensors, target),
-        detections={c: detection_summary(c, sensors[c], target) for c in cameras},
+        detections={
+            c: detection_summary(
+                c, sensors[c], target, **({} if weather is None else {"atmosphere": weather})
+            )
+            for c in cameras
+        },
+        weather=weather,
     )

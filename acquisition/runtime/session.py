@@ -29,7 +29,7 @@ from snrmon.acquisition.config import SessionConfig, camera_device
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
-from snrmon.acquisition.prediction import Predictor
+from snrmon.acquisition.prediction import Predictor, Weather
 from snrmon.acquisition.protocols import RecordingWriter
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.acquisition.record.session_log import RecordingLog
@@ -115,6 +115,7 @@ class Session:
         if self.lrf is not None:
             self.lrf.subscribe(self._on_range)
         self._started = False
+        self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
 
     # ------------------------------------------------------------------ construction helpers
     @staticmethod
@@ -215,6 +216,16 @@ class Session:
         """The SNR-versus-range table so far (one row per stop and camera)."""
         return self.engine.stops()
 
+    def set_met_readings(self, weather: Weather) -> None:
+        """The day's met readings (a ``snrmon.model.atmosphere_table.Weather``, e.g. typed in
+        the console's model dialog): the model's atmosphere from now on for every camera, and a
+        ``met_readings`` event in the recording that a replay applies at the same time."""
+        payload = weather.as_dict()
+        self.met_readings = weather
+        for name in self.pipelines:
+            self.engine.apply_model_input(name, "met_readings", payload)
+        self._event("met_readings", payload=payload, t_host_ns=time.monotonic_ns())
+
     def add_note(self, text: str) -> None:
         self._event("note", payload={"text": text})
 
@@ -254,6 +265,9 @@ class Session:
                     c.calibration for c in self.config.cameras if c.name == pipe.name
                 )
                 rec.add_event("calibration", camera=pipe.name, payload=meta)
+        if self.met_readings is not None and self.met_readings != self.config.weather:
+            # typed before the recording began: the file holds them from its start
+            rec.add_event("met_readings", payload=self.met_readings.as_dict())
 
         def attach() -> None:
             # With the detector held: the stops so far are part of the record, and every change

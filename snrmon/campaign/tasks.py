@@ -78,7 +78,7 @@ def analyse_camera(
     per-frame columns with ``frames``). ``label`` is the session's name in the table."""
     from snrmon.acquisition.config import session_config_from_dict
     from snrmon.acquisition.measure.peak_snr import RUNNING_EXCLUDED, PeakSnrConfig, flags_to_bits
-    from snrmon.acquisition.prediction import CURVES, ModelPredictor
+    from snrmon.acquisition.prediction import CURVES, ModelPredictor, session_model_options
     from snrmon.acquisition.record.gps_align import host_to_utc_ns
     from snrmon.acquisition.record.gps_import import gps_source
     from snrmon.acquisition.record.reader import open_session
@@ -98,7 +98,9 @@ def analyse_camera(
         (c.sensor for c in (cfg.cameras if cfg else ()) if c.name == camera), camera
     )
     target = settings.target or (cfg.target if cfg else "uav1")
-    predictor = ModelPredictor({camera: sensor}, target, **settings.model_options)
+    # the session's [weather] unless the campaign sets the atmosphere itself
+    options = {**session_model_options(cfg), **settings.model_options}
+    predictor = ModelPredictor({camera: sensor}, target, **options)
     cal = settings.calibrations.get(camera)
     source = gps_source(path)
     # The recorded stops carry the live GPS ranges; an imported GPS stream needs them found

@@ -88,27 +88,33 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _air_temp_k(args) -> float | None:
-    if args.air_temp_c is not None:
-        return args.air_temp_c + 273.15
+def _weather(args):
+    """The met readings of the session's [weather] (None: none), --air-temp-c over its air."""
+    import dataclasses
+
     from snrmon.acquisition.config import session_config_from_dict
+    from snrmon.acquisition.prediction import Weather
 
     with open_session(args.file) as f:
         raw = f.config.get("session") if isinstance(f.config, dict) else None
-    return session_config_from_dict(raw).air_temp_k if raw else None
+    weather = session_config_from_dict(raw).weather if raw else None
+    if args.air_temp_c is not None:
+        weather = dataclasses.replace(weather or Weather(), air_temp_c=args.air_temp_c)
+    return weather
 
 
-def through_the_air(result, sensor, range_m: float, air_temp_k: float | None) -> dict:
+def through_the_air(result, sensor, range_m: float, weather=None) -> dict:
     """The drone's own temperature from its apparent one: the calibrated camera sees
     L_app = tau L_t + (1 - tau) L_air through the air in front of it (``model.contrast``), so
     L_t = (L_app - (1 - tau) L_air) / tau with the model's contrast-weighted transmission at
-    the stop's range. The apparent value stays as ``apparent_temp_c``; the eroded outline's
+    the stop's range, through the day's met readings ``weather`` (None: the model's default
+    atmosphere). The apparent value stays as ``apparent_temp_c``; the eroded outline's
     mean (``outline_temp_c``) is corrected the same way."""
     from snrmon.acquisition.calibrate.calibration import radiance_of, temperature_of
-    from snrmon.model.atmosphere import default_atmosphere
+    from snrmon.model.atmosphere import resolve_atmosphere
 
-    atm = default_atmosphere(tuple(sensor.band_um))
-    t_air = air_temp_k or atm.air_temp_k
+    atm = resolve_atmosphere(weather, tuple(sensor.band_um))
+    t_air = atm.air_temp_k
     tau = float(atm.contrast_transmission(range_m))
     band = tuple(sensor.band_um)
 
@@ -201,7 +207,7 @@ def run(args: argparse.Namespace) -> int:
         )
     out = {"stop": args.stop, **result.as_dict(), "calibration": cal_path}
     if result.mean_temp_c is not None and not args.apparent:
-        out.update(through_the_air(result, sensor, float(range_m), _air_temp_k(args)))
+        out.update(through_the_air(result, sensor, float(range_m), _weather(args)))
     if args.target_out:
         own = dataclasses.replace(result, mean_temp_c=out["mean_temp_c"])
         Path(args.target_out).write_text(target_toml(own, args.target_name))

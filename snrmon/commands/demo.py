@@ -158,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
                 opts.target,
                 name=f"snrmon demo, seed {opts.seed} (live)",
                 seconds=time.monotonic() - rig.t0,
+                weather=opts.weather,
             )
     print(format_result(result))
     if screenshot is not None:

@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("needs --config FILE.toml (or --replay FILE.h5)")
     input_file(args.config, "--config")
     from snrmon.acquisition.config import load_session_config
-    from snrmon.acquisition.prediction import ModelPredictor
+    from snrmon.acquisition.prediction import ModelPredictor, session_model_options
     from snrmon.acquisition.runtime.session import Session
     from snrmon.gui.app import run_console
 
@@ -64,7 +64,10 @@ def run(args: argparse.Namespace) -> int:
     # Asynchronous: the measured sky's new curves are computed beside the cameras' measurement
     # threads (0.3 s of model each time), not on them.
     predictor = ModelPredictor(
-        {c.name: c.sensor for c in config.cameras}, config.target, asynchronous=True
+        {c.name: c.sensor for c in config.cameras},
+        config.target,
+        asynchronous=True,
+        **session_model_options(config),  # the day's [weather]
     )
     with Session(config, predictor=predictor) as session:
         return run_console(
@@ -78,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_replay(args: argparse.Namespace) -> int:
-    from snrmon.acquisition.prediction import ModelPredictor
+    from snrmon.acquisition.prediction import ModelPredictor, session_model_options
     from snrmon.acquisition.replay.player import ReplayPlayer
     from snrmon.gui.app import run_console
 
@@ -86,7 +89,9 @@ def _run_replay(args: argparse.Namespace) -> int:
     cfg = player.config
     predictor = None
     if cfg.cameras:  # the recording names its sensors and target: the model can run
-        predictor = ModelPredictor({c.name: c.sensor for c in cfg.cameras}, cfg.target)
+        predictor = ModelPredictor(
+            {c.name: c.sensor for c in cfg.cameras}, cfg.target, **session_model_options(cfg)
+        )
         player.set_predictor(predictor)
     with player:
         player.play()  # the analyst sees it run at once; Space pauses

@@ -81,6 +81,27 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="the scenario's air temperature along the path, C (15)",
     )
     p.add_argument(
+        "--rh",
+        type=float,
+        default=None,
+        metavar="PCT",
+        help="the scenario's relative humidity, %% (default: the US Standard atmosphere's 46)",
+    )
+    p.add_argument(
+        "--pressure-hpa",
+        type=float,
+        default=None,
+        metavar="P",
+        help="the scenario's air pressure, hPa (1013.25)",
+    )
+    p.add_argument(
+        "--visibility-km",
+        type=float,
+        default=None,
+        metavar="V",
+        help="the scenario's visibility (rural aerosol), km (default: no aerosol)",
+    )
+    p.add_argument(
         "--window", metavar="WxH", help="read a sub-array of W x H pixels around the line of sight"
     )
     p.add_argument(
@@ -123,6 +144,9 @@ def run(args: argparse.Namespace) -> int:
         transit_mps=args.transit_mps,
         sky_temp_k=_kelvin(args.sky_temp_c, "--sky-temp-c"),
         air_temp_k=_kelvin(args.air_temp_c, "--air-temp-c"),
+        rh_percent=args.rh,
+        pressure_hpa=args.pressure_hpa,
+        visibility_km=args.visibility_km,
         window_px=_window(args.window),
         calibrate=not args.no_calibration,
         fpn=args.fpn,

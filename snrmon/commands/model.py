@@ -2,13 +2,19 @@
 
 Subcommands and their ``--json`` contracts (stdout):
 
-* ``snr --sensor S --target T --ranges R1,R2,... [--atmosphere default|none|FILE]
-  [--background-temp-c T] [--spatial-noise E|Kx|none|low|medium|high]`` -> a list, one object
-  per range: ``{"range_m", "resolved_small", "resolved_large", "snr_small", "snr_large",
-  "snr_small_corrected", "snr_large_corrected", "signal_e": {curve: e}, "noise_e":
-  {"background", "lens", "dark", "read", "temporal", "spatial"}, "transmission", "pvf": {curve:
-  average PVF or null where resolved}, "uncertainty": {corrected curve: [lower, upper]}}``;
-  curves are small, large, small_corrected, large_corrected.
+* ``snr --sensor S --target T --ranges R1,R2,... [--atmosphere default|none|TAU|FILE]
+  [--air-temp-c T] [--rh RH | --dew-point-c TD] [--pressure-hpa P] [--visibility-km V]
+  [--aerosol rural|maritime|urban] [--season NAME] [--sky-temp-c T]
+  [--spatial-noise E|Kx|none|low|medium|high]`` -> a list, one object per range: ``{"range_m",
+  "resolved_small", "resolved_large", "snr_small", "snr_large", "snr_small_corrected",
+  "snr_large_corrected", "signal_e": {curve: e}, "noise_e": {"background", "lens", "dark",
+  "read", "temporal", "spatial"}, "transmission" (flat band average), "transmission_contrast"
+  (weighted by a near-ambient target's contrast), "air_temp_k", "sky_temp_k",
+  "sky_assumed_equal_to_air" (no --sky-temp-c: the sky taken as the air, the band widened by an
+  8 K sky error), "pvf": {curve: average PVF or null where resolved}, "uncertainty": {corrected
+  curve: [lower, upper]}}``; curves are small, large, small_corrected, large_corrected. The met
+  readings drive the built-in LOWTRAN7 atmosphere (``model/atmosphere_table.py``); those not
+  given are the season's standard atmosphere at sea level (US Standard 1976 by default).
 * ``pvf --psf airy|gaussian|airy+gaussian ...`` -> ``{"average_pvf", "ensquared_energy"}``.
 * ``radiance --band L1,L2 --temp-k T`` -> ``{"radiance_w_m2_sr", "photon_radiance",
   "d_radiance_dt", "d_photon_radiance_dt"}`` (SI, per steradian; photons s^-1 m^-2 sr^-1).
@@ -30,6 +36,16 @@ from snrmon.output import emit_json
 
 ZERO_C_K = 273.15
 NOISE_REFERENCE_SKY_K = 290.0
+# the names of model/atmosphere_table.py (not imported here: the parser is built on every run)
+SEASON_CHOICES = (
+    "us_std_1976",
+    "tropical",
+    "midlat_summer",
+    "midlat_winter",
+    "subarctic_summer",
+    "subarctic_winter",
+)
+AEROSOL_CHOICES = ("rural", "maritime", "urban")
 
 
 def _floats(text: str, what: str) -> list[float]:
@@ -66,12 +82,54 @@ def _bg_k(args) -> float | None:
     return t
 
 
+MET_OPTIONS = (
+    ("rh", "--rh", "rh_percent"),
+    ("dew_point_c", "--dew-point-c", "dew_point_c"),
+    ("pressure_hpa", "--pressure-hpa", "pressure_hpa"),
+    ("visibility_km", "--visibility-km", "visibility_km"),
+    ("aerosol", "--aerosol", "aerosol"),
+    ("season", "--season", "season"),
+)
+
+
+def _weather(args):
+    """The met readings given on the command line as a Weather (None: none given)."""
+    from snrmon.model.atmosphere_table import Weather
+
+    given = {field: getattr(args, dest) for dest, _, field in MET_OPTIONS}
+    given = {k: v for k, v in given.items() if v is not None}
+    if args.air_temp_c is not None:
+        given["air_temp_c"] = args.air_temp_c
+    if not given:
+        return None
+    return Weather(**given)
+
+
+def _air_k(args) -> float | None:
+    """--air-temp-c with a non-built-in atmosphere: the path temperature only."""
+    if args.air_temp_c is None or args.atmosphere == "default":
+        return None
+    t = args.air_temp_c + ZERO_C_K
+    if not t > 0:
+        raise UsageError(f"--air-temp-c must be above -273.15, got {args.air_temp_c}")
+    return t
+
+
 def _atmosphere(args, sensor):
     from snrmon.model.atmosphere import resolve_atmosphere
     from snrmon.model.presets import load_atmosphere
 
     spec = args.atmosphere
-    if spec in ("default", "none"):
+    if spec != "default":
+        for dest, flag, _ in MET_OPTIONS:
+            if getattr(args, dest) is not None:
+                raise UsageError(
+                    f"{flag} sets the built-in LOWTRAN7 atmosphere; it has no meaning with "
+                    f"--atmosphere {spec} (give the air along the path with --air-temp-c)"
+                )
+    else:
+        return resolve_atmosphere(_weather(args), sensor.band_um)
+    if spec == "none":
         return resolve_atmosphere(spec, sensor.band_um)
     try:
         return resolve_atmosphere(float(spec), sensor.band_um)
@@ -96,8 +154,41 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
             "--atmosphere",
             default="default",
             metavar="default|none|TAU|FILE",
-            help="built-in US Std 1976 fit (default), none, a constant "
-            "transmission, or a TOML/tape7/CSV file",
+            help="built-in LOWTRAN7 table for the met readings below (default), none, a "
+            "constant transmission, or a TOML/tape7/CSV file",
+        )
+        p.add_argument(
+            "--air-temp-c", type=float, default=None, metavar="T", help="air temperature, C"
+        )
+        hum = p.add_mutually_exclusive_group()
+        hum.add_argument(
+            "--rh", type=float, default=None, metavar="PCT", help="relative humidity, %%"
+        )
+        hum.add_argument(
+            "--dew-point-c", type=float, default=None, metavar="TD", help="dew point, C"
+        )
+        p.add_argument(
+            "--pressure-hpa", type=float, default=None, metavar="P", help="air pressure, hPa"
+        )
+        p.add_argument(
+            "--visibility-km",
+            type=float,
+            default=None,
+            metavar="V",
+            help="meteorological visibility, km (default: no aerosol)",
+        )
+        p.add_argument(
+            "--aerosol",
+            default=None,
+            choices=AEROSOL_CHOICES,
+            help="LOWTRAN7 aerosol model with --visibility-km (rural)",
+        )
+        p.add_argument(
+            "--season",
+            default=None,
+            choices=SEASON_CHOICES,
+            help="standard atmosphere whose sea-level air stands in for readings not given "
+            "(us_std_1976)",
         )
         p.add_argument(
             "--atmosphere-path-m",
@@ -114,11 +205,14 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
             "none/low/medium/high",
         )
     p.add_argument(
+        "--sky-temp-c",
         "--background-temp-c",
+        dest="background_temp_c",
         type=float,
         default=None,
         metavar="T",
-        help="measured background (sky) temperature, C",
+        help="measured background (sky) temperature, C (none: assumed equal to the air, "
+        "with an 8 K uncertainty in the band)",
     )
     p.add_argument("--json", action="store_true", help="JSON on stdout")
 
@@ -218,21 +312,28 @@ def run_snr(args) -> int:
         _ranges(args.ranges),
         atmosphere=_atmosphere(args, sensor),
         background_temp_k=_bg_k(args),
+        air_temp_k=_air_k(args),
         spatial_noise=args.spatial_noise,
     )
     records = pred.to_records()
     head = f"{'range_m':>8} {'res_s':>5} {'res_l':>5} {'small':>9} {'large':>9} {'small_c':>9} "
-    head += f"{'large_c':>9} {'tau':>6}"
+    head += f"{'large_c':>9} {'tau':>6} {'tau_c':>6}"
+    sky = (
+        f"sky assumed equal to the air {pred.air_temp_k:.2f} K (+-8 K in the band)"
+        if pred.sky_assumed
+        else f"sky {pred.background_temp_k:.2f} K, air {pred.air_temp_k:.2f} K"
+    )
     title = (
-        f"{sensor.name} / {target.name}, atmosphere {pred.atmosphere_name}, background "
-        f"{pred.background_temp_k:.2f} K, temporal noise {pred.noise.temporal:.4g} e-"
+        f"{sensor.name} / {target.name}, atmosphere {pred.atmosphere_name}; {sky}; temporal "
+        f"noise {pred.noise.temporal:.4g} e-"
     )
     lines = [title, head]
     for rec in records:
         lines.append(
             f"{rec['range_m']:8.1f} {rec['resolved_small']!s:>5} {rec['resolved_large']!s:>5} "
             f"{rec['snr_small']:9.3f} {rec['snr_large']:9.3f} {rec['snr_small_corrected']:9.3f} "
-            f"{rec['snr_large_corrected']:9.3f} {rec['transmission']:6.3f}"
+            f"{rec['snr_large_corrected']:9.3f} {rec['transmission']:6.3f} "
+            f"{rec['transmission_contrast']:6.3f}"
         )
     return _emit(args, records, "\n".join(lines))
 
@@ -315,6 +416,7 @@ def run_plot(args) -> int:
         ranges,
         atmosphere=_atmosphere(args, sensor),
         background_temp_k=_bg_k(args),
+        air_temp_k=_air_k(args),
         spatial_noise=args.spatial_noise,
     )
     path = plot_prediction(pred, args.output)

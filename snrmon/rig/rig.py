@@ -52,6 +52,9 @@ class HilOptions:
     reference_frames: int = 64
     sky_temp_k: float = 280.0  # the scenario's clear sky (apparent temperature)
     air_temp_k: float = 288.15  # the scenario's air along the path
+    rh_percent: float | None = None  # the scenario's met readings (None: the season's)
+    pressure_hpa: float | None = None
+    visibility_km: float | None = None  # None: no aerosol
     calibrate: bool = True  # blackbody frames and a calibration before the flight
     window_px: tuple[int, int] | None = None  # a sub-array (width, height) around the sight line
     fpn: bool = False
@@ -59,11 +62,29 @@ class HilOptions:
     out: str | None = None
     adopt_psf: bool = False  # hand the PSF measured at each unresolved stop to the model
 
+    def __post_init__(self) -> None:
+        self.weather  # a bad met reading is refused here, before any device starts  # noqa: B018
+
+    @property
+    def weather(self):
+        """The day's met readings, what the field team reads and tells the model (and the
+        twin's atmosphere)."""
+        from snrmon.model.atmosphere_table import Weather
+
+        return Weather(
+            air_temp_c=round(self.air_temp_k - 273.15, 6),
+            rh_percent=self.rh_percent,
+            pressure_hpa=self.pressure_hpa,
+            visibility_km=self.visibility_km,
+        )
+
     @property
     def scenario(self):
         from snrmon.sim.twin import Scenario
 
-        return Scenario(sky_temp_k=self.sky_temp_k, air_temp_k=self.air_temp_k)
+        return Scenario(
+            sky_temp_k=self.sky_temp_k, air_temp_k=self.air_temp_k, weather=self.weather
+        )
 
 
 LOG_S = 120.0
@@ -98,12 +119,13 @@ class HilRig:
         if predictor is None:
             from snrmon.acquisition.prediction import ModelPredictor
 
-            # The model knows what a field team would: the air temperature; the sky it measures
-            # (calibrated before the flight). Asynchronous: a measurement thread asks for it.
+            # The model knows what a field team would: the met readings (air, humidity,
+            # pressure, visibility); the sky it measures (calibrated before the flight).
+            # Asynchronous: a measurement thread asks for it.
             predictor = ModelPredictor(
                 {c: c for c in opts.cameras},
                 opts.target,
-                air_temp_k=opts.air_temp_k,
+                atmosphere=opts.weather,
                 asynchronous=True,
             )
         self.predictor = predictor
@@ -172,7 +194,7 @@ class HilRig:
                     }
                     for c, r in self.cameras.items()
                 },
-                "weather": {"air_temp_c": round(opts.air_temp_k - 273.15, 6)},
+                "weather": {k: v for k, v in opts.weather.as_dict().items() if v is not None},
                 "simulation": {**opts.scenario.record(tuple(opts.cameras)), "seed": opts.seed},
                 "gps": {"protocol": "nmea", "port": self.gps_sim.path, "baud": 38400},
                 "lrf": {"protocol": "ldm", "port": self.lrf_sim.path, "baud": 9600},

@@ -83,7 +83,10 @@ def test_the_schema_covers_every_field_of_the_config_dataclasses():
     assert session - {"raw", "window", "lrf_fresh_s", "air_temp_k"} | {"weather", "simulation"} == (
         set(TOP_FIELDS)
     )
-    assert set(WEATHER_FIELDS) == {"air_temp_c"}
+    # [weather] is the model's met readings: every field of Weather
+    from snrmon.model.atmosphere_table import Weather
+
+    assert set(WEATHER_FIELDS) == {f.name for f in dataclasses.fields(Weather)}
 
 
 def test_the_issue_examples(tmp_path):

@@ -160,3 +160,41 @@ def test_model_options_are_remembered_for_the_next_start(qtbot, window):
     qtbot.addWidget(third)
     assert any("saved model options ignored" in m and "'warm'" in m for m in third.messages)
     assert third.model.options == ModelOptions()
+
+
+def test_the_dialog_takes_the_days_met_readings_and_the_session_records_them(
+    qtbot, window, tmp_path
+):
+    """The operator types today's readings: the curves are the model's through that air, the
+    session's stop table asks the same model, and the recording holds the readings."""
+    from snrmon.acquisition.prediction import Weather
+    from snrmon.acquisition.record.reader import open_session
+
+    session = window.session
+    session.start_recording(tmp_path / "met.h5")
+    dialog = window.model_options()
+    for key, text in (("air_temp_c", "28"), ("rh_percent", "95"), ("visibility_km", "8")):
+        dialog.met[key].setText(text)
+    dialog.season.setCurrentText("midlat_summer")
+    qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+    assert dialog.error.text() == ""
+    want = Weather(air_temp_c=28.0, rh_percent=95.0, visibility_km=8.0, season="midlat_summer")
+    assert window.model.options.weather == want and session.met_readings == want
+    assert session.predictor is window.model.sky and window.model.sky.weather["mwir"] == want
+    through = ModelPredictor({"mwir": "mwir"}, "uav1", atmosphere=want).curve("mwir")
+    _, y = _drawn(window, "small_corrected")
+    np.testing.assert_allclose(y, through["small_corrected"][1])
+    default = ModelPredictor({"mwir": "mwir"}, "uav1").curve("mwir")
+    assert np.all(y[-50:] < default["small_corrected"][1][-50:])  # humid hazy air, far out
+    # a bad reading is refused, naming it; nothing changes
+    dialog.met["rh_percent"].setText("wet")
+    qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+    assert "relative humidity must be a number of % (or empty), got 'wet'" in dialog.error.text()
+    dialog.met["rh_percent"].setText("120")
+    qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+    assert "relative humidity must be 0 to 100 %, got 120" in dialog.error.text()
+    assert session.met_readings == want
+    session.stop_recording()
+    with open_session(tmp_path / "met.h5") as f:
+        events = [e["payload"] for e in f.event_list() if e["kind"] == "met_readings"]
+    assert events == [want.as_dict()]

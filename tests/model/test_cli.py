@@ -141,3 +141,64 @@ def test_bad_input_is_one_line(capsys, tmp_path, argv, needle):
     code, out, err = _run(capsys, *argv)
     assert code != 0 and out == ""
     assert len(err.strip().splitlines()) == 1 and needle in err
+
+
+def _snr(capsys, *argv):
+    code, out, err = _run(capsys, "snr", "--target", "uav1", "--json", *argv)
+    assert code == 0, err
+    return strict_json(out)
+
+
+def test_met_readings_drive_the_transmission(capsys):
+    """--rh 20 against --rh 90 at 500 m, air 20 C: both bands lose transmission (LOWTRAN7's
+    amount: tests/model/test_atmosphere_lowtran.py), and the signal with it."""
+    for sensor, drop in (("lwir", 0.10), ("mwir", 0.08)):
+        dry, humid = (
+            _snr(capsys, "--sensor", sensor, "--ranges", "500", "--air-temp-c", "20", "--rh", rh)[0]
+            for rh in ("20", "90")
+        )
+        assert humid["transmission"] < dry["transmission"] - drop
+        assert humid["transmission_contrast"] < dry["transmission_contrast"] - drop
+        assert humid["snr_small_corrected"] < dry["snr_small_corrected"]
+        assert dry["air_temp_k"] == pytest.approx(293.15)
+    # the same RH as a dew point; haze and pressure lower it further
+    base = ("--sensor", "lwir", "--ranges", "2000", "--air-temp-c", "20")
+    rh = _snr(capsys, *base, "--rh", "52.7")[0]["transmission"]
+    td = _snr(capsys, *base, "--dew-point-c", "10")[0]["transmission"]
+    assert td == pytest.approx(rh, abs=2e-3)
+    hazy = _snr(capsys, *base, "--rh", "52.7", "--visibility-km", "5")[0]["transmission"]
+    assert hazy < rh - 0.02
+    tropical = _snr(capsys, "--sensor", "lwir", "--ranges", "2000", "--season", "tropical")[0]
+    assert tropical["air_temp_k"] == pytest.approx(299.7) and tropical["transmission"] < rh
+
+
+def test_sky_assumed_or_measured_is_said(capsys):
+    assumed = _snr(capsys, "--sensor", "mwir", "--ranges", "508")[0]
+    assert assumed["sky_assumed_equal_to_air"] is True
+    assert assumed["sky_temp_k"] == assumed["air_temp_k"]
+    measured = _snr(capsys, "--sensor", "mwir", "--ranges", "508", "--sky-temp-c", "5")[0]
+    assert measured["sky_assumed_equal_to_air"] is False
+    assert measured["sky_temp_k"] == pytest.approx(278.15)
+    lo, hi = assumed["uncertainty"]["small_corrected"]
+    lo_m, hi_m = measured["uncertainty"]["small_corrected"]
+    assert (hi - lo) / assumed["snr_small_corrected"] > 2 * (hi_m - lo_m) / measured[
+        "snr_small_corrected"
+    ]
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["--rh", "120"], "relative humidity must be 0 to 100 %, got 120"),
+        (["--air-temp-c", "70"], "air temperature must be -30 to 45 C, got 70"),
+        (["--pressure-hpa", "500"], "pressure must be 700 to 1060 hPa, got 500"),
+        (["--visibility-km", "0"], "visibility must be 0.5 to 300 km, got 0"),
+        (["--air-temp-c", "10", "--dew-point-c", "15"], "dew point 15 C is above the air"),
+        (["--atmosphere", "none", "--rh", "50"], "--rh sets the built-in LOWTRAN7 atmosphere"),
+    ],
+)
+def test_bad_met_readings_are_one_line(capsys, argv, needle):
+    code, out, err = _run(capsys, "snr", "--sensor", "mwir", "--target", "uav1", *argv)
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0], err

@@ -136,23 +136,27 @@ def test_air_and_sky_are_separate_and_the_air_adds_contrast():
     assert warm_air.noise.temporal == same.noise.temporal  # the noise is the sky's
     # no sky given: the infinite path at the air temperature, as before
     own = predict(MW, UAV1, [199.0], expected=False, band=False)
-    assert own.background_temp_k == own.air_temp_k == 288.15
+    assert own.background_temp_k == own.air_temp_k == pytest.approx(288.15, abs=1e-9)
+    assert own.sky_assumed and not warm_air.sky_assumed
 
 
 def test_contrast_weighted_transmission_of_the_mwir_default():
+    # LOWTRAN7 US Standard 1976 sea level (CO2 420 ppmv), no aerosol: the flat band average
+    # and the one weighted by dLq/dT at the air, 7 % lower at 199 m and 13 % at 508 m
     atm = default_atmosphere((3.45, 5.25))
-    assert atm.transmission([199.0, 508.0]) == pytest.approx([0.746, 0.663], abs=0.005)
-    assert atm.contrast_transmission([199.0, 508.0]) == pytest.approx([0.695, 0.580], abs=0.005)
+    assert atm.transmission([199.0, 508.0]) == pytest.approx([0.742, 0.659], abs=0.002)
+    assert atm.contrast_transmission([199.0, 508.0]) == pytest.approx([0.688, 0.571], abs=0.002)
     p = predict(MW, UAV1, [199.0], expected=False, band=False)
-    assert p.transmission_contrast[0] == pytest.approx(0.693, abs=0.005)
-    assert p.transmission[0] == pytest.approx(0.744, abs=0.005)
-    lw = default_atmosphere((8.0, 12.0))  # not tabulated: the flat fit, said so
-    assert lw.contrast_transmission(199.0) == pytest.approx(lw.transmission(199.0))
-    assert "flat" in lw.source and "contrast-weighted" in atm.source
+    assert p.transmission_contrast[0] == pytest.approx(atm.contrast_transmission(199.0), abs=1e-3)
+    assert p.transmission[0] == pytest.approx(atm.transmission(199.0), abs=1e-9)
+    lw = default_atmosphere((8.0, 12.0))  # nearly grey: weighted and flat within 0.2 %
+    assert lw.contrast_transmission(199.0) == pytest.approx(lw.transmission(199.0), rel=0.002)
+    assert "contrast-weighted" in atm.source
 
 
 def test_band_is_one_sided_where_the_paper_says_so():
-    p = predict(MW, UAV1, [250.0, 451.0, 2000.0])
+    # a measured sky: an assumed one widens the band on both sides (test_sky_assumed_...)
+    p = predict(MW, UAV1, [250.0, 451.0, 2000.0], background_temp_k=288.15)
     for name in ("small_corrected", "large_corrected", "expected_eq4"):
         lo, hi, mid = p.lower[name], p.upper[name], p.snr(name)
         assert (lo < mid).all() and (mid < hi).all()
@@ -163,5 +167,50 @@ def test_band_is_one_sided_where_the_paper_says_so():
     assert down[1] > 1.2 * up[1]
     assert down[2] == pytest.approx(up[2], rel=0.25)  # far: a point, symmetric terms only
     assert 0.05 < down[1] < 0.3
-    again = predict(MW, UAV1, [250.0, 451.0, 2000.0])
+    again = predict(MW, UAV1, [250.0, 451.0, 2000.0], background_temp_k=288.15)
     assert np.array_equal(again.lower["small_corrected"], p.lower["small_corrected"])
+
+
+def test_sky_assumed_equal_to_air_is_said_and_widens_the_band():
+    """No sky temperature: the JSON says the sky was assumed equal to the air, and the band
+    carries an 8 K sky error (a 1.5-2x swing at 508 m in the MWIR, where the path radiance
+    amplifies it), against the 5 % of a measured sky's radiance."""
+    assumed = predict(MW, UAV1, [199.0, 508.0])
+    measured = predict(MW, UAV1, [199.0, 508.0], background_temp_k=288.15)
+    rec = assumed.to_records()[1]
+    assert rec["sky_assumed_equal_to_air"] is True and rec["sky_temp_k"] == rec["air_temp_k"]
+    assert measured.to_records()[1]["sky_assumed_equal_to_air"] is False
+    width = {}
+    for name, p in (("assumed", assumed), ("measured", measured)):
+        lo, hi = p.lower["small_corrected"], p.upper["small_corrected"]
+        width[name] = (hi - lo) / p.snr_small_corrected
+    assert np.all(width["assumed"] > 2.0 * width["measured"])
+    assert 0.9 < width["assumed"][1] < 1.6  # 16th-84th percentile, relative
+    # the deterministic budget too: the path term is 8 K of sky radiance
+    rel_a = assumed.relative_uncertainty["small_corrected"]
+    rel_m = measured.relative_uncertainty["small_corrected"]
+    assert np.all(rel_a > 2.0 * rel_m)
+
+
+def test_transmission_uncertainty_grows_with_the_path():
+    """Beer-Lambert on the band's optical depth: 10 % of -ln(tau_c), so the term is small near
+    the camera and large far out, not a flat 3 %."""
+    from snrmon.model.uncertainty import UncertaintyBudget
+
+    p = predict(MW, UAV1, [50.0, 500.0, 5000.0], background_temp_k=288.15, band=False)
+    od = -np.log(p.transmission_contrast)
+    terms = UncertaintyBudget().terms(np.zeros(3), np.zeros(3, bool), od)
+    assert terms["transmission"] == pytest.approx(0.10 * od, rel=1e-12)
+    assert terms["transmission"][0] < 0.03 < 0.04 < terms["transmission"][1] < 0.08
+    assert terms["transmission"][2] > 0.14
+    # and the Monte-Carlo band: its relative width grows with range at fixed other terms
+    from snrmon.model.montecarlo import InputUncertainty
+
+    only_tau = InputUncertainty(
+        outline_area=0, target_temp_k=0, sky_radiance=0, air_temp_k=0, psf_pvf=0, size_rule=0
+    )
+    q = predict(MW, UAV1, [50.0, 500.0, 5000.0], background_temp_k=288.15, inputs=only_tau)
+    lo, hi = q.lower["small_corrected"], q.upper["small_corrected"]
+    rel = (hi - lo) / 2 / q.snr_small_corrected
+    assert rel[0] < rel[1] < rel[2]
+    assert rel == pytest.approx(0.10 * od, rel=0.35)  # the draws' 16-84 % half-width

@@ -75,7 +75,8 @@ def test_background_correction_and_atmosphere_move_the_signal_the_right_way():
     clear = predict(MW, UAV1, [400.0], atmosphere="none").snr_small[0]
     hazy = predict(MW, UAV1, [400.0], atmosphere="default").snr_small[0]
     tau = predict(MW, UAV1, [400.0]).transmission_contrast[0]
-    assert hazy / clear == pytest.approx(tau, rel=1e-9)
+    # the signal's own weighting (this target's contrast) against dLq/dT at the air: within 1 %
+    assert hazy / clear == pytest.approx(tau, rel=0.01)
 
 
 def test_uncertainty_band_surrounds_corrected_curves_and_path_term_is_amplified():

@@ -134,7 +134,7 @@ def test_replay_json_reports_the_files_drops(live, capsys):
         {BACKLOG: dropped} if dropped else {}
     )
     assert frames["identical"] == frames["compared"] == frames["in_file"]
-    assert out["format_version"] == "2.1"
+    assert out["format_version"] == "2.2"
 
 
 def _refuse(token: str):

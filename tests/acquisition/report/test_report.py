@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from snrmon.acquisition.prediction import CURVES, ModelPredictor
-from snrmon.acquisition.report.data import BUDGET_TERMS, report_data
+from snrmon.acquisition.report.data import BUDGET_TERMS, report_data, rows_sky_k
 from snrmon.acquisition.report.plot import PAGE_IN, PNG_DPI
 from snrmon.acquisition.report.stop_csv import CSV_COLUMNS
 from snrmon.cli import main
@@ -136,7 +136,13 @@ def test_budget_and_curves_are_the_models(data):
         assert [b.range_m for b in budgets] == sorted(
             r.range_m for r in data.rows if r.camera == cam
         )
-        p = predict(load_sensor(cam), load_target("uav1"), [b.range_m for b in budgets])
+        # at the sky the rows' model values were computed for (the budget's path term)
+        p = predict(
+            load_sensor(cam),
+            load_target("uav1"),
+            [b.range_m for b in budgets],
+            background_temp_k=rows_sky_k(data.rows, cam),
+        )
         for i, b in enumerate(budgets):
             assert tuple(b.terms) == BUDGET_TERMS
             assert b.total == pytest.approx(p.relative_uncertainty["small_corrected"][i], rel=1e-12)
