@@ -80,6 +80,13 @@ def run(args: argparse.Namespace) -> int:
         f"{result.session}: {result.fixes_written} of {result.fixes_in_log} fixes from "
         f"{result.log} ({kind}, UTC from {result.utc_source}) written as /gps, source imported"
     )
+    if result.clock is not None:
+        c = result.clock
+        print(
+            f"  the log's clock: {c['segments']} segments ({c['gaps']} gaps, {c['jumps']} time "
+            f"jumps), {c['outliers']} rows whose time disagrees left out"
+            + (f" (first: {c['examples'][0]})" if c["examples"] else "")
+        )
     if result.fixes_outside:
         print(f"  {result.fixes_outside} fixes lie outside the session's span and were left out")
     if result.live_rows_kept:

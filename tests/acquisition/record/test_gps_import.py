@@ -73,17 +73,18 @@ def test_real_nmea_log_imports_one_fix_per_epoch_at_its_utc(shared_data, tmp_pat
 
 
 def test_a_receivers_date_before_lock_is_left_out(shared_data, tmp_path):
-    """mtk-3301 says 1980-01-05 (GPS week 0) until it has the almanac, then 2008-08-23: a
-    session recorded in 2008 takes the 2008 epochs and reports the others as outside."""
+    """mtk-3301 says 1980-01-05 (GPS week 0) until it has the almanac, then 2008-08-23: the
+    log's clock is the 2008 epochs; the 1980 ones are outliers of the log, never written, and
+    the import says how many."""
     log = shared_data / "nmea" / "mtk-3301.log"
-    fixes = read_nmea_log(log).fixes
-    late = [f for f in fixes if f.utc.year == 2008]
-    assert 0 < len(late) < len(fixes)
+    parsed = read_nmea_log(log)
+    fixes = parsed.fixes
+    assert {f.utc.year for f in fixes} == {2008} and parsed.clock.outliers == 8
     session = tmp_path / "s.h5"
-    bare_session(session, late[0].utc, (late[-1].utc - late[0].utc).total_seconds())
+    bare_session(session, fixes[0].utc, (fixes[-1].utc - fixes[0].utc).total_seconds())
     result = import_gps_log(session, log, "nmea")
-    assert result.fixes_written == len(late)
-    assert result.fixes_outside == len(fixes) - len(late)
+    assert result.fixes_written == len(fixes) and result.fixes_outside == 0
+    assert result.clock["outliers"] == 8 and result.clock["jumps"] == 3
 
 
 def test_clock_mapping_round_trips_through_re_anchored_rows():
