@@ -139,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--frames must be >= 1, got {args.frames}")
     if args.roi_px < 1:
         raise UsageError(f"--roi-px must be >= 1, got {args.roi_px}")
-    session_file(args.file)
+    session_file(args.file, camera=args.camera)
     if args.calibration:
         input_file(args.calibration, "--calibration")
     if args.target_out:  # (a calibration comes from the session, or from --calibration)

@@ -23,8 +23,14 @@ def _floats(text: str, what: str) -> tuple[float, ...]:
         values = tuple(float(v) for v in text.split(",") if v.strip())
     except ValueError:
         raise UsageError(f"{what} must be comma-separated numbers, got {text!r}") from None
-    if not values or any(not (math.isfinite(v) and v > 0) for v in values):
-        raise UsageError(f"{what} must be positive numbers, got {text!r}")
+    if not values:
+        raise UsageError(f"{what} must be comma-separated numbers, got {text!r}")
+    for v in values:
+        if not math.isfinite(v):
+            raise UsageError(f"{what} must be finite numbers, got {v:g} in {text!r}")
+        if v <= 0:
+            sign = "negative" if v < 0 else "zero"
+            raise UsageError(f"{what} must be positive, got {v:g} in {text!r} ({sign})")
     return values
 
 

@@ -19,6 +19,7 @@ import argparse
 import numpy as np
 
 from snrmon.cli import UsageError
+from snrmon.inputs import input_file, session_file
 from snrmon.output import emit_json
 
 
@@ -68,6 +69,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.min_frames < 10:
         raise UsageError(f"--min-frames must be >= 10, got {args.min_frames}")
+    session_file(args.file, camera=args.camera)
+    if args.calibration:
+        input_file(args.calibration, "--calibration")
     sensors, target_name = session_models(args.file, args.target)
     if args.camera not in sensors:
         raise UsageError(f"camera {args.camera!r} not in {args.file} ({', '.join(sensors)})")
