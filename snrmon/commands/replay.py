@@ -125,6 +125,10 @@ def result_json(result) -> dict:
             "identical": t.identical,
             "first_difference_counter": t.first_difference,
             "states_restored": t.states_restored,
+            # The live accounting the file keeps: received = written + dropped (by reason) +
+            # before_recording (+ after_recording + queued); null for a file without it.
+            "received_live": None if c.accounting is None else c.accounting.get("received"),
+            "accounting": c.accounting,
         }
     return {
         "format_version": result.format_version,
