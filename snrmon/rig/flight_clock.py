@@ -74,6 +74,13 @@ class FlightClock:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
+    def set_speed(self, speed: float) -> None:
+        """The clock's free rate from now on (camera seconds per host second)."""
+        if not speed > 0:
+            raise ValueError(f"speed must be positive, got {speed}")
+        with self._lock:
+            self.speed = float(speed)
+
     def watch(self, name: str, fps: float, newest: Callable[[], int | None]) -> None:
         """Hold the clock to camera ``name`` too (frame rate ``fps``; ``newest()``: the newest
         counter the console received from it)."""

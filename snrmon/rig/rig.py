@@ -26,7 +26,7 @@ import numpy as np
 
 from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.runtime.session import Session
-from snrmon.rig.flight_clock import FlightClock
+from snrmon.rig.flight_clock import MAX_SPEED, FlightClock
 from snrmon.rig.support import flight_config_of, recording_summary, stop_config_at
 from snrmon.rig.twin_day import (
     CropLog,
@@ -68,6 +68,16 @@ class HilOptions:
 
         return Scenario(sky_temp_k=self.sky_temp_k, air_temp_k=self.air_temp_k)
 
+
+ADAPT_S = 2.0
+"""How often (host seconds) the day's free speed follows what the console held over the last
+``ADAPT_S``: down to 1.1 x that where it held less than 80% of it, up by a quarter (never past
+the speed asked, 8 for max) where it held all of it. The stop detector's "steady for 3 s of
+flight" follows the speed, so the rate the readings come at and the detector's window agree."""
+SPEAK_FRACTION = 0.8
+"""A serial simulator speaks once the day's clock moved at least this fraction of what one of
+its ticks (0.1 s) covers at the current speed: a drone that crawls because the console is slow
+never reads as a hover (three readings span at least 0.24 s of flight at speed 1)."""
 
 LOG_S = 120.0
 """Host seconds of measurements the rig keeps per camera for its truth bookkeeping. A stop's
@@ -118,6 +128,8 @@ class HilRig:
         self.clock = FlightClock(opts.speed)
         self._clock_k = 0  # table points already recorded as hil_clock events
         self._speed_warned = False
+        self._adapt_at: tuple[float, float] | None = None  # (host s, clock s) of the last check
+        self.speed_changes: list[tuple[float, float]] = []  # (flight s, speed) as it followed
         tag = f"{os.getpid()}-{opts.seed}"
         self.cameras: dict[str, CameraRig] = {}
         feeds = camera_feeds(opts, self.flight_config, self.preroll_s)
@@ -221,14 +233,42 @@ class HilRig:
         t = self.clock.at(due_ns) - self.preroll_s
         return None if t < 0 else self.plan.position(t)  # no fix before launch
 
-    def _clock_moved(self, device: str) -> bool:
-        """True when the day's clock moved since ``device`` last spoke."""
+    def _clock_moved(self, device: str, tick_s: float = 0.1) -> bool:
+        """True when the day's clock moved enough since ``device`` last spoke
+        (:data:`SPEAK_FRACTION` of one of its ticks at the current speed)."""
         tau = self.clock.now()
         last = self._gate_tau.get(device)
-        if last is not None and tau <= last:
+        if last is not None and tau - last < SPEAK_FRACTION * tick_s * self.clock.speed:
             return False
         self._gate_tau[device] = tau
         return True
+
+    def _follow_console(self) -> None:
+        """The day's free speed follows what the console held (:data:`ADAPT_S`)."""
+        now, tau = time.monotonic(), self.clock.now()
+        if self._adapt_at is None:
+            self._adapt_at = (now, tau)
+            return
+        t0, tau0 = self._adapt_at
+        if now - t0 < ADAPT_S:
+            return
+        self._adapt_at = (now, tau)
+        held = (tau - tau0) / (now - t0)
+        speed = self.clock.speed
+        cap = MAX_SPEED if self.opts.speed_max else self.opts.speed
+        if held < 0.8 * speed:
+            new = max(0.1, math.floor(held * 1.1 * 10) / 10)
+        elif held > 0.95 * speed and speed < cap:
+            new = min(cap, math.ceil(speed * 1.25 * 10) / 10)
+        else:
+            return
+        if new == speed:
+            return
+        self.clock.set_speed(new)
+        self.session.engine.stop_detector.config = stop_config_at(new)
+        self.speed_changes.append((round(self.flight_time(), 3), new))
+        log.info("the simulated day follows the console: speed %g (it held %.2f)", new, held)
+        self.session.add_event("hil_speed_changed", payload={"speed": new, "held": held})
 
     def _lrf_range(self, _t_s: float) -> float | None:
         t = self.flight_time()
@@ -327,6 +367,7 @@ class HilRig:
         """
         self._summarise_final_rows()
         self._record_clock()
+        self._follow_console()
         self._check_speed()
         t = self.flight_time()
         stop_idx = self.plan.truth(t).stop_index
@@ -480,6 +521,7 @@ class HilRig:
             "speed": {
                 "asked": "max" if self.opts.speed_max else self.opts.speed,
                 **self.clock.achieved(),
+                "changes": [{"flight_s": t, "speed": v} for t, v in self.speed_changes],
             },
             "operator_clicks": clicks,
         }
