@@ -81,10 +81,15 @@ def run(args: argparse.Namespace) -> int:
     )
     if result.clock is not None:
         c = result.clock
+        fate = (
+            "left out of the anchor's estimate, their fixes on the anchor's time"
+            if c["anchors"]
+            else "left out"
+        )
         print(
             f"  the log's clock: {c['segments']} segments ({c['gaps']} gaps, {c['jumps']} time "
-            f"jumps), {c['outliers']} rows whose time disagrees left out"
-            + (f" (first: {c['examples'][0]})" if c["examples"] else "")
+            f"jumps), {c['outliers']} rows whose time disagrees ({fate})"
+            + (f"; first: {c['examples'][0]}" if c["examples"] else "")
         )
     if result.fixes_outside:
         print(f"  {result.fixes_outside} fixes lie outside the session's span and were left out")

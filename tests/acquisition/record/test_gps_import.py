@@ -145,3 +145,24 @@ def test_dji_csv_sub_second_utc_and_satellites(tmp_path):
     fixes = read_dji_csv(path)
     assert [f.utc for f in fixes] == [e.utc for e in epochs]
     assert {f.sats for f in fixes} == {13}
+
+
+def test_the_import_says_what_the_logs_clock_looked_like(shared_data, tmp_path, capsys):
+    """The real AirData export into a session of its flight: the import prints its segments
+    and outliers and records them with the import."""
+    import gzip
+
+    log = tmp_path / "air-2s.csv"
+    log.write_bytes(gzip.decompress((shared_data / "dji-airdata" / "air-2s.csv.gz").read_bytes()))
+    session = tmp_path / "s.h5"
+    bare_session(session, datetime(2021, 9, 6, 2, 48, 9, tzinfo=UTC), 900.0)
+    assert main(["gps-import", str(session), "--dji", str(log)]) == 0
+    out = capsys.readouterr().out
+    assert (
+        "the log's clock: 25 segments (24 gaps, 0 time jumps), 31 rows whose time disagrees "
+        "(left out of the anchor's estimate, their fixes on the anchor's time); first: "
+    ) in out
+    with h5py.File(session, "r") as f:
+        meta = json.loads(f["gps"].attrs["import_json"])
+    assert meta["clock"]["anchors"] == 1 and meta["clock"]["outliers"] == 31
+    assert meta["fixes_written"] > 0
