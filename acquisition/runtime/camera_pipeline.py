@@ -110,6 +110,7 @@ class CameraPipeline:
         self._idle = threading.Condition(self._lock)
         self._reported: dict[str, int] = {}  # drops by reason already warned about
         self._last_report = 0.0
+        self._report_lock = threading.Lock()  # the measurement thread and a detach both report
         self._latency_ns: deque[int] = deque(maxlen=1000)
         self.click_news = ClickNews()  # what became of the operator's click, for the console
         self._stop = threading.Event()
@@ -187,6 +188,10 @@ class CameraPipeline:
             self._given = 0
             self._before = self._handled + overruns
             self._overrun_base = overruns
+        with self._report_lock:  # a new recorder counts its drops from 0
+            self._reported = {
+                k: v for k, v in self._reported.items() if k in (CAMERA_GAP, RING_OVERRUN)
+            }
 
     def detach_recorder(self) -> dict:
         """Stop recording this camera; its :meth:`accounting` at that moment (for the
@@ -262,13 +267,14 @@ class CameraPipeline:
         now = time.monotonic()
         if not final and now - self._last_report < DROP_REPORT_S:
             return
-        self._last_report = now
-        totals = self.drops(rec)
-        new = {k: v - self._reported.get(k, 0) for k, v in totals.items()}
-        new = {k: v for k, v in new.items() if v > 0}
-        if not new:
-            return
-        self._reported = totals
+        with self._report_lock:
+            self._last_report = now
+            totals = self.drops(rec)
+            new = {k: v - self._reported.get(k, 0) for k, v in totals.items()}
+            new = {k: v for k, v in new.items() if v > 0}
+            if not new:
+                return
+            self._reported = totals
         log.warning(
             "%s: %d frames dropped (%s); %d in all since the start",
             self.name,

@@ -133,8 +133,12 @@ def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
         assert np.median(lags) < 40e6 and max(lags) < 150e6, (kind, np.median(lags), max(lags))
         stops = [(s.camera, s.stop, s.gps_range_m) for s in redetected(session)]
         assert [s[:2] for s in stops] == [s[:2] for s in live_stops], kind
+        # The same stop means to within the hover's along-range drift (0.15 m, sim/flight.py):
+        # the live receiver speaks only while the simulated day's clock moves (a receiver of a
+        # frozen flight would read as a hover), so its stop means sample the drift at fewer
+        # epochs than the drone's own log, which has every one.
         for (_, _, got), (_, _, want) in zip(stops, live_stops, strict=True):
-            assert got == pytest.approx(want, abs=0.05), kind
+            assert got == pytest.approx(want, abs=0.15), kind
     # The campaign takes the imported stream: its stops are found again with the imported GPS.
     assert (
         main(
