@@ -21,6 +21,7 @@ test` checks the page is current). Every example below runs as a test (doctest).
 
 ```python
 import snrmon
+
 snrmon.__all__  # {names}
 ```
 

@@ -9,7 +9,7 @@ by that protocol, not by an attribute's name. Each camera is a :class:`CameraVie
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -139,6 +139,15 @@ class RecordingWriter(Protocol):
     @property
     def accepting(self) -> bool: ...
 
+    def frames_of(self, camera: str) -> tuple[int, int, dict[str, int]]:
+        """(frames given, frames written, frames dropped by reason) of ``camera`` so far."""
+        ...
+
     def status(self) -> RecorderStatus: ...
 
-    def stop(self, timeout: float = 60.0) -> RecorderSummary: ...
+    def stop(
+        self,
+        timeout: float = 60.0,
+        *,
+        accounting: Callable[[], Mapping[str, Mapping]] | None = None,
+    ) -> RecorderSummary: ...

@@ -133,10 +133,17 @@ class StatusPanel(QWidget):
             f = cs.frames
             self._set(f"{cam}_state", cs.device.state.value)
             self._set(f"{cam}_fps", _fmt(cs.fps, ".1f", "fps"))
-            self._set(f"{cam}_frames", f"{f.received} / {f.measured}")
+            self._set(
+                f"{cam}_frames",
+                f"{f.received} / {f.measured} ({f.recorded} recorded, "
+                f"{f.before_recording} while not recording)",
+            )
+            lost = f.dropped_by_camera + f.dropped_by_ring + f.dropped_by_recorder
             self._set(
                 f"{cam}_dropped",
-                f"cam {f.dropped_by_camera}, ring {f.dropped_by_ring}, rec {f.dropped_by_recorder}",
+                ("DROPPED " if lost else "")
+                + f"cam {f.dropped_by_camera}, ring {f.dropped_by_ring}, "
+                f"rec {f.dropped_by_recorder}",
             )
             roi = "--" if cs.roi_xy is None else f"({cs.roi_xy[0]}, {cs.roi_xy[1]})"
             why = f" ({cs.track_reason})" if cs.track_reason else ""

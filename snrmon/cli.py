@@ -31,6 +31,7 @@ import argparse
 import importlib
 import logging
 import pkgutil
+import re
 import signal
 import sys
 import threading
@@ -63,7 +64,16 @@ BAD_INPUT: tuple[type[BaseException], ...] = (
 
 class Parser(argparse.ArgumentParser):
     """argparse with snrmon's one-line errors: ``snrmon CMD: error: ...`` and exit 2, without
-    the usage block (``--help`` has it)."""
+    the usage block (``--help`` has it).
+
+    A value that starts with a minus and a digit is a value, not an option: argparse's own rule
+    takes only a plain negative number, so ``--stops -100,200`` or ``--offset-s -1e-3`` was
+    refused as "expected one argument" before the command could say what is wrong with it.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def error(self, message: str):  # type: ignore[override]
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")

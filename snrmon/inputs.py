@@ -2,7 +2,19 @@
 
 A command that would run a flight, a replay or a recording first makes sure that what it reads
 exists and is what it should be, and that where it writes can be written: one message naming
-the option and the path, exit 2 (``snrmon.cli.BAD_INPUT``), never an error minutes later.
+the option and the path and what is wrong, exit 2 (``snrmon.cli.BAD_INPUT``), never an error
+minutes later, never the HDF5 library's text or a Python error number.
+
+What is checked, in order (each a ``ValueError`` or an ``OSError`` subclass that names a path):
+
+* any input (:func:`input_file`): it exists, it is a file and not a folder, it is not empty;
+* a session (:func:`session_file`): an HDF5 file (its signature), one the HDF5 library can open
+  (a truncated or damaged one is named as such), a snrmon session (its ``format`` attribute) whose
+  streams all read, and, when a camera is asked for, one that holds that camera;
+* a frame stack of another tool (:func:`stack_file`): what its name's ending says it is (an
+  ``.h5`` that is not HDF5, a ``.tif`` that is not a TIFF, an ``.npy`` that is not an array);
+* where output goes (:func:`output_file`, :func:`output_folder`): its folder exists, a file is
+  not a folder and a folder is not a file, a session is never overwritten.
 """
 
 from __future__ import annotations
@@ -11,30 +23,118 @@ from collections.abc import Iterable
 from pathlib import Path
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+# The first bytes of what a stack file's ending promises (the formats whose header is fixed).
+STACK_SIGNATURES: dict[str, tuple[bytes, ...]] = {
+    ".h5": (HDF5_SIGNATURE,),
+    ".hdf5": (HDF5_SIGNATURE,),
+    ".tif": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
+    ".tiff": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
+    ".npy": (b"\x93NUMPY",),
+    ".png": (b"\x89PNG\r\n\x1a\n",),
+}
+STACK_KINDS = {
+    ".h5": "an HDF5 file",
+    ".hdf5": "an HDF5 file",
+    ".tif": "a TIFF file",
+    ".tiff": "a TIFF file",
+    ".npy": "a numpy .npy array",
+    ".png": "a PNG image",
+}
 
 
 def input_file(path: str | Path, what: str) -> Path:
-    """``path`` as a Path when it is an existing regular file (else FileNotFoundError or
-    IsADirectoryError naming ``what``)."""
+    """``path`` as a Path when it is an existing, non-empty regular file (else
+    FileNotFoundError, IsADirectoryError or ValueError naming ``what`` and the path)."""
     p = Path(path)
     if p.is_dir():
         raise IsADirectoryError(f"{what} {p}: is a folder, not a file")
     if not p.is_file():
         raise FileNotFoundError(f"{what} {p} does not exist")
+    if p.stat().st_size == 0:
+        raise ValueError(f"{what} {p}: is empty (0 bytes)")
     return p
+
+
+def starts_with(path: str | Path, signatures: Iterable[bytes]) -> bool:
+    """True when the file begins with one of ``signatures``."""
+    sigs = tuple(signatures)
+    with Path(path).open("rb") as fh:
+        head = fh.read(max(len(s) for s in sigs))
+    return any(head.startswith(s) for s in sigs)
 
 
 def is_hdf5(path: str | Path) -> bool:
     """True when the file starts with the HDF5 signature (at offset 0, as h5py writes it)."""
-    with Path(path).open("rb") as fh:
-        return fh.read(len(HDF5_SIGNATURE)) == HDF5_SIGNATURE
+    return starts_with(path, (HDF5_SIGNATURE,))
 
 
-def session_file(path: str | Path, what: str = "session file") -> Path:
-    """An existing snrmon session file (HDF5); anything else is one message."""
+def session_file(
+    path: str | Path, what: str = "session file", *, camera: str | None = None
+) -> Path:
+    """An existing snrmon session file (HDF5) whose streams read, holding ``camera`` when one is
+    asked for; anything else is one message naming the file and what is wrong."""
     p = input_file(path, what)
     if not is_hdf5(p):
-        raise ValueError(f"{what} {p}: not an HDF5 file (a snrmon session is FILE.h5)")
+        raise ValueError(f"{what} {p}: not an HDF5 file (a snrmon session is an HDF5 .h5 file)")
+    cameras = session_cameras(p, what)
+    if camera is not None and camera not in cameras:
+        have = ", ".join(cameras) or "none"
+        raise ValueError(f"{what} {p}: no camera {camera!r} in it (cameras: {have})")
+    return p
+
+
+def session_cameras(path: Path, what: str = "session file") -> list[str]:
+    """The cameras of the session at ``path``, read through the session reader (every stream
+    but the pixels is read: a damaged file fails here, not minutes into a replay)."""
+    from snrmon.acquisition.record.reader import open_session
+
+    try:
+        with open_session(path) as f:
+            names = list(f.cameras)
+            for cam in f.cameras.values():
+                if cam.n_frames:  # the pixels' index: the first and the last frame read
+                    cam.frame(0)
+                    cam.frame(cam.n_frames - 1)
+            return names
+    except ValueError as exc:
+        if "not a snrmon session" in str(exc):
+            raise ValueError(
+                f"{what} {path}: an HDF5 file but not a snrmon session (no format attribute)"
+            ) from None
+        raise ValueError(f"{what} {path}: damaged session file ({_first_line(exc)})") from None
+    except OSError as exc:
+        text = _first_line(exc)
+        if text.startswith("cannot open session file"):  # the reader's own prefix: said here
+            text = text.split(": ", 1)[-1]
+        why = "truncated" if "truncated" in text or "eof" in text else "damaged"
+        raise ValueError(f"{what} {path}: {why} HDF5 file ({text})") from None
+    except (KeyError, TypeError, IndexError, AttributeError, RuntimeError) as exc:
+        # A dataset or attribute of the layout missing or of the wrong kind.
+        raise ValueError(
+            f"{what} {path}: not a readable snrmon session ({type(exc).__name__}: "
+            f"{_first_line(exc)})"
+        ) from None
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
+    lines = text.strip().splitlines()
+    return lines[0] if lines else type(exc).__name__
+
+
+def stack_file(path: str | Path, what: str = "stack") -> Path:
+    """A frame stack of another tool: exists, not empty, and begins as its ending says (raw
+    files with a ``.json`` descriptor and videos are checked by their readers)."""
+    p = Path(path)
+    if p.suffix.lower() == ".json" or Path(f"{p}.json").is_file():
+        data = p.with_suffix("") if p.suffix.lower() == ".json" else p
+        input_file(data, what)
+        input_file(Path(f"{data}.json"), f"{what} descriptor")
+        return p
+    input_file(p, what)
+    sigs = STACK_SIGNATURES.get(p.suffix.lower())
+    if sigs is not None and not starts_with(p, sigs):
+        raise ValueError(f"{what} {p}: not {STACK_KINDS[p.suffix.lower()]} (its first bytes)")
     return p
 
 
@@ -60,4 +160,15 @@ def output_file(
         raise FileNotFoundError(f"{what} {p}: folder {parent} does not exist")
     if new and p.exists():
         raise FileExistsError(f"{what} {p}: already exists (a session file is never overwritten)")
+    return p
+
+
+def output_folder(path: str | Path, what: str) -> Path:
+    """A folder a command will write into: an existing folder, or a new one whose parent
+    exists (it is not made here: nothing is written before every input passed)."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise NotADirectoryError(f"{what} {p}: is a file, not a folder")
+    if not p.exists() and not p.parent.is_dir():
+        raise FileNotFoundError(f"{what} {p}: its folder {p.parent} does not exist")
     return p

@@ -21,6 +21,11 @@ from pathlib import Path
 FILE_FORMAT = "%(asctime)s.%(msecs)03dZ %(levelname)-7s %(threadName)s %(name)s: %(message)s"
 DATE_FORMAT = "%Y-%m-%dT%H:%M:%S"
 FILE_ONLY = "snrmon_file_only"
+OURS = ("snrmon", "py.warnings")
+"""Loggers whose records reach stderr without ``-v``: snrmon's own and Python's warnings. A
+library's own log line (tifffile's "corrupted tag list" before it raises, dask's cluster chatter)
+goes to ``--log-file`` and to stderr with ``-v``: without it the one line snrmon prints says what
+went wrong."""
 """``extra={FILE_ONLY: True}``: a record for log files only (the CLI's error line, with its
 traceback, which it has already printed on stderr its own way)."""
 
@@ -67,6 +72,8 @@ def configured(
     err.setLevel(level)
     err.setFormatter(_PrefixFormatter(prog))
     err.addFilter(lambda record: not getattr(record, FILE_ONLY, False))
+    if verbose < 1:
+        err.addFilter(lambda record: record.name.split(".")[0] in OURS)
     handlers.append(err)
     if log_file is not None:
         fh = logging.FileHandler(log_file, encoding="utf-8")

@@ -137,22 +137,28 @@ def test_logging_levels_and_log_file(monkeypatch, capsys, tmp_path):
     from snrmon.commands import devices
 
     def talk():
-        log = logging.getLogger("drivers.test")
+        log = logging.getLogger("snrmon.drivers.test")
         log.info("an info line")
         log.warning("a warning line")
+        # A library's own line (tifffile logs its complaint before it raises): not on stderr,
+        # where snrmon's one error line says what went wrong, unless -v.
+        logging.getLogger("tifffile").error("a library's line")
         return {k: {"available": True, "devices": [], "note": ""} for k in devices.SECTIONS}
 
     monkeypatch.setattr(devices, "collect", talk)
     assert main(["devices"]) == 0
     err = capsys.readouterr().err
     assert "snrmon devices: warning: a warning line" in err and "info line" not in err
+    assert "a library's line" not in err
     assert main(["-v", "devices"]) == 0
-    assert "snrmon devices: info: an info line" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "snrmon devices: info: an info line" in err and "a library's line" in err
     log_file = tmp_path / "day.log"
     assert main(["devices", "-q", "--log-file", str(log_file)]) == 0
     assert capsys.readouterr().err == ""  # -q: errors only
     text = log_file.read_text()
-    assert "INFO    MainThread drivers.test: an info line" in text and "a warning line" in text
+    assert "INFO    MainThread snrmon.drivers.test: an info line" in text
+    assert "a warning line" in text and "tifffile: a library's line" in text
     handlers = logging.getLogger().handlers  # the CLI's are removed when the command ends
     assert not any(getattr(h, "baseFilename", "") == str(log_file) for h in handlers)
 

@@ -155,3 +155,52 @@ def test_kill_9_loses_at_most_a_second_and_the_file_replays(devices, tmp_path):
     replay = replay_session(out, fast=True)
     t = replay.cameras["cam"].tally
     assert t.compared > 0 and t.identical == t.compared
+
+
+def test_a_dropped_frame_is_never_silent(tmp_path, capsys):
+    """A camera that loses five frames (a gap in its counter) while recording: a warning line on
+    stderr and in the session's log, an alarm in the console's status, a ``frames_dropped``
+    event in the file, and the accounting of every frame in its summary."""
+    from snrmon.sim.devices.ldm_sim import LdmSimulator
+    from snrmon.sim.devices.nmea_sim import NmeaSimulator
+    from snrmon.sim.devices.shm_camera import ShmProducer
+    from tests.helpers import SpotOnNoise
+
+    ring = f"snrmon-drop-{time.monotonic_ns() % 10**9}"
+    lost = frozenset(range(200, 205))  # about 3.3 s after the camera starts
+    producer = ShmProducer(ring, W, H, SpotOnNoise(3), fps=60.0, slots=16, drop_counters=lost)
+    lrf = LdmSimulator(lambda t: 200.0, rate_hz=10.0, tracking=True)
+    gps = NmeaSimulator(lambda t: (32.3810, -106.4790, 1250.0), rate_hz=10.0)
+    producer.start()
+    lrf.start()
+    gps.start()
+    try:
+        config = field_config(
+            tmp_path / "session.toml", ring, gps.path, lrf.path, f"width_px = {W}\nheight_px = {H}"
+        )
+        out = tmp_path / "drop.h5"
+        argv = ["record", "--config", str(config), "--out", str(out), "--duration", "6"]
+        code = main(argv)
+    finally:
+        producer.stop()
+        lrf.stop()
+        gps.stop()
+    err = capsys.readouterr().err
+    assert code == 0, err
+    warning = "warning: cam: 5 frames dropped (camera_gap 5)"
+    assert any(line.startswith("snrmon record: " + warning) for line in err.splitlines()), err
+    assert "cam: 5 frames dropped (camera_gap 5)" in out.with_suffix(".log").read_text()
+    assert "ALARM cam frames: 5 dropped (camera 5, ring overrun 0)" in err  # the status line
+    with open_session(out) as f:
+        (event,) = [e for e in f.event_list() if e["kind"] == "frames_dropped"]
+        assert event["camera"] == "cam" and event["payload"]["new"] == {"camera_gap": 5}
+        acc = f.summary["extra"]["accounting"]["cam"]
+        n = f.cameras["cam"].n_frames
+    assert acc["camera_gap"] == 5 and acc["written"] == n
+    assert acc["received"] == (
+        acc["written"]
+        + sum(acc["dropped"].values())
+        + acc["before_recording"]
+        + acc["after_recording"]
+        + acc["queued"]
+    )

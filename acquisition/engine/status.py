@@ -24,6 +24,13 @@ class FrameAccounting:
     ``dropped_by_camera``: gaps in the camera's own frame counter (camera or link lost them).
     ``dropped_by_ring``: the measurement thread fell a whole ring behind (console lost them).
     ``dropped_by_recorder``: the recorder's backlog overflowed while recording.
+    ``before_recording``: received and measured while no recording was on (before it began, or
+    after it ended), so not in the file.
+
+    While recording, every frame received is in the file, dropped with a reason, or received
+    while no recording was on: ``received = recorded + dropped_by_ring + dropped_by_recorder +
+    before_recording`` (+ the frames still queued for the measurement), the identity the
+    session's ``accounting`` checks and the recording's ``summary_json`` keeps.
     """
 
     received: int = 0
@@ -32,6 +39,7 @@ class FrameAccounting:
     dropped_by_camera: int = 0
     dropped_by_ring: int = 0
     dropped_by_recorder: int = 0
+    before_recording: int = 0
 
 
 @dataclass(frozen=True, slots=True)

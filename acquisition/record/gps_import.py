@@ -40,6 +40,7 @@ from snrmon.acquisition.record.reader import append_event, clear_status_flags
 from snrmon.acquisition.record.stream_rows import gps_row
 from snrmon.acquisition.record.writer import copy_rows, resize_rows
 from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.log_clock import ClockReport
 
 LIVE_COPY = "gps_live"
 SOURCE_ATTR = "source"
@@ -64,6 +65,7 @@ class GpsImport:
     offset: OffsetSearch
     live_rows_kept: int  # live rows moved to /gps_live (0: there were none)
     flags_cleared: bool
+    clock: dict | None = None  # the log's own clock: segments, gaps, jumps, outliers left out
 
     def as_dict(self) -> dict:
         d = {k: v for k, v in self.__dict__.items() if k != "offset"}
@@ -83,21 +85,24 @@ def _utc_ns(fix: GpsFix) -> int:
     return int(gps_row(fix)[2])
 
 
-def read_log(kind: str, path: str | Path) -> tuple[list[GpsFix], str]:
-    """(fixes, how their UTC was obtained) of a flight log of ``kind`` (:data:`KINDS`)."""
+def read_log(kind: str, path: str | Path) -> tuple[list[GpsFix], str, ClockReport | None]:
+    """(fixes, how their UTC was obtained, what the log's own clock looked like: its segments,
+    gaps, time jumps and the rows left out) of a flight log of ``kind`` (:data:`KINDS`)."""
     if kind == "dji_csv":
-        from snrmon.drivers.gps.dji_csv import read_dji_csv
+        from snrmon.drivers.gps.dji_csv import read_dji_log
 
-        return read_dji_csv(path), "datetime(utc) + time(millisecond)"
+        dji = read_dji_log(path)
+        return dji.fixes, "datetime(utc) + time(millisecond)", dji.clock
     if kind == "nmea":
         from snrmon.drivers.gps.nmea_log import read_nmea_log
 
-        return read_nmea_log(path).fixes, "NMEA RMC/ZDA date + GGA/RMC time"
+        nmea = read_nmea_log(path)
+        return nmea.fixes, "NMEA RMC/ZDA date + GGA/RMC time", nmea.clock
     if kind == "tlog":
         from snrmon.drivers.gps.tlog import read_tlog
 
         log = read_tlog(path)
-        return log.fixes, log.utc_source
+        return log.fixes, log.utc_source, log.clock
     raise ValueError(f"flight log kind must be one of {', '.join(KINDS)}, got {kind!r}")
 
 
@@ -152,7 +157,7 @@ def import_gps_log(
         raise FileNotFoundError(f"session file {session} not found")
     if not log.is_file():
         raise FileNotFoundError(f"flight log {log} not found")
-    fixes, utc_source = read_log(kind, log)
+    fixes, utc_source, clock = read_log(kind, log)
     fixes = [f for f in fixes if f.utc is not None and f.lat_deg is not None]
     if not fixes:
         raise ValueError(f"{log}: no fix with a position and a UTC time")
@@ -206,6 +211,7 @@ def import_gps_log(
             offset=search,
             live_rows_kept=kept,
             flags_cleared=flags_cleared,
+            clock=None if clock is None else clock.as_dict(),
         )
         gps.attrs[SOURCE_ATTR] = IMPORTED
         gps.attrs["import_json"] = json.dumps(result.as_dict())
@@ -213,6 +219,8 @@ def import_gps_log(
         f.close()
     payload = result.as_dict()
     payload["log"] = Path(payload["log"]).name[:200]  # the event's payload field is bounded
+    if payload["clock"] is not None:  # the counts; the named rows are in /gps's import_json
+        payload["clock"] = {k: v for k, v in payload["clock"].items() if k != "examples"}
     payload.pop("session")
     append_event(session, "gps_imported", payload=payload)
     return result

@@ -65,6 +65,7 @@ class SessionFile:
 
     def __init__(self, f: h5py.File, recovered: str) -> None:
         self._f = f
+        self.path = Path(f.filename)
         self.recovered = recovered  # "" (clean), "swmr_read" or "flags_cleared"
         self.attrs = dict(f.attrs)
         if self.attrs.get("format") != schema.FORMAT:

@@ -10,9 +10,11 @@ opens with everything up to the last flush. Flushes (HDF5 flush + ``fsync``) hap
 chunk per frame (navigate#596).
 
 A slow disk shows as backlog; beyond ``max_backlog_bytes`` new frames are dropped and counted
-(reason ``recorder_backlog``). A write error (disk full) ends the recording with one message in
-``status().error``; the file stays readable up to the last flush and ``add_*`` keep returning. The
-layout is in ``acquisition/record/schema.py`` and ``docs/session-format.md``.
+(reason ``recorder_backlog``), unless ``backlog_wait_s`` lets the producer wait that long for
+room first (back-pressure, for a producer that can wait: a simulated camera's pipeline). A
+write error (disk full) ends the recording with one message in ``status().error``; the file
+stays readable up to the last flush and ``add_*`` keep returning. The layout is in
+``acquisition/record/schema.py`` and ``docs/session-format.md``.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import queue
 import shutil
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict
 from datetime import UTC, datetime
 from pathlib import Path
@@ -64,6 +66,7 @@ class SessionRecorder:
         max_backlog_bytes: int = 256 * 2**20,
         clock: ClockMap | None = None,
         fsync: bool = True,
+        backlog_wait_s: float = 0.0,
     ) -> None:
         self.path = Path(path)
         if self.path.exists():
@@ -78,10 +81,12 @@ class SessionRecorder:
         self.flush_interval_s = float(flush_interval_s)
         self.compression = compression
         self.max_backlog_bytes = int(max_backlog_bytes)
+        self.backlog_wait_s = float(backlog_wait_s)
         self.clock = clock or ClockMap()
         self._shapes = {n: (int(s[0]), int(s[1])) for n, s in cameras.items()}
         self._filters = frame_filter(compression)
         self._lock = threading.Lock()
+        self._room = threading.Condition(self._lock)  # the writer freed backlog
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._backlog_frames = 0
         self._backlog_bytes = 0
@@ -128,6 +133,15 @@ class SessionRecorder:
             )
         with self._lock:
             self._received[camera] += 1
+            if self.backlog_wait_s > 0:
+                deadline = time.monotonic() + self.backlog_wait_s
+                while (
+                    self._state in ("recording", "stopping")
+                    and self._backlog_bytes + pixels.nbytes > self.max_backlog_bytes
+                    and self._backlog_frames > 0
+                    and (remaining := deadline - time.monotonic()) > 0
+                ):
+                    self._room.wait(min(remaining, 0.1))
             reason = None
             if self._state not in ("recording", "stopping"):
                 reason = STOPPED
@@ -246,6 +260,16 @@ class SessionRecorder:
 
         self._pumps.append((pump_reader(self, camera, reader), reader))
 
+    def frames_of(self, camera: str) -> tuple[int, int, dict[str, int]]:
+        """(frames given, frames written, frames dropped by reason) of ``camera`` so far: cheap,
+        for a per-frame check (:meth:`status` also asks the disk)."""
+        with self._lock:
+            return (
+                self._received.get(camera, 0),
+                self._w.frames_written.get(camera, 0),
+                dict(self._dropped.get(camera, {})),
+            )
+
     @property
     def accepting(self) -> bool:
         """True while frames are still taken (recording, or stopping and draining)."""
@@ -277,8 +301,16 @@ class SessionRecorder:
                 self._error,
             )
 
-    def stop(self, timeout: float = 60.0) -> RecorderSummary:
-        """Write what is queued, close the file and return the summary (idempotent)."""
+    def stop(
+        self,
+        timeout: float = 60.0,
+        *,
+        accounting: Callable[[], Mapping[str, Mapping]] | None = None,
+    ) -> RecorderSummary:
+        """Write what is queued, close the file and return the summary (idempotent).
+        ``accounting()``: what became of every frame the source received, per camera (frames
+        received before the recording, lost before the recorder: the pipeline's), asked once
+        everything is written and kept in the summary's ``extra`` and so in ``summary_json``."""
         if self._final is not None:
             return self._final
         with self._lock:
@@ -290,9 +322,12 @@ class SessionRecorder:
         with self._lock:
             if self._state == "stopping":
                 self._state = "closing"
+            self._room.notify_all()
             self._queue.put(("stop",))
         self._thread.join(timeout)
         summary = self._summary()
+        if accounting is not None:
+            summary.extra["accounting"] = {k: dict(v) for k, v in accounting().items()}
         if summary.state == "stopped":
             try:  # the SWMR file is closed: a plain r+ open may add the summary attribute
                 with h5py.File(self.path, "r+") as f:
@@ -330,6 +365,7 @@ class SessionRecorder:
                 with self._lock:
                     self._backlog_frames -= 1
                     self._backlog_bytes -= pixels.nbytes
+                    self._room.notify_all()
                     if not ok:
                         self._dropped[cam][STOPPED] = self._dropped[cam].get(STOPPED, 0) + 1
             elif item is not None and item[0] == "reference":
@@ -359,6 +395,7 @@ class SessionRecorder:
                 return
             self._error = describe_failure(exc, self.path, sum(w.frames_flushed.values()))
             self._state = "failed"
+            self._room.notify_all()
             for cam, n in w.frames_written.items():  # written but never flushed: not in the file
                 lost = n - w.frames_flushed[cam]
                 if lost:

@@ -38,6 +38,9 @@ class CameraReplay:
     n_frames: int  # frames in the file
     tally: CameraTally
     dropped: dict[str, int] = field(default_factory=dict)  # the recorder's drops, by reason
+    # What became of every frame the console received, as the recording's summary keeps it
+    # (received = written + dropped + before_recording ...); None for a file without it.
+    accounting: dict | None = None
 
     @property
     def results(self) -> list[PeakSnr]:
@@ -220,7 +223,13 @@ def replay_session(
         rows = engine.stops()
         drops = recording_drops(f)
         out = {
-            n: CameraReplay(n, f.cameras[n].n_frames, feeder.tally[n], drops.get(n, {}))
+            n: CameraReplay(
+                n,
+                f.cameras[n].n_frames,
+                feeder.tally[n],
+                drops.get(n, {}),
+                ((f.summary or {}).get("extra") or {}).get("accounting", {}).get(n),
+            )
             for n in names
         }
         span = 0

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from snrmon.acquisition.config import SessionConfig, session_config_from_dict
+from snrmon.acquisition.record.analysis_file import read_results
 from snrmon.acquisition.record.reader import SessionFile
 from snrmon.acquisition.stops.detector import Stop, StopConfig
 
@@ -67,6 +68,10 @@ class RecordedInputs:
     timeline: np.ndarray  # TIMELINE_DTYPE, in time order
 
 
+BEFORE_EVERYTHING_NS = -(2**62)
+"""The time of a model input that holds from the recording's first frame."""
+
+
 def _settings(f: SessionFile) -> tuple[SessionConfig, bool, StopConfig | None]:
     cfg = f.config if isinstance(f.config, dict) else {}
     config = session_config_from_dict(cfg.get("session") or {})
@@ -97,6 +102,7 @@ def recorded_inputs(f: SessionFile) -> RecordedInputs:
     stops: list[tuple[str, Stop]] = []
     stop_times: list[int] = []
     final_rows: dict[tuple[int, str], dict] = {}
+    measured_psf: dict[str, dict] = {}  # camera -> the latest PSF fitted after the flight
     for e in f.event_list():
         kind, cam, p, t = e["kind"], e["camera"], e["payload"], e["t_host_ns"]
         c = per.get(cam)
@@ -116,8 +122,19 @@ def recorded_inputs(f: SessionFile) -> RecordedInputs:
             c.commands.append((t, kind, p))
         elif kind in ("model_background", "model_psf"):
             c.model_inputs.append((t, kind, p))
+        elif kind == "psf_measured" and "estimate" in p:
+            measured_psf[cam] = p["estimate"]
         elif kind == "calibration" and "path" in p:
             c.calibration = p["path"]
+    # Results kept beside the recording (snrmon psf without --write) count as if written in it.
+    for r in read_results(f.path, created_utc=str(f.attrs.get("created_utc", ""))):
+        p = r.get("payload") or {}
+        if r.get("kind") == "psf_measured" and r.get("camera") in per and "estimate" in p:
+            measured_psf[r["camera"]] = p["estimate"]
+    for cam, estimate in measured_psf.items():
+        # A PSF fitted after the flight is the camera's from the first frame on; a PSF the live
+        # console adopted during the flight still takes over where it did.
+        per[cam].model_inputs.insert(0, (BEFORE_EVERYTHING_NS, "model_psf", estimate))
     for name, rec in f.cameras.items():
         for row in rec.states:
             per[name].states[int(row["counter"])] = json.loads(bytes(row["state"]).decode())

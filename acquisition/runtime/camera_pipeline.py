@@ -15,6 +15,17 @@ Threads (one producer, a bounded ring, consumers that never block it; docs/archi
 Recording gaps: before the first recorded frame after frames the file does not hold (the first
 frame of a recording, or the first after a recorder drop) the engine's state is recorded, so a
 replay continues there exactly as live did.
+
+Every frame accounted for: :meth:`CameraPipeline.accounting` says what became of each frame
+received (recorded, dropped and why, received while no recording was on); the recording keeps it
+in its ``summary_json``. A drop is never silent: any frame lost (a gap in the camera's counter,
+a ring overrun, a recorder drop) is a warning in the log (stderr and the session's log) at most
+once a second per camera with the frames lost since the last one, a ``frames_dropped`` event
+in the recording, and the session's status carries it as an alarm.
+
+``lossless``: a source that can wait (a simulated camera, a file) is paced by its consumers: the
+device thread waits for the ring (``OverflowPolicy.WAIT``) and the measurement thread for the
+recorder's backlog (the recorder's ``backlog_wait_s``), instead of either dropping a frame.
 """
 
 from __future__ import annotations
@@ -40,7 +51,7 @@ from snrmon.acquisition.engine.inputs import (
 from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
 from snrmon.acquisition.engine.warm_up import warm_up
 from snrmon.acquisition.runtime.click_news import ClickNews
-from snrmon.acquisition.streams.ring import FrameRing, RingFrame
+from snrmon.acquisition.streams.ring import RING_OVERRUN, FrameRing, OverflowPolicy, RingFrame
 from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.device import Device
 
@@ -49,6 +60,10 @@ if TYPE_CHECKING:
     from snrmon.acquisition.protocols import RecordingWriter
 
 log = logging.getLogger(__name__)
+
+CAMERA_GAP = "camera_gap"
+"""Reason for frames missing from the camera's own counter (the camera, link or grabber)."""
+DROP_REPORT_S = 1.0  # a drop warning at most this often per camera
 
 
 class CameraPipeline:
@@ -59,6 +74,8 @@ class CameraPipeline:
         device: the camera driver (any :class:`snrmon.drivers.device.Device` of :class:`Frame`).
         engine: the session's engine, which holds this camera's :class:`CameraEngine`.
         ring_capacity: frames held for the slowest consumer (default 2 s at 60 fps).
+        lossless: the device waits for the measurement rather than lose a frame (module
+            docstring); only for a source that can wait.
     """
 
     def __init__(
@@ -68,13 +85,15 @@ class CameraPipeline:
         engine: SessionEngine,
         *,
         ring_capacity: int = 120,
+        lossless: bool = False,
     ) -> None:
         self.name = name
         self.device = device
         self.session_engine = engine
         self.engine: CameraEngine = engine.cameras[name]
         self.shape = self.engine.shape
-        self.ring = FrameRing(ring_capacity, *self.shape, name=name)
+        policy = OverflowPolicy.WAIT if lossless else OverflowPolicy.OVERWRITE_OLDEST
+        self.ring = FrameRing(ring_capacity, *self.shape, name=name, policy=policy)
         self._reader = self.ring.reader("measurement")
         self._lock = threading.Lock()
         self._recorder: RecordingWriter | None = None
@@ -82,6 +101,16 @@ class CameraPipeline:
         self._history_due = False  # the stop table's history is not in the recording yet
         self._wrong_shape = 0
         self._measured = 0
+        self._unrecorded = 0  # frames measured while no recorder was attached
+        self._handled = 0  # frames taken from the ring for measurement
+        self._given = 0  # of them, while the current recording was attached
+        self._before = 0  # frames received and done with before the recording began
+        self._overrun_base = 0  # ring overruns before the recording began
+        self._in_flight: RecordingWriter | None = None  # the recorder the frame in hand goes to
+        self._idle = threading.Condition(self._lock)
+        self._reported: dict[str, int] = {}  # drops by reason already warned about
+        self._last_report = 0.0
+        self._report_lock = threading.Lock()  # the measurement thread and a detach both report
         self._latency_ns: deque[int] = deque(maxlen=1000)
         self.click_news = ClickNews()  # what became of the operator's click, for the console
         self._stop = threading.Event()
@@ -151,17 +180,111 @@ class CameraPipeline:
         measurements the stop table keeps to seed a backdated stop go in first (on the
         measurement thread, before the first frame it records: every frame measured before that
         one is in them, none after)."""
+        overruns = self._reader.overruns
         with self._lock:
             self._recorder = recorder
             self._gap = True
             self._history_due = True
+            self._given = 0
+            self._before = self._handled + overruns
+            self._overrun_base = overruns
+        with self._report_lock:  # a new recorder counts its drops from 0
+            self._reported = {
+                k: v for k, v in self._reported.items() if k in (CAMERA_GAP, RING_OVERRUN)
+            }
 
-    def detach_recorder(self) -> None:
+    def detach_recorder(self) -> dict:
+        """Stop recording this camera; its :meth:`accounting` at that moment (for the
+        recording's summary)."""
         with self._lock:
             rec, due = self._recorder, self._history_due
             self._recorder, self._history_due = None, False
+            # The frame in hand still goes to this recorder: wait for it, so the accounting
+            # below holds every frame given to the recorder.
+            deadline = time.monotonic() + 10.0
+            while rec is not None and self._in_flight is rec and time.monotonic() < deadline:
+                self._idle.wait(0.1)
         if rec is not None and due:  # no frame came while recording: the history all the same
             self._record_history(rec)
+        if rec is not None:
+            self.report_drops(rec, final=True)
+        return self.accounting(rec)
+
+    def drops(self, rec: RecordingWriter | None = None) -> dict[str, int]:
+        """Frames lost so far by reason: ``camera_gap`` (the camera's counter), ``ring_overrun``
+        (the measurement fell a whole ring behind) and the recorder's (``recorder_backlog``,
+        ``recording_stopped``) where it is recording (or ``rec``, the recorder it recorded to)."""
+        out = {CAMERA_GAP: int(self.device.status().dropped)}
+        out[RING_OVERRUN] = int(self._reader.overruns)
+        rec = rec or self._recorder
+        if rec is not None:
+            out.update(rec.frames_of(self.name)[2])
+        return out
+
+    def accounting(self, rec: RecordingWriter | None = None) -> dict:
+        """What became of every frame received since the pipeline started, for the recording
+        ``rec`` (default: the one attached now): ``received = written + sum(dropped) +
+        before_recording + after_recording + queued``. ``dropped`` by reason: ``ring_overrun``
+        while recording, and the recorder's own; ``before_recording`` counts every frame received
+        and done with before the recording began (measured, or lost to the ring), ``queued`` those
+        still waiting for the measurement. ``camera_gap``: frames the camera never delivered
+        (missing from its counter), so not received."""
+        rec = rec or self._recorder
+        overruns = self._reader.overruns
+        received, queued = self.ring.pushed, self._reader.lag
+        with self._lock:
+            handled, given, before, base = (
+                self._handled,
+                self._given,
+                self._before,
+                self._overrun_base,
+            )
+        if rec is None:  # no recording: every frame received was received while not recording
+            return {
+                "received": int(received),
+                "written": 0,
+                "dropped": {RING_OVERRUN: int(overruns)},
+                "before_recording": int(handled),
+                "after_recording": 0,
+                "queued": int(queued),
+                "camera_gap": int(self.device.status().dropped),
+            }
+        _, written, rec_drops = rec.frames_of(self.name)
+        return {
+            "received": int(received),
+            "written": int(written),
+            "dropped": {RING_OVERRUN: int(overruns - base), **rec_drops},
+            "before_recording": int(before),
+            # measured after this recording was detached (a session that goes on)
+            "after_recording": int(handled + overruns - before - given - (overruns - base)),
+            "queued": int(queued),
+            "camera_gap": int(self.device.status().dropped),
+        }
+
+    def report_drops(self, rec: RecordingWriter | None = None, *, final: bool = False) -> None:
+        """Warn (once a second at most, or now when ``final``) about frames lost since the last
+        warning, and record a ``frames_dropped`` event while recording."""
+        now = time.monotonic()
+        if not final and now - self._last_report < DROP_REPORT_S:
+            return
+        with self._report_lock:
+            self._last_report = now
+            totals = self.drops(rec)
+            new = {k: v - self._reported.get(k, 0) for k, v in totals.items()}
+            new = {k: v for k, v in new.items() if v > 0}
+            if not new:
+                return
+            self._reported = totals
+        log.warning(
+            "%s: %d frames dropped (%s); %d in all since the start",
+            self.name,
+            sum(new.values()),
+            ", ".join(f"{k} {v}" for k, v in sorted(new.items())),
+            sum(totals.values()),
+        )
+        rec = rec or self._recorder
+        if rec is not None:
+            rec.add_event("frames_dropped", camera=self.name, payload={"new": new, "total": totals})
 
     @property
     def corrector(self):
@@ -199,6 +322,8 @@ class CameraPipeline:
             st = rec.status()
             recorded = int(st.frames_written.get(self.name, 0))
             dropped_rec = int(sum(st.dropped.get(self.name, {}).values()))
+        with self._lock:
+            unrecorded = self._unrecorded
         frames = FrameAccounting(
             received=ring.pushed,
             measured=measured,
@@ -206,6 +331,7 @@ class CameraPipeline:
             dropped_by_camera=dev.dropped,
             dropped_by_ring=reader.overruns,
             dropped_by_recorder=dropped_rec,
+            before_recording=unrecorded,
         )
         fps = getattr(self.device, "measured_fps", None)
         fps = fps() if callable(fps) else 0.0
@@ -240,10 +366,20 @@ class CameraPipeline:
                 self._process(item)
             except Exception:  # a measurement bug must not stop acquisition
                 log.exception("%s: measurement failed on frame %d", self.name, item.counter)
+            finally:
+                with self._lock:
+                    self._in_flight = None
+                    self._idle.notify_all()
 
     def _process(self, item: RingFrame) -> None:
         with self._lock:
             rec, history, self._history_due = self._recorder, self._history_due, False
+            self._handled += 1
+            if rec is None:
+                self._unrecorded += 1
+            else:
+                self._given += 1
+                self._in_flight = rec
         if rec is not None and history:
             self._record_history(rec)
         index = None
@@ -263,6 +399,7 @@ class CameraPipeline:
         with self._lock:
             self._latency_ns.append(latency)
             self._measured += 1
+        self.report_drops(rec)
 
     def _record_history(self, rec: RecordingWriter) -> None:
         """The measurements a stop begun before the recording would be summarised from: rows

@@ -70,7 +70,9 @@ def row_payload(row: StopRow) -> dict:
 
 class Session:
     """A collection session. ``cameras``/``gps``/``lrf`` override what the config would open
-    (tests, HIL); ``shapes`` gives frame shapes the config does not."""
+    (tests, HIL); ``shapes`` gives frame shapes the config does not. ``lossless``: the cameras
+    are sources that can wait (simulated ones): the pipelines and the recorder pace them
+    instead of dropping a frame (:class:`CameraPipeline`)."""
 
     def __init__(
         self,
@@ -84,8 +86,10 @@ class Session:
         clock: ClockMap | None = None,
         stop_config: StopConfig | None = None,
         predictor: Predictor | None = None,
+        lossless: bool = False,
     ) -> None:
         self.config = config
+        self.lossless = lossless
         self.track = track
         self.clock = clock or ClockMap()
         self._lock = threading.Lock()
@@ -104,7 +108,7 @@ class Session:
         self.pipelines: dict[str, CameraPipeline] = {}
         for cam in config.cameras:
             device = (cameras or {}).get(cam.name) or camera_device(cam)
-            pipe = CameraPipeline(cam.name, device, self.engine)
+            pipe = CameraPipeline(cam.name, device, self.engine, lossless=lossless)
             if cam.calibration:
                 pipe.set_calibration(self._calibration(cam, all_shapes[cam.name]))
             self.pipelines[cam.name] = pipe
@@ -247,6 +251,8 @@ class Session:
             if self._recorder is not None and self._recorder.status().state == "recording":
                 raise ValueError(f"already recording to {self._recorder.path}")
         shapes = {n: p.shape for n, p in self.pipelines.items()}
+        if self.lossless:
+            recorder_options.setdefault("backlog_wait_s", 30.0)
         rec = SessionRecorder(
             path,
             config=self._config_record(),
@@ -299,7 +305,10 @@ class Session:
         for pipe in self.pipelines.values():
             pipe.detach_recorder()
         try:
-            self.last_recording = rec.stop()
+            # Every frame received accounted for in the file: once everything is written.
+            self.last_recording = rec.stop(
+                accounting=lambda: {n: p.accounting(rec) for n, p in self.pipelines.items()}
+            )
         finally:
             recording_log, self._recording_log = self._recording_log, None
             if recording_log is not None:
@@ -389,6 +398,13 @@ class Session:
                 f"recording: {rec_status.dropped_frames} frames dropped (the disk is not keeping "
                 f"up; backlog {rec_status.backlog_bytes / 2**20:.0f} MiB)"
             )
+        for name, cs in cams.items():  # frames lost before the recorder: never silent
+            f = cs.frames
+            if f.dropped_by_camera or f.dropped_by_ring:
+                alarms.append(
+                    f"{name} frames: {f.dropped_by_camera + f.dropped_by_ring} dropped (camera "
+                    f"{f.dropped_by_camera}, ring overrun {f.dropped_by_ring})"
+                )
         return SessionStatus(
             cameras=cams,
             lrf=self.lrf.status() if self.lrf else None,

@@ -15,11 +15,15 @@ an explicit policy:
 - ``OverflowPolicy.OVERWRITE_OLDEST`` (default): the newest frame always goes in; the slow reader
   loses the oldest frames, counted in its ``overruns`` with the reason ``"ring_overrun"``;
 - ``OverflowPolicy.DROP_NEWEST``: nothing a reader has not yet read is overwritten; the new frame
-  is refused (``acquire_slot`` returns ``None``) and counted in ``dropped_full``.
+  is refused (``acquire_slot`` returns ``None``) and counted in ``dropped_full``;
+- ``OverflowPolicy.WAIT``: the producer waits until the slowest reader has read the slot it needs
+  (back-pressure, for a producer that can wait: a simulated camera, a file); after ``wait_s``
+  without progress (a consumer that died) it overwrites the oldest as ``OVERWRITE_OLDEST`` does,
+  so a stuck consumer never stops acquisition for good.
 
-Either way the ring's ``overflow`` flag is set and stays set. Readers copy a frame out and then
-check that the producer did not start overwriting its slot during the copy (a seqlock-style
-check); a torn copy is discarded and counted as an overrun, never returned.
+Either way a lost frame sets the ring's ``overflow`` flag, which stays set. Readers copy a
+frame out and then check that the producer did not start overwriting its slot during the copy
+(a seqlock-style check); a torn copy is discarded and counted as an overrun, never returned.
 """
 
 from __future__ import annotations
@@ -45,6 +49,7 @@ class OverflowPolicy(StrEnum):
 
     OVERWRITE_OLDEST = "overwrite_oldest"
     DROP_NEWEST = "drop_newest"
+    WAIT = "wait"
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,6 +102,7 @@ class FrameRing:
         *,
         policy: OverflowPolicy | str = OverflowPolicy.OVERWRITE_OLDEST,
         name: str = "",
+        wait_s: float = 10.0,
     ) -> None:
         if int(capacity) < 2:
             raise ValueError(f"ring capacity must be at least 2 frames, got {capacity}")
@@ -106,6 +112,7 @@ class FrameRing:
         self.shape = (int(height), int(width))
         self.dtype = np.dtype(dtype)
         self.policy = OverflowPolicy(policy)
+        self.wait_s = float(wait_s)
         self.name = name
         self._pixels = np.empty((self.capacity, *self.shape), self.dtype)
         # Write every page now: the OS commits untouched memory lazily, so without this the
@@ -134,6 +141,14 @@ class FrameRing:
             if self._writing:
                 raise RuntimeError("acquire_slot called twice without finalize_slot")
             seq = self._next_seq
+            if seq >= self.capacity and self.policy is OverflowPolicy.WAIT:
+                # Back-pressure: wait for the slowest reader to leave the slot this frame needs.
+                deadline = time.monotonic() + self.wait_s
+                while any(r._cursor <= seq - self.capacity for r in self._readers):
+                    remaining = deadline - time.monotonic()
+                    if remaining <= 0:
+                        break  # a stuck consumer: overwrite, counted as its overrun
+                    self._cond.wait(min(remaining, 0.1))
             if seq >= self.capacity:
                 oldest_needed = seq - self.capacity  # the frame this slot still holds
                 behind = [r for r in self._readers if r._cursor <= oldest_needed]
@@ -221,6 +236,15 @@ class FrameRing:
         with self._cond:
             return self._next_seq
 
+    @property
+    def newest_counter(self) -> int | None:
+        """The camera counter of the newest frame published (None before the first): cheap, no
+        pixels copied."""
+        with self._cond:
+            if self._next_seq == 0:
+                return None
+            return int(self._counter[(self._next_seq - 1) % self.capacity])
+
     def stats(self) -> RingStats:
         """A snapshot of the ring's counters and of every open reader's."""
         with self._cond:
@@ -295,6 +319,8 @@ class Reader:
                     continue
                 self._cursor = seq + 1
                 self._popped += 1
+                if ring.policy is OverflowPolicy.WAIT:
+                    ring._cond.notify_all()  # a producer may be waiting for this slot
                 return item
 
     @property

@@ -14,9 +14,13 @@ track can be re-timed onto a session clock.
 
 Sub-second UTC: AirData's ``datetime(utc)`` holds whole seconds (truncated), while
 ``time(millisecond)`` counts the log's own clock in 0.1 s steps. With both, every row's UTC is
-``anchor + time(millisecond)``, the anchor being the latest ``datetime(utc) - time`` over the
-rows: each row says the anchor lies in ``[utc - t, utc - t + 1 s)``, so the latest lower bound
-is exact to within the log's 0.1 s step once the rows cross a whole second (:func:`_sub_second`).
+``anchor + time(millisecond)``. Real logs have gaps in ``time(millisecond)`` (the recorder paused)
+and rows around a gap whose ``datetime(utc)`` is seconds off their neighbours', so the anchor is
+never taken from one row: :func:`snrmon.drivers.gps.log_clock.anchored_utc` cuts the log at its
+gaps, estimates each anchor from the whole-second bounds its rows agree on, and leaves the rows
+that disagree out of the estimate (their fixes keep the anchor's time; the rows are counted and
+named in :attr:`DjiLog.clock`). A UTC column written with fractions of a second is taken as
+exact (rounded to its last digit).
 Satellites: AirData ``satellites``, PhantomHelp ``OSD.gpsNum``.
 """
 
@@ -26,12 +30,13 @@ import csv
 import io
 import math
 import re
-from dataclasses import replace
-from datetime import UTC, datetime, timedelta
+from dataclasses import dataclass, replace
+from datetime import UTC, datetime
 from pathlib import Path
 
 from snrmon.drivers.errors import ParseError
 from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.log_clock import ClockReport, anchored_utc
 
 _UNIT_TO_M = {"feet": 0.3048, "ft": 0.3048, "meters": 1.0, "metres": 1.0, "m": 1.0}
 _UNIT = re.compile(r"^(?P<name>.+?)\s*[\(\[](?P<unit>[A-Za-z]+)[\)\]]$")
@@ -66,8 +71,22 @@ def _time(text: str, where: str) -> datetime:
     raise ParseError(f"{where}: time {text!r} is not YYYY-MM-DD HH:MM:SS[.fff]")
 
 
+@dataclass(frozen=True)
+class DjiLog:
+    """The fixes of a DJI log, in file order, and what its clock looked like (``clock`` is None
+    where the log has no ``time(millisecond)`` and ``datetime(utc)`` pair to reconstruct)."""
+
+    fixes: list[GpsFix]
+    clock: ClockReport | None
+
+
 def read_dji_csv(path: str | Path) -> list[GpsFix]:
-    """Every row with a position, in file order.
+    """Every row with a position, in file order (:func:`read_dji_log` without the report)."""
+    return read_dji_log(path).fixes
+
+
+def read_dji_log(path: str | Path) -> DjiLog:
+    """Every row with a position, in file order, each on the log's reconstructed UTC.
 
     Raises:
         ParseError: a header without latitude/longitude columns, or a row that does not decode
@@ -94,8 +113,11 @@ def read_dji_csv(path: str | Path) -> list[GpsFix]:
     ms_c = col("time(millisecond)")
     sats_c = col("satellites", "OSD.gpsNum")
     fixes: list[GpsFix] = []
-    log_ms: list[float | None] = []  # each fix's time(millisecond)
-    anchors: list[datetime] = []  # datetime(utc) - time(millisecond) of every timed row
+    fix_row: list[int | None] = []  # each fix's index into the clock's rows
+    clock_t: list[float] = []  # time(millisecond) / 1000 of every row that has one
+    clock_u: list[float] = []  # its datetime(utc) as written, s since 1970 (NaN: none)
+    clock_where: list[str] = []
+    fractional = False  # a datetime(utc) with fractions of a second: exact, not whole
     t0: datetime | None = None
     for lineno, row in enumerate(rows, start=2):
         if not row or all(not c.strip() for c in row):
@@ -113,17 +135,21 @@ def read_dji_csv(path: str | Path) -> list[GpsFix]:
                 raise ParseError(f"{where}: {what} {row[c[0]]!r} is not finite")
             return v * c[1]
 
-        utc = _time(row[utc_c[0]], where) if utc_c is not None and row[utc_c[0]].strip() else None
+        utc_text = row[utc_c[0]].strip() if utc_c is not None and utc_c[0] < len(row) else ""
+        utc = _time(utc_text, where) if utc_text else None
         ms = num(ms_c, "time")
-        if utc is not None and ms is not None:
-            anchors.append(utc - timedelta(milliseconds=ms))
+        if ms is not None:
+            clock_t.append(ms / 1000.0)
+            clock_u.append(math.nan if utc is None else utc.timestamp())
+            clock_where.append(where)
+            fractional = fractional or (utc is not None and "." in utc_text)
         lat, lon = num(lat_c, "latitude"), num(lon_c, "longitude")
         if lat is None or lon is None or (lat == 0.0 and lon == 0.0):
             continue  # DJI writes 0,0 before the first satellite fix
         if abs(lat) > 90 or abs(lon) > 180:
             raise ParseError(f"{where}: position {lat}, {lon} out of range")
         sats = num(sats_c, "satellites")
-        log_ms.append(ms)
+        fix_row.append(None if ms is None else len(clock_t) - 1)
         if ms is not None:
             t_ns = round(ms * 1e6)
         elif utc is not None:
@@ -143,18 +169,21 @@ def read_dji_csv(path: str | Path) -> list[GpsFix]:
                 raw=",".join(row),
             )
         )
-    return _sub_second(fixes, log_ms, anchors)
-
-
-def _sub_second(
-    fixes: list[GpsFix], log_ms: list[float | None], anchors: list[datetime]
-) -> list[GpsFix]:
-    """Each fix's UTC as ``anchor + time(millisecond)`` (module docstring); unchanged where the
-    log has no millisecond column or no row with both times."""
-    if not anchors:
-        return fixes
-    anchor = max(anchors)
-    return [
-        f if ms is None else replace(f, utc=anchor + timedelta(milliseconds=ms))
-        for f, ms in zip(fixes, log_ms, strict=True)
-    ]
+    if not any(math.isfinite(u) for u in clock_u):
+        return DjiLog(fixes, None)
+    timed = anchored_utc(
+        clock_t,
+        clock_u,
+        where=clock_where,
+        resolution_s=0.001 if fractional else 1.0,
+        truncated=not fractional,
+    )
+    out = []
+    for f, i in zip(fixes, fix_row, strict=True):
+        if i is not None and math.isfinite(timed.utc_s[i]):
+            us = round(timed.utc_s[i] * 1e6)  # to the microsecond: no float residue in the time
+            f = replace(
+                f, utc=datetime.fromtimestamp(us // 10**6, UTC).replace(microsecond=us % 10**6)
+            )
+        out.append(f)
+    return DjiLog(out, timed.report)

@@ -8,19 +8,28 @@ sentence carries it (GGA: altitude, quality, satellites, HDOP; RMC: the date). L
 with ``#`` and blank lines are skipped (gpsd's regression logs carry comments); a line that does
 not decode is counted and skipped, because a logger's file often holds a torn line where it was
 stopped. A fix before the receiver gave a date has no UTC and cannot be placed on a session's
-clock: it is counted in ``without_utc`` and left out. ``t_host_ns`` of each fix is the log's
-own time: ns since its first epoch's UTC.
+clock: it is counted in ``without_utc`` and left out.
+
+The log's time is its epochs in file order: gaps (the logger paused), time jumps (a receiver
+reports its real-time clock's guess, 1980 or a week off, until it has the almanac, then jumps to
+the true time) and midnight (the assembler carries the date over) are taken as
+:func:`snrmon.drivers.gps.log_clock.consistent_chain` does: the chain of consistent segments with
+the most fixes is the log's clock; epochs off it are counted and named in ``clock`` and left out,
+so one wrong epoch never reorders or moves the others. ``t_host_ns`` of each fix is the log's
+own time: ns since its first kept epoch's UTC.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from datetime import datetime
 from pathlib import Path
 
 from snrmon.drivers.errors import ParseError
 from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.log_clock import ClockReport, consistent_chain
 from snrmon.drivers.gps.nmea import NmeaAssembler
+
+NO_FIX_WEIGHT = 1e-3  # an epoch without a fix, in the choice of the log's clock
 
 
 @dataclass
@@ -28,6 +37,7 @@ class NmeaLog:
     """The fixes of a log, one per epoch in UTC order, and what was skipped."""
 
     fixes: list[GpsFix]
+    clock: ClockReport | None = None
     lines: int = 0
     bad_lines: int = 0
     without_utc: int = 0
@@ -69,7 +79,7 @@ def read_nmea_log(path: str | Path) -> NmeaLog:
     # its field decoding and is counted as bad.
     asm = NmeaAssembler(allow_no_checksum=True)
     out = NmeaLog([])
-    epochs: dict[datetime, GpsFix] = {}
+    epochs: list[tuple[GpsFix, int]] = []  # one per epoch in file order, with its line
     for lineno, raw in enumerate(p.read_bytes().splitlines(), start=1):
         if not raw.strip() or raw.startswith(b"#"):
             continue
@@ -83,18 +93,27 @@ def read_nmea_log(path: str | Path) -> NmeaLog:
         for f in fixes:
             if f.utc is None:
                 out.without_utc += 1
-            elif f.utc in epochs:
+            elif epochs and epochs[-1][0].utc == f.utc:
                 # RMC and GGA of one epoch: an invalid RMC (quality 0) voids the pair.
-                epochs[f.utc] = _merge(epochs[f.utc], f)
+                epochs[-1] = (_merge(epochs[-1][0], f), epochs[-1][1])
             else:
-                epochs[f.utc] = f
+                epochs.append((f, lineno))
     out.by_address = dict(asm.counts.by_address)
     if not epochs:
         why = f" (first bad line: {out.first_error})" if out.first_error else ""
         raise ParseError(f"{p}: no NMEA fix with a UTC date and time in {out.lines} lines{why}")
-    first = min(epochs)
+    utc = [f.utc for f, _ in epochs]
+    first_utc = min(u for u in utc if u is not None)
+    keep, out.clock = consistent_chain(
+        [(u - first_utc).total_seconds() for u in utc],
+        where=[f"{p}:{line} ({f.utc:%Y-%m-%d %H:%M:%S})" for f, line in epochs],
+        weight=[1.0 if f.has_fix else NO_FIX_WEIGHT for f, _ in epochs],
+    )
+    kept = [f for (f, _), k in zip(epochs, keep, strict=True) if k]
+    first = kept[0].utc
+    assert first is not None
     out.fixes = [
-        replace(f, t_host_ns=round((u - first).total_seconds() * 1e9))
-        for u, f in sorted(epochs.items())
+        replace(f, t_host_ns=round((f.utc - first).total_seconds() * 1e9))  # type: ignore[operator]
+        for f in kept
     ]
     return out

@@ -17,20 +17,32 @@ Positions and their UTC, best first:
 Fix type, satellites and HDOP (``eph`` / 100) come from the latest ``GPS_RAW_INT`` at or before
 each position. ``t_host_ns`` of a fix is the log's own time: ns since its first fix's UTC.
 Resolution: 1e-7 deg (about 1 cm) and 1 mm.
+
+Logs as they are: an autopilot that reboots starts ``time_boot_ms`` again, so the log is cut into
+boots where the boot time goes back, and a position is mapped only through a ``SYSTEM_TIME`` of
+its own boot; within a boot, a ``SYSTEM_TIME`` whose UTC disagrees with the boot's others (more
+than ``SYSTEM_TIME_TOLERANCE_S`` off their median pairing: a clock set late, a bad GPS time) is
+counted and left out. The link's dropouts are gaps; the fixes' UTC in file order then goes
+through :func:`snrmon.drivers.gps.log_clock.consistent_chain`, so a fix whose time jumps is
+counted, named in ``clock`` and left out rather than moving or reordering the others.
 """
 
 from __future__ import annotations
 
 import bisect
+import statistics
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
 from snrmon.drivers.errors import ParseError
 from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.log_clock import ClockReport, consistent_chain
 from snrmon.drivers.gps.mavlink import FIX_TYPE_TO_QUALITY, mavutil
 
 UNIX_USEC_2001 = 978_307_200_000_000  # a time_usec below this is time since boot, not UTC
+REBOOT_MS = 1000  # time_boot_ms going back by more than this: the autopilot restarted
+SYSTEM_TIME_TOLERANCE_S = 1.0
 
 
 @dataclass
@@ -38,6 +50,8 @@ class TlogLog:
     fixes: list[GpsFix]
     utc_source: str
     counts: dict[str, int] = field(default_factory=dict)
+    clock: ClockReport | None = None
+    boots: int = 1
 
 
 def _utc(usec: float) -> datetime:
@@ -55,10 +69,12 @@ def read_tlog(path: str | Path) -> TlogLog:
     if not p.is_file():
         raise FileNotFoundError(f"MAVLink log {p} not found")
     conn = mavutil().mavlink_connection(str(p))
-    system_time: list[tuple[int, int]] = []  # (time_boot_ms, time_unix_usec)
-    gpi: list[tuple[float, object]] = []  # (receipt s, msg)
+    # (boot, time_boot_ms, time_unix_usec, file position) of every SYSTEM_TIME with a UTC
+    system_time: list[tuple[int, int, int, int]] = []
+    gpi: list[tuple[float, int, object]] = []  # (receipt s, boot, msg)
     raw: list[tuple[float, object]] = []
     counts: dict[str, int] = {}
+    boot, last_boot_ms = 0, None
     try:
         while True:
             msg = conn.recv_match(
@@ -68,11 +84,17 @@ def read_tlog(path: str | Path) -> TlogLog:
                 break
             kind = msg.get_type()
             counts[kind] = counts.get(kind, 0) + 1
+            if kind in ("SYSTEM_TIME", "GLOBAL_POSITION_INT"):
+                if last_boot_ms is not None and msg.time_boot_ms < last_boot_ms - REBOOT_MS:
+                    boot += 1
+                last_boot_ms = int(msg.time_boot_ms)
             if kind == "SYSTEM_TIME":
                 if msg.time_unix_usec > UNIX_USEC_2001:
-                    system_time.append((int(msg.time_boot_ms), int(msg.time_unix_usec)))
+                    system_time.append(
+                        (boot, int(msg.time_boot_ms), int(msg.time_unix_usec), sum(counts.values()))
+                    )
             elif kind == "GLOBAL_POSITION_INT":
-                gpi.append((float(msg._timestamp), msg))
+                gpi.append((float(msg._timestamp), boot, msg))
             else:
                 raw.append((float(msg._timestamp), msg))
     finally:
@@ -91,23 +113,30 @@ def read_tlog(path: str | Path) -> TlogLog:
             hdop=None if r.eph == 65535 else r.eph / 100.0,
         )
 
+    pairings, set_aside = _consistent_system_times(system_time, p)
     fixes: list[GpsFix] = []
-    if gpi and system_time:
+    where: list[str] = []
+    if gpi and any(pairings.get(b) for _, b, _ in gpi):
         source = "system_time"
-        boots = [b for b, _ in system_time]
-        for t, m in gpi:
+        for t, b, m in gpi:
+            pairs = pairings.get(b)
+            if not pairs:  # a boot without a usable SYSTEM_TIME: its positions have no UTC
+                set_aside.append(f"{p}: a position of boot {b + 1} without a SYSTEM_TIME")
+                continue
+            boots = [bt for bt, _ in pairs]
             # The SYSTEM_TIME nearest in boot time: the autopilot's clock drifts from UTC.
             i = bisect.bisect_left(boots, m.time_boot_ms)
             near = min(
                 (j for j in (i - 1, i) if 0 <= j < len(boots)),
                 key=lambda j: abs(boots[j] - m.time_boot_ms),
             )
-            b, unix = system_time[near]
-            utc = _utc(unix + (m.time_boot_ms - b) * 1000)
+            bt, unix = pairs[near]
+            utc = _utc(unix + (m.time_boot_ms - bt) * 1000)
             fixes.append(with_raw(_position(m, utc, m.alt), t))
+            where.append(f"{p}: position at boot {b + 1} time {m.time_boot_ms / 1000:.3f} s")
     elif any(m.time_usec > UNIX_USEC_2001 and m.fix_type >= 2 for _, m in raw):
         source = "gps_raw_int"
-        for _, m in raw:
+        for t, m in raw:
             if m.time_usec > UNIX_USEC_2001 and m.fix_type >= 2:
                 fix = _position(m, _utc(m.time_usec), m.alt)
                 fixes.append(
@@ -118,15 +147,54 @@ def read_tlog(path: str | Path) -> TlogLog:
                         hdop=None if m.eph == 65535 else m.eph / 100.0,
                     )
                 )
+                where.append(f"{p}: GPS_RAW_INT received at {_utc(t * 1e6):%H:%M:%S.%f}")
     elif gpi:
         source = "tlog_receipt"
-        fixes = [with_raw(_position(m, _utc(t * 1e6), m.alt), t) for t, m in gpi]
+        for t, _, m in gpi:
+            fixes.append(with_raw(_position(m, _utc(t * 1e6), m.alt), t))
+            where.append(f"{p}: position received at {_utc(t * 1e6):%H:%M:%S.%f}")
     else:
         raise ParseError(f"{p}: no GLOBAL_POSITION_INT or GPS_RAW_INT message in the log")
-    fixes.sort(key=lambda f: f.utc)
+    if not fixes:
+        raise ParseError(f"{p}: no position with a UTC time ({set_aside[0]})")
+    first_utc = fixes[0].utc
+    keep, report = consistent_chain(
+        [(f.utc - first_utc).total_seconds() for f in fixes],  # type: ignore[operator]
+        where=where,
+    )
+    fixes = [f for f, k in zip(fixes, keep, strict=True) if k]
+    report = replace(
+        report,
+        outliers=report.outliers + len(set_aside),
+        examples=(*set_aside, *report.examples)[:5],
+    )
     first = fixes[0].utc
     fixes = [replace(f, t_host_ns=round((f.utc - first).total_seconds() * 1e9)) for f in fixes]
-    return TlogLog(fixes, source, counts)
+    return TlogLog(fixes, source, counts, report, boot + 1)
+
+
+def _consistent_system_times(
+    system_time: list[tuple[int, int, int, int]], path: Path
+) -> tuple[dict[int, list[tuple[int, int]]], list[str]]:
+    """Per boot, its SYSTEM_TIME pairings (time_boot_ms, time_unix_usec) sorted by boot time,
+    without those more than ``SYSTEM_TIME_TOLERANCE_S`` off the boot's median pairing; and a
+    line for each one set aside."""
+    by_boot: dict[int, list[tuple[int, int, int]]] = {}
+    for b, bt, unix, k in system_time:
+        by_boot.setdefault(b, []).append((bt, unix, k))
+    out: dict[int, list[tuple[int, int]]] = {}
+    aside: list[str] = []
+    for b, rows in by_boot.items():
+        offset = statistics.median(unix - bt * 1000 for bt, unix, _ in rows)
+        good = []
+        for bt, unix, k in rows:
+            off_s = (unix - bt * 1000 - offset) / 1e6
+            if abs(off_s) > SYSTEM_TIME_TOLERANCE_S:
+                aside.append(f"{path}: message {k}: SYSTEM_TIME {off_s:+.1f} s off its boot's")
+            else:
+                good.append((bt, unix))
+        out[b] = sorted(good)
+    return out, aside
 
 
 def _position(m, utc: datetime, alt_mm: int) -> GpsFix:

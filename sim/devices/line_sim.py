@@ -12,6 +12,7 @@ from __future__ import annotations
 import threading
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from pathlib import Path
 
 from snrmon.sim.devices.faults import FaultInjector
@@ -53,6 +54,9 @@ class LineSimulator(ABC):
         self._t0 = 0.0
         self._rx = bytearray()
         self._command_event = threading.Condition()
+        # gate() False: the device has nothing new to say now (a simulated day whose clock is
+        # held: a reading of a frozen flight would look like a hover); the tick is skipped.
+        self.gate: Callable[[], bool] | None = None
 
     @property
     def path(self) -> str:
@@ -128,8 +132,9 @@ class LineSimulator(ABC):
         while not self._stop.is_set():
             now = time.monotonic()
             if now >= next_tick:
-                for line in self.tick(now - self._t0):
-                    self._send(line)
+                if self.gate is None or self.gate():
+                    for line in self.tick(now - self._t0):
+                        self._send(line)
                 next_tick += self.tick_period_s
                 if next_tick < now:  # fell behind (paced by a slow baud): do not burst
                     next_tick = now + self.tick_period_s

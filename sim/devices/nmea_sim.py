@@ -118,10 +118,12 @@ class NmeaSimulator(LineSimulator):
 
     def tick(self, t_s: float) -> list[bytes]:
         # The epoch time is the scheduled one, quantised like a receiver's (centiseconds): the
-        # epoch due now. A thread held up for more than a period skips the epochs it missed, as
-        # a receiver does, rather than sending them late under their old times (a position
-        # taken now, labelled with a time in the past, would shift the session's GPS clock).
-        k = max(self.epochs, round(t_s / self.tick_period_s))
+        # latest epoch due by now (never one still ahead: a simulated day's clock gives where
+        # the drone is at an epoch only once the epoch is reached). A thread held up for more
+        # than a period skips the epochs it missed, as a receiver does, rather than sending them
+        # late under their old times (a position taken now, labelled with a time in the past,
+        # would shift the session's GPS clock).
+        k = max(self.epochs, math.floor(t_s / self.tick_period_s + 1e-6))
         self.epochs = k + 1
         t_epoch = k * self.tick_period_s
         utc = self.start_utc + timedelta(seconds=round(t_epoch, 2))

@@ -11,6 +11,10 @@ check that the document is enough to build a writer, e.g. a vendor grabber.
   goodbye) and be started again (the camera is back, its counter restarted). Like a real camera
   it never falls behind its own clock: a frame it could not render in time is lost (a counter
   gap), so the picture stays in step with the flight the serial simulators report.
+* With a shared ``clock`` (a ``multiprocessing.Value("d")`` of camera seconds, written by whoever
+  runs the simulated day) the camera follows that clock instead of the wall: frame k is published
+  once the clock reads ``k / fps``, never skipped. A simulated day that has no real time to keep
+  holds its clock back while the console is busy, and every camera waits with it (no drop).
 """
 
 from __future__ import annotations
@@ -208,6 +212,7 @@ def _produce(
     paused: mp.Event,  # type: ignore[valid-type]
     done: mp.Event,  # type: ignore[valid-type]
     written: mp.Value,  # type: ignore[valid-type]
+    clock: mp.Value | None = None,  # type: ignore[valid-type]
 ) -> None:
     """Body of the producer process (top level so that spawn can import it)."""
     writer = ShmFrameWriter(name, width, height, slots, fps=fps)
@@ -231,7 +236,14 @@ def _produce(
                 stop.wait(0.005)
                 t0, k = time.monotonic_ns(), 0  # resume on a fresh schedule, no burst
                 continue
-            if period_ns:
+            if clock is not None and fps:
+                # The day's clock: wait until it reaches this frame (never skip one).
+                due_s = k / fps
+                if clock.value < due_s:
+                    stop.wait(0.0005)
+                    continue
+                k += 1
+            elif period_ns:
                 due = t0 + k * period_ns
                 wait_ns = due - time.monotonic_ns()
                 if wait_ns > 0:
@@ -266,6 +278,8 @@ class ShmProducer:
         first_counter: the camera counter of the first frame after each start.
         drop_counters: counters never published (the reader must see them as drops).
         max_frames: stop publishing after this many frames (then ``done`` is set).
+        clock: a shared ``multiprocessing`` double of camera seconds (the module docstring);
+            with it, frame k is published once it reads ``k / fps``.
     """
 
     def __init__(
@@ -280,11 +294,15 @@ class ShmProducer:
         first_counter: int = 0,
         drop_counters: Collection[int] = (),
         max_frames: int | None = None,
+        clock=None,
     ) -> None:
         if fps is not None and fps <= 0:
             raise ValueError(f"fps must be positive or None, got {fps}")
+        if clock is not None and fps is None:
+            raise ValueError("a camera on a shared clock needs its fps")
         self._ctx = mp.get_context("spawn")
         self.name = name
+        self._clock = clock
         self._args = (
             name,
             width,
@@ -325,7 +343,15 @@ class ShmProducer:
         self._new_sync()
         self._proc = self._ctx.Process(
             target=_produce,
-            args=(*self._args, self.ready, self._stop, self._paused, self.done, self._written),
+            args=(
+                *self._args,
+                self.ready,
+                self._stop,
+                self._paused,
+                self.done,
+                self._written,
+                self._clock,
+            ),
             name=f"shm-camera-{self.name}",
             daemon=True,
         )

@@ -21,7 +21,7 @@ from snrmon.acquisition.calibrate.calibration_file import save_calibration
 from snrmon.acquisition.calibrate.quality import calibration_quality
 from snrmon.acquisition.replay.stack_io import load_stack
 from snrmon.cli import UsageError
-from snrmon.inputs import output_file
+from snrmon.inputs import output_file, stack_file
 from snrmon.model.presets import load_sensor
 from snrmon.output import emit_json
 
@@ -61,6 +61,8 @@ def run(args: argparse.Namespace) -> int:
     if not str(args.output).endswith(".npz"):
         raise UsageError(f"-o must name a .npz file, got {args.output!r}")
     output_file(args.output, "-o")
+    for path, _ in args.blackbody:
+        stack_file(path, "--blackbody")
     captures = [
         BlackbodyCapture(temp_c + ZERO_C_K, load_stack(path)) for path, temp_c in args.blackbody
     ]

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from snrmon.cli import UsageError
 from snrmon.extras import require
+from snrmon.inputs import input_file, output_file, output_folder, session_file
 from snrmon.progress import frame_progress
 
 STOP_TABLE = "stops.parquet"
@@ -51,7 +52,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="R.pdf|R.png",
         help=f"campaign report file (default DIR/{REPORT}); 'none' for no report",
     )
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
 
@@ -70,8 +70,19 @@ def run(args: argparse.Namespace) -> int:
     report = None if args.report == "none" else Path(args.report or Path(args.out) / REPORT)
     if report is not None and report.suffix.lower() not in (".pdf", ".png"):
         raise UsageError(f"--report {report}: the report must end in .pdf or .png")
-    if args.settings and not Path(args.settings).is_file():
-        raise UsageError(f"settings file {args.settings} does not exist")
+    # Every input and output before a cluster starts or anything is written: one bad session
+    # is one message, not an empty table and report after the workers came up.
+    output_folder(args.out, "--out")
+    if report is not None and report.parent != Path(args.out):
+        output_file(report, "--report", suffixes=(".pdf", ".png"))
+    elif report is not None and report.is_dir():
+        raise IsADirectoryError(f"--report {report}: is a folder, not a file")
+    if args.settings:
+        input_file(args.settings, "--settings")
+    for s in args.sessions:
+        if args.scheduler and not Path(s).exists():
+            continue  # a remote cluster's workers may see paths this machine does not
+        session_file(s, "session file")
     settings = load_settings(args.settings)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -3,6 +3,7 @@
 
     snrmon characterize FILE.h5 --camera mwir --stop 1 [--calibration CAL.npz] [--json]
                         [--frames 100] [--method otsu|ksigma] [--target-out T.toml]
+                        [--write | --no-record]
 
 The session is replayed as recorded (``acquisition.replay.batch.replay_session``: the same
 measurement, live track and stop table as live); the stop's range (rangefinder, else GPS) and
@@ -14,6 +15,9 @@ segments the drone. JSON contract: ``{"camera",
 are null without a calibration. ``mean_temp_c`` is read on the outline's core, the pixels the
 PSF does not mix with the sky (``acquisition.calibrate.characterize``); ``outline_temp_c`` is the
 eroded outline's mean, low where the drone's parts are only a few PSF widths across.
+
+The result is kept beside the recording in ``FILE.analysis.json`` (the recording's bytes do not
+change); ``--write`` adds it to the recording as a ``target_characterized`` event instead.
 """
 
 from __future__ import annotations
@@ -31,13 +35,14 @@ from snrmon.acquisition.calibrate.characterize import (
     target_toml,
 )
 from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
-from snrmon.acquisition.record.reader import append_event, open_session
+from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.replay.batch import replay_session
 from snrmon.acquisition.replay.recorded import recorded_calibration_path
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, output_file, session_file
 from snrmon.model.presets import load_sensor
 from snrmon.output import emit_json
+from snrmon.results import add_result_options, keep_result
 
 # A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
 # stop; only a frame without a trustworthy position is skipped.
@@ -80,11 +85,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="the name written into --target-out (default: characterized)",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    p.add_argument(
-        "--no-record",
-        action="store_true",
-        help="do not add the result to the session file as a target_characterized event",
-    )
+    add_result_options(p, "target_characterized")
     p.set_defaults(func=run)
 
 
@@ -145,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--frames must be >= 1, got {args.frames}")
     if args.roi_px < 1:
         raise UsageError(f"--roi-px must be >= 1, got {args.roi_px}")
-    session_file(args.file)
+    session_file(args.file, camera=args.camera)
     if args.calibration:
         input_file(args.calibration, "--calibration")
     if args.target_out:  # (a calibration comes from the session, or from --calibration)
@@ -212,9 +213,9 @@ def run(args: argparse.Namespace) -> int:
         own = dataclasses.replace(result, mean_temp_c=out["mean_temp_c"])
         Path(args.target_out).write_text(target_toml(own, args.target_name))
         out["target_file"] = args.target_out
-    if not args.no_record:
-        # The characterization belongs to the session it was measured from.
-        append_event(args.file, "target_characterized", camera=args.camera, payload=out)
+    # The characterization belongs to the session it was measured from: beside it, or in it
+    # with --write.
+    keep_result(args, "target_characterized", args.camera, out)
     if args.json:
         return emit_json(out)
     for key, value in out.items():

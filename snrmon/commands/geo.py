@@ -29,6 +29,7 @@ from snrmon.acquisition.geo.projection import (
     project_to_pixel,
 )
 from snrmon.cli import UsageError
+from snrmon.inputs import input_file
 from snrmon.output import emit_json
 
 PAIR_COLUMNS = ("x_px", "y_px", "lat_deg", "lon_deg", "alt_m")
@@ -154,7 +155,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     initial = (
         Pointing(*parse_triple(args.initial, "--initial")) if args.initial is not None else None
     )
-    fit = calibrate_pointing(read_pairs(args.pairs), site, cam, initial)
+    fit = calibrate_pointing(read_pairs(input_file(args.pairs, "--pairs")), site, cam, initial)
     if args.json:
         return emit_json(
             {

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 from snrmon.cli import UsageError
+from snrmon.inputs import input_file, session_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -47,15 +47,14 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.acquisition.record.gps_import import gps_source, import_gps_log
     from snrmon.output import emit_json
 
-    if not Path(args.session).is_file():
-        raise UsageError(f"session file {args.session} does not exist")
+    session_file(args.session)
     logs = (("dji_csv", args.dji), ("nmea", args.nmea), ("tlog", args.tlog))
     given = [(k, v) for k, v in logs if v]
     if not given:
         raise UsageError("give the flight log: --dji FLIGHT.csv, --nmea LOG or --tlog FILE.tlog")
     kind, log = given[0]
-    if not Path(log).is_file():
-        raise UsageError(f"flight log {log} does not exist")
+    option = {"dji_csv": "--dji", "nmea": "--nmea", "tlog": "--tlog"}[kind]
+    input_file(log, option)
     if args.offset_s is not None and not math.isfinite(args.offset_s):
         raise UsageError(f"--offset-s must be a number of seconds, got {args.offset_s}")
     if not (math.isfinite(args.max_offset_s) and 0 <= args.max_offset_s <= 3600):
@@ -80,6 +79,18 @@ def run(args: argparse.Namespace) -> int:
         f"{result.session}: {result.fixes_written} of {result.fixes_in_log} fixes from "
         f"{result.log} ({kind}, UTC from {result.utc_source}) written as /gps, source imported"
     )
+    if result.clock is not None:
+        c = result.clock
+        fate = (
+            "left out of the anchor's estimate, their fixes on the anchor's time"
+            if c["anchors"]
+            else "left out"
+        )
+        print(
+            f"  the log's clock: {c['segments']} segments ({c['gaps']} gaps, {c['jumps']} time "
+            f"jumps), {c['outliers']} rows whose time disagrees ({fate})"
+            + (f"; first: {c['examples'][0]}" if c["examples"] else "")
+        )
     if result.fixes_outside:
         print(f"  {result.fixes_outside} fixes lie outside the session's span and were left out")
     if result.live_rows_kept:

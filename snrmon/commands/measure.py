@@ -51,7 +51,7 @@ def _point(text: str) -> tuple[int, int]:
             raise ValueError
         return int(parts[0]), int(parts[1])
     except ValueError:
-        raise argparse.ArgumentTypeError(f"--at must be X,Y (two integers), got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be X,Y (two integers), got {text!r}") from None
 
 
 def _odd(text: str) -> int:
@@ -164,7 +164,9 @@ def _summary(snr: np.ndarray) -> tuple[float, float]:
 
 
 def run(args: argparse.Namespace) -> int:
-    stack = load_stack(args.stack)
+    from snrmon.inputs import stack_file
+
+    stack = load_stack(stack_file(args.stack))
     meter = _meter(args, stack.shape[1:])
     steps: list[TrackStep] | None = None
     if getattr(args, "track", False):

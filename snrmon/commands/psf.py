@@ -1,7 +1,7 @@
 """``snrmon psf``: the camera's PSF from a recorded stop of an unresolved drone.
 
     snrmon psf FILE.h5 --camera C --stop N [--stop M ...] [--calibration CAL.npz]
-               [--min-frames 50] [--json] [--no-record]
+               [--min-frames 50] [--json] [--write | --no-record]
 
 The session is replayed like ``snrmon characterize`` (the same stop table as live); the stop's
 frames with a valid measurement give 13 x 13 crops around their peaks, non-uniformity corrected
@@ -10,6 +10,11 @@ psf_estimate`` fits them. JSON contract: ``{"sigma_px", "pvf", "pvf_std", "n_fra
 ``"sigma_px_std"``, ``"blur_px"``, ``"blur_px_std"``, ``"chi2_per_dof"``, ``"camera"``,
 ``"stops"``, ``"range_m"`` (one per stop), ``"target_px"``. A resolved drone, a stop with
 too few frames or without a range is one message naming the stop and why (exit 2).
+
+The result (and the fit as the model takes it, ``estimate``) is kept beside the recording in
+``FILE.analysis.json`` (the recording is raw data: its bytes do not change); ``--write`` adds it
+to the recording as a ``psf_measured`` event instead. A replay, a report and a campaign of the
+session use the fitted PSF as the camera's corrected PSF (docs/session-format.md).
 """
 
 from __future__ import annotations
@@ -19,7 +24,9 @@ import argparse
 import numpy as np
 
 from snrmon.cli import UsageError
+from snrmon.inputs import input_file, session_file
 from snrmon.output import emit_json
+from snrmon.results import add_result_options, keep_result
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -43,11 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="fewest valid frames a stop must give (at least 10)",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    p.add_argument(
-        "--no-record",
-        action="store_true",
-        help="do not add the result to the session as a psf_measured event",
-    )
+    add_result_options(p, "psf_measured")
     p.set_defaults(func=run)
 
 
@@ -60,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         estimate_psf,
         target_px,
     )
-    from snrmon.acquisition.record.reader import append_event, open_session
+    from snrmon.acquisition.record.reader import open_session
     from snrmon.acquisition.replay.batch import replay_session
     from snrmon.acquisition.replay.recorded import recorded_calibration_path
     from snrmon.acquisition.report.data import session_models
@@ -68,6 +71,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.min_frames < 10:
         raise UsageError(f"--min-frames must be >= 10, got {args.min_frames}")
+    session_file(args.file, camera=args.camera)
+    if args.calibration:
+        input_file(args.calibration, "--calibration")
     sensors, target_name = session_models(args.file, args.target)
     if args.camera not in sensors:
         raise UsageError(f"camera {args.camera!r} not in {args.file} ({', '.join(sensors)})")
@@ -131,8 +137,8 @@ def run(args: argparse.Namespace) -> int:
         "target_px": [s.target_px for s in stops],
         "calibrated": cal is not None,
     }
-    if not args.no_record:
-        append_event(args.file, "psf_measured", camera=args.camera, payload=out)
+    # The fit as the model takes it (a replay of the session uses it as the corrected PSF).
+    keep_result(args, "psf_measured", args.camera, {**out, "estimate": est.as_dict()})
     if args.json:
         return emit_json(out)
     for key, value in out.items():

@@ -6,9 +6,9 @@ import argparse
 import shutil
 import sys
 import time
-from pathlib import Path
 
 from snrmon.cli import UsageError
+from snrmon.inputs import input_file, output_file
 from snrmon.progress import status_progress
 
 
@@ -64,13 +64,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.duration is not None and not args.duration > 0:
         raise UsageError(f"--duration must be positive, got {args.duration}")
-    out = Path(args.out)
-    if out.exists():
-        raise UsageError(f"{out} already exists (a session file is never overwritten)")
-    if not out.parent.exists():
-        raise UsageError(f"directory {out.parent} does not exist")
+    out = output_file(args.out, "--out", suffixes=(".h5",), new=True)
     rois = [_roi(r) for r in args.roi]
-    session = Session(load_session_config(args.config))
+    session = Session(load_session_config(input_file(args.config, "--config")))
     session.start()
     try:
         for cam, x, y in rois:

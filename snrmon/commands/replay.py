@@ -7,8 +7,12 @@ import math
 import sys
 
 from snrmon.cli import UsageError
+from snrmon.commands.measure import _point
+from snrmon.inputs import is_hdf5, session_file, stack_file
 from snrmon.output import emit_json
 from snrmon.progress import frame_progress
+
+SESSION_SUFFIXES = (".h5", ".hdf5")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -21,6 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--at",
+        type=_point,
         metavar="X,Y",
         help="where the drone is in the first frame (needed for recordings that are not "
         "snrmon sessions: they carry no ROI events)",
@@ -43,13 +48,17 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _is_session(path: str) -> bool:
+    """True for a snrmon session (checked whole: :func:`snrmon.inputs.session_file`), False for
+    another tool's recording (checked as its ending says: :func:`snrmon.inputs.stack_file`). A
+    file named ``.h5`` or starting as HDF5 is a session or nothing."""
     from pathlib import Path
 
     p = Path(path)
-    if not p.exists():
-        raise UsageError(f"{path} does not exist")
-    with p.open("rb") as fh:
-        return fh.read(8) == b"\x89HDF\r\n\x1a\n"
+    if p.suffix.lower() in SESSION_SUFFIXES or (p.is_file() and p.stat().st_size and is_hdf5(p)):
+        session_file(p)
+        return True
+    stack_file(p, "recording")
+    return False
 
 
 def _replay_foreign(args: argparse.Namespace) -> int:
@@ -61,7 +70,7 @@ def _replay_foreign(args: argparse.Namespace) -> int:
         raise UsageError(f"{args.file} is not a snrmon session: give --at X,Y (the drone's pixel)")
     ns = argparse.Namespace(
         stack=args.file,
-        at=measure._point(args.at),
+        at=args.at,
         search=11,
         box=7,
         background="rim",
@@ -116,6 +125,10 @@ def result_json(result) -> dict:
             "identical": t.identical,
             "first_difference_counter": t.first_difference,
             "states_restored": t.states_restored,
+            # The live accounting the file keeps: received = written + dropped (by reason) +
+            # before_recording (+ after_recording + queued); null for a file without it.
+            "received_live": None if c.accounting is None else c.accounting.get("received"),
+            "accounting": c.accounting,
         }
     return {
         "format_version": result.format_version,
@@ -132,6 +145,11 @@ def run(args: argparse.Namespace) -> int:
 
     if not _is_session(args.file):
         return _replay_foreign(args)
+    if args.at is not None:
+        raise UsageError(
+            f"--at is for recordings that are not snrmon sessions; {args.file} is a session "
+            "(it carries the operator's clicks)"
+        )
     if args.speed is not None and not args.speed > 0:
         raise UsageError(f"--speed must be positive, got {args.speed}")
     with frame_progress("replay") as progress:  # a bar on a terminal only

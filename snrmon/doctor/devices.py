@@ -33,10 +33,11 @@ CLOCK_TOLERANCE_S = 1.0
 class _Watch:
     kind: str  # camera | lrf | gps
     name: str
-    device: Any
+    device: Any  # None: its driver could not be made (``error`` says why, ``fix`` what to do)
     readings: list = field(default_factory=list)  # (t_host_ns, reading or counter)
     first: threading.Event = field(default_factory=threading.Event)
     error: str = ""
+    fix: str = ""
 
     def take(self, reading) -> None:
         item = reading.counter if self.kind == "camera" else reading
@@ -50,15 +51,34 @@ def _open(config) -> list[_Watch]:
 
     watches = []
     for cam in config.cameras:
-        watches.append(_Watch("camera", cam.name, camera_device(cam)))
+        watches.append(_made("camera", cam.name, lambda cam=cam: camera_device(cam)))
     for kind in ("lrf", "gps"):
         table = getattr(config, kind)
         if table is not None:
-            watches.append(_Watch(kind, kind, device_from_config(table, kind)))
+            watches.append(_made(kind, kind, lambda t=table, k=kind: device_from_config(t, k)))
     for w in watches:
-        w.device.subscribe(w.take)
-        w.device.open()
+        if w.device is not None:
+            w.device.subscribe(w.take)
+            w.device.open()
     return watches
+
+
+def _made(kind: str, name: str, make) -> _Watch:
+    """The watch of one device; a driver that cannot be made (its backend is not installed:
+    Aravis without PyGObject, a MAVLink GPS without pymavlink) is a failed check with the
+    install hint as its fix, and the other checks go on."""
+    try:
+        return _Watch(kind, name, make())
+    except (ImportError, OSError, ValueError) as exc:
+        from snrmon.drivers.camera.aravis import INSTALL_HINT
+
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if text.startswith(INSTALL_HINT):
+            why = text.removeprefix(INSTALL_HINT).strip(" ()")
+            return _Watch(
+                kind, name, None, error=f"Aravis is not available ({why})", fix=INSTALL_HINT
+            )
+        return _Watch(kind, name, None, error=f"no driver: {text}", fix=text)
 
 
 def _watch(watches: list[_Watch], wait_s: float, window_s: float) -> None:
@@ -77,16 +97,23 @@ def check_devices(
     """One check per camera and rangefinder, two for the GPS (fix, clock); and the cameras'
     negotiated formats ({name: CameraFormat}) for the disk checks."""
     watches = _open(config)
+    opened = [w for w in watches if w.device is not None]
     try:
-        _watch(watches, wait_s, window_s)
+        _watch(opened, wait_s, window_s)
     finally:
-        for w in watches:
+        for w in opened:
             w.error = w.device.status().last_error
             w.device.close()
     checks: list[Check] = []
     formats = {}
     for w in watches:
-        if w.kind == "camera":
+        if w.device is None:
+            label = f"camera:{w.name}" if w.kind == "camera" else w.kind
+            if w.kind == "gps":
+                label = "gps-fix"
+            where = f"[cameras.{w.name}]" if w.kind == "camera" else f"[{w.kind}]"
+            checks.append(Check(label, FAIL, f"{where}: {w.error}", w.fix))
+        elif w.kind == "camera":
             cam = next(c for c in config.cameras if c.name == w.name)
             checks.append(_camera(w, cam, wait_s))
             if w.device.format is not None:

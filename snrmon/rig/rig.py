@@ -4,9 +4,11 @@ The CLI's job is to wire packages together; this module does it for ``snrmon hil
 ``snrmon demo``. The simulators come from :mod:`snrmon.sim` (camera processes writing shared-memory
 frame rings, NMEA GPS and an LDM rangefinder on pseudo-terminals); the console side is the
 ordinary :class:`snrmon.acquisition.runtime.session.Session`, which opens those devices by name and
-path exactly as it would open real ones. The flight clock: the serial simulators follow
-``(monotonic - t0) * speed``; each camera process takes frame ``n`` at ``n / fps`` of the flight
-and runs at ``fps * speed`` (the cameras start within about a second of ``t0``).
+path exactly as it would open real ones. The flight clock is the day's own
+(:class:`snrmon.rig.flight_clock.FlightClock`): ``speed`` x the host clock, held back by the
+console's pace; each camera process publishes frame ``n`` when it reads ``n / fps`` and the serial
+simulators report the flight at its time, and the session is lossless (its pipelines and
+recorder wait rather than drop): a simulated day never drops a frame, it slows down.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ import numpy as np
 from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.runtime.session import Session
 from snrmon.acquisition.track.config import TrackState
+from snrmon.rig.flight_clock import MAX_SPEED, FlightClock
 from snrmon.rig.support import flight_config_of, recording_summary, stop_config_at
 from snrmon.rig.twin_day import (
     CropLog,
@@ -56,6 +59,7 @@ class HilOptions:
     pressure_hpa: float | None = None
     visibility_km: float | None = None  # None: no aerosol
     calibrate: bool = True  # blackbody frames and a calibration before the flight
+    speed_max: bool = False  # --speed max: ``speed`` is the cap, the console's pace the rest
     window_px: tuple[int, int] | None = None  # a sub-array (width, height) around the sight line
     fpn: bool = False
     track: bool = True
@@ -86,6 +90,16 @@ class HilOptions:
             sky_temp_k=self.sky_temp_k, air_temp_k=self.air_temp_k, weather=self.weather
         )
 
+
+ADAPT_S = 2.0
+"""How often (host seconds) the day's free speed follows what the console held over the last
+``ADAPT_S``: down to 1.1 x that where it held less than 80% of it, up by a quarter (never past
+the speed asked, 8 for max) where it held all of it. The stop detector's "steady for 3 s of
+flight" follows the speed, so the rate the readings come at and the detector's window agree."""
+SPEAK_FRACTION = 0.8
+"""A serial simulator speaks once the day's clock moved at least this fraction of what one of
+its ticks (0.1 s) covers at the current speed: a drone that crawls because the console is slow
+never reads as a hover (three readings span at least 0.24 s of flight at speed 1)."""
 
 LOG_S = 120.0
 """Host seconds of measurements the rig keeps per camera for its truth bookkeeping. A stop's
@@ -134,6 +148,11 @@ class HilRig:
         # With fixed-pattern noise the console needs a sky reference before launch.
         self.preroll_s = opts.preroll_s if opts.fpn else 0.0
         self.t0 = time.monotonic()
+        self.clock = FlightClock(opts.speed)
+        self._clock_k = 0  # table points already recorded as hil_clock events
+        self._speed_warned = False
+        self._adapt_at: tuple[float, float] | None = None  # (host s, clock s) of the last check
+        self.speed_changes: list[tuple[float, float]] = []  # (flight s, speed) as it followed
         tag = f"{os.getpid()}-{opts.seed}"
         self.cameras: dict[str, CameraRig] = {}
         feeds = camera_feeds(opts, self.flight_config, self.preroll_s)
@@ -154,11 +173,11 @@ class HilRig:
                 feed.scene.width_px,
                 feed.scene.height_px,
                 feed,
-                fps=sensor.fps * opts.speed,
-                # Half a second of frames at any speed: the console may stall that long (GIL,
-                # disk, a cold start's imports) without the camera overrunning its ring.
-                # MWIR: 30 slots of 1.8 MB at speed 1.
+                fps=sensor.fps,
+                # The day's clock paces the camera; it runs at most LEAD_S ahead of the
+                # console's newest frame, far fewer frames than the ring holds.
                 slots=max(16, math.ceil(sensor.fps * opts.speed / 2)),
+                clock=self.clock.shared,
             )
             self.cameras[cam] = CameraRig(
                 cam,
@@ -173,6 +192,11 @@ class HilRig:
             window = {"width_px": int(opts.window_px[0]), "height_px": int(opts.window_px[1])}
         self.gps_sim = NmeaSimulator(self._gps_position, rate_hz=10.0, baud=38400)
         self.lrf_sim = LdmSimulator(self._lrf_range, rate_hz=10.0, tracking=True)
+        # While the console holds the day's clock the drone is frozen in time: a device that
+        # kept reading would show a hover where there is none; they speak when the clock moves.
+        self._gate_tau: dict[str, float] = {}
+        self.gps_sim.gate = lambda: self._clock_moved("gps")
+        self.lrf_sim.gate = lambda: self._clock_moved("lrf")
         site = self.flight_config.site
         config = session_config_from_dict(
             {
@@ -205,7 +229,11 @@ class HilRig:
             track=opts.track,
             predictor=predictor,
             stop_config=stop_config_at(opts.speed),
+            lossless=True,
         )
+        for c, r in self.cameras.items():
+            ring = self.session.pipelines[c].ring
+            self.clock.watch(c, r.fps, lambda ring=ring: ring.newest_counter)
         self.crop_logs = {
             c: CropLog(r.fps * opts.speed, LOG_S, self.session.pipelines[c].corrector.calibration)
             for c, r in self.cameras.items()
@@ -218,14 +246,52 @@ class HilRig:
     # ------------------------------------------------------------------ clock and truth
     def flight_time(self) -> float:
         """Seconds since launch on the flight's clock (negative during the pre-roll)."""
-        return (time.monotonic() - self.t0) * self.opts.speed - self.preroll_s
+        return self.clock.now() - self.preroll_s
 
     def _gps_position(self, t_s: float):
         # A receiver reports where the drone was at the epoch its sentence is labelled with
         # (``t_s`` on the simulator's clock), not where it is when the simulator's thread gets
         # to run: on a loaded machine that is milliseconds later (0.1 m at 4x in a transit).
-        t = (self.gps_sim.started_monotonic_s + t_s - self.t0) * self.opts.speed - self.preroll_s
+        due_ns = round((self.gps_sim.started_monotonic_s + t_s) * 1e9)
+        t = self.clock.at(due_ns) - self.preroll_s
         return None if t < 0 else self.plan.position(t)  # no fix before launch
+
+    def _clock_moved(self, device: str, tick_s: float = 0.1) -> bool:
+        """True when the day's clock moved enough since ``device`` last spoke
+        (:data:`SPEAK_FRACTION` of one of its ticks at the current speed)."""
+        tau = self.clock.now()
+        last = self._gate_tau.get(device)
+        if last is not None and tau - last < SPEAK_FRACTION * tick_s * self.clock.speed:
+            return False
+        self._gate_tau[device] = tau
+        return True
+
+    def _follow_console(self) -> None:
+        """The day's free speed follows what the console held (:data:`ADAPT_S`)."""
+        now, tau = time.monotonic(), self.clock.now()
+        if self._adapt_at is None:
+            self._adapt_at = (now, tau)
+            return
+        t0, tau0 = self._adapt_at
+        if now - t0 < ADAPT_S:
+            return
+        self._adapt_at = (now, tau)
+        held = (tau - tau0) / (now - t0)
+        speed = self.clock.speed
+        cap = MAX_SPEED if self.opts.speed_max else self.opts.speed
+        if held < 0.8 * speed:
+            new = max(0.1, math.floor(held * 1.1 * 10) / 10)
+        elif held > 0.95 * speed and speed < cap:
+            new = min(cap, math.ceil(speed * 1.25 * 10) / 10)
+        else:
+            return
+        if new == speed:
+            return
+        self.clock.set_speed(new)
+        self.session.engine.stop_detector.config = stop_config_at(new)
+        self.speed_changes.append((round(self.flight_time(), 3), new))
+        log.info("the simulated day follows the console: speed %g (it held %.2f)", new, held)
+        self.session.add_event("hil_speed_changed", payload={"speed": new, "held": held})
 
     def _lrf_range(self, _t_s: float) -> float | None:
         t = self.flight_time()
@@ -251,6 +317,7 @@ class HilRig:
         self.gps_sim.start()
         self.lrf_sim.start()
         self.t0 = time.monotonic()
+        self.clock.start()
         self.session.start()
         if self.opts.fpn:
             for cam in self.cameras:
@@ -262,12 +329,16 @@ class HilRig:
 
     def flight_record(self) -> dict:
         """The simulated flight's clock and plan, recorded with the session (event
-        ``hil_flight``) so the truth can be rebuilt from the file: flight time at host time t is
-        ``(t - t0_host_ns) * speed / 1e9 - preroll_s``; the GPS simulator's epoch k is due at
-        ``gps_epoch0_host_ns + k / gps_rate_hz`` s and labelled ``gps_epoch0_utc_ns + k / rate``."""
+        ``hil_flight``) so the truth can be rebuilt from the file: the day's clock at host time t
+        is interpolated in the ``hil_clock`` events' table (``host_ns``, ``clock_s``: camera
+        seconds since ``t0_host_ns``), the flight's time is that minus ``preroll_s``; ``speed``
+        is the clock's rate where the console did not hold it back; the GPS simulator's epoch k
+        is due at ``gps_epoch0_host_ns + k / gps_rate_hz`` s and labelled ``gps_epoch0_utc_ns +
+        k / rate``."""
         fc = self.flight_config
         return {
             "t0_host_ns": round(self.t0 * 1e9),
+            "clock": "hil_clock",
             "speed": self.opts.speed,
             "preroll_s": self.preroll_s,
             "gps_epoch0_host_ns": round(self.gps_sim.started_monotonic_s * 1e9),
@@ -289,6 +360,8 @@ class HilRig:
         if self._finished:
             return
         self._finished = True
+        self._record_clock()
+        self._check_speed(final=True)
         self.session.stop()
         summary = getattr(self.session, "last_recording", None)
         if summary is not None:
@@ -298,6 +371,7 @@ class HilRig:
         try:
             self.finish()
         finally:
+            self.clock.stop()
             for rig in self.cameras.values():
                 rig.producer.stop()
             self.gps_sim.stop()
@@ -315,6 +389,9 @@ class HilRig:
         every stop. Every click is counted in the result.
         """
         self._summarise_final_rows()
+        self._record_clock()
+        self._follow_console()
+        self._check_speed()
         t = self.flight_time()
         stop_idx = self.plan.truth(t).stop_index
         if stop_idx is not None:
@@ -338,6 +415,45 @@ class HilRig:
             time.sleep(0.05)  # the operator's pace, not synchronisation
         self.finish()
         return self.result()
+
+    def _record_clock(self) -> None:
+        """The day's clock since the last call, as ``hil_clock`` events (host ns -> camera s),
+        in pieces that fit an event's payload."""
+        host, taus = self.clock.table_since(self._clock_k)
+        for i in range(0, len(host), 100):
+            self.session.add_event(
+                "hil_clock",
+                payload={
+                    "host_ns": host[i : i + 100],
+                    "clock_s": [round(x, 9) for x in taus[i : i + 100]],
+                },
+            )
+        self._clock_k += len(host)
+
+    def _check_speed(self, *, final: bool = False) -> None:
+        """A speed asked (not max) that this machine cannot hold is said once, on stderr, in the
+        session's log and as a ``hil_speed`` event, as soon as 2 s of the day show it (or when
+        the flight ends): the day slows down instead of dropping frames."""
+        a = self.clock.achieved()
+        if (
+            self.opts.speed_max
+            or self._speed_warned
+            or not a["achieved"]
+            or (not final and a.get("wall_s", 0.0) < 2.0)
+        ):
+            return
+        if a["achieved"] < 0.95 * self.opts.speed:
+            self._speed_warned = True
+            log.warning(
+                "this machine cannot hold speed %g: the simulated day runs at %.2f x (held back "
+                "%.1f s of %.1f s by the console, its measurement or its recorder); it slows down "
+                "rather than drop frames",
+                self.opts.speed,
+                a["achieved"],
+                a["held_back_s"],
+                a["wall_s"],
+            )
+            self.session.add_event("hil_speed", payload={"asked": self.opts.speed, **a})
 
     # ------------------------------------------------------------------ results
     def _summarise_final_rows(self) -> None:
@@ -403,6 +519,7 @@ class HilRig:
         psf = measured_psf(self, entries)  # the PSF from the flight's own frames
         stops = [{k: v for k, v in e.items() if k != "_crops"} for e in entries.values()]
         frames = defaultdict(dict)
+        accounting = (self.recording or {}).get("accounting") or {}
         for name, pipe in self.session.pipelines.items():
             acc = pipe.status().frames
             frames[name] = {
@@ -410,6 +527,9 @@ class HilRig:
                 "dropped": acc.dropped_by_camera + acc.dropped_by_ring,
                 "dropped_by_camera": acc.dropped_by_camera,
                 "dropped_by_ring": acc.dropped_by_ring,
+                # With a recording: every frame received in the file, dropped with a reason, or
+                # received before it began (received = written + dropped + before_recording).
+                **({"recording": accounting[name]} if name in accounting else {}),
             }
         clicks = {c: sum(1 for k in self._clicked if k[0] == c) for c in self.cameras}
         return {
@@ -421,5 +541,10 @@ class HilRig:
             "psf": psf,
             "stops": stops,
             "frames": dict(frames),
+            "speed": {
+                "asked": "max" if self.opts.speed_max else self.opts.speed,
+                **self.clock.achieved(),
+                "changes": [{"flight_s": t, "speed": v} for t, v in self.speed_changes],
+            },
             "operator_clicks": clicks,
         }

@@ -38,4 +38,6 @@ def recording_summary(summary) -> dict:
         "frames_written": dict(summary.frames_written),
         "dropped": {cam: dict(reasons) for cam, reasons in summary.dropped.items()},
         "error": summary.error,
+        # per camera: received = written + sum(dropped) + before_recording (+ after, queued)
+        "accounting": summary.extra.get("accounting"),
     }

@@ -99,23 +99,46 @@ def test_local_cluster_table_equals_serial_replay(hil_sessions, reference, tmp_p
     assert json.loads((out / "campaign.json").read_text())["frames_per_s"] > 0
 
 
-def test_failed_sessions_fail_their_own_task(hil_sessions, tmp_path, capsys):
+def test_bad_sessions_refuse_the_campaign_before_it_starts(hil_sessions, tmp_path, capsys):
+    """A damaged or missing session is one line and exit 2 before any worker starts, and
+    nothing is written (a campaign half made from the good ones is not what was asked)."""
     corrupt = tmp_path / "corrupt.h5"
     corrupt.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(range(256)) * 64)
     missing = tmp_path / "missing.h5"
+    for bad, says in ((corrupt, "damaged HDF5 file"), (missing, "does not exist")):
+        out = tmp_path / f"out-{bad.stem}"
+        argv = ["campaign", str(hil_sessions[0]), str(bad), "--out", str(out)]
+        code = main([*argv, "--workers", "2"])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and len(err.splitlines()) == 1, err
+        assert str(bad) in err and says in err
+        assert not out.exists()
+
+
+def test_a_session_that_fails_in_its_replay_fails_its_own_task(hil_sessions, tmp_path, capsys):
+    """A session that passes the input checks but cannot be replayed (its camera's sensor file
+    is gone) fails its own task; the others go into the table."""
+    import shutil
+
+    import h5py
+
+    broken = tmp_path / "broken.h5"
+    shutil.copyfile(hil_sessions[1], broken)
+    with h5py.File(broken, "r+") as f:
+        config = json.loads(f.attrs["config_json"])
+        config["session"]["cameras"]["lwir"]["sensor"] = str(tmp_path / "gone.toml")
+        f.attrs["config_json"] = json.dumps(config)
     out = tmp_path / "out"
     code, result = campaign(
-        [str(hil_sessions[0]), str(corrupt), str(missing), "--out", str(out), "--workers", "2"],
-        capsys,
+        [str(hil_sessions[0]), str(broken), "--out", str(out), "--workers", "2"], capsys
     )
     assert code == 1
     errors = {f["session"]: f["error"] for f in result["failures"]}
-    assert set(errors) == {str(corrupt), str(missing)}
-    assert errors[str(missing)] == f"session file {missing} not found"
-    assert errors[str(corrupt)].startswith(f"cannot open session file {corrupt}")
+    assert set(errors) == {str(broken)}
+    assert "gone.toml" in errors[str(broken)]
     sessions = {r["session"] for r in pq.read_table(out / "stops.parquet").to_pylist()}
     assert sessions == {hil_sessions[0].stem}
-    assert len(json.loads((out / "campaign.json").read_text())["failures"]) == 2
+    assert len(json.loads((out / "campaign.json").read_text())["failures"]) == 1
 
 
 def test_existing_scheduler_and_worker_processes(hil_sessions, reference, tmp_path, capsys):

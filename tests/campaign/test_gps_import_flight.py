@@ -32,8 +32,13 @@ RESOLUTION_M = {"dji": 0.02, "nmea": 0.002, "tlog": 0.01}
 def flight_logs(session, folder, shift_s: float = 0.0) -> dict:
     """The three logs of the session's simulated flight (UTC shifted by ``shift_s``)."""
     with open_session(session) as f:
-        ev = next(e for e in f.event_list() if e["kind"] == "hil_flight")["payload"]
+        events = f.event_list()
+        ev = next(e for e in events if e["kind"] == "hil_flight")["payload"]
         end = max(int(c.t_host_ns[-1]) for c in f.cameras.values())
+    # The day's clock (camera seconds) at host time: the rig's hil_clock table.
+    clock = [e["payload"] for e in events if e["kind"] == "hil_clock"]
+    clock_host = np.concatenate([np.asarray(c["host_ns"], np.int64) for c in clock])
+    clock_s = np.concatenate([np.asarray(c["clock_s"], float) for c in clock])
     fl = ev["flight"]
     plan = FlightPlan(
         FlightConfig(
@@ -51,7 +56,7 @@ def flight_logs(session, folder, shift_s: float = 0.0) -> dict:
         host = ev["gps_epoch0_host_ns"] + k * period_ns
         if host > end + 10**9:
             break
-        t = (host - ev["t0_host_ns"]) * ev["speed"] / 1e9 - ev["preroll_s"]
+        t = float(np.interp(host, clock_host, clock_s)) - ev["preroll_s"]
         if t >= 0:  # the receiver has a fix from launch
             times.append(t)
             utcs.append(u0 + timedelta(milliseconds=100 * k) + timedelta(seconds=shift_s))
@@ -128,8 +133,12 @@ def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
         assert np.median(lags) < 40e6 and max(lags) < 150e6, (kind, np.median(lags), max(lags))
         stops = [(s.camera, s.stop, s.gps_range_m) for s in redetected(session)]
         assert [s[:2] for s in stops] == [s[:2] for s in live_stops], kind
+        # The same stop means to within the hover's along-range drift (0.15 m, sim/flight.py):
+        # the live receiver speaks only while the simulated day's clock moves (a receiver of a
+        # frozen flight would read as a hover), so its stop means sample the drift at fewer
+        # epochs than the drone's own log, which has every one.
         for (_, _, got), (_, _, want) in zip(stops, live_stops, strict=True):
-            assert got == pytest.approx(want, abs=0.05), kind
+            assert got == pytest.approx(want, abs=0.15), kind
     # The campaign takes the imported stream: its stops are found again with the imported GPS.
     assert (
         main(

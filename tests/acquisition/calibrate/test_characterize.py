@@ -267,8 +267,12 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     assert main([*no_cal, "--stop", str(stop)]) == 2
     err = capsys.readouterr().err
     assert f"stop {stop} of mwir: the session has no calibration" in err
+    raw = session.read_bytes()
+    mtime_ns = session.stat().st_mtime_ns
     assert main([*argv, "--stop", str(stop)]) == 0
     out = strict_json(capsys.readouterr().out)
+    # The recording is raw data: its bytes and its time are as recorded.
+    assert session.read_bytes() == raw and session.stat().st_mtime_ns == mtime_ns
     for key in ("small_m", "large_m", "mean_temp_c", "rss_delta_t_k", "n_frames", "small_m_std"):
         assert key in out
     _, small, large = drone_scene(cam)
@@ -278,13 +282,23 @@ def test_snrmon_characterize_on_a_recorded_close_stop(cam, cal, tmp_path, capsys
     assert out["large_m"] == pytest.approx(large, rel=0.10)
     assert out["mean_temp_c"] == pytest.approx(DRONE_K - 273.15, abs=0.5)
     assert load_target(str(target)).large_m == pytest.approx(out["large_m"], abs=1e-4)
-    # The result is recorded in the session it was measured from.
+    # The result is kept beside the session it was measured from; in it only with --write.
+    from snrmon.acquisition.record.analysis_file import read_results, sidecar_path
     from snrmon.acquisition.record.reader import open_session
 
+    (entry,) = read_results(session)
+    assert sidecar_path(session).name == "s.analysis.json"
+    assert entry["kind"] == "target_characterized" and entry["camera"] == "mwir"
+    assert entry["payload"]["small_m"] == pytest.approx(out["small_m"])
+    with open_session(session) as f:
+        assert not [e for e in f.event_list() if e["kind"] == "target_characterized"]
+    assert main([*argv, "--stop", str(stop), "--write"]) == 0
+    capsys.readouterr()
     with open_session(session) as f:
         (event,) = [e for e in f.event_list() if e["kind"] == "target_characterized"]
     assert event["camera"] == "mwir"
     assert event["payload"]["small_m"] == pytest.approx(out["small_m"])
+    assert len(read_results(session)) == 1  # --write: into the file instead of beside it
     # Without --apparent the drone's own temperature is found through the air: at 37 m the
     # MWIR transmission is 0.829 (LOWTRAN7 US Standard, contrast-weighted) and the path radiance
     # at 15 C is taken back out.

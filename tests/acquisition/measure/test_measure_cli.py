@@ -64,7 +64,7 @@ def test_table_and_options(stack_path, capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["{missing}", "--at", "1,1"], "no such file"),
+        (["{missing}", "--at", "1,1"], "does not exist"),
         (["{bad}", "--at", "1,1"], "expected a stack (N,H,W) or a frame (H,W), got shape"),
         (["{good}", "--at", "50,3"], "--at 50,3 is off the 50x40 image"),
         (["{good}", "--at", "3,-1"], "--at 3,-1 is off the 50x40 image"),

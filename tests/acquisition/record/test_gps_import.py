@@ -73,17 +73,18 @@ def test_real_nmea_log_imports_one_fix_per_epoch_at_its_utc(shared_data, tmp_pat
 
 
 def test_a_receivers_date_before_lock_is_left_out(shared_data, tmp_path):
-    """mtk-3301 says 1980-01-05 (GPS week 0) until it has the almanac, then 2008-08-23: a
-    session recorded in 2008 takes the 2008 epochs and reports the others as outside."""
+    """mtk-3301 says 1980-01-05 (GPS week 0) until it has the almanac, then 2008-08-23: the
+    log's clock is the 2008 epochs; the 1980 ones are outliers of the log, never written, and
+    the import says how many."""
     log = shared_data / "nmea" / "mtk-3301.log"
-    fixes = read_nmea_log(log).fixes
-    late = [f for f in fixes if f.utc.year == 2008]
-    assert 0 < len(late) < len(fixes)
+    parsed = read_nmea_log(log)
+    fixes = parsed.fixes
+    assert {f.utc.year for f in fixes} == {2008} and parsed.clock.outliers == 8
     session = tmp_path / "s.h5"
-    bare_session(session, late[0].utc, (late[-1].utc - late[0].utc).total_seconds())
+    bare_session(session, fixes[0].utc, (fixes[-1].utc - fixes[0].utc).total_seconds())
     result = import_gps_log(session, log, "nmea")
-    assert result.fixes_written == len(late)
-    assert result.fixes_outside == len(fixes) - len(late)
+    assert result.fixes_written == len(fixes) and result.fixes_outside == 0
+    assert result.clock["outliers"] == 8 and result.clock["jumps"] == 3
 
 
 def test_clock_mapping_round_trips_through_re_anchored_rows():
@@ -144,3 +145,24 @@ def test_dji_csv_sub_second_utc_and_satellites(tmp_path):
     fixes = read_dji_csv(path)
     assert [f.utc for f in fixes] == [e.utc for e in epochs]
     assert {f.sats for f in fixes} == {13}
+
+
+def test_the_import_says_what_the_logs_clock_looked_like(shared_data, tmp_path, capsys):
+    """The real AirData export into a session of its flight: the import prints its segments
+    and outliers and records them with the import."""
+    import gzip
+
+    log = tmp_path / "air-2s.csv"
+    log.write_bytes(gzip.decompress((shared_data / "dji-airdata" / "air-2s.csv.gz").read_bytes()))
+    session = tmp_path / "s.h5"
+    bare_session(session, datetime(2021, 9, 6, 2, 48, 9, tzinfo=UTC), 900.0)
+    assert main(["gps-import", str(session), "--dji", str(log)]) == 0
+    out = capsys.readouterr().out
+    assert (
+        "the log's clock: 25 segments (24 gaps, 0 time jumps), 31 rows whose time disagrees "
+        "(left out of the anchor's estimate, their fixes on the anchor's time); first: "
+    ) in out
+    with h5py.File(session, "r") as f:
+        meta = json.loads(f["gps"].attrs["import_json"])
+    assert meta["clock"]["anchors"] == 1 and meta["clock"]["outliers"] == 31
+    assert meta["fixes_written"] > 0

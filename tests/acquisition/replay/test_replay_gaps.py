@@ -44,8 +44,15 @@ class DroppingRecorder(SessionRecorder):
 
 
 class _NoDevice:
+    """A camera that is fed by hand: nothing to subscribe to, no frame of its own lost."""
+
     def subscribe(self, cb):
         return lambda: None
+
+    def status(self):
+        from types import SimpleNamespace
+
+        return SimpleNamespace(dropped=0)
 
 
 def _frame(i: int, rng: np.random.Generator, fpn: np.ndarray) -> np.ndarray:

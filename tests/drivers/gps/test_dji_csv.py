@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 
 import pytest
 
@@ -58,3 +58,126 @@ def test_bad_files_name_the_problem(tmp_path, text: str, match: str) -> None:
     p.write_text(text)
     with pytest.raises(ParseError, match=match):
         read_dji_csv(p)
+
+
+# ---------------------------------------------------------------- the real AirData export
+
+FEET_M = 0.3048
+
+
+def _gpx_points(path) -> list[tuple[float, float, float, datetime]]:
+    """AirData's GPX of the flight, read with the standard library: (lat, lon, ele_m, utc)."""
+    import gzip
+    import xml.etree.ElementTree as ET
+
+    ns = {"g": "http://www.topografix.com/GPX/1/1"}
+    root = ET.fromstring(gzip.decompress(path.read_bytes()))
+    out = []
+    for pt in root.iterfind(".//g:trkpt", ns):
+        when = datetime.strptime(pt.find("g:time", ns).text, "%Y-%m-%dT%H:%M:%S.%fZ")
+        out.append(
+            (
+                float(pt.get("lat")),
+                float(pt.get("lon")),
+                float(pt.find("g:ele", ns).text),
+                when.replace(tzinfo=UTC),
+            )
+        )
+    return out
+
+
+def _csv_rows(path) -> list[dict[str, str]]:
+    import csv
+    import gzip
+    import io
+
+    return list(csv.DictReader(io.StringIO(gzip.decompress(path.read_bytes()).decode("latin-1"))))
+
+
+@pytest.fixture(scope="module")
+def air2s(shared_data, tmp_path_factory):
+    import gzip
+
+    folder = shared_data / "dji-airdata"
+    csv_path = tmp_path_factory.mktemp("dji") / "air-2s.csv"
+    csv_path.write_bytes(gzip.decompress((folder / "air-2s.csv.gz").read_bytes()))
+    return csv_path, _csv_rows(folder / "air-2s.csv.gz"), _gpx_points(folder / "air-2s.gpx.gz")
+
+
+def test_real_export_every_gpx_point_is_a_fix_with_its_position_and_altitude(air2s) -> None:
+    from snrmon.drivers.gps.dji_csv import read_dji_log
+
+    path, _, gpx = air2s
+    fixes = {(f.lat_deg, f.lon_deg): f for f in read_dji_log(path).fixes}
+    assert len(gpx) == 10817
+    for lat, lon, ele, _ in gpx:
+        f = fixes[(lat, lon)]  # the same doubles: AirData prints the log's own digits
+        assert f.alt_msl_m == pytest.approx(ele, rel=1e-7)  # GPX: metres, 7 decimals
+
+
+def test_real_export_one_clock_across_its_gaps_no_row_moves_the_rest(air2s) -> None:
+    """The log has 24 gaps in time(millisecond) and rows beside them up to 12.3 s off (the
+    reader before this took the latest row's anchor: every fix 12.3 s late on the GPX). Now
+    every fix is on one anchor: its offset from AirData's GPX is one number at all 10,817
+    points (the GPX is AirData's own anchor + time(millisecond))."""
+    from snrmon.drivers.gps.dji_csv import read_dji_log
+
+    path, rows, gpx = air2s
+    log = read_dji_log(path)
+    assert log.clock is not None
+    assert (log.clock.segments, log.clock.gaps, log.clock.jumps) == (25, 24, 0)
+    assert log.clock.anchors == 1
+    fixes = {(f.lat_deg, f.lon_deg): f for f in log.fixes}
+    offsets = [(fixes[(lat, lon)].utc - t).total_seconds() for lat, lon, _, t in gpx]
+    assert max(offsets) - min(offsets) < 1e-6
+    # The offset is the GPX's own whole-second ambiguity, not an error of ours: every fix's
+    # UTC agrees with its row's own datetime(utc) (truncated: u <= UTC < u + 1 s, within one
+    # 0.1 s step of the log) except the outliers the report names, while the GPX's time
+    # contradicts its row's datetime(utc) at about half the points.
+    assert 0.0 <= offsets[0] < 1.0
+    by_pos = {
+        (float(r["latitude"]), float(r["longitude"])): r
+        for r in rows
+        if float(r["latitude"]) or float(r["longitude"])
+    }
+
+    def agrees(utc: datetime, row: dict) -> bool:
+        u = datetime.strptime(row["datetime(utc)"], "%Y-%m-%d %H:%M:%S").replace(tzinfo=UTC)
+        return -0.1 <= (utc - u).total_seconds() < 1.1
+
+    ours_off = sum(not agrees(f.utc, by_pos[k]) for k, f in fixes.items())
+    gpx_off = sum(not agrees(t, by_pos[(lat, lon)]) for lat, lon, _, t in gpx)
+    assert ours_off <= log.clock.outliers == 31
+    assert gpx_off > 0.4 * len(gpx)
+    assert "off the log's clock" in log.clock.describe()
+
+
+def test_a_clock_that_stopped_gets_a_new_anchor_after_its_gap(air2s, tmp_path) -> None:
+    """The real export with the recorder's clock stopped over its 12.6 s gap (UTC went on 30 s
+    more than time(millisecond) after it): the segment after the gap gets its own anchor, 30 s
+    later; the part before keeps its own."""
+    import csv
+
+    from snrmon.drivers.gps.dji_csv import read_dji_log
+
+    path, rows, _ = air2s
+    before = {(f.lat_deg, f.lon_deg): f.utc for f in read_dji_log(path).fixes}
+    header = list(rows[0])
+    shifted = tmp_path / "paused.csv"
+    with shifted.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, header)
+        w.writeheader()
+        for r in rows:
+            if int(r["time(millisecond)"]) >= 920900:  # the rows after the 12.6 s gap
+                u = datetime.strptime(r["datetime(utc)"], "%Y-%m-%d %H:%M:%S")
+                r = {**r, "datetime(utc)": f"{u + timedelta(seconds=30):%Y-%m-%d %H:%M:%S}"}
+            w.writerow(r)
+    log = read_dji_log(shifted)
+    assert log.clock.anchors == 2
+    after = {(f.lat_deg, f.lon_deg): f.utc for f in log.fixes}
+    for r in rows:
+        key = (float(r["latitude"]), float(r["longitude"]))
+        if key not in before or not any(key):
+            continue
+        late = 30.0 if int(r["time(millisecond)"]) >= 920900 else 0.0
+        assert (after[key] - before[key]).total_seconds() == pytest.approx(late, abs=1e-6)

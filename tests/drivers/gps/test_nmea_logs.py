@@ -69,3 +69,83 @@ def test_log_proprietary_and_checksumless_counted(shared_data) -> None:
         if raw.strip() and not raw.startswith(b"#"):
             a.feed(raw, 0)
     assert a.counts.no_checksum == 3 and a.counts.proprietary >= 3
+
+
+# ---------------------------------------------------------------- the log's clock
+
+
+def test_receiver_clock_before_lock_is_left_out_not_sorted_in(shared_data) -> None:
+    """mtk-3301 powers up on its real-time clock (1980-01-05, then 1980-01-12) and jumps to
+    2008-08-23 with the almanac; a GGA between carries the previous RMC's date. The log's clock
+    is the 2008 chain; the eight epochs before it are counted as outliers and left out (they
+    were sorted to the front and set every fix's log time 28 years late)."""
+    from snrmon.drivers.gps.nmea_log import read_nmea_log
+
+    log = read_nmea_log(shared_data / "nmea" / "mtk-3301.log")
+    assert log.clock is not None
+    assert (log.clock.jumps, log.clock.outliers) == (3, 8)
+    assert (
+        "1980-01-05" in log.clock.examples[0]
+        and "days off the log's clock" in (log.clock.examples[0])
+    )
+    assert {f.utc.date() for f in log.fixes} == {datetime(2008, 8, 23).date()}
+    assert [f.t_host_ns for f in log.fixes] == sorted(f.t_host_ns for f in log.fixes)
+    assert log.fixes[0].t_host_ns == 0 and log.fixes[-1].t_host_ns < 10 * 10**9
+
+
+def test_a_logger_gap_is_counted_and_keeps_every_epoch(shared_data) -> None:
+    """nmea-rtk holds two stretches of a 10 Hz receiver ten minutes apart: one gap, no
+    outlier, every epoch on its own UTC."""
+    from snrmon.drivers.gps.nmea_log import read_nmea_log
+
+    log = read_nmea_log(shared_data / "nmea" / "nmea-rtk.log")
+    assert (log.clock.segments, log.clock.gaps, log.clock.jumps, log.clock.outliers) == (
+        2,
+        1,
+        0,
+        0,
+    )
+    assert len(log.fixes) == 122
+
+
+def _checksummed(body: str) -> bytes:
+    cs = 0
+    for ch in body.encode():
+        cs ^= ch
+    return f"${body}*{cs:02X}\r\n".encode()
+
+
+def test_a_real_log_across_midnight_keeps_its_clock(shared_data, tmp_path) -> None:
+    """nmea-rtk's sentences re-stamped to start at 23:59:58 (checksums recomputed, RMC dates
+    of the next day after midnight): every GGA just after midnight takes the next day even
+    though the last RMC said the day before; the track is the original's, 10 h 31 min 38.4 s
+    later, with no jump and no outlier."""
+    from datetime import timedelta
+
+    from snrmon.drivers.gps.nmea_log import read_nmea_log
+
+    original = shared_data / "nmea" / "nmea-rtk.log"
+    shift = timedelta(hours=10, minutes=31, seconds=38.4)  # 13:28:19.60 -> 23:59:58.00
+    lines = []
+    for raw in original.read_text().splitlines():
+        if raw.startswith("#") or not raw.strip():
+            continue
+        fields = raw[1 : raw.index("*")].split(",")
+        if fields[0][2:] in ("GGA", "RMC"):
+            t = datetime.strptime("180320" + fields[1], "%d%m%y%H%M%S.%f") + shift
+            fields[1] = f"{t:%H%M%S}.{t.microsecond // 10000:02d}"
+            if fields[0][2:] == "RMC":
+                fields[9] = f"{t:%d%m%y}"
+        lines.append(_checksummed(",".join(fields)))
+    shifted = tmp_path / "midnight.log"
+    shifted.write_bytes(b"".join(lines))
+    before, after = read_nmea_log(original), read_nmea_log(shifted)
+    assert (after.clock.jumps, after.clock.outliers) == (0, 0)
+    assert len(after.fixes) == len(before.fixes) == 122
+    assert {f.utc.date() for f in after.fixes} == {
+        datetime(2020, 3, 18).date(),
+        datetime(2020, 3, 19).date(),
+    }
+    for a, b in zip(after.fixes, before.fixes, strict=True):
+        assert (a.lat_deg, a.lon_deg, a.alt_msl_m) == (b.lat_deg, b.lon_deg, b.alt_msl_m)
+        assert a.utc - b.utc == shift and a.t_host_ns == b.t_host_ns
