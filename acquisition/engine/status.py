@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from snrmon.acquisition.measure.peak_snr import PeakSnr
+from snrmon.acquisition.measure.track_noise import RegionNoise3d
 from snrmon.drivers.device import DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
 
@@ -62,6 +63,10 @@ class CameraStatus:
     noise_total_dn: float = float("nan")
     noise_temporal_dn: float = float("nan")
     noise_spatial_dn: float = float("nan")
+    # 3D noise (D'Agostino and Webb, bias-corrected) of the background clear of the track over
+    # the last complete block of 100 frames, and its region (acquisition.measure.track_noise);
+    # None until a block is complete.
+    noise_3d: RegionNoise3d | None = None
 
 
 @dataclass(frozen=True, slots=True)

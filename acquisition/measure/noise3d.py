@@ -246,6 +246,7 @@ class Noise3dSums:
             chunk = cube[i : i + step]
             if self._offset is None:
                 self._offset = float(np.round(np.mean(chunk[0], dtype=np.float64)))
+            x: np.ndarray
             if exact:
                 x = chunk.astype(np.int64) - int(self._offset)
                 self._squares += int(np.einsum("ijk,ijk->", x, x))
