@@ -258,6 +258,12 @@ class Noise3dSums:
             self._image += x.sum(axis=0)
             self.frames += x.shape[0]
 
+    def mean_image(self) -> np.ndarray:
+        """D_t U: the temporal mean of every pixel of the frames added (V, H)."""
+        if self.frames == 0:
+            raise ValueError("no frames added")
+        return self._image / self.frames + (self._offset or 0.0)
+
     def result(self, confidence: float = CONFIDENCE) -> Noise3d:
         """The figures of the frames added (module docstring); at least 2 frames."""
         T, V, H = self.frames, self.rows, self.cols
