@@ -23,8 +23,8 @@ bias-corrected components of a background region over blocks of 100 consecutive 
 The region is the operator's clear-sky rectangle if there is one, else the largest rectangle of
 the frame clear of the tracked peak by ``CLEAR_MARGIN_PX``
 (:mod:`snrmon.acquisition.measure.background`; a full-width band above or below it, or a
-full-height band beside it), cropped to
-:data:`LIVE_MAX_PIXELS_3D` pixels nearest the target so that a 1280 x 720 frame costs ~0.3 ms.
+full-height band beside it), cropped to :data:`LIVE_MAX_PIXELS_3D` pixels nearest the target so
+that a 1280 x 720 frame costs ~0.7 ms (the full band: 3.5 ms).
 The region stays put while the target stays clear of it; when the target enters it (or the track
 is lost) the block restarts. The figure shown is that of the last complete block.
 """

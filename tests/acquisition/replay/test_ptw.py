@@ -98,3 +98,19 @@ def test_longer_foreign_and_contradicting_files_are_refused(tmp_path):
         load_stack(_variant(tmp_path, bytes(doubles), "doubles.ptw"))
     with pytest.raises(FileNotFoundError, match=r"nope\.ptw: no such file"):
         load_stack(tmp_path / "nope.ptw")
+
+
+def test_measure_and_replay_read_a_ptw_stack(capsys):
+    import json
+
+    from snrmon.cli import main
+
+    path = DATA / "PyradiSampleMWIR.ptw"
+    _, ref = reference_read(path)
+    assert main(["measure", str(path), "--at", "30,30", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["n"] == 100
+    for f in out["frames"]:
+        assert f["peak"] == ref[f["index"], f["peak_y"], f["peak_x"]]
+    assert main(["replay", str(path), "--at", "30,30", "--track", "off", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == out
