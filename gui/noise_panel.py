@@ -45,7 +45,7 @@ NOISE_3D_TIPS = {
 NOISE_3D_TIP = (
     "3D noise (D'Agostino and Webb), bias-corrected for the finite cube (Haefner and Burks), DN: "
     "raw pixels of the largest region clear of the tracked peak by 20 px (or the clear-sky "
-    "rectangle), at most 256 x 256 px nearest the target, over the last complete block of 100 "
+    "rectangle), at most 128 x 128 px nearest the target, over the last complete block of 100 "
     "frames (docs/measurement.md)"
 )
 REGION_TIP = (
