@@ -99,7 +99,7 @@ def test_bad_input_is_one_line_and_exit_2(session, tmp_path, capsys):
         ([mwir, "--stop", "0"], "--stop needs a session file"),
         ([str(session.path)], "choose one with --camera"),
         ([str(session.path), "--camera", "swir"], "--camera 'swir': the session holds"),
-        ([str(session.path), "--camera", "mwir", "--stop", "0"], "records stops none"),
+        ([str(session.path), "--camera", "mwir", "--stop", "0"], "records no stops (use --frames)"),
         ([str(tmp_path / "none.ptw")], "none.ptw does not exist"),
     ]
     for argv, message in cases:

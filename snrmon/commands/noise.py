@@ -197,10 +197,9 @@ def _session_noise(args: argparse.Namespace):
         if args.stop is not None:
             stops = {s.index: s for _, s in recorded_inputs(f).stops}
             if args.stop not in stops:
-                have = ", ".join(map(str, sorted(stops))) or "none"
-                raise UsageError(
-                    f"--stop {args.stop}: {Path(args.stack).name} records stops {have}"
-                )
+                have = ", ".join(map(str, sorted(stops)))
+                what = f"records stops {have}" if stops else "records no stops (use --frames)"
+                raise UsageError(f"--stop {args.stop}: {Path(args.stack).name} {what}")
             s = stops[args.stop]
             index, run = recorded_stop_run(cam, s.t_start_ns, s.t_end_ns)
             if index.size < 2:
