@@ -5,7 +5,6 @@ removed by solving the expectation equations), and the two real Cedip recordings
 from __future__ import annotations
 
 import math
-from itertools import product
 from pathlib import Path
 
 import numpy as np
@@ -186,7 +185,7 @@ def test_integer_and_float_pixels_agree_and_chunks_do_not_matter():
     from snrmon.acquisition.measure.noise3d import Noise3dSums
 
     sums = Noise3dSums(10, 9)
-    for i, j in product(range(0, 12, 5), [None]):
-        sums.add(cube[i : i + 5] if j is None else cube)
+    for i in range(0, 12, 5):  # chunks of 5, 5 and 2 frames
+        sums.add(cube[i : i + 5])
     c = sums.result()
     assert c.sigma_corrected == pytest.approx(a.sigma_corrected, rel=1e-12)
