@@ -91,7 +91,9 @@ class ModelPredictor:
     """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
     "large_corrected", "expected_eq4", "resolved_small"}`` for each camera's sensor preset and
     one target. ``predict_options`` go to :func:`snrmon.model.snr.predict` (``background_temp_k``,
-    ``air_temp_k``, ``atmosphere``, ``corrected_psf``...)."""
+    ``air_temp_k``, ``atmosphere``, ``corrected_psf``...). ``measured_noise``: per camera, its
+    measured 3D noise (:class:`snrmon.model.noise.MeasuredNoise`) in place of the model's noise
+    (the operator's "measured noise"); a camera not in it keeps the model's."""
 
     def __init__(
         self,
@@ -100,6 +102,7 @@ class ModelPredictor:
         *,
         ranges_m: np.ndarray | None = None,
         asynchronous: bool = False,
+        measured_noise: dict | None = None,
         **predict_options,
     ) -> None:
         from snrmon.model.presets import load_sensor, load_target
@@ -108,6 +111,7 @@ class ModelPredictor:
         self.target = load_target(target)
         self._predict = predict
         self._options = dict(predict_options)
+        self.measured_noise = dict(measured_noise or {})
         self.asynchronous = asynchronous
         self.sensors = {}
         self.background_temp_k: dict[str, float | None] = {}
@@ -178,6 +182,8 @@ class ModelPredictor:
         weather = self.weather.get(camera)
         if weather is not None:
             options["atmosphere"] = weather
+        if camera in self.measured_noise:
+            options["measured_noise"] = self.measured_noise[camera]
         if psf is not None:
             options["corrected_psf"] = psf
         p = self._predict(self.sensors[camera], self.target, self.ranges_m, **options)

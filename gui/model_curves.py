@@ -5,7 +5,7 @@ Two :class:`snrmon.acquisition.prediction.ModelPredictor` on the same sensors, t
 * ``own``: the model's own background temperature (or the operator's, from the model options);
   the session never touches it;
 * ``sky``: handed to the session (its stop table's model values) and set to each camera's
-  measured sky temperature (``CameraStatus.sky_temp_k``, with a calibration): the paper's
+  measured sky temperature (``CameraStatus.figures.sky_temp_k``, with a calibration): the paper's
   path-radiance correction (sections 8-9). The session follows the sky on it too; both apply
   the same value.
 

@@ -112,8 +112,11 @@ def draw_corrected(
     psf: Psf,
     spatial_noise,
     inputs: InputUncertainty,
+    measured_noise=None,
 ) -> McDraws:
-    """Monte-Carlo draws of the corrected (real PSF, square target) curves."""
+    """Monte-Carlo draws of the corrected (real PSF, square target) curves (with
+    ``measured_noise``, a :class:`snrmon.model.noise.MeasuredNoise`, the noise is the measured
+    one in every draw: the sky temperature no longer moves it)."""
     rng = np.random.default_rng(inputs.seed)
     n = inputs.samples
     z = rng.standard_normal((7, n + 1))
@@ -131,7 +134,9 @@ def draw_corrected(
     ln_tau = np.log(np.clip(c.transmission_contrast, 1e-300, 1.0))
     tau = np.exp(inputs.optical_depth * z[3][:, None] * ln_tau[None, :])
     intensity = c.intensity_e(t_tgt, t_air, t_sky, tau)  # (n, n_ranges)
-    noise = np.array([noise_breakdown(sensor, t, spatial_noise).total for t in t_sky])
+    noise = np.array(
+        [noise_breakdown(sensor, t, spatial_noise, measured_noise).total for t in t_sky]
+    )
     outline = np.sqrt(np.clip(1.0 + inputs.outline_area * z[4], 0.05, None))  # size factor
     wide = widened_psf(psf, ff, inputs.psf_pvf) if inputs.psf_pvf > 0 else psf
     pixel_m = c.ranges_m * sensor.ifov_rad  # the pixel footprint at each range

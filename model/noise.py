@@ -13,6 +13,13 @@ equals the specification at 300 K by construction.
 Spatial noise: none by default (the paper sets it to zero); an absolute value in electrons, a
 multiple "k x" of the temporal noise, or a clutter category from section 6 whose multiples are
 chosen from the paper's "two to three times" observation.
+
+Measured noise (:class:`MeasuredNoise`, the operator's choice): the camera's own 3D noise in DN
+replaces Eq. 1 and the spatial term in Eq. 3's denominator: temporal = sigma_tvh x gain, spatial
+= sigma_vh x gain (electrons per DN from the sensor). Once row, column and frame offsets are gone
+(as Eq. 4's rim removes them) a pixel's noise against the others of its frame is
+sqrt(sigma_tvh^2 + sigma_vh^2). The breakdown's background, lens, dark and read terms stay the
+model's Eq. 1 values, for comparison; they no longer add up to the temporal noise.
 """
 
 from __future__ import annotations
@@ -61,6 +68,27 @@ class NoiseBreakdown:
         }
 
 
+@dataclass(frozen=True)
+class MeasuredNoise:
+    """A camera's measured 3D noise in DN (bias-corrected): ``temporal_dn`` = sigma_tvh,
+    ``spatial_dn`` = sigma_vh (module docstring)."""
+
+    temporal_dn: float
+    spatial_dn: float
+
+    def __post_init__(self) -> None:
+        for name in ("temporal_dn", "spatial_dn"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"measured noise {name} must be >= 0 DN, got {v!r}")
+        if self.temporal_dn == 0 and self.spatial_dn == 0:
+            raise ValueError("measured noise of 0 DN: the SNR would be infinite")
+
+    @property
+    def total_dn(self) -> float:
+        return math.hypot(self.temporal_dn, self.spatial_dn)
+
+
 def bolometer_noise_e(sensor: Sensor) -> float:
     """NETD x responsivity at the NETD reference temperature (equivalent electrons)."""
     resp = extended_responsivity_e_per_k(sensor, sensor.netd_reference_temp_k)
@@ -68,9 +96,15 @@ def bolometer_noise_e(sensor: Sensor) -> float:
 
 
 def noise_breakdown(
-    sensor: Sensor, background_temp_k: float, spatial_noise: float | str | None = None
+    sensor: Sensor,
+    background_temp_k: float,
+    spatial_noise: float | str | None = None,
+    measured: MeasuredNoise | None = None,
 ) -> NoiseBreakdown:
-    """Eq. 1 components for a clear background at ``background_temp_k`` and the spatial term."""
+    """Eq. 1 components for a clear background at ``background_temp_k`` and the spatial term;
+    with ``measured``, its temporal and spatial noise in place of the model's."""
+    if measured is not None and spatial_noise is not None:
+        raise ValueError("give a spatial noise or a measured noise, not both")
     bg = math.sqrt(scene_electrons(sensor, background_temp_k) + cold_shield_electrons(sensor))
     lens = math.sqrt(lens_electrons(sensor))
     if sensor.detector == "photon":
@@ -82,6 +116,11 @@ def noise_breakdown(
         temporal = bolometer_noise_e(sensor)
         read = math.sqrt(max(temporal**2 - bg**2 - lens**2, 0.0))
         temporal = math.sqrt(bg**2 + lens**2 + read**2)
+    if measured is not None:
+        gain = sensor.gain_e_per_dn
+        return NoiseBreakdown(
+            bg, lens, dark, read, measured.temporal_dn * gain, measured.spatial_dn * gain
+        )
     return NoiseBreakdown(bg, lens, dark, read, temporal, spatial_noise_e(spatial_noise, temporal))
 
 

@@ -38,7 +38,7 @@ from snrmon.model.contrast import contrast
 from snrmon.model.eq4 import expected_eq4 as _expected_eq4
 from snrmon.model.footprint import average_pvf_square
 from snrmon.model.montecarlo import InputUncertainty, McDraws, draw_corrected
-from snrmon.model.noise import NoiseBreakdown, noise_breakdown
+from snrmon.model.noise import MeasuredNoise, NoiseBreakdown, noise_breakdown
 from snrmon.model.psf import Psf
 from snrmon.model.pvf import average_pvf, average_pvf_vs_target_sigma
 from snrmon.model.sensor import Sensor
@@ -238,6 +238,7 @@ def predict(
     background_temp_k: float | None = None,
     air_temp_k: float | None = None,
     spatial_noise: float | str | None = None,
+    measured_noise: MeasuredNoise | None = None,
     corrected_psf: Psf | None = None,
     geometry: str = "square",
     target_sigma_per_size: float = DEFAULT_TARGET_SIGMA_PER_SIZE,
@@ -254,6 +255,8 @@ def predict(
     transmission), an :class:`Atmosphere` or a file path. ``background_temp_k``: the measured sky
     temperature (the paper's path-radiance correction); ``air_temp_k``: the air along the path
     (default the atmosphere's). ``spatial_noise``: see :func:`snrmon.model.noise.spatial_noise_e`.
+    ``measured_noise``: the camera's measured 3D noise in place of Eq. 1 and the spatial term
+    (:class:`snrmon.model.noise.MeasuredNoise`; the operator's "measured noise").
     ``corrected_psf``: the real PSF (default the sensor's). ``expected``: compute the expected
     Eq. (4) reading, over the sub-pixel phases ``phases_xy`` (N, 2) that a stop's frames
     sampled if given (:func:`snrmon.model.eq4.expected_eq4`), else over the whole cell; ``band``:
@@ -273,7 +276,7 @@ def predict(
         sky_temp_k=background_temp_k,
         air_temp_k=air_temp_k,
     )
-    noise = noise_breakdown(sensor, c.sky_temp_k, spatial_noise)
+    noise = noise_breakdown(sensor, c.sky_temp_k, spatial_noise, measured_noise)
     denom = noise.total
     intensity = c.intensity_e()
     ext = intensity * sensor.fill_factor * sensor.ifov_rad**2
@@ -325,6 +328,7 @@ def predict(
             real,
             spatial_noise,
             inputs or InputUncertainty(),
+            measured_noise,
         )
         for name in ("small_corrected", "large_corrected"):
             lo, hi = draws.band(name)

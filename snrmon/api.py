@@ -429,13 +429,16 @@ def load_stack(path: str | Path) -> xr.DataArray:
     ----------
     path : str or os.PathLike
         ``.npy`` (N, H, W) or (H, W); a multi-page TIFF; PNG; a raw file with ``FILE.json``
-        beside it (``{"shape": [N, H, W], "dtype": "<u2"}``); a video (8-bit grey); and every
-        other format :mod:`snrmon.acquisition.replay.stack_io` reads.
+        beside it (``{"shape": [N, H, W], "dtype": "<u2"}``); a video (8-bit grey); a
+        Cedip/Altair ``.ptw`` radiometric recording; and every other format
+        :mod:`snrmon.acquisition.replay.stack_io` reads.
 
     Returns
     -------
     xarray.DataArray
-        Dimensions ``frame``, ``row``, ``col``; attribute ``source`` (the path).
+        Dimensions ``frame``, ``row``, ``col``; attributes ``source`` (the path) and, for a
+        ``.ptw`` recording, what its header says (``camera``, ``lens``,
+        ``integration_time_s``, ``frame_period_s``).
 
     Examples
     --------
@@ -448,12 +451,18 @@ def load_stack(path: str | Path) -> xr.DataArray:
     from snrmon.acquisition.replay.stack_io import load_stack as read
 
     stack = read(path)
-    return xr.DataArray(
-        stack,
-        dims=("frame", "row", "col"),
-        attrs={"source": str(path), "units": "DN"},
-        name="frames",
-    )
+    attrs: dict[str, Any] = {"source": str(path), "units": "DN"}
+    if Path(path).suffix.lower() == ".ptw":  # a radiometric camera's file names the camera
+        from snrmon.acquisition.replay.ptw import read_ptw_header
+
+        header = read_ptw_header(path)
+        attrs |= {
+            "camera": header.camera_name,
+            "lens": header.lens_name,
+            "integration_time_s": header.integration_time_s,
+            "frame_period_s": header.frame_period_s,
+        }
+    return xr.DataArray(stack, dims=("frame", "row", "col"), attrs=attrs, name="frames")
 
 
 def measure_stack(

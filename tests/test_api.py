@@ -132,3 +132,10 @@ def test_measure_and_track_a_stack_from_a_file(shared_data):
         )
     ]
     assert all(inside)
+
+
+def test_a_radiometric_recording_loads_with_its_header(shared_data):
+    mwir = snrmon.load_stack(shared_data / "pyradi" / "PyradiSampleMWIR.ptw")
+    assert mwir.sizes == {"frame": 100, "row": 64, "col": 69}
+    assert mwir.attrs["camera"] == "Jade"
+    assert (int(mwir.min()), int(mwir.max())) == (6106, 6462)  # as its provenance states

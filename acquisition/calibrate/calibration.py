@@ -163,6 +163,12 @@ class Calibration:
         """Apparent (brightness) temperature per pixel [K]."""
         return temperature_of(self.band_um, self.radiance(frame, window), self.qe_curve)
 
+    def pixels_temperature_k(self, values_dn, rows, cols) -> np.ndarray:
+        """Apparent temperature of raw values at (rows, cols), without touching the frame."""
+        v = np.asarray(values_dn, float)
+        lq = (v - self.offset_dn[rows, cols]) / self.responsivity[rows, cols]
+        return temperature_of(self.band_um, lq, self.qe_curve)
+
     def dn_per_k(self, temp_k: float) -> float:
         """Mean responsivity to scene temperature [DN/K] at ``temp_k``."""
         return self.mean_responsivity * radiance_dt_of(self.band_um, temp_k, self.qe_curve)

@@ -1,15 +1,22 @@
 """The quality of a radiometric calibration: residual non-uniformity, fit residual,
-bad pixels and the measured NETD, on the calibration's own captures or held-out ones."""
+bad pixels and the measured NETD, on the calibration's own captures or held-out ones.
+
+Each blackbody capture's 3D noise (:mod:`snrmon.acquisition.measure.noise3d`: raw frames, the
+whole frame, bias-corrected components with 95 % intervals) gives the NETD as infrared engineers
+quote it: sigma_tvh / SiTF, the SiTF [DN/K] being the mean responsivity at the blackbody's
+temperature. The per-pixel figure beside it (the median per-pixel temporal std over the SiTF)
+also holds the frame flicker and the row and column noise that change every frame."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from snrmon.acquisition.calibrate.calibration import BAD_NAMES, BlackbodyCapture, Calibration
+from snrmon.acquisition.measure.noise3d import noise_3d
 
 
 @dataclass(frozen=True)
@@ -25,6 +32,11 @@ class TemperatureQuality:
     dn_per_k: float
     netd_mk: float  # temporal noise / (dDN/dT): measured NETD
     apparent_temp_k: float  # median apparent temperature of the mean frame
+    sigma_tvh_dn: float = math.nan  # 3D noise: random spatio-temporal, bias-corrected
+    netd_tvh_mk: float = math.nan  # sigma_tvh / (dDN/dT): NETD from the 3D noise
+    netd_tvh_ci95_mk: tuple[float, float] = (math.nan, math.nan)
+    # the capture's 3D noise: frames, rows, cols, mean_dn, sigma_dn, sigma_corrected_dn, ci95_dn
+    noise_3d: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -68,6 +80,9 @@ def calibration_quality(
         dndk = cal.dn_per_k(c.temp_k)
         resid = math.sqrt(max(corr**2 - temporal**2, 0.0))
         t_app = float(np.median(cal.temperature_k(np.asarray(f, np.float32).mean(0))[good]))
+        cube = noise_3d(f)
+        tvh = cube.sigma_corrected["tvh"]
+        lo, hi = cube.ci95["tvh"]
         rows.append(
             TemperatureQuality(
                 float(c.temp_k),
@@ -79,6 +94,16 @@ def calibration_quality(
                 dndk,
                 1e3 * temporal / dndk,
                 t_app,
+                tvh,
+                1e3 * tvh / dndk,
+                (1e3 * lo / dndk, 1e3 * hi / dndk),
+                {
+                    "frames": cube.frames,
+                    "rows": cube.rows,
+                    "cols": cube.cols,
+                    "mean_dn": cube.mean,
+                    **cube.figures("dn"),
+                },
             )
         )
     counts = {name: int(np.count_nonzero(cal.bad & bit)) for bit, name in BAD_NAMES.items()}

@@ -12,7 +12,8 @@ Per frame (:meth:`CameraEngine.process`), in this order:
    (:class:`snrmon.acquisition.engine.frame_measurer.FrameMeasurer`) and, while a correction is on,
    the same track on the raw frame (the console reports the SNR with and without it, section 6);
 4. the section 6 noise figures of the raw pixels around the track
-   (:class:`snrmon.acquisition.measure.track_noise.TrackNoise`, a few times a second) and, with a
+   (:class:`snrmon.acquisition.measure.track_noise.TrackNoise`, a few times a second, and the 3D
+   noise of the background clear of it over blocks of 100 frames) and, with a
    radiometric calibration, the apparent sky temperature of the background (sections 8-9);
 5. the range at the frame's time, the :class:`~snrmon.acquisition.engine.inputs.Measurement`, the
    chart series and the published status.
@@ -338,7 +339,13 @@ class CameraEngine:
         sky = self.sky.mean_temp_k(last=SKY_FRAMES) if self.sky is not None else NAN
         c = self.corrector
         return AnalysisFigures(
-            c.reference_frames, c.fixed_pattern_dn, sky, total, temporal, spatial
+            c.reference_frames,
+            c.fixed_pattern_dn,
+            sky,
+            total,
+            temporal,
+            spatial,
+            self.noise.cube.latest,
         )
 
     def status(

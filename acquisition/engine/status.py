@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from snrmon.acquisition.engine.inputs import Measurement
+from snrmon.acquisition.measure.track_noise import RegionNoise3d
 from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.device import DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
@@ -56,6 +57,10 @@ class AnalysisFigures:
     noise_total_dn: float = math.nan
     noise_temporal_dn: float = math.nan
     noise_spatial_dn: float = math.nan
+    # 3D noise (D'Agostino and Webb, bias-corrected) of the background clear of the track over
+    # the last complete block of 100 frames, and its region (acquisition.measure.track_noise);
+    # None until a block is complete.
+    noise_3d: RegionNoise3d | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,6 +15,7 @@ per-frame path (N = 1) and the stack path run the very same reductions and agree
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -135,3 +136,86 @@ def _plane_fit(values: np.ndarray, dy: np.ndarray, dx: np.ndarray):
     gx = (dev * dxf).sum(axis=1) / sxx if sxx > 0 else np.zeros_like(mean)
     gy = (dev * dyf).sum(axis=1) / syy if syy > 0 else np.zeros_like(mean)
     return mean, dev, gx, gy, dxf, dyf
+
+
+CLEAR_MARGIN_PX = 20
+"""Pixels kept between the target's peak (plus half its segmented extent) and a background region
+meant to be clear of it: the drone's blur and its Eq. (4) box stay out (the half width of the
+section 6 noise square around the track)."""
+
+
+def target_box(
+    shape: tuple[int, int],
+    points_xy,
+    *,
+    margin_px: int = CLEAR_MARGIN_PX,
+    half_extent_px: int = 0,
+) -> Rect:
+    """The inclusive rectangle holding every ``(x, y)`` of ``points_xy`` widened by
+    ``margin_px + half_extent_px`` on each side, clipped to an image of ``shape`` (rows,
+    columns): where the target was."""
+    pts = np.asarray(points_xy, dtype=np.int64).reshape(-1, 2)
+    if pts.size == 0:
+        raise ValueError("a target box needs at least one position")
+    pad = int(margin_px) + int(half_extent_px)
+    rows, cols = shape
+    x0, y0 = pts.min(axis=0) - pad
+    x1, y1 = pts.max(axis=0) + pad
+    return (max(int(x0), 0), max(int(y0), 0), min(int(x1), cols - 1), min(int(y1), rows - 1))
+
+
+def clear_region(
+    shape: tuple[int, int],
+    exclude: Rect,
+    *,
+    min_side: int = 2,
+    max_pixels: int | None = None,
+) -> Rect | None:
+    """The largest rectangle of an image of ``shape`` (rows, columns) that holds no pixel of
+    ``exclude``: the largest of the full-width bands above and below it and the full-height
+    bands left and right of it (any rectangle clear of ``exclude`` lies in one of them, so none
+    is larger). Ties: above, below, left, right. None when no band is ``min_side`` pixels in
+    both directions.
+
+    ``max_pixels``: crop the band to at most that many pixels, keeping the part nearest the
+    target (the rows or columns next to ``exclude``, centred on it across the band)."""
+    rows, cols = shape
+    x0, y0, x1, y1 = exclude
+    bands = [
+        (0, 0, cols - 1, y0 - 1),  # above
+        (0, y1 + 1, cols - 1, rows - 1),  # below
+        (0, 0, x0 - 1, rows - 1),  # left
+        (x1 + 1, 0, cols - 1, rows - 1),  # right
+    ]
+
+    def size(r: Rect) -> tuple[int, int]:
+        return r[2] - r[0] + 1, r[3] - r[1] + 1
+
+    usable = [b for b in bands if min(size(b)) >= min_side]
+    if not usable:
+        return None
+    best = max(usable, key=lambda b: size(b)[0] * size(b)[1])  # max keeps the first of ties
+    w, h = size(best)
+    if max_pixels is None or w * h <= max_pixels:
+        return best
+    # the shorter side whole up to a square's, the longer as far as the budget allows
+    side = max(min_side, math.isqrt(max_pixels))
+    if h <= w:
+        keep_h = min(h, side)
+        keep_w = min(w, max(min_side, max_pixels // keep_h))
+    else:
+        keep_w = min(w, side)
+        keep_h = min(h, max(min_side, max_pixels // keep_w))
+    index = bands.index(best)
+    if index < 2:  # above or below: the rows next to the target, the columns centred on it
+        left = min(max((x0 + x1) // 2 - keep_w // 2, 0), cols - keep_w)
+        top = best[3] - keep_h + 1 if index == 0 else best[1]
+    else:  # left or right: the columns next to the target, the rows centred on it
+        top = min(max((y0 + y1) // 2 - keep_h // 2, 0), rows - keep_h)
+        left = best[2] - keep_w + 1 if index == 2 else best[0]
+    return (left, top, left + keep_w - 1, top + keep_h - 1)
+
+
+def overlaps(a: Rect, b: Rect) -> bool:
+    """Whether two inclusive rectangles share a pixel."""
+    return not (a[2] < b[0] or b[2] < a[0] or a[3] < b[1] or b[3] < a[1])

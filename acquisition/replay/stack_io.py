@@ -15,6 +15,9 @@ Sources (chosen by the file name's suffix):
   ``shape`` and ``dtype`` (a numpy name: uint8, uint16, int16, uint32, int32, float32, float64)
   are required; ``byte_order`` is "little" (default) or "big"; ``fps`` is informational. Frames
   are C-ordered, rows then columns, no header; the file size must match exactly.
+* ``.ptw``: an Altair/ResearchIR radiometric recording (Cedip, FLIR): 16-bit frames as written,
+  memory-mapped past each frame header (:mod:`snrmon.acquisition.replay.ptw`; rows, columns and
+  frame count from its header, which is checked against the file).
 * video (``.mp4 .avi .mkv .mov .mpg .mpeg .wmv .m4v``) through OpenCV: 8-bit frames (the camera's
   AGC'd output, not radiometric counts), first channel of each.
 
@@ -30,6 +33,8 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+
+from snrmon.acquisition.replay.ptw import load_ptw
 
 VIDEO_SUFFIXES = frozenset({".mp4", ".avi", ".mkv", ".mov", ".mpg", ".mpeg", ".wmv", ".m4v"})
 RAW_DTYPES = frozenset({"uint8", "uint16", "int16", "uint32", "int32", "float32", "float64"})
@@ -97,7 +102,7 @@ def _raw_descriptor(path: Path) -> tuple[Path, tuple[int, int, int], np.dtype]:
 
 def _is_raw(path: Path) -> bool:
     _, desc = _raw_paths(path)
-    return desc.is_file() and path.suffix not in (".npy", ".tif", ".tiff", ".png")
+    return desc.is_file() and path.suffix not in (".npy", ".tif", ".tiff", ".png", ".ptw")
 
 
 def _open_video(path: Path) -> cv2.VideoCapture:
@@ -203,7 +208,7 @@ def _load_tiff(path: Path) -> np.ndarray:
 
 def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
     """Frames (H, W) of a stack file one by one, without loading the whole file where the
-    format allows (npy and raw are memory-mapped, TIFF read page by page, video decoded)."""
+    format allows (npy, raw and PTW are memory-mapped, TIFF read page by page, video decoded)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in VIDEO_SUFFIXES:
@@ -243,6 +248,8 @@ def load_stack(path: str | Path) -> np.ndarray:
         return _as_stack(array, path)
     if suffix in (".tif", ".tiff"):
         return _as_stack(_load_tiff(path), path)
+    if suffix == ".ptw":
+        return _as_stack(load_ptw(path)[0], path)
     if suffix == ".png":
         image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         if image is None:
@@ -255,5 +262,5 @@ def load_stack(path: str | Path) -> np.ndarray:
         return _as_stack(np.stack(frames), path)
     raise ValueError(
         f"{path}: unknown stack format {suffix or '(no suffix)'!r}; expected .npy, .tif/.tiff, "
-        f".png, a video, or a raw file with {path.name}.json beside it"
+        f".ptw, .png, a video, or a raw file with {path.name}.json beside it"
     )

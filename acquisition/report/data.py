@@ -14,6 +14,12 @@ table's own rows and the frames each summarised are used as measured.
   session's sensor and target at each stop's range, term by term, for the small dimension.
 - The CSV rows (:mod:`snrmon.acquisition.report.stop_csv`): one per stop and camera, with the ratio
   of the measured SNR mean to each model curve at the stop's range.
+- The 3D noise table: per stop and camera, the 3D noise of the background clear of the target
+  over the stop's summary frames (:mod:`snrmon.acquisition.replay.stop_noise`), and per camera
+  the root mean square over its stops. With ``noise="measured"`` (the operator's "measured
+  noise") each camera's sigma_tvh and sigma_vh from that table replace the model's noise
+  (:class:`snrmon.model.noise.MeasuredNoise`) in the stop rows' model values and the curves:
+  the session is replayed a second time with that model.
 
 The sensors are the session's ``[cameras.<name>] sensor`` presets and the target is the
 session's ``target`` unless one is given.
@@ -32,10 +38,15 @@ from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.prediction import CURVES, ModelPredictor, session_model_options
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.replay.batch import ReplayResult, replay_session
+from snrmon.acquisition.replay.stop_noise import StopNoise, stop_noise
 from snrmon.acquisition.report.stop_csv import csv_rows
 from snrmon.acquisition.stops.detector import summarise_stop
 from snrmon.acquisition.stops.table import StopRow, StopTable
 from snrmon.model.atmosphere_table import Weather
+
+NOISE_SOURCES = ("model", "measured")
+"""Where the model's noise comes from: its own Eq. 1 (and spatial term), or the camera's 3D noise
+measured on the session's stops."""
 
 BUDGET_TERMS: tuple[str, ...] = (
     "target_outline",
@@ -127,6 +138,9 @@ class ReportData:
     references: list = field(default_factory=list)  # comparison.Reference
     detections: dict = field(default_factory=dict)  # camera -> comparison.DetectionSummary
     weather: Weather | None = None  # the met readings the model's curves used
+    noise_3d: list[StopNoise] = field(default_factory=list)  # per stop and camera (from a file)
+    # camera -> model.noise.MeasuredNoise the model's values used; empty: the model's own noise
+    measured_noise: dict = field(default_factory=dict)
 
 
 def session_weather(path: str | Path) -> tuple[Weather | None, Weather | None]:
@@ -365,14 +379,61 @@ def _zero() -> dict:
     }
 
 
+def stops_noise(path: str | Path, replay: ReplayResult, n: int = 100) -> list[StopNoise]:
+    """The 3D noise of every stop row's background (module docstring), from the replay's
+    measurements and the file's frames; rows without a valid frame or a clear region left out."""
+    out = []
+    with open_session(path) as f:
+        times = {name: c.t_host_ns for name, c in replay.cameras.items()}
+        for row in replay.stops:
+            cam, rec = replay.cameras.get(row.camera), f.cameras.get(row.camera)
+            if cam is None or rec is None:
+                continue
+            t = times[row.camera]
+            lo = bisect.bisect_left(t, row.t_start_ns)
+            hi = len(t) if row.t_end_ns is None else bisect.bisect_left(t, row.t_end_ns)
+            ms = cam.tally.measurements[lo:hi]
+            got = stop_noise(rec, row.stop, row.range_m, [m.result for m in ms], t[lo:hi], n=n)
+            if got is not None:
+                out.append(got)
+    return out
+
+
+def camera_noise(table: list[StopNoise]) -> dict[str, dict[str, float]]:
+    """Per camera, the root mean square over its stops of each bias-corrected figure (DN)."""
+    from snrmon.acquisition.measure.noise3d import pooled
+
+    cameras = dict.fromkeys(s.camera for s in table)
+    return {c: pooled(s.noise for s in table if s.camera == c) for c in cameras}
+
+
+def measured_noise(table: list[StopNoise], cameras) -> dict:
+    """{camera: model.noise.MeasuredNoise} from :func:`camera_noise`; a camera none of whose
+    stops has a clear background is bad input (ValueError naming it)."""
+    from snrmon.model.noise import MeasuredNoise
+
+    pooled = camera_noise(table)
+    missing = [c for c in cameras if c not in pooled]
+    if missing:
+        raise ValueError(
+            f"measured noise: no stop of camera {missing[0]!r} has a background clear of the "
+            "target to measure (the model's noise is needed)"
+        )
+    return {c: MeasuredNoise(pooled[c]["tvh"], pooled[c]["vh"]) for c in cameras}
+
+
 def report_data(
     path: str | Path,
     *,
     target: str | None = None,
     frames_per_stop: int = 100,
     progress: Callable[[int, int], None] | None = None,
+    noise: str = "model",
 ) -> ReportData:
-    """Replay the session (every frame through the live measurement) and compute the report."""
+    """Replay the session (every frame through the live measurement) and compute the report;
+    ``noise`` "measured" replays it again with the cameras' measured noise in the model."""
+    if noise not in NOISE_SOURCES:
+        raise ValueError(f"noise must be one of {', '.join(NOISE_SOURCES)}, got {noise!r}")
     path = Path(path)
     sensors, target_name = session_models(path, target)
     first, last = session_weather(path)
@@ -380,6 +441,12 @@ def report_data(
     # session recorded at the times it recorded them; the figures use the last ones
     predictor = ModelPredictor(sensors, target_name, **session_model_options(first))
     replay = replay_session(path, predictor=predictor, progress=progress)
+    table = stops_noise(path, replay, frames_per_stop)
+    measured = {}
+    if noise == "measured":
+        measured = measured_noise(table, sensors)
+        predictor = ModelPredictor(sensors, target_name, measured_noise=measured)
+        replay = replay_session(path, predictor=predictor, progress=progress)
     rows = replay.stops
     return assemble_report(
         path,
@@ -390,6 +457,8 @@ def report_data(
         seconds=replay.recording_seconds,
         replay_seconds=replay.seconds,
         weather=last,
+        noise_3d=table,
+        measured_noise=measured,
     )
 
 
@@ -427,10 +496,14 @@ def assemble_report(
     seconds: float,
     replay_seconds: float | None = None,
     weather: Weather | None = None,
+    noise_3d: list[StopNoise] | None = None,
+    measured_noise: dict | None = None,
 ) -> ReportData:
     """Figs. 7-10 and 12 and the CSV for measured stop rows: the model at the sensors' presets
     and the target, through the session's met readings ``weather`` (None: the model's default
-    atmosphere), over a range grid that holds every stop."""
+    atmosphere) and with each camera's ``measured_noise`` where given, over a range grid that
+    holds every stop."""
+    measured = dict(measured_noise or {})
     stop_ranges = [r.range_m for r in rows if r.range_m is not None]
     grid = model_range_grid(stop_ranges)
     cameras = list(dict.fromkeys([*sensors, *(r.camera for r in rows)]))
@@ -457,6 +530,8 @@ def assemble_report(
         extra = {} if psf is None else {"corrected_psf": psf}
         if weather is not None:
             extra["atmosphere"] = weather
+        if c in measured:
+            extra["measured_noise"] = measured[c]
         models[c] = model_curves(
             c, sensors[c], target, grid, background_temp_k=rows_sky_k(rows, c), **extra
         )
@@ -481,4 +556,6 @@ def assemble_report(
             for c in cameras
         },
         weather=weather,
+        noise_3d=list(noise_3d or []),
+        measured_noise=measured,
     )

@@ -3,14 +3,17 @@
 Pages, in order (all 8.5 x 11 in):
 
 1. summary: session, target, sensors and the stop table (the CSV's numbers, rounded);
-2. Figs. 7-10: per camera, measured peak SNR (mean, error bar = the error of the mean with
+2. the 3D noise of each stop's background per camera (bias-corrected components, the 95 %
+   interval of sigma_tvh, sqrt(sigma_tvh^2 + sigma_vh^2)) and per camera over its stops, and
+   which noise the model's values use (its own, or the measured one);
+3. Figs. 7-10: per camera, measured peak SNR (mean, error bar = the error of the mean with
    the frames' autocorrelation) against range over the model's continuous curves (small/large x
    uncorrected solid / corrected dashed), their Monte-Carlo band, the expected Eq. (4) reading,
    the paper's switched curves dotted (``paper_curves``), the D = 1 px ranges as dotted
    verticals and the chi^2/dof of the unresolved stops against each curve; two cameras a page;
-3. the paper's reference numbers beside ours with the reasons, and Pd versus range;
-4. Fig. 12: the uncertainty budget per camera, term by term, at each stop's range;
-5. Fig. 6: per stop, one column per camera, rows peak value, background mean, background std,
+4. the paper's reference numbers beside ours with the reasons, and Pd versus range;
+5. Fig. 12: the uncertainty budget per camera, term by term, at each stop's range;
+6. Fig. 6: per stop, one column per camera, rows peak value, background mean, background std,
    peak SNR over the stop's 100 frames.
 
 ``.pdf`` writes every page into one file (``PdfPages``). ``.png`` writes ONE tall image: the
@@ -113,6 +116,79 @@ def summary_page(data: ReportData):
         max_rows=40,
         fontsize=6.5,
         more="more rows in the CSV",
+        empty=empty,
+    )
+    return fig
+
+
+NOISE_3D = ("t", "v", "h", "tv", "th", "vh", "tvh", "total")
+
+
+def noise_page(data: ReportData):
+    """The 3D noise table (module docstring, page 2)."""
+    from snrmon.acquisition.report.data import camera_noise
+
+    fig = _figure()
+    fig.text(0.06, 0.96, "3D noise of the background (DN)", fontsize=14, weight="bold")
+    if data.measured_noise:
+        source = ["the model's noise is the MEASURED one (each camera's, all stops):"] + [
+            f"    {c}: sigma_tvh {m.temporal_dn:.3f} DN, sigma_vh {m.spatial_dn:.3f} DN, "
+            f"together {m.total_dn:.3f} DN"
+            for c, m in data.measured_noise.items()
+        ]
+    else:
+        source = ["the model's noise is its own (Eq. 1 and its spatial term), not these"]
+    lines = [
+        "D'Agostino and Webb's seven components of each stop's background, bias-corrected for "
+        "the finite cube (Haefner",
+        "and Burks): the stop's summary frames (its SNR's), the largest region clear of every "
+        "peak by 20 px, raw pixels.",
+        "pix = sqrt(tvh^2 + vh^2): a pixel's noise against its frame once row, column and frame "
+        "offsets are gone (Eq. 4's rim).",
+        "all stops: the root mean square over the camera's stops. docs/measurement.md gives the "
+        "formulas.",
+        *source,
+    ]
+    for i, line in enumerate(lines):
+        fig.text(0.06, 0.925 - 0.022 * i, line, fontsize=8)
+    head = ["stop", "camera", "range m", "frames", "region", *NOISE_3D, "tvh 95 %", "pix"]
+    cells = []
+    for s in data.noise_3d:
+        n = s.noise
+        lo, hi = n.ci95["tvh"]
+        cells.append(
+            [
+                str(s.stop),
+                s.camera,
+                _fmt(s.range_m, ".1f"),
+                str(n.frames),
+                f"{n.cols}x{n.rows}",
+                *(_fmt(n.sigma_corrected[k], ".3f") for k in NOISE_3D),
+                f"{lo:.3f}-{hi:.3f}",
+                _fmt(n.peak_pixel_noise, ".3f"),
+            ]
+        )
+    for cam, figures in camera_noise(data.noise_3d).items():
+        pix = math.hypot(figures["tvh"], figures["vh"])
+        stops = sum(1 for s in data.noise_3d if s.camera == cam)
+        cells.append(
+            ["all", cam, "-", f"{stops} stops", "-"]
+            + [_fmt(figures[k], ".3f") for k in NOISE_3D]
+            + ["-", _fmt(pix, ".3f")]
+        )
+    empty = (
+        "no stop with a background clear of the target"
+        if data.replay_seconds is not None
+        else "a live report holds no frames: the 3D noise is in the report of the recording"
+    )
+    draw_table(
+        fig,
+        (0.02, 0.05, 0.96, 0.9 - 0.022 * len(lines)),
+        head,
+        cells,
+        max_rows=44,
+        fontsize=5.5,
+        more="more rows",
         empty=empty,
     )
     return fig
@@ -338,6 +414,7 @@ def series_pages(data: ReportData) -> Iterator:
 def report_pages(data: ReportData, paper_curves: bool = True) -> Iterator:
     """Every page of the report as a matplotlib Figure, in order."""
     yield summary_page(data)
+    yield noise_page(data)
     yield from snr_range_pages(data, paper_curves)
     yield reference_page(data)
     yield budget_page(data)

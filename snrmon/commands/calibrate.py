@@ -5,8 +5,11 @@
 Each ``--blackbody`` is a stack file (any format of ``acquisition.replay.stack_io.load_stack``) and
 the
 blackbody temperature in degrees C. Writes CAL.npz and CAL.toml and prints the quality report
-(residual non-uniformity in DN and mK, fit residual, measured NETD beside Table 1's). With
-``--json`` the report is the JSON of ``CalibrationQuality.as_dict()`` plus ``"file"``.
+(residual non-uniformity in DN and mK, fit residual, measured NETD beside Table 1's) and each
+capture's 3D noise (bias-corrected components with 95 % intervals) with the NETD from its
+sigma_tvh. With ``--json`` the report is the JSON of ``CalibrationQuality.as_dict()`` plus
+``"file"`` (per temperature ``sigma_tvh_dn``, ``netd_tvh_mk``, ``netd_tvh_ci95_mk`` and
+``noise_3d``, the fields of ``snrmon noise --json``).
 """
 
 from __future__ import annotations
@@ -77,12 +80,27 @@ def run(args: argparse.Namespace) -> int:
         f"{q.bad_counts['hot']}, noisy {q.bad_counts['noisy']}); fit residual median "
         f"{q.fit_rms_median_dn:.2f} DN, max {q.fit_rms_max_dn:.2f} DN"
     )
-    print(" T [C]   raw FPN  corrected  temporal  residual     residual  NETD meas  Table 1")
-    print("          [DN]      [DN]       [DN]      [DN]         [mK]       [mK]      [mK]")
+    print(
+        " T [C]   raw FPN  corrected  temporal  residual     residual  NETD meas  sigma_tvh  "
+        "NETD tvh  Table 1"
+    )
+    print(
+        "          [DN]      [DN]       [DN]      [DN]         [mK]       [mK]       [DN]  "
+        "    [mK]     [mK]"
+    )
     for r in q.temperatures:
         print(
             f"{r.temp_k - ZERO_C_K:6.2f} {r.raw_spatial_dn:9.2f} {r.corrected_spatial_dn:10.2f} "
             f"{r.temporal_noise_dn:9.2f} {r.residual_fpn_dn:9.2f} {r.residual_fpn_mk:12.1f} "
-            f"{r.netd_mk:10.1f} {q.netd_table_mk:9.1f}"
+            f"{r.netd_mk:10.1f} {r.sigma_tvh_dn:10.3f} {r.netd_tvh_mk:9.1f} "
+            f"{q.netd_table_mk:8.1f}"
         )
+    comps = ("t", "v", "h", "tv", "th", "vh", "tvh", "total")
+    print("3D noise of the blackbody frames, bias-corrected [DN] (95 % interval of sigma_tvh):")
+    print(" T [C]  frames " + " ".join(f"{c:>7}" for c in comps))
+    for r in q.temperatures:
+        n = r.noise_3d
+        lo, hi = n["ci95_dn"]["tvh"]
+        values = " ".join(f"{n['sigma_corrected_dn'][c]:7.3f}" for c in comps)
+        print(f"{r.temp_k - ZERO_C_K:6.2f} {n['frames']:7d} {values}  ({lo:.3f}-{hi:.3f})")
     return 0

@@ -20,8 +20,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "file",
         metavar="FILE",
-        help="a snrmon session file (.h5), or another tool's recording (multi-page TIFF, raw "
-        "file with FILE.json, video, .npy) measured from --at",
+        help="a snrmon session file (.h5), or another tool's recording (multi-page TIFF, .ptw, "
+        "raw file with FILE.json, video, .npy) measured from --at",
     )
     p.add_argument(
         "--at",

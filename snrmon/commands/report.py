@@ -25,6 +25,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--csv", metavar="TABLE.csv", help="also write the stop table as CSV")
     p.add_argument("--target", metavar="T", help="target preset or TOML (default: the session's)")
     p.add_argument(
+        "--noise",
+        choices=("model", "measured"),
+        default="model",
+        help="the model's noise: its own (Eq. 1, default) or each camera's 3D noise measured "
+        "on the stops' backgrounds, sqrt(sigma_tvh^2 + sigma_vh^2) (replays the session twice)",
+    )
+    p.add_argument(
         "--no-paper-curves",
         action="store_true",
         help="leave out the paper's switched resolved/unresolved curves",
@@ -42,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     if args.csv:
         output_file(args.csv, "--csv", suffixes=(".csv",))
     with frame_progress("replay") as progress:  # a bar on a terminal only
-        data = report_data(src, target=args.target, progress=progress)
+        data = report_data(src, target=args.target, progress=progress, noise=args.noise)
     render_report(data, out, paper_curves=not args.no_paper_curves)
     print(f"report: {out} ({len(data.rows)} stop rows)", file=sys.stderr)
     if args.csv:

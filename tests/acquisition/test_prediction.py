@@ -25,6 +25,17 @@ def test_lookup_has_the_four_curves_and_the_expected_reading():
     assert set(PAPER_CURVES) <= set(curves) and f"{EXPECTED} band" in curves
 
 
+def test_measured_noise_is_per_camera():
+    from snrmon.model.noise import MeasuredNoise
+
+    noise = MeasuredNoise(temporal_dn=4.0, spatial_dn=3.0)
+    p = ModelPredictor({"mwir": "mwir", "lwir": "lwir"}, "uav1", measured_noise={"mwir": noise})
+    own = ModelPredictor({"lwir": "lwir"}, "uav1")
+    mw = predict(load_sensor("mwir"), load_target("uav1"), [451.0], measured_noise=noise)
+    assert p("mwir", 451.0)["small_corrected"] == pytest.approx(mw.snr_small_corrected[0], 2e-3)
+    assert p("lwir", 451.0) == own("lwir", 451.0)  # no measured noise given: the model's
+
+
 def test_a_measured_psf_replaces_the_presets_and_asynchronous_recompute():
     p = ModelPredictor({"mwir": "mwir"}, "uav1", asynchronous=True)
     before = p("mwir", 451.0)["small_corrected"]

@@ -2,7 +2,7 @@
 
 The curves drawn must be ModelPredictor's own numbers for the chosen target, curves and
 background; a bad background temperature is refused with a message and changes nothing; the
-noise panel shows the processing side's section 6 figures.
+noise panel shows the processing side's section 6 figures and 3D noise.
 """
 
 from __future__ import annotations
@@ -129,7 +129,7 @@ def test_a_measured_sky_adds_the_curves_at_that_background(window, monkeypatch):
     assert "large @ sky 255.0 K" in plot.curve_items
 
 
-def test_noise_panel_shows_the_rendered_temporal_noise(qtbot, window):
+def test_noise_panel_shows_the_rendered_noise_split_and_3d(qtbot, window):
     window.set_roi("mwir", SPOT_X, SPOT_Y)
     label = window.noise_panel.labels[("mwir", "noise_temporal_dn")]
     qtbot.waitUntil(lambda: label.text() != "--", timeout=10_000)
@@ -139,6 +139,21 @@ def test_noise_panel_shows_the_rendered_temporal_noise(qtbot, window):
     # no pattern: total^2 - temporal^2 is noise of ~3 DN^2 (1 sigma) around 0; 16 DN^2 is 5 sigma
     assert spatial < 0.5 * NOISE_DN
     assert "sqrt(2)" in label.toolTip() and "DN" in label.toolTip()
+
+    # beside it, the 3D noise of the background clear of the drone
+    label = window.noise_panel.labels[("mwir", "noise_3d_tvh")]
+    qtbot.waitUntil(lambda: label.text() != "--", timeout=15_000)
+    st = window.session.status().cameras["mwir"].figures.noise_3d
+    # the largest band clear of the spot by 20 px: the 80 columns left of it, full height
+    assert st.region == (0, 0, SPOT_X - 21, H - 1)
+    assert (st.noise.frames, st.noise.rows, st.noise.cols) == (100, H, SPOT_X - 20)
+    # independent white noise of 8 DN, rounded: sigma_tvh = sqrt(64 + 1/12) DN; the interval
+    # standard error over ~1e6 degrees of freedom is 0.07 %: 1 % is far outside chance
+    tvh = float(label.text())
+    assert tvh == pytest.approx((NOISE_DN**2 + 1 / 12) ** 0.5, rel=0.01)
+    for comp in ("t", "v", "h", "tv", "th", "vh"):  # none rendered: each within noise of 0
+        assert float(window.noise_panel.labels[("mwir", f"noise_3d_{comp}")].text()) < 0.3
+    assert "95 % interval" in label.toolTip() and "100 frames" in label.toolTip()
 
 
 def test_model_options_are_remembered_for_the_next_start(qtbot, window):

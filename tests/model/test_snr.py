@@ -1,6 +1,8 @@
 """Eqs. 2-3, the paper's resolved/unresolved rule and its switched curves, the continuous
 square-target curves, the band, and the hooks the scene simulator uses."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -140,3 +142,40 @@ def test_to_records_shape_and_bad_ranges():
     assert recs[0]["pvf"]["small"] is None and recs[1]["pvf"]["small"] > 0.3
     with pytest.raises(ValueError, match="range"):
         predict(MW, UAV1, [100.0, -5.0])
+
+
+def test_measured_noise_replaces_the_models_in_eq3():
+    """The operator's "measured noise": Eq. 3's denominator is the camera's sigma_tvh and
+    sigma_vh (DN) times the sensor's gain; every curve scales by the ratio of the noises."""
+    from snrmon.model.noise import MeasuredNoise, noise_breakdown
+
+    sensor, target = load_sensor("mwir"), load_target("uav1")
+    ranges = [60.0, 150.0, 400.0]
+    own = predict(sensor, target, ranges, band=False, expected=False)
+    measured = MeasuredNoise(temporal_dn=3.0, spatial_dn=4.0)  # 5 DN in quadrature
+    p = predict(sensor, target, ranges, measured_noise=measured, band=False, expected=False)
+    g = sensor.gain_e_per_dn
+    assert (p.noise.temporal, p.noise.spatial) == (3.0 * g, 4.0 * g)
+    assert p.noise.total == pytest.approx(5.0 * g)
+    assert p.noise.background == own.noise.background  # Eq. 1's terms stay, for comparison
+    for curve in ("small", "large", "small_corrected", "large_corrected"):
+        np.testing.assert_allclose(
+            p.snr(curve), own.snr(curve) * own.noise.total / (5.0 * g), rtol=1e-12
+        )
+    # the Monte-Carlo band draws the sky, but the measured noise is the same in every draw:
+    # twice the noise halves the whole band
+    banded = predict(sensor, target, ranges, measured_noise=measured, expected=False)
+    double = predict(sensor, target, ranges, measured_noise=MeasuredNoise(6.0, 8.0), expected=False)
+    for edge in ("lower", "upper"):
+        np.testing.assert_allclose(
+            getattr(double, edge)["small_corrected"],
+            getattr(banded, edge)["small_corrected"] / 2,
+            rtol=1e-12,
+        )
+    with pytest.raises(ValueError, match="spatial noise or a measured noise, not both"):
+        noise_breakdown(sensor, 280.0, "medium", measured)
+    for bad in (-1.0, math.nan):
+        with pytest.raises(ValueError, match="temporal_dn must be >= 0 DN"):
+            MeasuredNoise(bad, 1.0)
+    with pytest.raises(ValueError, match="0 DN"):
+        MeasuredNoise(0.0, 0.0)

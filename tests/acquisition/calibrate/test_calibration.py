@@ -185,5 +185,63 @@ def test_snrmon_calibrate_writes_the_file_and_reports(cam, tmp_path, capsys):
     assert out.is_file() and (tmp_path / "cal.toml").is_file()
     assert report["netd_table_mk"] == 41.0
     assert [round(r["temp_k"], 2) for r in report["temperatures"]] == [288.15, 313.15]
+    for r in report["temperatures"]:  # each capture's 3D noise and the NETD from sigma_tvh
+        assert set(r["noise_3d"]) == {
+            "frames",
+            "rows",
+            "cols",
+            "mean_dn",
+            "sigma_dn",
+            "sigma_corrected_dn",
+            "ci95_dn",
+        }
+        assert r["netd_tvh_mk"] == pytest.approx(1e3 * r["sigma_tvh_dn"] / r["dn_per_k"])
+    assert main([*argv[:-1], *bb]) == 0  # the table
+    assert "NETD tvh" in capsys.readouterr().out
     assert main([*argv, *bb[:2]]) != 0
     assert ">= 2 distinct temperatures" in capsys.readouterr().err
+
+
+def test_blackbody_3d_noise_and_the_netd_from_sigma_tvh(cam, cal, captures):
+    q = calibration_quality(cal, captures)
+    c = cam.config
+    for r, cap in zip(q.temperatures, captures, strict=True):
+        # the rendered temporal noise (sim: sqrt(floor^2 + electrons) / gain, white in t, v, h)
+        # and the rounding to integers (1/12 DN^2) are sigma_tvh; 32 x 96 x 128 frames pin it
+        # to 0.3 % (95 %), the 2 % here leaves room for the per-pixel gain map's spread
+        e = cam.electrons(cap.temp_k)
+        rendered = float(np.sqrt((c.floor_noise_e**2 + e) / c.gain_e_per_dn**2 + 1 / 12))
+        assert r.sigma_tvh_dn == pytest.approx(rendered, rel=0.02)
+        lo, hi = r.noise_3d["ci95_dn"]["tvh"]
+        assert lo < r.sigma_tvh_dn < hi and hi - lo < 0.01 * r.sigma_tvh_dn
+        assert r.netd_tvh_mk == pytest.approx(1e3 * r.sigma_tvh_dn / cal.dn_per_k(cap.temp_k))
+        # sigma_vh is the camera's fixed pattern (offset and gain maps) at this level: the
+        # pixel-to-pixel part of the noiseless image (0.7 % standard error here, 3 % allowed)
+        static = cam.fpn.offset_dn + cam.fpn.gain * e / c.gain_e_per_dn
+        vh = static - static.mean(0) - static.mean(1, keepdims=True) + static.mean()
+        pattern = float(np.sqrt(np.sum(vh**2) / ((cam.shape[0] - 1) * (cam.shape[1] - 1))))
+        assert r.noise_3d["sigma_corrected_dn"]["vh"] == pytest.approx(pattern, rel=0.03)
+        assert r.noise_3d["frames"] == 32 and (r.noise_3d["rows"], r.noise_3d["cols"]) == cam.shape
+
+
+def test_snrmon_noise_gives_netd_with_the_calibration(cam, cal, tmp_path, capsys):
+    from snrmon.acquisition.calibrate.calibration_file import save_calibration
+    from snrmon.cli import main
+
+    path = save_calibration(cal, tmp_path / "cal.npz")
+    frames = cam.blackbody(303.15, 32, seed=11)
+    np.save(tmp_path / "bb.npy", frames)
+    assert main(["noise", str(tmp_path / "bb.npy"), "--calibration", str(path), "--json"]) == 0
+    out = strict_json(capsys.readouterr().out)
+    q = calibration_quality(cal, [BlackbodyCapture(303.15, frames)]).temperatures[0]
+    assert out["sigma_corrected_dn"] == q.noise_3d["sigma_corrected_dn"]
+    assert out["scene_temp_k"] == pytest.approx(303.15, abs=0.1)  # the apparent temperature
+    assert out["netd_mk"] == pytest.approx(q.netd_tvh_mk, rel=1e-3)  # SiTF at 303.15 K +/- 0.1
+    assert out["sigma_corrected_k"]["tvh"] * out["sitf_dn_per_k"] == pytest.approx(
+        out["sigma_corrected_dn"]["tvh"]
+    )
+    lo, hi = out["netd_ci95_mk"]
+    assert lo < out["netd_mk"] < hi
+    assert main(["noise", str(tmp_path / "bb.npy"), "--calibration", str(path)]) == 0
+    text = capsys.readouterr().out
+    assert "NETD = sigma_tvh / SiTF" in text and "[mK]" in text

@@ -16,6 +16,7 @@ import pytest
 
 from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.measure.noise import estimate_noise
+from snrmon.acquisition.measure.noise3d import noise_3d
 from snrmon.acquisition.measure.track_noise import TrackNoise, ring_pixels
 from snrmon.acquisition.runtime.session import Session
 from snrmon.sim.devices.shm_camera import ShmProducer
@@ -65,6 +66,52 @@ def test_clear_sky_rectangle_needs_no_track_and_no_rectangle_no_track_means_unkn
     untracked.update(render(0), 0, None)
     untracked.update(render(1), FRAME_NS, None)
     assert all(math.isnan(v) for v in untracked.figures())
+
+
+def test_3d_noise_of_the_band_clear_of_the_track_over_blocks_of_100_frames():
+    render = SpotOnNoise(5, fpn_dn=FPN_DN)
+    frames = np.stack([render(k) for k in range(231)])
+    noise = TrackNoise((H, W), box_px=7)
+    cube = noise.cube
+    for k in range(99):
+        noise.update(frames[k], k * FRAME_NS, (64, 41))
+    assert cube.latest is None  # not a whole block yet
+    # the target's box (44, 21)-(84, 61); the largest band clear of it: the 34 rows below
+    assert cube.region == (0, 62, W - 1, H - 1)
+    noise.update(frames[99], 99 * FRAME_NS, (64, 41))
+    got = cube.latest
+    assert got.region == (0, 62, W - 1, H - 1)
+    want = noise_3d(frames[:100, 62:, :])
+    assert got.noise.sigma_corrected == want.sigma_corrected and got.noise.ci95 == want.ci95
+    # the pattern this camera has there (its pixel-to-pixel part) and the rendered noise
+    fpn = render.fpn[62:, :]
+    vh = fpn - fpn.mean(axis=0) - fpn.mean(axis=1, keepdims=True) + fpn.mean()
+    lo, hi = got.noise.ci95["vh"]
+    assert lo <= math.sqrt(np.sum(vh**2) / ((H - 63) * (W - 1))) <= hi
+    assert got.noise.sigma_corrected["tvh"] == pytest.approx(math.hypot(NOISE_DN, 12**-0.5), 0.02)
+    # the drone flies into the band: a new band, the block starts again, the last figure stays
+    for k in range(100, 130):
+        noise.update(frames[k], k * FRAME_NS, (64, 80))
+    assert cube.region == (0, 0, W - 1, 59) and cube.latest is got
+    noise.update(frames[130], 130 * FRAME_NS, None)  # track lost: no region
+    assert cube.region is None and cube.latest is got
+    for k in range(131, 230):
+        noise.update(frames[k], k * FRAME_NS, (64, 80))
+    assert cube.latest is got  # 99 frames of the new band
+    noise.update(frames[230], 230 * FRAME_NS, (64, 80))
+    assert cube.latest.region == (0, 0, W - 1, 59) and cube.latest.noise.frames == 100
+
+
+def test_3d_noise_on_the_clear_sky_rectangle_needs_no_track():
+    render = SpotOnNoise(6)
+    rect = (4, 60, 43, 89)
+    noise = TrackNoise((H, W), background=rect)
+    frames = [render(k) for k in range(100)]
+    for k, f in enumerate(frames):
+        noise.update(f, k * FRAME_NS, None)
+    want = noise_3d(np.stack(frames)[:, 60:90, 4:44])
+    assert noise.cube.latest.region == rect
+    assert noise.cube.latest.noise.sigma == want.sigma
 
 
 def test_bad_region_size_is_refused():

@@ -14,12 +14,16 @@ from __future__ import annotations
 import json
 import time
 
+import numpy as np
 import pytest
 
 from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.measure.noise3d import noise_3d
+from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.record.recorder import BACKLOG
 from snrmon.acquisition.record.writer import SessionWriter
 from snrmon.acquisition.replay.batch import replay_session
+from snrmon.acquisition.replay.stop_noise import stop_noise, summary_run
 from snrmon.acquisition.runtime.session import Session
 from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.acquisition.stops.table import row_values_equal
@@ -71,7 +75,7 @@ def live(tmp_path, stalling_disk):
         gps.stop()
 
 
-def test_replay_after_forced_recorder_drops_reproduces_every_recorded_frame(live):
+def test_replay_after_forced_recorder_drops_reproduces_every_recorded_frame(live, capsys):
     session, tmp_path = live
     session.start()
     session.set_roi("cam", 66, 39)
@@ -110,6 +114,29 @@ def test_replay_after_forced_recorder_drops_reproduces_every_recorded_frame(live
     slow = replay_session(path)  # whole frames through h5py: the same numbers
     assert slow.cameras["cam"].tally.identical == t.identical
     assert [r.snr_mean for r in slow.stops] == [r.snr_mean for r in replay.stops]
+
+    # The stop's background 3D noise from the recorded measurements (snrmon noise --stop) is
+    # the one the report takes from the replay's, and it is of the file's own frames there.
+    row = replay.stops[0]
+    ms = [m for m in t.measurements if m.t_host_ns >= row.t_start_ns]
+    ms = [m for m in ms if row.t_end_ns is None or m.t_host_ns < row.t_end_ns]
+    with open_session(path) as f:
+        rec = f.cameras["cam"]
+        got = stop_noise(
+            rec, row.stop, row.range_m, [m.result for m in ms], [m.t_host_ns for m in ms]
+        )
+        index, _run = summary_run(rec, [m.result for m in ms], [m.t_host_ns for m in ms])
+        x0, y0, x1, y1 = got.region
+        cube = np.stack([rec.frames[i][y0 : y1 + 1, x0 : x1 + 1] for i in index])
+    # the run's frames the file holds (the recorder dropped some of the 100 measured)
+    assert got.frames == (index[0], index[-1]) and 2 <= index.size <= 100
+    assert got.noise.sigma == noise_3d(cube).sigma
+    peaks = {(m.result.peak_x, m.result.peak_y) for m in ms}
+    assert not any(x0 - 20 <= x <= x1 + 20 and y0 - 20 <= y <= y1 + 20 for x, y in peaks)
+    assert main(["noise", str(path), "--stop", str(row.stop), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["sigma_corrected_dn"] == dict(got.noise.sigma_corrected)
+    assert out["frames"] == got.noise.frames == index.size
 
 
 def test_replay_json_reports_the_files_drops(live, capsys):

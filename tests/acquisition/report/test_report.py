@@ -1,5 +1,6 @@
-"""``snrmon report`` on a simulated session: the CSV's columns and values, Fig. 6/12 data, and
-the PDF and PNG renderings."""
+"""``snrmon report`` on a simulated session: the CSV's columns and values, Fig. 6/12 data, the 3D
+noise of each stop's background and the model with the measured noise, and the PDF and PNG
+renderings."""
 
 from __future__ import annotations
 
@@ -35,7 +36,9 @@ def outputs(session, tmp_path_factory):
     out = tmp_path_factory.mktemp("out")
     pdf, png, table = out / "r.pdf", out / "r.png", out / "t.csv"
     assert main(["report", str(session.path), "-o", str(pdf), "--csv", str(table)]) == 0
-    assert main(["report", str(session.path), "-o", str(png), "--quiet"]) == 0
+    assert (
+        main(["report", str(session.path), "-o", str(png), "--quiet", "--noise", "measured"]) == 0
+    )
     with table.open(newline="") as fh:
         rows = list(csv.reader(fh))
     return pdf, png, rows
@@ -105,6 +108,61 @@ def test_csv_values_match_an_independent_computation(session, data, outputs):
     assert 3.0 < means[("mwir", "0")] / means[("mwir", "1")] < 5.0
 
 
+def test_3d_noise_of_each_stops_background(session, data):
+    """Per stop and camera: the stop's 100 summary frames, the largest region clear of the spot by
+    20 px, and its 3D noise is that of those pixels of the file."""
+    from snrmon.acquisition.measure.noise3d import noise_3d
+
+    assert sorted((s.stop, s.camera) for s in data.noise_3d) == sorted(
+        (r.stop, r.camera) for r in data.rows
+    )
+    start = {(r.camera, r.stop): r.t_start_ns for r in data.rows}
+    for s in data.noise_3d:
+        first = int(np.searchsorted(session.frame_t_ns, start[(s.camera, s.stop)]))
+        assert s.frames == (first, first + 99)
+        x0, y0, x1, y1 = s.region
+        assert x1 < SPOT_XY[0] - 20 or x0 > SPOT_XY[0] + 20 or y1 < SPOT_XY[1] - 20
+        want = noise_3d(session.frames[s.camera][first : first + 100, y0 : y1 + 1, x0 : x1 + 1])
+        assert s.noise.sigma_corrected == want.sigma_corrected
+        # the sky is white noise of 5 DN, rounded: all of it is sigma_tvh (>= 20000 values:
+        # 0.5 % standard error, 3 % allowed)
+        assert s.noise.sigma_corrected["tvh"] == pytest.approx((25 + 1 / 12) ** 0.5, rel=0.03)
+
+
+@pytest.fixture(scope="module")
+def measured(session):
+    return report_data(session.path, noise="measured")
+
+
+def test_measured_noise_replaces_the_models_noise(data, measured):
+    """With the operator's "measured noise" every model value is the model's own times its noise
+    over the camera's measured sqrt(sigma_tvh^2 + sigma_vh^2) (Eq. 3's denominator)."""
+    from snrmon.model.noise import noise_breakdown
+    from snrmon.model.presets import load_sensor
+
+    for cam, m in measured.measured_noise.items():
+        mine = [s.noise.sigma_corrected for s in data.noise_3d if s.camera == cam]
+        assert m.temporal_dn == pytest.approx(math.sqrt(np.mean([x["tvh"] ** 2 for x in mine])))
+        assert m.spatial_dn == pytest.approx(math.sqrt(np.mean([x["vh"] ** 2 for x in mine])))
+    own = {(r.camera, r.stop): r for r in data.rows}
+    for row in measured.rows:
+        base = own[(row.camera, row.stop)]
+        assert row.snr_mean == base.snr_mean  # the measurement is the same
+        sensor = load_sensor(row.camera)
+        model_e = noise_breakdown(sensor, row.model_sky_temp_k).total
+        measured_e = measured.measured_noise[row.camera].total_dn * sensor.gain_e_per_dn
+        for c in CURVES:
+            assert row.model_snr[c] == pytest.approx(
+                base.model_snr[c] * model_e / measured_e, rel=1e-3
+            )
+    for cam, curves in measured.models.items():
+        sensor = load_sensor(cam)
+        ratio = noise_breakdown(sensor, curves.background_temp_k).total / (
+            measured.measured_noise[cam].total_dn * sensor.gain_e_per_dn
+        )
+        np.testing.assert_allclose(curves.snr["small"], data.models[cam].snr["small"] * ratio)
+
+
 def test_csv_gps_range_is_the_planned_range(outputs):
     _, _, rows = outputs
     for values in rows[1:]:
@@ -164,13 +222,13 @@ def test_pdf_and_png_render(outputs):
     pdf, png, _ = outputs
     head = pdf.read_bytes()
     assert head[:5] == b"%PDF-" and len(head) > 20_000
-    # summary, one Figs. 7-10 page for two cameras, the paper's numbers and Pd, Fig. 12, one
-    # Fig. 6 page per stop
-    assert b"/Count 6" in head
+    # summary, 3D noise, one Figs. 7-10 page for two cameras, the paper's numbers and Pd,
+    # Fig. 12, one Fig. 6 page per stop
+    assert b"/Count 7" in head
     img = cv2.imread(str(png))
     assert img is not None
     page_h, page_w = round(PAGE_IN[1] * PNG_DPI), round(PAGE_IN[0] * PNG_DPI)
-    assert img.shape == (6 * page_h, page_w, 3)
+    assert img.shape == (7 * page_h, page_w, 3)
     assert img.std() > 10  # drawn, not blank
 
 

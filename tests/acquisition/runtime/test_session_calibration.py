@@ -3,6 +3,7 @@ the sky's apparent temperature is followed live, recorded, and the replay is exa
 
 from __future__ import annotations
 
+import json
 import math
 import time
 
@@ -47,7 +48,7 @@ def calibration_file(tmp_path):
 
 
 def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
-    tmp_path, calibration_file
+    tmp_path, calibration_file, capsys
 ):
     name = f"snrmon-cal-{time.monotonic_ns() % 10**9}"
     producer = ShmProducer(name, 128, 96, CalibratedSky(1), fps=60.0, slots=16)
@@ -95,6 +96,20 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
         cs = player.status().cameras["mwir"]
     assert cs.figures.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
     assert math.isfinite(cs.last.snr_mean_raw) and cs.last.snr_n >= 50
+    # snrmon noise on the recording: NETD from sigma_tvh through the recorded calibration
+    from snrmon.acquisition.calibrate.calibration_file import load_calibration
+    from snrmon.cli import main
+
+    assert main(["noise", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["scene_temp_k"] == pytest.approx(SKY_K, abs=0.3)
+    sitf = load_calibration(calibration_file).dn_per_k(out["scene_temp_k"])
+    assert out["sitf_dn_per_k"] == pytest.approx(sitf)
+    assert out["netd_mk"] == pytest.approx(1e3 * out["sigma_corrected_dn"]["tvh"] / sitf)
+    sky = CalibratedSky(1)
+    c = sky.cam.config  # the rendered temporal noise and the rounding are sigma_tvh
+    rendered = math.sqrt((c.floor_noise_e**2 + sky.sky_e) / c.gain_e_per_dn**2 + 1 / 12)
+    assert out["sigma_corrected_dn"]["tvh"] == pytest.approx(rendered, rel=0.02)
 
 
 def test_a_calibration_of_another_camera_is_refused(tmp_path, calibration_file):
