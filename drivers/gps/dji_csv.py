@@ -1,6 +1,6 @@
 """Import of DJI flight-log CSV exports (AirData; PhantomHelp/TXTlogToCSVtool) as GpsFix lists.
 
-DJI's own ``.txt`` flight records are encrypted; users export CSV. Column names (notes 2.5):
+DJI's own ``.txt`` flight records are encrypted; users export CSV. Column names:
 
 * AirData: ``time(millisecond)``, ``datetime(utc)``, ``latitude``, ``longitude``,
   ``altitude_above_seaLevel(feet|meters)``, ``height_above_takeoff(feet|meters)``, ...
@@ -12,8 +12,12 @@ out of the fix rather than mislabelled. The files may hold NUL bytes and Latin-1
 For a replay the fix's ``t_host_ns`` is the log's own time since its first row (ns), so the
 track can be re-timed onto a session clock.
 
-Sub-second UTC: AirData's ``datetime(utc)`` holds whole seconds (truncated), while
-``time(millisecond)`` counts the log's own clock in 0.1 s steps. With both, every row's UTC is
+Sub-second UTC: AirData's ``datetime(utc)`` holds whole seconds, rounded to the nearest (a row
+written ``02:48:09`` lies in [02:48:08.5, 02:48:09.5)), while ``time(millisecond)`` counts the
+log's own clock in 0.1 s steps. Rounded, not truncated: AirData's own GPX of a flight, which
+carries tenths of a second, falls inside its rows' rounded second at 89 % of its 10,817 points
+and inside the truncated one at only 39 % (the real Air 2S export in the tests). With both,
+every row's UTC is
 ``anchor + time(millisecond)``. Real logs have gaps in ``time(millisecond)`` (the recorder paused)
 and rows around a gap whose ``datetime(utc)`` is seconds off their neighbours', so the anchor is
 never taken from one row: :func:`snrmon.drivers.gps.log_clock.anchored_utc` cuts the log at its
@@ -176,7 +180,7 @@ def read_dji_log(path: str | Path) -> DjiLog:
         clock_u,
         where=clock_where,
         resolution_s=0.001 if fractional else 1.0,
-        truncated=not fractional,
+        truncated=False,  # whole seconds rounded (module docstring); fractions: to the digit
     )
     out = []
     for f, i in zip(fixes, fix_row, strict=True):

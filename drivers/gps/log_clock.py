@@ -7,19 +7,19 @@ the true time; an autopilot that reboots starts its boot clock again. One such r
 move the others. Two readers of the same idea:
 
 * :func:`anchored_utc` (the log has a clock of its own beside a coarse UTC, as a DJI export's
-  ``time(millisecond)`` beside the whole-second ``datetime(utc)``): each row's UTC is
-  ``anchor + t_log``. The log is cut into **segments** at every gap in its clock; every row with
-  a UTC bounds the anchor (a whole-second, truncated UTC ``u`` at log time ``t`` says
-  ``u - t <= anchor < u - t + 1 s``); the anchor of a segment is the earliest point that the
-  most of its rows agree on (the largest overlap of their bounds: the latest lower bound among
-  them, exact where a row falls on a whole second), so a row that disagrees is outvoted, not
-  averaged in. A segment too short to be trusted on its own (less than ``MIN_SEGMENT_S`` of log
+  ``time(millisecond)`` beside the whole-second ``datetime(utc)``): each row's UTC is ``anchor +
+  t_log``. The log is cut into **segments** at every gap in its clock; every row with a UTC bounds
+  the anchor (a whole-second, truncated UTC ``u`` at log time ``t`` says ``u - t <= anchor < u - t
+  + 1 s``; rounded, ``u - t - 0.5 s <= anchor < u - t + 0.5 s``); the anchor of a segment is the
+  middle of the interval the most of its rows agree on (the largest overlap of their bounds; with
+  rows at the log's step, within half a step of the truth), so a row that disagrees is outvoted,
+  not averaged in. A segment too short to be trusted on its own (less than ``MIN_SEGMENT_S`` of log
   time, or fewer than ``MIN_SEGMENT_ROWS`` rows), or one whose anchor agrees with the running one,
-  continues the running anchor (the clock did not stop, rows are only missing); a long segment
-  that disagrees starts a new anchor (the clock stopped while UTC went on). Each anchor is
-  estimated from all the rows of its segments; a row whose bounds miss its anchor by more than
-  one step of the log's clock is an **outlier**: reported, left out of the estimate, its fix kept
-  on the anchor's time.
+  continues the running anchor (the clock did not stop, rows are only missing); a long segment that
+  disagrees starts a new anchor (the clock stopped while UTC went on). Each anchor is estimated
+  from all the rows of its segments; a row whose bounds miss its anchor by more than one step of
+  the log's clock is an **outlier**: reported, left out of the estimate, its fix kept on the
+  anchor's time.
 * :func:`consistent_chain` (every row carries its own UTC, as NMEA sentences and MAVLink times
   do): the rows are cut into segments where the UTC does not advance by about the log's own
   interval (a **gap**: it advanced more; a **jump**: it went back, or forward by more than
@@ -218,10 +218,11 @@ def anchored_utc(
         reg = region(idx)
         if reg is None:
             continue
-        # Truncated UTC: the earliest anchor all agreeing rows allow (the latest of their lower
-        # bounds), exact where a row falls on a whole second, else within one step of the log.
-        # Rounded UTC: the middle of what they allow.
-        anchor = reg[0] if truncated else 0.5 * (reg[0] + reg[1])
+        # The middle of what all agreeing rows allow: the region runs from the latest of their
+        # lower bounds to the earliest of their upper bounds, each within one step of the log's
+        # clock of the truth (a row close after, and one close before, the instant the written
+        # UTC changes), so the middle is within half a step, and unbiased.
+        anchor = 0.5 * (reg[0] + reg[1])
         utc[idx] = anchor + t[idx]
         off = timed[idx] & ((lo[idx] - tol > anchor) | (hi[idx] + tol <= anchor))
         outlier[idx[off]] = True

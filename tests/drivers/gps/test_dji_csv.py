@@ -118,8 +118,8 @@ def test_real_export_every_gpx_point_is_a_fix_with_its_position_and_altitude(air
 def test_real_export_one_clock_across_its_gaps_no_row_moves_the_rest(air2s) -> None:
     """The log has 24 gaps in time(millisecond) and rows beside them up to 12.3 s off (the
     reader before this took the latest row's anchor: every fix 12.3 s late on the GPX). Now
-    every fix is on one anchor: its offset from AirData's GPX is one number at all 10,817
-    points (the GPX is AirData's own anchor + time(millisecond))."""
+    every fix is on one anchor, and within 0.15 s of AirData's own GPX of the flight (an
+    independent rendering with tenths of a second) at all 10,817 points."""
     from snrmon.drivers.gps.dji_csv import read_dji_log
 
     path, rows, gpx = air2s
@@ -129,26 +129,26 @@ def test_real_export_one_clock_across_its_gaps_no_row_moves_the_rest(air2s) -> N
     assert log.clock.anchors == 1
     fixes = {(f.lat_deg, f.lon_deg): f for f in log.fixes}
     offsets = [(fixes[(lat, lon)].utc - t).total_seconds() for lat, lon, _, t in gpx]
-    assert max(offsets) - min(offsets) < 1e-6
-    # The offset is the GPX's own whole-second ambiguity, not an error of ours: every fix's
-    # UTC agrees with its row's own datetime(utc) (truncated: u <= UTC < u + 1 s, within one
-    # 0.1 s step of the log) except the outliers the report names, while the GPX's time
-    # contradicts its row's datetime(utc) at about half the points.
-    assert 0.0 <= offsets[0] < 1.0
+    assert max(abs(o) for o in offsets) <= 0.15 + 1e-6
+    assert max(offsets) - min(offsets) < 1e-6  # one anchor: the GPX's own is one too
+    # datetime(utc) is rounded to the nearest second: every fix's UTC lies within its row's
+    # rounded second (within one 0.1 s step of the log) except the outliers the report names;
+    # AirData's GPX lies there at 89 % of its points, in the truncated second at 39 %.
     by_pos = {
         (float(r["latitude"]), float(r["longitude"])): r
         for r in rows
         if float(r["latitude"]) or float(r["longitude"])
     }
 
-    def agrees(utc: datetime, row: dict) -> bool:
+    def within(utc: datetime, row: dict, start_s: float) -> bool:
         u = datetime.strptime(row["datetime(utc)"], "%Y-%m-%d %H:%M:%S").replace(tzinfo=UTC)
-        return -0.1 <= (utc - u).total_seconds() < 1.1
+        return start_s - 0.1 <= (utc - u).total_seconds() < start_s + 1.1
 
-    ours_off = sum(not agrees(f.utc, by_pos[k]) for k, f in fixes.items())
-    gpx_off = sum(not agrees(t, by_pos[(lat, lon)]) for lat, lon, _, t in gpx)
+    ours_off = sum(not within(f.utc, by_pos[k], -0.5) for k, f in fixes.items())
     assert ours_off <= log.clock.outliers == 31
-    assert gpx_off > 0.4 * len(gpx)
+    rounded = sum(within(t, by_pos[(lat, lon)], -0.5) for lat, lon, _, t in gpx) / len(gpx)
+    truncated = sum(within(t, by_pos[(lat, lon)], 0.0) for lat, lon, _, t in gpx) / len(gpx)
+    assert rounded > 0.85 and truncated < 0.5
     assert "off the log's clock" in log.clock.describe()
 
 
