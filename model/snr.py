@@ -285,8 +285,13 @@ def predict(
         res = d_px >= 1.0
         resolved[size], d_of[size] = res, d_px
         point[size] = intensity * target.area_m2(size) / ranges**2
-        for curve, psf in ((size, diffraction), (f"{size}_corrected", real)):
-            paper_pvf = _paper_pvf(psf, ff, d_px, res, target_sigma_per_size, psf is diffraction)
+        for curve, psf, corrected in (
+            (size, diffraction, False),
+            (f"{size}_corrected", real, True),
+        ):
+            # the paper corrects for the finite size on the corrected curves of both cameras,
+            # whatever their PSF (the LWIR's "real" PSF may be the diffraction limit itself)
+            paper_pvf = _paper_pvf(psf, ff, d_px, res, target_sigma_per_size, not corrected)
             paper_sig = np.where(res, ext, point[size] * paper_pvf)
             out["paper"][curve] = paper_sig / denom
             if geometry == "square":

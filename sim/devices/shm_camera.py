@@ -10,7 +10,10 @@ check that the document is enough to build a writer, e.g. a vendor grabber.
   counters (link drops), pause (a silent camera), stop cleanly, be killed (a camera lost without
   goodbye) and be started again (the camera is back, its counter restarted). Like a real camera
   it never falls behind its own clock: a frame it could not render in time is lost (a counter
-  gap), so the picture stays in step with the flight the serial simulators report.
+  gap), so the picture stays in step with the flight the serial simulators report. A *gated*
+  producer (``gated=True``) renders one frame, reports ready and waits for :meth:`ShmProducer.go`
+  to give it its clock's zero: cameras started one after the other (each spawn takes seconds)
+  then share one clock with the serial simulators, frame k of each at ``t0 + k / fps``.
 """
 
 from __future__ import annotations
@@ -203,21 +206,31 @@ def _produce(
     first_counter: int,
     drop_counters: frozenset[int],
     max_frames: int | None,
+    gated: bool,
     ready: mp.Event,  # type: ignore[valid-type]
     stop: mp.Event,  # type: ignore[valid-type]
     paused: mp.Event,  # type: ignore[valid-type]
     done: mp.Event,  # type: ignore[valid-type]
     written: mp.Value,  # type: ignore[valid-type]
+    go: mp.Event,  # type: ignore[valid-type]
+    clock_zero_ns: mp.Value,  # type: ignore[valid-type]
 ) -> None:
     """Body of the producer process (top level so that spawn can import it)."""
     writer = ShmFrameWriter(name, width, height, slots, fps=fps)
     # A killed console (SIGKILL, a test runner's timeout) never sets ``stop``: watch the parent
     # so the camera process does not outlive it, rendering into a ring no one reads.
     parent = os.getppid()
+    if gated:
+        render(first_counter)  # the first render builds the scene: before the clock starts
     ready.set()
     counter = first_counter
     period_ns = round(1e9 / fps) if fps else 0
     t0 = time.monotonic_ns()
+    if gated:
+        while not (go.wait(0.05) or stop.is_set()):
+            if os.getppid() != parent:
+                break
+        t0 = int(clock_zero_ns.value)  # the shared clock: frame k is due at t0 + k / fps
     k = 0
     try:
         while not stop.is_set():
@@ -266,6 +279,7 @@ class ShmProducer:
         first_counter: the camera counter of the first frame after each start.
         drop_counters: counters never published (the reader must see them as drops).
         max_frames: stop publishing after this many frames (then ``done`` is set).
+        gated: after starting, wait for :meth:`go` to give the clock's zero (module docstring).
     """
 
     def __init__(
@@ -280,6 +294,7 @@ class ShmProducer:
         first_counter: int = 0,
         drop_counters: Collection[int] = (),
         max_frames: int | None = None,
+        gated: bool = False,
     ) -> None:
         if fps is not None and fps <= 0:
             raise ValueError(f"fps must be positive or None, got {fps}")
@@ -295,6 +310,7 @@ class ShmProducer:
             first_counter,
             frozenset(drop_counters),
             max_frames,
+            gated,
         )
         self._proc: mp.process.BaseProcess | None = None
         self._new_sync()
@@ -308,6 +324,8 @@ class ShmProducer:
         self._paused = self._ctx.Event()
         # Lock-free: only the producer writes it.
         self._written = self._ctx.Value("q", 0, lock=False)
+        self._go = self._ctx.Event()
+        self._clock_zero_ns = self._ctx.Value("q", 0, lock=False)  # only go() writes it
 
     @property
     def frames_written(self) -> int:
@@ -325,7 +343,16 @@ class ShmProducer:
         self._new_sync()
         self._proc = self._ctx.Process(
             target=_produce,
-            args=(*self._args, self.ready, self._stop, self._paused, self.done, self._written),
+            args=(
+                *self._args,
+                self.ready,
+                self._stop,
+                self._paused,
+                self.done,
+                self._written,
+                self._go,
+                self._clock_zero_ns,
+            ),
             name=f"shm-camera-{self.name}",
             daemon=True,
         )
@@ -333,6 +360,12 @@ class ShmProducer:
         if not self.ready.wait(timeout_s):
             self.kill()
             raise OSError(f"producer {self.name!r} did not start within {timeout_s} s")
+
+    def go(self, clock_zero_ns: int) -> None:
+        """A gated producer's clock starts: frame k is due at ``clock_zero_ns + k / fps`` on the
+        ``time.monotonic_ns()`` clock (shared by every process of the host)."""
+        self._clock_zero_ns.value = int(clock_zero_ns)
+        self._go.set()
 
     def pause(self) -> None:
         """Stop publishing but keep the process and ring alive (a silent camera)."""

@@ -6,7 +6,8 @@ frame rings, NMEA GPS and an LDM rangefinder on pseudo-terminals); the console s
 ordinary :class:`snrmon.acquisition.runtime.session.Session`, which opens those devices by name and
 path exactly as it would open real ones. The flight clock: the serial simulators follow
 ``(monotonic - t0) * speed``; each camera process takes frame ``n`` at ``n / fps`` of the flight
-and runs at ``fps * speed`` (the cameras start within about a second of ``t0``).
+and runs at ``fps * speed``, its clock started at ``t0`` (a gated producer: spawned and its scene
+built first, then given ``t0``).
 """
 
 from __future__ import annotations
@@ -136,6 +137,10 @@ class HilRig:
                 # disk, a cold start's imports) without the camera overrunning its ring.
                 # MWIR: 30 slots of 1.8 MB at speed 1.
                 slots=max(16, math.ceil(sensor.fps * opts.speed / 2)),
+                # frame n at n / fps of the flight's clock, whenever its process got going (a
+                # spawn takes seconds: ungated, the first camera's picture led the rangefinder
+                # by the second's start-up, 4.5 s in a full day at speed 0.9)
+                gated=True,
             )
             self.cameras[cam] = CameraRig(
                 cam,
@@ -228,6 +233,8 @@ class HilRig:
         self.gps_sim.start()
         self.lrf_sim.start()
         self.t0 = time.monotonic()
+        for rig in self.cameras.values():
+            rig.producer.go(round(self.t0 * 1e9))
         self.session.start()
         if self.opts.fpn:
             for cam in self.cameras:

@@ -141,3 +141,24 @@ def test_bad_input_is_one_line(capsys, tmp_path, argv, needle):
     code, out, err = _run(capsys, *argv)
     assert code != 0 and out == ""
     assert len(err.strip().splitlines()) == 1 and needle in err
+
+
+def test_lwir_papers_corrected_curve_is_not_the_uncorrected_one(capsys):
+    code, out, _ = _run(
+        capsys,
+        "snr",
+        "--sensor",
+        "lwir",
+        "--target",
+        "uav1",
+        "--ranges",
+        "199",
+        "--atmosphere",
+        "none",
+        "--json",
+    )
+    assert code == 0
+    (rec,) = strict_json(out)
+    paper = rec["snr_paper"]
+    # the finite-size correction (sigma_t = D/2 at D = 0.78 px) and the LWIR's blur: -36 %
+    assert paper["small_corrected"] / paper["small"] == pytest.approx(0.635, abs=0.01)

@@ -262,3 +262,38 @@ def test_reused_buffers_are_round_robin(ring_name):
     arrays = [f.pixels for f in watch.frames]
     assert arrays[3] is arrays[0] and arrays[1] is not arrays[0]
     assert [int(a[0, 0]) for a in arrays[1:]] == [1, 2, 3]
+
+
+def test_gated_cameras_share_the_clock_they_are_given(ring_name):
+    """Two cameras spawned one after the other, then given one clock zero: each frame k is
+    published at zero + k / fps (never before, within the lag limit after), whichever process
+    started first; before ``go`` neither publishes."""
+    second = f"{ring_name}b"
+    fps = 100.0
+    prods = [
+        ShmProducer(n, W, H, StampPattern(W, H), fps=fps, gated=True) for n in (ring_name, second)
+    ]
+    cams = [ShmCamera(c, n, stale_after_s=5.0) for c, n in (("mwir", ring_name), ("lwir", second))]
+    try:
+        for p in prods:
+            p.start()
+        assert all(p.frames_written == 0 for p in prods)  # ready, waiting for the clock
+        watches = [Watch(c) for c in cams]
+        for c in cams:
+            c.open()
+        zero = time.monotonic_ns()
+        for p in prods:
+            p.go(zero)
+        for w in watches:
+            w.until("frames", lambda w=w: len(w.frames) >= 20)
+    finally:
+        for c in cams:
+            c.close()
+        for p in prods:
+            p.close()
+        unlink_ring(second)
+    period = 1e9 / fps
+    for w in watches:
+        for f in w.frames[:20]:
+            due = zero + f.counter * period
+            assert due - 2e6 <= f.t_device_ns < due + 0.25e9, f.counter
