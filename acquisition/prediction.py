@@ -2,8 +2,9 @@
 
 The four curves of paper Figs. 7-10 (small/large characteristic dimension, uncorrected
 diffraction-limited / corrected real PSF, both with the drone as a square of its dimension:
-continuous through the resolved/unresolved transition), the expected Eq. (4) reading
-(``expected_eq4``: what the 7x7 estimator should read on the corrected small target) and the
+continuous through the resolved/unresolved transition), the expected Eq. (4) readings on the
+corrected small target (``expected_eq4_rim``: the paper's estimator, background the 7x7 box's
+24-pixel rim; ``expected_eq4_extent``: the console's target-aware background) and the
 paper's own switched curves are computed once per camera on a dense logarithmic range grid by
 :func:`snrmon.model.snr.predict` and interpolated in log-range, so a lookup per frame costs
 microseconds and every number still comes from :mod:`snrmon.model`.
@@ -21,13 +22,17 @@ import threading
 import numpy as np
 
 CURVES = ("small", "large", "small_corrected", "large_corrected")
-EXPECTED = "expected_eq4"
+EXPECTED_RIM = "expected_eq4_rim"
+EXPECTED_EXTENT = "expected_eq4_extent"
+EXPECTED_CURVES = (EXPECTED_RIM, EXPECTED_EXTENT)
+"""The expected Eq. (4) readings by background rule (``model.snr.EXPECTED_CURVES``)."""
 PAPER_CURVES = tuple(f"paper_{c}" for c in CURVES)
 
 
 class ModelPredictor:
     """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
-    "large_corrected", "expected_eq4", "resolved_small"}`` for each camera's sensor preset and
+    "large_corrected", "expected_eq4_rim", "expected_eq4_extent", "resolved_small"}`` for each
+    camera's sensor preset and
     one target. ``predict_options`` go to :func:`snrmon.model.snr.predict` (``background_temp_k``,
     ``air_temp_k``, ``atmosphere``, ``corrected_psf``...)."""
 
@@ -107,11 +112,12 @@ class ModelPredictor:
             "large_corrected": np.asarray(p.snr_large_corrected, float),
             "resolved_small": np.asarray(p.resolved_small, float),
         }
-        if p.expected_eq4 is not None:
-            curves[EXPECTED] = np.asarray(p.expected_eq4, float)
+        for name in EXPECTED_CURVES:
+            if getattr(p, name) is not None:
+                curves[name] = np.asarray(getattr(p, name), float)
         for name, snr in p.paper.items():
             curves[f"paper_{name}"] = np.asarray(snr, float)
-        for name in ("small_corrected", "large_corrected", EXPECTED):  # the band
+        for name in ("small_corrected", "large_corrected", *EXPECTED_CURVES):  # the band
             if name in p.lower and name in p.upper:
                 curves[f"{name}_lower"] = np.asarray(p.lower[name], float)
                 curves[f"{name}_upper"] = np.asarray(p.upper[name], float)
@@ -129,7 +135,7 @@ class ModelPredictor:
         if curves is None or range_m is None or not range_m > 0:
             return {}
         x = np.log(range_m)
-        names = [*CURVES, EXPECTED] if EXPECTED in curves else list(CURVES)
+        names = [*CURVES, *(n for n in EXPECTED_CURVES if n in curves)]
         out = {name: float(np.interp(x, self._log_r, curves[name])) for name in names}
         # the paper's resolved/unresolved verdict (D >= 1 px) is a step, not interpolated
         i = int(np.clip(np.searchsorted(self._log_r, x), 0, len(self._log_r) - 1))
@@ -138,12 +144,12 @@ class ModelPredictor:
 
     def curve(self, camera: str) -> dict[str, tuple]:
         """The curves of ``camera`` as (ranges_m, snr) pairs, for plotting: the four, the
-        expected Eq. (4) reading and the paper's four (``paper_<name>``); and the band of the
-        corrected curves and the expected reading as (ranges_m, lower, upper)."""
+        expected Eq. (4) readings of both rules and the paper's four (``paper_<name>``); and the
+        band of the corrected curves and the expected readings as (ranges_m, lower, upper)."""
         c = self.curves.get(camera, {})
-        names = (*CURVES, EXPECTED, *PAPER_CURVES)
+        names = (*CURVES, *EXPECTED_CURVES, *PAPER_CURVES)
         out: dict[str, tuple] = {name: (self.ranges_m, c[name]) for name in names if name in c}
-        for name in ("small_corrected", "large_corrected", EXPECTED):
+        for name in ("small_corrected", "large_corrected", *EXPECTED_CURVES):
             if f"{name}_lower" in c:
                 out[f"{name} band"] = (self.ranges_m, c[f"{name}_lower"], c[f"{name}_upper"])
         return out

@@ -19,7 +19,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from snrmon.acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
+from snrmon.acquisition.prediction import (
+    CURVES,
+    EXPECTED_CURVES,
+    EXPECTED_EXTENT,
+    EXPECTED_RIM,
+    PAPER_CURVES,
+    ModelPredictor,
+)
 from snrmon.acquisition.protocols import ConsoleSession
 
 CURVE_LABELS = {
@@ -27,14 +34,15 @@ CURVE_LABELS = {
     "large": "large, uncorrected",
     "small_corrected": "small, corrected",
     "large_corrected": "large, corrected",
-    EXPECTED: "expected Eq. (4), small corrected",
+    EXPECTED_RIM: "expected Eq. (4), paper's 7x7 rim",
+    EXPECTED_EXTENT: "expected Eq. (4), console's target-aware rim",
     "paper_small": "paper's switched small",
     "paper_large": "paper's switched large",
     "paper_small_corrected": "paper's switched small, corrected",
     "paper_large_corrected": "paper's switched large, corrected",
 }
-ALL_CURVES = (*CURVES, EXPECTED, *PAPER_CURVES)
-DEFAULT_SHOWN = (*CURVES, EXPECTED)
+ALL_CURVES = (*CURVES, *EXPECTED_CURVES, *PAPER_CURVES)
+DEFAULT_SHOWN = (*CURVES, EXPECTED_EXTENT)
 SKY_STEP_K = 0.5  # a smaller change of the measured sky does not redraw the curves
 
 

@@ -79,6 +79,34 @@ class StopRow:
         """The stop's range: the rangefinder's when it has one, else the GPS slant range."""
         return self.lrf_range_m if self.lrf_range_m is not None else self.gps_range_m
 
+    @property
+    def expected_eq4_rule(self) -> str | None:
+        """The background rule of the expected Eq. (4) reading this row's measurement is to be
+        held to (:func:`expected_eq4_rule`)."""
+        return expected_eq4_rule(self.background)
+
+    @property
+    def expected_eq4(self) -> float | None:
+        """The model's expected Eq. (4) reading by the rule this row was measured with
+        (``model_snr["expected_eq4_rim"]`` or ``["expected_eq4_extent"]``); None without a
+        model or a rule."""
+        rule = self.expected_eq4_rule
+        return None if rule is None else self.model_snr.get(f"expected_eq4_{rule}")
+
+
+def expected_eq4_rule(background: str) -> str | None:
+    """Which expected Eq. (4) reading holds for frames measured against ``background`` (their
+    methods, "+"-joined as in :attr:`StopRow.background`): ``"rim"`` when every frame used the
+    paper's background, the 24 rim pixels of the 7x7 box; ``"extent"`` when any used the rim of
+    the target's extent (the console departs from the paper's rim for a drone wider than the
+    box's 5x5 guard, whose own light the 7x7 rim would take for sky; the extent rule of the model
+    weights the two rims by the chance of that, frame by frame); None for the operator's
+    clear-sky rectangle (no model of it) or no frames."""
+    methods = set(background.split("+")) if background else set()
+    if not methods or "rect" in methods:
+        return None
+    return "extent" if "extent_rim" in methods else "rim"
+
 
 def backgrounds_of(results) -> str:
     """The background methods of some measurements, most used first, joined by "+"."""

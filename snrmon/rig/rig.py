@@ -367,6 +367,7 @@ class HilRig:
             "resolved": bool(row.resolved),
             "_crops": self.crop_logs[row.camera].between([t for t, _ in run]),
             "background": row.background,
+            "expected_eq4_rule": row.expected_eq4_rule,  # which model_snr reading applies
         }
 
     def final_stops(self) -> list[dict]:

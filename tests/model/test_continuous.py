@@ -91,7 +91,8 @@ def test_model_snr_json_10_to_1000_m_has_no_jump(capsys):
         "snr_large",
         "snr_small_corrected",
         "snr_large_corrected",
-        "expected_eq4",
+        "expected_eq4_rim",
+        "expected_eq4_extent",
     ):
         assert _jump(np.array([r[key] for r in recs])) < 1.5, key
     # the same statistic catches the paper's switch (so the test can fail): 393 -> 130 at 314 m
@@ -157,7 +158,7 @@ def test_contrast_weighted_transmission_of_the_mwir_default():
 
 def test_band_is_one_sided_where_the_paper_says_so():
     p = predict(MW, UAV1, [250.0, 451.0, 2000.0])
-    for name in ("small_corrected", "large_corrected", "expected_eq4"):
+    for name in ("small_corrected", "large_corrected", "expected_eq4_rim", "expected_eq4_extent"):
         lo, hi, mid = p.lower[name], p.upper[name], p.snr(name)
         assert (lo < mid).all() and (mid < hi).all()
     c = p.snr_small_corrected

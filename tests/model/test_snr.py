@@ -9,7 +9,7 @@ import pytest
 from snrmon.model.detector import background_electrons
 from snrmon.model.noise import temporal_noise_e
 from snrmon.model.presets import load_sensor, load_target
-from snrmon.model.psf import AiryGaussianPsf, GaussianPsf
+from snrmon.model.psf import AiryGaussianPsf
 from snrmon.model.pvf import average_pvf, average_pvf_vs_target_sigma, pixel_energy_fractions
 from snrmon.model.radiometry import band_nodes, spectral_photon_radiance
 from snrmon.model.snr import detection_range_m, predict, target_contrast_electrons
@@ -135,7 +135,8 @@ def test_to_records_shape_and_bad_ranges():
         "noise_e",
         "transmission",
         "pvf",
-        "expected_eq4",
+        "expected_eq4_rim",
+        "expected_eq4_extent",
         "snr_paper",
         "transmission_contrast",
     }
