@@ -246,3 +246,52 @@ def effective_extinction_per_km(atm: Atmosphere, range_m: float) -> float:
     """-ln(tau)/R_km: shows how far the band average is from Beer-Lambert (falls with range)."""
     tau = float(np.atleast_1d(atm.transmission(range_m))[0])
     return -math.log(tau) / (range_m / 1e3)
+
+
+BAND_MODEL_STEP_CM1 = 5.0
+"""The wavenumber step of :func:`line_of_sight`'s grid for an atmosphere with no spectral data
+of its own (a band model is the same value at every wavelength; 5 cm^-1 is LOWTRAN7's step)."""
+
+
+@dataclass(frozen=True, eq=False)
+class LineOfSight:
+    """The spectral data of one horizontal path over a band, as data for a simulation that does
+    its own radiometry (:func:`line_of_sight`). ``wavelength_um`` ascending: the atmosphere's
+    own grid inside the band (its table's resolution), or a :data:`BAND_MODEL_STEP_CM1` grid for
+    a band model (``spectral`` False: the same band value at every wavelength);
+    ``transmission`` the path's tau(lambda) for a target's light; ``path_radiance_w`` the
+    radiance the path itself emits [W m^-2 sr^-1 um^-1], or None where the atmosphere gives
+    none of its own (a path at ``air_temp_k``: (1 - tau) B(lambda, T_air))."""
+
+    range_m: float
+    wavelength_um: np.ndarray
+    transmission: np.ndarray
+    path_radiance_w: np.ndarray | None
+    air_temp_k: float
+    spectral: bool
+
+
+def line_of_sight(atm: Atmosphere, range_m: float, band_um: tuple[float, float]) -> LineOfSight:
+    """The path of ``range_m`` through ``atm`` over ``band_um``: the narrow seam through which a
+    simulation reads the atmosphere the model reads (its data, not the model's band
+    integrals). The transmission is :meth:`Atmosphere.signal_transmission` on the grid (per
+    bin for spectral data; a band model's contrast-weighted value); a MODTRAN radiance run's
+    path radiance is its source function PTH_THRML / (1 - tau(L0)) times (1 - tau(R))."""
+    lo, hi = float(band_um[0]), float(band_um[1])
+    r = float(_check_ranges(range_m))
+    if atm.spectral is not None:
+        wl = atm.spectral.wavelength_um
+        wl = np.asarray(wl[(wl >= lo) & (wl <= hi)], dtype=float)
+        if wl.size < 2:
+            raise ValueError(f"{atm.name}: fewer than 2 spectral points in {lo}-{hi} um")
+    else:
+        wn = np.arange(1e4 / hi, 1e4 / lo + 0.5 * BAND_MODEL_STEP_CM1, BAND_MODEL_STEP_CM1)
+        wl = np.sort(1e4 / np.minimum(wn, 1e4 / lo))
+    tau = atm.signal_transmission([r], wl)[0]
+    path = None
+    if atm.spectral is not None and atm.spectral.has_radiance:
+        from snrmon.model.constants import C, H
+
+        source_w = atm.spectral.path_source_photon(wl) * H * C / (wl * 1e-6)
+        path = (1.0 - tau) * source_w
+    return LineOfSight(r, wl, tau, path, float(atm.air_temp_k), atm.spectral is not None)

@@ -66,8 +66,8 @@ def calibrate_cameras(feeds: dict, seeds: dict, directory: Path, stem: str) -> d
     ``<directory>/<stem>.<camera>-calibration.npz``; returns {camera: path}."""
     from snrmon.acquisition.calibrate.calibration import calibrate_means
     from snrmon.acquisition.calibrate.calibration_file import save_calibration
-    from snrmon.sim.from_model import blackbody_scene
     from snrmon.sim.scene import SceneRenderer
+    from snrmon.sim.twin import blackbody_scene
 
     paths = {}
     for cam, (sensor, feed) in feeds.items():
