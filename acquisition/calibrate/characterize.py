@@ -24,14 +24,18 @@ Per frame, in a square ROI around the tracked position:
    paper's outline average reads when the drone is many PSF widths across, and reads low when
    it is not (docs/calibration.md gives the twin's figures).
 
-Frames are summarised by the mean and sample std of each quantity. :func:`target_toml` writes
-the result as a target file ``model.presets.load_target`` reads.
+Frames are summarised by the mean and sample std of each quantity (:func:`summarise_frames`).
+At a close stop only the frames where the drone is at rest count (:func:`at_rest_frames`): its
+range steady (within the stop detector's tolerance of the stop's range) and its segmented size
+steady (the run of frames whose size varies least), wherever they lie in the stop: a stop's
+first or last frames may show a drone still arriving or already leaving, smaller or larger.
+:func:`target_toml` writes the result as a target file ``model.presets.load_target`` reads.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
 
 import cv2
@@ -236,6 +240,81 @@ def characterize_frame(
     )
 
 
+def at_rest_frames(
+    sizes_px: Sequence[float | None],
+    ranges_m: Sequence[float | None],
+    n: int,
+    *,
+    stop_range_m: float,
+    range_tolerance_m: float = 1.0,
+) -> list[int]:
+    """Indices of the ``n`` frames of a stop (in order) where the drone is at rest: a run of
+    consecutive frames, each segmented (``sizes_px``: the square root of its segmented area,
+    None where nothing was) and at a range within ``range_tolerance_m`` of ``stop_range_m``
+    (None: no reading, not held against it), whose sizes have the smallest relative spread
+    (std / mean) of all such runs, the earliest of equal spread. A drone arriving or leaving
+    changes size frame by frame; one at rest only by the segmentation's noise. Fewer than ``n``
+    such frames: the longest run of them."""
+    if n < 1:
+        raise ValueError(f"need n >= 1 frames, got {n}")
+    if len(sizes_px) != len(ranges_m):
+        raise ValueError("one size and one range per frame")
+    runs: list[list[int]] = [[]]
+    for i, (size, rng) in enumerate(zip(sizes_px, ranges_m, strict=True)):
+        steady = rng is None or abs(rng - stop_range_m) <= range_tolerance_m
+        if size is not None and size > 0 and steady:
+            runs[-1].append(i)
+        elif runs[-1]:
+            runs.append([])
+    best: tuple[float, list[int]] | None = None
+    for run in runs:
+        if len(run) < n:
+            continue
+        s = np.asarray([sizes_px[i] for i in run], dtype=float)
+        windows = np.lib.stride_tricks.sliding_window_view(s, n)
+        spread = windows.std(axis=1) / windows.mean(axis=1)
+        k = int(np.argmin(spread))
+        if best is None or spread[k] < best[0]:
+            best = (float(spread[k]), run[k : k + n])
+    if best is not None:
+        return best[1]
+    return max(runs, key=len)
+
+
+def summarise_frames(
+    rows: Sequence[FrameTarget], *, camera: str, range_m: float, method: str
+) -> Characterization:
+    """The mean and sample std over frames of each quantity (temperatures in C)."""
+    if not rows:
+        raise ValueError(f"no target segmented in any frame of {camera!r} at {range_m:.1f} m")
+    small = _mean_std([r.small_m for r in rows])
+    large = _mean_std([r.large_m for r in rows])
+    temp = _mean_std([None if r.temp_k is None else r.temp_k - ZERO_C_K for r in rows])
+    bg = _mean_std([None if r.background_k is None else r.background_k - ZERO_C_K for r in rows])
+    rss = _mean_std([r.rss_delta_t_k for r in rows])
+    outline, _ = _mean_std(
+        [None if r.outline_temp_k is None else r.outline_temp_k - ZERO_C_K for r in rows]
+    )
+    n_core, _ = _mean_std([None if r.core_px is None else float(r.core_px) for r in rows])
+    (small_m, small_std), (large_m, large_std) = small, large
+    assert small_m is not None and large_m is not None  # every row has its dimensions
+    return Characterization(
+        camera,
+        float(range_m),
+        len(rows),
+        small_m,
+        small_std or 0.0,
+        large_m,
+        large_std or 0.0,
+        *temp,
+        *bg,
+        *rss,
+        method,
+        outline,
+        n_core,
+    )
+
+
 def _mean_std(values: list[float | None]) -> tuple[float | None, float | None]:
     v = [x for x in values if x is not None]
     if not v:
@@ -267,34 +346,7 @@ def characterize_frames(
         )
         is not None
     ]
-    if not rows:
-        raise ValueError(f"no target segmented in any frame of {camera!r} at {range_m:.1f} m")
-    small = _mean_std([r.small_m for r in rows])
-    large = _mean_std([r.large_m for r in rows])
-    temp = _mean_std([None if r.temp_k is None else r.temp_k - ZERO_C_K for r in rows])
-    bg = _mean_std([None if r.background_k is None else r.background_k - ZERO_C_K for r in rows])
-    rss = _mean_std([r.rss_delta_t_k for r in rows])
-    outline, _ = _mean_std(
-        [None if r.outline_temp_k is None else r.outline_temp_k - ZERO_C_K for r in rows]
-    )
-    n_core, _ = _mean_std([None if r.core_px is None else float(r.core_px) for r in rows])
-    (small_m, small_std), (large_m, large_std) = small, large
-    assert small_m is not None and large_m is not None  # every row has its dimensions
-    return Characterization(
-        camera,
-        float(range_m),
-        len(rows),
-        small_m,
-        small_std or 0.0,
-        large_m,
-        large_std or 0.0,
-        *temp,
-        *bg,
-        *rss,
-        cfg.method,
-        outline,
-        n_core,
-    )
+    return summarise_frames(rows, camera=camera, range_m=range_m, method=cfg.method)
 
 
 def target_toml(

@@ -22,6 +22,7 @@ import pytest
 from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
 from snrmon.acquisition.calibrate.calibration_file import save_calibration
 from snrmon.acquisition.calibrate.characterize import (
+    at_rest_frames,
     CharacterizeConfig,
     characterize_frame,
     characterize_frames,
@@ -305,3 +306,26 @@ def _stops_json(session) -> str:
 
     rows = replay_session(session).stops
     return json.dumps([r.stop for r in rows if r.camera == "mwir" and r.lrf_range_m < 45])
+
+
+def test_at_rest_frames_are_where_range_and_size_are_steady():
+    """A close stop whose frames show the drone arriving (larger, shrinking), at rest (its
+    size noisy by a pixel) and leaving (shrinking, its range drifting away): the frames used
+    are the at-rest ones, wherever they lie; a frame without a segmentation breaks a run."""
+    rng = np.random.default_rng(5)
+    arriving = np.linspace(26.0, 19.5, 60)
+    rest = 19.0 + rng.normal(0.0, 0.4, 150)
+    leaving = np.linspace(18.5, 11.0, 210)
+    sizes = [*arriving, *rest, *leaving]
+    ranges = [37.0] * 60 + [37.0] * 150 + list(np.linspace(37.0, 39.0, 210))
+    picked = at_rest_frames(sizes, ranges, 100, stop_range_m=37.0, range_tolerance_m=1.0)
+    assert len(picked) == 100 and picked == list(range(picked[0], picked[0] + 100))
+    assert 60 <= picked[0] and picked[-1] < 210
+    # the last 100 frames (what characterize took before) are the leaving drone's
+    assert np.mean(sizes[-100:]) < 0.8 * np.mean([sizes[i] for i in picked])
+    # a gap in the segmentation splits the at-rest frames: a run never spans it
+    sizes[120] = None
+    picked = at_rest_frames(sizes, ranges, 100, stop_range_m=37.0, range_tolerance_m=1.0)
+    assert picked[0] > 120 and picked[-1] < 230
+    # fewer than n steady frames: the longest run of them (range within 1 m: to frame 314)
+    assert at_rest_frames(sizes, ranges, 1000, stop_range_m=37.0) == list(range(121, 315))
