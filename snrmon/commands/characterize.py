@@ -13,11 +13,16 @@ steadiest), wherever they lie in the stop. JSON contract: ``{"camera",
 "stop", "range_m", "n_frames", "small_m", "small_m_std", "large_m", "large_m_std",
 "mean_temp_c", "mean_temp_c_std", "background_temp_c", "background_temp_c_std",
 "rss_delta_t_k", "rss_delta_t_k_std", "method", "outline_temp_c", "core_pixels",
-"at_rest_s"}`` (``at_rest_s``: [first, last] frame of those used, seconds from the stop's
-start); temperatures are null without a calibration. ``mean_temp_c`` is read on the outline's
-core, the pixels the PSF does not mix with the sky (``acquisition.calibrate.characterize``);
-``outline_temp_c`` is the eroded outline's mean, low where the drone's parts are only a few PSF
-widths across.
+"at_rest_s", "core_seen_temp_c", "core_psf_share", "psf_blur_px", "psf_source"}``
+(``at_rest_s``: [first, last] frame of those used, seconds from the stop's start);
+temperatures are null without a calibration. ``mean_temp_c`` is read on the outline's core,
+the pixels farthest from the sky (``acquisition.calibrate.characterize``), its contrast
+corrected for the PSF's mixing with the camera's PSF measured from the flight (the session's
+latest ``psf_measured`` or ``model_psf`` event of the camera: the Airy blurred by its
+``blur_px``; ``--psf-blur-px`` to give one; none: no correction, ``psf_source`` null);
+``core_seen_temp_c`` is the core before that correction, ``core_psf_share`` the share of the
+contrast the PSF left it; ``outline_temp_c`` is the eroded outline's mean, low where the
+drone's parts are only a few PSF widths across.
 """
 
 from __future__ import annotations
@@ -72,6 +77,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="report the apparent temperature only (no atmospheric correction)",
     )
     p.add_argument("--sensor", help="sensor preset/TOML (default: the session's, else --camera)")
+    p.add_argument(
+        "--psf-blur-px",
+        type=float,
+        help="the camera's PSF for the core's correction: its Airy blurred by this Gaussian "
+        "(default: the session's measured PSF, snrmon psf)",
+    )
+    p.add_argument(
+        "--no-psf-correction",
+        action="store_true",
+        help="read the core as seen, without correcting for the PSF's mixing",
+    )
     p.add_argument("--frames", type=int, default=100, help="frames of the stop to use (100)")
     p.add_argument(
         "--method",
@@ -130,9 +146,37 @@ def through_the_air(result, sensor, range_m: float, air_temp_k: float | None) ->
         "transmission": tau,
         "air_temp_c": t_air - 273.15,
     }
-    if result.outline_temp_c is not None:
-        out["outline_temp_c"] = own_c(result.outline_temp_c)
+    for key in ("outline_temp_c", "core_seen_temp_c"):
+        if getattr(result, key) is not None:
+            out[key] = own_c(getattr(result, key))
     return out
+
+
+def _measured_psf(args, sensor) -> tuple[object | None, float | None, str | None]:
+    """(PSF, blur_px, where it came from): ``--psf-blur-px``, else the session's latest
+    ``psf_measured`` / ``model_psf`` event of the camera; (None, None, None) without one."""
+    from snrmon.model.psf import AiryGaussianPsf
+
+    if args.no_psf_correction:
+        return None, None, None
+    blur, source = args.psf_blur_px, "--psf-blur-px"
+    if blur is None:
+        with open_session(args.file) as f:
+            events = [
+                e
+                for e in f.event_list()
+                if e.get("kind") in ("psf_measured", "model_psf")
+                and e.get("camera") == args.camera
+                and isinstance(e.get("payload"), dict)
+                and e["payload"].get("blur_px") is not None
+            ]
+        if not events:
+            return None, None, None
+        last = events[-1]  # the latest: events are in the order they were added
+        blur, source = float(last["payload"]["blur_px"]), f"{last['kind']} event"
+    if not (blur >= 0 and np.isfinite(blur)):
+        raise UsageError(f"--psf-blur-px must be >= 0 px, got {blur}")
+    return AiryGaussianPsf(sensor.diffraction_psf(), float(blur)), float(blur), source
 
 
 def _sensor_name(path: str, camera: str) -> str:
@@ -167,6 +211,7 @@ def run(args: argparse.Namespace) -> int:
     if range_m is None:
         raise UsageError(f"stop {args.stop} has no range (no rangefinder or GPS readings)")
     rep = replay.cameras[args.camera]
+    psf, blur, psf_source = _measured_psf(args, sensor)
     end = row.t_end_ns if row.t_end_ns is not None else np.iinfo(np.int64).max
     # every tracked frame of the stop: those where the drone is at rest are chosen below
     picks = [
@@ -209,6 +254,8 @@ def run(args: argparse.Namespace) -> int:
                 ifov_rad=sensor.ifov_rad,
                 calibration=cal,
                 config=config,
+                psf=psf,
+                fill_factor=sensor.fill_factor,
             )
             for i, _, at, _ in held
         ]
@@ -229,6 +276,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"stop {args.stop}: {exc}") from None
     out = {"stop": args.stop, **result.as_dict(), "calibration": cal_path}
     out["at_rest_s"] = [(held[k][1] - row.t_start_ns) / 1e9 for k in (rest[0], rest[-1])]
+    corrected = cal is not None and psf is not None  # a PSF corrects a temperature
+    out["psf_blur_px"], out["psf_source"] = (blur, psf_source) if corrected else (None, None)
     if result.mean_temp_c is not None and not args.apparent:
         out.update(through_the_air(result, sensor, float(range_m), _air_temp_k(args)))
     if args.target_out:
