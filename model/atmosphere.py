@@ -286,7 +286,7 @@ def line_of_sight(atm: Atmosphere, range_m: float, band_um: tuple[float, float])
             raise ValueError(f"{atm.name}: fewer than 2 spectral points in {lo}-{hi} um")
     else:
         wn = np.arange(1e4 / hi, 1e4 / lo + 0.5 * BAND_MODEL_STEP_CM1, BAND_MODEL_STEP_CM1)
-        wl = np.sort(1e4 / np.minimum(wn, 1e4 / lo))
+        wl = np.clip(np.sort(1e4 / wn), lo, hi)  # the ends exactly on the band's edges
     tau = atm.signal_transmission([r], wl)[0]
     path = None
     if atm.spectral is not None and atm.spectral.has_radiance:

@@ -356,8 +356,8 @@ def predict(
             # curve they carry over to the paper's
             scale = out["snr"][name] / draws.nominal[name]
             lower[name], upper[name] = lo * scale, hi * scale
-        for name, curve in expected_curves.items():
-            ratio = curve / out["snr"]["small_corrected"]
+        for name, reading in expected_curves.items():
+            ratio = reading / out["snr"]["small_corrected"]
             lower[name] = lower["small_corrected"] * ratio
             upper[name] = upper["small_corrected"] * ratio
     wl_w = spectral_grid(sensor)[1]
