@@ -43,7 +43,7 @@ from scipy.interpolate import PchipInterpolator
 
 from snrmon.model.contrast import contrast
 from snrmon.model.detector import spectral_grid
-from snrmon.model.eq4 import expected_eq4 as _expected_eq4
+from snrmon.model.eq4 import expected_eq4_by_rule
 from snrmon.model.footprint import average_pvf_square
 from snrmon.model.montecarlo import InputUncertainty, McDraws, draw_corrected
 from snrmon.model.noise import NoiseBreakdown, noise_breakdown
@@ -218,6 +218,35 @@ def expected_reading(
     log-log between them (the reading is smooth in range). ``phases_xy``: over these observed
     sub-pixel phases instead of the whole cell; ``background``: "rim" (the paper's 7x7 rim) or
     "target" (the console's rule), see :data:`EXPECTED_CURVES`."""
+    return expected_readings(
+        psf,
+        fill_factor,
+        ranges_m,
+        amplitude,
+        d_px,
+        geometry=geometry,
+        target_sigma_per_size=target_sigma_per_size,
+        nodes=nodes,
+        phases_xy=phases_xy,
+        backgrounds=(background,),
+    )[background]
+
+
+def expected_readings(
+    psf: Psf,
+    fill_factor: float,
+    ranges_m: np.ndarray,
+    amplitude: np.ndarray,
+    d_px: np.ndarray,
+    *,
+    geometry: str = "square",
+    target_sigma_per_size: float = DEFAULT_TARGET_SIGMA_PER_SIZE,
+    nodes: int = _EXPECTED_NODES,
+    phases_xy=None,
+    backgrounds: tuple[str, ...] = ("rim", "target"),
+) -> dict[str, np.ndarray]:
+    """:func:`expected_reading` of several background rules at once (one pattern and peak
+    computation per node): ``{rule: readings}``."""
     r = np.asarray(ranges_m, float)
 
     def at(idx):
@@ -230,8 +259,8 @@ def expected_reading(
         # where a warm sky's path radiance catches up) gives Eq. (4) no peak of its own: the
         # estimator reads the noise, as for a zero contrast.
         amp = np.clip(amplitude[idx], 0.0, None)
-        return _expected_eq4(
-            psf, fill_factor, amp, background=background, phases_xy=phases_xy, **kw
+        return expected_eq4_by_rule(
+            psf, fill_factor, amp, backgrounds=backgrounds, phases_xy=phases_xy, **kw
         )
 
     if r.size <= nodes:
@@ -242,8 +271,11 @@ def expected_reading(
     values = at(idx)
     lr = np.log(r[idx])
     keep = np.concatenate([[True], np.diff(lr) > 0])
-    f = PchipInterpolator(lr[keep], np.log(values[keep]))
-    return np.exp(f(np.log(r)))
+    out = {}
+    for rule, v in values.items():
+        f = PchipInterpolator(lr[keep], np.log(v[keep]))
+        out[rule] = np.exp(f(np.log(r)))
+    return out
 
 
 def predict(
@@ -329,18 +361,18 @@ def predict(
     expected_curves: dict[str, np.ndarray] = {}
     draws = None
     if expected:
-        for name, rule in EXPECTED_CURVES.items():
-            expected_curves[name] = expected_reading(
-                real,
-                ff,
-                ranges,
-                point["small"] / denom,
-                d_of["small"],
-                geometry=geometry,
-                target_sigma_per_size=target_sigma_per_size,
-                phases_xy=phases_xy,
-                background=rule,
-            )
+        by_rule = expected_readings(
+            real,
+            ff,
+            ranges,
+            point["small"] / denom,
+            d_of["small"],
+            geometry=geometry,
+            target_sigma_per_size=target_sigma_per_size,
+            phases_xy=phases_xy,
+            backgrounds=tuple(EXPECTED_CURVES.values()),
+        )
+        expected_curves = {name: by_rule[rule] for name, rule in EXPECTED_CURVES.items()}
     if band:
         draws = draw_corrected(
             sensor,
