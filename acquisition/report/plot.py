@@ -118,7 +118,7 @@ def summary_page(data: ReportData):
     empty = "no range stop was found in this session"
     draw_table(
         fig,
-        (0.04, 0.05, 0.92, 0.74),
+        (0.04, 0.05, 0.92, 0.70),
         head,
         cells,
         max_rows=40,
