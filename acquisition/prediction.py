@@ -2,8 +2,9 @@
 
 The four curves of paper Figs. 7-10 (small/large characteristic dimension, uncorrected
 diffraction-limited / corrected real PSF, both with the drone as a square of its dimension:
-continuous through the resolved/unresolved transition), the expected Eq. (4) reading
-(``expected_eq4``: what the 7x7 estimator should read on the corrected small target) and the
+continuous through the resolved/unresolved transition), the expected Eq. (4) readings on the
+corrected small target (``expected_eq4_rim``: the paper's estimator, background the 7x7 box's
+24-pixel rim; ``expected_eq4_extent``: the console's target-aware background) and the
 paper's own switched curves are computed once per camera on a dense logarithmic range grid by
 :func:`snrmon.model.snr.predict` and interpolated in log-range, so a lookup per frame costs
 microseconds and every number still comes from :mod:`snrmon.model`.
@@ -32,7 +33,10 @@ from snrmon.model.atmosphere_table import AEROSOLS, SEASONS, Weather
 __all__ = ["AEROSOLS", "SEASONS", "ModelPredictor", "Weather", "session_model_options"]
 
 CURVES = ("small", "large", "small_corrected", "large_corrected")
-EXPECTED = "expected_eq4"
+EXPECTED_RIM = "expected_eq4_rim"
+EXPECTED_EXTENT = "expected_eq4_extent"
+EXPECTED_CURVES = (EXPECTED_RIM, EXPECTED_EXTENT)
+"""The expected Eq. (4) readings by background rule (``model.snr.EXPECTED_CURVES``)."""
 PAPER_CURVES = tuple(f"paper_{c}" for c in CURVES)
 
 
@@ -65,7 +69,7 @@ class Predictor(Protocol):
     """The corrected PSF the current curves were computed with, per camera (None: preset's)."""
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
-        """The curves at ``range_m`` (``CURVES``, ``EXPECTED``, ``resolved_small``); empty
+        """The curves at ``range_m`` (``CURVES``, ``EXPECTED_CURVES``, ``resolved_small``); empty
         when the camera has no curves or the range is not positive."""
         ...
 
@@ -79,6 +83,10 @@ class Predictor(Protocol):
 
     def set_psf(self, camera: str, psf: Any, *, wait: bool | None = None) -> None: ...
 
+    def pending(self, camera: str) -> bool:
+        """True while curves for ``camera``'s latest inputs are still being computed."""
+        ...
+
     def set_weather(
         self, weather: Weather | None, camera: str | None = None, *, wait: bool | None = None
     ) -> None:
@@ -89,7 +97,8 @@ class Predictor(Protocol):
 
 class ModelPredictor:
     """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
-    "large_corrected", "expected_eq4", "resolved_small"}`` for each camera's sensor preset and
+    "large_corrected", "expected_eq4_rim", "expected_eq4_extent", "resolved_small"}`` for each
+    camera's sensor preset and
     one target. ``predict_options`` go to :func:`snrmon.model.snr.predict` (``background_temp_k``,
     ``air_temp_k``, ``atmosphere``, ``corrected_psf``...). ``measured_noise``: per camera, its
     measured 3D noise (:class:`snrmon.model.noise.MeasuredNoise`) in place of the model's noise
@@ -134,6 +143,7 @@ class ModelPredictor:
         self.curves: dict[str, dict[str, np.ndarray]] = {}
         self._lock = threading.Lock()
         self._generation: dict[str, int] = {}
+        self._running: dict[str, int] = {}  # background computations under way, per camera
         self.version = 0  # counts the curves swapped in: a display redraws when it changes
         for camera, sensor_name in sensors.items():
             self.sensors[camera] = load_sensor(sensor_name)
@@ -163,6 +173,11 @@ class ModelPredictor:
             self.weather[cam] = weather
             self._schedule(cam, self.background_temp_k.get(cam), self.psf.get(cam), wait)
 
+    def pending(self, camera: str) -> bool:
+        """True while a computation of ``camera``'s curves is under way (in the background)."""
+        with self._lock:
+            return self._running.get(camera, 0) > 0
+
     def _schedule(self, camera, temp_k, psf, wait) -> None:
         # the inputs are current at once (a second request for the same value does nothing)
         self.background_temp_k[camera] = temp_k
@@ -170,9 +185,21 @@ class ModelPredictor:
         if wait if wait is not None else not self.asynchronous:
             self._compute(camera, temp_k, psf)
             return
+        with self._lock:
+            self._running[camera] = self._running.get(camera, 0) + 1
         threading.Thread(
-            target=self._compute, args=(camera, temp_k, psf), name=f"model-{camera}", daemon=True
+            target=self._compute_in_background,
+            args=(camera, temp_k, psf),
+            name=f"model-{camera}",
+            daemon=True,
         ).start()
+
+    def _compute_in_background(self, camera: str, temp_k, psf) -> None:
+        try:
+            self._compute(camera, temp_k, psf)
+        finally:
+            with self._lock:
+                self._running[camera] -= 1
 
     def _compute(self, camera: str, background_temp_k: float | None, psf) -> None:
         with self._lock:
@@ -194,11 +221,12 @@ class ModelPredictor:
             "large_corrected": np.asarray(p.snr_large_corrected, float),
             "resolved_small": np.asarray(p.resolved_small, float),
         }
-        if p.expected_eq4 is not None:
-            curves[EXPECTED] = np.asarray(p.expected_eq4, float)
+        for name in EXPECTED_CURVES:
+            if getattr(p, name) is not None:
+                curves[name] = np.asarray(getattr(p, name), float)
         for name, snr in p.paper.items():
             curves[f"paper_{name}"] = np.asarray(snr, float)
-        for name in ("small_corrected", "large_corrected", EXPECTED):  # the band
+        for name in ("small_corrected", "large_corrected", *EXPECTED_CURVES):  # the band
             if name in p.lower and name in p.upper:
                 curves[f"{name}_lower"] = np.asarray(p.lower[name], float)
                 curves[f"{name}_upper"] = np.asarray(p.upper[name], float)
@@ -216,7 +244,7 @@ class ModelPredictor:
         if curves is None or range_m is None or not range_m > 0:
             return {}
         x = np.log(range_m)
-        names = [*CURVES, EXPECTED] if EXPECTED in curves else list(CURVES)
+        names = [*CURVES, *(n for n in EXPECTED_CURVES if n in curves)]
         out = {name: float(np.interp(x, self._log_r, curves[name])) for name in names}
         # the paper's resolved/unresolved verdict (D >= 1 px) is a step, not interpolated
         i = int(np.clip(np.searchsorted(self._log_r, x), 0, len(self._log_r) - 1))
@@ -225,12 +253,12 @@ class ModelPredictor:
 
     def curve(self, camera: str) -> dict[str, tuple]:
         """The curves of ``camera`` as (ranges_m, snr) pairs, for plotting: the four, the
-        expected Eq. (4) reading and the paper's four (``paper_<name>``); and the band of the
-        corrected curves and the expected reading as (ranges_m, lower, upper)."""
+        expected Eq. (4) readings of both rules and the paper's four (``paper_<name>``); and the
+        band of the corrected curves and the expected readings as (ranges_m, lower, upper)."""
         c = self.curves.get(camera, {})
-        names = (*CURVES, EXPECTED, *PAPER_CURVES)
+        names = (*CURVES, *EXPECTED_CURVES, *PAPER_CURVES)
         out: dict[str, tuple] = {name: (self.ranges_m, c[name]) for name in names if name in c}
-        for name in ("small_corrected", "large_corrected", EXPECTED):
+        for name in ("small_corrected", "large_corrected", *EXPECTED_CURVES):
             if f"{name}_lower" in c:
                 out[f"{name} band"] = (self.ranges_m, c[f"{name}_lower"], c[f"{name}_upper"])
         return out

@@ -29,7 +29,7 @@ from PySide6.QtWidgets import (
 )
 
 from snrmon.acquisition.engine.status import SessionStatus
-from snrmon.acquisition.prediction import EXPECTED
+from snrmon.acquisition.prediction import EXPECTED_EXTENT, EXPECTED_RIM
 from snrmon.acquisition.protocols import ConsoleSession, ReplayControls
 from snrmon.gui import model_curves as mc
 from snrmon.gui.actions import install_actions, shortcuts_text
@@ -213,7 +213,8 @@ class ConsoleWindow(QMainWindow):
     def _model_now(cs) -> tuple[str, float | None]:
         # What the model expects the console to read at the current range (computed on the
         # acquisition side, CameraStatus.model), else its first curve there.
-        for name in (EXPECTED, "small_corrected"):
+        rim = cs.last is not None and cs.last.result.background == "rim"
+        for name in (EXPECTED_RIM if rim else EXPECTED_EXTENT, "small_corrected"):
             if name in cs.model:
                 return name, cs.model[name]
         return "", None

@@ -21,7 +21,9 @@ from dataclasses import dataclass
 
 from snrmon.acquisition.prediction import (
     CURVES,
-    EXPECTED,
+    EXPECTED_CURVES,
+    EXPECTED_EXTENT,
+    EXPECTED_RIM,
     PAPER_CURVES,
     ModelPredictor,
     Predictor,
@@ -35,14 +37,15 @@ CURVE_LABELS = {
     "large": "large, uncorrected",
     "small_corrected": "small, corrected",
     "large_corrected": "large, corrected",
-    EXPECTED: "expected Eq. (4), small corrected",
+    EXPECTED_RIM: "expected Eq. (4), paper's 7x7 rim",
+    EXPECTED_EXTENT: "expected Eq. (4), console's target-aware rim",
     "paper_small": "paper's switched small",
     "paper_large": "paper's switched large",
     "paper_small_corrected": "paper's switched small, corrected",
     "paper_large_corrected": "paper's switched large, corrected",
 }
-ALL_CURVES = (*CURVES, EXPECTED, *PAPER_CURVES)
-DEFAULT_SHOWN = (*CURVES, EXPECTED)
+ALL_CURVES = (*CURVES, *EXPECTED_CURVES, *PAPER_CURVES)
+DEFAULT_SHOWN = (*CURVES, EXPECTED_EXTENT)
 SKY_STEP_K = 0.5  # a smaller change of the measured sky does not redraw the curves
 
 

@@ -118,9 +118,10 @@ class RangePlot(QWidget):
 
     def set_curves(self, curves: Curves | None) -> None:
         """Replace the model curves (None or empty draws none); the fit statistic follows the
-        expected Eq. (4) curve (the sky-following one where there is one)."""
+        expected Eq. (4) curve of the console's rule (the sky-following one where there is
+        one)."""
         names = [n for n in (curves or {}) if n.startswith("expected_eq4") and "band" not in n]
-        names.sort(key=lambda n: "@ sky" not in n)
+        names.sort(key=lambda n: ("@ sky" not in n, "extent" not in n))
         self._expected = tuple((curves or {})[names[0]]) if names else None
         self.plot.setTitle(fit_title(self._rows, self._expected), size="8pt")
         for item in self.curve_items.values():

@@ -284,3 +284,59 @@ def effective_extinction_per_km(atm: Atmosphere, range_m: float) -> float:
     """-ln(tau)/R_km: shows how far the band average is from Beer-Lambert (falls with range)."""
     tau = float(np.atleast_1d(atm.transmission(range_m))[0])
     return -math.log(tau) / (range_m / 1e3)
+
+
+BAND_MODEL_STEP_CM1 = 5.0
+"""The wavenumber step of :func:`line_of_sight`'s grid for an atmosphere with no spectral data
+of its own (a band model is the same value at every wavelength; 5 cm^-1 is LOWTRAN7's step)."""
+
+
+@dataclass(frozen=True, eq=False)
+class LineOfSight:
+    """The spectral data of one horizontal path over a band, as data for a simulation that does
+    its own radiometry (:func:`line_of_sight`). ``wavelength_um`` ascending: the atmosphere's
+    own grid inside the band (its table's resolution), or a :data:`BAND_MODEL_STEP_CM1` grid for
+    a band model (``spectral`` False: the same band value at every wavelength);
+    ``transmission`` the path's tau(lambda) for a target's light; ``path_radiance_w`` the
+    radiance the path itself emits [W m^-2 sr^-1 um^-1], or None where the atmosphere gives
+    none of its own (a path at ``air_temp_k``: (1 - tau) B(lambda, T_air))."""
+
+    range_m: float
+    wavelength_um: np.ndarray
+    transmission: np.ndarray
+    path_radiance_w: np.ndarray | None
+    air_temp_k: float
+    spectral: bool
+
+
+def line_of_sight(atm: Atmosphere, range_m: float, band_um: tuple[float, float]) -> LineOfSight:
+    """The path of ``range_m`` through ``atm`` over ``band_um``: the narrow seam through which a
+    simulation reads the atmosphere the model reads (its data, not the model's band
+    integrals): the spectrum's own samples inside the band (a LOWTRAN7 table's 5 cm^-1 grid,
+    a MODTRAN run's), each sample's transmission at this range times the grey factors; a
+    MODTRAN radiance run's path radiance at each sample is its source function PTH_THRML /
+    (1 - tau(L0)) times (1 - tau(R)). A band model without spectral data gives its band value
+    on a :data:`BAND_MODEL_STEP_CM1` grid."""
+    lo, hi = float(band_um[0]), float(band_um[1])
+    r = float(_check_ranges(range_m))
+    grey = float(np.atleast_1d(atm._grey(r))[0])
+    sp = atm.spectral
+    path = None
+    if sp is not None:
+        wl_all = np.asarray(sp.wavelength_um, dtype=float)
+        cols = np.flatnonzero((wl_all >= lo) & (wl_all <= hi))
+        if cols.size < 2:
+            raise ValueError(f"{atm.name}: fewer than 2 spectral points in {lo}-{hi} um")
+        wl = wl_all[cols]
+        tau = grey * sp.transmission_at_ranges(np.array([r]), cols)[0]
+        if isinstance(sp, SpectralPath) and sp.has_radiance:
+            assert sp.path_radiance is not None  # has_radiance says so
+            t0 = np.clip(np.asarray(sp.transmission, dtype=float)[cols], 0.0, 1.0)
+            emitted = np.asarray(sp.path_radiance, dtype=float)[cols]
+            source_w = np.where(1.0 - t0 > 1e-6, emitted / np.maximum(1.0 - t0, 1e-6), 0.0)
+            path = (1.0 - tau) * source_w
+    else:
+        wn = np.arange(1e4 / hi, 1e4 / lo + 0.5 * BAND_MODEL_STEP_CM1, BAND_MODEL_STEP_CM1)
+        wl = np.clip(np.sort(1e4 / wn), lo, hi)  # the ends exactly on the band's edges
+        tau = np.full(wl.size, grey)
+    return LineOfSight(r, wl, tau, path, float(atm.air_temp_k), sp is not None)

@@ -194,8 +194,15 @@ def readings_of_patterns(
     sigma: the search window and the box centred on each pattern's brightest pixel (ties, as
     for a uniform target or no target, go to the pixel nearest the centre); ``background``
     "rim" (the 7x7 rim) or "target" (:func:`target_backgrounds`)."""
-    if background not in ("rim", "target"):
-        raise ValueError(f"background must be 'rim' or 'target', got {background!r}")
+    return _readings(a, search_px, box_px, ddof, (background,))[0]
+
+
+def _readings(a, search_px: int, box_px: int, ddof: int, backgrounds: tuple[str, ...]):
+    """:func:`readings_of_patterns` for several background rules at once (one peak search):
+    shape (len(backgrounds), ...)."""
+    for background in backgrounds:
+        if background not in ("rim", "target"):
+            raise ValueError(f"background must be 'rim' or 'target', got {background!r}")
     a = np.asarray(a, dtype=float)
     lead = a.shape[:-2]
     n = a.shape[-1]
@@ -214,19 +221,19 @@ def readings_of_patterns(
     ds = np.arange(-hs, hs + 1)
     search = pats[i, (r[:, None] + ds)[:, :, None], (col[:, None] + ds)[:, None, :]]
     peak = expected_max(search.reshape(len(pats), -1))
-    out = np.empty(len(pats))
+    out = np.zeros((len(backgrounds), len(pats)))
     for j, (pat, y, x) in enumerate(zip(pats, r, col, strict=True)):
-        if background == "target":
-            rims = target_backgrounds(pat, int(y), int(x), box_px)
-        else:
-            seven = _rect_rim(pat, (x - hb, y - hb, x + hb, y + hb))
-            assert seven is not None  # the reach check above keeps the box inside
-            rims = [(1.0, seven)]
-        out[j] = 0.0
-        for weight, rim in rims:
-            lam = float(np.sum((rim - rim.mean()) ** 2))
-            out[j] += weight * (peak[j] - rim.mean()) * rim_std_factor(rim.size, ddof, lam)
-    return out.reshape(lead)
+        for b, background in enumerate(backgrounds):
+            if background == "target":
+                rims = target_backgrounds(pat, int(y), int(x), box_px)
+            else:
+                seven = _rect_rim(pat, (x - hb, y - hb, x + hb, y + hb))
+                assert seven is not None  # the reach check above keeps the box inside
+                rims = [(1.0, seven)]
+            for weight, rim in rims:
+                lam = float(np.sum((rim - rim.mean()) ** 2))
+                out[b, j] += weight * (peak[j] - rim.mean()) * rim_std_factor(rim.size, ddof, lam)
+    return out.reshape((len(backgrounds), *lead))
 
 
 def expected_eq4(
@@ -254,6 +261,37 @@ def expected_eq4(
     (x, y) from a pixel centre that N frames actually had (:func:`observed_phases`): the mean is
     over those frames. 100 frames of a hover do not sample the cell evenly; over the phases
     they sampled, the expectation is of what those frames read."""
+    return expected_eq4_by_rule(
+        psf,
+        fill_factor,
+        amplitude,
+        target_square_px=target_square_px,
+        target_sigma_px=target_sigma_px,
+        search_px=search_px,
+        box_px=box_px,
+        ddof=ddof,
+        phases=phases,
+        backgrounds=(background,),
+        phases_xy=phases_xy,
+    )[background]
+
+
+def expected_eq4_by_rule(
+    psf: Psf,
+    fill_factor: float,
+    amplitude,
+    *,
+    target_square_px=0.0,
+    target_sigma_px=0.0,
+    search_px: int = 11,
+    box_px: int = 7,
+    ddof: int = 1,
+    phases: int = 5,
+    backgrounds: tuple[str, ...] = ("rim", "target"),
+    phases_xy=None,
+) -> dict[str, np.ndarray]:
+    """:func:`expected_eq4` for several background rules at once, ``{rule: readings}``: the
+    patterns and the peak search are the same for every rule, so they are computed once."""
     amp, d, s = np.broadcast_arrays(
         np.asarray(amplitude, float),
         np.asarray(target_square_px, float),
@@ -267,11 +305,11 @@ def expected_eq4(
         ph_x, ph_y, weights = ph, ph, np.full((len(ph), len(ph)), 1.0 / len(ph) ** 2)
     else:
         ph_x, ph_y, weights = observed_phase_weights(phases_xy)
-    out = np.empty(amp.shape)
+    out = np.empty((len(backgrounds), *amp.shape))
     cache: dict[tuple[float, float, int], np.ndarray] = {}
     for idx in np.ndindex(amp.shape):
         half = base_half
-        if background == "target":  # room for the target, the guard and the rim around it
+        if "target" in backgrounds:  # room for the target, the guard and the rim around it
             half += int(np.ceil(float(d[idx]) / 2 + 3.0 * float(s[idx])))
         while True:
             key = (float(d[idx]), float(s[idx]), half)
@@ -286,20 +324,17 @@ def expected_eq4(
                     target_sigma_px=key[1],
                 )
             try:
-                readings = readings_of_patterns(
-                    float(amp[idx]) * cache[key],
-                    search_px=search_px,
-                    box_px=box_px,
-                    ddof=ddof,
-                    background=background,
+                readings = _readings(
+                    float(amp[idx]) * cache[key], search_px, box_px, ddof, backgrounds
                 )
                 break
             except PatternTooSmallError:
                 if half >= MAX_HALF_PX:
                     raise
                 half = min(2 * half, MAX_HALF_PX)  # a bright target's 3-sigma extent is wide
-        out[idx] = float(np.sum(weights * readings))
-    return out
+        for b in range(len(backgrounds)):
+            out[(b, *idx)] = float(np.sum(weights * readings[b]))
+    return {rule: out[b] for b, rule in enumerate(backgrounds)}
 
 
 PHASE_STEP_PX = 1.0 / 24.0  # observed phases are binned to this (the reading changes < 0.5 %)

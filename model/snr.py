@@ -21,9 +21,16 @@ Curves: small/large characteristic dimension x uncorrected (diffraction-limited 
 over the band) / corrected (the sensor's real PSF, or one measured from flight data).
 SNR = S_e / sqrt(temporal^2 + spatial^2) (Eq. 3), temporal from Eq. 1 against the sky.
 
-``expected_eq4`` is the mean of what the Eq. (4) estimator reads on the corrected small curve's
-target (:mod:`snrmon.model.eq4`: peak-search bias, the rim's share of the PSF, the 24-pixel std);
-the band (``lower``/``upper``) is the Monte-Carlo band of :mod:`snrmon.model.montecarlo`.
+The expected Eq. (4) readings are the mean of what the estimator reads on the corrected small
+curve's target (:mod:`snrmon.model.eq4`: peak-search bias, the rim's share of the PSF, the
+24-pixel std), one per background rule (:data:`EXPECTED_CURVES`):
+
+* ``expected_eq4_rim``: the paper's Eq. (4), mean and std of the 24 rim pixels of the 7x7 box;
+* ``expected_eq4_extent``: the console's target-aware rule, which departs from the paper's rim
+  for a drone wider than the box's 5x5 guard (the rim of its extent grown by a 2 px guard,
+  weighted by the chance that the extent reaches the 7x7 rim); the two agree on a compact one.
+
+The band (``lower``/``upper``) is the Monte-Carlo band of :mod:`snrmon.model.montecarlo`.
 """
 
 from __future__ import annotations
@@ -35,7 +42,7 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 
 from snrmon.model.contrast import contrast
-from snrmon.model.eq4 import expected_eq4 as _expected_eq4
+from snrmon.model.eq4 import expected_eq4_by_rule
 from snrmon.model.footprint import average_pvf_square
 from snrmon.model.montecarlo import InputUncertainty, McDraws, draw_corrected
 from snrmon.model.noise import MeasuredNoise, NoiseBreakdown, noise_breakdown
@@ -46,6 +53,9 @@ from snrmon.model.target import Target
 from snrmon.model.uncertainty import UncertaintyBudget
 
 CURVES = ("small", "large", "small_corrected", "large_corrected")
+EXPECTED_CURVES = {"expected_eq4_rim": "rim", "expected_eq4_extent": "target"}
+"""The expected Eq. (4) readings and the background rule of :func:`snrmon.model.eq4.expected_eq4`
+each follows: the paper's 7x7 rim, and the console's target-aware rule (module docstring)."""
 GEOMETRIES = ("square", "paper")
 DEFAULT_TARGET_SIGMA_PER_SIZE = 0.5
 """The paper geometry's sigma_t = D / 2 (with the paper's sigma = 0.8 px this
@@ -59,7 +69,7 @@ class SnrPrediction:
 
     ``signal_e``, ``pvf``, ``paper`` map a curve name (:data:`CURVES`) to arrays; ``pvf`` is
     NaN where the paper geometry calls the target resolved; ``lower``/``upper`` (the band) exist
-    for the corrected curves and ``expected_eq4``; ``relative_uncertainty`` is the Fig. 12
+    for the corrected curves and the expected readings; ``relative_uncertainty`` is the Fig. 12
     budget (deterministic, as the paper tabulates it). ``noise`` is per pixel.
     """
 
@@ -88,17 +98,20 @@ class SnrPrediction:
     transition_range_large_m: float
     point_contrast_e: dict[str, np.ndarray] = field(default_factory=dict)
     paper: dict[str, np.ndarray] = field(default_factory=dict)
-    expected_eq4: np.ndarray | None = None
+    expected_eq4_rim: np.ndarray | None = None  # the paper's 7x7 rim
+    expected_eq4_extent: np.ndarray | None = None  # the console's target-aware rule
     draws: McDraws | None = None  # the Monte-Carlo draws behind the band
     sky_assumed: bool = False  # no sky temperature given: assumed the air's, the band widened
 
     def snr(self, curve: str) -> np.ndarray:
-        if curve == "expected_eq4":
-            if self.expected_eq4 is None:
-                raise ValueError("this prediction was made without the expected Eq. (4) curve")
-            return self.expected_eq4
+        if curve in EXPECTED_CURVES:
+            value = getattr(self, curve)
+            if value is None:
+                raise ValueError("this prediction was made without the expected Eq. (4) curves")
+            return value
         if curve not in CURVES:
-            raise ValueError(f"unknown curve {curve!r}; known: {', '.join(CURVES)}")
+            known = ", ".join((*CURVES, *EXPECTED_CURVES))
+            raise ValueError(f"unknown curve {curve!r}; known: {known}")
         return getattr(self, f"snr_{curve}")
 
     @property
@@ -117,7 +130,10 @@ class SnrPrediction:
                 "snr_large": float(self.snr_large[i]),
                 "snr_small_corrected": float(self.snr_small_corrected[i]),
                 "snr_large_corrected": float(self.snr_large_corrected[i]),
-                "expected_eq4": None if self.expected_eq4 is None else float(self.expected_eq4[i]),
+                **{
+                    name: None if getattr(self, name) is None else float(getattr(self, name)[i])
+                    for name in EXPECTED_CURVES
+                },
                 "snr_paper": {c: float(self.paper[c][i]) for c in self.paper},
                 "signal_e": {c: float(self.signal_e[c][i]) for c in CURVES},
                 "noise_e": self.noise_e,
@@ -198,11 +214,42 @@ def expected_reading(
     target_sigma_per_size: float = DEFAULT_TARGET_SIGMA_PER_SIZE,
     nodes: int = _EXPECTED_NODES,
     phases_xy=None,
+    background: str = "target",
 ) -> np.ndarray:
     """:func:`snrmon.model.eq4.expected_eq4` along a range grid (amplitude = point contrast / noise,
     d_px the target's side in pixels): exact at up to ``nodes`` log-spaced ranges, PCHIP in
     log-log between them (the reading is smooth in range). ``phases_xy``: over these observed
-    sub-pixel phases instead of the whole cell (``expected_eq4``)."""
+    sub-pixel phases instead of the whole cell; ``background``: "rim" (the paper's 7x7 rim) or
+    "target" (the console's rule), see :data:`EXPECTED_CURVES`."""
+    return expected_readings(
+        psf,
+        fill_factor,
+        ranges_m,
+        amplitude,
+        d_px,
+        geometry=geometry,
+        target_sigma_per_size=target_sigma_per_size,
+        nodes=nodes,
+        phases_xy=phases_xy,
+        backgrounds=(background,),
+    )[background]
+
+
+def expected_readings(
+    psf: Psf,
+    fill_factor: float,
+    ranges_m: np.ndarray,
+    amplitude: np.ndarray,
+    d_px: np.ndarray,
+    *,
+    geometry: str = "square",
+    target_sigma_per_size: float = DEFAULT_TARGET_SIGMA_PER_SIZE,
+    nodes: int = _EXPECTED_NODES,
+    phases_xy=None,
+    backgrounds: tuple[str, ...] = ("rim", "target"),
+) -> dict[str, np.ndarray]:
+    """:func:`expected_reading` of several background rules at once (one pattern and peak
+    computation per node): ``{rule: readings}``."""
     r = np.asarray(ranges_m, float)
 
     def at(idx):
@@ -215,7 +262,9 @@ def expected_reading(
         # where a warm sky's path radiance catches up) gives Eq. (4) no peak of its own: the
         # estimator reads the noise, as for a zero contrast.
         amp = np.clip(amplitude[idx], 0.0, None)
-        return _expected_eq4(psf, fill_factor, amp, background="target", phases_xy=phases_xy, **kw)
+        return expected_eq4_by_rule(
+            psf, fill_factor, amp, backgrounds=backgrounds, phases_xy=phases_xy, **kw
+        )
 
     if r.size <= nodes:
         return at(np.arange(r.size))
@@ -225,8 +274,11 @@ def expected_reading(
     values = at(idx)
     lr = np.log(r[idx])
     keep = np.concatenate([[True], np.diff(lr) > 0])
-    f = PchipInterpolator(lr[keep], np.log(values[keep]))
-    return np.exp(f(np.log(r)))
+    out = {}
+    for rule, v in values.items():
+        f = PchipInterpolator(lr[keep], np.log(v[keep]))
+        out[rule] = np.exp(f(np.log(r)))
+    return out
 
 
 def predict(
@@ -258,8 +310,9 @@ def predict(
     ``measured_noise``: the camera's measured 3D noise in place of Eq. 1 and the spatial term
     (:class:`snrmon.model.noise.MeasuredNoise`; the operator's "measured noise").
     ``corrected_psf``: the real PSF (default the sensor's). ``expected``: compute the expected
-    Eq. (4) reading, over the sub-pixel phases ``phases_xy`` (N, 2) that a stop's frames
-    sampled if given (:func:`snrmon.model.eq4.expected_eq4`), else over the whole cell; ``band``:
+    Eq. (4) readings of both background rules (:data:`EXPECTED_CURVES`), over the sub-pixel
+    phases ``phases_xy`` (N, 2) that a stop's frames sampled if given
+    (:func:`snrmon.model.eq4.expected_eq4`), else over the whole cell; ``band``:
     the Monte-Carlo band (``inputs``, default :class:`snrmon.model.montecarlo.InputUncertainty`).
     """
     ranges = _check_ranges(ranges_m)
@@ -291,8 +344,13 @@ def predict(
         res = d_px >= 1.0
         resolved[size], d_of[size] = res, d_px
         point[size] = intensity * target.area_m2(size) / ranges**2
-        for curve, psf in ((size, diffraction), (f"{size}_corrected", real)):
-            paper_pvf = _paper_pvf(psf, ff, d_px, res, target_sigma_per_size, psf is diffraction)
+        for curve, psf, corrected in (
+            (size, diffraction, False),
+            (f"{size}_corrected", real, True),
+        ):
+            # the paper corrects for the finite size on the corrected curves of both cameras,
+            # whatever their PSF (the LWIR's "real" PSF may be the diffraction limit itself)
+            paper_pvf = _paper_pvf(psf, ff, d_px, res, target_sigma_per_size, not corrected)
             paper_sig = np.where(res, ext, point[size] * paper_pvf)
             out["paper"][curve] = paper_sig / denom
             if geometry == "square":
@@ -308,9 +366,10 @@ def predict(
     sky_per_k = _sky_fraction_per_k(c) if c.sky_assumed else None
     for size in ("small", "large"):
         rel[f"{size}_corrected"] = budget.relative(amp, ~resolved[size], od, sky_per_k)
-    expected_curve, draws = None, None
+    expected_curves: dict[str, np.ndarray] = {}
+    draws = None
     if expected:
-        expected_curve = expected_reading(
+        by_rule = expected_readings(
             real,
             ff,
             ranges,
@@ -319,7 +378,9 @@ def predict(
             geometry=geometry,
             target_sigma_per_size=target_sigma_per_size,
             phases_xy=phases_xy,
+            backgrounds=tuple(EXPECTED_CURVES.values()),
         )
+        expected_curves = {name: by_rule[rule] for name, rule in EXPECTED_CURVES.items()}
     if band:
         draws = draw_corrected(
             sensor,
@@ -336,10 +397,10 @@ def predict(
             # curve they carry over to the paper's
             scale = out["snr"][name] / draws.nominal[name]
             lower[name], upper[name] = lo * scale, hi * scale
-        if expected_curve is not None:
-            ratio = expected_curve / out["snr"]["small_corrected"]
-            lower["expected_eq4"] = lower["small_corrected"] * ratio
-            upper["expected_eq4"] = upper["small_corrected"] * ratio
+        for name, reading in expected_curves.items():
+            ratio = reading / out["snr"]["small_corrected"]
+            lower[name] = lower["small_corrected"] * ratio
+            upper[name] = upper["small_corrected"] * ratio
     return SnrPrediction(
         sensor_name=sensor.name,
         target_name=target.name,
@@ -366,7 +427,8 @@ def predict(
         transition_range_large_m=transition_range_m(sensor, target.large_m),
         point_contrast_e=point,
         paper=out["paper"],
-        expected_eq4=expected_curve,
+        expected_eq4_rim=expected_curves.get("expected_eq4_rim"),
+        expected_eq4_extent=expected_curves.get("expected_eq4_extent"),
         draws=draws,
         sky_assumed=c.sky_assumed,
     )

@@ -5,8 +5,8 @@ fill factor, focal length -> IFOV) and noise tuned to the paper's clear-sky temp
 (6.6 DN MWIR, 5.8 DN LWIR, section 7). The radiometric numbers are the worked assumptions of
 an independent worked example (MWIR: 6.57e5 e- of background, 3.37e5 e- of target contrast at 199 m
 for the 15.7 cm Phantom), not measurements; the LWIR signal is set so that SNR_t with the
-diffraction-limited PVF 0.45 is 24 at 199 m, as the notes' NETD shortcut gives. Use
-``sim.from_model.scene_config_from_model`` for the model's own numbers.
+diffraction-limited PVF 0.45 is 24 at 199 m, as the notes' NETD shortcut gives. The twin
+(``sim.twin.twin_scene_config``) computes its numbers from the camera's datasheet instead.
 """
 
 from __future__ import annotations

@@ -138,14 +138,12 @@ def contrast_weights(sensor, target_temp_k: float, sky_temp_k: float, n: int = 1
     """(wavelengths, weights): the band's midpoints and the target-minus-sky photon radiance
     through the camera's response (QE, optics) at each: the spectrum the Airy is averaged
     over (a warm drone against a cold sky is brighter at the band's long end)."""
-    from snrmon.model.radiometry import spectral_photon_radiance
+    from snrmon.sim.radiometry import TwinCamera, photon_radiance
 
     lo, hi = float(sensor.band_um[0]), float(sensor.band_um[1])
     wl = lo + (np.arange(n) + 0.5) * (hi - lo) / n
-    resp = sensor.qe_at(wl)
-    w = resp * (
-        spectral_photon_radiance(wl, target_temp_k) - spectral_photon_radiance(wl, sky_temp_k)
-    )
+    resp = TwinCamera.from_sensor(sensor).quantum_efficiency(wl)
+    w = resp * (photon_radiance(wl, target_temp_k) - photon_radiance(wl, sky_temp_k))
     return tuple(float(v) for v in wl), tuple(float(v) for v in np.clip(w, 0.0, None))
 
 

@@ -9,7 +9,9 @@ the per-frame ground truth :class:`FrameTruth` (docs/simulation.md):
 with noise ~ N(0, sigma) [DN], sigma = sqrt(floor_noise_e**2 + scene_e) / gain_e_per_dn
 (shot + floor noise, paper Eq. 1). Far from the drone the noise comes from a bank at a random
 offset; in a window of ``fresh_half_px`` around the drone it is always fresh, and there the
-drone's own shot noise is added. Speed: a static background (offset, gain x sky, the 0.5 of
+drone's own shot noise is added: Gaussian of that variance, or with ``poisson_shot_noise`` the
+charge drawn from a Poisson distribution (the scene's and the drone's electrons) plus Gaussian
+floor noise. Speed: a static background (offset, gain x sky, the 0.5 of
 rounding) is built once; a frame is one add of a bank slice, a few small windows, one clip and
 one cast (~3 ms for 1280x720 on one core; benchmarks/bench_scene.py).
 """
@@ -93,6 +95,7 @@ class SceneConfig:
     fpn_multiple: float = 2.5  # spatial / temporal noise on clear sky (paper: 2-3)
     fpn_gain_fraction: float = 0.3  # share of the FPN variance from gain non-uniformity
     target_shot_noise: bool = True
+    poisson_shot_noise: bool = False  # in the fresh window: Poisson charge, not its Gaussian
     fresh_half_px: int = 24  # fresh noise in a (2h+1)^2 window around the drone
     noise_bank_planes: int = 4
     noise_bank_margin_px: int = 64
@@ -313,6 +316,7 @@ class SceneRenderer:
         else:
             buf[win] += bank[win]
         sigma = np.full((r1 - r0, c1 - c0), c.temporal_noise_dn, np.float32)
+        charge = np.full(sigma.shape, c.scene_e)  # the Poisson mean of each pixel [e-]
         placed = self._patch_in_image(patch)
         if placed is not None:
             img, sub = placed
@@ -327,7 +331,13 @@ class SceneRenderer:
                     slice(img[1].start - c0, img[1].stop - c0),
                 )
                 sigma[local] = np.sqrt(c.floor_noise_e**2 + scene_e + drone_e) / c.gain_e_per_dn
-        buf[win] += fresh_noise_dn(rng, sigma.shape, sigma)
+                charge[local] += drone_e
+        if c.poisson_shot_noise:
+            shot_e = rng.poisson(charge) - charge
+            floor_e = c.floor_noise_e * rng.standard_normal(charge.shape)
+            buf[win] += ((shot_e + floor_e) / c.gain_e_per_dn).astype(np.float32)
+        else:
+            buf[win] += fresh_noise_dn(rng, sigma.shape, sigma)
 
     def _add_confuser(self, buf, confuser: Confuser, t_s: float) -> None:
         pos = confuser.position_px(t_s)

@@ -62,8 +62,10 @@ def predict(
     xarray.Dataset
         Coordinate ``range_m``; one variable per curve: ``small``, ``large``,
         ``small_corrected``, ``large_corrected`` (uncorrected: diffraction-limited PSF, point
-        target; corrected: the real PSF and the finite target), ``expected_eq4`` (what the
-        Eq. 4 estimator should read), ``paper_<curve>`` (the paper's switched curves),
+        target; corrected: the real PSF and the finite target), ``expected_eq4_rim`` and
+        ``expected_eq4_extent`` (what the Eq. 4 estimator should read on the small corrected
+        target with the paper's 7x7 rim, and with the console's rim outside the drone's
+        extent), ``paper_<curve>`` (the paper's switched curves),
         ``<curve>_lower`` / ``<curve>_upper`` (the Monte-Carlo band), ``transmission`` and
         ``resolved_small``; attributes name the sensor, target, atmosphere, temperatures and
         geometry.
@@ -97,8 +99,10 @@ def predict(
         "small_corrected": p.snr_small_corrected,
         "large_corrected": p.snr_large_corrected,
     }
-    if p.expected_eq4 is not None:
-        curves["expected_eq4"] = p.expected_eq4
+    for rule in ("rim", "extent"):
+        reading = getattr(p, f"expected_eq4_{rule}")
+        if reading is not None:
+            curves[f"expected_eq4_{rule}"] = reading
     curves |= {f"paper_{name}": snr for name, snr in p.paper.items()}
     data: dict[str, Any] = {
         name: (
@@ -140,7 +144,8 @@ _CURVE_NAMES = {
     "large": "SNR, large dimension, diffraction-limited PSF, point target",
     "small_corrected": "SNR, small dimension, real PSF and finite target",
     "large_corrected": "SNR, large dimension, real PSF and finite target",
-    "expected_eq4": "what the Eq. (4) estimator is expected to read (small, corrected)",
+    "expected_eq4_rim": "what Eq. (4) is expected to read with the paper's 7x7 box rim",
+    "expected_eq4_extent": "what Eq. (4) is expected to read with the console's target-aware rim",
 }
 
 

@@ -113,7 +113,9 @@ def field_config(path: Path, ring: str, gps_port: str, lrf_port: str, camera: st
     return path
 
 
-def twin_recording(path: Path, *, stops: str, speed: float, hover_s: float = 4.0) -> Path:
+def twin_recording(
+    path: Path, *, stops: str, speed: float, hover_s: float = 4.0, transit_mps: float = 8.0
+) -> Path:
     """``snrmon hil --seed 0 --out path`` (both cameras, calibrated): the digital twin's
     flight over ``stops`` (metres, comma-separated) as a session file."""
     from snrmon.cli import main
@@ -126,6 +128,8 @@ def twin_recording(path: Path, *, stops: str, speed: float, hover_s: float = 4.0
         stops,
         "--hover-s",
         str(hover_s),
+        "--transit-mps",
+        str(transit_mps),
         "--speed",
         str(speed),
         "--out",

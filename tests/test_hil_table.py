@@ -15,10 +15,18 @@ def _stop(**kw) -> dict:
         "measured_snr_mean": 102.74,
         "measured_snr_std": 18.22,
         "truth_snr": 107.74,
-        "model_snr": {"small": 124.51, "small_corrected": 33.75, "expected_eq4": 35.1},
+        "model_snr": {
+            "small": 124.51,
+            "small_corrected": 33.75,
+            "expected_eq4_rim": 35.1,
+            "expected_eq4_extent": 35.2,
+        },
         "measured_snr_mean_raw": 60.0,
         "resolved": False,
         "background": "rim",
+        "expected_eq4_rule": "rim",
+        "measured_over_model": 1.02,
+        "truth_over_model": 0.99,
     }
     row.update(kw)
     return row
@@ -60,5 +68,5 @@ def test_table_explains_the_marks_and_counts_drops():
     assert "'extent_rim': outside the segmented drone" in text
     assert lines[-1] == "mwir: 600 frames received, 0 dropped"
     assert lines[1].split()[7] == "-"  # no raw (uncorrected) SNR without --fpn: not "nan"
-    assert lines[1].split()[11] == "-"  # no expected Eq. (4) in this row's model
+    assert lines[1].split()[11:13] == ["-", "-"]  # no expected Eq. (4) in this row's model
     assert "nan" not in text

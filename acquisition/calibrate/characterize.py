@@ -22,16 +22,25 @@ Per frame, in a square ROI around the tracked position:
    outside the dilated outline; RSS delta-T = sqrt((T_target - T_bg)^2 + sigma_target^2).
    The eroded outline's own mean temperature is kept (``outline_temp_k``): it is what the
    paper's outline average reads when the drone is many PSF widths across, and reads low when
-   it is not (docs/calibration.md gives the twin's figures).
+   it is not (docs/calibration.md gives the twin's figures);
+6. with the camera's PSF (measured from the flight's unresolved stops), the core's contrast
+   over the sky is divided by the share of a uniform drone's light the core keeps through that
+   PSF (:func:`core_psf_share`): a drone whose parts are only a few PSF widths across (UAV1's
+   6-cm bars are 3.2 MWIR pixels at 37 m) still mixes sky into its core, 6-7 % of its contrast
+   on the twin. The uncorrected core temperature is kept (``core_seen_temp_k``).
 
-Frames are summarised by the mean and sample std of each quantity. :func:`target_toml` writes
-the result as a target file ``model.presets.load_target`` reads.
+Frames are summarised by the mean and sample std of each quantity (:func:`summarise_frames`).
+At a close stop only the frames where the drone is at rest count (:func:`at_rest_frames`): its
+range steady (within the stop detector's tolerance of the stop's range) and its segmented size
+steady (the run of frames whose size varies least), wherever they lie in the stop: a stop's
+first or last frames may show a drone still arriving or already leaving, smaller or larger.
+:func:`target_toml` writes the result as a target file ``model.presets.load_target`` reads.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
 
 import cv2
@@ -88,6 +97,8 @@ class FrameTarget:
     rss_delta_t_k: float | None
     outline_temp_k: float | None = None
     core_px: int | None = None  # pixels the temperature was read on
+    core_seen_temp_k: float | None = None  # the core before the PSF correction
+    core_psf_share: float | None = None  # share of a uniform drone's contrast the core keeps
 
 
 @dataclass(frozen=True)
@@ -110,6 +121,8 @@ class Characterization:
     method: str
     outline_temp_c: float | None = None
     core_pixels: float | None = None  # mean count of core pixels a frame's temperature read
+    core_seen_temp_c: float | None = None  # the core's temperature before the PSF correction
+    core_psf_share: float | None = None  # mean share of the contrast the core keeps (PSF)
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -169,6 +182,26 @@ def _box_area(mask: np.ndarray, kind: str) -> float:
     return float((w + 1) * (h + 1))  # pixel centres -> pixel extents
 
 
+def core_psf_share(mask: np.ndarray, core: np.ndarray, psf, fill_factor: float) -> float:
+    """The share of a uniform drone's contrast that its ``core`` pixels keep when its outline
+    is ``mask`` and the camera's PSF ``psf`` (a ``model.psf`` PSF): the outline's pixels, each
+    a uniform full-cell source, through the PSF onto the core's active areas, relative to a
+    scene that fills the view (1 far inside a large drone; lower where its parts are a few PSF
+    widths across). The outline is the segmented one, whole pixels."""
+    from scipy.signal import fftconvolve
+
+    from snrmon.model.footprint import pixel_patterns
+
+    h = _SHARE_HALF_PX
+    one = pixel_patterns(psf, fill_factor, [0.0], [0.0], half_size_px=h, target_square_px=1.0)
+    kernel = one[0, 0] / fill_factor
+    seen = fftconvolve(mask.astype(float), kernel, mode="same")
+    return float(np.mean(seen[core]))
+
+
+_SHARE_HALF_PX = 12  # the PSF's light beyond 12 px (<2 % in the MWIR) is taken as lost
+
+
 def characterize_frame(
     frame: np.ndarray,
     at_xy: tuple[int, int],
@@ -177,9 +210,13 @@ def characterize_frame(
     ifov_rad: float,
     calibration: Calibration | None = None,
     config: CharacterizeConfig | None = None,
+    psf=None,
+    fill_factor: float | None = None,
 ) -> FrameTarget | None:
     """One frame (raw DN); None when nothing is segmented. With a calibration the frame is
-    non-uniformity corrected before segmentation and temperatures are measured."""
+    non-uniformity corrected before segmentation and temperatures are measured; with the
+    camera's ``psf`` (and its ``fill_factor``) the core's contrast is corrected for the PSF's
+    mixing (:func:`core_psf_share`)."""
     cfg = config or CharacterizeConfig()
     if not (range_m > 0 and ifov_rad > 0):
         raise ValueError(f"range and IFOV must be > 0, got {range_m} m, {ifov_rad} rad")
@@ -196,7 +233,7 @@ def characterize_frame(
         return None
     px_m = range_m * ifov_rad
     box = _box_area(mask, cfg.box)
-    temp = sig = bgk = rss = outline = None
+    temp = sig = bgk = rss = outline = seen = share = None
     n_core = None
     if calibration is not None:
         inner = mask
@@ -211,15 +248,22 @@ def characterize_frame(
         depth = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
         core = depth >= min(cfg.core_px, float(depth.max()))
         n_core = int(core.sum())
-        temp = float(
-            temperature_of(calibration.band_um, float(np.mean(lq[core])), calibration.qe_curve)
-        )
         # the border ring, as for the threshold: blades and other parts removed from the
         # outline must not count as sky
         outside = _ring(mask.shape, cfg.ring_px) & (
             cv2.dilate(mask, np.ones((7, 7), np.uint8)) == 0
         )
-        bgk = float(temperature_of(calibration.band_um, float(np.mean(lq[outside]))))
+        l_bg = float(np.mean(lq[outside]))
+        l_core = float(np.mean(lq[core]))
+        band, qe = calibration.band_um, calibration.qe_curve
+        seen = float(temperature_of(band, l_core, qe))
+        temp = seen
+        if psf is not None:
+            if fill_factor is None:
+                raise ValueError("a PSF correction needs the camera's fill factor")
+            share = core_psf_share(mask, core, psf, fill_factor)
+            temp = float(temperature_of(band, l_bg + (l_core - l_bg) / share, qe))
+        bgk = float(temperature_of(band, l_bg, qe))
         rss = math.hypot(temp - bgk, sig)
     return FrameTarget(
         area,
@@ -233,6 +277,89 @@ def characterize_frame(
         rss,
         outline,
         n_core,
+        seen,
+        share,
+    )
+
+
+def at_rest_frames(
+    sizes_px: Sequence[float | None],
+    ranges_m: Sequence[float | None],
+    n: int,
+    *,
+    stop_range_m: float,
+    range_tolerance_m: float = 1.0,
+) -> list[int]:
+    """Indices of the ``n`` frames of a stop (in order) where the drone is at rest: a run of
+    consecutive frames, each segmented (``sizes_px``: the square root of its segmented area,
+    None where nothing was) and at a range within ``range_tolerance_m`` of ``stop_range_m``
+    (None: no reading, not held against it), whose sizes have the smallest relative spread
+    (std / mean) of all such runs, the earliest of equal spread. A drone arriving or leaving
+    changes size frame by frame; one at rest only by the segmentation's noise. Fewer than ``n``
+    such frames: the longest run of them."""
+    if n < 1:
+        raise ValueError(f"need n >= 1 frames, got {n}")
+    if len(sizes_px) != len(ranges_m):
+        raise ValueError("one size and one range per frame")
+    runs: list[list[int]] = [[]]
+    for i, (size, rng) in enumerate(zip(sizes_px, ranges_m, strict=True)):
+        steady = rng is None or abs(rng - stop_range_m) <= range_tolerance_m
+        if size is not None and size > 0 and steady:
+            runs[-1].append(i)
+        elif runs[-1]:
+            runs.append([])
+    best: tuple[float, list[int]] | None = None
+    for run in runs:
+        if len(run) < n:
+            continue
+        s = np.asarray([sizes_px[i] for i in run], dtype=float)
+        windows = np.lib.stride_tricks.sliding_window_view(s, n)
+        spread = windows.std(axis=1) / windows.mean(axis=1)
+        k = int(np.argmin(spread))
+        if best is None or spread[k] < best[0]:
+            best = (float(spread[k]), run[k : k + n])
+    if best is not None:
+        return best[1]
+    return max(runs, key=len)
+
+
+def summarise_frames(
+    rows: Sequence[FrameTarget], *, camera: str, range_m: float, method: str
+) -> Characterization:
+    """The mean and sample std over frames of each quantity (temperatures in C)."""
+    if not rows:
+        raise ValueError(f"no target segmented in any frame of {camera!r} at {range_m:.1f} m")
+    small = _mean_std([r.small_m for r in rows])
+    large = _mean_std([r.large_m for r in rows])
+    temp = _mean_std([None if r.temp_k is None else r.temp_k - ZERO_C_K for r in rows])
+    bg = _mean_std([None if r.background_k is None else r.background_k - ZERO_C_K for r in rows])
+    rss = _mean_std([r.rss_delta_t_k for r in rows])
+    outline, _ = _mean_std(
+        [None if r.outline_temp_k is None else r.outline_temp_k - ZERO_C_K for r in rows]
+    )
+    n_core, _ = _mean_std([None if r.core_px is None else float(r.core_px) for r in rows])
+    seen, _ = _mean_std(
+        [None if r.core_seen_temp_k is None else r.core_seen_temp_k - ZERO_C_K for r in rows]
+    )
+    share, _ = _mean_std([r.core_psf_share for r in rows])
+    (small_m, small_std), (large_m, large_std) = small, large
+    assert small_m is not None and large_m is not None  # every row has its dimensions
+    return Characterization(
+        camera,
+        float(range_m),
+        len(rows),
+        small_m,
+        small_std or 0.0,
+        large_m,
+        large_std or 0.0,
+        *temp,
+        *bg,
+        *rss,
+        method,
+        outline,
+        n_core,
+        seen,
+        share,
     )
 
 
@@ -267,34 +394,7 @@ def characterize_frames(
         )
         is not None
     ]
-    if not rows:
-        raise ValueError(f"no target segmented in any frame of {camera!r} at {range_m:.1f} m")
-    small = _mean_std([r.small_m for r in rows])
-    large = _mean_std([r.large_m for r in rows])
-    temp = _mean_std([None if r.temp_k is None else r.temp_k - ZERO_C_K for r in rows])
-    bg = _mean_std([None if r.background_k is None else r.background_k - ZERO_C_K for r in rows])
-    rss = _mean_std([r.rss_delta_t_k for r in rows])
-    outline, _ = _mean_std(
-        [None if r.outline_temp_k is None else r.outline_temp_k - ZERO_C_K for r in rows]
-    )
-    n_core, _ = _mean_std([None if r.core_px is None else float(r.core_px) for r in rows])
-    (small_m, small_std), (large_m, large_std) = small, large
-    assert small_m is not None and large_m is not None  # every row has its dimensions
-    return Characterization(
-        camera,
-        float(range_m),
-        len(rows),
-        small_m,
-        small_std or 0.0,
-        large_m,
-        large_std or 0.0,
-        *temp,
-        *bg,
-        *rss,
-        cfg.method,
-        outline,
-        n_core,
-    )
+    return summarise_frames(rows, camera=camera, range_m=range_m, method=cfg.method)
 
 
 def target_toml(

@@ -16,8 +16,9 @@ Two families:
 
 * ``gaussian``: a Gaussian PSF of sigma = theta (the paper's "Gaussian PSF fit ... sigma of 0.8
   pixels", section 5), reported as ``sigma_px``;
-* ``airy+gaussian``: the camera's own diffraction (its F-number over its band, as the model's
-  uncorrected curves) convolved with a Gaussian blur theta: the physical family, whose average
+* ``airy+gaussian``: the camera's own diffraction (its F-number over its band, weighted by the
+  signal spectrum as the model's uncorrected curves, ``model.sensor.signal_weighted_airy``;
+  flat QE) convolved with a Gaussian blur theta: the physical family, whose average
   PVF (``model.pvf.average_pvf``) is reported as ``pvf`` and whose PSF the corrected curves and
   the expected Eq. (4) reading can use.
 
@@ -106,9 +107,9 @@ def psf_from_record(d: dict) -> AiryGaussianPsf:
 
 @functools.lru_cache(maxsize=8)
 def _airy(f_number: float, pitch_um: float, band_um: tuple[float, float]):
-    from snrmon.model.psf import AiryPsf
+    from snrmon.model.sensor import signal_weighted_airy
 
-    return AiryPsf.polychromatic(f_number, pitch_um, band_um)
+    return signal_weighted_airy(f_number, pitch_um, band_um)
 
 
 def crop_frames(frames, peaks_xy, calibration=None) -> np.ndarray:

@@ -306,10 +306,12 @@ class SessionEngine:
             return
         if t_ns - self._sky_checked.get(camera, 0) < SKY_CHECK_NS:
             return
-        self._sky_checked[camera] = t_ns
         temp = sky.mean_temp_k(last=100)
+        if not math.isfinite(temp):
+            return  # not measured yet: look again next frame, not in 2 s
+        self._sky_checked[camera] = t_ns
         current = predictor.background_temp_k.get(camera)
-        if math.isfinite(temp) and (current is None or abs(temp - current) > SKY_CHANGE_K):
+        if current is None or abs(temp - current) > SKY_CHANGE_K:
             predictor.set_background(camera, temp)
             if self.sink is not None:
                 self.sink.model_changed(camera, "model_background", {"temp_k": temp}, t_ns)

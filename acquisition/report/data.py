@@ -35,7 +35,12 @@ from pathlib import Path
 import numpy as np
 
 from snrmon.acquisition.config import session_config_from_dict
-from snrmon.acquisition.prediction import CURVES, ModelPredictor, session_model_options
+from snrmon.acquisition.prediction import (
+    CURVES,
+    EXPECTED_CURVES,
+    ModelPredictor,
+    session_model_options,
+)
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.replay.batch import ReplayResult, replay_session
 from snrmon.acquisition.replay.stop_noise import StopNoise, stop_noise
@@ -237,7 +242,8 @@ def model_curves(
     p = predict(load_sensor(sensor_name), load_target(target_name), ranges_m, **predict_options)
     psf = predict_options.get("corrected_psf")
     snr = {c: np.asarray(p.snr(c), float) for c in CURVES}
-    snr["expected_eq4"] = np.asarray(p.expected_eq4, float)
+    for name in EXPECTED_CURVES:
+        snr[name] = np.asarray(p.snr(name), float)
     snr.update({f"paper_{c}": np.asarray(v, float) for c, v in p.paper.items()})
     return ModelCurves(
         camera=camera,

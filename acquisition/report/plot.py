@@ -38,7 +38,8 @@ _STYLE = {  # as model/plot.py draws them, so the report's curves read the same
     "large": ("tab:orange", "-", "model large"),
     "small_corrected": ("tab:blue", "--", "corrected small"),
     "large_corrected": ("tab:orange", "--", "corrected large"),
-    "expected_eq4": ("black", "-.", "expected Eq. (4), corrected small"),
+    "expected_eq4_rim": ("grey", "-.", "expected Eq. (4), paper's 7x7 rim"),
+    "expected_eq4_extent": ("black", "-.", "expected Eq. (4), console's target-aware rim"),
 }
 _PAPER_STYLE = {
     "paper_small": ("tab:blue", "paper's switched small"),
@@ -85,12 +86,17 @@ def summary_page(data: ReportData):
         "guard (a drone wider than the box); rect = the operator's clear-sky rectangle.",
         "small, large, ... corr: the model's four curves at the stop's range (rangefinder, else "
         "GPS); ratio = measured mean / model.",
+        "exp rim / exp ext: the expected Eq. (4) reading with the paper's 7x7 rim / the console's "
+        "rule (ext where the drone is wider",
+        "than the box's 5x5 guard); rule: the one the stop's bg makes applicable; ratio exp = "
+        "measured mean / that reading.",
     ]
     for i, line in enumerate(lines):
         fig.text(0.06, 0.925 - 0.022 * i, line, fontsize=8)
     head = ["stop", "camera", "LRF m", "GPS m", "n", "SNR", "std", "bg"]
     # short headers: the table's columns are narrow (the lines above spell out what they are)
     head += [c.replace("_corrected", " corr") for c in CURVES] + ["ratio s.corr"]
+    head += ["exp rim", "exp ext", "rule", "ratio exp"]
     cells = []
     for r in data.csv_rows:
         cells.append(
@@ -106,11 +112,16 @@ def summary_page(data: ReportData):
             ]
             + [_fmt(r[f"model_{c}"], ".1f") for c in CURVES]
             + [_fmt(r["ratio_small_corrected"], ".3f")]
+            + [
+                _fmt(r["model_expected_eq4_rim"], ".1f"),
+                _fmt(r["model_expected_eq4_extent"], ".1f"),
+            ]
+            + [str(r["expected_eq4_rule"] or "-"), _fmt(r["ratio_expected_eq4"], ".3f")]
         )
     empty = "no range stop was found in this session"
     draw_table(
         fig,
-        (0.04, 0.05, 0.92, 0.74),
+        (0.04, 0.05, 0.92, 0.70),
         head,
         cells,
         max_rows=40,

@@ -1,6 +1,10 @@
 """The report's CSV: one row per stop and camera, every value at full precision, an empty cell
 where a value is missing or undefined (never a made-up number); ``ratio_<curve>`` is the measured
-SNR mean over the model's SNR for that curve at the stop's range."""
+SNR mean over the model's SNR for that curve at the stop's range. Both expected Eq. (4) readings
+are given (``model_expected_eq4_rim``: the paper's 7x7 rim; ``model_expected_eq4_extent``: the
+console's target-aware rule); ``expected_eq4_rule`` names the one the stop's background makes
+applicable (``rim``, ``extent``; empty for a clear-sky rectangle) and ``ratio_expected_eq4``
+is the measured mean over it."""
 
 from __future__ import annotations
 
@@ -8,7 +12,7 @@ import csv
 import math
 from pathlib import Path
 
-from snrmon.acquisition.prediction import CURVES
+from snrmon.acquisition.prediction import CURVES, EXPECTED_CURVES
 from snrmon.acquisition.stops.table import StopRow
 
 CSV_COLUMNS: tuple[str, ...] = (
@@ -22,6 +26,9 @@ CSV_COLUMNS: tuple[str, ...] = (
     "background",
     *(f"model_{c}" for c in CURVES),
     *(f"ratio_{c}" for c in CURVES),
+    *(f"model_{c}" for c in EXPECTED_CURVES),
+    "expected_eq4_rule",
+    "ratio_expected_eq4",
 )
 
 
@@ -50,6 +57,10 @@ def csv_rows(rows: list[StopRow]) -> list[dict[str, object]]:
             row[f"model_{c}"] = r.model_snr.get(c)
         for c in CURVES:
             row[f"ratio_{c}"] = ratio(r.snr_mean, r.model_snr.get(c))
+        for c in EXPECTED_CURVES:
+            row[f"model_{c}"] = r.model_snr.get(c)
+        row["expected_eq4_rule"] = r.expected_eq4_rule
+        row["ratio_expected_eq4"] = ratio(r.snr_mean, r.expected_eq4)
         out.append(row)
     return out
 

@@ -65,6 +65,7 @@ def row_payload(row: StopRow) -> dict:
         if isinstance(v, float) and not math.isfinite(v):
             payload[k] = None
     payload["model_snr"] = {k: (v if math.isfinite(v) else None) for k, v in row.model_snr.items()}
+    payload["expected_eq4_rule"] = row.expected_eq4_rule  # which model_snr reading applies
     return payload
 
 

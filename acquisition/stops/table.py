@@ -18,6 +18,10 @@ the same frames and readings builds the same table as the live console:
 - the row is final when its stop has ended and the camera has passed the stop's end (or at
   :meth:`StopTable.finalize`); only frames before the end count, even those that arrived before the
   end was known. ``on_final(row)`` is called once per row, on the thread of the frame that passed.
+  While the model is still computing new curves for that camera (a measured sky, a PSF from the
+  flight: :meth:`Predictor.pending`), the row waits for them, a frame at a time: its model values
+  are then those of the inputs in force when the stop ended, not of the inputs before (a live
+  recompute takes a second; a replay's is immediate, so it freezes the same row).
 
 Until then :meth:`StopTable.rows` shows the row as it stands (provisional).
 """
@@ -76,6 +80,34 @@ class StopRow:
     def range_m(self) -> float | None:
         """The stop's range: the rangefinder's when it has one, else the GPS slant range."""
         return self.lrf_range_m if self.lrf_range_m is not None else self.gps_range_m
+
+    @property
+    def expected_eq4_rule(self) -> str | None:
+        """The background rule of the expected Eq. (4) reading this row's measurement is to be
+        held to (:func:`expected_eq4_rule`)."""
+        return expected_eq4_rule(self.background)
+
+    @property
+    def expected_eq4(self) -> float | None:
+        """The model's expected Eq. (4) reading by the rule this row was measured with
+        (``model_snr["expected_eq4_rim"]`` or ``["expected_eq4_extent"]``); None without a
+        model or a rule."""
+        rule = self.expected_eq4_rule
+        return None if rule is None else self.model_snr.get(f"expected_eq4_{rule}")
+
+
+def expected_eq4_rule(background: str) -> str | None:
+    """Which expected Eq. (4) reading holds for frames measured against ``background`` (their
+    methods, "+"-joined as in :attr:`StopRow.background`): ``"rim"`` when every frame used the
+    paper's background, the 24 rim pixels of the 7x7 box; ``"extent"`` when any used the rim of
+    the target's extent (the console departs from the paper's rim for a drone wider than the
+    box's 5x5 guard, whose own light the 7x7 rim would take for sky; the extent rule of the model
+    weights the two rims by the chance of that, frame by frame); None for the operator's
+    clear-sky rectangle (no model of it) or no frames."""
+    methods = set(background.split("+")) if background else set()
+    if not methods or "rect" in methods:
+        return None
+    return "extent" if "extent_rim" in methods else "rim"
 
 
 def backgrounds_of(results) -> str:
@@ -239,6 +271,8 @@ class StopTable:
             key = (stop.index, camera)
             if key in self._final or stop.t_end_ns is None or t_ns < stop.t_end_ns:
                 continue
+            if self.predictor is not None and self.predictor.pending(camera):
+                continue  # the model's curves for the inputs now in force: the next frame
             out.append(self._freeze(stop, camera))
         return out
 

@@ -219,6 +219,8 @@ def _produce(
     # A killed console (SIGKILL, a test runner's timeout) never sets ``stop``: watch the parent
     # so the camera process does not outlive it, rendering into a ring no one reads.
     parent = os.getppid()
+    if clock is not None:
+        render(first_counter)  # the first render builds the scene: before the day's clock runs
     ready.set()
     counter = first_counter
     period_ns = round(1e9 / fps) if fps else 0

@@ -7,14 +7,23 @@
 
 The session is replayed as recorded (``acquisition.replay.batch.replay_session``: the same
 measurement, live track and stop table as live); the stop's range (rangefinder, else GPS) and
-the tracked peak of each of its last frames give the ROI; ``acquisition.calibrate.characterize``
-segments the drone. JSON contract: ``{"camera",
+the tracked peak of each of its frames give the ROI; ``acquisition.calibrate.characterize``
+segments the drone in every tracked frame of the stop and summarises the ``--frames`` where it
+is at rest (``at_rest_frames``: range within the stop detector's tolerance, segmented size
+steadiest), wherever they lie in the stop. JSON contract: ``{"camera",
 "stop", "range_m", "n_frames", "small_m", "small_m_std", "large_m", "large_m_std",
 "mean_temp_c", "mean_temp_c_std", "background_temp_c", "background_temp_c_std",
-"rss_delta_t_k", "rss_delta_t_k_std", "method", "outline_temp_c", "core_pixels"}``; temperatures
-are null without a calibration. ``mean_temp_c`` is read on the outline's core, the pixels the
-PSF does not mix with the sky (``acquisition.calibrate.characterize``); ``outline_temp_c`` is the
-eroded outline's mean, low where the drone's parts are only a few PSF widths across.
+"rss_delta_t_k", "rss_delta_t_k_std", "method", "outline_temp_c", "core_pixels",
+"at_rest_s", "core_seen_temp_c", "core_psf_share", "psf_blur_px", "psf_source"}``
+(``at_rest_s``: [first, last] frame of those used, seconds from the stop's start);
+temperatures are null without a calibration. ``mean_temp_c`` is read on the outline's core,
+the pixels farthest from the sky (``acquisition.calibrate.characterize``), its contrast
+corrected for the PSF's mixing with the camera's PSF measured from the flight (the session's
+latest ``psf_measured`` or ``model_psf`` event of the camera: the Airy blurred by its
+``blur_px``; ``--psf-blur-px`` to give one; none: no correction, ``psf_source`` null);
+``core_seen_temp_c`` is the core before that correction, ``core_psf_share`` the share of the
+contrast the PSF left it; ``outline_temp_c`` is the eroded outline's mean, low where the
+drone's parts are only a few PSF widths across.
 
 The result is kept beside the recording in ``FILE.analysis.json`` (the recording's bytes do not
 change); ``--write`` adds it to the recording as a ``target_characterized`` event instead.
@@ -31,13 +40,16 @@ import numpy as np
 from snrmon.acquisition.calibrate.calibration_file import load_calibration
 from snrmon.acquisition.calibrate.characterize import (
     CharacterizeConfig,
-    characterize_frames,
+    at_rest_frames,
+    characterize_frame,
+    summarise_frames,
     target_toml,
 )
 from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.replay.batch import replay_session
 from snrmon.acquisition.replay.recorded import recorded_calibration_path
+from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, output_file, session_file
 from snrmon.model.presets import load_sensor
@@ -70,6 +82,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="report the apparent temperature only (no atmospheric correction)",
     )
     p.add_argument("--sensor", help="sensor preset/TOML (default: the session's, else --camera)")
+    p.add_argument(
+        "--psf-blur-px",
+        type=float,
+        help="the camera's PSF for the core's correction: its Airy blurred by this Gaussian "
+        "(default: the session's measured PSF, snrmon psf)",
+    )
+    p.add_argument(
+        "--no-psf-correction",
+        action="store_true",
+        help="read the core as seen, without correcting for the PSF's mixing",
+    )
     p.add_argument("--frames", type=int, default=100, help="frames of the stop to use (100)")
     p.add_argument(
         "--method",
@@ -130,9 +153,37 @@ def through_the_air(result, sensor, range_m: float, weather=None) -> dict:
         "transmission": tau,
         "air_temp_c": t_air - 273.15,
     }
-    if result.outline_temp_c is not None:
-        out["outline_temp_c"] = own_c(result.outline_temp_c)
+    for key in ("outline_temp_c", "core_seen_temp_c"):
+        if getattr(result, key) is not None:
+            out[key] = own_c(getattr(result, key))
     return out
+
+
+def _measured_psf(args, sensor) -> tuple[object | None, float | None, str | None]:
+    """(PSF, blur_px, where it came from): ``--psf-blur-px``, else the session's latest
+    ``psf_measured`` / ``model_psf`` event of the camera; (None, None, None) without one."""
+    from snrmon.model.psf import AiryGaussianPsf
+
+    if args.no_psf_correction:
+        return None, None, None
+    blur, source = args.psf_blur_px, "--psf-blur-px"
+    if blur is None:
+        with open_session(args.file) as f:
+            events = [
+                e
+                for e in f.event_list()
+                if e.get("kind") in ("psf_measured", "model_psf")
+                and e.get("camera") == args.camera
+                and isinstance(e.get("payload"), dict)
+                and e["payload"].get("blur_px") is not None
+            ]
+        if not events:
+            return None, None, None
+        last = events[-1]  # the latest: events are in the order they were added
+        blur, source = float(last["payload"]["blur_px"]), f"{last['kind']} event"
+    if not (blur >= 0 and np.isfinite(blur)):
+        raise UsageError(f"--psf-blur-px must be >= 0 px, got {blur}")
+    return AiryGaussianPsf(sensor.diffraction_psf(), float(blur)), float(blur), source
 
 
 def _sensor_name(path: str, camera: str) -> str:
@@ -167,12 +218,14 @@ def run(args: argparse.Namespace) -> int:
     if range_m is None:
         raise UsageError(f"stop {args.stop} has no range (no rangefinder or GPS readings)")
     rep = replay.cameras[args.camera]
+    psf, blur, psf_source = _measured_psf(args, sensor)
     end = row.t_end_ns if row.t_end_ns is not None else np.iinfo(np.int64).max
+    # every tracked frame of the stop: those where the drone is at rest are chosen below
     picks = [
-        (t, (r.peak_x, r.peak_y))
-        for t, r in zip(rep.t_host_ns, rep.results, strict=True)
-        if row.t_start_ns <= t < end and not (r.flags & _NO_POSITION)
-    ][-args.frames :]  # the end of the hover: the drone stationary there (paper section 4)
+        (m.t_host_ns, (m.result.peak_x, m.result.peak_y), m.range_m)
+        for m in rep.tally.measurements
+        if row.t_start_ns <= m.t_host_ns < end and not (m.result.flags & _NO_POSITION)
+    ]
     if not picks:
         raise UsageError(f"stop {args.stop} holds no tracked frames of {args.camera}")
     with open_session(args.file) as f:
@@ -189,24 +242,49 @@ def run(args: argparse.Namespace) -> int:
         # The replay measures frames the recorder dropped too (from its recorded state); only
         # the frames the file holds can be read: each pick by its exact receipt time.
         t_file = np.asarray(cam.t_host_ns[: cam.frames.shape[0]])
-        index = np.searchsorted(t_file, [t for t, _ in picks])
+        index = np.searchsorted(t_file, [t for t, _, _ in picks])
         held = [
-            (int(i), at)
-            for i, (t, at) in zip(index, picks, strict=True)
+            (int(i), t, at, rng)
+            for i, (t, at, rng) in zip(index, picks, strict=True)
             if i < t_file.size and t_file[i] == t
         ]
         if not held:
             raise UsageError(f"stop {args.stop}: none of its tracked frames is in {args.file}")
-        pairs = ((cam.frames[i], at) for i, at in held)
-        result = characterize_frames(
-            pairs,
-            camera=args.camera,
-            range_m=float(range_m),
-            ifov_rad=sensor.ifov_rad,
-            calibration=cal,
-            config=CharacterizeConfig(roi_half_px=args.roi_px, method=args.method),
+        if cal is not None and cal.camera != args.camera:
+            raise ValueError(f"calibration is for camera {cal.camera!r}, not {args.camera!r}")
+        config = CharacterizeConfig(roi_half_px=args.roi_px, method=args.method)
+        targets = [
+            characterize_frame(
+                cam.frames[i],
+                at,
+                range_m=float(range_m),
+                ifov_rad=sensor.ifov_rad,
+                calibration=cal,
+                config=config,
+                psf=psf,
+                fill_factor=sensor.fill_factor,
+            )
+            for i, _, at, _ in held
+        ]
+    source = "lrf" if row.lrf_range_m is not None else "gps"
+    rest = at_rest_frames(
+        [None if f is None else float(np.sqrt(f.area_px)) for f in targets],
+        [rng for _, _, _, rng in held],
+        args.frames,
+        stop_range_m=float(range_m),
+        range_tolerance_m=StopConfig().tolerance_m(source),
+    )
+    used = [targets[k] for k in rest if targets[k] is not None]
+    try:
+        result = summarise_frames(
+            used, camera=args.camera, range_m=float(range_m), method=args.method
         )
+    except ValueError as exc:
+        raise UsageError(f"stop {args.stop}: {exc}") from None
     out = {"stop": args.stop, **result.as_dict(), "calibration": cal_path}
+    out["at_rest_s"] = [(held[k][1] - row.t_start_ns) / 1e9 for k in (rest[0], rest[-1])]
+    corrected = cal is not None and psf is not None  # a PSF corrects a temperature
+    out["psf_blur_px"], out["psf_source"] = (blur, psf_source) if corrected else (None, None)
     if result.mean_temp_c is not None and not args.apparent:
         out.update(through_the_air(result, sensor, float(range_m), _weather(args)))
     if args.target_out:

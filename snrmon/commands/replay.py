@@ -105,6 +105,7 @@ def result_json(result) -> dict:
             "measured_snr_std": _finite(r.snr_std),
             "measured_snr_sem": _finite(r.snr_sem),
             "background": r.background or None,
+            "expected_eq4_rule": r.expected_eq4_rule,
             "model_snr": {k: _finite(v) for k, v in r.model_snr.items()},
             "resolved": r.resolved,
             "note": None if r.n_frames else "no valid frame of this camera during the stop",

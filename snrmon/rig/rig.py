@@ -242,6 +242,7 @@ class HilRig:
         self._clicked: set[tuple[str, int]] = set()
         self._final: dict[tuple[str, int], dict] = {}  # (camera, stop) -> its result entry
         self.recording: dict | None = None  # the recording's own accounting, once closed
+        self._psf_recorded = False
 
     # ------------------------------------------------------------------ clock and truth
     def flight_time(self) -> float:
@@ -499,7 +500,22 @@ class HilRig:
             "resolved": bool(row.resolved),
             "_crops": self.crop_logs[row.camera].between([t for t, _ in run]),
             "background": row.background,
+            "expected_eq4_rule": row.expected_eq4_rule,  # which model_snr reading applies
         }
+
+    def _record_psf(self, psf: dict) -> None:
+        """The PSF each camera's unresolved stops gave, into the recording (once, after it is
+        closed) as ``snrmon psf`` records it: ``snrmon characterize`` corrects the close stop's
+        core temperature with it."""
+        from snrmon.acquisition.record.reader import append_event
+
+        if not self.opts.out or self._psf_recorded or self.recording is None:
+            return
+        self._psf_recorded = True
+        for cam, est in psf.items():
+            if "error" not in est:
+                payload = {**est, "camera": cam, "source": "snrmon hil: the unresolved stops"}
+                append_event(self.opts.out, "psf_measured", camera=cam, payload=payload)
 
     def final_stops(self) -> list[dict]:
         """The stop entries frozen so far (their rows are complete or their stop ended), in
@@ -517,6 +533,7 @@ class HilRig:
             for row in self.session.stops()
         }
         psf = measured_psf(self, entries)  # the PSF from the flight's own frames
+        self._record_psf(psf)
         stops = [{k: v for k, v in e.items() if k != "_crops"} for e in entries.values()]
         frames = defaultdict(dict)
         accounting = (self.recording or {}).get("accounting") or {}

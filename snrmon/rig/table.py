@@ -20,7 +20,9 @@ def format_row(s: dict) -> str:
         f"{_f(s['gps_range_m'])} {s['n_frames']:4d} {_f(s['measured_snr_mean'], 7, 2)} "
         f"{_f(s['measured_snr_std'], 6, 2)} {_f(s.get('measured_snr_mean_raw'), 7, 2)} "
         f"{_f(s['truth_snr'], 7, 2)} {_f(m.get('small'), 8, 2)} "
-        f"{_f(m.get('small_corrected'), 8, 2)} {_f(m.get('expected_eq4'), 8, 2)}  "
+        f"{_f(m.get('small_corrected'), 8, 2)} {_f(m.get('expected_eq4_rim'), 8, 2)} "
+        f"{_f(m.get('expected_eq4_extent'), 8, 2)} {s.get('expected_eq4_rule') or '-':6s} "
+        f"{_f(s.get('measured_over_model'), 6, 3)} {_f(s.get('truth_over_model'), 6, 3)}  "
         f"{s.get('background') or '-':15s} {_target_note(s)}"
     )
 
@@ -40,14 +42,19 @@ def _target_note(s: dict) -> str:
 TABLE_HEADER = (
     f"{'camera':6s} {'plan_m':>7s} {'lrf_m':>7s} {'gps_m':>7s} {'n':>4s} "
     f"{'SNR':>7s} {'std':>6s} {'raw':>7s} {'truth':>7s} {'model_s':>8s} {'model_sc':>8s} "
-    f"{'exp_eq4':>8s}  "
+    f"{'exp_rim':>8s} {'exp_ext':>8s} {'rule':6s} {'m/mod':>6s} {'t/mod':>6s}  "
     f"{'background':15s} target"
 )
 
 TABLE_FOOTNOTE = (
     "raw: the SNR of the same track on frames without the fixed-pattern correction (with\n"
     "--fpn; '-': not measured). model_s / model_sc: the model's small dimension, uncorrected /\n"
-    "corrected (real PSF, finite size); exp_eq4: what Eq. (4) is expected to read.\n"
+    "corrected (real PSF, finite size); exp_rim / exp_ext: what Eq. (4) is expected to read\n"
+    "with the paper's 7x7 rim / the console's target-aware background (the rim of the drone's\n"
+    "extent once it is wider than the box's 5x5 guard); rule: the one the stop's background\n"
+    "makes applicable. m/mod: measured / that expected reading, t/mod: truth / the noise-free\n"
+    "peak SNR, both with the PSF fitted to the flight's frames and over the sub-pixel phases\n"
+    "the stop's frames sampled (unresolved stops only).\n"
     "background: what Eq. (4)'s mean and std were taken over ('rim': the 7x7 box's rim;\n"
     "'extent_rim': outside the segmented drone and a 2 px guard, for a drone wider than the\n"
     "box's 5x5 guard; 'rect': the clear-sky rectangle), most used first. target: the model's\n"

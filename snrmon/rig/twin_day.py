@@ -66,8 +66,8 @@ def calibrate_cameras(feeds: dict, seeds: dict, directory: Path, stem: str) -> d
     ``<directory>/<stem>.<camera>-calibration.npz``; returns {camera: path}."""
     from snrmon.acquisition.calibrate.calibration import calibrate_means
     from snrmon.acquisition.calibrate.calibration_file import save_calibration
-    from snrmon.sim.from_model import blackbody_scene
     from snrmon.sim.scene import SceneRenderer
+    from snrmon.sim.twin import blackbody_scene
 
     paths = {}
     for cam, (sensor, feed) in feeds.items():
@@ -163,11 +163,31 @@ def adopt_measured_psf(rig, cam: str, finals: dict) -> None:
     threading.Thread(target=fit, name=f"psf-{cam}", daemon=True).start()
 
 
+MODEL_VALUES = ("small_corrected", "expected_eq4_rim", "expected_eq4_extent")
+"""What the model says of a stop with the flight's PSF: the noise-free peak SNR of the corrected
+small curve and the expected Eq. (4) readings of both background rules."""
+
+
+def _peak_snr_at_phases(p, psf, fill_factor: float, d_px: float, phases_xy) -> float:
+    """The corrected small curve's noise-free peak SNR over the sub-pixel phases a stop's frames
+    sampled (instead of the whole cell): point signal / noise x the mean centre-pixel share."""
+    from snrmon.model.eq4 import observed_phase_weights
+    from snrmon.model.footprint import pixel_patterns
+
+    xs, ys, weights = observed_phase_weights(phases_xy)
+    pats = pixel_patterns(psf, fill_factor, xs, ys, half_size_px=0, target_square_px=d_px)
+    share = float(np.sum(weights * pats[:, :, 0, 0]))
+    return float(p.point_contrast_e["small"][0] / p.noise.total * share)
+
+
 def measured_psf(rig, finals: dict) -> dict:
     """Per camera, the PSF fitted to the crops of its unresolved stops, pooled, and every
-    stop's expected Eq. (4) with it: {camera: {"psf": {...} | {"error": ...}}} and, in the
-    stop entries of ``finals``, ``"expected_eq4_measured_psf"`` (over the whole cell) and, at
-    an unresolved stop, ``"expected_eq4_stop_phases"`` (over the phases its frames sampled)."""
+    stop's model values with it: {camera: {"psf": {...} | {"error": ...}}} and, in the stop
+    entries of ``finals``, ``"model_measured_psf"`` (:data:`MODEL_VALUES` over the whole cell)
+    and, at an unresolved stop, ``"model_stop_phases"`` (the same over the phases its frames
+    sampled), ``"measured_over_model"`` (the measured mean over the expected reading of the
+    rule its background makes applicable, at those phases) and ``"truth_over_model"`` (the
+    twin's noise-free truth over the model's noise-free peak SNR there)."""
     from snrmon.acquisition.calibrate.psf_estimate import (
         PsfEstimateError,
         estimate_psf,
@@ -202,12 +222,24 @@ def measured_psf(rig, finals: dict) -> dict:
                 "band": False,
             }
             p = predict(sensor, target, [rng], **kw)
-            entry["expected_eq4_measured_psf"] = float(p.expected_eq4[0])
-            entry["model_small_corrected_measured_psf"] = float(p.snr_small_corrected[0])
+            entry["model_measured_psf"] = {v: float(p.snr(v)[0]) for v in MODEL_VALUES}
             sampled = phases.get(_label(stop, cam))
-            if sampled is not None:  # unresolved: the phases its own frames sampled
-                p = predict(sensor, target, [rng], phases_xy=sampled, **kw)
-                entry["expected_eq4_stop_phases"] = float(p.expected_eq4[0])
+            if sampled is None:  # resolved: no PSF fit, no phases
+                continue
+            p = predict(sensor, target, [rng], phases_xy=sampled, **kw)
+            d_px = target.small_m / (rng * sensor.ifov_rad)
+            at = {v: float(p.snr(v)[0]) for v in MODEL_VALUES[1:]}
+            at["small_corrected"] = _peak_snr_at_phases(
+                p, est.psf(), sensor.fill_factor, d_px, sampled
+            )
+            entry["model_stop_phases"] = at
+            rule = entry.get("expected_eq4_rule")
+            if rule is not None and math.isfinite(entry["measured_snr_mean"]):
+                entry["measured_over_model"] = (
+                    entry["measured_snr_mean"] / at[f"expected_eq4_{rule}"]
+                )
+            if math.isfinite(entry.get("truth_snr", math.nan)):
+                entry["truth_over_model"] = entry["truth_snr"] / at["small_corrected"]
     return out
 
 

@@ -1,11 +1,11 @@
 """Test scenes for calibration and characterization, built from sim's public pieces.
 
-Why not ``sim.scene.SceneRenderer`` + ``sim.from_model.blackbody_scene`` directly: these scenes
+Why not ``sim.scene.SceneRenderer`` + ``sim.twin.blackbody_scene`` directly: these scenes
 need a drone of a set TEMPERATURE and shape (sim renders set contrast electrons in one square),
 and they were written when the renderer still derived its fixed pattern from the level it
 renders (fixed since: tests/sim/test_scene.py checks blackbody captures share the camera's
 maps). Here ONE ``sim.noise.FixedPattern`` (made as the renderer makes it for the sky)
-is used for every capture; electrons are the model's (``model.detector.background_electrons``),
+is used for every capture; electrons are the twin camera's (``sim.radiometry.TwinCamera``),
 noise is sim's Eq. 1 shot + floor noise, quantisation is ``sim.noise.quantize_dn``. The drone is
 a set of pixel-axis-aligned rectangles (a cross) at a set temperature, each a box convolved with
 the Gaussian PSF on the active areas (``sim.drone.box_gaussian_fractions_1d``), because sim's
@@ -18,12 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from snrmon.model.detector import background_electrons
 from snrmon.model.presets import load_sensor, load_target
 from snrmon.sim.drone import box_gaussian_fractions_1d
-from snrmon.sim.from_model import scene_config_from_model
 from snrmon.sim.noise import FixedPattern, fixed_pattern, quantize_dn
+from snrmon.sim.radiometry import TwinCamera
 from snrmon.sim.scene import SceneConfig
+from snrmon.sim.twin import Scenario, twin_scene_config
 
 
 @dataclass
@@ -37,7 +37,7 @@ class Camera:
         return self.fpn.shape
 
     def electrons(self, temp_k: float) -> float:
-        return float(background_electrons(self.sensor, temp_k))
+        return TwinCamera.from_sensor(self.sensor).pixel_electrons(temp_k)
 
     def frames(self, scene_e, n: int, seed: int, *, noise_scale=None) -> np.ndarray:
         """(n, H, W) uint16 frames of a scene of ``scene_e`` electrons (scalar or (H, W))."""
@@ -60,7 +60,9 @@ class Camera:
 
 def camera(name: str = "mwir", shape=(96, 128), seed: int = 7, sky_temp_k=280.0) -> Camera:
     sensor = load_sensor(name)
-    cfg = scene_config_from_model(sensor, load_target("uav1"), sky_temp_k=sky_temp_k)
+    cfg = twin_scene_config(
+        sensor, load_target("uav1"), Scenario(sky_temp_k=sky_temp_k), spread=None
+    )
     fpn = fixed_pattern(
         shape,
         spatial_noise_dn=cfg.fpn_multiple * cfg.temporal_noise_dn,

@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from snrmon.acquisition.config import session_config_from_dict
-from snrmon.acquisition.prediction import CURVES, EXPECTED, PAPER_CURVES, ModelPredictor
+from snrmon.acquisition.prediction import (
+    CURVES,
+    EXPECTED_CURVES,
+    EXPECTED_EXTENT,
+    EXPECTED_RIM,
+    PAPER_CURVES,
+    ModelPredictor,
+)
 from snrmon.model.presets import load_sensor, load_target
 from snrmon.model.psf import GaussianPsf
 from snrmon.model.snr import predict
@@ -17,12 +24,18 @@ from snrmon.model.snr import predict
 def test_lookup_has_the_four_curves_and_the_expected_reading():
     p = ModelPredictor({"mwir": "mwir"}, "uav1", air_temp_k=290.0)
     out = p("mwir", 451.0)
-    assert set(out) == {*CURVES, EXPECTED, "resolved_small"}
-    direct = predict(load_sensor("mwir"), load_target("uav1"), [451.0], air_temp_k=290.0)
-    assert out["small_corrected"] == pytest.approx(direct.snr_small_corrected[0], rel=2e-3)
-    assert out[EXPECTED] == pytest.approx(direct.expected_eq4[0], rel=0.01)
-    curves = p.curve("mwir")
-    assert set(PAPER_CURVES) <= set(curves) and f"{EXPECTED} band" in curves
+    assert set(out) == {*CURVES, *EXPECTED_CURVES, "resolved_small"}
+    direct = predict(load_sensor("mwir"), load_target("uav1"), [37.0, 451.0], air_temp_k=290.0)
+    assert out["small_corrected"] == pytest.approx(direct.snr_small_corrected[1], rel=2e-3)
+    for name in (EXPECTED_RIM, EXPECTED_EXTENT):
+        assert out[name] == pytest.approx(direct.snr(name)[1], rel=0.01)
+        assert f"{name} band" in p.curve("mwir")
+    assert set(PAPER_CURVES) <= set(p.curve("mwir"))
+    # the two rules, each labelled: the same on the compact drone at 451 m; at 37 m the
+    # paper's 7x7 rim lies on the drone and reads it against itself
+    assert out[EXPECTED_RIM] == pytest.approx(out[EXPECTED_EXTENT], rel=0.02)
+    close = p("mwir", 37.0)
+    assert close[EXPECTED_EXTENT] > 50 * close[EXPECTED_RIM]
 
 
 def test_measured_noise_is_per_camera():

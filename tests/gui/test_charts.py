@@ -142,7 +142,7 @@ def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(q
             True,
             mean,
             10.0,
-            {"expected_eq4": 0.0},
+            {"expected_eq4_extent": 0.0},
             resolved,
             snr_sem=sem,
         )
@@ -154,6 +154,6 @@ def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(q
     assert fit_title(rows, None) == ""
     plot = RangePlot("mwir")
     qtbot.addWidget(plot)
-    plot.set_curves({"expected_eq4": expected})
+    plot.set_curves({"expected_eq4_extent": expected})
     plot.show_stops(rows)
     assert [p[2] for p in plot._stops_shown] == [2.0, 2.0, 1.0]  # not the std of 10

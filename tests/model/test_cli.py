@@ -202,3 +202,24 @@ def test_bad_met_readings_are_one_line(capsys, argv, needle):
     assert code == 2 and out == ""
     lines = err.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0], err
+
+
+def test_lwir_papers_corrected_curve_is_not_the_uncorrected_one(capsys):
+    code, out, _ = _run(
+        capsys,
+        "snr",
+        "--sensor",
+        "lwir",
+        "--target",
+        "uav1",
+        "--ranges",
+        "199",
+        "--atmosphere",
+        "none",
+        "--json",
+    )
+    assert code == 0
+    (rec,) = strict_json(out)
+    paper = rec["snr_paper"]
+    # the finite-size correction (sigma_t = D/2 at D = 0.78 px) and the LWIR's blur: -36 %
+    assert paper["small_corrected"] / paper["small"] == pytest.approx(0.635, abs=0.01)

@@ -39,21 +39,25 @@ def test_square_pvf_tends_to_the_pixel_filling_limit():
         share = [average_pvf_square(psf, ff, d) * d * d / ff for d in (16.0, 64.0, 1000.0)]
         assert share[0] < share[1] < share[2] <= 1.0 + 1e-4
         assert share[2] == pytest.approx(1.0, abs=1e-3)
-    # the narrow real PSF already fills the 8.5-px square at 37 m; the Airy's wings (energy
-    # outside r ~ 2q/(pi^2 r)) keep 5.5 % of the light of its centre pixel outside the square
+    # at 37 m (an 8.5-px square) the Airy's wings (energy outside r ~ 2q/(pi^2 r)) keep 5.8 %
+    # of the light of its centre pixel outside the square; the real PSF, that Airy blurred,
+    # keeps a little more out: never less (a pure Gaussian, whose wings are narrower than the
+    # Airy's, had read 1.00 here: a "real" PSF better than the diffraction limit)
     d37 = UAV1.small_m / (37.0 * MW.ifov_rad)
     real = average_pvf_square(MW.corrected_psf(), ff, d37) * d37**2 / ff
     airy = average_pvf_square(MW.diffraction_psf(), ff, d37) * d37**2 / ff
-    assert real == pytest.approx(1, abs=0.01)
-    assert airy == pytest.approx(0.945, abs=0.005)
+    assert airy == pytest.approx(0.942, abs=0.005)
+    assert 0.99 * airy < real < airy
 
 
 def test_resolved_limit_is_the_papers_resolved_formula_at_37_m():
     p = predict(MW, UAV1, [37.0], expected=False, band=False)
     paper = predict(MW, UAV1, [37.0], geometry="paper", expected=False, band=False)
     assert paper.resolved_small[0]
-    # the corrected (real PSF) curve at 37 m is the pixel-filling radiance within 1 %
-    assert p.snr_small_corrected[0] == pytest.approx(paper.snr_small_corrected[0], rel=0.01)
+    # the corrected (real PSF) curve at 37 m is the pixel-filling radiance less the PSF's wings
+    # outside the 8.5-px square (6 %), and below the diffraction limit
+    assert p.snr_small_corrected[0] == pytest.approx(0.937 * paper.snr_small_corrected[0], rel=0.01)
+    assert p.snr_small_corrected[0] < p.snr_small[0]
     # and as D -> infinity the square's signal IS the resolved formula, by construction
     ext = paper.signal_e["small_corrected"][0]
     d = 1e6
@@ -87,7 +91,8 @@ def test_model_snr_json_10_to_1000_m_has_no_jump(capsys):
         "snr_large",
         "snr_small_corrected",
         "snr_large_corrected",
-        "expected_eq4",
+        "expected_eq4_rim",
+        "expected_eq4_extent",
     ):
         assert _jump(np.array([r[key] for r in recs])) < 1.5, key
     # the same statistic catches the paper's switch (so the test can fail): 393 -> 130 at 314 m
@@ -105,19 +110,19 @@ def test_the_switch_the_audit_found_and_the_continuous_value():
     assert below / above == pytest.approx(jump, rel=0.02)
     cont = predict(MW, UAV1, [313.9, 314.1], expected=False, band=False).snr_small
     assert cont[0] / cont[1] == pytest.approx(1.0, abs=0.002)
-    # the square of side 1 px with the Airy: 0.828 of the point source, no branch jumps
-    assert cont[0] / above == pytest.approx(0.828, abs=0.005)
+    # the square of side 1 px with the Airy: 0.844 of the point source, no branch jumps
+    assert cont[0] / above == pytest.approx(0.844, abs=0.005)
 
 
 def test_finite_size_numbers_of_the_audit():
-    """sigma_t = D/2 with the 0.082 PSF: 0.081/0.079/0.071 (the paper: 0.080/0.076/0.062);
-    the square of side D: 0.0817/0.0809/0.0778. In the LWIR at 199 m (D = 0.78 px) the
+    """sigma_t = D/2 with the 0.082 PSF: 0.081/0.078/0.069 (the paper: 0.080/0.076/0.062);
+    the square of side D: 0.0817/0.0808/0.0772. In the LWIR at 199 m (D = 0.78 px) the
     Gaussian rule drops the SNR 35 %, the square 16 %."""
     real = MW.corrected_psf()
     gauss = [float(average_pvf_vs_target_sigma(real, 0.8, 0.5 * d)) for d in (0.25, 0.5, 1.0)]
     square = [average_pvf_square(real, 0.8, d) for d in (0.25, 0.5, 1.0)]
-    assert gauss == pytest.approx([0.0812, 0.0788, 0.0706], abs=2e-4)
-    assert square == pytest.approx([0.0817, 0.0809, 0.0778], abs=2e-4)
+    assert gauss == pytest.approx([0.0811, 0.0784, 0.0693], abs=2e-4)
+    assert square == pytest.approx([0.0817, 0.0808, 0.0772], abs=2e-4)
     airy = LW.diffraction_psf()
     d = UAV1.small_m / (199.0 * LW.ifov_rad)
     point = average_pvf(airy, 0.9)
@@ -157,7 +162,7 @@ def test_contrast_weighted_transmission_of_the_mwir_default():
 def test_band_is_one_sided_where_the_paper_says_so():
     # a measured sky: an assumed one widens the band on both sides (test_sky_assumed_...)
     p = predict(MW, UAV1, [250.0, 451.0, 2000.0], background_temp_k=288.15)
-    for name in ("small_corrected", "large_corrected", "expected_eq4"):
+    for name in ("small_corrected", "large_corrected", "expected_eq4_rim", "expected_eq4_extent"):
         lo, hi, mid = p.lower[name], p.upper[name], p.snr(name)
         assert (lo < mid).all() and (mid < hi).all()
     c = p.snr_small_corrected

@@ -64,13 +64,14 @@ def test_expected_reading_matches_the_estimator(psf, amplitude, d_px):
 
 def test_wide_psf_reads_far_below_the_model_peak():
     """The audit: with the 1.18-px Gaussian 4-6 % of the peak lands on the rim and Eq. (4)
-    reads 16-49 % low at high SNR; the diffraction-limited PSF reads within 4 %."""
+    reads 16-49 % low at high SNR; the diffraction-limited PSF reads 7 % low (its first ring
+    on the rim: the long, wide-Airy end of the MWIR band weighs most in the signal)."""
     g = GaussianPsf(1.183)
     truth = 1000.0 * average_pvf_square(g, 0.8, 0.0)
     assert 0.3 < float(expected_eq4(g, 0.8, 1000.0)) / truth < 0.6
     airy = MW.diffraction_psf()
     truth = 1000.0 * average_pvf_square(airy, 0.8, 0.0)
-    assert float(expected_eq4(airy, 0.8, 1000.0)) / truth == pytest.approx(0.965, abs=0.02)
+    assert float(expected_eq4(airy, 0.8, 1000.0)) / truth == pytest.approx(0.934, abs=0.02)
 
 
 def test_resolved_drone_reading_follows_the_consoles_extent_background():
@@ -106,7 +107,7 @@ def test_compact_target_reading_is_the_7x7_rims_in_both_modes():
     first ring lights the 7x7 rim now and then and the console's background moves out."""
     airy = MW.diffraction_psf()
     bright = expected_eq4(airy, 0.8, 1000.0, background="target")
-    assert bright / expected_eq4(airy, 0.8, 1000.0) == pytest.approx(1.025, abs=0.01)
+    assert bright / expected_eq4(airy, 0.8, 1000.0) == pytest.approx(1.057, abs=0.01)
     for amplitude in (0.0, 12.0, 100.0):
         rim = expected_eq4(airy, 0.8, amplitude)
         target = expected_eq4(airy, 0.8, amplitude, background="target")

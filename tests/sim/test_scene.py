@@ -166,72 +166,56 @@ def test_confuser_crosses_as_a_bright_moving_blob():
     assert abs(int(later[50, 60]) - int(before[50, 60])) < 60
 
 
-def _fake_model(monkeypatch):
-    """Stand-ins for model.detector/noise/snr with simple known numbers (tests the adapter's
-    wiring only; the real model is exercised below when it is installed)."""
-    import sys
-    import types
-
-    calls = {}
-    det = types.ModuleType("snrmon.model.detector")
-    det.background_electrons = lambda sensor, t: 2000.0 * t
-    noise = types.ModuleType("snrmon.model.noise")
-    noise.temporal_noise_e = lambda sensor, t: 1000.0
-    snr = types.ModuleType("snrmon.model.snr")
-
-    def contrast(sensor, target, range_m, *, size, background_temp_k, **kw):
-        calls["size"], calls["bg"] = size, background_temp_k
-        return 1e5 * (100.0 / range_m) ** 2
-
-    snr.target_contrast_electrons = contrast
-    for name, mod in (
-        ("snrmon.model.detector", det),
-        ("snrmon.model.noise", noise),
-        ("snrmon.model.snr", snr),
-    ):
-        monkeypatch.setitem(sys.modules, name, mod)
-    return calls
-
-
-def test_scene_config_from_model_uses_the_models_chain(monkeypatch):
-    import types
-
-    from snrmon.sim.from_model import blackbody_scene, scene_config_from_model
-
-    calls = _fake_model(monkeypatch)
-    sensor = types.SimpleNamespace(
-        name="mwir",
-        width_px=1280,
-        height_px=720,
-        gain_e_per_dn=140.0,
-        dn_offset=1000.0,
-        ifov_rad=5e-4,
-        fill_factor=0.8,
-        bit_depth=14,
-        band_um=(3.45, 5.25),
-        f_number=2.3,
-        pitch_um=8.0,
-    )
-    target = types.SimpleNamespace(small_m=0.157, large_m=0.238)
-    config = scene_config_from_model(sensor, target, size="large", sky_temp_k=250.0)
-    assert calls == {"size": "large", "bg": 250.0}
-    assert config.sky_e == 5e5
-    assert config.temporal_noise_e == pytest.approx(1000.0)
-    assert config.target.size_m == 0.238
-    assert config.target.electrons_at(200.0) == pytest.approx(2.5e4, rel=1e-6)
-    assert config.psf_sigma_px == pytest.approx(0.42 * 4.35 * 2.3 / 8.0)
-    assert blackbody_scene(config, sensor, 300.0).blackbody_e == 6e5
-    with pytest.raises(ValueError, match="size"):
-        scene_config_from_model(sensor, target, size="medium")
-
-
-def test_truth_snr_with_the_real_model_approaches_its_average_pvf_snr():
+def test_twin_scene_is_the_twin_cameras_chain():
+    """The twin's scene takes every number from its own photon chain: the sky's charge, the
+    floor noise, the drone's contrast per range, a calibration blackbody's charge."""
     from snrmon.model import presets
-    from snrmon.sim.from_model import scene_config_from_model
+    from snrmon.sim.radiometry import TwinCamera
+    from snrmon.sim.twin import Scenario, blackbody_scene, twin_scene_config
+
+    sensor = presets.load_sensor("mwir")
+    cam = TwinCamera.from_sensor(sensor)
+    config = twin_scene_config(sensor, presets.load_target("uav1"), Scenario(sky_temp_k=250.0))
+    assert config.sky_e == cam.pixel_electrons(250.0)
+    assert config.floor_noise_e == sensor.read_noise_e  # a photon counter: read noise only
+    assert config.poisson_shot_noise
+    assert config.target.size_m == 0.157
+    warm = blackbody_scene(config, sensor, 300.0)
+    assert warm.blackbody_e == cam.pixel_electrons(300.0) > config.sky_e
+
+
+def test_poisson_charge_in_the_fresh_window():
+    """With ``poisson_shot_noise`` the charge around the drone is Poisson: whole electrons,
+    variance equal to the mean (a Gaussian of that variance would give neither)."""
+    config = mwir_example_scene(
+        **SMALL,
+        sky_e=30.0,
+        sky_gradient_e_per_px=(0.0, 0.0),
+        floor_noise_e=0.0,
+        gain_e_per_dn=1.0,
+        dn_offset=100.0,
+        fpn_enabled=False,
+        target_shot_noise=True,
+        poisson_shot_noise=True,
+    )
+    r = SceneRenderer(config, 3)
+    target = TargetState(x_px=128.0, y_px=96.0, total_e=0.0, size_px=0.3)
+    frames = np.array([r.render_with_truth(k, 0.0, target)[0] for k in range(40)], float)
+    window = frames[:, 80:112, 112:144] - 100.0  # inside the fresh window, no drone light
+    assert window.mean() == pytest.approx(30.0, rel=0.02)
+    assert window.var() == pytest.approx(30.0, rel=0.05)
+    assert np.all(window >= 0)
+
+
+def test_truth_snr_of_the_twin_approaches_its_average_pvf_snr():
+    from snrmon.model import presets
+    from snrmon.sim.twin import Scenario, twin_scene_config
 
     sensor = presets.load_sensor("mwir")
     target = presets.load_target("uav1")
-    config = scene_config_from_model(sensor, target, psf_sigma_px=0.8, fpn_enabled=False)
+    config = twin_scene_config(
+        sensor, target, Scenario(), spread=None, psf_sigma_px=0.8, fpn_enabled=False
+    )
     feed = FlightCameraFeed(config, FlightConfig(seed=3), fps=60.0, seed=2)
     t0, _, planned = FlightPlan(FlightConfig(seed=3)).stop_windows()[-1]  # 508 m
     first = int(np.ceil(t0 * 60))

@@ -18,12 +18,12 @@ UAV1 = load_target("uav1")
 
 @pytest.mark.parametrize("sensor", [MW, LW])
 def test_twin_airy_agrees_with_the_models_by_another_route(sensor):
-    """Flat weights and no blur: the spatial-domain twin and the model's OTF quadrature give
-    the same average PVF (two independent numerical routes) within 0.5 %."""
-    lo, hi = sensor.band_um
-    wl = tuple(float(x) for x in lo + (np.arange(15) + 0.5) * (hi - lo) / 15)
-    flat = TwinOptics(sensor.f_number, sensor.pitch_um, sensor.fill_factor, 0.0, wl, (1.0,) * 15)
-    model = average_pvf(sensor.diffraction_psf(), sensor.fill_factor)
+    """The model's wavelengths and weights and no blur: the spatial-domain twin and the model's
+    OTF quadrature give the same average PVF (two independent numerical routes) within 0.5 %."""
+    airy = sensor.diffraction_psf()
+    wl = tuple(q * sensor.pitch_um / sensor.f_number for q in airy.q_values)
+    flat = TwinOptics(sensor.f_number, sensor.pitch_um, sensor.fill_factor, 0.0, wl, airy.weights)
+    model = average_pvf(airy, sensor.fill_factor)
     assert flat.average_pvf() == pytest.approx(model, rel=0.005)
     # the far wings beyond 8 px are not rendered: ~3 % (MWIR) and ~2 % (LWIR) of the light
     assert 0.96 * sensor.fill_factor < flat.prf(16).sum() / 256 < sensor.fill_factor
@@ -50,7 +50,7 @@ def test_mwir_twin_reproduces_the_papers_gaussian_fit_and_has_its_own_pvf():
     assert pvf == pytest.approx(0.1415, abs=0.002)
     assert est.pvf == pytest.approx(pvf, rel=0.03)
     # neither the model's diffraction limit nor its 0.082
-    assert average_pvf(MW.diffraction_psf(), 0.8) / pvf > 1.8
+    assert average_pvf(MW.diffraction_psf(), 0.8) / pvf > 1.65
     assert pvf / average_pvf(MW.corrected_psf(), 0.8) > 1.6
 
 

@@ -23,8 +23,10 @@ from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate
 from snrmon.acquisition.calibrate.calibration_file import save_calibration
 from snrmon.acquisition.calibrate.characterize import (
     CharacterizeConfig,
+    at_rest_frames,
     characterize_frame,
     characterize_frames,
+    summarise_frames,
     target_toml,
 )
 from snrmon.acquisition.record.recorder import SessionRecorder
@@ -32,6 +34,7 @@ from snrmon.cli import main
 from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.rangefinder.reading import RangeReading
 from snrmon.model.presets import load_target
+from snrmon.model.psf import AiryGaussianPsf
 from tests.acquisition.calibration_scene import camera, cross_drone, rect_electrons
 from tests.helpers import strict_json
 
@@ -118,6 +121,37 @@ def test_thin_arms_read_on_the_core_where_the_outline_mean_reads_low(cam, cal):
     assert res.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
     assert res.outline_temp_c < DRONE_K - 273.15 - 1.5  # the mean a thick drone would read
     assert 1 <= res.core_pixels < 10
+
+
+def test_the_cameras_psf_restores_the_cores_contrast(cam, cal):
+    """The twin's UAV1 at 37 m through the twin's own optics (Airy x 0.57 px): its bars are 3.2
+    px thick, so even the core (the crossing) loses light to the Airy's wings and reads over a
+    kelvin low; given the camera's PSF (the Airy blurred as the flight's fit finds it) the core's
+    contrast is divided by the share the outline keeps there, and reads the drone."""
+    from snrmon.sim.optics import TwinSpread, twin_optics
+    from snrmon.sim.silhouette import silhouette_for
+
+    uav1 = load_target("uav1")
+    sensor = cam.sensor
+    spread = TwinSpread(twin_optics(sensor, DRONE_K, SKY_K, 0.57), silhouette_for(uav1), 0.157)
+    size_px = uav1.small_m / (RANGE_M * sensor.ifov_rad)
+    pattern = spread.fractions(0.3, -0.2, size_px)
+    h = pattern.shape[0] // 2
+    pixel_filling = cam.electrons(DRONE_K) - cam.electrons(SKY_K)
+    e = np.full(cam.shape, cam.electrons(SKY_K))
+    e[YC - h : YC + h + 1, XC - h : XC + h + 1] += pixel_filling * size_px**2 / 0.8 * pattern
+    frames = cam.frames(e, 12, seed=9)
+    kw = {"range_m": RANGE_M, "ifov_rad": sensor.ifov_rad, "calibration": cal}
+    psf = AiryGaussianPsf(sensor.diffraction_psf(), 0.59)
+    rows = [
+        characterize_frame(f, (XC, YC), psf=psf, fill_factor=sensor.fill_factor, **kw)
+        for f in frames
+    ]
+    res = summarise_frames(rows, camera="mwir", range_m=RANGE_M, method="otsu")
+    t_c = DRONE_K - 273.15
+    assert res.core_seen_temp_c < t_c - 1.0
+    assert 0.9 < res.core_psf_share < 0.96
+    assert res.mean_temp_c == pytest.approx(t_c, abs=0.5)
 
 
 def test_blades_are_removed_by_the_opening_and_kept_without_it(cam, cal):
@@ -321,3 +355,26 @@ def _stops_json(session) -> str:
 
     rows = replay_session(session).stops
     return json.dumps([r.stop for r in rows if r.camera == "mwir" and r.lrf_range_m < 45])
+
+
+def test_at_rest_frames_are_where_range_and_size_are_steady():
+    """A close stop whose frames show the drone arriving (larger, shrinking), at rest (its
+    size noisy by a pixel) and leaving (shrinking, its range drifting away): the frames used
+    are the at-rest ones, wherever they lie; a frame without a segmentation breaks a run."""
+    rng = np.random.default_rng(5)
+    arriving = np.linspace(26.0, 19.5, 60)
+    rest = 19.0 + rng.normal(0.0, 0.4, 150)
+    leaving = np.linspace(18.5, 11.0, 210)
+    sizes = [*arriving, *rest, *leaving]
+    ranges = [37.0] * 60 + [37.0] * 150 + list(np.linspace(37.0, 39.0, 210))
+    picked = at_rest_frames(sizes, ranges, 100, stop_range_m=37.0, range_tolerance_m=1.0)
+    assert len(picked) == 100 and picked == list(range(picked[0], picked[0] + 100))
+    assert picked[0] >= 60 and picked[-1] < 210
+    # the last 100 frames (what characterize took before) are the leaving drone's
+    assert np.mean(sizes[-100:]) < 0.8 * np.mean([sizes[i] for i in picked])
+    # a gap in the segmentation splits the at-rest frames: a run never spans it
+    sizes[120] = None
+    picked = at_rest_frames(sizes, ranges, 100, stop_range_m=37.0, range_tolerance_m=1.0)
+    assert picked[0] > 120 and picked[-1] < 230
+    # fewer than n steady frames: the longest run of them (range within 1 m: to frame 314)
+    assert at_rest_frames(sizes, ranges, 1000, stop_range_m=37.0) == list(range(121, 315))

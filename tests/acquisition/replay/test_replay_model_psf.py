@@ -69,5 +69,5 @@ def test_a_replay_applies_the_recorded_psf(tmp_path):
     for row in rows:
         assert row.model_psf is not None and row.model_psf.sigma_px == 0.57
         want = live("mwir", row.range_m)
-        for name in ("small_corrected", "expected_eq4"):
+        for name in ("small_corrected", "expected_eq4_rim", "expected_eq4_extent"):
             assert row.model_snr[name] == pytest.approx(want[name], rel=1e-9), name

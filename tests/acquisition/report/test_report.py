@@ -73,8 +73,15 @@ def test_csv_has_exactly_the_columns(outputs):
         "snr_mean",
         "snr_std",
     )
-    assert [c for c in CSV_COLUMNS if c.startswith("model_")] == [f"model_{c}" for c in CURVES]
-    assert [c for c in CSV_COLUMNS if c.startswith("ratio_")] == [f"ratio_{c}" for c in CURVES]
+    assert [c for c in CSV_COLUMNS if c.startswith("model_")] == [
+        *(f"model_{c}" for c in CURVES),
+        "model_expected_eq4_rim",
+        "model_expected_eq4_extent",
+    ]
+    assert [c for c in CSV_COLUMNS if c.startswith("ratio_")] == [
+        *(f"ratio_{c}" for c in CURVES),
+        "ratio_expected_eq4",
+    ]
     # Two planned stops x two cameras.
     assert sorted((r[0], r[1]) for r in rows[1:]) == [
         ("lwir", "0"),
@@ -103,6 +110,13 @@ def test_csv_values_match_an_independent_computation(session, data, outputs):
         for c in CURVES:
             assert float(row[f"model_{c}"]) == pytest.approx(model[c], rel=1e-12)
             assert float(row[f"ratio_{c}"]) == pytest.approx(snr.mean() / model[c], rel=1e-12)
+        # both expected Eq. (4) readings, and the one this stop's background (the compact
+        # spot's 7x7 rim: the paper's Eq. 4) makes applicable
+        assert (row["background"], row["expected_eq4_rule"]) == ("rim", "rim")
+        for c in ("expected_eq4_rim", "expected_eq4_extent"):
+            assert float(row[f"model_{c}"]) == pytest.approx(model[c], rel=1e-12)
+        rim = model["expected_eq4_rim"]
+        assert float(row["ratio_expected_eq4"]) == pytest.approx(snr.mean() / rim, rel=1e-12)
     # The synthetic spot falls as 1/R^2: 4x the contrast at half the range.
     means = {(r[0], r[1]): float(r[5]) for r in rows[1:]}
     assert 3.0 < means[("mwir", "0")] / means[("mwir", "1")] < 5.0
@@ -251,12 +265,12 @@ def test_report_compares_the_stops_and_the_paper(data):
     with a reason each, and Pd versus range with the detection range's confidence."""
     refs = {r.quantity: r for r in data.references}
     assert refs["MWIR average PVF, diffraction limited"].paper == "0.25"
-    assert refs["MWIR average PVF, diffraction limited"].ours == "0.2653"
+    assert refs["MWIR average PVF, diffraction limited"].ours == "0.2414"
     assert refs["NETD MWIR / LWIR (mK)"].ours == "41.1 / 50.0"
     assert all(r.reason for r in data.references) and len(data.references) == 6
     for cam, d in data.detections.items():
         assert d.range_lower_m < d.range_m < d.range_upper_m, cam
     curves = {f.curve for f in data.fits}
     if curves:  # the fixture's stops are unresolved in the LWIR
-        assert {"expected_eq4", "paper_small"} <= curves
+        assert {"expected_eq4_rim", "expected_eq4_extent", "paper_small"} <= curves
         assert all(f.chi2_per_dof <= f.chi2_per_dof_measured for f in data.fits)

@@ -172,7 +172,7 @@ def test_the_reports_corrected_curves_use_the_psf_the_rows_were_compared_with():
     assert row.model_snr["small_corrected"] > 1.4 * preset
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
     curves = data.models["mwir"]
-    for name in ("small_corrected", "expected_eq4"):
+    for name in ("small_corrected", "expected_eq4_rim", "expected_eq4_extent"):
         at_stop = np.interp(np.log(393.0), np.log(curves.ranges_m), curves.snr[name])
         assert at_stop == pytest.approx(row.model_snr[name], rel=0.01), name
     assert "Airy x Gaussian blur 0.57 px" in curves.psf_label
