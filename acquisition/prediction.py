@@ -42,8 +42,9 @@ class Predictor(Protocol):
     """The corrected PSF the current curves were computed with, per camera (None: preset's)."""
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
-        """The curves at ``range_m`` (``CURVES``, ``EXPECTED``, ``resolved_small``); empty
-        when the camera has no curves or the range is not positive."""
+        """The curves at ``range_m`` (``CURVES``, ``EXPECTED``, ``resolved_small``, and the
+        model's uncertainty band of a curve as ``<curve>_lower`` / ``<curve>_upper`` where it
+        has one); empty when the camera has no curves or the range is not positive."""
         ...
 
     def curve(self, camera: str) -> dict[str, tuple]:
@@ -59,9 +60,14 @@ class Predictor(Protocol):
 
 class ModelPredictor:
     """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
-    "large_corrected", "expected_eq4", "resolved_small"}`` for each camera's sensor preset and
-    one target. ``predict_options`` go to :func:`snrmon.model.snr.predict` (``background_temp_k``,
-    ``air_temp_k``, ``atmosphere``, ``corrected_psf``...)."""
+    "large_corrected", "expected_eq4", "resolved_small"}`` (and the band of the corrected curves
+    and the expected reading, ``<curve>_lower`` / ``<curve>_upper``) for each camera's sensor
+    preset and one target. ``predict_options`` go to :func:`snrmon.model.snr.predict`
+    (``background_temp_k``, ``air_temp_k``, ``atmosphere``, ``corrected_psf``...)."""
+
+    expected_rule: str = EXPECTED
+    """The expected Eq. (4) reading a live measurement is compared against (the console's
+    header, :class:`snrmon.acquisition.measure.model_agreement.ModelAgreement`)."""
 
     def __init__(
         self,
@@ -163,6 +169,12 @@ class ModelPredictor:
         x = np.log(range_m)
         names = [*CURVES, EXPECTED] if EXPECTED in curves else list(CURVES)
         out = {name: float(np.interp(x, self._log_r, curves[name])) for name in names}
+        for name in names:  # the model's uncertainty band at this range (paper section 9)
+            for edge in ("lower", "upper"):
+                if f"{name}_{edge}" in curves:
+                    out[f"{name}_{edge}"] = float(
+                        np.interp(x, self._log_r, curves[f"{name}_{edge}"])
+                    )
         # the paper's resolved/unresolved verdict (D >= 1 px) is a step, not interpolated
         i = int(np.clip(np.searchsorted(self._log_r, x), 0, len(self._log_r) - 1))
         out["resolved_small"] = float(curves["resolved_small"][i])

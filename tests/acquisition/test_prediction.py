@@ -17,10 +17,18 @@ from snrmon.model.snr import predict
 def test_lookup_has_the_four_curves_and_the_expected_reading():
     p = ModelPredictor({"mwir": "mwir"}, "uav1", air_temp_k=290.0)
     out = p("mwir", 451.0)
-    assert set(out) == {*CURVES, EXPECTED, "resolved_small"}
+    banded = ("small_corrected", "large_corrected", EXPECTED)
+    edges = {f"{c}_{e}" for c in banded for e in ("lower", "upper")}
+    assert set(out) == {*CURVES, EXPECTED, "resolved_small", *edges}
     direct = predict(load_sensor("mwir"), load_target("uav1"), [451.0], air_temp_k=290.0)
     assert out["small_corrected"] == pytest.approx(direct.snr_small_corrected[0], rel=2e-3)
     assert out[EXPECTED] == pytest.approx(direct.expected_eq4[0], rel=0.01)
+    # the model's uncertainty band at the range (section 9), the model's own numbers
+    for c in banded:
+        assert out[f"{c}_lower"] == pytest.approx(direct.lower[c][0], rel=0.01), c
+        assert out[f"{c}_upper"] == pytest.approx(direct.upper[c][0], rel=0.01), c
+        assert out[f"{c}_lower"] < out[c] < out[f"{c}_upper"], c
+    assert p.expected_rule == EXPECTED  # the reading a live measurement is compared against
     curves = p.curve("mwir")
     assert set(PAPER_CURVES) <= set(curves) and f"{EXPECTED} band" in curves
 
