@@ -199,6 +199,12 @@ class ReplayPlayer:
                 timeout,
             )
 
+    def wait_end(self, timeout: float = 60.0) -> bool:
+        """Wait until the last recorded frame has been shown (tests, scripts)."""
+        last = len(self._t) - 1
+        with self._cond:
+            return self._cond.wait_for(lambda: self._index >= last and not self._busy, timeout)
+
     @property
     def predictor(self) -> Predictor | None:
         return self._predictor

@@ -73,7 +73,7 @@ def window(qtbot, rig, tmp_path):
     settings = QSettings(str(tmp_path / "console.ini"), QSettings.Format.IniFormat)
     win = ConsoleWindow(session, curves=curves, settings=settings)
     qtbot.addWidget(win)
-    win.resize(1400, 900)
+    win.set_size(1400, 900)
     win.show()
     qtbot.waitUntil(lambda: win.panels["mwir"].view.frames_shown > 3, timeout=10_000)
     return win
@@ -140,10 +140,9 @@ def test_recording_from_the_console_creates_a_session_file(qtbot, window, tmp_pa
 def test_marked_stop_fills_the_stop_table(qtbot, window):
     window.set_roi("mwir", SPOT_X, SPOT_Y)
     window.mark_stop()
-    qtbot.waitUntil(lambda: window.stop_table.rowCount() == 1, timeout=5000)
-    assert window.stop_table.item(0, 0).text() == "0 M"
-    assert window.stop_table.item(0, 1).text() == "mwir"
-    qtbot.waitUntil(lambda: int(window.stop_table.item(0, 4).text()) > 0, timeout=10_000)
+    qtbot.waitUntil(lambda: len(window.stop_table.cells()) == 1, timeout=5000)
+    assert window.stop_table.cells()[0][:2] == ["0 M", "mwir"]
+    qtbot.waitUntil(lambda: int(window.stop_table.cells()[0][4]) > 0, timeout=10_000)
 
 
 def test_alarm_when_the_camera_stops_and_cleared_when_it_returns(qtbot, window, rig):
