@@ -115,8 +115,11 @@ def run_console(
     # Ctrl-C in the terminal (or SIGTERM, SIGHUP) closes the window cleanly, recording
     # included; the idle timer lets Python see the signal. An exception raised inside Qt's
     # loop would only be printed, so the CLI's KeyboardInterrupt handlers are set aside.
+    # Python runs the handler between any two bytecodes, possibly inside a plot item's paint:
+    # the close (which may grab the window for the screenshot) is queued to the event loop,
+    # never run inside a paint (a recursive repaint crashed the console there).
     previous = {
-        sig: signal.signal(sig, lambda *_: window.close())
+        sig: signal.signal(sig, lambda *_: QTimer.singleShot(0, window.close))
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
     }
     tick = QTimer()

@@ -42,7 +42,7 @@ class CameraPanel(QWidget):
         row.setSpacing(SPACING_PX)
         row.addWidget(self.inset)
         row.addWidget(self.chart, 1)
-        self._placed: tuple[int, int, int] | None = None
+        self._placed: tuple[int, int, int, int] | None = None
 
     def _bottom_min(self) -> int:
         inset = self.inset.minimumSizeHint().height() if self.inset.isVisibleTo(self) else 0
@@ -68,7 +68,8 @@ class CameraPanel(QWidget):
         """Lay the parts out for the panel's size (again only when something changed)."""
         w = self.width() - 2 * MARGIN_PX
         header_h = self.header.layout().heightForWidth(max(w, 1))
-        key = (self.width(), self.height(), header_h)
+        bottom_min = self._bottom_min()
+        key = (self.width(), self.height(), header_h, bottom_min)
         if key == self._placed:
             return
         self._placed = key
@@ -76,7 +77,7 @@ class CameraPanel(QWidget):
         levels = self.view.histogram.width()  # the levels control beside the image
         natural = int((w - levels) * rows / max(cols, 1)) + 2
         rest = self.height() - 2 * MARGIN_PX - header_h - 2 * SPACING_PX
-        image_h = max(min(natural, rest - self._bottom_min()), min(IMAGE_MIN_PX, rest))
+        image_h = max(min(natural, rest - bottom_min), min(IMAGE_MIN_PX, rest))
         y = MARGIN_PX
         self.header.setGeometry(QRect(MARGIN_PX, y, w, header_h))
         y += header_h + SPACING_PX

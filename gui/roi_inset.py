@@ -43,7 +43,7 @@ NUMBERS_TEMPLATE = (
 
 def inset_text(last) -> str:
     """The numbers under the grid: the last measured frame's peak, background and SNR."""
-    flags = ", ".join(sorted(last.flags)) or "none"
+    flags = ",\n".join(sorted(last.flags)) or "none"  # a flag a line: the inset stays narrow
     return (
         f"peak ({last.peak_x}, {last.peak_y}) {last.peak:.0f} DN\n"
         f"{last.background} mean {last.bg_mean:.1f} DN\n"
@@ -114,7 +114,6 @@ class RoiInset(QWidget):
         self.numbers = QLabel("")
         self.numbers.setTextFormat(Qt.TextFormat.PlainText)
         self.numbers.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
-        self.numbers.setWordWrap(True)  # several flags wrap, never cut
         self.apply_theme()
         self.setToolTip(
             f"{camera}: the {box_px}x{box_px} box centred on the measured peak (pixel values in "

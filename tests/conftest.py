@@ -71,22 +71,22 @@ class XvfbScreens:
             stderr=subprocess.DEVNULL,
         )
         os.close(write_fd)
-        self._procs.append(proc)
-        try:
-            # Xvfb writes the display number it chose once it accepts connections.
-            ready, _, _ = select.select([read_fd], [], [], 30)
-            number = os.read(read_fd, 64).decode().strip() if ready else ""
-        finally:
-            os.close(read_fd)
+        # The pipe stays open while the server runs: Xvfb writes to it again when it resets
+        # (its last client gone) and would die of SIGPIPE on a closed pipe.
+        self._procs.append((proc, read_fd))
+        # Xvfb writes the display number it chose once it accepts connections.
+        ready, _, _ = select.select([read_fd], [], [], 30)
+        number = os.read(read_fd, 64).decode().strip() if ready else ""
         if not number:
             pytest.fail(f"Xvfb ({size}) did not report a display within 30 s")
         self._displays[size] = f":{number}"
         return self._displays[size]
 
     def close(self) -> None:
-        for proc in self._procs:
+        for proc, read_fd in self._procs:
             proc.terminate()
             proc.wait(10)
+            os.close(read_fd)
 
 
 @pytest.fixture(scope="session")

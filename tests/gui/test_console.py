@@ -137,6 +137,42 @@ def test_recording_from_the_console_creates_a_session_file(qtbot, window, tmp_pa
     assert "note: drone hovering at the first stop" in log
 
 
+def test_release_event_and_reselect_keys_go_into_the_record(qtbot, window, tmp_path):
+    """Esc releases the active camera's track, E marks an event, T sets the ROI again at the
+    last peak: each is recorded (roi_cleared, note, roi_set) at the frame it took effect on."""
+    path = tmp_path / "keys.h5"
+    window.set_roi("mwir", SPOT_X, SPOT_Y)
+    assert window.start_recording(path)
+    qtbot.waitUntil(lambda: window.session.status().cameras["mwir"].frames.recorded >= 5)
+    window.refresh_status()
+    window.actions_by_key["release"].trigger()
+    qtbot.waitUntil(
+        lambda: window.session.status().cameras["mwir"].track_state.value == "idle", timeout=5000
+    )
+    window.actions_by_key["event"].trigger()
+    window.refresh_status()
+    window.actions_by_key["reselect"].trigger()
+    qtbot.waitUntil(
+        lambda: window.session.status().cameras["mwir"].track_state.value == "tracking",
+        timeout=5000,
+    )
+    assert f"mwir: track re-selected at the last peak (column {SPOT_X}, row {SPOT_Y})" in (
+        window.messages
+    )
+    window.stop_recording()
+    with open_session(path) as f:
+        events = [(e["kind"], e["camera"], e["payload"]) for e in f.event_list()]
+    kinds = [(k, c) for k, c, _ in events]
+    released = kinds.index(("roi_cleared", "mwir"))
+    event = events.index(("note", "", {"text": "event"}))
+    reselected = [i for i, k in enumerate(kinds) if k == ("roi_set", "mwir") and i > released]
+    assert released < event < reselected[0]
+    payload = events[reselected[0]][2]
+    assert (payload["x"], payload["y"]) == (SPOT_X, SPOT_Y)
+    # each at the frame it took effect on, in the frames' order
+    assert events[released][2]["counter"] < payload["counter"]
+
+
 def test_marked_stop_fills_the_stop_table(qtbot, window):
     window.set_roi("mwir", SPOT_X, SPOT_Y)
     window.mark_stop()
