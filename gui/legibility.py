@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import pyqtgraph as pg
-from PySide6.QtCore import QPoint, QRect
+from PySide6.QtCore import QPoint, QRect, Qt
 from PySide6.QtWidgets import QAbstractButton, QAbstractScrollArea, QLabel, QTabBar, QWidget
 
 if TYPE_CHECKING:
@@ -52,7 +52,7 @@ def text_cut(widget: QWidget) -> bool:
     """A label or switch whose words do not fit it, or that is clipped by what holds it."""
     if isinstance(widget, QLabel):
         text = widget.text()
-        if not text or widget.textFormat() == widget.textFormat().RichText:
+        if not text or widget.textFormat() == Qt.TextFormat.RichText:
             return False
         rect = widget.contentsRect()
         metrics = widget.fontMetrics()
