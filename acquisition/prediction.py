@@ -69,8 +69,9 @@ class Predictor(Protocol):
     """The corrected PSF the current curves were computed with, per camera (None: preset's)."""
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
-        """The curves at ``range_m`` (``CURVES``, ``EXPECTED_CURVES``, ``resolved_small``); empty
-        when the camera has no curves or the range is not positive."""
+        """The curves at ``range_m`` (``CURVES``, ``EXPECTED_CURVES``, ``resolved_small``, and
+        the model's uncertainty band of a curve as ``<curve>_lower`` / ``<curve>_upper`` where it
+        has one); empty when the camera has no curves or the range is not positive."""
         ...
 
     def curve(self, camera: str) -> dict[str, tuple]:
@@ -97,12 +98,13 @@ class Predictor(Protocol):
 
 class ModelPredictor:
     """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
-    "large_corrected", "expected_eq4_rim", "expected_eq4_extent", "resolved_small"}`` for each
-    camera's sensor preset and
-    one target. ``predict_options`` go to :func:`snrmon.model.snr.predict` (``background_temp_k``,
-    ``air_temp_k``, ``atmosphere``, ``corrected_psf``...). ``measured_noise``: per camera, its
-    measured 3D noise (:class:`snrmon.model.noise.MeasuredNoise`) in place of the model's noise
-    (the operator's "measured noise"); a camera not in it keeps the model's."""
+    "large_corrected", "expected_eq4_rim", "expected_eq4_extent", "resolved_small"}`` (and the
+    band of the corrected curves and the expected readings, ``<curve>_lower`` /
+    ``<curve>_upper``) for each camera's sensor preset and one target. ``predict_options`` go
+    to :func:`snrmon.model.snr.predict` (``background_temp_k``, ``air_temp_k``, ``atmosphere``,
+    ``corrected_psf``...). ``measured_noise``: per camera, its measured 3D noise
+    (:class:`snrmon.model.noise.MeasuredNoise`) in place of the model's noise (the operator's
+    "measured noise"); a camera not in it keeps the model's."""
 
     def __init__(
         self,
@@ -246,6 +248,12 @@ class ModelPredictor:
         x = np.log(range_m)
         names = [*CURVES, *(n for n in EXPECTED_CURVES if n in curves)]
         out = {name: float(np.interp(x, self._log_r, curves[name])) for name in names}
+        for name in names:  # the model's uncertainty band at this range (paper section 9)
+            for edge in ("lower", "upper"):
+                if f"{name}_{edge}" in curves:
+                    out[f"{name}_{edge}"] = float(
+                        np.interp(x, self._log_r, curves[f"{name}_{edge}"])
+                    )
         # the paper's resolved/unresolved verdict (D >= 1 px) is a step, not interpolated
         i = int(np.clip(np.searchsorted(self._log_r, x), 0, len(self._log_r) - 1))
         out["resolved_small"] = float(curves["resolved_small"][i])

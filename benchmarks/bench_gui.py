@@ -82,7 +82,7 @@ def run(duration_s: float) -> dict:
         try:
             settings = QSettings(str(Path(tmp) / "bench.ini"), QSettings.Format.IniFormat)
             window = ConsoleWindow(session, settings=settings)
-            window.resize(1600, 1000)
+            window.set_size(1600, 1000)
             window.show()
             for c, (w, h, _) in CAMERAS.items():
                 session.set_roi(c, w // 2, h // 2)

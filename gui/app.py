@@ -30,6 +30,9 @@ def _offscreen_messages(_mode, _context, message: str) -> None:
         print(message, file=sys.stderr)
 
 
+HEADLESS_SIZE = (1920, 1080)
+"""The window's size offscreen, where there is no screen to fill (``--size`` changes it)."""
+
 OFFSCREEN_FRAME_INTERVAL_MS = 250
 """How often an offscreen (headless) console shows the newest frames: the screenshot at the end
 still has the last ones; the status, table and status file refresh as on a screen."""
@@ -61,6 +64,9 @@ def run_console(
     screenshot: str | Path | None = None,
     settings: QSettings | None = None,
     status_file: str | Path | None = None,
+    theme: str | None = None,
+    font_scale: float | None = None,
+    size: tuple[int, int] | None = None,
 ) -> int:
     """Show the console on a started ``session`` until the window closes; returns 0.
 
@@ -76,13 +82,28 @@ def run_console(
         settings: QSettings to use (default: the user's snrmon/console settings).
         status_file: keep the console's state in this JSON file (:mod:`snrmon.gui.status_file`),
             rewritten with every status refresh.
+        theme: "dark" or "daylight" (None: the saved choice).
+        font_scale: the texts' size over normal, 0.8 to 2 (None: the saved one).
+        size: (width, height) of the window in pixels, at the screen's top left (None: the
+            saved geometry, or the whole available screen at a first start; offscreen
+            :data:`HEADLESS_SIZE`).
     """
     if duration_s is not None and not duration_s > 0:
         raise ValueError(f"duration must be positive seconds, got {duration_s}")
     console_application(headless=headless)
-    window = ConsoleWindow(session, curves=curves, predictor=predictor, settings=settings)
+    window = ConsoleWindow(
+        session,
+        curves=curves,
+        predictor=predictor,
+        settings=settings,
+        theme=theme,
+        font_scale=font_scale,
+    )
+    if size is None and headless:
+        size = HEADLESS_SIZE  # offscreen there is no screen to size to
+    if size is not None:
+        window.set_size(*size)
     if headless:
-        window.resize(1600, 1000)  # offscreen there is no screen to size to: a laptop's
         # Nobody watches an offscreen window's frames go by: painting both cameras at 60 Hz
         # took most of a core (and the GIL) from the measurement and camera threads.
         window.frame_timer.setInterval(OFFSCREEN_FRAME_INTERVAL_MS)
@@ -94,8 +115,11 @@ def run_console(
     # Ctrl-C in the terminal (or SIGTERM, SIGHUP) closes the window cleanly, recording
     # included; the idle timer lets Python see the signal. An exception raised inside Qt's
     # loop would only be printed, so the CLI's KeyboardInterrupt handlers are set aside.
+    # Python runs the handler between any two bytecodes, possibly inside a plot item's paint:
+    # the close (which may grab the window for the screenshot) is queued to the event loop,
+    # never run inside a paint (a recursive repaint crashed the console there).
     previous = {
-        sig: signal.signal(sig, lambda *_: window.close())
+        sig: signal.signal(sig, lambda *_: QTimer.singleShot(0, window.close))
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
     }
     tick = QTimer()

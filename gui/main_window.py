@@ -1,4 +1,13 @@
-"""The console's main window: one panel per camera, status, stop table, SNR-versus-range plots.
+"""The console's main window: one panel per camera, the SNR-versus-range plots, the stop table,
+status and noise.
+
+Layout (sized for the screen it opens on; a saved layout is restored instead): the camera panels
+side by side, under them the stop table (tabbed with the status and noise panels) with room for
+the paper's seven stops of both cameras, and on the right, the window's whole height, the
+SNR-versus-range plot with at least a third of the window's area. ``P`` puts the range plot in
+the images' place and back.
+One camera is the active one (outlined; ``C`` switches): the track keys act on it and the range
+plot shows it.
 
 Threading (the lessons of acq4#595, PyMoDAQ#79, bluesky#1222): no frames or measurements through
 signals; its timers, on the GUI thread, peek each camera's newest frame (60 Hz) and read the
@@ -9,29 +18,33 @@ from __future__ import annotations
 
 import datetime as _dt
 import logging
+import math
 import time
 from pathlib import Path
 
 import numpy as np
-from PySide6.QtCore import QSettings, Qt, QTimer, Signal
+from PySide6.QtCore import QPoint, QRect, QSettings, QSize, Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QApplication,
     QDockWidget,
     QFileDialog,
     QInputDialog,
+    QLabel,
     QMainWindow,
     QMessageBox,
     QScrollArea,
     QSplitter,
+    QStackedWidget,
+    QTabBar,
     QTabWidget,
     QVBoxLayout,
     QWidget,
 )
 
 from snrmon.acquisition.engine.status import SessionStatus
-from snrmon.acquisition.prediction import EXPECTED_EXTENT, EXPECTED_RIM
 from snrmon.acquisition.protocols import ConsoleSession, ReplayControls
 from snrmon.gui import model_curves as mc
+from snrmon.gui import theme as th
 from snrmon.gui.actions import install_actions, shortcuts_text
 from snrmon.gui.alarms import AlarmBanner
 from snrmon.gui.camera_panel import CameraPanel
@@ -42,12 +55,22 @@ from snrmon.gui.replay_bar import ReplayBar
 from snrmon.gui.status_panel import StatusPanel
 from snrmon.gui.stop_table_view import StopTableView
 from snrmon.gui.theme import configure_pyqtgraph
-from snrmon.gui.window_settings import restore_window, save_model_options, save_window
+from snrmon.gui.window_settings import (
+    restore_window,
+    save_model_options,
+    save_view,
+    save_window,
+)
 
 # Twice the fastest camera's rate (33 ms caps 60 fps at 30.3; 16 ms shows MWIR ~54, LWIR ~29.6).
 FRAME_INTERVAL_MS = 16
 STATUS_INTERVAL_MS = 200
 TABLE_INTERVAL_MS = 1000
+DEFAULT_STOP_ROWS = 14  # the paper's seven stops, both cameras: in view at 1920 x 1080
+CAMERAS_MIN_PX = 520  # the camera panels' height the stop table leaves them at the least
+STOPS_MIN_FRACTION = 0.26  # of the window's height: the stop table on a small screen
+RANGE_PLOT_FRACTION = 0.345  # of the window's area: at least a third, with a margin
+INSETS_MIN_PANEL_PX = 420  # a camera panel narrower than this shows no box inset at first
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +85,8 @@ class ConsoleWindow(QMainWindow):
         predictor: the :class:`snrmon.acquisition.prediction.ModelPredictor` (default: the
             session's); the model options dialog rebuilds it and hands it to the session.
         settings: where geometry and last choices are kept (default: the user's snrmon settings).
+        theme: "dark" or "daylight" (default: the saved choice, else dark).
+        font_scale: every text's size over the console's normal (default: the saved one, else 1).
     """
 
     closed = Signal()
@@ -73,6 +98,8 @@ class ConsoleWindow(QMainWindow):
         curves: CurveSource | None = None,
         predictor=None,
         settings: QSettings | None = None,
+        theme: str | None = None,
+        font_scale: float | None = None,
     ) -> None:
         configure_pyqtgraph()
         super().__init__()
@@ -87,40 +114,63 @@ class ConsoleWindow(QMainWindow):
         self.messages: list[str] = []
         self._curves: dict[str, dict] = {}
         self._pixels: dict[str, np.ndarray] = {}
+        self.theme_name = th.current().name
+        self.font_scale = 1.0
+        self.range_large = False
+        self.insets_shown = True
         self.setWindowTitle("snrmon console")
 
         self.banner = AlarmBanner()
         self.panels: dict[str, CameraPanel] = {}
-        splitter = QSplitter(Qt.Orientation.Horizontal)
+        self.camera_splitter = QSplitter(Qt.Orientation.Horizontal)
+        self.camera_splitter.setChildrenCollapsible(False)
         for name, pipe in session.pipelines.items():
             panel = CameraPanel(name, pipe.shape, session.config.measurement)
             panel.view.roi_clicked.connect(self.set_roi)
             self.panels[name] = panel
-            splitter.addWidget(panel)
+            self.camera_splitter.addWidget(panel)
+        self.active_camera = next(iter(self.panels), "")
+        self.central_stack = QStackedWidget()
+        self.central_stack.addWidget(self.camera_splitter)
         central = QWidget()
         lay = QVBoxLayout(central)
         lay.setContentsMargins(2, 2, 2, 2)
         lay.addWidget(self.banner)
-        lay.addWidget(splitter, 1)
+        lay.addWidget(self.central_stack, 1)
         self.setCentralWidget(central)
 
+        # The range plot takes the window's whole height on the right; the stop table lies
+        # under the cameras.
+        self.setCorner(Qt.Corner.TopRightCorner, Qt.DockWidgetArea.RightDockWidgetArea)
+        self.setCorner(Qt.Corner.BottomRightCorner, Qt.DockWidgetArea.RightDockWidgetArea)
+        self.setCorner(Qt.Corner.BottomLeftCorner, Qt.DockWidgetArea.BottomDockWidgetArea)
+        self.range_tabs = QTabWidget()
+        self.range_tabs.setDocumentMode(True)
+        self.range_plots = {name: RangePlot(name) for name in session.pipelines}
+        for name, plot in self.range_plots.items():
+            self.range_tabs.addTab(plot, f"SNR vs range: {name.upper()}")
+        self.range_tabs.currentChanged.connect(self._range_tab_changed)
+        right = Qt.DockWidgetArea.RightDockWidgetArea
+        self.range_dock = self._dock("range", "SNR vs range", self.range_tabs, right)
+        bottom = Qt.DockWidgetArea.BottomDockWidgetArea
+        self.stop_table = StopTableView()
+        self.stops_dock = self._dock("stops", "Stops", self.stop_table, bottom)
         self.status_panel = StatusPanel(list(session.pipelines))
         scroll = QScrollArea()
         scroll.setWidget(self.status_panel)
         scroll.setWidgetResizable(True)
-        self._dock("status", "Status", scroll, Qt.DockWidgetArea.RightDockWidgetArea)
-        self.range_tabs = QTabWidget()
-        self.range_plots = {name: RangePlot(name) for name in session.pipelines}
-        for name, plot in self.range_plots.items():
-            self.range_tabs.addTab(plot, f"SNR vs range: {name}")
-        self._dock("range", "SNR vs range", self.range_tabs, Qt.DockWidgetArea.RightDockWidgetArea)
+        self.status_dock = self._dock("status", "Status", scroll, bottom)
         self.noise_panel = NoisePanel(list(session.pipelines))
-        dock = self._dock("noise", "Noise", self.noise_panel, Qt.DockWidgetArea.RightDockWidgetArea)
-        self.toggle_noise_panel = dock.toggleViewAction().trigger  # the Ctrl+Shift+N action
-        self.stop_table = StopTableView()
-        bottom = Qt.DockWidgetArea.BottomDockWidgetArea
-        stops = self._dock("stops", "Stops", self.stop_table, bottom)
-        self.resizeDocks([stops], [150], Qt.Orientation.Vertical)  # the images need the height
+        self.noise_dock = self._dock("noise", "Noise", self.noise_panel, bottom)
+        self.tabifyDockWidget(self.stops_dock, self.status_dock)
+        self.tabifyDockWidget(self.status_dock, self.noise_dock)
+        self.stops_dock.raise_()
+        # Room for the data: the tabs name the range plot's and the bottom docks' contents, so
+        # their title bars go (the Panels menu still shows and hides each).
+        self.setTabPosition(bottom, QTabWidget.TabPosition.North)
+        for dock in (self.range_dock, self.stops_dock, self.status_dock, self.noise_dock):
+            dock.setTitleBarWidget(QWidget())
+        self.toggle_noise_panel = self.noise_dock.toggleViewAction().trigger  # Ctrl+Shift+N
 
         self.replay = isinstance(session, ReplayControls)
         self.shown_counter: dict[str, int] = {}
@@ -132,10 +182,20 @@ class ConsoleWindow(QMainWindow):
         view_menu = self.menuBar().addMenu("&Panels")
         for dock in self.findChildren(QDockWidget):
             view_menu.addAction(dock.toggleViewAction())
+        self.recording_label = QLabel("not recording")
+        self.recording_label.setToolTip("The recording: state, size written, frames dropped")
+        self.statusBar().addPermanentWidget(self.recording_label)
         self.statusBar().showMessage("ready: click a drone to set its ROI")
 
         self.reload_curves()
-        restore_window(self)
+        self._layout_pending = restore_window(self)  # True: a first start, fit the docks
+        self.layout_fitted = not self._layout_pending
+        self.set_view(
+            theme if theme is not None else self.theme_name,
+            font_scale if font_scale is not None else self.font_scale,
+            save=False,
+        )
+        self._mark_active()
         self._timers = []
         for interval, slot in (
             (FRAME_INTERVAL_MS, self.refresh_frames),
@@ -156,8 +216,162 @@ class ConsoleWindow(QMainWindow):
         self.addDockWidget(area, dock)
         return dock
 
+    # ------------------------------------------------------------------ layout
+    def showEvent(self, event) -> None:  # noqa: N802 (Qt's name)
+        super().showEvent(event)
+        if self._layout_pending:
+            self._layout_pending = False
+            # After the first layout pass: the docks' title bars and tabs have their sizes.
+            QTimer.singleShot(0, self.fit_default_layout)
+
+    def fit_default_layout(self, again: bool = False) -> None:
+        """The first start's proportions for this window's size: the stop table as high as
+        :data:`DEFAULT_STOP_ROWS` rows need where the cameras keep :data:`CAMERAS_MIN_PX`
+        (on a smaller screen :data:`STOPS_MIN_FRACTION` of the height; the table scrolls),
+        then the range plot as wide as :data:`RANGE_PLOT_FRACTION` of the window's area needs
+        at its height."""
+        table = self.stop_table
+        # The table's header grows to three lines once the model's columns arrive.
+        header = table.horizontalHeader()
+        three_lines = 3 * table.fontMetrics().lineSpacing() + 8
+        chrome = self.stops_dock.height() - table.viewport().height()
+        chrome += max(three_lines - header.height(), 0)
+        rows_h = DEFAULT_STOP_ROWS * table.verticalHeader().defaultSectionSize()
+        tabs = sum(
+            bar.height()
+            for bar in self.findChildren(QTabBar)
+            if bar.parentWidget() is self and bar.isVisible()
+        )
+        top = self.height() - self.centralWidget().height() - self.stops_dock.height() - tabs
+        room = max(self.height() - top - CAMERAS_MIN_PX, int(STOPS_MIN_FRACTION * self.height()))
+        # (the size asked of tabbed docks is that of the dock and its tab bar together)
+        want = min(rows_h + chrome + 2 + tabs, room)
+        self.resizeDocks([self.stops_dock], [want], Qt.Orientation.Vertical)
+        self.layout_fitted = again
+        if not again:
+            # Once the range plot has its width the camera panels have theirs, and with it the
+            # headers' final height: the table's height is set once more then.
+            QTimer.singleShot(0, self._fit_range_width)
+
+    def _fit_range_width(self) -> None:
+        plot = self.range_plots.get(self.active_camera)
+        if plot is None or self.range_large:
+            return
+        area = RANGE_PLOT_FRACTION * self.width() * self.height()
+        chrome = self.range_dock.width() - plot.width()
+        want = int(area / max(plot.height(), 1)) + chrome
+        want = min(max(want, int(0.4 * self.width())), int(0.62 * self.width()))
+        self.resizeDocks([self.range_dock], [want], Qt.Orientation.Horizontal)
+        QTimer.singleShot(0, self._fit_insets)
+        QTimer.singleShot(0, lambda: self.fit_default_layout(again=True))
+
+    def _fit_insets(self) -> None:
+        # The box insets only where the panels have room for them beside a strip chart.
+        width = min((p.width() for p in self.panels.values()), default=0)
+        self.set_insets(width >= INSETS_MIN_PANEL_PX)
+
+    def set_insets(self, shown: bool) -> None:
+        self.insets_shown = shown
+        for panel in self.panels.values():
+            panel.show_insets(shown)
+
+    def toggle_insets(self) -> None:
+        self.set_insets(not self.insets_shown)
+        self.report("box insets shown" if self.insets_shown else "box insets hidden (I: back)")
+
+    def set_size(self, width: int, height: int) -> None:
+        """The window at ``width`` x ``height`` pixels from its screen's top left corner, not
+        maximised (a first start maximises it over the screen)."""
+        if not (width > 0 and height > 0):
+            raise ValueError(f"window size must be positive pixels, got {width} x {height}")
+        self.setWindowState(Qt.WindowState.WindowNoState)
+        screen = self.screen()
+        corner = screen.availableGeometry().topLeft() if screen is not None else QPoint(0, 0)
+        self.setGeometry(QRect(corner, QSize(width, height)))
+
+    def toggle_range_large(self) -> None:
+        """The SNR-versus-range plot in the images' place, or back in its dock."""
+        if not self.range_large:
+            self.range_dock.hide()
+            self.central_stack.addWidget(self.range_tabs)
+            self.central_stack.setCurrentWidget(self.range_tabs)
+        else:
+            self.central_stack.removeWidget(self.range_tabs)
+            self.range_dock.setWidget(self.range_tabs)
+            self.range_dock.show()
+            self.central_stack.setCurrentWidget(self.camera_splitter)
+        self.range_large = not self.range_large
+        self.report("SNR vs range enlarged (P: back)" if self.range_large else "images back")
+
+    def switch_camera(self) -> None:
+        """The next camera becomes the active one."""
+        names = list(self.panels)
+        if not names:
+            return
+        self.set_active_camera(names[(names.index(self.active_camera) + 1) % len(names)])
+        self.report(f"active camera: {self.active_camera}")
+
+    def set_active_camera(self, name: str) -> None:
+        if name in self.panels:
+            self.active_camera = name
+            self._mark_active()
+
+    def _mark_active(self) -> None:
+        for name, panel in self.panels.items():
+            panel.header.set_active(name == self.active_camera)
+        if self.active_camera in self.range_plots:
+            index = list(self.range_plots).index(self.active_camera)
+            if self.range_tabs.currentIndex() != index:
+                self.range_tabs.setCurrentIndex(index)
+
+    def _range_tab_changed(self, index: int) -> None:
+        names = list(self.range_plots)
+        if 0 <= index < len(names) and names[index] != self.active_camera:
+            self.set_active_camera(names[index])
+
+    # ------------------------------------------------------------------ theme and text size
+    def set_view(self, theme: str, font_scale: float, *, save: bool = True) -> None:
+        """Switch to ``theme`` ("dark", "daylight") at ``font_scale``; every panel restyled."""
+        chosen = th.theme_named(theme)
+        scale = th.check_font_scale(font_scale)
+        app = QApplication.instance()
+        if app is not None:
+            th.apply_theme(app, chosen, scale)
+        self.theme_name, self.font_scale = chosen.name, scale
+        font = th.scaled_font(scale)
+        for panel in self.panels.values():
+            panel.apply_theme(scale)
+        for plot in self.range_plots.values():
+            plot.apply_theme(font)
+        self.stop_table.apply_theme()
+        self.banner.setFont(th.scaled_font(scale, 1.2, bold=True))
+        if save:
+            save_view(self.settings, chosen.name, scale)
+
+    def toggle_daylight(self) -> None:
+        self.set_view("dark" if self.theme_name == "daylight" else "daylight", self.font_scale)
+        self.report(f"theme: {self.theme_name}")
+
+    def _step_font(self, step: int) -> None:
+        scales = th.FONT_SCALES
+        i = min(range(len(scales)), key=lambda k: abs(scales[k] - self.font_scale))
+        self.set_view(self.theme_name, scales[min(max(i + step, 0), len(scales) - 1)])
+        self.report(f"text at {self.font_scale:g} x")
+
+    def font_larger(self) -> None:
+        self._step_font(+1)
+
+    def font_smaller(self) -> None:
+        self._step_font(-1)
+
+    def font_reset(self) -> None:
+        self.set_view(self.theme_name, 1.0)
+        self.report("text at 1 x")
+
     # ------------------------------------------------------------------ settings
     def save_settings(self) -> None:
+        if self.range_large:
+            self.toggle_range_large()  # the dock layout is saved with the plot in its dock
         save_window(self)
 
     # ------------------------------------------------------------------ refresh (GUI thread)
@@ -192,36 +406,45 @@ class ConsoleWindow(QMainWindow):
                 self.report(f"{name}: {message}")  # what the track made of a click
             panel.inset.show_box(self._pixels.get(name), cs)
             panel.chart.show_series(self.session.pipelines[name].series(), now_ns)
-            mname, msnr = self._model_now(cs)
-            panel.chart.show_model(mname, msnr)
-            m, fig = cs.last, cs.figures
+            a = cs.agreement
+            panel.chart.show_model(a.rule if a else "", a.expected if a else None)
+            panel.header.show_status(cs, st)
+            panel.place()  # the header's height may follow its new words
+            m = cs.last
+            plot = self.range_plots[name]
+            plot.set_rule(a.rule if a else None)
             if m is not None:
-                self.range_plots[name].show_live(m.range_m, m.snr_mean, m.snr_std)
-            snr = f"{m.snr_mean:.2f} +/- {m.snr_std:.2f}" if m is not None and m.snr_n else "--"
-            if m is not None and fig.reference_frames and m.snr_mean_raw == m.snr_mean_raw:
-                snr += f" (raw {m.snr_mean_raw:.2f}, FPN {fig.fixed_pattern_dn:.1f} DN)"
-            if fig.sky_temp_k == fig.sky_temp_k:  # not NaN
-                snr += f"   sky {fig.sky_temp_k - 273.15:.1f} C"
-            panel.header.setText(
-                f"{name.upper()}   {cs.fps:.1f} fps   {cs.track_state.value}   SNR(100) {snr}"
-            )
-        recording = st.recording.state == "recording"
+                plot.show_live(m.range_m, m.snr_mean, cs.snr_sem)
+        self._show_recording(st)
+
+    def _show_recording(self, st: SessionStatus) -> None:
+        rec = st.recording
+        recording = rec.state == "recording"
         self.actions_by_key["record_start"].setEnabled(not recording)
         self.actions_by_key["record_stop"].setEnabled(recording)
+        if recording:
+            text = (
+                f"REC  {rec.bytes_written / 1e6:.0f} MB  {rec.dropped_frames} frames dropped  "
+                f"{Path(rec.path).name}"
+            )
+        elif rec.state == "replay":
+            text = f"replay of {Path(rec.path).name}"
+        else:
+            text = f"recording {rec.state}" + (f": {rec.message}" if rec.message else "")
+        if self.recording_label.text() != text:
+            self.recording_label.setText(text)
 
-    @staticmethod
-    def _model_now(cs) -> tuple[str, float | None]:
-        # What the model expects the console to read at the current range (computed on the
-        # acquisition side, CameraStatus.model), else its first curve there.
-        rim = cs.last is not None and cs.last.result.background == "rim"
-        for name in (EXPECTED_RIM if rim else EXPECTED_EXTENT, "small_corrected"):
-            if name in cs.model:
-                return name, cs.model[name]
-        return "", None
+    def expected_rule(self) -> str | None:
+        """The expected Eq. (4) reading the session compares against (the status names it)."""
+        st = self.last_status
+        if st is None:
+            return None
+        rules = [cs.agreement.rule for cs in st.cameras.values() if cs.agreement is not None]
+        return rules[0] if rules else None
 
     def refresh_stops(self) -> None:
         rows = self.session.stops()
-        self.stop_table.show_rows(rows)
+        self.stop_table.show_rows(rows, self.expected_rule())
         for plot in self.range_plots.values():
             plot.show_stops(rows)
 
@@ -273,12 +496,49 @@ class ConsoleWindow(QMainWindow):
         self.statusBar().showMessage(message, 10_000)
 
     def set_roi(self, camera: str, x: int, y: int) -> None:
+        self.set_active_camera(camera)  # the camera clicked is the one the track keys act on
         try:
             self.session.set_roi(camera, x, y)
         except ValueError as exc:
             self.report(str(exc))
             return
         self.report(f"{camera}: ROI set at column {x}, row {y}")
+
+    def reselect_track(self) -> None:
+        """The active camera's ROI set again where the drone is: its GPS position projected
+        into the camera, else the last measured peak."""
+        name = self.active_camera
+        st = self.last_status
+        cs = st.cameras.get(name) if st is not None else None
+        where = None
+        if cs is not None and cs.gps_xy is not None and all(math.isfinite(v) for v in cs.gps_xy):
+            where, why = cs.gps_xy, "the GPS position"
+        elif cs is not None and cs.last is not None:
+            where, why = (cs.last.result.peak_x, cs.last.result.peak_y), "the last peak"
+        if where is None:
+            self.report(f"{name}: nothing to re-select (no GPS position, no measurement): click")
+            return
+        x, y = round(where[0]), round(where[1])
+        self.set_roi(name, x, y)
+        self.report(f"{name}: track re-selected at {why} (column {x}, row {y})")
+
+    def release_track(self) -> None:
+        """Stop measuring on the active camera (until the next click)."""
+        name = self.active_camera
+        try:
+            self.session.clear_roi(name)
+        except ValueError as exc:
+            self.report(f"{name}: track not released: {exc}")
+            return
+        self.report(f"{name}: track released")
+
+    def mark_event(self) -> None:
+        """A timestamped "event" note in the record, without a dialog."""
+        self.add_note("event")
+
+    def copy_stops(self) -> None:
+        n = self.stop_table.copy_csv()
+        self.report(f"{n} stop rows copied to the clipboard as CSV")
 
     def start_recording(self, path: str | Path | None = None) -> bool:
         """Start recording into ``path`` (asks with a file dialog when None)."""

@@ -33,10 +33,10 @@ from snrmon.acquisition.prediction import (
 from snrmon.acquisition.protocols import ConsoleSession
 
 CURVE_LABELS = {
-    "small": "small, uncorrected",
-    "large": "large, uncorrected",
-    "small_corrected": "small, corrected",
-    "large_corrected": "large, corrected",
+    "small": "small dimension, uncorrected",
+    "large": "large dimension, uncorrected",
+    "small_corrected": "small dimension, corrected",
+    "large_corrected": "large dimension, corrected",
     EXPECTED_RIM: "expected Eq. (4), paper's 7x7 rim",
     EXPECTED_EXTENT: "expected Eq. (4), console's target-aware rim",
     "paper_small": "paper's switched small",
@@ -112,6 +112,23 @@ def parse_met_readings(texts: dict[str, str], aerosol: str, season: str) -> Weat
 
 def sky_label(name: str, temp_k: float) -> str:
     return f"{name} @ sky {temp_k:.1f} K"
+
+
+def split_sky(name: str) -> tuple[str, str]:
+    """``("<curve>", "sky <T> K")`` of a :func:`sky_label`; ``(name, "")`` for the model's own."""
+    base, _, sky = name.partition(" @ ")
+    return base, sky
+
+
+def curve_label(name: str) -> str:
+    """A model curve's name in words (:data:`CURVE_LABELS`; a name the console does not know
+    yet, e.g. a new expected Eq. (4) rule, as it is, underscores as spaces)."""
+    return CURVE_LABELS.get(name, name.replace("_", " "))
+
+
+def is_expected(name: str) -> bool:
+    """An expected Eq. (4) reading (whatever its background rule), not one of the curves."""
+    return name.startswith("expected")
 
 
 class ModelCurves:

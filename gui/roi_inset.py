@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 from PySide6.QtCore import QRectF, Qt
-from PySide6.QtGui import QColor, QFont, QPainter, QPen
+from PySide6.QtGui import QColor, QFont, QPainter, QPalette, QPen
 from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
 from snrmon.acquisition.engine.status import CameraStatus
@@ -32,6 +32,26 @@ def box_pixels(pixels: np.ndarray, cx: int, cy: int, box_px: int) -> np.ndarray:
     return out
 
 
+# The widest lines the numbers take (the inset is made this wide, so none is cut).
+NUMBERS_TEMPLATE = (
+    "peak (8888, 8888) 88888 DN\n"
+    "extent_rim mean 88888.8 DN\n"
+    "std 888.88 DN   SNR 8888.88\n"
+    "flags: rim_contaminated"
+)
+
+
+def inset_text(last) -> str:
+    """The numbers under the grid: the last measured frame's peak, background and SNR."""
+    flags = ",\n".join(sorted(last.flags)) or "none"  # a flag a line: the inset stays narrow
+    return (
+        f"peak ({last.peak_x}, {last.peak_y}) {last.peak:.0f} DN\n"
+        f"{last.background} mean {last.bg_mean:.1f} DN\n"
+        f"std {last.bg_std:.2f} DN   SNR {last.snr:.2f}\n"
+        f"flags: {flags}"
+    )
+
+
 class _BoxGrid(QWidget):
     def __init__(self) -> None:
         super().__init__()
@@ -45,10 +65,10 @@ class _BoxGrid(QWidget):
 
     def paintEvent(self, _event) -> None:  # noqa: N802 (Qt's name)
         p = QPainter(self)
-        p.fillRect(self.rect(), QColor("#1e1f22"))
+        p.fillRect(self.rect(), self.palette().color(QPalette.ColorRole.Base))
         v = self.values
         if v is None:
-            p.setPen(QColor("#7a7c80"))
+            p.setPen(self.palette().color(QPalette.ColorRole.PlaceholderText))
             p.drawText(self.rect(), Qt.AlignmentFlag.AlignCenter, "click the drone\nto set the ROI")
             return
         n = v.shape[0]
@@ -94,6 +114,7 @@ class RoiInset(QWidget):
         self.numbers = QLabel("")
         self.numbers.setTextFormat(Qt.TextFormat.PlainText)
         self.numbers.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        self.apply_theme()
         self.setToolTip(
             f"{camera}: the {box_px}x{box_px} box centred on the measured peak (pixel values in "
             f"DN of the displayed frame). Outlined band = the {4 * (box_px - 1)} rim pixels, the "
@@ -105,6 +126,16 @@ class RoiInset(QWidget):
         lay.addWidget(self.grid, 1)
         lay.addWidget(self.numbers)
 
+    def apply_theme(self, font: QFont | None = None) -> None:
+        """The numbers in ``font``; as wide as their longest line (never cut), at least as wide
+        as the grid's minimum."""
+        if font is not None:
+            self.numbers.setFont(font)
+        metrics = self.numbers.fontMetrics()
+        wide = max(metrics.horizontalAdvance(line) for line in NUMBERS_TEMPLATE.splitlines())
+        self.setFixedWidth(max(self.grid.minimumWidth(), wide) + 12)
+        self.grid.update()
+
     def show_box(self, pixels: np.ndarray | None, status: CameraStatus) -> None:
         """Cut the box around the last measured peak out of ``pixels`` and show the numbers."""
         last = status.last.result if status.last is not None else None
@@ -113,9 +144,4 @@ class RoiInset(QWidget):
             self.numbers.setText("no measurement")
             return
         self.grid.set_values(box_pixels(pixels, last.peak_x, last.peak_y, self.box_px))
-        flags = ", ".join(sorted(last.flags)) or "none"
-        self.numbers.setText(
-            f"peak ({last.peak_x}, {last.peak_y}) = {last.peak:.0f} DN\n"
-            f"{last.background} mean {last.bg_mean:.1f} DN, std {last.bg_std:.2f} DN\n"
-            f"SNR {last.snr:.2f}   flags: {flags}"
-        )
+        self.numbers.setText(inset_text(last))

@@ -8,11 +8,26 @@ reader never sees half a document. Strict JSON: an undefined number is ``null``.
 Content::
 
     {"t_unix": float, "window": {"x", "y", "width", "height", "visible"},
+     "view": {"theme": str, "font_scale": float, "active_camera": str, "range_large": bool,
+              "layout_fitted": bool},
      "cameras": {name: {"roi": [x, y] | null, "peak": [x, y] | null, "track_state": str,
                         "snr_mean": float | null, "snr_std": float | null, "snr_n": int,
+                        "snr_sem": float | null, "range_m": float | null,
+                        "range_source": str,
+                        "agreement": {"rule", "expected", "lower", "upper", "ratio",
+                                      "verdict"} | null,
+                        "stop": {"stop", "n_frames", "n_wanted", "open"} | null,
                         "header": str, "frames_shown": int, "shape": [rows, cols],
                         "screen_first_pixel": [x, y], "screen_last_pixel": [x, y]}},
+     "lrf_range_m": float | null, "gps_range_m": float | null,
+     "stops": [[cell, ...], ...],
+     "replay": {"index", "length", "playing"} | null,
+     "layout": {...},
      "messages": [str, ...]}
+
+The camera numbers are the status snapshot the header was drawn from (``header`` is its text);
+``stops`` the stop table's cells as shown; ``layout`` is
+:func:`snrmon.gui.legibility.layout_report`.
 
 ``screen_first_pixel`` and ``screen_last_pixel`` are the global screen positions of the centres
 of image pixel (0, 0) and (cols - 1, rows - 1) as shown now (zoom and pan included): where on
@@ -28,9 +43,37 @@ import time
 from pathlib import Path
 from typing import Any
 
+from snrmon.gui.legibility import layout_report
+
 
 def _num(value: float | None) -> float | None:
     return None if value is None or not math.isfinite(value) else float(value)
+
+
+def _agreement(a) -> dict[str, Any] | None:
+    if a is None:
+        return None
+    return {
+        "rule": a.rule,
+        "expected": _num(a.expected),
+        "lower": _num(a.lower),
+        "upper": _num(a.upper),
+        "ratio": _num(a.ratio),
+        "verdict": a.verdict,
+    }
+
+
+def _stop(p) -> dict[str, Any] | None:
+    if p is None:
+        return None
+    return {"stop": p.stop, "n_frames": p.n_frames, "n_wanted": p.n_wanted, "open": p.open}
+
+
+def _replay(window) -> dict[str, Any] | None:
+    if not window.replay:
+        return None
+    p = window.session.position()
+    return {"index": p.index, "length": p.length, "playing": p.playing}
 
 
 def _screen(view, x: int, y: int) -> list[int]:
@@ -55,6 +98,11 @@ def console_state(window) -> dict[str, Any]:
             "snr_mean": _num(m.snr_mean) if m is not None else None,
             "snr_std": _num(m.snr_std) if m is not None else None,
             "snr_n": m.snr_n if m is not None else 0,
+            "snr_sem": _num(cs.snr_sem) if cs is not None else None,
+            "range_m": _num(m.range_m) if m is not None else None,
+            "range_source": m.range_source if m is not None else "",
+            "agreement": _agreement(cs.agreement) if cs is not None else None,
+            "stop": _stop(cs.stop) if cs is not None else None,
             "header": panel.header.text(),
             "frames_shown": panel.view.frames_shown,
             "shape": [rows, cols],
@@ -70,7 +118,19 @@ def console_state(window) -> dict[str, Any]:
             "height": geo.height(),
             "visible": window.isVisible(),
         },
+        "view": {
+            "theme": window.theme_name,
+            "font_scale": window.font_scale,
+            "active_camera": window.active_camera,
+            "range_large": window.range_large,
+            "layout_fitted": window.layout_fitted,
+        },
         "cameras": cameras,
+        "lrf_range_m": _num(st.lrf_range_m) if st is not None else None,
+        "gps_range_m": _num(st.gps_range_m) if st is not None else None,
+        "stops": window.stop_table.cells(),
+        "replay": _replay(window),
+        "layout": layout_report(window),
         "messages": window.messages[-20:],
     }
 

@@ -1,99 +1,442 @@
-"""The live SNR-versus-range table: one row per stop and camera (``Session.stops()``)."""
+"""The live SNR-versus-range table: one row per stop and camera (``Session.stops()``).
+
+Each of the model's SNR values at the stop's range is a column of its own (the paper's four
+curves, then the expected Eq. (4) readings of whatever background rules the rows carry; SNR is
+dimensionless, the headers' tooltips name each in full), then the model's band and measured /
+expected for the rule the session compares against, coloured like the camera header (green
+inside the band, amber near, red outside:
+:func:`snrmon.acquisition.measure.model_agreement.model_agreement`). Ranges in metres, the
+model's sky in kelvin. Click a column's header to sort by it; Ctrl+C (or the context menu, or
+Ctrl+Shift+C anywhere in the console) copies the selected rows, or all of them, as the report's
+CSV (:mod:`snrmon.acquisition.report.stop_csv`). Where the table is narrower than its columns,
+the model's sky, the background, the SNR's std and the GPS range give way, in that order
+(:data:`YIELDING`), and come back when it is wide enough.
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
-from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QTableWidget, QTableWidgetItem
+from PySide6.QtCore import QAbstractTableModel, QModelIndex, QSortFilterProxyModel, Qt
+from PySide6.QtGui import QBrush, QColor, QKeySequence
+from PySide6.QtWidgets import QAbstractItemView, QApplication, QHeaderView, QMenu, QTableView
 
+from snrmon.acquisition.measure.model_agreement import model_agreement
+from snrmon.acquisition.prediction import CURVES, EXPECTED_EXTENT, EXPECTED_RIM
+from snrmon.acquisition.report.stop_csv import csv_rows, csv_text
 from snrmon.acquisition.stops.table import StopRow
+from snrmon.gui import theme as th
+from snrmon.gui.model_curves import curve_label, is_expected
 
-COLUMNS = (
-    ("stop", "Stop number (M = marked by the operator)"),
-    ("camera", "Camera"),
-    ("LRF range (m)", "Rangefinder range at the stop (m)"),
-    ("GPS range (m)", "GPS slant range at the stop (m)"),
-    ("frames", "Valid frames summarised (the paper uses the first 100 consecutive)"),
-    ("SNR mean", "Mean peak SNR over the stop's frames (Eq. 4)"),
-    ("SNR std", "Sample std of the peak SNR over the stop's frames"),
-    (
-        "background",
-        "The background the stop's frames were measured against: rim (Eq. 4's 7x7 rim), "
-        "extent_rim (outside the segmented drone and a guard band: a drone wider than the box) "
-        "or rect (the operator's clear-sky rectangle); most used first",
-    ),
-    ("model", "The model's SNR at the stop's range, per curve"),
-    (
-        "state",
-        "complete (100 frames) / collecting / ended short; 'resolved' where the model calls the "
-        "small dimension resolved (wider than a pixel)",
-    ),
-)
+MISSING = -math.inf  # a missing number sorts first
+SHORT = {  # the model's curves in a narrow column's header (the tooltip says it in full)
+    "small": "model\nsmall unc.",
+    "large": "model\nlarge unc.",
+    "small_corrected": "model\nsmall corr.",
+    "large_corrected": "model\nlarge corr.",
+}
+
+
+@dataclass(frozen=True)
+class Column:
+    key: str
+    title: str
+    tip: str
+    text: Callable[[StopRow], str]
+    sort: Callable[[StopRow], object]
+    align_right: bool = True
+
+
+# Where the table is narrower than its columns, these give way first (in this order), so the
+# measurement and the model stay in view; they come back when the table is wide enough.
+YIELDING = ("sky", "background", "snr_std", "gps")
+CELL_PAD_PX = 14
+SORT_ARROW_PX = 24  # the sorted column's header draws an arrow beside its words
 
 
 def _num(v: float | None, fmt: str) -> str:
     return "--" if v is None or not math.isfinite(v) else format(v, fmt)
 
 
-def row_texts(r: StopRow) -> list[str]:
-    """The table cells of one stop row, formatted."""
-    model = ", ".join(f"{k} {v:.1f}" for k, v in r.model_snr.items()) or "--"
+def _key(v: float | None) -> float:
+    return MISSING if v is None or not math.isfinite(v) else float(v)
+
+
+def state_text(r: StopRow) -> str:
     if r.complete:
         state = "complete"
     elif r.t_end_ns is not None:
         state = "ended short"
     else:
         state = "collecting"
-    if r.resolved:
-        state += ", resolved"
-    return [
-        f"{r.stop}{' M' if r.manual else ''}",
-        r.camera,
-        _num(r.lrf_range_m, ".1f"),
-        _num(r.gps_range_m, ".1f"),
-        str(r.n_frames),
-        _num(r.snr_mean, ".2f"),
-        _num(r.snr_std, ".2f"),
-        r.background or "--",
-        model,
-        state,
+    return state + (", resolved" if r.resolved else "")
+
+
+def model_keys(rows: list[StopRow]) -> list[str]:
+    """The model's curves the rows carry, the paper's four first, then the expected readings
+    (any rule), then any other; not the bands' edges."""
+    seen: list[str] = []
+    for r in rows:
+        for k in r.model_snr:
+            if k not in seen and not k.endswith(("_lower", "_upper")):
+                seen.append(k)
+    return sorted(
+        seen,
+        key=lambda k: (CURVES.index(k) if k in CURVES else len(CURVES) + (not is_expected(k)), k),
+    )
+
+
+def columns(rows: list[StopRow], rule: str | None) -> list[Column]:
+    """The table's columns for ``rows``; ``rule``: the expected reading the band and the ratio
+    are about (the session's; the first the rows carry when None)."""
+    keys = model_keys(rows)
+    if rule is None or rule not in keys:
+        rule = next((k for k in keys if is_expected(k)), None)
+    cols = [
+        Column(
+            "stop",
+            "stop",
+            "Stop number (M = marked by the operator)",
+            lambda r: f"{r.stop}{' M' if r.manual else ''}",
+            lambda r: r.stop,
+            False,
+        ),
+        Column("camera", "cam.", "Camera", lambda r: r.camera, lambda r: r.camera, False),
+        Column(
+            "lrf",
+            "LRF\n(m)",
+            "Rangefinder range at the stop (m)",
+            lambda r: _num(r.lrf_range_m, ".1f"),
+            lambda r: _key(r.lrf_range_m),
+        ),
+        Column(
+            "gps",
+            "GPS\n(m)",
+            "GPS slant range at the stop (m)",
+            lambda r: _num(r.gps_range_m, ".1f"),
+            lambda r: _key(r.gps_range_m),
+        ),
+        Column(
+            "frames",
+            "frames",
+            "Valid consecutive frames summarised (the paper uses the first 100)",
+            lambda r: str(r.n_frames),
+            lambda r: r.n_frames,
+        ),
+        Column(
+            "snr_mean",
+            "SNR\n± error",
+            "Mean peak SNR over the stop's frames (Eq. 4) +/- its error of the mean (the frames' "
+            "autocorrelation counted): the stop's error bar",
+            lambda r: f"{_num(r.snr_mean, '.2f')} ± {_num(r.snr_sem, '.2f')}",
+            lambda r: _key(r.snr_mean),
+        ),
+        Column(
+            "snr_std",
+            "SNR\nstd",
+            "Sample std of the peak SNR over the stop's frames",
+            lambda r: _num(r.snr_std, ".2f"),
+            lambda r: _key(r.snr_std),
+        ),
+        Column(
+            "background",
+            "background",
+            "The background the stop's frames were measured against: rim (Eq. 4's 7x7 rim), "
+            "extent_rim (outside the segmented drone and a guard band: a drone wider than the "
+            "box) or rect (the operator's clear-sky rectangle); most used first",
+            lambda r: r.background or "--",
+            lambda r: r.background,
+            False,
+        ),
     ]
+    for k in keys:
+        title = SHORT.get(k) or _model_title(k)
+        cols.append(
+            Column(
+                f"model:{k}",
+                title,
+                f"The model's SNR at the stop's range: {curve_label(k)} (dimensionless)",
+                lambda r, k=k: _num(r.model_snr.get(k), ".1f"),
+                lambda r, k=k: _key(r.model_snr.get(k)),
+            )
+        )
+    if rule is not None:
+        cols += [
+            Column(
+                "band",
+                "expected\nband",
+                f"The model's uncertainty band of {curve_label(rule)} at the stop's range",
+                lambda r: _band_text(r, rule),
+                lambda r: _key(r.model_snr.get(f"{rule}_lower")),
+            ),
+            Column(
+                "ratio",
+                "measured /\nexpected",
+                f"SNR mean / {curve_label(rule)}: green inside the model's band, amber within "
+                "two errors of the mean of it, red outside",
+                lambda r: _num(_agreement(r, rule).ratio, ".2f") if _agreement(r, rule) else "--",
+                lambda r: _key(_agreement(r, rule).ratio) if _agreement(r, rule) else MISSING,
+            ),
+        ]
+    cols += [
+        Column(
+            "sky",
+            "sky\n(K)",
+            "The background (sky) temperature the model values were computed at (K)",
+            lambda r: _num(r.model_sky_temp_k, ".1f"),
+            lambda r: _key(r.model_sky_temp_k),
+        ),
+        Column(
+            "state",
+            "state",
+            "complete (100 frames) / collecting / ended short; 'resolved' where the model calls "
+            "the small dimension resolved (wider than a pixel)",
+            state_text,
+            state_text,
+            False,
+        ),
+    ]
+    return cols
 
 
-class StopTableView(QTableWidget):
-    """Read-only table refreshed from a list of :class:`StopRow`."""
+SHORT_TITLES = {
+    EXPECTED_RIM: "expected\n7x7 rim",
+    EXPECTED_EXTENT: "expected\nextent rim",
+}
+"""The expected readings' two-line headers (their tooltips give the rule in words)."""
+
+
+def _model_title(name: str) -> str:
+    """A model curve the console does not abbreviate (an expected reading under some rule) as
+    a narrow header: "model SNR", "expected", the rule."""
+    if name in SHORT_TITLES:
+        return SHORT_TITLES[name]
+    label = curve_label(name)
+    for prefix in ("expected Eq. (4), ", "expected Eq. (4) "):
+        if label.startswith(prefix):
+            return f"model\nexpected\n{label[len(prefix) :]}"
+    return f"model\n{label}"
+
+
+def _agreement(r: StopRow, rule: str):
+    return model_agreement(r.snr_mean, r.snr_sem, r.model_snr, rule)
+
+
+def _band_text(r: StopRow, rule: str) -> str:
+    lo, hi = r.model_snr.get(f"{rule}_lower"), r.model_snr.get(f"{rule}_upper")
+    if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
+        return "--"
+    return f"{lo:.1f}–{hi:.1f}"
+
+
+def row_texts(r: StopRow, rule: str | None = None) -> list[str]:
+    """The table cells of one stop row, formatted (the columns of this row alone)."""
+    return [c.text(r) for c in columns([r], rule)]
+
+
+class StopTableModel(QAbstractTableModel):
+    """The rows and their cells; the view sorts through a proxy by each cell's number."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rows: list[StopRow] = []
+        self.rule: str | None = None
+        self.cols: list[Column] = columns([], None)
+        self.texts: list[list[str]] = []
+
+    def set_rows(self, rows: list[StopRow], rule: str | None) -> bool:
+        """Show ``rows``; False when nothing changed."""
+        cols = columns(rows, rule)
+        texts = [[c.text(r) for c in cols] for r in rows]
+        same_cols = [c.title for c in cols] == [c.title for c in self.cols]
+        if same_cols and texts == self.texts:
+            return False
+        if same_cols and len(rows) == len(self.rows):
+            self.rows, self.rule, self.texts = rows, rule, texts
+            last = self.index(len(rows) - 1, len(cols) - 1)
+            self.dataChanged.emit(self.index(0, 0), last)
+            return True
+        self.beginResetModel()
+        self.rows, self.rule, self.cols, self.texts = rows, rule, cols, texts
+        self.endResetModel()
+        return True
+
+    def rowCount(self, parent=QModelIndex()) -> int:  # noqa: B008, N802 (Qt's name)
+        return 0 if parent.isValid() else len(self.rows)
+
+    def columnCount(self, parent=QModelIndex()) -> int:  # noqa: B008, N802 (Qt's name)
+        return 0 if parent.isValid() else len(self.cols)
+
+    def headerData(self, section, orientation, role=Qt.ItemDataRole.DisplayRole):  # noqa: N802
+        if orientation != Qt.Orientation.Horizontal or not 0 <= section < len(self.cols):
+            return None
+        if role == Qt.ItemDataRole.DisplayRole:
+            return self.cols[section].title
+        if role == Qt.ItemDataRole.ToolTipRole:
+            return self.cols[section].tip
+        return None
+
+    def data(self, index, role=Qt.ItemDataRole.DisplayRole):
+        if not index.isValid():
+            return None
+        row, col = self.rows[index.row()], self.cols[index.column()]
+        if role == Qt.ItemDataRole.DisplayRole:
+            return self.texts[index.row()][index.column()]
+        if role == Qt.ItemDataRole.UserRole:
+            return col.sort(row)
+        if role == Qt.ItemDataRole.TextAlignmentRole:
+            side = Qt.AlignmentFlag.AlignRight if col.align_right else Qt.AlignmentFlag.AlignLeft
+            return int(side | Qt.AlignmentFlag.AlignVCenter)
+        if col.key == "ratio" and role in (
+            Qt.ItemDataRole.BackgroundRole,
+            Qt.ItemDataRole.ForegroundRole,
+        ):
+            a = _agreement(row, self.rule) if self.rule else None
+            colours = th.current().verdicts.get(a.verdict if a else "")
+            if colours is None:
+                return None
+            fill, ink = colours
+            return QBrush(QColor(fill if role == Qt.ItemDataRole.BackgroundRole else ink))
+        return None
+
+
+class StopTableView(QTableView):
+    """Read-only, sortable table refreshed from a list of :class:`StopRow`."""
 
     def __init__(self, parent=None) -> None:
-        super().__init__(0, len(COLUMNS), parent)
-        self.setHorizontalHeaderLabels([c for c, _ in COLUMNS])
-        for i, (_, tip) in enumerate(COLUMNS):
-            self.horizontalHeaderItem(i).setToolTip(tip)
+        super().__init__(parent)
+        self.table = StopTableModel()
+        self.proxy = QSortFilterProxyModel(self)
+        self.proxy.setSourceModel(self.table)
+        self.proxy.setSortRole(Qt.ItemDataRole.UserRole)
+        self.setModel(self.proxy)
+        self.setSortingEnabled(True)
+        self.sortByColumn(0, Qt.SortOrder.AscendingOrder)
         self.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
         self.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
         self.setAlternatingRowColors(True)
+        self.setWordWrap(False)
         self.verticalHeader().setVisible(False)
-        self.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
-        self.horizontalHeader().setStretchLastSection(True)
-        self.setToolTip("Stops found by the rangefinder/GPS or marked by the operator (M key).")
-        self._shown: list[list[str]] = []
+        header = self.horizontalHeader()
+        header.setSectionResizeMode(QHeaderView.ResizeMode.Fixed)
+        header.setStretchLastSection(True)
+        header.setDefaultAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignVCenter)
+        header.sortIndicatorChanged.connect(lambda *_: self.fit_columns())
+        self.hidden_columns: list[str] = []
+        self.setContextMenuPolicy(Qt.ContextMenuPolicy.CustomContextMenu)
+        self.customContextMenuRequested.connect(self._menu)
+        self.setToolTip(
+            "Stops found by the rangefinder/GPS or marked by the operator (M key). Click a "
+            "header to sort; Ctrl+C copies the selected rows (or all) as CSV."
+        )
+        self.apply_theme()
 
-    def show_rows(self, rows: list[StopRow]) -> None:
-        texts = [row_texts(r) for r in rows]
-        if texts == self._shown:
+    def apply_theme(self) -> None:
+        """Rows as high as the current font needs, no more (every stop in view)."""
+        rows = self.verticalHeader()
+        rows.setMinimumSectionSize(1)
+        rows.setDefaultSectionSize(self.fontMetrics().height() + 3)
+        self.fit_columns()
+        self.viewport().update()
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 (Qt's name)
+        super().resizeEvent(event)
+        self.fit_columns()
+
+    def column_widths(self) -> list[int]:
+        """Each column as wide as its widest line (header or cell) in the current font; the
+        sorted one with room for the sort arrow."""
+        metrics = self.fontMetrics()
+        head = self.horizontalHeader().fontMetrics()
+        sorted_col = self.horizontalHeader().sortIndicatorSection()
+        widths = []
+        for j, col in enumerate(self.table.cols):
+            lines = [head.horizontalAdvance(line) for line in col.title.split("\n")]
+            cells = [metrics.horizontalAdvance(t[j]) for t in self.table.texts]
+            w = max(lines + cells) + CELL_PAD_PX
+            widths.append(w + (SORT_ARROW_PX if j == sorted_col else 0))
+        return widths
+
+    def fit_columns(self) -> None:
+        """Widths by content; where they do not fit, the :data:`YIELDING` columns hide."""
+        widths = self.column_widths()
+        keys = [c.key for c in self.table.cols]
+        room = self.viewport().width()
+        hidden: list[str] = []
+        total = sum(widths)
+        for key in YIELDING:
+            if total <= room:
+                break
+            if key in keys:
+                hidden.append(key)
+                total -= widths[keys.index(key)]
+        header = self.horizontalHeader()
+        for j, (key, w) in enumerate(zip(keys, widths, strict=True)):
+            self.setColumnHidden(j, key in hidden)
+            if header.sectionSize(j) != w and j < len(keys) - 1:
+                header.resizeSection(j, w)
+        self.hidden_columns = hidden
+
+    @property
+    def rows(self) -> list[StopRow]:
+        return self.table.rows
+
+    def show_rows(self, rows: list[StopRow], rule: str | None = None) -> None:
+        """Show ``rows``; ``rule``: the expected reading the band and ratio columns are about."""
+        bar = self.verticalScrollBar()
+        at_bottom = bar.value() == bar.maximum()
+        if self.table.set_rows(list(rows), rule):
+            self.fit_columns()
+            if at_bottom:
+                self.scrollToBottom()
+
+    def shown_rows(self) -> list[StopRow]:
+        """The rows in the order shown (sorted as the operator chose)."""
+        return [
+            self.table.rows[self.proxy.mapToSource(self.proxy.index(i, 0)).row()]
+            for i in range(self.proxy.rowCount())
+        ]
+
+    def cells(self) -> list[list[str]]:
+        """Every cell's text as shown, row by row (tests, the status file)."""
+        return [
+            [str(self.proxy.index(i, j).data()) for j in range(self.proxy.columnCount())]
+            for i in range(self.proxy.rowCount())
+        ]
+
+    def csv(self) -> str:
+        """The selected rows (all when none is selected), in the order shown, as the report's
+        CSV (:func:`snrmon.acquisition.report.stop_csv.csv_text`)."""
+        picked = sorted({i.row() for i in self.selectionModel().selectedRows()})
+        shown = self.shown_rows()
+        rows = [shown[i] for i in picked] if picked else shown
+        return csv_text(csv_rows(rows))
+
+    def copy_csv(self) -> int:
+        """Copy :meth:`csv` to the clipboard; returns the number of rows copied."""
+        text = self.csv()
+        QApplication.clipboard().setText(text)
+        return max(text.count("\n") - 1, 0)
+
+    def keyPressEvent(self, event) -> None:  # noqa: N802 (Qt's name)
+        if event.matches(QKeySequence.StandardKey.Copy):
+            self.copy_csv()
+            event.accept()
             return
-        at_bottom = self.verticalScrollBar().value() == self.verticalScrollBar().maximum()
-        self.setRowCount(len(texts))
-        for i, cells in enumerate(texts):
-            for j, text in enumerate(cells):
-                item = self.item(i, j)
-                if item is None:
-                    item = QTableWidgetItem(text)
-                    align = Qt.AlignmentFlag.AlignRight if j >= 2 else Qt.AlignmentFlag.AlignLeft
-                    item.setTextAlignment(align | Qt.AlignmentFlag.AlignVCenter)
-                    self.setItem(i, j, item)
-                elif item.text() != text:
-                    item.setText(text)
-        self._shown = texts
-        if at_bottom:
-            self.scrollToBottom()
+        super().keyPressEvent(event)
+
+    def _menu(self, pos) -> None:
+        menu = QMenu(self)
+        menu.addAction("Copy as CSV (selected rows, or all)", self.copy_csv)
+        menu.exec(self.viewport().mapToGlobal(pos))
+
+    def rows_in_view(self) -> int:
+        """How many rows are wholly inside the viewport now."""
+        area = self.viewport().rect()
+        return sum(
+            1
+            for i in range(self.proxy.rowCount())
+            if area.contains(self.visualRect(self.proxy.index(i, 0)))
+        )

@@ -21,10 +21,12 @@ import numpy as np
 import pyqtgraph as pg
 from pyqtgraph import functions as fn
 from PySide6.QtCore import QRectF, Qt
-from PySide6.QtGui import QPainter, QPolygonF
+from PySide6.QtGui import QColor, QFont, QPainter, QPolygonF
 from PySide6.QtWidgets import QGraphicsItem, QVBoxLayout, QWidget
 
-from snrmon.gui.theme import MEAN_COLOR, MODEL_COLORS, SNR_COLOR
+from snrmon.gui import theme as th
+from snrmon.gui.model_curves import curve_label
+from snrmon.gui.plot_legend import PlotLegend, sample_icon
 
 WINDOW_S = 30.0
 
@@ -64,6 +66,10 @@ class DotsItem(pg.GraphicsObject):
             self._bounds = (self._xy.min(axis=0), self._xy.max(axis=0))
         self.update()
 
+    def set_colour(self, colour: str) -> None:
+        self._pen.setColor(QColor(colour))
+        self.update()
+
     def points(self) -> tuple[np.ndarray, np.ndarray]:
         return self._xy[:, 0].copy(), self._xy[:, 1].copy()
 
@@ -91,7 +97,9 @@ class DotsItem(pg.GraphicsObject):
 
 
 class StripChart(QWidget):
-    """Peak SNR versus time (seconds before now) for one camera."""
+    """Peak SNR versus time (seconds before now) for one camera; its legend is a row of Qt
+    widgets above the plot (never over the points), the model's reading at the current range
+    is a dashed line across the window whose value is in its legend entry."""
 
     def __init__(self, camera: str, parent: QWidget | None = None) -> None:
         super().__init__(parent)
@@ -99,40 +107,22 @@ class StripChart(QWidget):
         self.points_drawn = 0
         self.plot = pg.PlotWidget()
         self.plot.setLabel("left", "peak SNR")
-        self.plot.setLabel("bottom", "time before now", units="s")
+        self.plot.setLabel("bottom", "time before now (s)")
         self.plot.showGrid(x=True, y=True, alpha=0.25)
         self.plot.setXRange(-WINDOW_S, 0.0, padding=0.0)
-        legend = self.plot.addLegend(offset=(5, 5), labelTextSize="8pt")
+        self.plot.getPlotItem().setMenuEnabled(False)
         # mean - std along the times, then mean + std back: one closed polygon, outlined
-        self.band = pg.PlotCurveItem(
-            pen=pg.mkPen(MEAN_COLOR, width=0.5),
-            brush=pg.mkBrush(255, 211, 77, 50),
-            fillLevel="enclosed",
-        )
+        self.band = pg.PlotCurveItem(fillLevel="enclosed")
         self.plot.addItem(self.band)
-        self.snr_curve = DotsItem(SNR_COLOR, 3.0)
+        self.snr_curve = DotsItem(th.current().snr, 3.0)
         self.plot.addItem(self.snr_curve)
-        legend.addItem(
-            pg.PlotDataItem(
-                pen=None, symbol="o", symbolSize=3, symbolPen=None, symbolBrush=SNR_COLOR
-            ),
-            "per-frame SNR",
-        )
-        self.mean_curve = self.plot.plot(pen=pg.mkPen(MEAN_COLOR, width=2), name="100-frame mean")
+        self.mean_curve = self.plot.plot()
         cache_axes(self.plot)
         self._model_shown: tuple[str, float] | None = None
-        dash = pg.mkPen(MODEL_COLORS[0], width=2, style=Qt.PenStyle.DashLine)
-        self.model_line = pg.InfiniteLine(
-            angle=0,
-            movable=False,
-            pen=dash,
-            label="model {value:.1f}",
-            # Left-aligned just above the line: centred (pyqtgraph's default for a horizontal
-            # line) near the left edge, the label's first characters fell off the plot.
-            labelOpts={"position": 0.02, "anchors": [(0, 1), (0, 1)], "color": MODEL_COLORS[0]},
-        )
-        self.model_line.setVisible(False)
-        self.plot.addItem(self.model_line)
+        # The model's reading as data across the window (not an InfiniteLine): the y range
+        # always takes it in, so the line is never off the plot, and it needs no label on it.
+        self.model_line = self.plot.plot([], [])
+        self.legend = PlotLegend(spacing=6)
         self.setToolTip(
             f"{camera}: per-frame peak SNR (Eq. 4, dimensionless), the running mean of the last "
             "100 valid frames with a +/- 1 std band, and the model's SNR at the current range "
@@ -140,7 +130,48 @@ class StripChart(QWidget):
         )
         lay = QVBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)
-        lay.addWidget(self.plot)
+        lay.setSpacing(2)
+        lay.addWidget(self.legend)
+        lay.addWidget(self.plot, 1)
+        self.apply_theme(th.scaled_font(1.0))
+
+    def apply_theme(self, font: QFont) -> None:
+        """The current theme's colours and ``font`` on the plot and its legend."""
+        t = th.current()
+        th.style_plot(self.plot, font)
+        mean = QColor(t.mean)
+        fill = QColor(t.mean)
+        fill.setAlpha(50)
+        self.band.setPen(pg.mkPen(mean, width=0.5))
+        self.band.setBrush(pg.mkBrush(fill))
+        self.snr_curve.set_colour(t.snr)
+        self.mean_curve.setPen(pg.mkPen(mean, width=2))
+        self.model_line.setPen(pg.mkPen(t.model_line, width=2, style=Qt.PenStyle.DashLine))
+        self.legend.clear()
+        self.legend.add(
+            "snr", "per frame", sample_icon(t.snr, kind="dot"), tip="Per-frame peak SNR (Eq. 4)"
+        )
+        self.legend.add(
+            "mean",
+            "mean ± std",
+            sample_icon(t.mean, width=2),
+            tip="Running mean of the last 100 valid frames, +/- their std (shaded)",
+        )
+        self.legend.add("model", self._model_text(), sample_icon(t.model_line, dashed=True))
+        self._model_tip()
+
+    def _model_text(self) -> str:
+        if self._model_shown is None:
+            return "model"
+        return f"model {self._model_shown[1]:.1f}"
+
+    def _model_tip(self) -> None:
+        entry = self.legend.entries["model"]
+        entry.setVisible(self._model_shown is not None)
+        if self._model_shown is not None:
+            entry.setToolTip(
+                f"The model's {curve_label(self._model_shown[0])} at the current range (SNR)"
+            )
 
     def show_series(self, series: np.ndarray, now_ns: int) -> None:
         """Draw the rows of :meth:`CameraPipeline.series` within the last :data:`WINDOW_S`."""
@@ -168,9 +199,11 @@ class StripChart(QWidget):
         visible = snr is not None and math.isfinite(snr)
         shown = (name, float(snr)) if visible else None
         if shown == self._model_shown:
-            return  # unchanged: no relayout of the label, no repaint
+            return  # unchanged: no relayout of the legend, no repaint
         self._model_shown = shown
-        self.model_line.setVisible(visible)
+        self._model_tip()
         if visible:
-            self.model_line.setValue(snr)
-            self.model_line.label.setFormat(f"model ({name}) {{value:.1f}}")
+            self.model_line.setData([-WINDOW_S, 0.0], [snr, snr])
+            self.legend.set_text("model", self._model_text())
+        else:
+            self.model_line.setData([], [])

@@ -45,32 +45,73 @@ def hil_sessions(tmp_path_factory) -> list[Path]:
     return [_hil_record(folder / f"flight-{seed}.h5", seed) for seed in HIL_SEEDS]
 
 
-@pytest.fixture(scope="session")
-def xvfb_display():
-    """A real X display (Xvfb, 1600x1000, 24 bit) for tests that open real windows; skipped,
-    saying why, where Xvfb is not installed (.ci/run installs it)."""
-    import select
-    import shutil
-    import subprocess
+class XvfbScreens:
+    """Real X displays (Xvfb, 24 bit), one per screen size asked for, started on first use
+    and stopped at the end of the test session."""
 
-    if shutil.which("Xvfb") is None:
-        pytest.skip("Xvfb not installed (apt-get install xvfb; .ci/run does)")
-    read_fd, write_fd = os.pipe()
-    proc = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "1600x1000x24", "-nolisten", "tcp"],
-        pass_fds=(write_fd,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write_fd)
-    try:
+    def __init__(self) -> None:
+        self._procs: list = []
+        self._displays: dict[str, str] = {}
+
+    def __call__(self, size: str = "1600x1000") -> str:
+        """The display (":N") of an Xvfb screen ``size`` ("WxH") pixels large."""
+        import select
+        import shutil
+        import subprocess
+
+        if size in self._displays:
+            return self._displays[size]
+        if shutil.which("Xvfb") is None:
+            pytest.skip("Xvfb not installed (apt-get install xvfb; .ci/run does)")
+        read_fd, write_fd = os.pipe()
+        proc = subprocess.Popen(
+            ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", f"{size}x24", "-nolisten", "tcp"],
+            pass_fds=(write_fd,),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        os.close(write_fd)
+        # The pipe stays open while the server runs: Xvfb writes to it again when it resets
+        # (its last client gone) and would die of SIGPIPE on a closed pipe.
+        self._procs.append((proc, read_fd))
         # Xvfb writes the display number it chose once it accepts connections.
         ready, _, _ = select.select([read_fd], [], [], 30)
         number = os.read(read_fd, 64).decode().strip() if ready else ""
         if not number:
-            pytest.fail("Xvfb did not report a display within 30 s")
-        yield f":{number}"
+            pytest.fail(f"Xvfb ({size}) did not report a display within 30 s")
+        self._displays[size] = f":{number}"
+        return self._displays[size]
+
+    def close(self) -> None:
+        for proc, read_fd in self._procs:
+            proc.terminate()
+            proc.wait(10)
+            os.close(read_fd)
+
+
+@pytest.fixture(scope="session")
+def xvfb_screens():
+    """``xvfb_screens("1366x768") -> ":N"``: real X displays for tests that open real windows,
+    one per size; skipped, saying why, where Xvfb is not installed (.ci/run installs it)."""
+    screens = XvfbScreens()
+    try:
+        yield screens
     finally:
-        os.close(read_fd)
-        proc.terminate()
-        proc.wait(10)
+        screens.close()
+
+
+@pytest.fixture(scope="session")
+def xvfb_display(xvfb_screens):
+    """A real X display (Xvfb, 1600x1000, 24 bit) for tests that open real windows."""
+    return xvfb_screens("1600x1000")
+
+
+ARTIFACTS = Path(os.environ.get("SNRMON_ARTIFACTS", REPO / "artifacts"))
+
+
+@pytest.fixture(scope="session")
+def artifacts() -> Path:
+    """Where tests keep what a person should look at (screenshots): ``artifacts/`` in the
+    checkout (git ignores it), or $SNRMON_ARTIFACTS."""
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    return ARTIFACTS

@@ -27,6 +27,8 @@ from snrmon.sim.optics import twin_optics
 from snrmon.sim.twin import Scenario, twin_scene_config
 
 UAV1 = load_target("uav1")
+# curves with a model band
+BANDED = ("small_corrected", "large_corrected", "expected_eq4_rim", "expected_eq4_extent")
 
 
 def _check_truth(stop: dict) -> None:
@@ -79,6 +81,7 @@ def test_unresolved_stops_read_the_expected_eq4_of_the_measured_psf(seed):
             "large_corrected",
             "expected_eq4_rim",
             "expected_eq4_extent",
+            *(f"{c}_{e}" for c in BANDED for e in ("lower", "upper")),
         }
         where = f"{s['camera']} at {s['planned_range_m']:.0f} m, seed {seed}"
         # what Eq. (4) should read on this stop's frames by the rule its background makes

@@ -62,8 +62,11 @@ from snrmon.acquisition.engine.inputs import (
     StartReference,
 )
 from snrmon.acquisition.engine.status import AnalysisFigures, CameraStatus, FrameAccounting
+from snrmon.acquisition.measure.model_agreement import model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.acquisition.measure.track_noise import TrackNoise
+from snrmon.acquisition.stops.detector import mean_error
+from snrmon.acquisition.stops.table import StopProgress, expected_eq4_rule
 from snrmon.acquisition.track.config import TrackState
 from snrmon.acquisition.track.tracker import TrackerConfig
 
@@ -122,10 +125,13 @@ class CameraEngine:
         self.sky: SkyTemperature | None = None  # with a calibration
         # The model the status reads its prediction at the last range from (the session's).
         self.predictor: Predictor | None = None
+        # The latest stop's progress for this camera, for the status (the session's stop table).
+        self.stop_progress: Callable[[], StopProgress | None] | None = None
         self._lock = threading.Lock()
         self._inbox: list[Command] = []
         self._gps_xy: tuple[float, float] | None = None
         self._last: Measurement | None = None
+        self._window: np.ndarray | None = None  # the running window's values after _last
         self._state = TrackState.IDLE
         self._roi: tuple[int, int] | None = None
         self._measured = 0
@@ -237,7 +243,7 @@ class CameraEngine:
                 self._measured += 1
                 self._roi, self._state = None, TrackState.IDLE
             return FrameOutput(None, applied, done)
-        self._publish(m)
+        self._publish(m, self.measurer.meter.running.values())
         return FrameOutput(m, applied, done)
 
     def publish_recorded(self, m: Measurement) -> None:
@@ -245,13 +251,14 @@ class CameraEngine:
         shown (status, series) as it was; nothing is re-measured. The last counter stays that
         of the last frame this engine's trackers saw: an exact replay restores the live one (the
         state recorded before the next recorded frame holds it)."""
-        self._publish(m)
+        self._publish(m, None)  # its running window's values are not recorded
 
-    def _publish(self, m: Measurement) -> None:
+    def _publish(self, m: Measurement, window: np.ndarray | None) -> None:
         rng = NAN if m.range_m is None else m.range_m
         with self._lock:
             self._measured += 1
             self._last = m
+            self._window = window
             self._state = m.track_state
             self._roi = m.window_xy
             self._series.append((m.t_host_ns, m.result.snr, m.snr_mean, m.snr_std, rng))
@@ -359,18 +366,28 @@ class CameraEngine:
         """The camera's status as the console shows it; the caller adds what only it knows (the
         device's health, the frame accounting, the frame rate, the latency)."""
         with self._lock:
-            last, roi, state, gps_xy, measured = (
+            last, roi, state, gps_xy, measured, window = (
                 self._last,
                 self._roi,
                 self._state,
                 self._gps_xy,
                 self._measured,
+                self._window,
             )
         if device is None:
             device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)
         if frames is None:
             frames = FrameAccounting(received=measured, measured=measured)
         model = self._model_at(last)
+        # The error of the mean of the window the running mean was taken over (a few times a
+        # second, on the reader's thread: not per frame).
+        sem = mean_error(window) if window is not None else NAN
+        agreement = None
+        rule = expected_eq4_rule(last.result.background) if last is not None else None
+        if last is not None and model and rule is not None:
+            # the reading of the rule this frame's background makes applicable (the paper's
+            # 7x7 rim, or the console's rim outside the drone's extent)
+            agreement = model_agreement(last.snr_mean, sem, model, f"expected_eq4_{rule}")
         return CameraStatus(
             name=self.name,
             device=device,
@@ -384,6 +401,9 @@ class CameraEngine:
             figures=self.figures(),
             latency_ms_p50=float(latency_ms[0]),
             latency_ms_p99=float(latency_ms[1]),
+            snr_sem=sem,
+            agreement=agreement,
+            stop=self.stop_progress() if self.stop_progress is not None else None,
         )
 
     def _model_at(self, last: Measurement | None) -> dict[str, float]:

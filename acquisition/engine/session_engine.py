@@ -20,6 +20,7 @@ model's background following the measured sky temperature), so a replay can appl
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import threading
@@ -125,8 +126,9 @@ class SessionEngine:
             predictor=predictor,
             on_final=self._row_final,
         )
-        for camera in self.cameras.values():
+        for name, camera in self.cameras.items():
             camera.predictor = predictor
+            camera.stop_progress = functools.partial(self.stop_table.progress, name)
         self._sky_checked: dict[str, int] = {}
         self._listeners: list[Callable[[Measurement, np.ndarray | None], None]] = []
 

@@ -12,7 +12,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from snrmon.acquisition.engine.inputs import Measurement
+from snrmon.acquisition.measure.model_agreement import ModelAgreement
 from snrmon.acquisition.measure.track_noise import RegionNoise3d
+from snrmon.acquisition.stops.table import StopProgress
 from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.device import DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
@@ -83,6 +85,14 @@ class CameraStatus:
     figures: AnalysisFigures = field(default_factory=AnalysisFigures)
     latency_ms_p50: float = math.nan
     latency_ms_p99: float = math.nan
+    # The error of the mean of ``last``'s running window (its frames' autocorrelation counted,
+    # :func:`snrmon.acquisition.stops.detector.mean_error`); NaN when not known.
+    snr_sem: float = math.nan
+    # ``last``'s running mean against the model's expected Eq. (4) reading at its range (the
+    # rule the predictor names, its band, the ratio and the verdict); None without either.
+    agreement: ModelAgreement | None = None
+    # The latest stop's progress for this camera (n of 100 frames); None before the first stop.
+    stop: StopProgress | None = None
 
     @property
     def track_reason(self) -> str:

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from snrmon.acquisition.engine.inputs import SetRoi
+from snrmon.acquisition.engine.inputs import ClearRoi, SetRoi
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
 from snrmon.acquisition.prediction import Predictor, Weather
@@ -103,7 +103,7 @@ class ReplayPlayer:
         self._speed = self._valid_speed(speed)
         self._steps = 0
         self._seek_to: int | None = None
-        self._roi_requests: list[tuple[str, int, int]] = []
+        self._roi_requests: list[tuple[str, int | None, int | None]] = []
         self._stopping = False
         self._index = -1
         self._anchor: tuple[float, int] | None = None  # (wall s, recorded ns) for pacing
@@ -200,6 +200,12 @@ class ReplayPlayer:
                 timeout,
             )
 
+    def wait_end(self, timeout: float = 60.0) -> bool:
+        """Wait until the last recorded frame has been shown (tests, scripts)."""
+        last = len(self._t) - 1
+        with self._cond:
+            return self._cond.wait_for(lambda: self._index >= last and not self._busy, timeout)
+
     @property
     def predictor(self) -> Predictor | None:
         return self._predictor
@@ -242,6 +248,14 @@ class ReplayPlayer:
             raise ValueError(f"ROI ({x}, {y}) is outside the {camera} image ({w} x {h})")
         with self._cond:
             self._roi_requests.append((camera, int(x), int(y)))
+            self._cond.notify_all()
+
+    def clear_roi(self, camera: str) -> None:
+        """Stop measuring ``camera`` from its shown frame on (until the next click)."""
+        if camera not in self.pipelines:
+            raise ValueError(f"replay: no camera {camera!r} in {self.path.name}")
+        with self._cond:
+            self._roi_requests.append((camera, None, None))
             self._cond.notify_all()
 
     def stops(self) -> list[StopRow]:
@@ -326,10 +340,11 @@ class ReplayPlayer:
         pixels = np.asarray(cam.frames[i])
         self.pipelines[name].show(RingFrame(pixels, i, int(cam.counter[i]), t, None, name))
 
-    def _remeasure(self, name: str, x: int, y: int) -> None:
-        """A click in replay: measure the shown frame of ``name`` again around (x, y)."""
+    def _remeasure(self, name: str, x: int | None, y: int | None) -> None:
+        """A click in replay: measure the shown frame of ``name`` again around (x, y) (None:
+        the track released, the shown frame is not measured)."""
         engine = self._engine
-        engine.cameras[name].post(SetRoi(x, y))
+        engine.cameras[name].post(ClearRoi() if x is None or y is None else SetRoi(x, y))
         frame = self.pipelines[name].latest_frame()
         if frame is not None:
             engine.on_frame(

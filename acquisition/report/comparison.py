@@ -4,7 +4,8 @@
   curve: sum over stops of (measured mean - model)^2 / (error of the mean^2 + the model band's
   half width^2), over the number of stops (no parameter is fitted). A value near 1 says the
   curve agrees within the stated errors; the measurement alone (``chi2_per_dof_measured``,
-  the model's band left out) shows how well the stops pin it.
+  the model's band left out) shows how well the stops pin it. :func:`stop_rows_fit` is the same
+  statistic on the model values the stop rows carry (the console's SNR-versus-range title).
 * :func:`reference_table`: the paper's reference numbers beside ours, each with the reason
   where they differ (docs/model.md).
 * :func:`detection_summary`: probability of detection versus range and the detection range
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+NAN = math.nan
 FIT_CURVES = (
     "small",
     "large",
@@ -44,21 +46,51 @@ def _error_of_mean(row) -> float:
     return row.snr_sem if math.isfinite(row.snr_sem) else row.snr_std
 
 
+def _fitted_rows(rows, camera: str) -> list:
+    """``camera``'s unresolved stops (small dimension under a pixel, the paper's points) with a
+    range, a mean and an error of it (a stop without an error has no weight)."""
+    return [
+        r
+        for r in rows
+        if r.camera == camera
+        and r.range_m is not None
+        and r.n_frames >= 2
+        and math.isfinite(r.snr_mean)
+        and r.resolved is False
+        and _error_of_mean(r) > 0
+    ]
+
+
+def stop_rows_fit(rows, camera: str, curve: str) -> FitStatistic | None:
+    """chi^2/dof of ``camera``'s unresolved stops against ``curve`` as each row has it (the
+    model's value at the stop's range, with the sky and PSF the row was computed with, and the
+    band the row carries as ``<curve>_lower`` / ``<curve>_upper``); the same statistic as
+    :func:`fit_statistics`. None when no stop has that curve."""
+    keep = [r for r in _fitted_rows(rows, camera) if math.isfinite(r.model_snr.get(curve, NAN))]
+    if not keep:
+        return None
+    meas = np.array([r.snr_mean for r in keep])
+    sem = np.array([_error_of_mean(r) for r in keep])
+    model = np.array([r.model_snr[curve] for r in keep])
+    lo = np.array([r.model_snr.get(f"{curve}_lower", m) for r, m in zip(keep, model, strict=True)])
+    hi = np.array([r.model_snr.get(f"{curve}_upper", m) for r, m in zip(keep, model, strict=True)])
+    half = np.nan_to_num(0.5 * (hi - lo))
+    r2 = (meas - model) ** 2
+    return FitStatistic(
+        camera,
+        curve,
+        len(keep),
+        float(np.mean(r2 / (sem**2 + half**2))),
+        float(np.mean(r2 / sem**2)),
+    )
+
+
 def fit_statistics(rows, models) -> list[FitStatistic]:
     """chi^2/dof of each camera's unresolved stops (small dimension under a pixel, the paper's
     points) against each curve of ``models`` ({camera: ModelCurves})."""
     out = []
     for cam, m in models.items():
-        keep = [
-            r
-            for r in rows
-            if r.camera == cam
-            and r.range_m is not None
-            and r.n_frames >= 2
-            and math.isfinite(r.snr_mean)
-            and r.resolved is False
-            and _error_of_mean(r) > 0
-        ]  # a stop without an error has no weight
+        keep = _fitted_rows(rows, cam)
         if not keep:
             continue
         x = np.log([r.range_m for r in keep])

@@ -9,6 +9,7 @@ is the measured mean over it."""
 from __future__ import annotations
 
 import csv
+import io
 import math
 from pathlib import Path
 
@@ -73,13 +74,24 @@ def _cell(v: object) -> str:
     return str(v)
 
 
+def _write(fh, rows: list[dict[str, object]]) -> None:
+    w = csv.writer(fh)
+    w.writerow(CSV_COLUMNS)
+    for row in rows:
+        w.writerow([_cell(row[c]) for c in CSV_COLUMNS])
+
+
 def write_csv(rows: list[dict[str, object]], path: str | Path) -> Path:
     """The CSV table: a header of :data:`CSV_COLUMNS`, full-precision numbers, empty cells for
     missing or undefined values."""
     out = Path(path)
     with out.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(CSV_COLUMNS)
-        for row in rows:
-            w.writerow([_cell(row[c]) for c in CSV_COLUMNS])
+        _write(fh, rows)
     return out
+
+
+def csv_text(rows: list[dict[str, object]]) -> str:
+    """The same table as :func:`write_csv`, as text (the console copies it to the clipboard)."""
+    buf = io.StringIO(newline="")
+    _write(buf, rows)
+    return buf.getvalue()

@@ -207,6 +207,11 @@ class Session:
         # The pipeline records "roi_set" at the frame the click takes effect on.
         self._event("roi_clicked", camera=camera, payload={"x": int(x), "y": int(y)})
 
+    def clear_roi(self, camera: str) -> None:
+        """The operator releases ``camera``'s track: it stops measuring until the next click
+        (recorded as "roi_cleared" at the frame it takes effect on)."""
+        self.pipeline(camera).clear_roi()
+
     def capture_reference(self, camera: str, n_frames: int = 64) -> None:
         """Average the next ``n_frames`` of ``camera`` (clear sky, no drone in view) into the
         background reference that removes its fixed-pattern noise before Eq. (4)."""

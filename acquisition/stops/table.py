@@ -110,6 +110,20 @@ def expected_eq4_rule(background: str) -> str | None:
     return "extent" if "extent_rim" in methods else "rim"
 
 
+@dataclass(frozen=True, slots=True)
+class StopProgress:
+    """How far one camera's row of the latest stop is: ``n_frames`` of the ``n_wanted``
+    consecutive valid frames it is summarised from (the row's own count), and whether the stop
+    is still open (the drone hovering) or has ended."""
+
+    stop: int
+    manual: bool
+    n_frames: int
+    n_wanted: int
+    complete: bool
+    open: bool
+
+
 def backgrounds_of(results) -> str:
     """The background methods of some measurements, most used first, joined by "+"."""
     counts = Counter(r.background for r in results)
@@ -222,6 +236,25 @@ class StopTable:
                     key = (stop.index, cam)
                     out.append(self._final.get(key) or self._row(stop, cam, final=False)[0])
             return out
+
+    def progress(self, camera: str) -> StopProgress | None:
+        """The latest stop's progress for ``camera`` (the open stop while the drone hovers,
+        else the last one that ended); None before the first stop."""
+        with self._lock:
+            self._open_new_stops()
+            stops = self.detector.stops
+            if not stops:
+                return None
+            stop = stops[-1]
+            key = (stop.index, camera)
+            final = self._final.get(key)
+            if final is not None:
+                n, complete = final.n_frames, final.complete
+            else:
+                builder = self._builders.get(key)
+                n = len(builder.run(stop.t_end_ns)) if builder is not None else 0
+                complete = n >= self.n
+            return StopProgress(stop.index, stop.manual, n, self.n, complete, stop.t_end_ns is None)
 
     def history(self, camera: str) -> list[Entry]:
         """The measurements of ``camera`` the table keeps to seed a backdated stop (oldest

@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 from snrmon.cli import UsageError
-from snrmon.commands.gui import add_status_file_option
+from snrmon.commands.gui import add_status_file_option, add_view_options, view_options
 from snrmon.extras import require
 from snrmon.inputs import output_file
 
@@ -56,6 +56,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "live stop table (headless default: out/demo-report.pdf)",
     )
     add_status_file_option(p)
+    add_view_options(p)
     p.set_defaults(func=run)
 
 
@@ -98,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--duration must be positive, got {args.duration}")
     if args.status_file is not None:
         output_file(args.status_file, "--status-file", suffixes=(".json",))
+    view = view_options(args)  # before the flight: a bad option is exit 2 at once
     headless = args.headless or not _has_display()
     screenshot = args.screenshot
     if screenshot is None and headless:
@@ -142,6 +144,7 @@ def run(args: argparse.Namespace) -> int:
                 duration_s=duration,
                 screenshot=screenshot,
                 status_file=args.status_file,
+                **view,
             )
         finally:
             done.set()

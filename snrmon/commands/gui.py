@@ -19,8 +19,64 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--headless", action="store_true", help="run offscreen (no display needed)")
     p.add_argument("--duration", type=float, help="close after this many seconds")
     p.add_argument("--screenshot", type=Path, help="save the window to this PNG at the end")
+    p.add_argument(
+        "--speed",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="with --replay: play at X times real time (0.01 to 1000; default 1)",
+    )
     add_status_file_option(p)
+    add_view_options(p)
     p.set_defaults(func=run)
+
+
+def add_view_options(p: argparse.ArgumentParser) -> None:
+    """``--theme``, ``--font-scale`` and ``--size``, shared with ``snrmon demo``."""
+    p.add_argument(
+        "--theme",
+        choices=("dark", "daylight"),
+        help="dark, or daylight (light background, high contrast); default: the last one used",
+    )
+    p.add_argument(
+        "--font-scale",
+        type=float,
+        metavar="X",
+        help="every text's size over normal, 0.8 to 2 (default: the last one used)",
+    )
+    p.add_argument(
+        "--size",
+        metavar="WxH",
+        help="open the window at W x H pixels (default: the saved layout, or the whole screen "
+        "at a first start; offscreen 1920x1080)",
+    )
+
+
+def window_size(text: str | None) -> tuple[int, int] | None:
+    """``--size WxH`` as (width, height); None when not given."""
+    if text is None:
+        return None
+    w, sep, h = text.lower().partition("x")
+    try:
+        size = (int(w), int(h))
+    except ValueError:
+        size = (0, 0)
+    if not sep or not (200 <= size[0] <= 16384 and 200 <= size[1] <= 16384):
+        raise UsageError(f"--size must be WxH in pixels (200 to 16384 each), got {text!r}")
+    return size
+
+
+def view_options(args: argparse.Namespace) -> dict:
+    """The console's view arguments of ``run_console`` (checked: a bad one is exit 2)."""
+    from snrmon.gui.theme import check_font_scale
+
+    scale = args.font_scale
+    if scale is not None:
+        try:
+            check_font_scale(scale)
+        except ValueError as exc:
+            raise UsageError(f"--font-scale: {exc}") from None
+    return {"theme": args.theme, "font_scale": scale, "size": window_size(args.size)}
 
 
 def add_status_file_option(p: argparse.ArgumentParser) -> None:
@@ -42,6 +98,7 @@ def check_console_outputs(args: argparse.Namespace) -> None:
         output_file(args.screenshot, "--screenshot", suffixes=(".png",))
     if args.status_file is not None:
         output_file(args.status_file, "--status-file", suffixes=(".json",))
+    window_size(args.size)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -51,6 +108,8 @@ def run(args: argparse.Namespace) -> int:
         if args.config is not None:
             raise UsageError("give --config FILE.toml or --replay FILE.h5, not both")
         session_file(args.replay, "--replay")
+        if not 0.01 <= args.speed <= 1000.0:
+            raise UsageError(f"--speed must be 0.01 to 1000 x real time, got {args.speed}")
         return _run_replay(args)
     if args.config is None:
         raise UsageError("needs --config FILE.toml (or --replay FILE.h5)")
@@ -77,6 +136,7 @@ def run(args: argparse.Namespace) -> int:
             duration_s=args.duration,
             screenshot=args.screenshot,
             status_file=args.status_file,
+            **view_options(args),
         )
 
 
@@ -85,7 +145,7 @@ def _run_replay(args: argparse.Namespace) -> int:
     from snrmon.acquisition.replay.player import ReplayPlayer
     from snrmon.gui.app import run_console
 
-    player = ReplayPlayer(args.replay)
+    player = ReplayPlayer(args.replay, speed=args.speed)
     cfg = player.config
     predictor = None
     if cfg.cameras:  # the recording names its sensors and target: the model can run
@@ -102,4 +162,5 @@ def _run_replay(args: argparse.Namespace) -> int:
             duration_s=args.duration,
             screenshot=args.screenshot,
             status_file=args.status_file,
+            **view_options(args),
         )

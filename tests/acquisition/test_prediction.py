@@ -24,12 +24,19 @@ from snrmon.model.snr import predict
 def test_lookup_has_the_four_curves_and_the_expected_reading():
     p = ModelPredictor({"mwir": "mwir"}, "uav1", air_temp_k=290.0)
     out = p("mwir", 451.0)
-    assert set(out) == {*CURVES, *EXPECTED_CURVES, "resolved_small"}
+    banded = ("small_corrected", "large_corrected", *EXPECTED_CURVES)
+    edges = {f"{c}_{e}" for c in banded for e in ("lower", "upper")}
+    assert set(out) == {*CURVES, *EXPECTED_CURVES, "resolved_small", *edges}
     direct = predict(load_sensor("mwir"), load_target("uav1"), [37.0, 451.0], air_temp_k=290.0)
     assert out["small_corrected"] == pytest.approx(direct.snr_small_corrected[1], rel=2e-3)
     for name in (EXPECTED_RIM, EXPECTED_EXTENT):
         assert out[name] == pytest.approx(direct.snr(name)[1], rel=0.01)
         assert f"{name} band" in p.curve("mwir")
+    # the model's uncertainty band at the range (section 9), the model's own numbers
+    for c in banded:
+        assert out[f"{c}_lower"] == pytest.approx(direct.lower[c][1], rel=0.01), c
+        assert out[f"{c}_upper"] == pytest.approx(direct.upper[c][1], rel=0.01), c
+        assert out[f"{c}_lower"] < out[c] < out[f"{c}_upper"], c
     assert set(PAPER_CURVES) <= set(p.curve("mwir"))
     # the two rules, each labelled: the same on the compact drone at 451 m; at 37 m the
     # paper's 7x7 rim lies on the drone and reads it against itself

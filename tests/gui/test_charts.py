@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from snrmon.gui.legibility import data_rect, global_rect, text_cut
 from snrmon.gui.range_plot import RangePlot
 from snrmon.gui.strip_chart import WINDOW_S, StripChart
 
@@ -42,17 +43,25 @@ def test_strip_chart_draws_the_points_the_mean_and_its_band(qtbot):
     assert chart.points_drawn == 0 and len(chart.snr_curve.points()[0]) == 0
 
 
+def _model_y(chart: StripChart) -> list[float]:
+    _, y = chart.model_line.getData()
+    return [] if y is None else list(y)
+
+
 def test_strip_chart_model_line_follows_and_hides(qtbot):
     chart = StripChart("lwir")
     qtbot.addWidget(chart)
+    chart.show()
     chart.show_model("small", 9.5)
-    assert chart.model_line.isVisible() and chart.model_line.value() == pytest.approx(9.5)
+    entry = chart.legend.entries["model"]
+    assert _model_y(chart) == [9.5, 9.5] and entry.isVisible() and entry.text() == "model 9.5"
     chart.show_model("small", 9.5)  # unchanged: still shown
-    assert chart.model_line.isVisible()
+    assert entry.isVisible()
     chart.show_model("small", float("nan"))
-    assert not chart.model_line.isVisible()
-    chart.show_model("small", 7.0)
-    assert chart.model_line.isVisible() and chart.model_line.value() == pytest.approx(7.0)
+    assert _model_y(chart) == [] and not entry.isVisible()
+    chart.show_model("expected_eq4_extent", 7.0)
+    assert _model_y(chart) == [7.0, 7.0] and entry.text() == "model 7.0"
+    assert "expected Eq. (4)" in entry.toolTip()  # which of the model's readings, in words
 
 
 def _n_live(plot: RangePlot) -> int:
@@ -69,10 +78,10 @@ def test_range_plot_live_point_follows_changes_and_hides(qtbot):
     plot.show_live(200.0, 12.0, 1.0)  # the same again changes nothing
     x, y = plot.live.getData()
     assert list(x) == [200.0] and list(y) == [12.0]
-    plot.show_live(250.0, 11.0, float("nan"))  # an unknown std draws no error bar
+    plot.show_live(250.0, 11.0, float("nan"))  # an unknown error draws no error bar
     x, y = plot.live.getData()
     assert list(x) == [250.0] and list(y) == [11.0]
-    assert plot.live_errors.opts["height"][0] == 0.0
+    assert plot.live_errors.opts["top"][0] == 0.0 and plot.live_errors.opts["bottom"][0] == 0.0
     plot.show_live(None, 11.0, 1.0)
     assert _n_live(plot) == 0
 
@@ -102,30 +111,27 @@ def test_range_plot_shows_the_stops_not_the_model_s_kilometres(qtbot):
     assert _x_range(plot) == pytest.approx([0.0, 1000.0])
 
 
-def test_strip_chart_model_label_lies_inside_the_plot(qtbot):
+def test_strip_chart_legend_and_model_line_lie_off_and_inside_the_data(qtbot):
+    """The legend sits above the data area, never on it, and the model's line (whatever its
+    value) lies inside the plotted range, so no part of it or its words is cut off."""
     chart = StripChart("mwir")
     qtbot.addWidget(chart)
     chart.resize(500, 300)
     chart.show()
     qtbot.waitExposed(chart)
     chart.show_series(_series(600, 10**12), 10**12)
-    chart.show_model("small", 12.0)
     view = chart.plot.getPlotItem().getViewBox()
-    label = chart.model_line.label
-
-    def inside() -> bool:  # the label is placed once the view has laid out its range
-        rect = label.mapRectToScene(label.boundingRect())
-        return view.mapRectToScene(view.boundingRect()).contains(rect)
-
-    qtbot.waitUntil(inside, timeout=2000)
-    assert label.toPlainText() == "model (small) 12.0"
+    for snr in (12.0, 40.0, 1.0):  # in the points, far above them, far below them
+        chart.show_model("small", snr)
+        qtbot.waitUntil(lambda s=snr: view.viewRange()[1][0] < s < view.viewRange()[1][1])
+        assert not global_rect(chart.legend).intersects(data_rect(chart.plot))
+        assert chart.legend.entries["model"].text() == f"model {snr:.1f}"
+        assert not text_cut(chart.legend.entries["model"])
 
 
 def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(qtbot):
     """The stops' bars are the error of the mean, not the per-frame std, and the title states
-    chi2/dof of the unresolved stops against the expected Eq. (4) curve shown."""
-    import numpy as np
-
+    chi2/dof of the unresolved stops against the expected Eq. (4) reading the rows carry."""
     from snrmon.acquisition.stops.table import StopRow
     from snrmon.gui.range_plot import RangePlot, fit_title
 
@@ -142,18 +148,118 @@ def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(q
             True,
             mean,
             10.0,
-            {"expected_eq4_extent": 0.0},
+            {"expected_eq4_extent": 64.0},
             resolved,
             snr_sem=sem,
         )
 
     rows = [row(0, 199.0, 90.0, 2.0, True), row(1, 393.0, 60.0, 2.0), row(2, 508.0, 33.0, 1.0)]
-    expected = (np.array([100.0, 1000.0]), np.array([64.0, 64.0]))
-    # (60-64)^2/4 = 4 and (33-64)^2/1 = 961: the resolved stop is left out
-    assert fit_title(rows, expected) == "chi2/dof against the expected Eq. (4): 482.50 (2 stops)"
-    assert fit_title(rows, None) == ""
+    # (60-64)^2/4 = 4 and (33-64)^2/1 = 961 (no band): the resolved stop is left out
+    title = "chi2/dof vs expected Eq. (4), console's target-aware rim: 482.50 (2 stops)"
+    assert fit_title(rows, "mwir", "expected_eq4_extent") == title
+    assert (
+        fit_title(rows, "mwir", None) == "" and fit_title(rows, "lwir", "expected_eq4_extent") == ""
+    )
     plot = RangePlot("mwir")
     qtbot.addWidget(plot)
-    plot.set_curves({"expected_eq4_extent": expected})
+    r = np.array([100.0, 1000.0])
+    plot.set_curves({"expected_eq4_extent": (r, np.array([64.0, 64.0]))})
     plot.show_stops(rows)
     assert [p[2] for p in plot._stops_shown] == [2.0, 2.0, 1.0]  # not the std of 10
+    assert plot.title.text() == title
+    # with a band of +/- 3 the misfit is weighed by sem^2 + 3^2: (16/13 + 961/10) / 2
+    banded = [
+        StopRow(
+            **{
+                **vars(x),
+                "model_snr": {
+                    "expected_eq4_extent": 64.0,
+                    "expected_eq4_extent_lower": 61.0,
+                    "expected_eq4_extent_upper": 67.0,
+                },
+            }
+        )
+        for x in rows
+    ]
+    assert fit_title(banded, "mwir", "expected_eq4_extent").endswith(
+        f"{(16 / 13 + 961 / 10) / 2:.2f} (2 stops)"
+    )
+
+
+def _curves(sky: float | None = None) -> dict:
+    r = np.geomspace(10.0, 5000.0, 50)
+    own = {
+        "small": (r, 9e4 / r),
+        "large": (r, 2e5 / r),
+        "small_corrected": (r, 3e4 / r),
+        "large_corrected": (r, 6e4 / r),
+        "expected_eq4_extent": (r, 3.1e4 / r),
+        "small_corrected band": (r, 2.5e4 / r, 3.5e4 / r),
+        "expected_eq4_extent band": (r, 2.6e4 / r, 3.6e4 / r),
+    }
+    if sky is None:
+        return own
+    out = dict(own)
+    for name, data in own.items():
+        out[f"{name} @ sky {sky:.1f} K"] = tuple(
+            np.asarray(a) * (1.0 if i == 0 else 0.8) for i, a in enumerate(data)
+        )
+    return out
+
+
+def test_range_plot_draws_the_curves_once_named_in_words_with_the_legend_off_the_data(qtbot):
+    """Like the paper's Figs. 7-10: the four curves and the expected reading named in words,
+    each once (at the measured sky when there is one; the model's own background behind the
+    "other background" switch), the expected reading's band shown and the corrected curves'
+    behind their legend switch; the legend under the data area, never on it."""
+    plot = RangePlot("mwir")
+    qtbot.addWidget(plot)
+    plot.resize(700, 600)
+    plot.show()
+    qtbot.waitExposed(plot)
+    plot.set_curves(_curves())
+    words = plot.legend.texts()
+    for label in (
+        "small dimension, uncorrected",
+        "large dimension, uncorrected",
+        "small dimension, corrected",
+        "large dimension, corrected",
+        "expected Eq. (4), console's target-aware rim",
+    ):
+        assert words.count(label) == 1, words
+    assert not any("@" in w for w in words)
+    assert plot.curve_items["expected_eq4_extent band"].isVisible()
+    assert not plot.curve_items["small_corrected band"].isVisible()
+    plot.legend.entries["curve bands"].click()  # the operator switches the corrected bands on
+    assert plot.curve_items["small_corrected band"].isVisible()
+
+    plot.set_curves(_curves(sky=280.0))  # a measured sky: its curves are the ones drawn
+    assert plot.basis.text() == "model at the measured sky 280.0 K"
+    assert plot.curve_items["small @ sky 280.0 K"].isVisible()
+    assert not plot.curve_items["small"].isVisible()
+    assert plot.legend.texts().count("small dimension, uncorrected") == 1
+    plot.other.click()  # the other background's curves too, on demand
+    assert plot.curve_items["small"].isVisible()
+    qtbot.waitUntil(lambda: data_rect(plot.plot).height() > 100)
+    assert not global_rect(plot.legend).intersects(data_rect(plot.plot))
+
+
+def test_range_plot_log_axes_keep_the_stops_and_their_error_bars(qtbot):
+    """On log axes the stops' bars are drawn in decades (pyqtgraph's error bars do not follow a
+    log axis by themselves): mean +/- error of the mean, back in linear units, is the stop's."""
+    from snrmon.acquisition.stops.table import StopRow
+
+    plot = RangePlot("lwir")
+    qtbot.addWidget(plot)
+    plot.set_curves(_curves())
+    row = StopRow("lwir", 0, False, 0, 1, 200.0, 200.0, 100, True, 50.0, 9.0, snr_sem=4.0)
+    plot.show_stops([row])
+    plot.log_x.click()
+    plot.log_y.click()
+    o = plot.errors.opts
+    assert 10 ** o["x"][0] == pytest.approx(200.0)
+    assert 10 ** (o["y"][0] + o["top"][0]) == pytest.approx(54.0)
+    assert 10 ** (o["y"][0] - o["bottom"][0]) == pytest.approx(46.0)
+    assert plot.plot.getPlotItem().getAxis("bottom").logMode
+    plot.log_y.click()  # back to a linear SNR axis: plain +/- 4
+    assert plot.errors.opts["top"][0] == pytest.approx(4.0)

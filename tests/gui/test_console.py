@@ -73,7 +73,7 @@ def window(qtbot, rig, tmp_path):
     settings = QSettings(str(tmp_path / "console.ini"), QSettings.Format.IniFormat)
     win = ConsoleWindow(session, curves=curves, settings=settings)
     qtbot.addWidget(win)
-    win.resize(1400, 900)
+    win.set_size(1400, 900)
     win.show()
     qtbot.waitUntil(lambda: win.panels["mwir"].view.frames_shown > 3, timeout=10_000)
     return win
@@ -137,13 +137,48 @@ def test_recording_from_the_console_creates_a_session_file(qtbot, window, tmp_pa
     assert "note: drone hovering at the first stop" in log
 
 
+def test_release_event_and_reselect_keys_go_into_the_record(qtbot, window, tmp_path):
+    """Esc releases the active camera's track, E marks an event, T sets the ROI again at the
+    last peak: each is recorded (roi_cleared, note, roi_set) at the frame it took effect on."""
+    path = tmp_path / "keys.h5"
+    window.set_roi("mwir", SPOT_X, SPOT_Y)
+    assert window.start_recording(path)
+    qtbot.waitUntil(lambda: window.session.status().cameras["mwir"].frames.recorded >= 5)
+    window.refresh_status()
+    window.actions_by_key["release"].trigger()
+    qtbot.waitUntil(
+        lambda: window.session.status().cameras["mwir"].track_state.value == "idle", timeout=5000
+    )
+    window.actions_by_key["event"].trigger()
+    window.refresh_status()
+    window.actions_by_key["reselect"].trigger()
+    qtbot.waitUntil(
+        lambda: window.session.status().cameras["mwir"].track_state.value == "tracking",
+        timeout=5000,
+    )
+    assert f"mwir: track re-selected at the last peak (column {SPOT_X}, row {SPOT_Y})" in (
+        window.messages
+    )
+    window.stop_recording()
+    with open_session(path) as f:
+        events = [(e["kind"], e["camera"], e["payload"]) for e in f.event_list()]
+    kinds = [(k, c) for k, c, _ in events]
+    released = kinds.index(("roi_cleared", "mwir"))
+    event = events.index(("note", "", {"text": "event"}))
+    reselected = [i for i, k in enumerate(kinds) if k == ("roi_set", "mwir") and i > released]
+    assert released < event < reselected[0]
+    payload = events[reselected[0]][2]
+    assert (payload["x"], payload["y"]) == (SPOT_X, SPOT_Y)
+    # each at the frame it took effect on, in the frames' order
+    assert events[released][2]["counter"] < payload["counter"]
+
+
 def test_marked_stop_fills_the_stop_table(qtbot, window):
     window.set_roi("mwir", SPOT_X, SPOT_Y)
     window.mark_stop()
-    qtbot.waitUntil(lambda: window.stop_table.rowCount() == 1, timeout=5000)
-    assert window.stop_table.item(0, 0).text() == "0 M"
-    assert window.stop_table.item(0, 1).text() == "mwir"
-    qtbot.waitUntil(lambda: int(window.stop_table.item(0, 4).text()) > 0, timeout=10_000)
+    qtbot.waitUntil(lambda: len(window.stop_table.cells()) == 1, timeout=5000)
+    assert window.stop_table.cells()[0][:2] == ["0 M", "mwir"]
+    qtbot.waitUntil(lambda: int(window.stop_table.cells()[0][4]) > 0, timeout=10_000)
 
 
 def test_alarm_when_the_camera_stops_and_cleared_when_it_returns(qtbot, window, rig):

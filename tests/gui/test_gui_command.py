@@ -3,6 +3,8 @@ a recording replays headless; a missing file or config is a one-line error."""
 
 from __future__ import annotations
 
+import contextlib
+import json
 import os
 import signal
 import time
@@ -107,3 +109,33 @@ def test_offscreen_noise_is_dropped_and_other_qt_messages_kept(capsys):
     _offscreen_messages(None, None, "QPainter::begin: Paint device returned engine == 0")
     err = capsys.readouterr().err
     assert err == "QPainter::begin: Paint device returned engine == 0\n"
+
+
+def test_bad_view_options_are_one_line_each_and_exit_2(capsys, tmp_path):
+    """--size, --font-scale and the replay's --speed are checked before a window opens."""
+    rec = write_session(tmp_path / "flight.h5", cameras=("mwir",), hover_s=4.0)
+    replay = ["gui", "--replay", str(rec.path), "--headless", "--duration", "1"]
+    for extra, named in (
+        (["--size", "1366by768"], "'1366by768'"),
+        (["--size", "100x768"], "'100x768'"),
+        (["--font-scale", "5"], "got 5.0"),
+        (["--speed", "0"], "got 0.0"),
+        (["--theme", "sepia"], "'sepia'"),
+    ):
+        with contextlib.suppress(SystemExit):  # argparse's own refusal (the theme's choices)
+            assert main([*replay, *extra]) == 2, extra
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) <= 3 and named in err[-1], (extra, err)
+
+
+def test_gui_replay_opens_at_the_size_and_theme_asked(tmp_path):
+    rec = write_session(tmp_path / "flight.h5", cameras=("mwir",), hover_s=4.0)
+    shot, status = tmp_path / "replay.png", tmp_path / "status.json"
+    argv = ["gui", "--replay", str(rec.path), "--headless", "--duration", "1.5"]
+    argv += ["--screenshot", str(shot), "--size", "1366x768", "--theme", "daylight"]
+    assert main([*argv, "--status-file", str(status)]) == 0
+    assert json.loads(status.read_text())["view"]["theme"] == "daylight"
+    img = QImage(str(shot))
+    assert (img.width(), img.height()) == (1366, 768)
+    # daylight: the window's panels light grey (the status bar's), not the dark theme's
+    assert img.pixelColor(img.width() // 2, img.height() - 4).name() == "#eeeeee"

@@ -156,7 +156,7 @@ def test_clicking_the_drone_in_the_real_window(xvfb_display, tmp_path):
         # The drone's SNR (its amplitude over the noise, far above any noise peak's, about 3),
         # and the readout the operator sees shows it.
         assert cam["snr_mean"] > 8
-        assert f"SNR(100) {cam['snr_mean']:.2f} +/- " in cam["header"], cam["header"]
+        assert f"SNR(100) ± error {cam['snr_mean']:.2f} ± " in cam["header"], cam["header"]
         # A click on the drone itself needs no word from the track.
         assert f"cam: no object at the click (column {x}, row {y})" not in " ".join(
             drone["messages"]
