@@ -43,6 +43,8 @@ from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading
 
 log = logging.getLogger(__name__)
+DROP_ALARM_S = 5.0
+"""How long (s) the banner keeps a camera's drop alarm after its last lost frame."""
 
 
 def stop_payload(stop: Stop) -> dict:
@@ -120,6 +122,7 @@ class Session:
         if self.lrf is not None:
             self.lrf.subscribe(self._on_range)
         self._started = False
+        self._drops_seen: dict[str, tuple[int, float]] = {}  # camera -> (lost, when it grew)
         self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
 
     # ------------------------------------------------------------------ construction helpers
@@ -404,11 +407,19 @@ class Session:
                 f"recording: {rec_status.dropped_frames} frames dropped (the disk is not keeping "
                 f"up; backlog {rec_status.backlog_bytes / 2**20:.0f} MiB)"
             )
+        now = time.monotonic()
         for name, cs in cams.items():  # frames lost before the recorder: never silent
             f = cs.frames
-            if f.dropped_by_camera or f.dropped_by_ring:
+            lost = f.dropped_by_camera + f.dropped_by_ring
+            seen, since = self._drops_seen.get(name, (0, -math.inf))
+            if lost > seen:
+                self._drops_seen[name] = (lost, now)
+                since = now
+            # an alarm while frames are being lost (and DROP_ALARM_S after); the count stays
+            # in the status panel, the log and the recording
+            if lost and now - since <= DROP_ALARM_S:
                 alarms.append(
-                    f"{name} frames: {f.dropped_by_camera + f.dropped_by_ring} dropped (camera "
+                    f"{name} frames: {lost} dropped (camera "
                     f"{f.dropped_by_camera}, ring overrun {f.dropped_by_ring})"
                 )
         return SessionStatus(
