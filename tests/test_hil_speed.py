@@ -10,9 +10,9 @@ import sys
 
 import pytest
 
+from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.cli import main
 from snrmon.rig.flight_clock import FlightClock
-from snrmon.rig.rig import stop_config_at
 from tests.helpers import strict_json, wait_until
 
 
@@ -46,8 +46,8 @@ def test_the_clock_runs_free_until_the_console_holds_it():
 
 
 def test_stop_detection_runs_on_flight_time():
-    assert stop_config_at(1.0).steady_s == 3.0
-    assert stop_config_at(2.5).steady_s == pytest.approx(1.2)
+    assert StopConfig().at_speed(1.0).steady_s == 3.0
+    assert StopConfig().at_speed(2.5).steady_s == pytest.approx(1.2)
 
 
 @pytest.fixture

@@ -42,6 +42,20 @@ class RecorderSummary:
     error: str | None = None
     extra: dict = field(default_factory=dict)
 
+    def frames_report(self) -> dict:
+        """What the recording holds and lost, for a JSON report: frames received, written and
+        dropped (with reasons) per camera, and each camera's accounting (received = written +
+        sum(dropped) + before_recording, + after_recording and queued)."""
+        return {
+            "path": self.path,
+            "state": self.state,
+            "frames_received": dict(self.frames_received),
+            "frames_written": dict(self.frames_written),
+            "dropped": {cam: dict(reasons) for cam, reasons in self.dropped.items()},
+            "error": self.error,
+            "accounting": self.extra.get("accounting"),
+        }
+
 
 def describe_failure(exc: BaseException, path: Path, frames: int) -> str:
     """One line for the operator: disk full, or the first line of the write error."""

@@ -39,7 +39,7 @@ import math
 import statistics
 from collections import deque
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -107,6 +107,13 @@ class StopConfig:
 
     def tolerance_m(self, source: str) -> float:
         return self.lrf_tolerance_m if source == "lrf" else self.gps_tolerance_m
+
+    def at_speed(self, speed: float) -> StopConfig:
+        """These rules on a flight replayed or simulated at ``speed`` x real time: "steady for
+        3 s" means 3 s of the flight, so 3 / speed s of the host clock the detector runs on."""
+        if not speed > 0:
+            raise ValueError(f"speed must be > 0, got {speed}")
+        return replace(self, steady_s=self.steady_s / speed)
 
 
 @dataclass

@@ -26,16 +26,10 @@ import numpy as np
 
 from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.runtime.session import Session
+from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.acquisition.track.config import TrackState
 from snrmon.rig.flight_clock import MAX_SPEED, FlightClock
-from snrmon.rig.support import flight_config_of, recording_summary, stop_config_at
-from snrmon.rig.twin_day import (
-    CropLog,
-    adopt_measured_psf,
-    calibrate_cameras,
-    camera_feeds,
-    measured_psf,
-)
+from snrmon.rig.twin_day import CropLog, calibrate_cameras, camera_feeds
 
 log = logging.getLogger(__name__)
 
@@ -80,6 +74,18 @@ class HilOptions:
             rh_percent=self.rh_percent,
             pressure_hpa=self.pressure_hpa,
             visibility_km=self.visibility_km,
+        )
+
+    def flight_config(self):
+        """The simulated flight (:class:`snrmon.sim.flight.FlightConfig`) of these options."""
+        from snrmon.sim.flight import FlightConfig
+
+        return FlightConfig(
+            stops_m=tuple(self.stops_m),
+            hover_s=self.hover_s,
+            speed_mps=self.transit_mps,
+            start_range_m=self.start_range_m,
+            seed=self.seed,
         )
 
     @property
@@ -143,7 +149,7 @@ class HilRig:
                 asynchronous=True,
             )
         self.predictor = predictor
-        self.flight_config = flight_config_of(opts)
+        self.flight_config = opts.flight_config()
         self.plan = FlightPlan(self.flight_config)
         # With fixed-pattern noise the console needs a sky reference before launch.
         self.preroll_s = opts.preroll_s if opts.fpn else 0.0
@@ -228,7 +234,7 @@ class HilRig:
             config,
             track=opts.track,
             predictor=predictor,
-            stop_config=stop_config_at(opts.speed),
+            stop_config=StopConfig().at_speed(opts.speed),
             lossless=True,
         )
         for c, r in self.cameras.items():
@@ -289,7 +295,7 @@ class HilRig:
         if new == speed:
             return
         self.clock.set_speed(new)
-        self.session.engine.stop_detector.config = stop_config_at(new)
+        self.session.engine.stop_detector.config = StopConfig().at_speed(new)
         self.speed_changes.append((round(self.flight_time(), 3), new))
         log.info("the simulated day follows the console: speed %g (it held %.2f)", new, held)
         self.session.add_event("hil_speed_changed", payload={"speed": new, "held": held})
@@ -366,7 +372,7 @@ class HilRig:
         self.session.stop()
         summary = getattr(self.session, "last_recording", None)
         if summary is not None:
-            self.recording = recording_summary(summary)
+            self.recording = summary.frames_report()
 
     def __exit__(self, *exc: object) -> None:
         try:
@@ -465,7 +471,7 @@ class HilRig:
             if (row.complete or row.t_end_ns is not None) and key not in self._final:
                 self._final[key] = self._stop_result(row)
                 if self.opts.adopt_psf:
-                    adopt_measured_psf(self, row.camera, self._final)
+                    self.adopt_measured_psf(row.camera, self._final)
 
     def _stop_result(self, row) -> dict:
         """One stop row with the simulator's truth over exactly the frames the console
@@ -503,6 +509,105 @@ class HilRig:
             "expected_eq4_rule": row.expected_eq4_rule,  # which model_snr reading applies
         }
 
+    # ------------------------------------------------------------------ the flight's PSF
+    def _unresolved_stops(self, cam: str, finals: dict) -> list:
+        from snrmon.acquisition.calibrate.psf_estimate import StopCrops, target_px
+
+        sensor = self.cameras[cam].sensor
+        stops = []
+        for (c, stop), entry in sorted(finals.items()):
+            crops = entry.get("_crops")
+            if c != cam or crops is None or entry.get("lrf_range_m") is None:
+                continue
+            d = target_px(self.predictor.target, entry["lrf_range_m"], sensor.ifov_rad)
+            if d < 1.0 and len(crops) >= 50:
+                stops.append(StopCrops(_label(stop, cam), crops, d))
+        return stops
+
+    def adopt_measured_psf(self, cam: str, finals: dict) -> None:
+        """Fit the PSF to ``cam``'s unresolved stops so far and hand it to the model (its
+        corrected curves and expected Eq. (4) reading), in the background: what an operator does
+        once the first unresolved stop is in."""
+        import threading
+        import time
+
+        from snrmon.acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
+
+        stops = self._unresolved_stops(cam, finals)
+        if not stops:
+            return
+
+        def fit() -> None:
+            try:
+                est = estimate_psf(stops, self.cameras[cam].sensor)
+            except PsfEstimateError:
+                return
+            self.session.engine.adopt_psf(cam, est.as_dict(), time.monotonic_ns())
+
+        threading.Thread(target=fit, name=f"psf-{cam}", daemon=True).start()
+
+    def measured_psf(self, finals: dict) -> dict:
+        """Per camera, the PSF fitted to the crops of its unresolved stops, pooled, and every
+        stop's model values with it: {camera: {"psf": {...} | {"error": ...}}} and, in the stop
+        entries of ``finals``, ``"model_measured_psf"`` (:data:`MODEL_VALUES` over the whole cell)
+        and, at an unresolved stop, ``"model_stop_phases"`` (the same over the phases its frames
+        sampled), ``"measured_over_model"`` (the measured mean over the expected reading of the
+        rule its background makes applicable, at those phases) and ``"truth_over_model"`` (the
+        twin's noise-free truth over the model's noise-free peak SNR there)."""
+        from snrmon.acquisition.calibrate.psf_estimate import (
+            PsfEstimateError,
+            estimate_psf,
+            observed_phases,
+        )
+        from snrmon.model.snr import predict
+
+        out = {}
+        target = self.predictor.target
+        for cam, cam_rig in self.cameras.items():
+            sensor = cam_rig.sensor
+            stops = self._unresolved_stops(cam, finals)
+            if not stops:
+                out[cam] = {"error": f"{cam}: no unresolved stop with 50 frames to fit a PSF"}
+                continue
+            try:
+                est = estimate_psf(stops, sensor)
+            except PsfEstimateError as exc:
+                out[cam] = {"error": str(exc)}
+                continue
+            out[cam] = est.as_dict()
+            sky = self.predictor.background_temp_k.get(cam)
+            phases = {s.label: observed_phases(s, est.psf(), sensor.fill_factor) for s in stops}
+            for (c, stop), entry in finals.items():
+                rng = entry.get("lrf_range_m")
+                if c != cam or rng is None:
+                    continue
+                kw = {
+                    "corrected_psf": est.psf(),
+                    "background_temp_k": sky,
+                    "air_temp_k": self.opts.scenario.air_temp_k,
+                    "band": False,
+                }
+                p = predict(sensor, target, [rng], **kw)
+                entry["model_measured_psf"] = {v: float(p.snr(v)[0]) for v in MODEL_VALUES}
+                sampled = phases.get(_label(stop, cam))
+                if sampled is None:  # resolved: no PSF fit, no phases
+                    continue
+                p = predict(sensor, target, [rng], phases_xy=sampled, **kw)
+                d_px = target.small_m / (rng * sensor.ifov_rad)
+                at = {v: float(p.snr(v)[0]) for v in MODEL_VALUES[1:]}
+                at["small_corrected"] = _peak_snr_at_phases(
+                    p, est.psf(), sensor.fill_factor, d_px, sampled
+                )
+                entry["model_stop_phases"] = at
+                rule = entry.get("expected_eq4_rule")
+                if rule is not None and math.isfinite(entry["measured_snr_mean"]):
+                    entry["measured_over_model"] = (
+                        entry["measured_snr_mean"] / at[f"expected_eq4_{rule}"]
+                    )
+                if math.isfinite(entry.get("truth_snr", math.nan)):
+                    entry["truth_over_model"] = entry["truth_snr"] / at["small_corrected"]
+        return out
+
     def _record_psf(self, psf: dict) -> None:
         """The PSF each camera's unresolved stops gave, into the recording (once, after it is
         closed) as ``snrmon psf`` records it: ``snrmon characterize`` corrects the close stop's
@@ -532,7 +637,7 @@ class HilRig:
             or self._stop_result(row)
             for row in self.session.stops()
         }
-        psf = measured_psf(self, entries)  # the PSF from the flight's own frames
+        psf = self.measured_psf(entries)  # the PSF from the flight's own frames
         self._record_psf(psf)
         stops = [{k: v for k, v in e.items() if k != "_crops"} for e in entries.values()]
         frames = defaultdict(dict)
@@ -565,3 +670,24 @@ class HilRig:
             },
             "operator_clicks": clicks,
         }
+
+
+MODEL_VALUES = ("small_corrected", "expected_eq4_rim", "expected_eq4_extent")
+"""What the model says of a stop with the flight's PSF: the noise-free peak SNR of the corrected
+small curve and the expected Eq. (4) readings of both background rules."""
+
+
+def _peak_snr_at_phases(p, psf, fill_factor: float, d_px: float, phases_xy) -> float:
+    """The corrected small curve's noise-free peak SNR over the sub-pixel phases a stop's frames
+    sampled (instead of the whole cell): point signal / noise x the mean centre-pixel share."""
+    from snrmon.model.eq4 import observed_phase_weights
+    from snrmon.model.footprint import pixel_patterns
+
+    xs, ys, weights = observed_phase_weights(phases_xy)
+    pats = pixel_patterns(psf, fill_factor, xs, ys, half_size_px=0, target_square_px=d_px)
+    share = float(np.sum(weights * pats[:, :, 0, 0]))
+    return float(p.point_contrast_e["small"][0] / p.noise.total * share)
+
+
+def _label(stop: int, cam: str) -> str:
+    return f"stop {stop} ({cam})"
