@@ -122,7 +122,8 @@ class Session:
         if self.lrf is not None:
             self.lrf.subscribe(self._on_range)
         self._started = False
-        self._drops_seen: dict[str, tuple[int, float]] = {}  # camera -> (lost, when it grew)
+        # camera -> (frames lost, when that count last grew)
+        self._drops_seen: dict[str, tuple[int, float]] = {}
         self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
 
     # ------------------------------------------------------------------ construction helpers
@@ -407,17 +408,17 @@ class Session:
                 f"recording: {rec_status.dropped_frames} frames dropped (the disk is not keeping "
                 f"up; backlog {rec_status.backlog_bytes / 2**20:.0f} MiB)"
             )
-        now = time.monotonic()
+        now_s = time.monotonic()
         for name, cs in cams.items():  # frames lost before the recorder: never silent
             f = cs.frames
             lost = f.dropped_by_camera + f.dropped_by_ring
             seen, since = self._drops_seen.get(name, (0, -math.inf))
             if lost > seen:
-                self._drops_seen[name] = (lost, now)
-                since = now
+                self._drops_seen[name] = (lost, now_s)
+                since = now_s
             # an alarm while frames are being lost (and DROP_ALARM_S after); the count stays
             # in the status panel, the log and the recording
-            if lost and now - since <= DROP_ALARM_S:
+            if lost and now_s - since <= DROP_ALARM_S:
                 alarms.append(
                     f"{name} frames: {lost} dropped (camera "
                     f"{f.dropped_by_camera}, ring overrun {f.dropped_by_ring})"

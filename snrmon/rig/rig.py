@@ -464,11 +464,14 @@ class HilRig:
 
     # ------------------------------------------------------------------ results
     def _summarise_final_rows(self) -> None:
-        """Summarise each stop row the console has frozen (100 frames, or its stop ended)
-        while its frames are still in the rig's log."""
+        """Summarise each stop row the console has made final (its stop ended and the camera
+        passed it, the model's curves current for the inputs in force then) while its frames
+        are still in the rig's log. A row with its 100 frames but still open is not yet: its
+        model values may still change (a sky measured moments ago, whose curves are being
+        computed)."""
         for row in self.session.stops():
             key = (row.camera, row.stop)
-            if (row.complete or row.t_end_ns is not None) and key not in self._final:
+            if row.final and key not in self._final:
                 self._final[key] = self._stop_result(row)
                 if self.opts.adopt_psf:
                     self.adopt_measured_psf(row.camera, self._final)
