@@ -61,6 +61,8 @@ def run(duration_s: float) -> dict:
             proc.cpu_percent(None)
             t0 = time.monotonic()
             counts0 = {n: p.status().frames.received for n, p in rig.session.pipelines.items()}
+            for p in rig.session.pipelines.values():
+                p.stages.reset()  # the stage table covers this run, not the start-up
             deadline = t0 + duration_s
             next_segment, next_rss = t0 + SEGMENT_S, t0 + RSS_EVERY_S
             while time.monotonic() < deadline and rig.step():
@@ -78,6 +80,7 @@ def run(duration_s: float) -> dict:
             elapsed = time.monotonic() - t0
             cpu = proc.cpu_percent(None)
             status = {n: p.status() for n, p in rig.session.pipelines.items()}
+            stages = {n: p.stage_times() for n, p in rig.session.pipelines.items()}
             rss_end = _rss_mb(proc)
         acquisition: dict = {}
         p50, p99 = [], []
@@ -93,6 +96,7 @@ def run(duration_s: float) -> dict:
             p50.append(st.latency_ms_p50)
             p99.append(st.latency_ms_p99)
         acquisition.update(
+            stages=stages,
             latency_ms_p50=max(p50),
             latency_ms_p99=max(p99),
             cpu_percent=cpu,
@@ -128,3 +132,45 @@ def run(duration_s: float) -> dict:
             "compared": sum(c.compared for c in fast.cameras.values()),
         },
     }
+
+
+def format_text(figures: dict) -> str:
+    """The acquisition section as text: per camera its rate and drops, then the table of where
+    a frame's time goes (p50, p99 and the mean over the slowest 1 % of frames, per stage)."""
+    from snrmon.acquisition.stage_clock import COLUMNS
+
+    acq = figures["acquisition"]
+    cams = list(acq["stages"])
+    lines = []
+    for name, value in acq.items():
+        if name in cams or name in ("stages", "rss_mb_samples"):
+            continue
+        lines.append(
+            f"  {name:32s} {value:.4g}" if isinstance(value, float) else f"  {name:32s} {value}"
+        )
+    for cam in cams:
+        a = acq[cam]
+        lines.append(
+            f"  {cam}: {a['fps']:.2f} fps, {a['dropped']} dropped "
+            f"({a['dropped_by_recorder']} by the recorder), latency p50 "
+            f"{a['latency_ms_p50']:.2f} ms, p99 {a['latency_ms_p99']:.2f} ms"
+        )
+    header = f"  {'stage (ms)':12s}" + "".join(
+        f"{c + ' p50':>11s}{c + ' p99':>11s}{c + ' slow':>11s}" for c in cams
+    )
+    lines += ["", header]
+
+    def cell(v) -> str:
+        return f"{v:11.3f}" if v is not None else f"{'-':>11s}"
+
+    for col in COLUMNS:
+        row = f"  {col:12s}"
+        for cam in cams:
+            st = acq["stages"][cam].get(col, {})
+            row += cell(st.get("p50_ms")) + cell(st.get("p99_ms")) + cell(st.get("slowest_ms"))
+        lines.append(row)
+    lines.append(
+        "  (slow: the mean over the slowest 1 % of frames by latency; backlog, cpu, runq and "
+        "blocked split the measurement thread's wait: docs/engine.md)"
+    )
+    return "\n".join(lines)

@@ -28,6 +28,7 @@ import numpy as np
 
 from snrmon.acquisition.calibrate.kernels import any_set, correct_box, lazy_correct
 from snrmon.acquisition.engine.lazy_frame import LazyFrame, Region
+from snrmon.acquisition.stage_clock import CORRECTION, enter
 
 TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
 _NONE = np.zeros((1, 1), np.float32)  # an absent map, for the compiled correction
@@ -205,6 +206,13 @@ class FrameCorrector:
     def ensure(self, region: Region | None) -> None:
         """Correct ``region`` of the frame given to :meth:`apply` (within its square; None: the
         whole square) unless this frame has corrected it already (:class:`LazyFrame`)."""
+        running = enter(CORRECTION)  # a read of the tracker or Eq. (4) corrects first
+        try:
+            self._ensure(region)
+        finally:
+            enter(running)
+
+    def _ensure(self, region: Region | None) -> None:
         fast, pixels = self._fast, self._pixels
         if fast is not None and region is not None and pixels is not None:
             y0, y1, x0, x1 = region

@@ -2,8 +2,16 @@
 
 The per-frame analysis (segmentation, Eq. 4's backgrounds, the wing profile) is a few hundred
 small array operations a frame; each NumPy call on a few dozen pixels costs microseconds of
-overhead, so it is compiled instead (``@njit(cache=True, nogil=True)``: the machine code is kept
-in ``__pycache__`` beside the module and loaded on later runs).
+overhead, so it is compiled instead (``@njit(cache=True)``: the machine code is kept in
+``__pycache__`` beside the module and loaded on later runs).
+
+The kernels keep the interpreter lock (no ``nogil``): each runs for microseconds, and a thread
+that releases the lock that briefly gets it back only when the thread that took it meanwhile
+gives it up, a switch interval later (5 ms) if that thread is busy in Python. A live frame calls
+some twenty kernels; with a busy thread beside it (the console painting, a model computation)
+releasing the lock at each call cost the measurement thread up to 21 ms per twenty calls at
+the 99th percentile, holding it 0.15 ms (``docs/engine.md``, "Where a live frame's time
+goes").
 
 Exactness is the contract: every compiled routine gives the bits the NumPy code gave.
 
@@ -92,8 +100,8 @@ _judge_all_kernels()
 
 def kernel(fn):
     """``numba.njit`` as every kernel here uses it: cached on disk (judged on all the kernel
-    modules' sources, :class:`_AllKernels`), releasing the GIL."""
-    return njit(cache=True, nogil=True)(fn)
+    modules' sources, :class:`_AllKernels`), holding the interpreter lock (module docstring)."""
+    return njit(cache=True)(fn)
 
 
 @kernel

@@ -52,6 +52,7 @@ from snrmon.acquisition.measure.peak_snr import (
     saturation_level,
 )
 from snrmon.acquisition.measure.rim_kernel import pixel_kind, rim_excesses, rim_stats, wing_decision
+from snrmon.acquisition.stage_clock import EQ4, enter
 
 
 def background_rule(blob: Blob, cfg: PeakSnrConfig) -> str:
@@ -308,15 +309,26 @@ class TargetMeter:
         self._configs: dict[int, PeakSnrConfig] = {config.search_px: config}
 
     def measure(self, pixels, at, search_px: int, reference_noise) -> PeakSnr:
+        running = enter(EQ4)  # the stages of a live frame (snrmon.acquisition.stage_clock)
         cfg = self._configs.get(search_px)
         if cfg is None:
             cfg = self._configs[search_px] = dataclasses.replace(self.config, search_px=search_px)
-        return peak_snr_with(pixels, at, cfg, reference_noise=reference_noise)
+        m = peak_snr_with(pixels, at, cfg, reference_noise=reference_noise)
+        enter(running)
+        return m
 
     def measure_object(
         self, pixels, blob: Blob, at, reference_noise
     ) -> tuple[PeakSnr, tuple[int, int], int]:
         """(measurement, centre of the window it was taken in, window size)."""
+        running = enter(EQ4)
+        out = self._measure_object(pixels, blob, at, reference_noise)
+        enter(running)
+        return out
+
+    def _measure_object(
+        self, pixels, blob: Blob, at, reference_noise
+    ) -> tuple[PeakSnr, tuple[int, int], int]:
         cfg = self.config
         peak = (blob.peak_x, blob.peak_y)
         w, h = blob.extent_size

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import logging
 import threading
-import time
 from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -40,6 +39,7 @@ from snrmon.acquisition.engine.inputs import (
 from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
 from snrmon.acquisition.engine.warm_up import warm_up
 from snrmon.acquisition.runtime.click_news import ClickNews
+from snrmon.acquisition.stage_clock import HANDOVER, RECORDING, UNKNOWN, StageClock
 from snrmon.acquisition.streams.ring import FrameRing, RingFrame
 from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.device import Device
@@ -83,6 +83,10 @@ class CameraPipeline:
         self._wrong_shape = 0
         self._measured = 0
         self._latency_ns: deque[int] = deque(maxlen=1000)
+        # Where each frame's time goes (snrmon.acquisition.stage_clock); the grab time of the
+        # frame in each ring slot, written by the device thread before it pushes the frame.
+        self.stages = StageClock()
+        self._grab_ns = np.full(ring_capacity, UNKNOWN, np.int64)
         self.click_news = ClickNews()  # what became of the operator's click, for the console
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -186,6 +190,11 @@ class CameraPipeline:
         running std, range_m or NaN)."""
         return self.engine.series()
 
+    def stage_times(self) -> dict:
+        """Where the recent frames' time went, stage by stage
+        (:meth:`snrmon.acquisition.stage_clock.StageClock.summary`)."""
+        return self.stages.summary()
+
     def status(self) -> CameraStatus:
         dev = self.device.status()
         ring = self.ring.stats()
@@ -227,9 +236,19 @@ class CameraPipeline:
                 self.shape,
             )
             return
+        t_write = frame.meta.get("t_write_ns")
+        grab = frame.t_host_ns - t_write if isinstance(t_write, int) else UNKNOWN
+        self._grab_ns[self.ring.pushed % len(self._grab_ns)] = grab  # the slot it goes to
         self.ring.push(frame)
 
     def _run(self) -> None:
+        self.stages.attach()
+        try:
+            self._measure_all()
+        finally:
+            self.stages.detach()
+
+    def _measure_all(self) -> None:
         while True:
             item = self._reader.pop_next(timeout=0.1)
             if item is None:
@@ -242,6 +261,10 @@ class CameraPipeline:
                 log.exception("%s: measurement failed on frame %d", self.name, item.counter)
 
     def _process(self, item: RingFrame) -> None:
+        clock = self.stages
+        grab = int(self._grab_ns[item.seq % len(self._grab_ns)])
+        clock.begin(item.t_host_ns, item.t_ring_ns, grab)
+        clock.enter(RECORDING)
         with self._lock:
             rec, history, self._history_due = self._recorder, self._history_due, False
         if rec is not None and history:
@@ -256,10 +279,12 @@ class CameraPipeline:
         out = self.session_engine.on_frame(
             self.name, item.pixels, seq=item.seq, counter=item.counter, t_host_ns=item.t_host_ns
         )
+        clock.enter(HANDOVER)
         self.click_news.frame(out.applied, out.measurement)
         if rec is not None:
+            clock.enter(RECORDING)
             self._record(rec, index, item, out)
-        latency = time.monotonic_ns() - item.t_host_ns
+        latency = clock.end()
         with self._lock:
             self._latency_ns.append(latency)
             self._measured += 1

@@ -53,6 +53,8 @@ class RingFrame:
 
     ``seq`` is the ring's own sequence number (0 for the first frame pushed, no gaps), so a
     consumer can tell console drops (``seq`` gaps) from camera drops (``counter`` gaps).
+    ``t_ring_ns``: when the frame was published in the ring (monotonic; 0 for a frame not
+    from a ring), so a consumer can tell the producer's push from its own wait.
     """
 
     pixels: np.ndarray
@@ -61,6 +63,7 @@ class RingFrame:
     t_host_ns: int
     t_device_ns: int | None
     camera: str = ""
+    t_ring_ns: int = 0
 
     def to_frame(self) -> Frame:
         """The frame as the drivers' ``Frame`` type."""
@@ -120,6 +123,7 @@ class FrameRing:
         self._counter = np.zeros(self.capacity, np.int64)
         self._t_host = np.zeros(self.capacity, np.int64)
         self._t_device = np.full(self.capacity, NO_DEVICE_TIME, np.int64)
+        self._t_ring = np.zeros(self.capacity, np.int64)
         self._cond = threading.Condition(threading.Lock())
         self._next_seq = 0  # sequence number of the next frame to be finalized
         self._writing = False  # a slot is acquired and being filled
@@ -160,6 +164,7 @@ class FrameRing:
             self._counter[i] = counter
             self._t_host[i] = t_host_ns
             self._t_device[i] = NO_DEVICE_TIME if t_device_ns is None else t_device_ns
+            self._t_ring[i] = time.monotonic_ns()
             self._next_seq = seq + 1
             self._writing = False
             self._cond.notify_all()
@@ -248,11 +253,18 @@ class FrameRing:
             counter = int(self._counter[i])
             t_host = int(self._t_host[i])
             t_dev = int(self._t_device[i])
+            t_ring = int(self._t_ring[i])
             intact = seq >= self._low_seq()
         if not intact:
             return None
         return RingFrame(
-            pixels, seq, counter, t_host, None if t_dev == NO_DEVICE_TIME else t_dev, self.name
+            pixels,
+            seq,
+            counter,
+            t_host,
+            None if t_dev == NO_DEVICE_TIME else t_dev,
+            self.name,
+            t_ring,
         )
 
     def _remove(self, reader: Reader) -> None:
