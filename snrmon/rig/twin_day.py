@@ -16,12 +16,15 @@ the PSF measured from the flight at its end.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import deque
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+
+log = logging.getLogger(__name__)
 
 BLACKBODY_K = (273.15, 318.15)
 """The two blackbody temperatures of the day's calibration (0 and 45 C: around the sky and
@@ -143,24 +146,28 @@ def _unresolved_stops(rig, cam: str, finals: dict) -> list:
 def adopt_measured_psf(rig, cam: str, finals: dict) -> None:
     """Fit the PSF to ``cam``'s unresolved stops so far and hand it to the model (its
     corrected curves and expected Eq. (4) reading), in the background: what an operator does
-    once the first unresolved stop is in."""
-    import threading
+    once the first unresolved stop is in. The fit (about a second of NumPy) runs in the worker
+    process (:mod:`snrmon.acquisition.worker_process`), away from the measurement threads."""
     import time
 
+    from snrmon.acquisition import worker_process
     from snrmon.acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
 
     stops = _unresolved_stops(rig, cam, finals)
     if not stops:
         return
 
-    def fit() -> None:
+    def adopt(job) -> None:  # on the worker pool's thread
         try:
-            est = estimate_psf(stops, rig.cameras[cam].sensor)
+            est = job.result()
         except PsfEstimateError:
+            return
+        except Exception:
+            log.exception("%s: the PSF fit failed", cam)
             return
         rig.session.engine.adopt_psf(cam, est.as_dict(), time.monotonic_ns())
 
-    threading.Thread(target=fit, name=f"psf-{cam}", daemon=True).start()
+    worker_process.submit(estimate_psf, stops, rig.cameras[cam].sensor).add_done_callback(adopt)
 
 
 def measured_psf(rig, finals: dict) -> dict:
