@@ -205,7 +205,11 @@ class CameraEngine:
             self.measurer.skip(counter - last - 1)
             if self._raw_track:  # the raw track runs only while a correction is on
                 self.raw_measurer.skip(counter - last - 1)
-        cue = next((c for c in applied if isinstance(c, Cue)), None)
+        cue = None
+        for c in applied:
+            if isinstance(c, Cue):
+                cue = c
+                break
         corrector = self.corrector
         done = None
         if corrector.capturing:

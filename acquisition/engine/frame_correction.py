@@ -61,6 +61,7 @@ class FrameCorrector:
         self._pixels: np.ndarray | None = None  # the frame being read (lazy)
         self._square: Region = (0, 0, 0, 0)  # what apply() corrects this frame
         self._done: list[Region] = []  # regions corrected this frame
+        self._covered: list[Region] = []  # ... by the compiled path, as Python tuples
         # The same for the compiled path: (square y0, y1, x0, x1, tile, boxes), the boxes.
         self._state = np.zeros(6, np.int64)
         self._boxes = np.zeros((64, 4), np.int64)
@@ -155,6 +156,7 @@ class FrameCorrector:
             return self._buffer
         self._pixels = pixels
         self._done = []
+        self._covered = []
         self._state[:] = (y0, y1, x0, x1, TILE_PX, 0)
         self._fast = self._compiled(pixels)
         return self._lazy_frame
@@ -206,21 +208,30 @@ class FrameCorrector:
     def ensure(self, region: Region | None) -> None:
         """Correct ``region`` of the frame given to :meth:`apply` (within its square; None: the
         whole square) unless this frame has corrected it already (:class:`LazyFrame`)."""
-        running = enter(CORRECTION)  # a read of the tracker or Eq. (4) corrects first
+        fast, pixels = self._fast, self._pixels
+        if fast is not None and region is not None and pixels is not None:
+            y0, y1, x0, x1 = region
+            for b in self._covered:  # most reads fall in a box an earlier read corrected
+                if b[0] <= y0 and y1 <= b[1] and b[2] <= x0 and x1 <= b[3]:
+                    return
+            running = enter(CORRECTION)  # a read of the tracker or Eq. (4) corrects first
+            done = lazy_correct(pixels, y0, y1, x0, x1, self._state, self._boxes, *fast)
+            if done == 2:
+                self._covered.append(tuple(self._boxes[int(self._state[5]) - 1].tolist()))
+            elif done == 1:
+                # A bad pixel: its replacement depends on the whole square (NumPy).
+                self._correct(pixels, self._square)
+                self._done_box(self._square)
+                self._covered.append(self._square)
+            enter(running)
+            return
+        running = enter(CORRECTION)
         try:
             self._ensure(region)
         finally:
             enter(running)
 
     def _ensure(self, region: Region | None) -> None:
-        fast, pixels = self._fast, self._pixels
-        if fast is not None and region is not None and pixels is not None:
-            y0, y1, x0, x1 = region
-            if lazy_correct(pixels, y0, y1, x0, x1, self._state, self._boxes, *fast):
-                # A bad pixel: its replacement depends on the whole square (NumPy).
-                self._correct(pixels, self._square)
-                self._done_box(self._square)
-            return
         sy0, sy1, sx0, sx1 = self._square
         if region is None:
             y0, y1, x0, x1 = sy0, sy1, sx0, sx1

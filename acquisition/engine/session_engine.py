@@ -238,6 +238,8 @@ class SessionEngine:
                 camera.show_gps(x, y)
 
     def _feed_stops(self, feed: Callable[[StopDetector], Stop | None]) -> None:
+        if self.stop_source is not self.stop_detector:
+            return  # a replay's recorded stops: nobody reads a detector's
         with self._lock:
             try:
                 stop = feed(self.stop_detector)

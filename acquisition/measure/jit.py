@@ -24,8 +24,9 @@ Exactness is the contract: every compiled routine gives the bits the NumPy code 
   Python float: the float is rounded to float32 first), never contracted into fused
   multiply-adds (numba compiles without ``fastmath``).
 
-Where no such guarantee is possible (a product sum that BLAS orders its own way, libm's
-``hypot``), the callers keep NumPy or prove the sum exact first (:func:`sum_is_exact`).
+Where no such guarantee is possible (a product sum that BLAS orders its own way), the callers
+keep NumPy or prove the sum exact first (:func:`sum_is_exact`). ``math.hypot`` compiled is the C
+library's ``hypot``, as NumPy's ``np.hypot`` is (``rim_kernel.rim_background``).
 """
 
 from __future__ import annotations

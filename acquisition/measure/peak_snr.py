@@ -33,7 +33,7 @@ import numpy as np
 
 from snrmon.acquisition.measure.background import Rect, background_stats, rect_offsets, rim_offsets
 from snrmon.acquisition.measure.contamination import NoiseReference, is_contaminated
-from snrmon.acquisition.measure.rim_kernel import brightest, rim_stats
+from snrmon.acquisition.measure.rim_kernel import brightest, rim_background
 from snrmon.acquisition.measure.running_stats import RunningSnr
 
 FLAG_SATURATED = "saturated"
@@ -398,9 +398,9 @@ def _compiles(dtype: np.dtype) -> bool:
 def _rim_one(pixels: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> tuple | None:
     """:func:`measure_core` of one frame with the rim background, compiled: (peak_x, peak_y,
     peak, bg_mean, bg_std, gradient, snr, bits) as Python numbers, bit for bit those of the
-    NumPy reductions (the brightest pixel of ``rim_kernel.brightest``, the rim's statistics of
-    ``rim_kernel.rim_stats``, the gradient's ``hypot`` NumPy's own); None where the window
-    holds no finite pixel (NumPy's way then). Reads the window and the box by slicing, so a
+    NumPy reductions (the brightest pixel of ``rim_kernel.brightest``, the rim's statistics and
+    gradient of ``rim_kernel.rim_background``); None where the window holds no finite pixel
+    (NumPy's way then). Reads the window and the box by slicing, so a
     lazily corrected frame corrects them first."""
     rows, cols = pixels.shape
     if not (0 <= x < cols and 0 <= y < rows):
@@ -426,8 +426,7 @@ def _rim_one(pixels: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> tuple | 
         bits |= _EDGE_BIT | _UNDEFINED_BIT
     else:
         box = pixels[py - hb : py + hb + 1, px - hb : px + hb + 1]
-        mean, std, gx, gy, _ = rim_stats(box, cfg.detrend, cfg.ddof)
-        gradient = float(np.hypot(gx, gy))
+        mean, std, gradient, _ = rim_background(box, cfg.detrend, cfg.ddof)
         if math.isfinite(std) and std != 0 and math.isfinite(peak):
             snr = (peak - mean) / std
         else:

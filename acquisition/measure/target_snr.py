@@ -51,7 +51,12 @@ from snrmon.acquisition.measure.peak_snr import (
     peak_snr_with,
     saturation_level,
 )
-from snrmon.acquisition.measure.rim_kernel import pixel_kind, rim_excesses, rim_stats, wing_decision
+from snrmon.acquisition.measure.rim_kernel import (
+    pixel_kind,
+    rim_background,
+    rim_excesses,
+    wing_decision,
+)
 from snrmon.acquisition.stage_clock import EQ4, enter
 
 
@@ -250,8 +255,7 @@ def measure_target(
         elif width >= 3 and height >= 3 and 2 * (width + height) - 4 > cfg.ddof:
             values = None  # compiled: background_stats of the rim, bit for bit (rim_kernel)
             region = pixels[y0 : y1 + 1, x0 : x1 + 1]
-            bg_mean, bg_std, gx, gy, n_rim = rim_stats(region, cfg.detrend, cfg.ddof)
-            gradient = float(np.hypot(gx, gy))
+            bg_mean, bg_std, gradient, n_rim = rim_background(region, cfg.detrend, cfg.ddof)
         else:
             mask, dy, dx = _rect_rim(width, height)
             values = pixels[y0 : y1 + 1, x0 : x1 + 1][mask].reshape(1, -1).astype(np.float64)

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 
 from snrmon.acquisition.measure.background import background_stats
 from snrmon.acquisition.measure.blob import BlobConfig, analyse_blob
@@ -27,7 +28,7 @@ from snrmon.acquisition.measure.peak_snr import (
     result_at,
     sequential_pass,
 )
-from snrmon.acquisition.measure.rim_kernel import rim_stats
+from snrmon.acquisition.measure.rim_kernel import rim_background, rim_stats
 from snrmon.acquisition.measure.target_snr import _excesses, _rect_rim, rim_excess
 from snrmon.acquisition.track.search import brightest_in, clip_box
 from tests.reference import blob_numpy
@@ -191,9 +192,28 @@ def test_rim_stats_equal_background_stats(kind, detrend):
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             mean, std, grad = background_stats(values, dy, dx, detrend=detrend, ddof=ddof)
             got = rim_stats(frame[y0 : y0 + h, x0 : x0 + w], detrend, ddof)
+            with_gradient = rim_background(frame[y0 : y0 + h, x0 : x0 + w], detrend, ddof)
         assert repr(got[:2]) == repr((float(mean[0]), float(std[0])))
         assert repr(float(np.hypot(got[2], got[3]))) == repr(float(grad[0]))
         assert got[4] == values.shape[1]
+        assert repr(with_gradient) == repr((*got[:2], float(grad[0]), got[4]))
+
+
+def test_compiled_hypot_is_numpys():
+    """The gradient's hypot compiled (the C library's) is NumPy's, bit for bit, over many
+    magnitudes, zeros, infinities and NaN (Python's own math.hypot is not)."""
+    rng = np.random.default_rng(17)
+    x = rng.standard_normal(20000) * 10.0 ** rng.integers(-300, 300, 20000)
+    y = rng.standard_normal(20000) * 10.0 ** rng.integers(-300, 300, 20000)
+    x[:6], y[:6] = [0.0, -0.0, np.inf, np.nan, 1e-320, 3.0], [0.0, 5.0, 1.0, 2.0, 1e-320, -np.inf]
+    want = np.hypot(x, y)
+    got = np.array([compiled_hypot(float(a), float(b)) for a, b in zip(x, y, strict=True)])
+    assert repr(got.tolist()) == repr(want.tolist())
+
+
+@njit
+def compiled_hypot(a, b):
+    return math.hypot(a, b)
 
 
 def _numpy_eq4(frame, at, cfg, meter):
