@@ -181,9 +181,12 @@ class CameraPipeline:
         """What became of the operator's click since the last call (:class:`ClickNews`)."""
         return self.click_news.take()
 
-    def latest_frame(self) -> RingFrame | None:
-        """The newest frame (a copy), for a display; never waits."""
-        return self.ring.peek_last()
+    def latest_frame(
+        self, *, unless_seq: int | None = None, out: np.ndarray | None = None
+    ) -> RingFrame | None:
+        """The newest frame (a copy, into ``out`` if given), for a display; never waits. None
+        when there is none yet, or when its ``seq`` is ``unless_seq`` (shown already)."""
+        return self.ring.peek_last(out, unless_seq=unless_seq)
 
     def series(self) -> np.ndarray:
         """The recent per-frame record for charts: rows of (t_host_ns, snr, running mean,

@@ -205,14 +205,19 @@ class FrameRing:
             self._readers.append(r)
             return r
 
-    def peek_last(self, out: np.ndarray | None = None) -> RingFrame | None:
+    def peek_last(
+        self, out: np.ndarray | None = None, *, unless_seq: int | None = None
+    ) -> RingFrame | None:
         """The newest complete frame (a copy, into ``out`` if given), or ``None`` if there is
-        none yet. Never waits for the producer and never consumes anything."""
+        none yet, or if its ``seq`` is ``unless_seq`` (a display that has it already: nothing
+        is copied). Never waits for the producer and never consumes anything."""
         for _ in range(3):  # a torn copy means a newer frame exists: take that one
             with self._cond:
                 if self._next_seq == 0 or self._low_seq() >= self._next_seq:
                     return None
                 seq = self._next_seq - 1
+                if seq == unless_seq:
+                    return None
             item = self._copy_out(seq, out)
             if item is not None:
                 return item
