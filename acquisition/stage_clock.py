@@ -22,12 +22,14 @@ handover     what the console reads: the published measurement and chart series,
 ============ ===========================================================================
 
 ``latency`` is receipt -> done (ring + correction + ... + handover), the figure the status
-reports. The measurement thread's own time from the moment the frame was there for it
-(``max(ring push, end of the previous frame)``) to the end is split by the thread's scheduler
-statistics (``/proc/thread-self/schedstat``, Linux): ``cpu`` (running), ``runq`` (runnable,
-waiting for a core: other threads and processes) and ``blocked`` (the rest: waiting for the
-interpreter lock, another lock or I/O). A stage's p99 says which stage is slow; ``blocked``
-against ``runq`` says why a slow frame waited.
+reports. Of the ring, ``push`` is the device thread's part (receipt -> published in the ring)
+and ``backlog`` the wait for the measurement thread to finish earlier frames. The measurement
+thread's own time from the moment the frame was there for it (``max(ring push, end of the
+previous frame)``) to the end is split by the thread's scheduler statistics
+(``/proc/thread-self/schedstat``, Linux): ``cpu`` (running), ``runq`` (runnable, waiting for a
+core: other threads and processes) and ``blocked`` (the rest: waiting for the interpreter lock,
+another lock or I/O). A stage's p99 says which stage is slow; ``push``, ``backlog``, ``runq``
+and ``blocked`` say why a slow frame waited.
 
 Timing costs a clock read per stage change (about ten a frame) and one read of the thread's
 scheduler statistics per frame. The measurement code marks its stages with :func:`enter`, which
@@ -47,12 +49,13 @@ CORRECTION, TRACKING, EQ4, STATISTICS, RECORDING, HANDOVER = range(6)
 ENGINE_STAGES = ("correction", "tracking", "eq4", "statistics", "recording", "handover")
 STAGES = ("grab", "ring", *ENGINE_STAGES)
 """The stages in a frame's order (module docstring)."""
-COLUMNS = (*STAGES, "latency", "backlog", "cpu", "runq", "blocked")
-"""Every per-frame figure kept: the stages, the latency and the waiting's split."""
+COLUMNS = (*STAGES, "latency", "push", "backlog", "cpu", "runq", "blocked")
+"""Every per-frame figure kept: the stages, the latency, and the ring's and the measurement
+thread's waits split (module docstring)."""
 
 _GRAB, _RING = 0, 1
 _FIRST_ENGINE = 2
-_LATENCY, _BACKLOG, _CPU, _RUNQ, _BLOCKED = range(len(STAGES), len(COLUMNS))
+_LATENCY, _PUSH, _BACKLOG, _CPU, _RUNQ, _BLOCKED = range(len(STAGES), len(COLUMNS))
 UNKNOWN = -1
 """A figure not measured for a frame (no camera write time; no scheduler statistics)."""
 
@@ -169,6 +172,8 @@ class StageClock:
         row[_FIRST_ENGINE : _FIRST_ENGINE + len(self._acc)] = self._acc
         row[_LATENCY] = now - self._t_host
         ready = self._t_ring if self._t_ring > 0 else self._t_host
+        if self._t_ring > 0:
+            row[_PUSH] = self._t_ring - self._t_host
         row[_BACKLOG] = max(0, self._prev_end - ready)
         prev = self._prev_sched
         if sched is not None and prev is not None:

@@ -97,6 +97,7 @@ def test_a_frame_that_waited_for_the_previous_one_counts_it_as_backlog(monkeypat
     rows = clock.rows()
     assert _column(rows, "backlog") == [0, 30]
     assert _column(rows, "ring") == [5, 33]
+    assert _column(rows, "push") == [4, 2]
     assert _column(rows, "grab") == [UNKNOWN, UNKNOWN]
 
 
