@@ -6,7 +6,9 @@ a second) are NumPy and Python that hold the interpreter lock nearly all the tim
 of the console they take the lock from the cameras' measurement threads for a switch interval at
 a time, and a frame waits (``docs/engine.md``, "Where a live frame's time goes"). Here they run
 in a worker process instead, spawned on first use (or by :func:`start`, ahead of the flight):
-the console process only pickles the inputs and the (small) results.
+the console process only pickles the inputs and the (small) results. The worker runs at a lower
+scheduling priority (``NICE``): on a machine with a core to spare it takes that core, on a busy
+one it waits for the cameras and the measurement, whose frames cannot wait.
 
 :func:`submit` returns a :class:`concurrent.futures.Future`; its callbacks run on the pool's
 own thread in this process. The functions must be importable by name (module level), their
@@ -18,14 +20,24 @@ from __future__ import annotations
 
 import atexit
 import multiprocessing as mp
+import os
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
+NICE = 10
+"""How much lower the worker's scheduling priority is than the console's (``os.nice``)."""
+
 _lock = threading.Lock()
 _pool: ProcessPoolExecutor | None = None
+
+
+def _lower_priority() -> None:
+    """The worker's initializer: background work yields the CPU to the live path."""
+    if hasattr(os, "nice"):
+        os.nice(NICE)
 
 
 def _warm() -> None:
@@ -37,7 +49,9 @@ def _executor() -> ProcessPoolExecutor:
     global _pool
     with _lock:
         if _pool is None:
-            _pool = ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"))
+            _pool = ProcessPoolExecutor(
+                max_workers=1, mp_context=mp.get_context("spawn"), initializer=_lower_priority
+            )
             _pool.submit(_warm)
         return _pool
 
