@@ -13,8 +13,10 @@ stops recording, the finished file is deleted and a new one starts (the operator
 button, pressed twice); the last segment is replayed. The resident memory is sampled every
 ``RSS_EVERY_S`` so a soak shows its curve, not only its ends.
 
-Targets: 0 dropped frames over 60 s; p99 latency under 10 ms; ``--fast`` replay at least 100x
-real time for MWIR, the median of five replays.
+Targets: 0 dropped frames over 60 s; p99 latency under 10 ms on both cameras; ``--fast``
+replay of both cameras at least 100x real time, the median of five replays, every recorded frame
+reproduced in each. The stage table (``acquisition.stages``, docs/engine.md) says where each
+camera's frames spend their time.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ TOP_LEVEL = True  # reports {"acquisition": ..., "replay": ...}
 
 
 SEGMENT_S = 120.0  # 15.5 GB of raw frames
-MWIR_REPEATS = 5
+REPEATS = 5  # fast replays of the recording, both cameras and MWIR alone
 RSS_EVERY_S = 60.0
 
 
@@ -108,12 +110,14 @@ def run(duration_s: float) -> dict:
             recording_mb=path.stat().st_size / 2**20,
         )
         full = replay_session(path)
-        fast = replay_session(path, fast=True)
-        # MWIR alone, from the page cache (the file was just written and read): the target is
-        # >= 100x real time. A shared machine's speed swings by up to 2x within seconds (the
-        # same replay's CPU time with it), so one replay is not a measurement: the median of
-        # MWIR_REPEATS, with the runs.
-        mwir = [replay_session(path, fast=True, cameras=["mwir"]) for _ in range(MWIR_REPEATS)]
+        # From the page cache (the file was just written and read): the target is >= 100x
+        # real time, both cameras. A shared machine's speed swings by up to 2x within seconds
+        # (the same replay's CPU time with it), so one replay is not a measurement: the median
+        # of REPEATS, with the runs; both cameras, then MWIR alone.
+        both = [replay_session(path, fast=True) for _ in range(REPEATS)]
+        fast = both[0]
+        fast_factors = sorted(r.realtime_factor for r in both)
+        mwir = [replay_session(path, fast=True, cameras=["mwir"]) for _ in range(REPEATS)]
         mwir_factors = sorted(r.realtime_factor for r in mwir)
 
     def fps(r) -> float:
@@ -124,12 +128,16 @@ def run(duration_s: float) -> dict:
         "replay": {
             "fps": fps(full),
             "realtime_factor": full.realtime_factor,
-            "fast_fps": fps(fast),
-            "fast_realtime_factor": fast.realtime_factor,
+            "fast_fps": statistics.median(fps(r) for r in both),
+            "fast_realtime_factor": statistics.median(fast_factors),
+            "fast_realtime_factor_runs": fast_factors,
             "fast_realtime_factor_mwir": statistics.median(mwir_factors),
             "fast_realtime_factor_mwir_runs": mwir_factors,
             "identical": sum(c.identical for c in fast.cameras.values()),
             "compared": sum(c.compared for c in fast.cameras.values()),
+            "identical_every_run": all(
+                c.identical == c.compared for r in both + mwir for c in r.cameras.values()
+            ),
         },
     }
 

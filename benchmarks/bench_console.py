@@ -6,6 +6,10 @@ program on the field laptop would take).
 Per run, from the demo's own result (``--json``): frames each camera received and dropped (by
 the camera or at the console's frame ring), and the frames of every stop's row (the paper's 100
 consecutive frames). Targets: 0 frames dropped and 100 frames at every stop, in every run.
+``dropped_by_camera`` are frames the simulated camera itself lost: its process (a stand-in for
+the camera's hardware, which has a core of its own) fell more than 250 ms behind its clock,
+which happens when other processes take the cores; ``load_at_start`` says how busy the machine
+was.
 
 A run takes the flight's length (about 100 s) plus the post-flight report; ``--duration`` does not
 change it (the flight is the demo's).
@@ -70,6 +74,7 @@ def run(duration_s: float) -> dict:
     with tempfile.TemporaryDirectory(prefix="snrmon-bench-console-") as tmp:
         for k in range(RUNS):
             busy = _busy_loop()
+            load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
             try:
                 demo = _demo(Path(tmp), seed=k)
             finally:
@@ -81,8 +86,12 @@ def run(duration_s: float) -> dict:
             runs.append(
                 {
                     "seconds": round(demo["seconds"], 1),
+                    # the machine's 1-minute load average as the run began (other processes,
+                    # the busy loop's start included)
+                    "load_at_start": None if load is None else round(load, 2),
                     "received": {c: f["received"] for c, f in frames.items()},
                     "dropped": {c: f["dropped"] for c, f in frames.items()},
+                    "dropped_by_camera": {c: f["dropped_by_camera"] for c, f in frames.items()},
                     "dropped_by_ring": {c: f["dropped_by_ring"] for c, f in frames.items()},
                     "stops": len(stops),
                     "stops_short": sum(1 for s in stops if s["n_frames"] < FRAMES_PER_STOP),
