@@ -55,8 +55,7 @@ def test_the_library_and_the_other_commands_work_without_the_extras(tmp_path):
     code = (
         "import snrmon\n"
         "ds = snrmon.predict('mwir', 'uav1', [199.0], band=False, expected=False)\n"
-        "print(round(float(ds['small'][0]), 1))\n"
-        + cli(["model", "snr", "--sensor", "lwir", "--target", "uav1", "--ranges", "199"])
+        "print(round(float(ds['small'][0]), 1))\n" + cli(["model", "snr", "--sensor", "lwir", "--target", "uav1", "--ranges", "199"])
     )
     r = run_without(("gui", "campaign"), code, tmp_path)
     assert r.returncode == 0, r.stderr

@@ -110,6 +110,39 @@ class PeakSnr:
     extent_h_px: int = field(default=0, compare=False)
 
 
+def with_flags(m: PeakSnr, flags: frozenset[str]) -> PeakSnr:
+    """``m`` with ``flags`` (``dataclasses.replace``, without its per-call field lookup: this is
+    on every tracked frame)."""
+    return PeakSnr(
+        m.peak_x,
+        m.peak_y,
+        m.peak,
+        m.bg_mean,
+        m.bg_std,
+        m.snr,
+        flags,
+        m.background,
+        m.extent_w_px,
+        m.extent_h_px,
+    )
+
+
+def with_extent(m: PeakSnr, extent_w_px: int, extent_h_px: int) -> PeakSnr:
+    """``m`` with the segmented target's extent (as :func:`with_flags`)."""
+    return PeakSnr(
+        m.peak_x,
+        m.peak_y,
+        m.peak,
+        m.bg_mean,
+        m.bg_std,
+        m.snr,
+        m.flags,
+        m.background,
+        extent_w_px,
+        extent_h_px,
+    )
+
+
 @dataclass(frozen=True)
 class PeakSnrConfig:
     """Settings of the measurement (see the module docstring for their meaning)."""

@@ -50,6 +50,7 @@ from snrmon.acquisition.measure.peak_snr import (
     PeakSnrConfig,
     peak_snr_with,
     saturation_level,
+    with_extent,
 )
 from snrmon.acquisition.measure.rim_kernel import (
     pixel_kind,
@@ -357,7 +358,7 @@ class TargetMeter:
             else:
                 at, size = peak, 1
                 m = self.measure(pixels, at, size, reference_noise)
-            return dataclasses.replace(m, extent_w_px=w, extent_h_px=h), at, size
+            return with_extent(m, w, h), at, size
         m = measure_target(
             pixels, blob, cfg, guard_px=self.guard_px, rect=rect, reference_noise=reference_noise
         )
