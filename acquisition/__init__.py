@@ -18,5 +18,7 @@ One subpackage per job (each says what it owns in its own docstring):
 
 At the top level: :mod:`snrmon.acquisition.config` (the session configuration, its one factory) and
 :mod:`snrmon.acquisition.prediction` (the seam to :mod:`snrmon.model`: the model's SNR at a stop's
-range).
+range), :mod:`snrmon.acquisition.stage_clock` (where a live frame's time goes, stage by stage) and
+:mod:`snrmon.acquisition.worker_process` (the one process that runs the heavy work, the model's
+recomputation and the PSF fit, away from the measurement threads).
 """

@@ -18,12 +18,16 @@ A recomputation (a new sky temperature, a PSF measured from the flight, new met 
 ~0.5 s per camera.
 With ``asynchronous=True`` :meth:`ModelPredictor.set_background` returns at once and the new
 curves replace the old ones, whole, when they are ready: the session calls it from a camera's
-measurement thread, whose frame ring holds half a second.
+measurement thread. They are computed in the worker process
+(:mod:`snrmon.acquisition.worker_process`), not in a thread: the computation holds the interpreter
+lock, which the measurement threads need.
 """
 
 from __future__ import annotations
 
+import logging
 import threading
+from concurrent.futures import Future
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -31,6 +35,8 @@ import numpy as np
 from snrmon.model.atmosphere_table import AEROSOLS, SEASONS, Weather
 
 __all__ = ["AEROSOLS", "SEASONS", "ModelPredictor", "Weather", "session_model_options"]
+
+log = logging.getLogger(__name__)
 
 CURVES = ("small", "large", "small_corrected", "large_corrected")
 EXPECTED_RIM = "expected_eq4_rim"
@@ -150,6 +156,10 @@ class ModelPredictor:
         for camera, sensor_name in sensors.items():
             self.sensors[camera] = load_sensor(sensor_name)
             self._compute(camera, predict_options.get("background_temp_k"), None)
+        if asynchronous:
+            from snrmon.acquisition import worker_process
+
+            worker_process.start()  # its imports now, not at the first new sky
 
     def set_background(self, camera: str, temp_k: float | None, *, wait: bool | None = None):
         """Recompute ``camera``'s curves for a measured background (sky) temperature: the
@@ -187,26 +197,46 @@ class ModelPredictor:
         if wait if wait is not None else not self.asynchronous:
             self._compute(camera, temp_k, psf)
             return
+        from snrmon.acquisition import worker_process
+
+        gen = self._next_generation(camera)
         with self._lock:
             self._running[camera] = self._running.get(camera, 0) + 1
-        threading.Thread(
-            target=self._compute_in_background,
-            args=(camera, temp_k, psf),
-            name=f"model-{camera}",
-            daemon=True,
-        ).start()
-
-    def _compute_in_background(self, camera: str, temp_k, psf) -> None:
         try:
-            self._compute(camera, temp_k, psf)
-        finally:
-            with self._lock:
-                self._running[camera] -= 1
+            job = worker_process.submit(
+                model_curves,
+                self.sensors[camera],
+                self.target,
+                self.ranges_m,
+                self._options_for(camera, temp_k, psf),
+            )
+        except BaseException:
+            self._finished(camera)
+            raise
 
-    def _compute(self, camera: str, background_temp_k: float | None, psf) -> None:
+        def done(job: Future) -> None:  # on the worker pool's thread
+            try:
+                curves, used_k = job.result()
+            except Exception:  # a failed recomputation keeps the curves in force
+                log.exception("%s: the model's recomputation failed", camera)
+                return
+            finally:
+                self._finished(camera)
+            self._swap(camera, gen, temp_k, psf, curves, used_k)
+
+        job.add_done_callback(done)
+
+    def _finished(self, camera: str) -> None:
+        with self._lock:
+            self._running[camera] -= 1
+
+    def _next_generation(self, camera: str) -> int:
         with self._lock:
             gen = self._generation.get(camera, 0) + 1
             self._generation[camera] = gen
+            return gen
+
+    def _options_for(self, camera: str, background_temp_k: float | None, psf) -> dict:
         options = {**self._options, "background_temp_k": background_temp_k}
         weather = self.weather.get(camera)
         if weather is not None:
@@ -215,29 +245,21 @@ class ModelPredictor:
             options["measured_noise"] = self.measured_noise[camera]
         if psf is not None:
             options["corrected_psf"] = psf
+        return options
+
+    def _compute(self, camera: str, background_temp_k: float | None, psf) -> None:
+        gen = self._next_generation(camera)
+        options = self._options_for(camera, background_temp_k, psf)
         p = self._predict(self.sensors[camera], self.target, self.ranges_m, **options)
-        curves = {
-            "small": np.asarray(p.snr_small, float),
-            "large": np.asarray(p.snr_large, float),
-            "small_corrected": np.asarray(p.snr_small_corrected, float),
-            "large_corrected": np.asarray(p.snr_large_corrected, float),
-            "resolved_small": np.asarray(p.resolved_small, float),
-        }
-        for name in EXPECTED_CURVES:
-            if getattr(p, name) is not None:
-                curves[name] = np.asarray(getattr(p, name), float)
-        for name, snr in p.paper.items():
-            curves[f"paper_{name}"] = np.asarray(snr, float)
-        for name in ("small_corrected", "large_corrected", *EXPECTED_CURVES):  # the band
-            if name in p.lower and name in p.upper:
-                curves[f"{name}_lower"] = np.asarray(p.lower[name], float)
-                curves[f"{name}_upper"] = np.asarray(p.upper[name], float)
+        self._swap(camera, gen, background_temp_k, psf, curves_of(p), p.background_temp_k)
+
+    def _swap(self, camera, gen: int, background_temp_k, psf, curves: dict, used_k: float) -> None:
         with self._lock:
             if self._generation[camera] != gen:
                 return  # a newer request superseded this one
-            self.background_temp_k[camera] = p.background_temp_k if background_temp_k else None
+            self.background_temp_k[camera] = used_k if background_temp_k else None
             self.curves = {**self.curves, camera: curves}  # swapped whole: no half reads
-            self.curves_background_k = {**self.curves_background_k, camera: p.background_temp_k}
+            self.curves_background_k = {**self.curves_background_k, camera: used_k}
             self.curves_psf = {**self.curves_psf, camera: psf}
             self.version += 1
 
@@ -270,3 +292,33 @@ class ModelPredictor:
             if f"{name}_lower" in c:
                 out[f"{name} band"] = (self.ranges_m, c[f"{name}_lower"], c[f"{name}_upper"])
         return out
+
+
+def curves_of(p) -> dict[str, np.ndarray]:
+    """The curves a :class:`ModelPredictor` keeps of a ``snrmon.model.snr.predict`` result."""
+    curves = {
+        "small": np.asarray(p.snr_small, float),
+        "large": np.asarray(p.snr_large, float),
+        "small_corrected": np.asarray(p.snr_small_corrected, float),
+        "large_corrected": np.asarray(p.snr_large_corrected, float),
+        "resolved_small": np.asarray(p.resolved_small, float),
+    }
+    for name in EXPECTED_CURVES:
+        if getattr(p, name) is not None:
+            curves[name] = np.asarray(getattr(p, name), float)
+    for name, snr in p.paper.items():
+        curves[f"paper_{name}"] = np.asarray(snr, float)
+    for name in ("small_corrected", "large_corrected", *EXPECTED_CURVES):  # the band
+        if name in p.lower and name in p.upper:
+            curves[f"{name}_lower"] = np.asarray(p.lower[name], float)
+            curves[f"{name}_upper"] = np.asarray(p.upper[name], float)
+    return curves
+
+
+def model_curves(sensor, target, ranges_m: np.ndarray, options: dict) -> tuple[dict, float]:
+    """(:func:`curves_of` the model's prediction, the background temperature it used, K): a
+    recomputation as the worker process runs it (small to send back, unlike the prediction)."""
+    from snrmon.model.snr import predict
+
+    p = predict(sensor, target, ranges_m, **options)
+    return curves_of(p), float(p.background_temp_k)

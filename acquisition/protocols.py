@@ -32,7 +32,12 @@ class CameraView(Protocol):
     name: str
     shape: tuple[int, int]
 
-    def latest_frame(self) -> RingFrame | None: ...
+    def latest_frame(
+        self, *, unless_seq: int | None = None, out: np.ndarray | None = None
+    ) -> RingFrame | None:
+        """The newest frame (possibly copied into ``out``); None when there is none, or when
+        its ``seq`` is ``unless_seq`` (the display has it)."""
+        ...
 
     def series(self) -> np.ndarray: ...
 

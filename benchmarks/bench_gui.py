@@ -3,7 +3,9 @@
 
 ``<camera>_shown_fps`` counts the distinct frames handed to the view; ``<camera>_painted_fps``
 the distinct frames its image item actually painted (two frames handed over between two paints
-count as one painted).
+count as one painted); ``<camera>_delivered_fps`` the frames the camera delivered to the console
+over the same time, as its status bar counts them (gui/frame_feed.py): the console draws every
+frame when shown = painted = delivered.
 
 Both simulated cameras at their full rates (MWIR 1280x720 at 60 fps, LWIR 640x480 at 30 fps)
 through the real shared-memory ring and ShmCamera, measurement on (ROI on the spot) and
@@ -91,6 +93,7 @@ def run(duration_s: float) -> dict:
             QTimer.singleShot(1000, loop.quit)  # warm-up: rings attached, first frames drawn
             loop.exec()
             shown0 = {c: p.view.frames_shown for c, p in window.panels.items()}
+            delivered0 = {c: f.delivered for c, f in window.feeds.items()}
             painted0 = {c: p.view.image.frames_painted for c, p in window.panels.items()}
             before = session.status().cameras
             late_ms: list[float] = []
@@ -126,6 +129,9 @@ def run(duration_s: float) -> dict:
         )
         figures[f"{c}_painted_fps"] = round(
             (window.panels[c].view.image.frames_painted - painted0[c]) / elapsed, 1
+        )
+        figures[f"{c}_delivered_fps"] = round(
+            (window.feeds[c].delivered - delivered0[c]) / elapsed, 1
         )
         figures[f"{c}_camera_fps"] = round((fa.received - fb.received) / elapsed, 1)
         figures[f"{c}_dropped"] = (

@@ -12,15 +12,20 @@ system's). What makes the two comparable and repeatable:
   cache takes the first GB of a run at 1.5-2 GB/s however often the guest fsyncs; without the
   warm-up that burst always fell on the first (plain) slice and made that pair's ratio 0.25-0.57;
 - **short slices, many pairs**: each slice writes ``SLICE_MB`` (default 256 MB,
-  ``$SNRMON_BENCH_SLICE_MB``); raw and recorder slices alternate in ``PAIRS`` pairs (default 12,
-  ``$SNRMON_BENCH_PAIRS``), the order within a pair alternating too, so both sides of a pair see
-  the same disk weather. The host's disk switches between ~2 GB/s (its cache) and 250-550 MB/s
-  (the disk under it) within a run, and a pair that straddles a switch gives a ratio of 0.2 or 5:
+  ``$SNRMON_BENCH_SLICE_MB``); ``PAIRS`` recorder slices (default 12, ``$SNRMON_BENCH_PAIRS``)
+  alternate with ``PAIRS + 1`` plain ones (raw, rec, raw, ..., raw), and each recorder slice is
+  compared with the mean speed of the plain slices just before and after it, so both sides see
+  the same disk weather (a disk that drifts within the run is compared at the recorder slice's
+  own time; with pairs of one plain and one recorder slice, the order alternating, a drift made
+  every pair's ratio lean one way or the other). The host's disk switches between ~2 GB/s (its
+  cache) and 250-550 MB/s (the disk under it) within a run, and a pair that straddles a switch
+  gives a ratio of 0.2 or 5:
   three pairs of 1 GB slices gave medians of 0.85, 1.09 and 1.16 in three runs in a row, twelve
   pairs of 256 MB 0.889-0.922 on the same code. Other processes on a shared machine still move a
   run by several per cent (``ratio_iqr`` shows it). Files are deleted only at the end (an unlink
   on a disk mounted with "discard" hands the host back its cache and changes the weather for the
-  next slice); a run needs about ``WARMUP_MB + 2 * PAIRS * SLICE_MB`` (7.2 GB) of free space;
+  next slice); a run needs about ``WARMUP_MB + (2 * PAIRS + 1) * SLICE_MB`` (7.4 GB) of free
+  space;
 - the figure is the **median of the pairs' ratios**, reported with their spread
   ((max - min) / median: one straddling pair makes it large) and their interquartile range over
   the median (``ratio_iqr``: how much the typical pairs disagree).
@@ -126,16 +131,17 @@ def run(duration_s: float) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix="snrmon-bench-", dir=os.environ.get("SNRMON_BENCH_DIR")))
     try:
         warmup = _raw_write(tmp / "warmup.bin", frames, WARMUP_MB) if WARMUP_MB > 0 else None
-        raw_runs: list[float] = []
+        # raw, rec, raw, rec, ..., raw: each recorder slice against the plain writes just
+        # before and after it (their mean speed), so a disk whose speed drifts within the run
+        # is compared at the recorder slice's own time, not at its neighbour's.
+        raw_runs = [_raw_write(tmp / "raw0.bin", frames, SLICE_MB)]
         rec_runs: list[dict] = []
         for k in range(PAIRS):
-            order = ("raw", "rec") if k % 2 == 0 else ("rec", "raw")
-            for side in order:
-                if side == "raw":
-                    raw_runs.append(_raw_write(tmp / f"raw{k}.bin", frames, SLICE_MB))
-                else:
-                    rec_runs.append(_record(tmp / f"rec{k}.h5", frames, SLICE_MB, None))
-        ratios = [r["mb_per_s"] / w for r, w in zip(rec_runs, raw_runs, strict=True)]
+            rec_runs.append(_record(tmp / f"rec{k}.h5", frames, SLICE_MB, None))
+            raw_runs.append(_raw_write(tmp / f"raw{k + 1}.bin", frames, SLICE_MB))
+        ratios = [
+            r["mb_per_s"] / ((raw_runs[k] + raw_runs[k + 1]) / 2) for k, r in enumerate(rec_runs)
+        ]
         ratio = statistics.median(ratios)
         quartiles = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else [ratio] * 3
         out: dict = {

@@ -33,6 +33,17 @@ def test_acquisition_soak_rolls_its_recording_and_samples_memory(monkeypatch):
     assert all(rss > 50 for _, rss in acq["rss_mb_samples"])
     assert acq["recording_mb"] > 0
     assert out["replay"]["fps"] > 0  # the last segment is a complete, readable session
+    # The stage table: each camera's frames of this run, every stage named, the text table too.
+    from snrmon.acquisition.stage_clock import COLUMNS
+
+    for cam in ("mwir", "lwir"):
+        stages = acq["stages"][cam]
+        assert stages["frames"] > 0 and set(COLUMNS) <= set(stages)
+        assert stages["latency"]["p99_ms"] >= stages["latency"]["p50_ms"] > 0
+    text = bench_acquisition.format_text(out)
+    assert all(f"\n  {name:12s}" in text for name in COLUMNS)
+    assert len(out["replay"]["fast_realtime_factor_runs"]) == bench_acquisition.REPEATS
+    assert out["replay"]["identical_every_run"] is True
 
 
 def test_tracking_real_summary_and_table_from_scored_runs():

@@ -57,8 +57,9 @@ def lazy_correct(
     the square, nothing when a box corrected this frame holds it, else the 8 px tiles it falls
     in corrected into ``out`` (:func:`correct_box`; ``cal``, ``sub``: calibrate, subtract the
     reference) and their box added to ``done``. ``state`` = (square y0, y1, x0, x1, tile,
-    boxes done). Returns 0, or 1 when the tiles hold a bad pixel (nothing done: the caller
-    corrects the whole square)."""
+    boxes done). Returns 0 (nothing to do), 1 when the tiles hold a bad pixel (nothing done:
+    the caller corrects the whole square), 2 when it corrected the box now last in ``done``,
+    3 when it corrected a box ``done`` had no room for."""
     sy0, sy1, sx0, sx1, t = state[0], state[1], state[2], state[3], state[4]
     y0, y1 = max(ry0, sy0), min(ry1, sy1)
     x0, x1 = max(rx0, sx0), min(rx1, sx1)
@@ -76,7 +77,8 @@ def lazy_correct(
     if n < done.shape[0]:  # (a full list only costs a correction again: the same values)
         done[n, 0], done[n, 1], done[n, 2], done[n, 3] = y0, y1, x0, x1
         state[5] = n + 1
-    return 0
+        return 2
+    return 3
 
 
 @kernel

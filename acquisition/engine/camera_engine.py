@@ -65,6 +65,7 @@ from snrmon.acquisition.engine.status import AnalysisFigures, CameraStatus, Fram
 from snrmon.acquisition.measure.model_agreement import model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.acquisition.measure.track_noise import TrackNoise
+from snrmon.acquisition.stage_clock import CORRECTION, HANDOVER, STATISTICS, TRACKING, enter
 from snrmon.acquisition.stops.detector import mean_error
 from snrmon.acquisition.stops.table import StopProgress, expected_eq4_rule
 from snrmon.acquisition.track.config import TrackState
@@ -204,16 +205,22 @@ class CameraEngine:
         range_at: RangeLookup | None = None,
     ) -> FrameOutput:
         """Apply the pending commands, then analyse one raw frame (rows, columns)."""
+        enter(TRACKING)  # the stages of a live frame (snrmon.acquisition.stage_clock)
         applied = self._apply_commands()  # a Restore sets _last_counter as it was live
         last, self._last_counter = self._last_counter, int(counter)
         if self.tell_gaps and last is not None and counter > last + 1:  # frames dropped between
             self.measurer.skip(counter - last - 1)
             if self._raw_track:  # the raw track runs only while a correction is on
                 self.raw_measurer.skip(counter - last - 1)
-        cue = next((c for c in applied if isinstance(c, Cue)), None)
+        cue = None
+        for c in applied:
+            if isinstance(c, Cue):
+                cue = c
+                break
         corrector = self.corrector
         done = None
         if corrector.capturing:
+            enter(CORRECTION)
             summary = corrector.feed(pixels, counter)
             if summary is not None and corrector.reference_offset is not None:
                 done = ReferenceDone(corrector.reference_offset, summary)
@@ -231,13 +238,19 @@ class CameraEngine:
             source,
             None if cue is None else (cue.x, cue.y),
         )
+        enter(TRACKING)
         raw = self.raw_measurer.running_figures(pixels) if self._raw_track else None
-        m = self.measurer.measure(corrector.apply(pixels, self.measurer.read_xy), frame, raw=raw)
+        enter(CORRECTION)
+        corrected = corrector.apply(pixels, self.measurer.read_xy)
+        enter(TRACKING)
+        m = self.measurer.measure(corrected, frame, raw=raw)
+        enter(STATISTICS)
         peak_xy = None if m is None else (m.result.peak_x, m.result.peak_y)
         if self.display_figures:
             self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
         if m is not None and self.sky is not None:
             self.sky.add(t_host_ns, pixels, m.result)
+        enter(HANDOVER)
         if m is None:
             with self._lock:
                 self._measured += 1

@@ -28,6 +28,7 @@ import numpy as np
 
 from snrmon.acquisition.calibrate.kernels import any_set, correct_box, lazy_correct
 from snrmon.acquisition.engine.lazy_frame import LazyFrame, Region
+from snrmon.acquisition.stage_clock import CORRECTION, enter
 
 TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
 _NONE = np.zeros((1, 1), np.float32)  # an absent map, for the compiled correction
@@ -60,6 +61,7 @@ class FrameCorrector:
         self._pixels: np.ndarray | None = None  # the frame being read (lazy)
         self._square: Region = (0, 0, 0, 0)  # what apply() corrects this frame
         self._done: list[Region] = []  # regions corrected this frame
+        self._covered: list[Region] = []  # ... by the compiled path, as Python tuples
         # The same for the compiled path: (square y0, y1, x0, x1, tile, boxes), the boxes.
         self._state = np.zeros(6, np.int64)
         self._boxes = np.zeros((64, 4), np.int64)
@@ -154,6 +156,7 @@ class FrameCorrector:
             return self._buffer
         self._pixels = pixels
         self._done = []
+        self._covered = []
         self._state[:] = (y0, y1, x0, x1, TILE_PX, 0)
         self._fast = self._compiled(pixels)
         return self._lazy_frame
@@ -208,11 +211,27 @@ class FrameCorrector:
         fast, pixels = self._fast, self._pixels
         if fast is not None and region is not None and pixels is not None:
             y0, y1, x0, x1 = region
-            if lazy_correct(pixels, y0, y1, x0, x1, self._state, self._boxes, *fast):
+            for b in self._covered:  # most reads fall in a box an earlier read corrected
+                if b[0] <= y0 and y1 <= b[1] and b[2] <= x0 and x1 <= b[3]:
+                    return
+            running = enter(CORRECTION)  # a read of the tracker or Eq. (4) corrects first
+            done = lazy_correct(pixels, y0, y1, x0, x1, self._state, self._boxes, *fast)
+            if done == 2:
+                self._covered.append(tuple(self._boxes[int(self._state[5]) - 1].tolist()))
+            elif done == 1:
                 # A bad pixel: its replacement depends on the whole square (NumPy).
                 self._correct(pixels, self._square)
                 self._done_box(self._square)
+                self._covered.append(self._square)
+            enter(running)
             return
+        running = enter(CORRECTION)
+        try:
+            self._ensure(region)
+        finally:
+            enter(running)
+
+    def _ensure(self, region: Region | None) -> None:
         sy0, sy1, sx0, sx1 = self._square
         if region is None:
             y0, y1, x0, x1 = sy0, sy1, sx0, sx1

@@ -17,6 +17,7 @@ from snrmon.acquisition.measure.peak_snr import (
     PeakSnrConfig,
     PeakSnrMeter,
 )
+from snrmon.acquisition.stage_clock import EQ4, enter
 from snrmon.acquisition.track.config import TrackState
 from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, reach_px
 
@@ -161,7 +162,9 @@ class FrameMeasurer:
             if not (result.flags & RUNNING_EXCLUDED):
                 self.meter.running.push(result.snr)
         else:
+            running = enter(EQ4)  # the stages of a live frame (snrmon.acquisition.stage_clock)
             result, state, centre = self.meter.measure(pixels, self.roi), TrackState.FIXED, self.roi
+            enter(running)
         window = (int(centre[0]), int(centre[1]))
         self.roi = window
         return result, state, window, reason

@@ -35,6 +35,7 @@ from snrmon.acquisition.engine.inputs import Cue, FrameOutput, Measurement, SetR
 from snrmon.acquisition.geo.gps_cue import GpsProjector
 from snrmon.acquisition.geo.projection import gps_slant_range_m
 from snrmon.acquisition.prediction import Predictor
+from snrmon.acquisition.stage_clock import HANDOVER, STATISTICS, enter
 from snrmon.acquisition.stops.detector import Stop, StopConfig, StopDetector
 from snrmon.acquisition.stops.table import StopRow, StopSource, StopTable
 from snrmon.acquisition.streams.history import ScalarHistory
@@ -244,6 +245,8 @@ class SessionEngine:
                 camera.show_gps(x, y)
 
     def _feed_stops(self, feed: Callable[[StopDetector], Stop | None]) -> None:
+        if self.stop_source is not self.stop_detector:
+            return  # a replay's recorded stops: nobody reads a detector's
         with self._lock:
             try:
                 stop = feed(self.stop_detector)
@@ -285,12 +288,14 @@ class SessionEngine:
     def _after_frame(
         self, camera: str, t_ns: int, m: Measurement | None, pixels: np.ndarray | None
     ) -> None:
+        enter(STATISTICS)
         if m is None:
             self.stop_table.tick(camera, t_ns)
             return
         self.stop_table.add(camera, t_ns, m.result)
         if self.follow_sky:
             self._follow_sky(camera, t_ns)
+        enter(HANDOVER)
         with self._lock:
             listeners = list(self._listeners)
         for cb in listeners:

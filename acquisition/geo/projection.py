@@ -33,6 +33,7 @@ A point at or behind the camera's focal plane (``p.f <= 0``) has no image: x and
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -143,11 +144,18 @@ def camera_axes(az_rad: float, el_rad: float, roll_rad: float) -> np.ndarray:
 
 
 def enu_of(site: Site, lat_deg, lon_deg, alt_m) -> np.ndarray:
-    """East, north, up offsets (m) of geodetic points from the site, shape (..., 3)."""
-    e, n, u = pymap3d.geodetic2enu(
-        lat_deg, lon_deg, alt_m, site.lat_deg, site.lon_deg, site.alt_m, deg=True
-    )
+    """East, north, up offsets (m) of geodetic points from the site, shape (..., 3):
+    ``pymap3d.geodetic2enu``'s own steps (both points to ECEF, the difference rotated into the
+    site's ENU), the site's ECEF computed once (every GPS fix is projected: 10 a second)."""
+    x1, y1, z1 = pymap3d.geodetic2ecef(lat_deg, lon_deg, alt_m, deg=True)
+    x2, y2, z2 = _site_ecef(site)
+    e, n, u = pymap3d.uvw2enu(x1 - x2, y1 - y2, z1 - z2, site.lat_deg, site.lon_deg, deg=True)
     return np.stack([np.asarray(e, float), np.asarray(n, float), np.asarray(u, float)], axis=-1)
+
+
+@functools.lru_cache(maxsize=16)
+def _site_ecef(site: Site) -> tuple:
+    return pymap3d.geodetic2ecef(site.lat_deg, site.lon_deg, site.alt_m, deg=True)
 
 
 def project_enu(

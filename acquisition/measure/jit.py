@@ -2,8 +2,16 @@
 
 The per-frame analysis (segmentation, Eq. 4's backgrounds, the wing profile) is a few hundred
 small array operations a frame; each NumPy call on a few dozen pixels costs microseconds of
-overhead, so it is compiled instead (``@njit(cache=True, nogil=True)``: the machine code is kept
-in ``__pycache__`` beside the module and loaded on later runs).
+overhead, so it is compiled instead (``@njit(cache=True)``: the machine code is kept in
+``__pycache__`` beside the module and loaded on later runs).
+
+The kernels keep the interpreter lock (no ``nogil``): each runs for microseconds, and a thread
+that releases the lock that briefly gets it back only when the thread that took it meanwhile
+gives it up, a switch interval later (5 ms) if that thread is busy in Python. A live frame calls
+some twenty kernels; with a busy thread beside it (the console painting, a model computation)
+releasing the lock at each call cost the measurement thread up to 21 ms per twenty calls at
+the 99th percentile, holding it 0.15 ms (``docs/engine.md``, "Where a live frame's time
+goes").
 
 Exactness is the contract: every compiled routine gives the bits the NumPy code gave.
 
@@ -16,8 +24,9 @@ Exactness is the contract: every compiled routine gives the bits the NumPy code 
   Python float: the float is rounded to float32 first), never contracted into fused
   multiply-adds (numba compiles without ``fastmath``).
 
-Where no such guarantee is possible (a product sum that BLAS orders its own way, libm's
-``hypot``), the callers keep NumPy or prove the sum exact first (:func:`sum_is_exact`).
+Where no such guarantee is possible (a product sum that BLAS orders its own way), the callers
+keep NumPy or prove the sum exact first (:func:`sum_is_exact`). ``math.hypot`` compiled is the C
+library's ``hypot``, as NumPy's ``np.hypot`` is (``rim_kernel.rim_background``).
 """
 
 from __future__ import annotations
@@ -92,8 +101,8 @@ _judge_all_kernels()
 
 def kernel(fn):
     """``numba.njit`` as every kernel here uses it: cached on disk (judged on all the kernel
-    modules' sources, :class:`_AllKernels`), releasing the GIL."""
-    return njit(cache=True, nogil=True)(fn)
+    modules' sources, :class:`_AllKernels`), holding the interpreter lock (module docstring)."""
+    return njit(cache=True)(fn)
 
 
 @kernel

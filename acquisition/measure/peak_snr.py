@@ -33,6 +33,7 @@ import numpy as np
 
 from snrmon.acquisition.measure.background import Rect, background_stats, rect_offsets, rim_offsets
 from snrmon.acquisition.measure.contamination import NoiseReference, is_contaminated
+from snrmon.acquisition.measure.rim_kernel import brightest, rim_background
 from snrmon.acquisition.measure.running_stats import RunningSnr
 
 FLAG_SATURATED = "saturated"
@@ -107,6 +108,39 @@ class PeakSnr:
     background: str = "rim"
     extent_w_px: int = field(default=0, compare=False)
     extent_h_px: int = field(default=0, compare=False)
+
+
+def with_flags(m: PeakSnr, flags: frozenset[str]) -> PeakSnr:
+    """``m`` with ``flags`` (``dataclasses.replace``, without its per-call field lookup: this is
+    on every tracked frame)."""
+    return PeakSnr(
+        m.peak_x,
+        m.peak_y,
+        m.peak,
+        m.bg_mean,
+        m.bg_std,
+        m.snr,
+        flags,
+        m.background,
+        m.extent_w_px,
+        m.extent_h_px,
+    )
+
+
+def with_extent(m: PeakSnr, extent_w_px: int, extent_h_px: int) -> PeakSnr:
+    """``m`` with the segmented target's extent (as :func:`with_flags`)."""
+    return PeakSnr(
+        m.peak_x,
+        m.peak_y,
+        m.peak,
+        m.bg_mean,
+        m.bg_std,
+        m.snr,
+        m.flags,
+        m.background,
+        extent_w_px,
+        extent_h_px,
+    )
 
 
 @dataclass(frozen=True)
@@ -252,6 +286,9 @@ def saturation_level(cfg: PeakSnrConfig, dtype: np.dtype) -> float | None:
 
 _EXCLUDED_BITS = flags_to_bits(RUNNING_EXCLUDED)
 _CONTAMINATED_BIT = _BIT[FLAG_RIM_CONTAMINATED]
+_UNDEFINED_BIT = _BIT[FLAG_UNDEFINED]
+_EDGE_BIT = _BIT[FLAG_EDGE]
+_SATURATED_BIT = _BIT[FLAG_SATURATED]
 
 
 def sequential_pass(
@@ -270,17 +307,35 @@ def sequential_pass(
     grad = core.gradient.tolist()
     snr = core.snr.tolist()
     for i in range(len(std)):
-        ref = fixed_reference if reference is None else reference.value
         b = int(bits[i])
-        if not b & _BIT[FLAG_UNDEFINED] and is_contaminated(std[i], grad[i], ref, cfg):
-            b |= _CONTAMINATED_BIT
-            bits[i] = b
-        if reference is not None:
-            reference.update(
-                std[i], accepted=not b & _EXCLUDED_BITS, rejected=bool(b & _CONTAMINATED_BIT)
-            )
-        if running is not None and not b & _EXCLUDED_BITS:
-            running.push(snr[i])
+        after = _sequential_step(
+            b, std[i], grad[i], snr[i], cfg, reference, fixed_reference, running
+        )
+        if after != b:
+            bits[i] = after
+
+
+def _sequential_step(
+    bits: int,
+    std: float,
+    gradient: float,
+    snr: float,
+    cfg: PeakSnrConfig,
+    reference: NoiseReference | None,
+    fixed_reference: float | None,
+    running: RunningSnr | None,
+) -> int:
+    """One frame of :func:`sequential_pass`: its bits with ``rim_contaminated`` decided."""
+    ref = fixed_reference if reference is None else reference.value
+    if not bits & _UNDEFINED_BIT and is_contaminated(std, gradient, ref, cfg):
+        bits |= _CONTAMINATED_BIT
+    if reference is not None:
+        reference.update(
+            std, accepted=not bits & _EXCLUDED_BITS, rejected=bool(bits & _CONTAMINATED_BIT)
+        )
+    if running is not None and not bits & _EXCLUDED_BITS:
+        running.push(snr)
+    return bits
 
 
 def background_of(cfg: PeakSnrConfig) -> str:
@@ -338,14 +393,84 @@ def peak_snr_with(
     return _measure_one(pixels, at_xy, config, fixed_reference=reference_noise)
 
 
-def _measure_one(pixels, at_xy, cfg, *, extra_bits=0, **state) -> PeakSnr:
+def _measure_one(
+    pixels,
+    at_xy,
+    cfg,
+    *,
+    extra_bits=0,
+    reference: NoiseReference | None = None,
+    fixed_reference: float | None = None,
+    running: RunningSnr | None = None,
+) -> PeakSnr:
     if pixels.ndim != 2:
         raise ValueError(f"a frame must be 2-D (rows, columns), got shape {pixels.shape}")
     x, y = pixel_of(at_xy)
+    if cfg.background is None and _compiles(pixels.dtype):
+        one = _rim_one(pixels, x, y, cfg)
+        if one is not None:
+            px, py, peak, mean, std, gradient, snr, bits = one
+            bits = _sequential_step(
+                bits | extra_bits, std, gradient, snr, cfg, reference, fixed_reference, running
+            )
+            return PeakSnr(px, py, peak, mean, std, snr, flags_from_bits(bits), BACKGROUND_RIM)
     core = measure_core(pixels[None], x, y, cfg)
     core.bits |= extra_bits
-    sequential_pass(core, cfg, **state)
+    sequential_pass(
+        core, cfg, reference=reference, fixed_reference=fixed_reference, running=running
+    )
     return result_at(core, 0, background_of(cfg))
+
+
+@functools.lru_cache(maxsize=32)
+def _compiles(dtype: np.dtype) -> bool:
+    """Pixels the compiled Eq. (4) reads as NumPy does: native integers and float32/float64."""
+    return dtype.isnative and (dtype.kind in "ui" or dtype in (np.float32, np.float64))
+
+
+def _rim_one(pixels: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> tuple | None:
+    """:func:`measure_core` of one frame with the rim background, compiled: (peak_x, peak_y,
+    peak, bg_mean, bg_std, gradient, snr, bits) as Python numbers, bit for bit those of the
+    NumPy reductions (the brightest pixel of ``rim_kernel.brightest``, the rim's statistics and
+    gradient of ``rim_kernel.rim_background``); None where the window holds no finite pixel
+    (NumPy's way then). Reads the window and the box by slicing, so a
+    lazily corrected frame corrects them first."""
+    rows, cols = pixels.shape
+    if not (0 <= x < cols and 0 <= y < rows):
+        raise ValueError(
+            f"point x={x}, y={y} is off the {cols}x{rows} image "
+            f"(x must be 0..{cols - 1}, y 0..{rows - 1})"
+        )
+    hs = cfg.search_px // 2
+    sx0, sx1 = max(x - hs, 0), min(x + hs, cols - 1)
+    sy0, sy1 = max(y - hs, 0), min(y + hs, rows - 1)
+    win = pixels[sy0 : sy1 + 1, sx0 : sx1 + 1]
+    idx = brightest(win)
+    if idx < 0:
+        return None
+    width = sx1 - sx0 + 1
+    iy, ix = divmod(idx, width)
+    px, py = sx0 + ix, sy0 + iy
+    peak = float(win[iy, ix])
+    bits = _EDGE_BIT if (sx1 - sx0 + 1) * (sy1 - sy0 + 1) < cfg.search_px * cfg.search_px else 0
+    hb = cfg.box_px // 2
+    if px < hb or px > cols - 1 - hb or py < hb or py > rows - 1 - hb:
+        mean = std = gradient = snr = math.nan
+        bits |= _EDGE_BIT | _UNDEFINED_BIT
+    else:
+        box = pixels[py - hb : py + hb + 1, px - hb : px + hb + 1]
+        mean, std, gradient, _ = rim_background(box, cfg.detrend, cfg.ddof)
+        if math.isfinite(std) and std != 0 and math.isfinite(peak):
+            snr = (peak - mean) / std
+        else:
+            snr = math.nan
+            bits |= _UNDEFINED_BIT
+    if not math.isfinite(peak):
+        peak = math.nan
+    sat = saturation_level(cfg, pixels.dtype)
+    if sat is not None and peak >= sat:
+        bits |= _SATURATED_BIT
+    return px, py, peak, mean, std, gradient, snr, bits
 
 
 class PeakSnrMeter:

@@ -7,7 +7,9 @@
   bits: then no order of summation can change them), else the caller sums with NumPy.
 - :func:`rim_stats`: :func:`snrmon.acquisition.measure.background.background_stats` of one
   rectangle's rim (N = 1): NumPy's pairwise sums of the same float64 products, in the same order;
-  the gradient's ``hypot`` stays NumPy's (libm's), done by the caller.
+  :func:`rim_background` adds the gradient's ``hypot``: numba's ``math.hypot`` is the C
+  library's ``hypot``, which NumPy's ``np.hypot`` of float64 calls too (tested bit for bit;
+  Python's own ``math.hypot`` is another algorithm and differs in the last bit).
 - :func:`brightest`: :func:`snrmon.acquisition.track.search.brightest_in`'s argmax (NaN never, first
   in row-major order among equals).
 """
@@ -164,6 +166,14 @@ def rim_stats(region, detrend, ddof):
         prod[i] = dev[i] * dev[i]
     std = math.sqrt(pairwise_sum64(prod, 0, n) / (n - ddof))
     return mean, std, gx, gy, n
+
+
+@kernel
+def rim_background(region, detrend, ddof):
+    """(mean, std, gradient, n) of the rim of ``region``: :func:`rim_stats` and the plane's
+    gradient magnitude ``hypot(gx, gy)`` (as ``background_stats`` returns it)."""
+    mean, std, gx, gy, n = rim_stats(region, detrend, ddof)
+    return mean, std, math.hypot(gx, gy), n
 
 
 @kernel

@@ -50,8 +50,15 @@ from snrmon.acquisition.measure.peak_snr import (
     PeakSnrConfig,
     peak_snr_with,
     saturation_level,
+    with_extent,
 )
-from snrmon.acquisition.measure.rim_kernel import pixel_kind, rim_excesses, rim_stats, wing_decision
+from snrmon.acquisition.measure.rim_kernel import (
+    pixel_kind,
+    rim_background,
+    rim_excesses,
+    wing_decision,
+)
+from snrmon.acquisition.stage_clock import EQ4, enter
 
 
 def background_rule(blob: Blob, cfg: PeakSnrConfig) -> str:
@@ -249,8 +256,7 @@ def measure_target(
         elif width >= 3 and height >= 3 and 2 * (width + height) - 4 > cfg.ddof:
             values = None  # compiled: background_stats of the rim, bit for bit (rim_kernel)
             region = pixels[y0 : y1 + 1, x0 : x1 + 1]
-            bg_mean, bg_std, gx, gy, n_rim = rim_stats(region, cfg.detrend, cfg.ddof)
-            gradient = float(np.hypot(gx, gy))
+            bg_mean, bg_std, gradient, n_rim = rim_background(region, cfg.detrend, cfg.ddof)
         else:
             mask, dy, dx = _rect_rim(width, height)
             values = pixels[y0 : y1 + 1, x0 : x1 + 1][mask].reshape(1, -1).astype(np.float64)
@@ -308,15 +314,26 @@ class TargetMeter:
         self._configs: dict[int, PeakSnrConfig] = {config.search_px: config}
 
     def measure(self, pixels, at, search_px: int, reference_noise) -> PeakSnr:
+        running = enter(EQ4)  # the stages of a live frame (snrmon.acquisition.stage_clock)
         cfg = self._configs.get(search_px)
         if cfg is None:
             cfg = self._configs[search_px] = dataclasses.replace(self.config, search_px=search_px)
-        return peak_snr_with(pixels, at, cfg, reference_noise=reference_noise)
+        m = peak_snr_with(pixels, at, cfg, reference_noise=reference_noise)
+        enter(running)
+        return m
 
     def measure_object(
         self, pixels, blob: Blob, at, reference_noise
     ) -> tuple[PeakSnr, tuple[int, int], int]:
         """(measurement, centre of the window it was taken in, window size)."""
+        running = enter(EQ4)
+        out = self._measure_object(pixels, blob, at, reference_noise)
+        enter(running)
+        return out
+
+    def _measure_object(
+        self, pixels, blob: Blob, at, reference_noise
+    ) -> tuple[PeakSnr, tuple[int, int], int]:
         cfg = self.config
         peak = (blob.peak_x, blob.peak_y)
         w, h = blob.extent_size
@@ -341,7 +358,7 @@ class TargetMeter:
             else:
                 at, size = peak, 1
                 m = self.measure(pixels, at, size, reference_noise)
-            return dataclasses.replace(m, extent_w_px=w, extent_h_px=h), at, size
+            return with_extent(m, w, h), at, size
         m = measure_target(
             pixels, blob, cfg, guard_px=self.guard_px, rect=rect, reference_noise=reference_noise
         )

@@ -41,9 +41,14 @@ class ReplayCamera:
         """A replay re-measures a click on the shown frame at once: it has nothing to tell."""
         return []
 
-    def latest_frame(self) -> RingFrame | None:
+    def latest_frame(
+        self, *, unless_seq: int | None = None, out: np.ndarray | None = None
+    ) -> RingFrame | None:
+        """The frame shown last (its own array: ``out`` is not needed); None when there is
+        none, or when its ``seq`` is ``unless_seq``."""
         with self._lock:
-            return self._latest
+            latest = self._latest
+        return None if latest is None or latest.seq == unless_seq else latest
 
     def series(self) -> np.ndarray:
         """Rows of (t_host_ns, snr, running mean, running std, range_m or NaN), as live."""

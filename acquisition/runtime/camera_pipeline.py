@@ -51,6 +51,7 @@ from snrmon.acquisition.engine.inputs import (
 from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
 from snrmon.acquisition.engine.warm_up import warm_up
 from snrmon.acquisition.runtime.click_news import ClickNews
+from snrmon.acquisition.stage_clock import HANDOVER, RECORDING, UNKNOWN, StageClock
 from snrmon.acquisition.streams.ring import RING_OVERRUN, FrameRing, OverflowPolicy, RingFrame
 from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.device import Device
@@ -112,6 +113,10 @@ class CameraPipeline:
         self._last_report = 0.0
         self._report_lock = threading.Lock()  # the measurement thread and a detach both report
         self._latency_ns: deque[int] = deque(maxlen=1000)
+        # Where each frame's time goes (snrmon.acquisition.stage_clock); the grab time of the
+        # frame in each ring slot, written by the device thread before it pushes the frame.
+        self.stages = StageClock()
+        self._grab_ns = np.full(ring_capacity, UNKNOWN, np.int64)
         self.click_news = ClickNews()  # what became of the operator's click, for the console
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -300,14 +305,22 @@ class CameraPipeline:
         """What became of the operator's click since the last call (:class:`ClickNews`)."""
         return self.click_news.take()
 
-    def latest_frame(self) -> RingFrame | None:
-        """The newest frame (a copy), for a display; never waits."""
-        return self.ring.peek_last()
+    def latest_frame(
+        self, *, unless_seq: int | None = None, out: np.ndarray | None = None
+    ) -> RingFrame | None:
+        """The newest frame (a copy, into ``out`` if given), for a display; never waits. None
+        when there is none yet, or when its ``seq`` is ``unless_seq`` (shown already)."""
+        return self.ring.peek_last(out, unless_seq=unless_seq)
 
     def series(self) -> np.ndarray:
         """The recent per-frame record for charts: rows of (t_host_ns, snr, running mean,
         running std, range_m or NaN)."""
         return self.engine.series()
+
+    def stage_times(self) -> dict:
+        """Where the recent frames' time went, stage by stage
+        (:meth:`snrmon.acquisition.stage_clock.StageClock.summary`)."""
+        return self.stages.summary()
 
     def status(self) -> CameraStatus:
         dev = self.device.status()
@@ -353,9 +366,19 @@ class CameraPipeline:
                 self.shape,
             )
             return
+        t_write = frame.meta.get("t_write_ns")
+        grab = frame.t_host_ns - t_write if isinstance(t_write, int) else UNKNOWN
+        self._grab_ns[self.ring.pushed % len(self._grab_ns)] = grab  # the slot it goes to
         self.ring.push(frame)
 
     def _run(self) -> None:
+        self.stages.attach()
+        try:
+            self._measure_all()
+        finally:
+            self.stages.detach()
+
+    def _measure_all(self) -> None:
         while True:
             item = self._reader.pop_next(timeout=0.1)
             if item is None:
@@ -372,6 +395,10 @@ class CameraPipeline:
                     self._idle.notify_all()
 
     def _process(self, item: RingFrame) -> None:
+        clock = self.stages
+        grab = int(self._grab_ns[item.seq % len(self._grab_ns)])
+        clock.begin(item.t_host_ns, item.t_ring_ns, grab)
+        clock.enter(RECORDING)
         with self._lock:
             rec, history, self._history_due = self._recorder, self._history_due, False
             self._handled += 1
@@ -392,10 +419,12 @@ class CameraPipeline:
         out = self.session_engine.on_frame(
             self.name, item.pixels, seq=item.seq, counter=item.counter, t_host_ns=item.t_host_ns
         )
+        clock.enter(HANDOVER)
         self.click_news.frame(out.applied, out.measurement)
         if rec is not None:
+            clock.enter(RECORDING)
             self._record(rec, index, item, out)
-        latency = time.monotonic_ns() - item.t_host_ns
+        latency = clock.end()
         with self._lock:
             self._latency_ns.append(latency)
             self._measured += 1

@@ -17,6 +17,7 @@ import dataclasses
 import logging
 import math
 import shutil
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -45,6 +46,13 @@ from snrmon.drivers.rangefinder.reading import RangeReading
 log = logging.getLogger(__name__)
 DROP_ALARM_S = 5.0
 """How long (s) the banner keeps a camera's drop alarm after its last lost frame."""
+
+SWITCH_INTERVAL_S = 0.001
+"""The interpreter's switch interval while a session runs (Python's default: 5 ms). A thread
+that needs the interpreter lock while another runs Python gets it after at most this long; a
+measurement thread needs it again after every wait (a frame, a lock, a copy that let it go), so
+with the console painting beside it the default cost a frame 5-10 ms, 1 ms costs it 1-2 ms
+(docs/engine.md, "Where a live frame's time goes")."""
 
 
 def stop_payload(stop: Stop) -> dict:
@@ -125,6 +133,7 @@ class Session:
         # camera -> (frames lost, when that count last grew)
         self._drops_seen: dict[str, tuple[int, float]] = {}
         self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
+        self._switch_interval: float | None = None  # the interpreter's, while we run
 
     # ------------------------------------------------------------------ construction helpers
     @staticmethod
@@ -172,7 +181,11 @@ class Session:
 
     # ------------------------------------------------------------------ control
     def start(self) -> None:
-        """Open every device and start the pipelines; a device that fails is retried."""
+        """Open every device and start the pipelines; a device that fails is retried. The
+        interpreter's switch interval is :data:`SWITCH_INTERVAL_S` until :meth:`stop`."""
+        if self._switch_interval is None and sys.getswitchinterval() > SWITCH_INTERVAL_S:
+            self._switch_interval = sys.getswitchinterval()
+            sys.setswitchinterval(SWITCH_INTERVAL_S)
         for dev in (self.gps, self.lrf):
             if dev is not None:
                 dev.open()
@@ -189,6 +202,9 @@ class Session:
                 dev.close()
         self._started = False
         self.stop_recording()
+        if self._switch_interval is not None:
+            sys.setswitchinterval(self._switch_interval)
+            self._switch_interval = None
 
     def __enter__(self) -> Session:
         self.start()

@@ -158,9 +158,14 @@ class RowBuilder:
         """The frames the row is summarised from (:func:`summarise_stop` semantics: the first
         ``n`` consecutive valid frames, else the longest run, the earliest of equal length),
         taking only frames before ``t_end_ns`` (None: the stop is open)."""
-        entries = [e for e in self.entries if t_end_ns is None or e[0] < t_end_ns]
-        summary = summarise_stop([r for _, r in entries], self.n)
-        return entries[summary.frames]
+        return run_before(list(self.entries), t_end_ns, self.n)
+
+
+def run_before(entries: list[Entry], t_end_ns: int | None, n: int) -> list[Entry]:
+    """:meth:`RowBuilder.run` of a copy of its entries."""
+    entries = [e for e in entries if t_end_ns is None or e[0] < t_end_ns]
+    summary = summarise_stop([r for _, r in entries], n)
+    return entries[summary.frames]
 
 
 class StopTable:
@@ -189,6 +194,8 @@ class StopTable:
         self._final: dict[tuple[int, str], StopRow] = {}
         self._runs: dict[tuple[int, str], list[Entry]] = {}
         self._seen_stops = 0
+        # The open rows as last shown, with what they were built from (rows()).
+        self._shown: dict[tuple[int, str], tuple[tuple, StopRow]] = {}
 
     # ------------------------------------------------------------------ input, per camera
     def add(self, camera: str, t_host_ns: int, result: PeakSnr) -> list[StopRow]:
@@ -227,15 +234,38 @@ class StopTable:
     # ------------------------------------------------------------------ output
     def rows(self) -> list[StopRow]:
         """Every stop so far x every camera, in stop order: final rows, and the open ones as
-        they stand now."""
+        they stand now. An open row is summarised outside the table's lock (the measurement
+        threads add to the table meanwhile), and only when its frames, its stop or the model
+        changed since it was last shown."""
+        todo: list[StopRow | tuple[Stop, str, list[Entry]]] = []
         with self._lock:
             self._open_new_stops()
-            out = []
             for stop in self.detector.stops:
                 for cam in self.cameras:
                     key = (stop.index, cam)
-                    out.append(self._final.get(key) or self._row(stop, cam, final=False)[0])
-            return out
+                    final = self._final.get(key)
+                    builder = self._builders.get(key)
+                    if final is not None:
+                        todo.append(final)
+                    else:
+                        todo.append((stop, cam, [] if builder is None else list(builder.entries)))
+        return [item if isinstance(item, StopRow) else self._open_row(*item) for item in todo]
+
+    def _open_row(self, stop: Stop, camera: str, entries: list[Entry]) -> StopRow:
+        predictor = self.predictor
+        made_of = (
+            stop,
+            len(entries),
+            entries[-1][0] if entries else None,
+            id(predictor),
+            getattr(predictor, "version", None),
+        )
+        shown = self._shown.get((stop.index, camera))
+        if shown is not None and shown[0] == made_of:
+            return shown[1]
+        row = self._row_of(stop, camera, run_before(entries, stop.t_end_ns, self.n), final=False)
+        self._shown[(stop.index, camera)] = (made_of, row)
+        return row
 
     def progress(self, camera: str) -> StopProgress | None:
         """The latest stop's progress for ``camera`` (the open stop while the drone hovers,
@@ -322,13 +352,16 @@ class StopTable:
     def _row(self, stop: Stop, camera: str, *, final: bool) -> tuple[StopRow, list[Entry]]:
         builder = self._builders.get((stop.index, camera))
         run = builder.run(stop.t_end_ns) if builder is not None else []
+        return self._row_of(stop, camera, run, final=final), run
+
+    def _row_of(self, stop: Stop, camera: str, run: list[Entry], *, final: bool) -> StopRow:
         summary = summarise_stop([r for _, r in run], self.n)
         rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
         model = dict(self.predictor(camera, rng)) if (self.predictor and rng) else {}
         resolved = model.pop("resolved_small", None)
         sky = self.predictor.curves_background_k.get(camera) if self.predictor and model else None
         psf = self.predictor.curves_psf.get(camera) if self.predictor and model else None
-        row = StopRow(
+        return StopRow(
             camera=camera,
             stop=stop.index,
             manual=stop.manual,
@@ -348,7 +381,6 @@ class StopTable:
             model_sky_temp_k=sky,
             model_psf=psf,
         )
-        return row, run
 
 
 def row_values_equal(a: StopRow, b: StopRow) -> bool:

@@ -58,6 +58,8 @@ class RingFrame:
 
     ``seq`` is the ring's own sequence number (0 for the first frame pushed, no gaps), so a
     consumer can tell console drops (``seq`` gaps) from camera drops (``counter`` gaps).
+    ``t_ring_ns``: when the frame was published in the ring (monotonic; 0 for a frame not
+    from a ring), so a consumer can tell the producer's push from its own wait.
     """
 
     pixels: np.ndarray
@@ -66,6 +68,7 @@ class RingFrame:
     t_host_ns: int
     t_device_ns: int | None
     camera: str = ""
+    t_ring_ns: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -123,6 +126,7 @@ class FrameRing:
         self._counter = np.zeros(self.capacity, np.int64)
         self._t_host = np.zeros(self.capacity, np.int64)
         self._t_device = np.full(self.capacity, NO_DEVICE_TIME, np.int64)
+        self._t_ring = np.zeros(self.capacity, np.int64)
         self._cond = threading.Condition(threading.Lock())
         self._next_seq = 0  # sequence number of the next frame to be finalized
         self._writing = False  # a slot is acquired and being filled
@@ -171,6 +175,7 @@ class FrameRing:
             self._counter[i] = counter
             self._t_host[i] = t_host_ns
             self._t_device[i] = NO_DEVICE_TIME if t_device_ns is None else t_device_ns
+            self._t_ring[i] = time.monotonic_ns()
             self._next_seq = seq + 1
             self._writing = False
             self._cond.notify_all()
@@ -211,14 +216,19 @@ class FrameRing:
             self._readers.append(r)
             return r
 
-    def peek_last(self, out: np.ndarray | None = None) -> RingFrame | None:
+    def peek_last(
+        self, out: np.ndarray | None = None, *, unless_seq: int | None = None
+    ) -> RingFrame | None:
         """The newest complete frame (a copy, into ``out`` if given), or ``None`` if there is
-        none yet. Never waits for the producer and never consumes anything."""
+        none yet, or if its ``seq`` is ``unless_seq`` (a display that has it already: nothing
+        is copied). Never waits for the producer and never consumes anything."""
         for _ in range(3):  # a torn copy means a newer frame exists: take that one
             with self._cond:
                 if self._next_seq == 0 or self._low_seq() >= self._next_seq:
                     return None
                 seq = self._next_seq - 1
+                if seq == unless_seq:
+                    return None
             item = self._copy_out(seq, out)
             if item is not None:
                 return item
@@ -268,11 +278,18 @@ class FrameRing:
             counter = int(self._counter[i])
             t_host = int(self._t_host[i])
             t_dev = int(self._t_device[i])
+            t_ring = int(self._t_ring[i])
             intact = seq >= self._low_seq()
         if not intact:
             return None
         return RingFrame(
-            pixels, seq, counter, t_host, None if t_dev == NO_DEVICE_TIME else t_dev, self.name
+            pixels,
+            seq,
+            counter,
+            t_host,
+            None if t_dev == NO_DEVICE_TIME else t_dev,
+            self.name,
+            t_ring,
         )
 
     def _remove(self, reader: Reader) -> None:

@@ -22,6 +22,7 @@ from snrmon.cli import UsageError
 from snrmon.commands.gui import add_status_file_option, add_view_options, view_options
 from snrmon.extras import require
 from snrmon.inputs import output_file
+from snrmon.output import emit_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -54,6 +55,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="FILE.pdf|png",
         help="render the report at the end: from the recording with --out, else from the "
         "live stop table (headless default: out/demo-report.pdf)",
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print the result (stops, frames received and dropped) as one JSON object",
     )
     add_status_file_option(p)
     add_view_options(p)
@@ -122,7 +128,8 @@ def run(args: argparse.Namespace) -> int:
     )
     rig = HilRig(opts)
     duration = args.duration or rig.plan.duration_s / args.speed + 3.0
-    if headless:
+    verbose = headless and not args.json  # --json: stdout holds the JSON object only
+    if verbose:
         print(
             f"snrmon demo: simulated flight of {len(opts.stops_m)} stops, {duration:.0f} s, "
             "console offscreen; stops as they complete:",
@@ -133,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
     printed: set = set()
     with rig:
         operator = threading.Thread(
-            target=_operate, args=(rig, done, printed, headless), name="operator", daemon=True
+            target=_operate, args=(rig, done, printed, verbose), name="operator", daemon=True
         )
         operator.start()
         try:
@@ -163,7 +170,10 @@ def run(args: argparse.Namespace) -> int:
                 seconds=time.monotonic() - rig.t0,
                 weather=opts.weather,
             )
-    print(format_result(result))
+    if args.json:
+        emit_json(result)
+    else:
+        print(format_result(result))
     if screenshot is not None:
         print(f"screenshot: {screenshot}", file=sys.stderr)
     if report is not None:

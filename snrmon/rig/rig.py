@@ -530,24 +530,30 @@ class HilRig:
     def adopt_measured_psf(self, cam: str, finals: dict) -> None:
         """Fit the PSF to ``cam``'s unresolved stops so far and hand it to the model (its
         corrected curves and expected Eq. (4) reading), in the background: what an operator does
-        once the first unresolved stop is in."""
-        import threading
+        once the first unresolved stop is in. The fit (about a second of NumPy) runs in the worker
+        process (:mod:`snrmon.acquisition.worker_process`), away from the measurement threads."""
         import time
 
+        from snrmon.acquisition import worker_process
         from snrmon.acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
 
         stops = self._unresolved_stops(cam, finals)
         if not stops:
             return
 
-        def fit() -> None:
+        def adopt(job) -> None:  # on the worker pool's thread
             try:
-                est = estimate_psf(stops, self.cameras[cam].sensor)
+                est = job.result()
             except PsfEstimateError:
+                return
+            except Exception:
+                log.exception("%s: the PSF fit failed", cam)
                 return
             self.session.engine.adopt_psf(cam, est.as_dict(), time.monotonic_ns())
 
-        threading.Thread(target=fit, name=f"psf-{cam}", daemon=True).start()
+        worker_process.submit(estimate_psf, stops, self.cameras[cam].sensor).add_done_callback(
+            adopt
+        )
 
     def measured_psf(self, finals: dict) -> dict:
         """Per camera, the PSF fitted to the crops of its unresolved stops, pooled, and every

@@ -231,3 +231,17 @@ def test_run_console_headless_for_a_duration_saves_a_screenshot(qtbot, rig, tmp_
 def test_run_console_refuses_a_bad_duration(rig):
     with pytest.raises(ValueError, match="duration"):
         run_console(rig[0], duration_s=0)
+
+
+def test_the_status_bar_counts_frames_shown_against_frames_delivered(qtbot, window):
+    """Every frame the camera delivers is offered to the view once; the status bar says how
+    many of them were shown (all, unless the event loop fell a whole frame behind)."""
+    label = window.display_label
+    qtbot.waitUntil(
+        lambda: label.text().startswith("frames shown/delivered per s: MWIR"), timeout=5000
+    )
+    feed = window.feeds["mwir"]
+    assert 0 < feed.shown <= feed.delivered
+    assert window.panels["mwir"].view.frames_shown == feed.shown
+    shown, delivered = window.display_rates.sample(window.feeds)["mwir"]
+    assert 0 < shown <= delivered

@@ -97,6 +97,34 @@ def test_display_item_draws_what_pyqtgraph_draws(qtbot, monkeypatch, factors):
     assert fast[spot] == fast.max() and ref[spot] == ref.max()
 
 
+def _rgb(qimage: QImage) -> np.ndarray:
+    q = qimage.convertToFormat(QImage.Format.Format_RGB32)
+    buf = np.frombuffer(q.constBits(), np.uint32, q.sizeInBytes() // 4)
+    return (buf.reshape(q.height(), q.bytesPerLine() // 4)[:, : q.width()] & 0xFFFFFF).copy()
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.uint8])
+def test_display_item_colours_as_pyqtgraph_colours(qtbot, monkeypatch, dtype):
+    """With a colour map (the histogram's gradient gives one) and no downsampling, the 32-bit
+    picture is pyqtgraph's own, pixel for pixel, for 16- and 8-bit frames."""
+    sky = _sky(48, 64)
+    levels = (LO, HI)
+    if dtype == np.uint8:
+        sky = (sky - 900).clip(0, 255).astype(np.uint8)
+        levels = (60.0, 140.0)
+    lut = np.random.default_rng(2).integers(0, 256, (256, 3), dtype=np.uint8)
+    images = []
+    for cls in (pg.ImageItem, DisplayImageItem):
+        item = cls(axisOrder="row-major", autoDownsample=True)
+        monkeypatch.setattr(item, "_computeDownsampleFactors", lambda: (1, 1))
+        item.setImage(sky, autoLevels=False, levels=levels, lut=lut)
+        item.render()
+        images.append(_rgb(item.qimage))
+    ref, fast = images
+    assert fast.shape == ref.shape == sky.shape
+    assert np.array_equal(fast, ref)
+
+
 def test_view_counts_painted_frames_and_keeps_levels_within_the_dead_band(qtbot):
     view = CameraView("mwir", (96, 160), PeakSnrConfig())
     qtbot.addWidget(view)

@@ -223,3 +223,21 @@ def test_cli_with_sensor_preset(name, f_m, pitch_m, w, h, capsys):
     out = strict_json(capsys.readouterr().out)
     assert out["x"] == pytest.approx((w - 1) / 2 + f_m * math.tan(math.radians(1.0)) / pitch_m)
     assert out["y"] == pytest.approx((h - 1) / 2, abs=1e-4)
+
+
+def test_enu_offsets_are_pymap3ds_bit_for_bit():
+    """enu_of keeps the site's ECEF between calls; the offsets are pymap3d.geodetic2enu's own,
+    for single points and arrays."""
+    from snrmon.acquisition.geo.projection import Site, enu_of
+
+    rng = np.random.default_rng(11)
+    site = Site(38.0, -77.2, 60.0)
+    lat = 38.0 + rng.normal(0.0, 0.02, 300)
+    lon = -77.2 + rng.normal(0.0, 0.02, 300)
+    alt = 60.0 + rng.uniform(-10.0, 800.0, 300)
+    for k in range(300):
+        e, n, u = pymap3d.geodetic2enu(lat[k], lon[k], alt[k], 38.0, -77.2, 60.0, deg=True)
+        want = [float(e), float(n), float(u)]
+        assert repr(enu_of(site, lat[k], lon[k], alt[k]).tolist()) == repr(want)
+    e, n, u = pymap3d.geodetic2enu(lat, lon, alt, 38.0, -77.2, 60.0, deg=True)
+    assert repr(enu_of(site, lat, lon, alt).tolist()) == repr(np.stack([e, n, u], -1).tolist())

@@ -13,12 +13,22 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 
 from snrmon.acquisition.measure.background import background_stats
 from snrmon.acquisition.measure.blob import BlobConfig, analyse_blob
 from snrmon.acquisition.measure.jit import median32, pairwise_sum32, pairwise_sum64
 from snrmon.acquisition.measure.local_sky import median
-from snrmon.acquisition.measure.rim_kernel import rim_stats
+from snrmon.acquisition.measure.peak_snr import (
+    PeakSnrConfig,
+    PeakSnrMeter,
+    background_of,
+    measure_core,
+    pixel_of,
+    result_at,
+    sequential_pass,
+)
+from snrmon.acquisition.measure.rim_kernel import rim_background, rim_stats
 from snrmon.acquisition.measure.target_snr import _excesses, _rect_rim, rim_excess
 from snrmon.acquisition.track.search import brightest_in, clip_box
 from tests.reference import blob_numpy
@@ -182,9 +192,77 @@ def test_rim_stats_equal_background_stats(kind, detrend):
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             mean, std, grad = background_stats(values, dy, dx, detrend=detrend, ddof=ddof)
             got = rim_stats(frame[y0 : y0 + h, x0 : x0 + w], detrend, ddof)
+            with_gradient = rim_background(frame[y0 : y0 + h, x0 : x0 + w], detrend, ddof)
         assert repr(got[:2]) == repr((float(mean[0]), float(std[0])))
         assert repr(float(np.hypot(got[2], got[3]))) == repr(float(grad[0]))
         assert got[4] == values.shape[1]
+        assert repr(with_gradient) == repr((*got[:2], float(grad[0]), got[4]))
+
+
+def test_compiled_hypot_is_numpys():
+    """The gradient's hypot compiled (the C library's) is NumPy's, bit for bit, over many
+    magnitudes, zeros, infinities and NaN (Python's own math.hypot is not)."""
+    rng = np.random.default_rng(17)
+    x = rng.standard_normal(20000) * 10.0 ** rng.integers(-300, 300, 20000)
+    y = rng.standard_normal(20000) * 10.0 ** rng.integers(-300, 300, 20000)
+    x[:6], y[:6] = [0.0, -0.0, np.inf, np.nan, 1e-320, 3.0], [0.0, 5.0, 1.0, 2.0, 1e-320, -np.inf]
+    want = np.hypot(x, y)
+    got = np.array([compiled_hypot(float(a), float(b)) for a, b in zip(x, y, strict=True)])
+    assert repr(got.tolist()) == repr(want.tolist())
+
+
+@njit
+def compiled_hypot(a, b):
+    return math.hypot(a, b)
+
+
+def _numpy_eq4(frame, at, cfg, meter):
+    """Eq. (4) of one frame through the NumPy reductions (the stack path's ``measure_core``),
+    with ``meter``'s noise reference and running statistics, as the per-frame path was."""
+    core = measure_core(frame[None], at[0], at[1], cfg)
+    sequential_pass(core, cfg, reference=meter.reference, running=meter.running)
+    return result_at(core, 0, background_of(cfg))
+
+
+def _as_compared(m):
+    return repr((m, m.flags, m.peak, m.bg_mean, m.bg_std, m.snr))
+
+
+@pytest.mark.parametrize("kind", [*KINDS, "int16", "float16"])
+def test_per_frame_eq4_equals_the_numpy_reductions(kind):
+    """The compiled Eq. (4) of one frame (window's brightest pixel, the rim's statistics)
+    against NumPy's, frame after frame with the contamination reference and running
+    statistics carried along: points anywhere (windows and boxes cut by the edge), every
+    window and box size, detrend, ddof, saturation levels; NaN, infinite and -0.0 pixels."""
+    rng = np.random.default_rng(400 + len(kind))
+    for _ in range(40):
+        cfg = PeakSnrConfig(
+            search_px=int(rng.choice([1, 3, 5, 11, 15])),
+            box_px=int(rng.choice([3, 5, 7, 9])),
+            detrend=bool(rng.random() < 0.4),
+            ddof=int(rng.integers(0, 2)),
+            saturation_dn=None if rng.random() < 0.7 else float(rng.uniform(100, 4000)),
+        )
+        compiled, reference = PeakSnrMeter(cfg), PeakSnrMeter(cfg)
+        for _ in range(12):
+            base = {"int16": "uint16", "float16": "float32"}.get(kind, kind)
+            frame, (px, py) = scene(rng, base)
+            if kind == "int16":
+                frame = (frame.astype(np.int32) - 3000).clip(-32768, 32767).astype(np.int16)
+            elif kind == "float16":
+                frame = frame.astype(np.float16)
+            if kind == "float32_bad" and rng.random() < 0.15:
+                frame[py - 6 : py + 7, px - 6 : px + 7] = rng.choice([np.nan, np.inf, -np.inf])
+            if rng.random() < 0.5:
+                at = (px + float(rng.uniform(-3, 3)), py + float(rng.uniform(-3, 3)))
+            else:  # anywhere, near the edges too
+                at = (int(rng.integers(0, 70)), int(rng.integers(0, 60)))
+            at = (min(max(at[0], 0), 69), min(max(at[1], 0), 59))
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                want = _numpy_eq4(frame, pixel_of(at), cfg, reference)
+            got = compiled.measure(frame, at)
+            assert _as_compared(got) == _as_compared(want)
+        assert compiled.snapshot() == reference.snapshot()
 
 
 def _calibration(rng, shape=(60, 70), bad_share=0.0):
