@@ -10,6 +10,7 @@ import sys
 
 import pytest
 
+from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.cli import main
 from snrmon.rig.flight_clock import FlightClock
@@ -69,7 +70,7 @@ def test_speed_max_on_a_busy_machine_keeps_and_accounts_for_every_frame(
     folder.mkdir()
     path = folder / "s.h5"
     argv = ["hil", "--speed", "max", "--seed", "4", "--camera", "lwir", "--stops", "393"]
-    argv += ["--transit-mps", "40", "--no-calibration", "--out", str(path), "--json"]
+    argv += ["--transit-mps", "40", "--out", str(path), "--json"]
     assert main(argv) == 0
     out, err = capsys.readouterr()
     assert busy_machine.poll() is None  # it was busy all along
@@ -88,8 +89,13 @@ def test_speed_max_on_a_busy_machine_keeps_and_accounts_for_every_frame(
     assert acc["received"] == acc["written"] + acc["before_recording"]
     assert acc["after_recording"] == acc["queued"] == 0
     assert "dropped" not in err  # no drop, so no warning
-    # No probe or other file left beside the recording: the recording and its log.
+    # No probe, calibration or other file left beside the recording: the recording and its
+    # log; the day's blackbody calibration is inside the recording, where the replay finds it.
     assert sorted(p.name for p in folder.iterdir()) == ["s.h5", "s.log"]
+    with open_session(path) as f:
+        meta, maps = f.calibration_record("lwir")
+        shape = f.cameras["lwir"].frames.shape[1:]
+    assert meta["blackbody_temps_c"] == [0.0, 45.0] and maps["responsivity"].shape == shape
     # The recording replays to the live run's numbers, frame for frame and stop for stop, and
     # carries the same accounting.
     assert main(["replay", str(path), "--fast", "--json"]) == 0

@@ -90,25 +90,7 @@ def load_calibration(
         raise ValueError(f"{p}: calibration map {exc} missing") from None
     except (ValueError, OSError) as exc:
         raise ValueError(f"{p}: not a readable calibration npz ({exc})") from None
-    shape = (int(meta["height_px"]), int(meta["width_px"]))
-    for k, v in maps.items():
-        if v.shape != shape:
-            raise ValueError(f"{p}: map {k} is {v.shape}, the sidecar says {shape}")
-    cal = Calibration(
-        camera=str(meta["camera"]),
-        band_um=(float(meta["band_um"][0]), float(meta["band_um"][1])),
-        t_int_s=float(meta["t_int_s"]),
-        temps_k=tuple(float(t) + _ZERO_C_K for t in meta["blackbody_temps_c"]),
-        responsivity=maps["responsivity"].astype(np.float32, copy=False),
-        offset_dn=maps["offset_dn"].astype(np.float32, copy=False),
-        bad=maps["bad"].astype(np.uint8, copy=False),
-        fit_rms_dn=maps["fit_rms_dn"].astype(np.float32, copy=False),
-        temporal_noise_dn=maps["temporal_noise_dn"].astype(np.float32, copy=False),
-        qe_curve=tuple(tuple(float(x) for x in row) for row in meta.get("qe_curve", [])),
-        date=str(meta.get("date", "")),
-        frames_per_temp=tuple(int(n) for n in meta.get("frames_per_temp", [])),
-        offset_updates=tuple(str(s) for s in meta.get("offset_updates", [])),
-    )
+    cal = calibration_from_record(meta, maps, source=str(p))
     if sensor is not None:
         check_matches_sensor(cal, sensor, source=f"calibration {p.name}")
     expect = frame_shape or (sensor and (sensor.height_px, sensor.width_px))
@@ -118,3 +100,41 @@ def load_calibration(
             f"{expect[1]}x{expect[0]}"
         )
     return cal
+
+
+def calibration_record(cal: Calibration) -> tuple[dict, dict[str, np.ndarray]]:
+    """``(metadata, maps)`` of ``cal``: what a session file keeps of the calibration it was
+    measured with (:func:`calibration_from_record` reads it back)."""
+    return calibration_metadata(cal), {k: getattr(cal, k) for k in _MAPS}
+
+
+def calibration_from_record(meta: dict, maps: dict[str, np.ndarray], *, source: str) -> Calibration:
+    """The :class:`Calibration` of its metadata (the sidecar's ``[calibration]`` table) and
+    per-pixel maps; ``source`` names where they came from in an error."""
+    missing = [k for k in _MAPS if k not in maps]
+    if missing:
+        raise ValueError(f"{source}: calibration map {missing[0]!r} missing")
+    try:
+        shape = (int(meta["height_px"]), int(meta["width_px"]))
+        for k in _MAPS:
+            if maps[k].shape != shape:
+                raise ValueError(f"{source}: map {k} is {maps[k].shape}, the metadata says {shape}")
+        return Calibration(
+            camera=str(meta["camera"]),
+            band_um=(float(meta["band_um"][0]), float(meta["band_um"][1])),
+            t_int_s=float(meta["t_int_s"]),
+            temps_k=tuple(float(t) + _ZERO_C_K for t in meta["blackbody_temps_c"]),
+            responsivity=maps["responsivity"].astype(np.float32, copy=False),
+            offset_dn=maps["offset_dn"].astype(np.float32, copy=False),
+            bad=maps["bad"].astype(np.uint8, copy=False),
+            fit_rms_dn=maps["fit_rms_dn"].astype(np.float32, copy=False),
+            temporal_noise_dn=maps["temporal_noise_dn"].astype(np.float32, copy=False),
+            qe_curve=tuple(tuple(float(x) for x in row) for row in meta.get("qe_curve", [])),
+            date=str(meta.get("date", "")),
+            frames_per_temp=tuple(int(n) for n in meta.get("frames_per_temp", [])),
+            offset_updates=tuple(str(s) for s in meta.get("offset_updates", [])),
+        )
+    except KeyError as exc:
+        raise ValueError(f"{source}: calibration metadata {exc} missing") from None
+    except (TypeError, IndexError) as exc:
+        raise ValueError(f"{source}: malformed calibration metadata ({exc})") from None

@@ -140,6 +140,16 @@ class SessionFile:
         ]
         return sorted(out, key=lambda e: e["t_host_ns"])
 
+    def calibration_record(self, camera: str) -> tuple[dict, dict[str, np.ndarray]] | None:
+        """``(metadata, maps)`` of the calibration ``camera`` was measured with, as the file
+        keeps it (format 2.3 on), or None (no calibration, or an earlier file: its
+        ``calibration`` event names the file it was loaded from)."""
+        g = self._f.get(f"{schema.CAMERAS}/{camera}/{schema.CALIBRATION}")
+        if g is None:
+            return None
+        meta = json.loads(g.attrs["metadata_json"])
+        return meta, {k: g[k][()] for k in schema.CALIBRATION_MAPS if k in g}
+
     def close(self) -> None:
         self._f.close()
 

@@ -53,7 +53,12 @@ STOPPED = "recording_stopped"
 
 
 class SessionRecorder:
-    """Records one session into ``path`` (created; an existing file is an error)."""
+    """Records one session into ``path`` (created; an existing file is an error).
+
+    ``calibrations``: per camera, the ``(metadata, maps)`` of the radiometric calibration its
+    frames are measured with
+    (:func:`snrmon.acquisition.calibrate.calibration_file.calibration_record`), kept in the file
+    from its start (``/cameras/<name>/calibration``)."""
 
     def __init__(
         self,
@@ -67,6 +72,7 @@ class SessionRecorder:
         clock: ClockMap | None = None,
         fsync: bool = True,
         backlog_wait_s: float = 0.0,
+        calibrations: Mapping[str, tuple[dict, dict[str, np.ndarray]]] | None = None,
     ) -> None:
         self.path = Path(path)
         if self.path.exists():
@@ -109,6 +115,7 @@ class SessionRecorder:
             clock=self.clock,
             flush_interval_s=self.flush_interval_s,
             fsync=fsync,
+            calibrations=dict(calibrations or {}),
         )
         self._writer: SessionWriter | None = self._w  # None once closed; _w keeps the counts
         self._thread = threading.Thread(target=self._run, name="session-recorder", daemon=True)

@@ -12,8 +12,14 @@ import numpy as np
 from snrmon.acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
 
 FORMAT = "snrmon-session"
-FORMAT_VERSION = "2.2"
-"""2.2: self-describing: every dataset carries ``units`` and ``long_name`` attributes (CF style),
+FORMAT_VERSION = "2.3"
+"""2.3: the radiometric calibration a camera was measured with is in the file
+(/cameras/<name>/calibration: its per-pixel maps and, in the group's ``metadata_json``, the
+calibration file's metadata), so a replay, ``characterize``, ``psf`` and ``noise`` apply the same
+calibration without the file it was loaded from. Earlier files name the calibration file in
+their ``calibration`` event, as before.
+
+2.2: self-describing: every dataset carries ``units`` and ``long_name`` attributes (CF style),
 and dimension scales name every axis (``time``, a new per-frame coordinate of the frame's UTC,
 with ``row`` and ``col`` for the frame cubes; pure dimensions ``measurement``, ``state``,
 ``reference`` and one per stream), so netCDF readers (xarray with h5netcdf) see named dimensions
@@ -38,6 +44,15 @@ COL = "col"
 MEASUREMENTS = "measurements"
 STATES = "states"
 REFERENCES = "references"
+CALIBRATION = "calibration"  # group: the calibration's per-pixel maps (format 2.3 on)
+CALIBRATION_MAPS: dict[str, str] = {
+    "responsivity": "float32",
+    "offset_dn": "float32",
+    "bad": "uint8",
+    "fit_rms_dn": "float32",
+    "temporal_noise_dn": "float32",
+}
+"""The calibration maps a session file holds, (H, W) each, and their dtypes."""
 RANGEFINDER = "rangefinder"
 GPS = "gps"
 EVENTS = "events"
@@ -223,6 +238,14 @@ ATTRS: dict[str, tuple[str, str]] = {
     ROW: ("1", "pixel row, zero-based, top to bottom"),
     COL: ("1", "pixel column, zero-based, left to right"),
     REFERENCES: ("DN", "background reference: the fixed-pattern offset subtracted before Eq. (4)"),
+    "responsivity": (
+        "DN / (photons s-1 m-2 sr-1)",
+        "calibration: DN per in-band, QE-weighted photon radiance",
+    ),
+    "offset_dn": ("DN", "calibration: the reading at zero in-band radiance"),
+    "bad": ("1", "calibration: bad-pixel bits (dead=1, hot=2, noisy=4)"),
+    "fit_rms_dn": ("DN", "calibration: rms residual of the per-pixel linear fit"),
+    "temporal_noise_dn": ("DN", "calibration: per-pixel temporal std, averaged over the captures"),
     MEASUREMENTS: (MIXED_UNITS, "per-frame peak-pixel SNR (paper Eq. 4) as measured live"),
     STATES: (MIXED_UNITS, "the engine's state before a frame after frames the file lacks"),
     RANGEFINDER: (MIXED_UNITS, "laser rangefinder readings as received"),

@@ -113,6 +113,7 @@ class SessionWriter:
         clock: ClockMap,
         flush_interval_s: float,
         fsync: bool,
+        calibrations: dict[str, tuple[dict, dict[str, np.ndarray]]] | None = None,
     ) -> None:
         self.path = path
         self.clock = clock
@@ -124,7 +125,9 @@ class SessionWriter:
         self._pending: dict[tuple[str, str], list] = {}
         self._frames: dict[str, h5py.Dataset] = {}  # per camera, looked up once (not per frame)
         self._dimensions: dict[str, h5py.Dataset] = {}  # dataset path -> its pure dimension
-        self._file = self._create(config, shapes, filters, compression, flush_interval_s)
+        self._file = self._create(
+            config, shapes, filters, compression, flush_interval_s, calibrations or {}
+        )
         self._fd = os.open(path, os.O_RDONLY) if fsync else None
 
     def _create(
@@ -134,6 +137,7 @@ class SessionWriter:
         filters: dict,
         compression: str | None,
         flush_interval_s: float,
+        calibrations: dict[str, tuple[dict, dict[str, np.ndarray]]],
     ) -> h5py.File:
         # chunks of 64 KiB and more start on a page boundary, so a frame is whole pages
         # libver bounded at v110: SWMR needs the 1.10 file format, and nothing newer is used,
@@ -204,6 +208,8 @@ class SessionWriter:
                     maxshape=(None, h, w),
                 )
                 _attach(images, self._dimension(g, schema.REFERENCES, 64), row, col)
+                if name in calibrations:
+                    self._write_calibration(g, row, col, *calibrations[name])
             for name, (dtype, units) in schema.STREAMS.items():
                 d = f.create_dataset(name, (0,), dtype, chunks=(64,), maxshape=(None,))
                 d.attrs["units_json"] = json.dumps(units)
@@ -218,6 +224,28 @@ class SessionWriter:
             self.path.unlink(missing_ok=True)
             raise
         return f
+
+    @staticmethod
+    def _write_calibration(
+        g: h5py.Group,
+        row: h5py.Dataset,
+        col: h5py.Dataset,
+        metadata: dict,
+        maps: dict[str, np.ndarray],
+    ) -> None:
+        """The camera's calibration, whole, before the file turns SWMR (no object can be made
+        after that): the maps and the metadata of the calibration file they came from."""
+        cal = g.create_group(schema.CALIBRATION)
+        cal.attrs["metadata_json"] = json.dumps(metadata, sort_keys=True, allow_nan=False)
+        for key, dtype in schema.CALIBRATION_MAPS.items():
+            data = np.asarray(maps[key], dtype)
+            if data.shape != (row.shape[0], col.shape[0]):
+                raise ValueError(
+                    f"calibration map {key} is {data.shape}, the frames are "
+                    f"{(row.shape[0], col.shape[0])}"
+                )
+            ds = cal.create_dataset(key, data=data, compression="gzip", shuffle=True)
+            _attach(ds, row, col)
 
     def write_frame(self, camera: str, pixels: np.ndarray, counter: int, t_host: int, t_dev: int):
         """Append one frame's pixels now; its counter and times at the next flush."""

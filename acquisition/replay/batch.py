@@ -24,6 +24,7 @@ from snrmon.acquisition.replay.feeder import CameraTally, Feeder, RecordedStops
 from snrmon.acquisition.replay.recorded import (
     FRAME,
     RecordedInputs,
+    recorded_calibration,
     recorded_inputs,
     recording_drops,
 )
@@ -72,18 +73,6 @@ class ReplayResult:
     @property
     def realtime_factor(self) -> float:
         return self.recording_seconds / self.seconds if self.seconds > 0 else math.inf
-
-
-def recorded_calibration(f: SessionFile, name: str, inputs: RecordedInputs, path: str | None):
-    """The calibration to apply to ``name``: ``path`` if given (a re-analysis), else the one
-    the live measurement ran with (loaded again from its recorded path), else None."""
-    path = path or inputs.per_camera[name].calibration
-    if path is None:
-        return None
-    from snrmon.acquisition.calibrate.calibration_file import load_calibration
-
-    shape = tuple(f.cameras[name].frames.shape[1:])
-    return load_calibration(path, frame_shape=shape)
 
 
 def as_recorded(
@@ -145,9 +134,9 @@ def engine_for(
         # Format 2.1 on: the live engine told the tracker about dropped frames (schema.py).
         engine.cameras[name].tell_gaps = f.version >= (2, 1)
         engine.cameras[name].display_figures = display  # no display: no raw-SNR or noise figure
-        cal = recorded_calibration(f, name, inputs, (calibrations or {}).get(name))
+        cal = recorded_calibration(f, name, (calibrations or {}).get(name))
         if cal is not None:
-            engine.cameras[name].set_calibration(cal)
+            engine.cameras[name].set_calibration(cal[0])
             if exact and not display:  # the model's sky is the recorded one: nobody reads it
                 engine.cameras[name].sky = None
     feeder = Feeder(f, inputs, engine, fast=fast, recorded_stops=stops)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 from collections import defaultdict
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,9 @@ from snrmon.acquisition.config import SessionConfig, session_config_from_dict
 from snrmon.acquisition.record.analysis_file import read_results
 from snrmon.acquisition.record.reader import SessionFile
 from snrmon.acquisition.stops.detector import Stop, StopConfig
+
+if TYPE_CHECKING:
+    from snrmon.acquisition.calibrate.calibration import Calibration
 
 # Timeline entry kinds, in the order entries of the same time are applied.
 RANGE, FIX, STOP, FRAME = 0, 1, 2, 3
@@ -202,9 +206,39 @@ def recording_drops(f: SessionFile) -> dict[str, dict[str, int]]:
     return dict(out)
 
 
-def recorded_calibration_path(f: SessionFile, camera: str) -> str | None:
-    """The calibration file the live measurement of ``camera`` ran with (its recorded
-    ``calibration`` event's path), or None."""
+def recorded_calibration(
+    f: SessionFile, camera: str, path: str | None = None, sensor=None
+) -> tuple[Calibration, str] | None:
+    """``(calibration, where it came from)`` for ``camera``'s frames: ``path`` if given (a
+    re-analysis with another calibration), else the one the live measurement ran with: kept in
+    the file (format 2.3 on), or, in an earlier file, loaded from the path its ``calibration``
+    event names; None without one. With ``sensor`` it is checked to be that camera's; it always
+    fits the recorded frames."""
+    from snrmon.acquisition.calibrate.calibration import check_matches_sensor
+    from snrmon.acquisition.calibrate.calibration_file import (
+        calibration_from_record,
+        load_calibration,
+    )
+
+    frames = f.cameras[camera].frames
+    shape = (int(frames.shape[1]), int(frames.shape[2]))
+    kept = f.calibration_record(camera) if path is None else None
+    if kept is None:
+        path = path or _recorded_calibration_path(f, camera)
+        if path is None:
+            return None
+        return load_calibration(path, sensor, frame_shape=shape), str(path)
+    source = f"{f.path.name}: {camera}'s calibration"
+    cal = calibration_from_record(*kept, source=source)
+    if sensor is not None:
+        check_matches_sensor(cal, sensor, source=source)
+    if cal.shape != shape:
+        raise ValueError(f"{source} is for {cal.shape[1]}x{cal.shape[0]} frames, not the file's")
+    return cal, source
+
+
+def _recorded_calibration_path(f: SessionFile, camera: str) -> str | None:
+    """The calibration file a pre-2.3 recording's ``calibration`` event names, or None."""
     path = None
     for e in f.event_list():
         if e["kind"] == "calibration" and e["camera"] == camera and "path" in e["payload"]:

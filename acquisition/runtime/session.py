@@ -279,20 +279,25 @@ class Session:
         shapes = {n: p.shape for n, p in self.pipelines.items()}
         if self.lossless:
             recorder_options.setdefault("backlog_wait_s", 30.0)
+        from snrmon.acquisition.calibrate.calibration_file import calibration_record
+
+        calibrations = {
+            name: calibration_record(pipe.corrector.calibration)
+            for name, pipe in self.pipelines.items()
+            if pipe.corrector.calibration is not None
+        }
         rec = SessionRecorder(
             path,
             config=self._config_record(),
             cameras=shapes,
             clock=self.clock,
+            calibrations=calibrations,
             **recorder_options,
         )
         self._recording_log = RecordingLog(path).start()  # FILE.log beside FILE.h5
         for pipe in self.pipelines.values():
-            cal = pipe.corrector.calibration
-            if cal is not None:
-                from snrmon.acquisition.calibrate.calibration_file import calibration_metadata
-
-                meta = calibration_metadata(cal)
+            if pipe.name in calibrations:
+                meta = dict(calibrations[pipe.name][0])
                 meta["path"] = next(
                     c.calibration for c in self.config.cameras if c.name == pipe.name
                 )

@@ -37,7 +37,6 @@ from pathlib import Path
 
 import numpy as np
 
-from snrmon.acquisition.calibrate.calibration_file import load_calibration
 from snrmon.acquisition.calibrate.characterize import (
     CharacterizeConfig,
     at_rest_frames,
@@ -48,7 +47,7 @@ from snrmon.acquisition.calibrate.characterize import (
 from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.replay.batch import replay_session
-from snrmon.acquisition.replay.recorded import recorded_calibration_path
+from snrmon.acquisition.replay.recorded import recorded_calibration
 from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, output_file, session_file
@@ -230,11 +229,9 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"stop {args.stop} holds no tracked frames of {args.camera}")
     with open_session(args.file) as f:
         cam = f.cameras[args.camera]
-        cal = None
-        cal_path = args.calibration or recorded_calibration_path(f, args.camera)
-        if cal_path:
-            cal = load_calibration(cal_path, sensor, frame_shape=cam.frames.shape[1:])
-        elif args.target_out:
+        found = recorded_calibration(f, args.camera, args.calibration, sensor)
+        cal, cal_source = found if found is not None else (None, None)
+        if cal is None and args.target_out:
             raise UsageError(
                 f"stop {args.stop} of {args.camera}: the session has no calibration and none was "
                 "given (--calibration): a target file needs the drone's temperature"
@@ -281,7 +278,7 @@ def run(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         raise UsageError(f"stop {args.stop}: {exc}") from None
-    out = {"stop": args.stop, **result.as_dict(), "calibration": cal_path}
+    out = {"stop": args.stop, **result.as_dict(), "calibration": cal_source}
     out["at_rest_s"] = [(held[k][1] - row.t_start_ns) / 1e9 for k in (rest[0], rest[-1])]
     corrected = cal is not None and psf is not None  # a PSF corrects a temperature
     out["psf_blur_px"], out["psf_source"] = (blur, psf_source) if corrected else (None, None)

@@ -127,7 +127,7 @@ def _roi(text: str | None, shape: tuple[int, int]):
 
 
 def _stack_noise(args: argparse.Namespace):
-    """(source line, region, sums) of a stack file."""
+    """(source line, region, sums, (calibration, its source) or None) of a stack file."""
     from snrmon.acquisition.measure.noise3d import Noise3dSums
     from snrmon.acquisition.replay.ptw import read_ptw_header
     from snrmon.acquisition.replay.stack_io import load_stack
@@ -145,7 +145,13 @@ def _stack_noise(args: argparse.Namespace):
     if Path(args.stack).suffix.lower() == ".ptw":
         h = read_ptw_header(args.stack)
         source += f", camera {h.camera_name or '?'} ({h.lens_name}, filter {h.filter_name})"
-    return source, region, sums, stack.shape[1:], args.calibration
+    calibration = None
+    if args.calibration is not None:
+        from snrmon.acquisition.calibrate.calibration_file import load_calibration
+
+        shape = (int(stack.shape[1]), int(stack.shape[2]))
+        calibration = load_calibration(args.calibration, frame_shape=shape), args.calibration
+    return source, region, sums, calibration
 
 
 def _camera(f, name: str | None):
@@ -177,9 +183,9 @@ def _seconds_range(span: tuple[str, str], t_ns: np.ndarray) -> tuple[int, int]:
 
 
 def _session_noise(args: argparse.Namespace):
-    """(source line, region, sums, frame shape, calibration path) of a session's camera."""
+    """(source line, region, sums, (calibration, its source) or None) of a session's camera."""
     from snrmon.acquisition.record.reader import open_session
-    from snrmon.acquisition.replay.recorded import recorded_calibration_path, recorded_inputs
+    from snrmon.acquisition.replay.recorded import recorded_calibration, recorded_inputs
     from snrmon.acquisition.replay.stop_noise import (
         background_region,
         recorded_stop_run,
@@ -192,7 +198,7 @@ def _session_noise(args: argparse.Namespace):
     with open_session(args.stack) as f:
         cam = _camera(f, args.camera)
         shape = (int(cam.frames.shape[1]), int(cam.frames.shape[2]))
-        calibration = args.calibration or recorded_calibration_path(f, cam.name)
+        calibration = recorded_calibration(f, cam.name, args.calibration)
         name = f"{Path(args.stack).name} {cam.name}"
         if args.stop is not None:
             stops = {s.index: s for _, s in recorded_inputs(f).stops}
@@ -211,7 +217,7 @@ def _session_noise(args: argparse.Namespace):
             if region is None:
                 raise UsageError(f"--stop {args.stop}: no region clear of the target: give --roi")
             source = f"{name}, stop {args.stop}: frames {index[0]}-{index[-1]}"
-            return source, region, region_sums(cam, index, region), shape, calibration
+            return source, region, region_sums(cam, index, region), calibration
         if args.seconds is not None:
             lo, hi = _seconds_range(args.seconds, cam.t_host_ns)
         else:
@@ -220,20 +226,19 @@ def _session_noise(args: argparse.Namespace):
             raise UsageError(f"{name}: {hi - lo} frames; 3D noise needs 2")
         region = _roi(args.roi, shape)
         source = f"{name}: frames {lo}-{hi - 1}"
-        return source, region, region_sums(cam, range(lo, hi), region), shape, calibration
+        return source, region, region_sums(cam, range(lo, hi), region), calibration
 
 
-def _kelvin(calibration: str, shape, region, mean_image: np.ndarray, noise) -> dict:
-    """The kelvin figures and NETD from ``calibration`` (module docstring)."""
-    from snrmon.acquisition.calibrate.calibration_file import load_calibration
-
-    cal = load_calibration(calibration, frame_shape=tuple(shape))
+def _kelvin(calibration: tuple, region, mean_image: np.ndarray, noise) -> dict:
+    """The kelvin figures and NETD from ``calibration``, (a calibration, its source) (module
+    docstring)."""
+    cal, source = calibration
     x0, y0, x1, y1 = region
     rows, cols = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]
     temps = cal.pixels_temperature_k(mean_image.ravel(), rows.ravel(), cols.ravel())
     scene_k = float(np.nanmedian(temps)) if np.isfinite(temps).any() else float("nan")
     if not np.isfinite(scene_k):
-        raise ValueError(f"{calibration}: the region's mean level is outside the calibration")
+        raise ValueError(f"{source}: the region's mean level is outside the calibration")
     sitf = cal.dn_per_k(scene_k)
     k = noise.scaled(1.0 / sitf)
     lo, hi = k.ci95["tvh"]
@@ -251,9 +256,9 @@ def run(args: argparse.Namespace) -> int:
 
     input_file(args.stack, "STACK")
     if is_hdf5(args.stack):
-        source, region, sums, shape, calibration = _session_noise(args)
+        source, region, sums, calibration = _session_noise(args)
     else:
-        source, region, sums, shape, calibration = _stack_noise(args)
+        source, region, sums, calibration = _stack_noise(args)
     if sums.frames < 2:
         raise UsageError(f"{source}: 3D noise needs at least 2 frames")
     noise = sums.result()
@@ -265,7 +270,7 @@ def run(args: argparse.Namespace) -> int:
         **noise.figures("dn"),
     }
     if calibration is not None:
-        out.update(_kelvin(calibration, shape, region, sums.mean_image(), noise))
+        out.update(_kelvin(calibration, region, sums.mean_image(), noise))
     if args.json:
         return emit_json(out)
     x0, y0, x1, y1 = region

@@ -55,7 +55,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from snrmon.acquisition.calibrate.calibration_file import load_calibration
     from snrmon.acquisition.calibrate.psf_estimate import (
         PsfEstimateError,
         StopCrops,
@@ -65,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     )
     from snrmon.acquisition.record.reader import open_session
     from snrmon.acquisition.replay.batch import replay_session
-    from snrmon.acquisition.replay.recorded import recorded_calibration_path
+    from snrmon.acquisition.replay.recorded import recorded_calibration
     from snrmon.acquisition.report.data import session_models
     from snrmon.model.presets import load_sensor, load_target
 
@@ -85,12 +84,8 @@ def run(args: argparse.Namespace) -> int:
     stops, ranges = [], []
     with open_session(args.file) as f:
         cam = f.cameras[args.camera]
-        cal_path = args.calibration or recorded_calibration_path(f, args.camera)
-        cal = (
-            load_calibration(cal_path, sensor, frame_shape=cam.frames.shape[1:])
-            if cal_path
-            else None
-        )
+        found = recorded_calibration(f, args.camera, args.calibration, sensor)
+        cal = found[0] if found is not None else None
         for n in args.stop:
             row = rows.get(n)
             if row is None:

@@ -166,11 +166,11 @@ class HilRig:
         self._finished = False
         calibrations: dict[str, str] = {}
         if opts.calibrate:
-            if opts.out:
-                where, stem = Path(opts.out).resolve().parent, Path(opts.out).stem
-            else:
-                self._tmp = tempfile.TemporaryDirectory(prefix="snrmon-hil-")
-                where, stem = Path(self._tmp.name), "hil"
+            # The calibration files are the session's inputs, not its output: the recording
+            # keeps the calibration it was measured with, so the output folder holds only the
+            # recording and its log.
+            self._tmp = tempfile.TemporaryDirectory(prefix="snrmon-hil-")
+            where, stem = Path(self._tmp.name), "hil"
             seeds = {c: opts.seed + i for i, c in enumerate(opts.cameras)}
             calibrations = calibrate_cameras(feeds, seeds, where, stem)
         for cam, (sensor, feed) in feeds.items():

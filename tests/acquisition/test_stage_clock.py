@@ -26,6 +26,7 @@ from snrmon.acquisition.stage_clock import (
     enter,
 )
 from snrmon.acquisition.streams.ring import FrameRing, RingFrame
+from snrmon.drivers.device import DeviceState, DeviceStatus
 
 
 class _Ticks:
@@ -130,9 +131,12 @@ def _pipeline() -> CameraPipeline:
         {"cameras": {"cam": {"source": "shm", "address": "none", "width_px": w, "height_px": h}}}
     )
 
-    class NoDevice:
+    class NoDevice:  # the frames come by hand: a device that delivers none and lost none
         def subscribe(self, cb):
             return lambda: None
+
+        def status(self) -> DeviceStatus:
+            return DeviceStatus(name="cam", state=DeviceState.STREAMING)
 
     return CameraPipeline("cam", NoDevice(), SessionEngine(config, {"cam": (h, w)}))
 

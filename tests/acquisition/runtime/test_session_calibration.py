@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
-from snrmon.acquisition.calibrate.calibration_file import save_calibration
+from snrmon.acquisition.calibrate.calibration_file import load_calibration, save_calibration
 from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.replay.batch import replay_session
@@ -80,9 +80,26 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
         session.stop()
         producer.stop()
     assert st.figures.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
+    cal = load_calibration(calibration_file)
     with open_session(path) as f:
         (event,) = [e for e in f.event_list() if e["kind"] == "calibration"]
         assert event["camera"] == "mwir" and event["payload"]["path"] == str(calibration_file)
+        # The recording keeps the calibration whole: every map bit for bit, and its metadata.
+        meta, maps = f.calibration_record("mwir")
+        assert meta["camera"] == cal.camera and meta["bad_pixels"] == np.count_nonzero(cal.bad)
+        for key, values in maps.items():
+            np.testing.assert_array_equal(values, getattr(cal, key))
+    # netCDF readers see the maps on the frames' pixel axes
+    import xarray as xr
+
+    with xr.open_dataset(
+        path, group="cameras/mwir/calibration", engine="h5netcdf", driver_kwds={"locking": False}
+    ) as ds:
+        assert ds["responsivity"].dims == ("row", "col") and ds["bad"].shape == (96, 128)
+        assert ds["offset_dn"].attrs["units"] == "DN"
+    # ... so the replay and the noise below need nothing beside it.
+    calibration_file.unlink()
+    calibration_file.with_suffix(".toml").unlink()
     replay = replay_session(path).cameras["mwir"]
     assert replay.compared >= 50 and replay.identical == replay.compared
     # A batch replay reports no raw-SNR figure, so it does not track the raw frames (half of
@@ -97,13 +114,12 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
     assert cs.figures.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
     assert math.isfinite(cs.last.snr_mean_raw) and cs.last.snr_n >= 50
     # snrmon noise on the recording: NETD from sigma_tvh through the recorded calibration
-    from snrmon.acquisition.calibrate.calibration_file import load_calibration
     from snrmon.cli import main
 
     assert main(["noise", str(path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["scene_temp_k"] == pytest.approx(SKY_K, abs=0.3)
-    sitf = load_calibration(calibration_file).dn_per_k(out["scene_temp_k"])
+    sitf = cal.dn_per_k(out["scene_temp_k"])
     assert out["sitf_dn_per_k"] == pytest.approx(sitf)
     assert out["netd_mk"] == pytest.approx(1e3 * out["sigma_corrected_dn"]["tvh"] / sitf)
     sky = CalibratedSky(1)
