@@ -38,13 +38,14 @@ setup: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/snrmon demo
 
-# import-linter runs outside the checkout so that it reads the installed namespace (the
+# The tests run in two worker processes (pytest-xdist; each test file on one worker), the
+# cores CI has. import-linter runs outside the checkout so that it reads the installed namespace (the
 # checkout's own snrmon/ folder holds only the command line).
 test: $(STAMP)
 	cd build && ../$(BIN)/lint-imports --config ../pyproject.toml
 	$(BIN)/mypy
 	$(BIN)/python .ci/freeze_constraints.py --check $(CONSTRAINTS)
-	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # After a green `make test` with new versions: pin them as the tested ones.
 constraints: $(STAMP)
