@@ -131,6 +131,15 @@ ACTIONS: tuple[ActionSpec, ...] = (
         "toggle_range_large",
     ),
     ActionSpec(
+        "enlarge_stops",
+        "Large &stop table",
+        "S",
+        "The stop table takes the images' place (every stop in view on a laptop's screen); "
+        "again to bring the images back",
+        "&View",
+        "toggle_stops_large",
+    ),
+    ActionSpec(
         "insets",
         "Box &insets",
         "I",

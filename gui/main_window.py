@@ -119,7 +119,7 @@ class ConsoleWindow(QMainWindow):
         self._pixels: dict[str, np.ndarray] = {}
         self.theme_name = th.current().name
         self.font_scale = 1.0
-        self.range_large = False
+        self.large: str | None = None  # the panel in the images' place: "range", "stops"
         self.insets_shown = True
         self.setWindowTitle("snrmon console")
 
@@ -297,19 +297,44 @@ class ConsoleWindow(QMainWindow):
         corner = screen.availableGeometry().topLeft() if screen is not None else QPoint(0, 0)
         self.setGeometry(QRect(corner, QSize(width, height)))
 
+    @property
+    def range_large(self) -> bool:
+        """The SNR-versus-range plot is in the images' place."""
+        return self.large == "range"
+
     def toggle_range_large(self) -> None:
         """The SNR-versus-range plot in the images' place, or back in its dock."""
-        if not self.range_large:
-            self.range_dock.hide()
-            self.central_stack.addWidget(self.range_tabs)
-            self.central_stack.setCurrentWidget(self.range_tabs)
-        else:
-            self.central_stack.removeWidget(self.range_tabs)
-            self.range_dock.setWidget(self.range_tabs)
-            self.range_dock.show()
+        self.enlarge(None if self.large == "range" else "range")
+        self.report("SNR vs range enlarged (P: back)" if self.large else "images back")
+
+    def toggle_stops_large(self) -> None:
+        """The stop table in the images' place (every stop in view on a laptop's screen), or
+        back in its dock."""
+        self.enlarge(None if self.large == "stops" else "stops")
+        self.report("stop table enlarged (S: back)" if self.large else "images back")
+
+    def enlarge(self, which: str | None) -> None:
+        """Put the panel ``which`` ("range": the SNR-versus-range plot, "stops": the stop
+        table) in the images' place, the one there before back in its dock; None: the images."""
+        panels = {
+            "range": (self.range_dock, self.range_tabs),
+            "stops": (self.stops_dock, self.stop_table),
+        }
+        if which is not None and which not in panels:
+            raise ValueError(f"no panel {which!r} to enlarge ({', '.join(panels)})")
+        if self.large is not None:
+            dock, widget = panels[self.large]
+            self.central_stack.removeWidget(widget)
+            dock.setWidget(widget)
+            dock.show()
+            dock.raise_()  # the front tab again where it is tabbed with others
             self.central_stack.setCurrentWidget(self.camera_splitter)
-        self.range_large = not self.range_large
-        self.report("SNR vs range enlarged (P: back)" if self.range_large else "images back")
+        if which is not None:
+            dock, widget = panels[which]
+            dock.hide()
+            self.central_stack.addWidget(widget)
+            self.central_stack.setCurrentWidget(widget)
+        self.large = which
 
     def switch_camera(self) -> None:
         """The next camera becomes the active one."""
@@ -378,8 +403,8 @@ class ConsoleWindow(QMainWindow):
 
     # ------------------------------------------------------------------ settings
     def save_settings(self) -> None:
-        if self.range_large:
-            self.toggle_range_large()  # the dock layout is saved with the plot in its dock
+        if self.large is not None:
+            self.enlarge(None)  # the dock layout is saved with every panel in its dock
         save_window(self)
 
     # ------------------------------------------------------------------ refresh (GUI thread)

@@ -9,7 +9,7 @@ Content::
 
     {"t_unix": float, "window": {"x", "y", "width", "height", "visible"},
      "view": {"theme": str, "font_scale": float, "active_camera": str, "range_large": bool,
-              "layout_fitted": bool},
+              "stops_large": bool, "layout_fitted": bool},
      "cameras": {name: {"roi": [x, y] | null, "peak": [x, y] | null, "track_state": str,
                         "snr_mean": float | null, "snr_std": float | null, "snr_n": int,
                         "snr_sem": float | null, "range_m": float | null,
@@ -123,6 +123,7 @@ def console_state(window) -> dict[str, Any]:
             "font_scale": window.font_scale,
             "active_camera": window.active_camera,
             "range_large": window.range_large,
+            "stops_large": window.large == "stops",
             "layout_fitted": window.layout_fitted,
         },
         "cameras": cameras,

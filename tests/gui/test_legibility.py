@@ -115,7 +115,7 @@ def test_every_panel_is_legible_at_the_screen_size(
 ):
     """No text cut, no legend over data, no part over another, the range plot at least a
     third of the window; at 1920 x 1080 every stop of both cameras in view with every
-    column the table keeps at that width."""
+    column the table keeps at that width, at 1366 x 768 with S (the table large)."""
     win = open_console(qtbot, flight, tmp_path, size, theme)
     assert (win.width(), win.height()) == size
     rep = settle(qtbot, win)
@@ -132,6 +132,17 @@ def test_every_panel_is_legible_at_the_screen_size(
     win.save_screenshot(artifacts / f"console-{size[0]}x{size[1]}-{theme}-range-large.png")
     QTest.keyClick(win, Qt.Key.Key_P)
     assert not win.range_large and layout_report(win)["images_shown"]
+    # S: the stop table takes the images' place: every stop of both cameras in view, on the
+    # laptop's screen too; again, and the table is back under the images, in front of its tabs
+    QTest.keyClick(win, Qt.Key.Key_S)
+    table = settle(qtbot, win)
+    assert win.large == "stops" and not table["images_shown"]
+    assert table["stops"]["rows"] == 14 and table["stops"]["in_view"] == 14, table["stops"]
+    assert table["cut_texts"] == [] and table["overlaps"] == []
+    win.save_screenshot(artifacts / f"console-{size[0]}x{size[1]}-{theme}-stops-large.png")
+    QTest.keyClick(win, Qt.Key.Key_S)
+    back = settle(qtbot, win)
+    assert win.large is None and back["images_shown"] and back["stops"]["visible"]
 
 
 def test_operator_keys_switch_camera_release_and_reselect_the_track(qtbot, flight, tmp_path):

@@ -125,6 +125,12 @@ def test_the_console_on_a_real_screen_is_legible(
         assert not big["layout"]["images_shown"] and plot["area_fraction"] > 0.5
         press(display, "p")
         poll(status, lambda s: not s["view"]["range_large"] and settled(s), 30, "P again", proc)
+        # S: the stop table in the images' place, every stop of both cameras in view
+        press(display, "s")
+        table = poll(status, lambda s: s["view"]["stops_large"] and settled(s), 30, "S", proc)
+        assert table["layout"]["stops"]["in_view"] == 14, table["layout"]["stops"]
+        press(display, "s")
+        poll(status, lambda s: not s["view"]["stops_large"] and settled(s), 30, "S again", proc)
         press(display, "c")
         poll(status, lambda s: s["view"]["active_camera"] != first, 30, "C", proc)
         press(display, "ctrl+d")
