@@ -210,20 +210,29 @@ class _Core:
     bits: np.ndarray
 
 
-def measure_core(stack: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> _Core:
-    """Eq. (4) on every frame of ``stack`` (N, H, W) at pixel (x, y), without the contamination
-    flag (which depends on the previous frames). Shared by the per-frame and stack paths so both
-    run identical reductions."""
-    n, rows, cols = stack.shape
+def search_window(
+    x: int, y: int, rows: int, cols: int, cfg: PeakSnrConfig
+) -> tuple[int, int, int, int, bool]:
+    """The peak search window around pixel (x, y) of a ``rows`` x ``cols`` image, inclusive
+    bounds (x0, x1, y0, y1), and whether the image's edge clipped it; a point off the image is a
+    ValueError naming it."""
     if not (0 <= x < cols and 0 <= y < rows):
         raise ValueError(
             f"point x={x}, y={y} is off the {cols}x{rows} image "
             f"(x must be 0..{cols - 1}, y 0..{rows - 1})"
         )
     hs = cfg.search_px // 2
-    sx0, sx1 = max(x - hs, 0), min(x + hs, cols - 1)
-    sy0, sy1 = max(y - hs, 0), min(y + hs, rows - 1)
-    clipped = (sx1 - sx0 + 1) * (sy1 - sy0 + 1) < cfg.search_px * cfg.search_px
+    x0, x1 = max(x - hs, 0), min(x + hs, cols - 1)
+    y0, y1 = max(y - hs, 0), min(y + hs, rows - 1)
+    return x0, x1, y0, y1, (x1 - x0 + 1) * (y1 - y0 + 1) < cfg.search_px * cfg.search_px
+
+
+def measure_core(stack: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> _Core:
+    """Eq. (4) on every frame of ``stack`` (N, H, W) at pixel (x, y), without the contamination
+    flag (which depends on the previous frames). Shared by the per-frame and stack paths so both
+    run identical reductions."""
+    n, rows, cols = stack.shape
+    sx0, sx1, sy0, sy1, clipped = search_window(x, y, rows, cols, cfg)
     win = stack[:, sy0 : sy1 + 1, sx0 : sx1 + 1].reshape(n, -1)
     is_float = stack.dtype.kind == "f"
     if is_float:
@@ -436,14 +445,7 @@ def _rim_one(pixels: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> tuple | 
     (NumPy's way then). Reads the window and the box by slicing, so a
     lazily corrected frame corrects them first."""
     rows, cols = pixels.shape
-    if not (0 <= x < cols and 0 <= y < rows):
-        raise ValueError(
-            f"point x={x}, y={y} is off the {cols}x{rows} image "
-            f"(x must be 0..{cols - 1}, y 0..{rows - 1})"
-        )
-    hs = cfg.search_px // 2
-    sx0, sx1 = max(x - hs, 0), min(x + hs, cols - 1)
-    sy0, sy1 = max(y - hs, 0), min(y + hs, rows - 1)
+    sx0, sx1, sy0, sy1, clipped = search_window(x, y, rows, cols, cfg)
     win = pixels[sy0 : sy1 + 1, sx0 : sx1 + 1]
     idx = brightest(win)
     if idx < 0:
@@ -452,7 +454,7 @@ def _rim_one(pixels: np.ndarray, x: int, y: int, cfg: PeakSnrConfig) -> tuple | 
     iy, ix = divmod(idx, width)
     px, py = sx0 + ix, sy0 + iy
     peak = float(win[iy, ix])
-    bits = _EDGE_BIT if (sx1 - sx0 + 1) * (sy1 - sy0 + 1) < cfg.search_px * cfg.search_px else 0
+    bits = _EDGE_BIT if clipped else 0
     hb = cfg.box_px // 2
     if px < hb or px > cols - 1 - hb or py < hb or py > rows - 1 - hb:
         mean = std = gradient = snr = math.nan
