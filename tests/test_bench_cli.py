@@ -88,3 +88,32 @@ def test_tracking_real_summary_and_table_from_scored_runs():
     assert lines[0].split()[:4] == ["clip", "frames", "insep", "worst"]
     assert lines[1].split()[:4] == ["IR_DRONE_048", "320", "0", "98.8%"]
     assert any(line.startswith("all ") and " 2/3 " in line for line in lines)
+
+
+def test_goals_read_the_bench_figures_and_say_which_are_met():
+    """Each goal reads its own section's figure; a section not run gives no row, a figure not
+    measured gives a row with no value and no verdict."""
+    from snrmon.benchmarks.goals import GOALS, format_goals, goal_rows
+
+    result = {
+        "acquisition": {"mwir": {"latency_ms_p99": 6.5}, "lwir": {"latency_ms_p99": 12.0}},
+        "gui": {"mwir_shown_fps": 60.0, "mwir_delivered_fps": 60.0, "lwir_delivered_fps": 30.0},
+        "console": {"dropped_per_run": [0, 0, 3], "stops_short_per_run": [0, 0, 0]},
+    }
+    rows = {r["goal"]: r for r in goal_rows(result)}
+    sections = {g.name: g.section for g in GOALS}
+    assert set(rows) == {name for name, sec in sections.items() if sec in result}
+    assert rows["MWIR receipt -> SNR latency p99"] == {
+        "goal": "MWIR receipt -> SNR latency p99",
+        "target": "<= 10 ms",
+        "value": 6.5,
+        "met": True,
+    }
+    assert rows["LWIR receipt -> SNR latency p99"]["met"] is False
+    assert rows["MWIR frames shown / delivered"]["value"] == 1.0
+    lwir = rows["LWIR frames shown / delivered"]  # the shown count is missing
+    assert lwir["value"] is None and lwir["met"] is None
+    worst = rows["console demo beside a busy core, frames dropped (worst run)"]
+    assert worst["value"] == 3 and worst["met"] is False
+    text = format_goals(list(rows.values()))
+    assert "NOT MET" in text and "not measured" in text

@@ -1,4 +1,5 @@
-"""``snrmon bench``: speed and memory figures of this machine (see ``benchmarks/``)."""
+"""``snrmon bench``: speed and memory figures of this machine (see ``benchmarks/``), and the
+goals they are held to (``benchmarks/goals.py``)."""
 
 from __future__ import annotations
 
@@ -82,8 +83,11 @@ def run(args: argparse.Namespace) -> int:
             result.setdefault(key, {}).update(figures)
         if hasattr(module, "format_text"):  # a table rather than name/value lines
             texts[key] = module.format_text(figures)
+    from snrmon.benchmarks.goals import format_goals, goal_rows
+
+    goals = goal_rows(result)
     if args.json:
-        return emit_json(result, indent=2)
+        return emit_json({**result, "goals": goals}, indent=2)
     for key, figures in result.items():
         print(f"[{key}]")
         if key in texts:
@@ -92,4 +96,7 @@ def run(args: argparse.Namespace) -> int:
         for name, value in figures.items():
             shown = f"{value:.4g}" if isinstance(value, float) else value
             print(f"  {name:32s} {shown}")
+    if goals:
+        print("[goals]")
+        print(format_goals(goals))
     return 0

@@ -1,0 +1,189 @@
+"""The speed goals the console is held to, read off ``snrmon bench``'s own figures.
+
+Each :class:`Goal` names the figure of one benchmark section it reads and its target;
+:func:`goal_rows` turns a bench result into one row per goal whose section was run: the figure,
+the target and whether it is met (None: the figure was not measured, e.g. a section that
+failed). ``snrmon bench`` prints them as a table after the figures and puts them in its JSON as
+``"goals"``, so the README's claims are a command away.
+
+The goals, and why:
+
+- receipt -> SNR latency p99 <= 10 ms on both cameras while measuring, tracking and recording
+  (a reading the operator sees within a third of an LWIR frame period);
+- the console shows every frame the cameras deliver (shown / delivered >= 0.99) and its event
+  loop is late by at most 8 ms at p99 (a click answered within half a frame);
+- ``replay --fast`` of both cameras >= 100x real time (a day's recording in minutes);
+- the model's four curves, expected Eq. (4) and band over 500 ranges <= 20 ms after the first
+  call, the first <= 100 ms (the model dialog answers at once);
+- Eq. (4) of one frame <= 20 us (independent of the frame's size);
+- the recorder >= 0.9 of a plain write of the same bytes, its pairs within 10 % of each other;
+- the full console demo beside a busy core: 0 frames dropped and every stop with its 100 frames
+  in every run.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Goal:
+    name: str
+    """What is measured, in words."""
+    section: str
+    """The ``snrmon bench --json`` section the figure is in."""
+    figure: Callable[[dict], float]
+    """The figure, from that section (a KeyError: not measured)."""
+    op: str
+    """``"<="`` or ``">="``."""
+    target: float
+    unit: str
+
+
+def _ratio(num: str, den: str) -> Callable[[dict], float]:
+    return lambda s: s[num] / s[den]
+
+
+def _key(name: str) -> Callable[[dict], float]:
+    return lambda s: s[name]
+
+
+def _all_runs(name: str) -> Callable[[dict], float]:
+    """The worst run's count of ``name`` (a list per run)."""
+    return lambda s: max(s[name]) if s[name] else math.nan
+
+
+GOALS: tuple[Goal, ...] = (
+    Goal(
+        "MWIR receipt -> SNR latency p99",
+        "acquisition",
+        lambda s: s["mwir"]["latency_ms_p99"],
+        "<=",
+        10.0,
+        "ms",
+    ),
+    Goal(
+        "LWIR receipt -> SNR latency p99",
+        "acquisition",
+        lambda s: s["lwir"]["latency_ms_p99"],
+        "<=",
+        10.0,
+        "ms",
+    ),
+    Goal(
+        "MWIR frames shown / delivered",
+        "gui",
+        _ratio("mwir_shown_fps", "mwir_delivered_fps"),
+        ">=",
+        0.99,
+        "",
+    ),
+    Goal(
+        "LWIR frames shown / delivered",
+        "gui",
+        _ratio("lwir_shown_fps", "lwir_delivered_fps"),
+        ">=",
+        0.99,
+        "",
+    ),
+    Goal("console event loop late, p99", "gui", _key("event_loop_late_ms_p99"), "<=", 8.0, "ms"),
+    Goal(
+        "replay --fast, both cameras",
+        "replay",
+        _key("fast_realtime_factor"),
+        ">=",
+        100.0,
+        "x real time",
+    ),
+    Goal(
+        "model, 500 ranges with band and expected Eq. (4), repeat",
+        "model",
+        _key("predict_500_warm_ms"),
+        "<=",
+        20.0,
+        "ms",
+    ),
+    Goal(
+        "model, 500 ranges with band and expected Eq. (4), first call",
+        "model",
+        _key("predict_500_first_ms"),
+        "<=",
+        100.0,
+        "ms",
+    ),
+    Goal(
+        "Eq. (4) per frame, 640x480",
+        "measurement",
+        _key("per_frame_us_640x480"),
+        "<=",
+        20.0,
+        "us",
+    ),
+    Goal(
+        "Eq. (4) per frame, 1280x720",
+        "measurement",
+        _key("per_frame_us_1280x720"),
+        "<=",
+        20.0,
+        "us",
+    ),
+    Goal("recorder / plain write", "recorder", _key("ratio"), ">=", 0.9, ""),
+    Goal(
+        "recorder / plain write, spread of its pairs",
+        "recorder",
+        _key("ratio_spread"),
+        "<=",
+        0.10,
+        "",
+    ),
+    Goal(
+        "console demo beside a busy core, frames dropped (worst run)",
+        "console",
+        _all_runs("dropped_per_run"),
+        "<=",
+        0.0,
+        "frames",
+    ),
+    Goal(
+        "console demo beside a busy core, stops short of 100 frames (worst run)",
+        "console",
+        _all_runs("stops_short_per_run"),
+        "<=",
+        0.0,
+        "stops",
+    ),
+)
+
+
+def goal_rows(result: dict) -> list[dict]:
+    """One row per goal whose section is in ``result`` (a ``snrmon bench`` result): ``goal``,
+    ``target`` (e.g. ``"<= 10 ms"``), ``value`` (None when not measured) and ``met``."""
+    rows = []
+    for g in GOALS:
+        section = result.get(g.section)
+        if section is None:
+            continue  # not run
+        try:
+            value: float | None = float(g.figure(section))
+        except (KeyError, TypeError, ZeroDivisionError):
+            value = None
+        if value is not None and not math.isfinite(value):
+            value = None
+        met = None
+        if value is not None:
+            met = value <= g.target if g.op == "<=" else value >= g.target
+        target = f"{g.op} {g.target:g} {g.unit}".rstrip()
+        rows.append({"goal": g.name, "target": target, "value": value, "met": met})
+    return rows
+
+
+def format_goals(rows: list[dict]) -> str:
+    """The rows as a text table: goal, figure, target, met / NOT MET / not measured."""
+    lines = []
+    for r in rows:
+        value = "--" if r["value"] is None else f"{r['value']:.4g}"
+        verdict = {True: "met", False: "NOT MET", None: "not measured"}[r["met"]]
+        lines.append(f"  {r['goal']:66s} {value:>10s}  {r['target']:18s} {verdict}")
+    return "\n".join(lines)
