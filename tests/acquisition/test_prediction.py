@@ -56,6 +56,54 @@ def test_measured_noise_is_per_camera():
     assert p("lwir", 451.0) == own("lwir", 451.0)  # no measured noise given: the model's
 
 
+def test_set_measured_noise_recomputes_that_camera_once_and_none_returns_to_the_models():
+    from snrmon.model.noise import MeasuredNoise
+
+    grid = np.geomspace(100.0, 2000.0, 8)  # a few ranges: the scaling holds at each
+    p = ModelPredictor({"mwir": "mwir", "lwir": "lwir"}, "uav1", ranges_m=grid)
+    model = {c: p.curve(c)["small"][1].copy() for c in ("mwir", "lwir")}
+    version = p.version
+    noise = MeasuredNoise(temporal_dn=7.2, spatial_dn=1.9)
+    p.set_measured_noise("mwir", noise)
+    assert p.version == version + 1 and p.measured_noise == {"mwir": noise}
+    p.set_measured_noise("mwir", MeasuredNoise(7.2, 1.9))  # the same numbers: nothing recomputed
+    p.set_measured_noise("nope", noise)  # a camera it has no curves for: nothing
+    assert p.version == version + 1
+    # Eq. 3: signal over noise, so every range's SNR scales by (model's noise) / (measured noise
+    # in electrons: sqrt(7.2^2 + 1.9^2) DN x the preset's 109 e-/DN)
+    sensor = load_sensor("mwir")
+    assert sensor.gain_e_per_dn == 109.0
+    model_noise_e = predict(sensor, load_target("uav1"), [451.0], band=False).noise.total
+    ratio = model_noise_e / ((7.2**2 + 1.9**2) ** 0.5 * 109.0)
+    np.testing.assert_allclose(p.curve("mwir")["small"][1] / model["mwir"], ratio, rtol=1e-12)
+    np.testing.assert_array_equal(p.curve("lwir")["small"][1], model["lwir"])
+    p.set_measured_noise("mwir", None)
+    assert p.version == version + 2 and p.measured_noise == {}
+    np.testing.assert_allclose(p.curve("mwir")["small"][1], model["mwir"], rtol=1e-12)
+
+
+def test_a_model_noise_record_round_trips_and_a_damaged_one_is_named():
+    from snrmon.acquisition.prediction import (
+        MeasuredNoise,
+        measured_noise_from_record,
+        measured_noise_record,
+    )
+
+    noise = MeasuredNoise(temporal_dn=5.8, spatial_dn=0.4)
+    assert measured_noise_record(noise) == {"temporal_dn": 5.8, "spatial_dn": 0.4}
+    assert measured_noise_from_record(measured_noise_record(noise)) == noise
+    assert measured_noise_record(None) == {} and measured_noise_from_record({}) is None
+    for bad, why in (
+        ({"temporal_dn": 5.8}, "spatial_dn"),
+        ({"temporal_dn": "x", "spatial_dn": 1.0}, "'x'"),
+        ({"temporal_dn": -1.0, "spatial_dn": 1.0}, "temporal_dn must be >= 0 DN"),
+        ({"temporal_dn": 0.0, "spatial_dn": 0.0}, "infinite"),
+    ):
+        with pytest.raises(ValueError, match="model_noise event") as err:
+            measured_noise_from_record(bad)
+        assert why in str(err.value)
+
+
 def test_a_measured_psf_replaces_the_presets_and_asynchronous_recompute():
     p = ModelPredictor({"mwir": "mwir"}, "uav1", asynchronous=True)
     before = p("mwir", 451.0)["small_corrected"]
