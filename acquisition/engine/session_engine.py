@@ -59,7 +59,9 @@ class EngineSink(Protocol):
     def model_changed(self, camera: str, kind: str, payload: dict, t_host_ns: int) -> None:
         """One of the model's inputs changed: "model_background" {"temp_k"} (the measured
         sky), "model_psf" (a PSF measured from the flight, ``PsfEstimate.as_dict``) or
-        "met_readings" (the day's met readings, ``Weather.as_dict``)."""
+        "met_readings" (the day's met readings, ``Weather.as_dict``) or "model_noise" (the
+        camera's measured 3D noise in place of the model's, ``temporal_dn`` and ``spatial_dn``;
+        {}: the model's own)."""
 
 
 class SessionEngine:
@@ -170,6 +172,10 @@ class SessionEngine:
             from snrmon.acquisition.prediction import weather_from_record
 
             self.predictor.set_weather(weather_from_record(payload), camera)
+        elif kind == "model_noise" and self.predictor is not None:
+            from snrmon.acquisition.prediction import measured_noise_from_record
+
+            self.predictor.set_measured_noise(camera, measured_noise_from_record(payload))
 
     # ------------------------------------------------------------------ commands
     def camera(self, name: str) -> CameraEngine:
