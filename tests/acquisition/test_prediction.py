@@ -61,25 +61,43 @@ def test_set_measured_noise_recomputes_that_camera_once_and_none_returns_to_the_
 
     grid = np.geomspace(100.0, 2000.0, 8)  # a few ranges: the scaling holds at each
     p = ModelPredictor({"mwir": "mwir", "lwir": "lwir"}, "uav1", ranges_m=grid)
-    model = {c: p.curve(c)["small"][1].copy() for c in ("mwir", "lwir")}
-    version = p.version
-    noise = MeasuredNoise(temporal_dn=7.2, spatial_dn=1.9)
-    p.set_measured_noise("mwir", noise)
-    assert p.version == version + 1 and p.measured_noise == {"mwir": noise}
-    p.set_measured_noise("mwir", MeasuredNoise(7.2, 1.9))  # the same numbers: nothing recomputed
-    p.set_measured_noise("nope", noise)  # a camera it has no curves for: nothing
-    assert p.version == version + 1
-    # Eq. 3: signal over noise, so every range's SNR scales by (model's noise) / (measured noise
-    # in electrons: sqrt(7.2^2 + 1.9^2) DN x the preset's 109 e-/DN)
-    sensor = load_sensor("mwir")
-    assert sensor.gain_e_per_dn == 109.0
-    model_noise_e = predict(sensor, load_target("uav1"), [451.0], band=False).noise.total
-    ratio = model_noise_e / ((7.2**2 + 1.9**2) ** 0.5 * 109.0)
-    np.testing.assert_allclose(p.curve("mwir")["small"][1] / model["mwir"], ratio, rtol=1e-12)
-    np.testing.assert_array_equal(p.curve("lwir")["small"][1], model["lwir"])
-    p.set_measured_noise("mwir", None)
-    assert p.version == version + 2 and p.measured_noise == {}
-    np.testing.assert_allclose(p.curve("mwir")["small"][1], model["mwir"], rtol=1e-12)
+    # the four curves and the paper's: signal over noise (the expected Eq. (4) readings are
+    # not proportional to it: the estimator's floor far out, the MWIR rim on the drone close in)
+    scaled = (*CURVES, *PAPER_CURVES)
+    model = {c: {n: p.curve(c)[n][1].copy() for n in scaled} for c in ("mwir", "lwir")}
+    # the presets' gains (e-/DN): MWIR chosen for 6.6 DN at a 290 K sky, LWIR for 5.8 DN
+    gains = {"mwir": 109.0, "lwir": 2.54e5}
+    noise = {
+        "mwir": MeasuredNoise(temporal_dn=7.2, spatial_dn=1.9),
+        "lwir": MeasuredNoise(5.1, 2.6),
+    }
+    for camera, other in (("mwir", "lwir"), ("lwir", "mwir")):
+        version = p.version
+        p.set_measured_noise(camera, noise[camera])
+        assert p.version == version + 1 and p.measured_noise == {camera: noise[camera]}
+        p.set_measured_noise(
+            camera, MeasuredNoise(noise[camera].temporal_dn, noise[camera].spatial_dn)
+        )
+        p.set_measured_noise("nope", noise[camera])  # a camera it has no curves for: nothing
+        assert p.version == version + 1  # the same numbers again: nothing recomputed
+        # Eq. 3: signal over noise, so every range's SNR scales by (the model's noise) /
+        # (the measured noise in electrons: hypot(sigma_tvh, sigma_vh) DN x the gain)
+        sensor = load_sensor(camera)
+        assert sensor.gain_e_per_dn == gains[camera]
+        own = predict(sensor, load_target("uav1"), [451.0], band=False, expected=False)
+        n = noise[camera]
+        ratio = own.noise.total / ((n.temporal_dn**2 + n.spatial_dn**2) ** 0.5 * gains[camera])
+        for name in scaled:
+            got = p.curve(camera)[name][1] / model[camera][name]
+            np.testing.assert_allclose(got, ratio, rtol=1e-9, err_msg=f"{camera} {name}")
+            np.testing.assert_array_equal(p.curve(other)[name][1], model[other][name])
+        built = ModelPredictor({camera: camera}, "uav1", ranges_m=grid, measured_noise=noise)
+        for name in EXPECTED_CURVES:  # recomputed as a predictor built with the noise has them
+            np.testing.assert_allclose(p.curve(camera)[name][1], built.curve(camera)[name][1])
+        p.set_measured_noise(camera, None)
+        assert p.version == version + 2 and p.measured_noise == {}
+        for name in scaled:
+            np.testing.assert_allclose(p.curve(camera)[name][1], model[camera][name], rtol=1e-12)
 
 
 def test_a_model_noise_record_round_trips_and_a_damaged_one_is_named():
