@@ -320,3 +320,34 @@ def test_measured_noise_reaches_the_curves_and_the_session_records_it(
     with open_session(tmp_path / "noise.h5") as f:
         events = [(e["camera"], e["payload"]) for e in f.event_list() if e["kind"] == "model_noise"]
     assert events == [("mwir", {"temporal_dn": tvh, "spatial_dn": vh}), ("mwir", {})]
+
+
+def test_each_camera_s_noise_is_taken_or_the_camera_named():
+    """Two cameras, one with a 3D noise of its background, one without: the first's figures
+    become its measured noise, the second keeps the model's and is named (no Qt needed)."""
+    from types import SimpleNamespace
+
+    from snrmon.acquisition.engine.status import AnalysisFigures, CameraStatus, FrameAccounting
+    from snrmon.acquisition.measure.noise3d import FIGURES, Noise3d
+    from snrmon.acquisition.measure.track_noise import RegionNoise3d
+    from snrmon.drivers.device import DeviceStatus
+    from snrmon.gui.model_curves import describe_noise, measured_noise_now
+
+    sigma = {**dict.fromkeys(FIGURES, 0.1), "tvh": 6.62, "vh": 1.35}
+    noise = Noise3d(100, 64, 64, 1000.0, sigma, sigma, dict.fromkeys(FIGURES, (0.0, 1.0)), {})
+    figures = AnalysisFigures(noise_3d=RegionNoise3d((0, 0, 63, 63), noise))
+    cameras = {
+        "mwir": CameraStatus("mwir", DeviceStatus("mwir"), FrameAccounting(), figures=figures),
+        "lwir": CameraStatus("lwir", DeviceStatus("lwir"), FrameAccounting()),
+    }
+    session = SimpleNamespace(
+        config=SimpleNamespace(cameras=[SimpleNamespace(name=c, sensor=c) for c in cameras]),
+        status=lambda: SimpleNamespace(cameras=cameras),
+    )
+    assert measured_noise_now(session, ModelOptions()) == ({}, {})  # "model": nothing taken
+    got, kept = measured_noise_now(session, ModelOptions(noise="measured"))
+    assert {c: (n.temporal_dn, n.spatial_dn) for c, n in got.items()} == {"mwir": (6.62, 1.35)}
+    assert describe_noise(got, kept) == (
+        "mwir: noise sigma_tvh 6.62 DN, sigma_vh 1.35 DN; "
+        "lwir: no 3D noise yet (100 frames of background): the model's noise kept"
+    )
