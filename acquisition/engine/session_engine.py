@@ -133,6 +133,8 @@ class SessionEngine:
             camera.predictor = predictor
             camera.stop_progress = functools.partial(self.stop_table.progress, name)
         self._sky_checked: dict[str, int] = {}
+        # per camera, the host time of the last frame the stop table has seen (model_input_ns)
+        self._table_frame_ns: dict[str, int] = {}
         self._listeners: list[Callable[[Measurement, np.ndarray | None], None]] = []
 
     # ------------------------------------------------------------------ the model
@@ -159,6 +161,12 @@ class SessionEngine:
         self.apply_model_input(camera, "model_psf", estimate)
         if self.sink is not None:
             self.sink.model_changed(camera, "model_psf", estimate, int(t_host_ns))
+
+    def model_input_ns(self, camera: str) -> int | None:
+        """The time to record a change of ``camera``'s model inputs made now at: the host time
+        of the last frame the stop table has seen (the frames after it see the new model, as a
+        replay applying the change after that frame does); None before the first frame."""
+        return self._table_frame_ns.get(camera)
 
     def apply_model_input(self, camera: str, kind: str, payload: dict) -> None:
         """A change of the model's inputs as :meth:`EngineSink.model_changed` records it."""
@@ -297,8 +305,10 @@ class SessionEngine:
         enter(STATISTICS)
         if m is None:
             self.stop_table.tick(camera, t_ns)
+            self._table_frame_ns[camera] = t_ns
             return
         self.stop_table.add(camera, t_ns, m.result)
+        self._table_frame_ns[camera] = t_ns  # after the table read the model for this frame
         if self.follow_sky:
             self._follow_sky(camera, t_ns)
         enter(HANDOVER)

@@ -275,7 +275,11 @@ class Session:
         others = {c: n for c, n in self.measured_noise.items() if c != camera}
         self.measured_noise = others if noise is None else {**others, camera: noise}
         self.engine.apply_model_input(camera, "model_noise", payload)
-        self._event("model_noise", camera=camera, payload=payload, t_host_ns=time.monotonic_ns())
+        # at the last frame measured with the model as it was: a replay applies it after that
+        # frame, so a stop row frozen after the change has the new noise there too
+        t_ns = self.engine.model_input_ns(camera)
+        t_ns = time.monotonic_ns() if t_ns is None else t_ns
+        self._event("model_noise", camera=camera, payload=payload, t_host_ns=t_ns)
 
     def add_note(self, text: str) -> None:
         self._event("note", payload={"text": text})

@@ -88,12 +88,12 @@ def test_a_replay_applies_the_recorded_noise_where_the_live_session_did(live):
     session.mark_stop()  # stop 0: the model's noise
     wait_until(lambda: _filled(session, 0), 15.0, "stop 0's frames and range")
     session.mark_stop()  # stop 1 (stop 0 ends)
-    wait_until(lambda: _final(session, 0), 15.0, "stop 0's final row")
+    wait_until(lambda: _final(session, 0) and _filled(session, 1), 15.0, "stop 0's final row")
     session.set_measured_noise("mwir", NOISE)
+    # stop 1 ends at once: the first frame after the change is the one that freezes its row
+    session.mark_stop()  # stop 2 (stop 1 ends)
     assert session.measured_noise == {"mwir": NOISE}
     assert session.predictor is not None and session.predictor.measured_noise == {"mwir": NOISE}
-    wait_until(lambda: _filled(session, 1), 15.0, "stop 1's frames and range")
-    session.mark_stop()  # stop 2 (stop 1 ends)
     wait_until(lambda: _final(session, 1), 15.0, "stop 1's final row")
     live_rows = [_row(session, 0), _row(session, 1)]
     session.stop_recording()
@@ -109,7 +109,8 @@ def test_a_replay_applies_the_recorded_noise_where_the_live_session_did(live):
     assert [(e["camera"], e["payload"]) for e in events] == [
         ("mwir", {"temporal_dn": 7.5, "spatial_dn": 2.0})
     ]
-    assert ends[0] < events[0]["t_host_ns"] < ends[1]  # between the two stops' ends
+    # at the last frame measured before the change: after stop 0's end, before stop 1's
+    assert ends[0] < events[0]["t_host_ns"] < ends[1]
 
     # Eq. 3: the stop after the change reads the model's SNR times (the model's noise) /
     # (the measured noise in electrons: sqrt(7.5^2 + 2^2) DN x the preset's gain)
