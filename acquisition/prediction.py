@@ -12,7 +12,9 @@ microseconds and every number still comes from :mod:`snrmon.model`.
 The day's met readings (:class:`Weather`: air temperature, humidity, pressure, visibility; from
 the session's ``[weather]`` table, :func:`session_model_options`, or typed in the console,
 :meth:`ModelPredictor.set_weather`, which a session records as a ``met_readings`` event and a
-replay applies at the same time) drive the model's LOWTRAN7 atmosphere.
+replay applies at the same time) drive the model's LOWTRAN7 atmosphere. The operator's "measured
+noise" (:class:`MeasuredNoise`, a camera's 3D noise: :meth:`ModelPredictor.set_measured_noise`,
+recorded as a ``model_noise`` event) replaces the model's noise the same way.
 
 A recomputation (a new sky temperature, a PSF measured from the flight, new met readings) takes
 ~0.5 s per camera.
@@ -33,8 +35,17 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from snrmon.model.atmosphere_table import AEROSOLS, SEASONS, Weather
+from snrmon.model.noise import MeasuredNoise
 
-__all__ = ["AEROSOLS", "SEASONS", "ModelPredictor", "Weather", "session_model_options"]
+__all__ = [
+    "AEROSOLS",
+    "NOISE_SOURCES",
+    "SEASONS",
+    "MeasuredNoise",
+    "ModelPredictor",
+    "Weather",
+    "session_model_options",
+]
 
 log = logging.getLogger(__name__)
 
@@ -44,6 +55,8 @@ EXPECTED_EXTENT = "expected_eq4_extent"
 EXPECTED_CURVES = (EXPECTED_RIM, EXPECTED_EXTENT)
 """The expected Eq. (4) readings by background rule (``model.snr.EXPECTED_CURVES``)."""
 PAPER_CURVES = tuple(f"paper_{c}" for c in CURVES)
+NOISE_SOURCES = ("model", "measured")
+"""The model's noise: its own (Eq. 1 and the spatial term), or the camera's measured 3D noise."""
 
 
 def session_model_options(config) -> dict:
@@ -57,6 +70,25 @@ def session_model_options(config) -> dict:
 def weather_from_record(payload: dict) -> Weather:
     """The :class:`Weather` of a recorded ``met_readings`` event (``Weather.as_dict``)."""
     return Weather.from_dict(dict(payload))
+
+
+def measured_noise_record(noise: MeasuredNoise | None) -> dict:
+    """The payload of a ``model_noise`` event: ``temporal_dn`` (sigma_tvh) and ``spatial_dn``
+    (sigma_vh), or {} for the model's own noise."""
+    if noise is None:
+        return {}
+    return {"temporal_dn": float(noise.temporal_dn), "spatial_dn": float(noise.spatial_dn)}
+
+
+def measured_noise_from_record(payload: dict) -> MeasuredNoise | None:
+    """The :class:`MeasuredNoise` of a recorded ``model_noise`` event (None: {}, the model's
+    own noise); ValueError naming what is wrong with a damaged one."""
+    if not payload:
+        return None
+    try:
+        return MeasuredNoise(float(payload["temporal_dn"]), float(payload["spatial_dn"]))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"model_noise event {dict(payload)!r}: {exc}") from None
 
 
 @runtime_checkable
@@ -99,6 +131,12 @@ class Predictor(Protocol):
     ) -> None:
         """The day's met readings for ``camera``'s atmosphere (every camera's when None; None
         readings: the model's own)."""
+        ...
+
+    def set_measured_noise(
+        self, camera: str, noise: MeasuredNoise | None, *, wait: bool | None = None
+    ) -> None:
+        """``camera``'s measured 3D noise in place of the model's (None: the model's own)."""
         ...
 
 
@@ -184,6 +222,19 @@ class ModelPredictor:
                 continue
             self.weather[cam] = weather
             self._schedule(cam, self.background_temp_k.get(cam), self.psf.get(cam), wait)
+
+    def set_measured_noise(
+        self, camera: str, noise: MeasuredNoise | None, *, wait: bool | None = None
+    ) -> None:
+        """Use ``camera``'s measured 3D noise ``noise`` in place of the model's noise (the
+        operator's "measured noise"; None: back to the model's own); the same noise again
+        recomputes nothing."""
+        if camera not in self.sensors or self.measured_noise.get(camera) == noise:
+            return
+        others = {c: n for c, n in self.measured_noise.items() if c != camera}
+        # replaced whole: another thread (a session's measurement thread) may be reading it
+        self.measured_noise = others if noise is None else {**others, camera: noise}
+        self._schedule(camera, self.background_temp_k.get(camera), self.psf.get(camera), wait)
 
     def pending(self, camera: str) -> bool:
         """True while a computation of ``camera``'s curves is under way (in the background)."""

@@ -18,7 +18,7 @@ import numpy as np
 from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.status import CameraStatus, SessionStatus
-from snrmon.acquisition.prediction import Predictor, Weather
+from snrmon.acquisition.prediction import MeasuredNoise, Predictor, Weather
 from snrmon.acquisition.record.recorder_status import RecorderStatus, RecorderSummary
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import Reader, RingFrame
@@ -86,6 +86,16 @@ class ConsoleSession(Protocol):
         ...
 
     def set_met_readings(self, weather: Weather) -> None: ...
+
+    @property
+    def measured_noise(self) -> Mapping[str, MeasuredNoise]:
+        """Per camera, the measured 3D noise the model uses in place of its own (a camera not
+        in it: the model's noise)."""
+        ...
+
+    def set_measured_noise(self, camera: str, noise: MeasuredNoise | None) -> None:
+        """``camera``'s measured noise for the model (None: the model's own again)."""
+        ...
 
 
 @runtime_checkable

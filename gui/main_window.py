@@ -516,15 +516,19 @@ class ConsoleWindow(QMainWindow):
         return self.model_dialog
 
     def apply_model_options(self, options: mc.ModelOptions) -> str | None:
-        """Rebuild the model, hand it to the session, redraw; the refusal's message or None."""
+        """Rebuild the model, hand it to the session, redraw; the refusal's message or None.
+        With the measured noise, each camera's latest 3D noise goes into the model (a camera
+        without one keeps the model's noise: the message names it)."""
+        noise, kept = mc.measured_noise_now(self.session, options)
         try:
-            self.model = mc.applied_model(self.model, self.session, options)
+            self.model = mc.applied_model(self.model, self.session, options, noise)
         except (ValueError, OSError, KeyError) as exc:
             self.report(message := f"model options refused: {exc}")
             return message
         self.reload_curves()
         save_model_options(self.settings, options)
-        self.report(f"model: {mc.describe(options)}")
+        per_camera = mc.describe_noise(noise, kept)
+        self.report(f"model: {mc.describe(options)}" + (f"; {per_camera}" if per_camera else ""))
         return None
 
     # ------------------------------------------------------------------ commands

@@ -12,19 +12,28 @@ Two :class:`snrmon.acquisition.prediction.ModelPredictor` on the same sensors, t
 :meth:`ModelCurves.curves` returns what :class:`snrmon.gui.range_plot.RangePlot` draws: the chosen
 curves of ``own`` under their model names, and, where the sky is known, the same curves of
 ``sky`` labelled ``"<name> @ sky <T> K"``.
+
+The noise in the model (:attr:`ModelOptions.noise`): the model's own, or "measured": each
+camera's 3D noise of the background around the target (``CameraStatus.figures.noise_3d``,
+bias-corrected sigma_tvh and sigma_vh of the last block of frames) as the model's noise in both
+predictors (:func:`measured_noise_now`); the session records it (``model_noise``).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
+from snrmon.acquisition.measure.track_noise import FRAMES_3D
 from snrmon.acquisition.prediction import (
     CURVES,
     EXPECTED_CURVES,
     EXPECTED_EXTENT,
     EXPECTED_RIM,
+    NOISE_SOURCES,
     PAPER_CURVES,
+    MeasuredNoise,
     ModelPredictor,
     Predictor,
     Weather,
@@ -51,19 +60,24 @@ SKY_STEP_K = 0.5  # a smaller change of the measured sky does not redraw the cur
 
 @dataclass(frozen=True)
 class ModelOptions:
-    """The operator's model choices: target preset, curves shown, background temperature, and
-    the day's met readings (the model's atmosphere; the session records them)."""
+    """The operator's model choices: target preset, curves shown, background temperature, the
+    day's met readings (the model's atmosphere; the session records them) and the noise (the
+    model's own or the cameras' measured 3D noise; the session records it)."""
 
     target: str = "uav1"
     shown: tuple[str, ...] = DEFAULT_SHOWN
     background_temp_k: float | None = None  # None: the model's own
     weather: Weather | None = None  # None: the model's default atmosphere
+    noise: str = "model"  # NOISE_SOURCES: "model" (Eq. 1 and the spatial term) or "measured"
 
     def __post_init__(self) -> None:
         unknown = [c for c in self.shown if c not in ALL_CURVES]
         if unknown:
             known = ", ".join(ALL_CURVES)
             raise ValueError(f"unknown model curve {unknown[0]!r} (known: {known})")
+        if self.noise not in NOISE_SOURCES:
+            known = ", ".join(NOISE_SOURCES)
+            raise ValueError(f"the model's noise must be one of {known}, got {self.noise!r}")
 
 
 def parse_background_temp(text: str) -> float | None:
@@ -134,7 +148,9 @@ def is_expected(name: str) -> bool:
 class ModelCurves:
     """The console's model: build, swap and read the predictors for ``sensors`` ({camera:
     sensor preset}). ``session_predictor``, if given, becomes the ``sky`` predictor (the one
-    the session already holds), so the first build costs one predictor, not two."""
+    the session already holds), so the first build costs one predictor, not two.
+    ``measured_noise``: {camera: MeasuredNoise} in place of the model's noise (both
+    predictors; a camera not in it keeps the model's)."""
 
     def __init__(
         self,
@@ -142,28 +158,40 @@ class ModelCurves:
         options: ModelOptions,
         *,
         session_predictor: Predictor | None = None,
+        measured_noise: Mapping[str, MeasuredNoise] | None = None,
     ) -> None:
         self.sensors = dict(sensors)
         self.options = options
-        self.own = self._build(options)  # the paper's curves come with every prediction
-        self.sky = session_predictor if session_predictor is not None else self._build(options)
+        self.measured_noise = dict(measured_noise or {})
+        self.own = self._build(options, self.measured_noise)  # the paper's curves come with it
+        self.sky = (
+            session_predictor
+            if session_predictor is not None
+            else self._build(options, self.measured_noise)
+        )
         self.sky_temp_k: dict[str, float] = {}
 
-    def _build(self, options: ModelOptions) -> ModelPredictor:
+    def _build(
+        self, options: ModelOptions, measured_noise: Mapping[str, MeasuredNoise]
+    ) -> ModelPredictor:
         return ModelPredictor(
             self.sensors,
             options.target,
             background_temp_k=options.background_temp_k,
+            measured_noise=dict(measured_noise),
             **session_model_options(options.weather),
         )
 
-    def apply(self, options: ModelOptions) -> None:
-        """Rebuild both predictors for ``options`` (a ValueError from the model leaves the
-        current ones in place)."""
-        own, sky = self._build(options), self._build(options)
+    def apply(
+        self, options: ModelOptions, measured_noise: Mapping[str, MeasuredNoise] | None = None
+    ) -> None:
+        """Rebuild both predictors for ``options`` and ``measured_noise`` (a ValueError from
+        the model leaves the current ones in place)."""
+        noise = dict(measured_noise or {})
+        own, sky = self._build(options, noise), self._build(options, noise)
         for camera, temp in self.sky_temp_k.items():
             sky.set_background(camera, temp)
-        self.own, self.sky, self.options = own, sky, options
+        self.own, self.sky, self.options, self.measured_noise = own, sky, options, noise
 
     @property
     def version(self) -> tuple[int, int]:
@@ -211,7 +239,12 @@ def model_for_session(
     if predictor is None:
         return None
     options = default_options(session)
-    model = ModelCurves(session_sensors(session), options, session_predictor=predictor)
+    model = ModelCurves(
+        session_sensors(session),
+        options,
+        session_predictor=predictor,
+        measured_noise=session.measured_noise,
+    )
     hand_to_session(session, model.sky)
     return model
 
@@ -223,24 +256,62 @@ def hand_to_session(session: ConsoleSession, predictor: Predictor) -> None:
 
 def default_options(session: ConsoleSession) -> ModelOptions:
     weather = session.met_readings or session.config.weather
-    return ModelOptions(target=str(session.config.target), weather=weather)
+    noise = "measured" if session.measured_noise else "model"
+    return ModelOptions(target=str(session.config.target), weather=weather, noise=noise)
+
+
+def measured_noise_now(
+    session: ConsoleSession, options: ModelOptions
+) -> tuple[dict[str, MeasuredNoise], dict[str, str]]:
+    """(the measured noise ``options`` asks for, per camera: with "measured", each camera's
+    latest 3D noise of the background around the target, its bias-corrected sigma_tvh and
+    sigma_vh; why each camera without a usable one keeps the model's noise). Both empty for
+    "model"."""
+    if options.noise != "measured":
+        return {}, {}
+    cameras = session.status().cameras
+    noise: dict[str, MeasuredNoise] = {}
+    kept: dict[str, str] = {}
+    for camera in session_sensors(session):
+        status = cameras.get(camera)
+        region = status.figures.noise_3d if status is not None else None
+        if region is None:
+            kept[camera] = f"no 3D noise yet ({FRAMES_3D} frames of background)"
+            continue
+        sigma = region.noise.sigma_corrected
+        try:
+            noise[camera] = MeasuredNoise(
+                temporal_dn=float(sigma["tvh"]), spatial_dn=float(sigma["vh"])
+            )
+        except ValueError as exc:  # e.g. 0 DN: a flat region (a saturated or dead band)
+            kept[camera] = str(exc)
+    return noise, kept
 
 
 def applied_model(
-    model: ModelCurves | None, session: ConsoleSession, options: ModelOptions
+    model: ModelCurves | None,
+    session: ConsoleSession,
+    options: ModelOptions,
+    measured_noise: Mapping[str, MeasuredNoise] | None = None,
 ) -> ModelCurves:
-    """``model`` rebuilt for ``options`` (a new one when None) and handed to ``session``; a
-    ValueError (nothing changed) for options the model refuses."""
+    """``model`` rebuilt for ``options`` and ``measured_noise`` ({camera: MeasuredNoise}, from
+    :func:`measured_noise_now`; a camera not in it keeps the model's noise) (a new model when
+    None) and handed to ``session``; a ValueError (nothing changed) for options the model
+    refuses."""
+    noise = dict(measured_noise or {})
     if model is None:
         sensors = session_sensors(session)
         if not sensors:
             raise ValueError("the session names no camera sensor presets: no model to build")
-        model = ModelCurves(sensors, options)
+        model = ModelCurves(sensors, options, measured_noise=noise)
     else:
-        model.apply(options)
+        model.apply(options, noise)
     hand_to_session(session, model.sky)
     if options.weather is not None and options.weather != session.met_readings:
         session.set_met_readings(options.weather)  # a live session records them
+    for camera in model.sensors:
+        if noise.get(camera) != session.measured_noise.get(camera):
+            session.set_measured_noise(camera, noise.get(camera))  # recorded, likewise
     return model
 
 
@@ -248,7 +319,19 @@ def describe(options: ModelOptions) -> str:
     bg = options.background_temp_k
     background = "the model's own" if bg is None else f"{bg:g} K"
     air = "default atmosphere" if options.weather is None else options.weather.describe()
+    noise = "the model's own" if options.noise == "model" else "measured (3D noise)"
     return (
-        f"target {options.target}, background {background}, air {air}, curves "
+        f"target {options.target}, background {background}, air {air}, noise {noise}, curves "
         f"{', '.join(options.shown)}"
     )
+
+
+def describe_noise(noise: Mapping[str, MeasuredNoise], kept: Mapping[str, str]) -> str:
+    """What the model's noise is per camera after a "measured" choice: the figures used, and
+    why a camera keeps the model's noise (named)."""
+    parts = [
+        f"{camera}: noise sigma_tvh {n.temporal_dn:.3g} DN, sigma_vh {n.spatial_dn:.3g} DN"
+        for camera, n in noise.items()
+    ]
+    parts += [f"{camera}: {why}: the model's noise kept" for camera, why in kept.items()]
+    return "; ".join(parts)

@@ -1,8 +1,10 @@
-"""The model options dialog: target preset, which curves are shown, background temperature, and
+"""The model options dialog: target preset, which curves are shown, background temperature,
 the day's met readings (air temperature, relative humidity, pressure, visibility, aerosol model,
-season) that drive the model's LOWTRAN7 atmosphere; a live session records them. Readings left
-empty are the season's standard atmosphere at sea level; they are not remembered for the next
-start (another day, other weather: the session's [weather] table gives them).
+season) that drive the model's LOWTRAN7 atmosphere, and the noise: the model's own or the
+cameras' measured 3D noise; a live session records the readings and the noise. Readings left
+empty are the season's standard atmosphere at sea level; neither is remembered for the next
+start (another day, other weather: the session's [weather] table gives them; other cameras'
+noise).
 
 It only collects choices into a :class:`snrmon.gui.model_curves.ModelOptions` and hands them to the
 window's ``apply(options) -> error message | None``; the window rebuilds the predictors. A bad
@@ -25,7 +27,8 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from snrmon.acquisition.prediction import AEROSOLS, SEASONS
+from snrmon.acquisition.measure.track_noise import FRAMES_3D
+from snrmon.acquisition.prediction import AEROSOLS, NOISE_SOURCES, SEASONS
 from snrmon.gui.model_curves import (
     ALL_CURVES,
     CURVE_LABELS,
@@ -104,6 +107,19 @@ class ModelOptionsDialog(QDialog):
             "Standard atmosphere whose sea-level air stands in for readings not given"
         )
         form.addRow("season", self.season)
+        self.noise = QComboBox()
+        self.noise.addItems(list(NOISE_SOURCES))
+        self.noise.setCurrentText(options.noise)
+        self.noise.setToolTip(
+            "The noise in the model's SNR (Eq. 3's denominator). model: the model's own "
+            "(Eq. 1 temporal noise, no spatial noise). measured: each camera's bias-corrected "
+            "sigma_tvh and sigma_vh of the 3D noise of the background around the target over "
+            f"the last {FRAMES_3D} frames (the noise panel; docs/measurement.md), taken when "
+            "you apply: the peak-pixel SNR's noise after non-uniformity correction is about "
+            "sqrt(sigma_tvh^2 + sigma_vh^2). A camera without a 3D noise yet keeps the "
+            "model's."
+        )
+        form.addRow("noise", self.noise)
         self.error = QLabel("")
         self.error.setStyleSheet("color: #ff6060;")
         self.error.setWordWrap(True)
@@ -133,6 +149,7 @@ class ModelOptionsDialog(QDialog):
                 self.aerosol.currentText(),
                 self.season.currentText(),
             ),
+            noise=self.noise.currentText(),
         )
 
     def apply(self) -> bool:

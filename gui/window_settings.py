@@ -1,7 +1,8 @@
 """What the console remembers between starts (QSettings): window geometry and dock layout, the
 SNR-versus-range tab, whether the box insets are shown, the theme and font scale, and the
-applied model options (target, curves shown, background K). The first start (nothing saved)
-fills the screen the window opens on.
+applied model options (target, curves shown, background K; not the met readings nor the
+noise choice: those are the session's). The first start (nothing saved) fills the screen the
+window opens on.
 
 Values are stored as plain strings or byte arrays so that the INI and native formats read back
 the same. A damaged entry is reported by name through the window's ``report`` and the default
@@ -86,8 +87,11 @@ def restore_window(win: ConsoleWindow) -> bool:
         win.report(f"saved model options ignored: {exc}")
         return first
     if options is not None:
-        # the day's met readings are the session's, never a former day's
-        options = dataclasses.replace(options, weather=win.model.options.weather)
+        # the day's met readings are the session's, never a former day's; the measured noise
+        # is this session's cameras' (not remembered either)
+        options = dataclasses.replace(
+            options, weather=win.model.options.weather, noise=win.model.options.noise
+        )
     if options is not None and options != win.model.options:
         win.apply_model_options(options)
     return first

@@ -59,7 +59,9 @@ class EngineSink(Protocol):
     def model_changed(self, camera: str, kind: str, payload: dict, t_host_ns: int) -> None:
         """One of the model's inputs changed: "model_background" {"temp_k"} (the measured
         sky), "model_psf" (a PSF measured from the flight, ``PsfEstimate.as_dict``) or
-        "met_readings" (the day's met readings, ``Weather.as_dict``)."""
+        "met_readings" (the day's met readings, ``Weather.as_dict``) or "model_noise" (the
+        camera's measured 3D noise in place of the model's, ``temporal_dn`` and ``spatial_dn``;
+        {}: the model's own)."""
 
 
 class SessionEngine:
@@ -131,6 +133,8 @@ class SessionEngine:
             camera.predictor = predictor
             camera.stop_progress = functools.partial(self.stop_table.progress, name)
         self._sky_checked: dict[str, int] = {}
+        # per camera, the host time of the last frame the stop table has seen (model_input_ns)
+        self._table_frame_ns: dict[str, int] = {}
         self._listeners: list[Callable[[Measurement, np.ndarray | None], None]] = []
 
     # ------------------------------------------------------------------ the model
@@ -158,6 +162,12 @@ class SessionEngine:
         if self.sink is not None:
             self.sink.model_changed(camera, "model_psf", estimate, int(t_host_ns))
 
+    def model_input_ns(self, camera: str) -> int | None:
+        """The time to record a change of ``camera``'s model inputs made now at: the host time
+        of the last frame the stop table has seen (the frames after it see the new model, as a
+        replay applying the change after that frame does); None before the first frame."""
+        return self._table_frame_ns.get(camera)
+
     def apply_model_input(self, camera: str, kind: str, payload: dict) -> None:
         """A change of the model's inputs as :meth:`EngineSink.model_changed` records it."""
         if kind == "model_background":
@@ -170,6 +180,10 @@ class SessionEngine:
             from snrmon.acquisition.prediction import weather_from_record
 
             self.predictor.set_weather(weather_from_record(payload), camera)
+        elif kind == "model_noise" and self.predictor is not None:
+            from snrmon.acquisition.prediction import measured_noise_from_record
+
+            self.predictor.set_measured_noise(camera, measured_noise_from_record(payload))
 
     # ------------------------------------------------------------------ commands
     def camera(self, name: str) -> CameraEngine:
@@ -291,8 +305,10 @@ class SessionEngine:
         enter(STATISTICS)
         if m is None:
             self.stop_table.tick(camera, t_ns)
+            self._table_frame_ns[camera] = t_ns
             return
         self.stop_table.add(camera, t_ns, m.result)
+        self._table_frame_ns[camera] = t_ns  # after the table read the model for this frame
         if self.follow_sky:
             self._follow_sky(camera, t_ns)
         enter(HANDOVER)

@@ -31,7 +31,7 @@ import numpy as np
 from snrmon.acquisition.engine.inputs import ClearRoi, SetRoi
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
-from snrmon.acquisition.prediction import Predictor, Weather
+from snrmon.acquisition.prediction import MeasuredNoise, Predictor, Weather
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.record.stream_rows import fix_from_row
 from snrmon.acquisition.replay.batch import engine_for
@@ -83,6 +83,7 @@ class ReplayPlayer:
         self._inputs = recorded_inputs(f)
         self.config = self._inputs.config
         self._met_readings: Weather | None = None
+        self._measured_noise: dict[str, MeasuredNoise] = {}
         self.track = self._inputs.track
         self._predictor = predictor
         tl = self._inputs.timeline
@@ -304,6 +305,22 @@ class ReplayPlayer:
         self._met_readings = weather
         if self._engine.predictor is not None:
             self._engine.predictor.set_weather(weather)
+
+    @property
+    def measured_noise(self) -> dict[str, MeasuredNoise]:
+        """The measured noise the operator gave this replay's model, per camera (the
+        recording's ``model_noise`` events apply at their times besides)."""
+        return self._measured_noise
+
+    def set_measured_noise(self, camera: str, noise: MeasuredNoise | None) -> None:
+        """Re-analyse with ``camera``'s measured noise in place of the model's (None: the
+        model's own) from now on (a replay records nothing)."""
+        if camera not in self.pipelines:
+            raise ValueError(f"replay: no camera {camera!r} in {self.path.name}")
+        others = {c: n for c, n in self._measured_noise.items() if c != camera}
+        self._measured_noise = others if noise is None else {**others, camera: noise}
+        if self._engine.predictor is not None:
+            self._engine.predictor.set_measured_noise(camera, noise)
 
     # ------------------------------------------------------------------ worker
     def _seek(self, index: int) -> None:

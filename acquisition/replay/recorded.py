@@ -47,9 +47,10 @@ class CameraInputs:
     "roi_cleared", "background_reference", "reference_cleared" (applied before the first frame
     at or after t); ``model_inputs`` are (t_ns, kind, payload) changes of the model's inputs
     ("model_background": the measured sky; "model_psf": a PSF measured from the flight;
-    "met_readings": the day's met readings, recorded once for the session; applied after that
-    frame); ``states`` maps a frame counter to the engine state recorded
-    before it. Format 1 files hold clicks and references only."""
+    "met_readings": the day's met readings, recorded once for the session; "model_noise": the
+    operator's measured noise in place of the model's; applied after that frame); ``states``
+    maps a frame counter to the engine state recorded before it. Format 1 files hold clicks and
+    references only."""
 
     commands: list[tuple[int, str, dict]] = field(default_factory=list)
     model_inputs: list[tuple[int, str, dict]] = field(default_factory=list)
@@ -124,7 +125,7 @@ def recorded_inputs(f: SessionFile) -> RecordedInputs:
             continue
         elif kind in ("roi_set", "roi_cleared", "background_reference", "reference_cleared"):
             c.commands.append((t, kind, p))
-        elif kind in ("model_background", "model_psf"):
+        elif kind in ("model_background", "model_psf", "model_noise"):
             c.model_inputs.append((t, kind, p))
         elif kind == "psf_measured" and "estimate" in p:
             measured_psf[cam] = p["estimate"]

@@ -38,6 +38,7 @@ from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.prediction import (
     CURVES,
     EXPECTED_CURVES,
+    NOISE_SOURCES,
     ModelPredictor,
     session_model_options,
 )
@@ -48,10 +49,6 @@ from snrmon.acquisition.report.stop_csv import csv_rows
 from snrmon.acquisition.stops.detector import summarise_stop
 from snrmon.acquisition.stops.table import StopRow, StopTable
 from snrmon.model.atmosphere_table import Weather
-
-NOISE_SOURCES = ("model", "measured")
-"""Where the model's noise comes from: its own Eq. 1 (and spatial term), or the camera's 3D noise
-measured on the session's stops."""
 
 BUDGET_TERMS: tuple[str, ...] = (
     "target_outline",

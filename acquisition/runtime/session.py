@@ -30,7 +30,12 @@ from snrmon.acquisition.config import SessionConfig, camera_device
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
-from snrmon.acquisition.prediction import Predictor, Weather
+from snrmon.acquisition.prediction import (
+    MeasuredNoise,
+    Predictor,
+    Weather,
+    measured_noise_record,
+)
 from snrmon.acquisition.protocols import RecordingWriter
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.acquisition.record.session_log import RecordingLog
@@ -133,6 +138,8 @@ class Session:
         # camera -> (frames lost, when that count last grew)
         self._drops_seen: dict[str, tuple[int, float]] = {}
         self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
+        # per camera, the measured 3D noise the model uses in place of its own (none: its own)
+        self.measured_noise: dict[str, MeasuredNoise] = {}
         self._switch_interval: float | None = None  # the interpreter's, while we run
 
     # ------------------------------------------------------------------ construction helpers
@@ -256,6 +263,24 @@ class Session:
             self.engine.apply_model_input(name, "met_readings", payload)
         self._event("met_readings", payload=payload, t_host_ns=time.monotonic_ns())
 
+    def set_measured_noise(self, camera: str, noise: MeasuredNoise | None) -> None:
+        """``camera``'s measured 3D noise (a ``snrmon.model.noise.MeasuredNoise``: sigma_tvh
+        and sigma_vh of the background around the target, the console's "measured noise") in
+        place of the model's noise from now on; None: the model's own again. Recorded as a
+        ``model_noise`` event that a replay applies at the same time."""
+        self.pipeline(camera)  # a ValueError naming a camera the session does not have
+        if noise is not None and not isinstance(noise, MeasuredNoise):
+            raise ValueError(f"{camera}: a measured noise must be a MeasuredNoise, got {noise!r}")
+        payload = measured_noise_record(noise)
+        others = {c: n for c, n in self.measured_noise.items() if c != camera}
+        self.measured_noise = others if noise is None else {**others, camera: noise}
+        self.engine.apply_model_input(camera, "model_noise", payload)
+        # at the last frame measured with the model as it was: a replay applies it after that
+        # frame, so a stop row frozen after the change has the new noise there too
+        t_ns = self.engine.model_input_ns(camera)
+        t_ns = time.monotonic_ns() if t_ns is None else t_ns
+        self._event("model_noise", camera=camera, payload=payload, t_host_ns=t_ns)
+
     def add_note(self, text: str) -> None:
         self._event("note", payload={"text": text})
 
@@ -305,6 +330,8 @@ class Session:
         if self.met_readings is not None and self.met_readings != self.config.weather:
             # typed before the recording began: the file holds them from its start
             rec.add_event("met_readings", payload=self.met_readings.as_dict())
+        for name, noise in self.measured_noise.items():  # likewise the measured noise
+            rec.add_event("model_noise", camera=name, payload=measured_noise_record(noise))
 
         def attach() -> None:
             # With the detector held: the stops so far are part of the record, and every change

@@ -8,6 +8,7 @@ noise panel shows the processing side's section 6 figures and 3D noise.
 from __future__ import annotations
 
 import dataclasses
+import math
 import uuid
 
 import numpy as np
@@ -160,11 +161,12 @@ def test_model_options_are_remembered_for_the_next_start(qtbot, window):
     options = ModelOptions(
         target="uav2", shown=("small", "large_corrected"), background_temp_k=262.5
     )
-    assert window.apply_model_options(options) is None
+    # the noise choice is not remembered (like the met readings: the session's cameras')
+    assert window.apply_model_options(dataclasses.replace(options, noise="measured")) is None
     # A new console on the same settings (the next start) draws the same model.
     again = ConsoleWindow(window.session, settings=window.settings)
     qtbot.addWidget(again)
-    assert again.model.options == options
+    assert again.model.options == options and again.model.options.noise == "model"
     want = ModelPredictor({"mwir": "mwir"}, "uav2", background_temp_k=262.5).curve("mwir")
     _, y = again.range_plots["mwir"].curve_items["large_corrected"].getData()
     np.testing.assert_allclose(y, want["large_corrected"][1])
@@ -213,3 +215,139 @@ def test_the_dialog_takes_the_days_met_readings_and_the_session_records_them(
     with open_session(tmp_path / "met.h5") as f:
         events = [e["payload"] for e in f.event_list() if e["kind"] == "met_readings"]
     assert events == [want.as_dict()]
+
+
+def _frozen_status(monkeypatch, session, **noise_3d) -> None:
+    """The session's status as it is now, held (the next 100 frames' 3D noise would replace
+    the figures the test compares with); ``noise_3d``: a camera's 3D noise replaced."""
+    st = session.status()
+    cams = {
+        n: dataclasses.replace(c, figures=dataclasses.replace(c.figures, noise_3d=noise_3d[n]))
+        if n in noise_3d
+        else c
+        for n, c in st.cameras.items()
+    }
+    frozen = dataclasses.replace(st, cameras=cams)
+    monkeypatch.setattr(session, "status", lambda: frozen)
+
+
+def test_measured_noise_without_a_3d_noise_yet_keeps_the_models_curves(qtbot, window, monkeypatch):
+    """No track, no 3D noise: the camera is named and keeps the model's noise; a 3D noise of
+    0 DN (a flat band) likewise; an unknown choice is refused."""
+    assert window.session.status().cameras["mwir"].figures.noise_3d is None  # nothing tracked
+    before = _drawn(window, "small_corrected")[1].copy()
+    dialog = window.model_options()
+    assert dialog.noise.currentText() == "model"
+    assert [dialog.noise.itemText(i) for i in range(dialog.noise.count())] == ["model", "measured"]
+    tip = dialog.noise.toolTip()
+    assert "sigma_tvh" in tip and "sigma_vh" in tip and "bias-corrected" in tip and "100" in tip
+    dialog.noise.setCurrentText("measured")
+    qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+    assert dialog.error.text() == ""
+    assert window.messages[-1].endswith(
+        "mwir: no 3D noise yet (100 frames of background): the model's noise kept"
+    )
+    assert "noise measured (3D noise)" in window.messages[-1]
+    assert window.model.options.noise == "measured"
+    assert window.session.measured_noise == {} and window.model.sky.measured_noise == {}
+    np.testing.assert_allclose(_drawn(window, "small_corrected")[1], before, rtol=1e-12)
+
+    from snrmon.acquisition.measure.noise3d import FIGURES, Noise3d
+    from snrmon.acquisition.measure.track_noise import RegionNoise3d
+
+    zeros = dict.fromkeys(FIGURES, 0.0)
+    flat = Noise3d(100, 40, 40, 1000.0, zeros, zeros, dict.fromkeys(FIGURES, (0.0, 0.0)), {})
+    _frozen_status(monkeypatch, window.session, mwir=RegionNoise3d((0, 0, 39, 39), flat))
+    qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+    assert window.messages[-1].endswith(
+        "mwir: measured noise of 0 DN: the SNR would be infinite: the model's noise kept"
+    )
+    assert window.session.measured_noise == {}
+    np.testing.assert_allclose(_drawn(window, "small_corrected")[1], before, rtol=1e-12)
+    with pytest.raises(ValueError, match="noise must be one of model, measured, got 'mesured'"):
+        ModelOptions(noise="mesured")
+
+
+def test_measured_noise_reaches_the_curves_and_the_session_records_it(
+    qtbot, window, monkeypatch, tmp_path
+):
+    """With a 3D noise measured around the track, "measured" scales every curve by the model's
+    noise over sqrt(sigma_tvh^2 + sigma_vh^2) x the sensor's gain, the session's stop table asks
+    the same model, and the recording holds the camera's figures; "model" goes back."""
+    from snrmon.acquisition.record.reader import open_session
+    from snrmon.model.presets import load_sensor, load_target
+    from snrmon.model.snr import predict
+
+    session = window.session
+    session.start_recording(tmp_path / "noise.h5")
+    window.set_roi("mwir", SPOT_X, SPOT_Y)
+    qtbot.waitUntil(
+        lambda: session.status().cameras["mwir"].figures.noise_3d is not None, timeout=15_000
+    )
+    _frozen_status(monkeypatch, session)
+    sigma = session.status().cameras["mwir"].figures.noise_3d.noise.sigma_corrected
+    tvh, vh = sigma["tvh"], sigma["vh"]
+    # the rendered white noise of 8 DN (rounded): sigma_tvh ~ 8 DN, sigma_vh ~ 0
+    assert tvh == pytest.approx((NOISE_DN**2 + 1 / 12) ** 0.5, rel=0.01) and vh < 0.3
+    model = {n: _drawn(window, n)[1].copy() for n in ("small", "small_corrected")}
+
+    dialog = window.model_options()
+    dialog.noise.setCurrentText("measured")
+    qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+    assert dialog.error.text() == ""
+    assert f"mwir: noise sigma_tvh {tvh:.3g} DN, sigma_vh {vh:.3g} DN" in window.messages[-1]
+    # Eq. 3: signal / noise, so the curves scale by (model's noise) / (measured noise, e-)
+    sensor = load_sensor("mwir")
+    own = predict(sensor, load_target("uav1"), [500.0], band=False, expected=False)
+    ratio = own.noise.total / (math.hypot(tvh, vh) * 109.0)  # the MWIR preset's 109 e-/DN
+    assert sensor.gain_e_per_dn == 109.0 and 0.5 < ratio < 2.0
+    for name, y in model.items():
+        np.testing.assert_allclose(_drawn(window, name)[1], y * ratio, rtol=1e-9, err_msg=name)
+    assert session.predictor is window.model.sky
+    want = {"mwir": (tvh, vh)}
+    for predictor in (window.model.own, window.model.sky):
+        got = {c: (n.temporal_dn, n.spatial_dn) for c, n in predictor.measured_noise.items()}
+        assert got == want
+    assert {c: (n.temporal_dn, n.spatial_dn) for c, n in session.measured_noise.items()} == want
+
+    dialog.noise.setCurrentText("model")
+    qtbot.mouseClick(dialog.apply_button, Qt.MouseButton.LeftButton)
+    assert session.measured_noise == {} and window.model.sky.measured_noise == {}
+    for name, y in model.items():
+        np.testing.assert_allclose(_drawn(window, name)[1], y, rtol=1e-12, err_msg=name)
+    assert "noise the model's own" in window.messages[-1]
+    session.stop_recording()
+    with open_session(tmp_path / "noise.h5") as f:
+        events = [(e["camera"], e["payload"]) for e in f.event_list() if e["kind"] == "model_noise"]
+    assert events == [("mwir", {"temporal_dn": tvh, "spatial_dn": vh}), ("mwir", {})]
+
+
+def test_each_camera_s_noise_is_taken_or_the_camera_named():
+    """Two cameras, one with a 3D noise of its background, one without: the first's figures
+    become its measured noise, the second keeps the model's and is named (no Qt needed)."""
+    from types import SimpleNamespace
+
+    from snrmon.acquisition.engine.status import AnalysisFigures, CameraStatus, FrameAccounting
+    from snrmon.acquisition.measure.noise3d import FIGURES, Noise3d
+    from snrmon.acquisition.measure.track_noise import RegionNoise3d
+    from snrmon.drivers.device import DeviceStatus
+    from snrmon.gui.model_curves import describe_noise, measured_noise_now
+
+    sigma = {**dict.fromkeys(FIGURES, 0.1), "tvh": 6.62, "vh": 1.35}
+    noise = Noise3d(100, 64, 64, 1000.0, sigma, sigma, dict.fromkeys(FIGURES, (0.0, 1.0)), {})
+    figures = AnalysisFigures(noise_3d=RegionNoise3d((0, 0, 63, 63), noise))
+    cameras = {
+        "mwir": CameraStatus("mwir", DeviceStatus("mwir"), FrameAccounting(), figures=figures),
+        "lwir": CameraStatus("lwir", DeviceStatus("lwir"), FrameAccounting()),
+    }
+    session = SimpleNamespace(
+        config=SimpleNamespace(cameras=[SimpleNamespace(name=c, sensor=c) for c in cameras]),
+        status=lambda: SimpleNamespace(cameras=cameras),
+    )
+    assert measured_noise_now(session, ModelOptions()) == ({}, {})  # "model": nothing taken
+    got, kept = measured_noise_now(session, ModelOptions(noise="measured"))
+    assert {c: (n.temporal_dn, n.spatial_dn) for c, n in got.items()} == {"mwir": (6.62, 1.35)}
+    assert describe_noise(got, kept) == (
+        "mwir: noise sigma_tvh 6.62 DN, sigma_vh 1.35 DN; "
+        "lwir: no 3D noise yet (100 frames of background): the model's noise kept"
+    )

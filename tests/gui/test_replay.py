@@ -15,7 +15,7 @@ from snrmon.acquisition.engine.inputs import FrameContext
 from snrmon.acquisition.replay.player import ReplayPlayer
 from snrmon.gui.app import console_application
 from snrmon.gui.main_window import ConsoleWindow
-from tests.acquisition.session_factory import SPOT_XY, write_session
+from tests.acquisition.session_factory import NOISE_DN, SPOT_XY, write_session
 
 
 def curves(camera: str) -> dict:
@@ -125,3 +125,28 @@ def test_gps_cross_is_drawn_at_the_projection_and_hidden_without_one(qtbot, wind
     assert (xs[0], ys[0]) == (12.5, 8.0)  # the centre of pixel (12, 7.5) in image coordinates
     view.show_status(CameraStatus("mwir", DeviceStatus("mwir"), FrameAccounting()))
     assert not view.gps_marker.isVisible()
+
+
+def test_measured_noise_in_a_replay_goes_to_its_model_unrecorded(qtbot, window, player):
+    """The operator's "measured noise" on a replay: the replayed 3D noise of the background
+    around the track becomes the model's noise (the player records nothing: it cannot)."""
+    from snrmon.gui.model_curves import ModelOptions
+
+    player.set_speed(100.0)
+    window.replay_toggle()
+    qtbot.waitUntil(lambda: not player.position().playing, timeout=20_000)  # the end
+    region = player.status().cameras["mwir"].figures.noise_3d
+    assert region is not None
+    sigma = region.noise.sigma_corrected
+    # the recording's sky noise: white, rounded to counts; 100 frames of a 10 x 40 px band
+    # clear of the spot pin sigma_tvh to ~0.4 % (1 sigma): 2 % is far outside chance
+    assert sigma["tvh"] == pytest.approx((NOISE_DN**2 + 1 / 12) ** 0.5, rel=0.02)
+    assert region.region == (0, 0, SPOT_XY[0] - 21, 39)
+    assert window.apply_model_options(ModelOptions(noise="measured")) is None
+    noise = player.measured_noise["mwir"]
+    assert (noise.temporal_dn, noise.spatial_dn) == (sigma["tvh"], sigma["vh"])
+    assert player.predictor is window.model.sky
+    assert window.model.sky.measured_noise == window.model.own.measured_noise == {"mwir": noise}
+    assert "mwir: noise sigma_tvh" in window.messages[-1]
+    assert window.apply_model_options(ModelOptions()) is None
+    assert player.measured_noise == {} and window.model.sky.measured_noise == {}
