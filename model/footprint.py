@@ -29,7 +29,7 @@ import math
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-from snrmon.model.psf import Psf
+from snrmon.model.psf import AiryGaussianPsf, Psf
 
 _TABLE_PERIOD_PX = 256.0
 _PATTERN_PERIOD_PX = 128.0
@@ -63,12 +63,24 @@ def otf_grid(psf: Psf, period_px: float) -> tuple[np.ndarray, np.ndarray]:
     """Frequencies f_k >= 0 [cycles/pitch] up to the PSF's cutoff and the matrix
     M[j, k] = OTF(f_j, f_k) dfx dfy m_j m_k (m = 1 at f = 0, else 2: the other quadrants),
     so that integral OTF(f) u(fx) u(fy) df = u^T M u for even functions u."""
+    if isinstance(psf, AiryGaussianPsf):
+        # the blur's MTF is separable and the Airy's cutoffs (so its grid) are the blurred
+        # PSF's: one Airy grid serves the diffraction PSF and every blur of it
+        f, m_airy = otf_grid(psf.airy, period_px)
+        g = np.exp(-2.0 * math.pi**2 * float(psf.sigma_px) ** 2 * f * f)
+        m = m_airy * g[:, None] * g[None, :]
+        m.setflags(write=False)
+        return f, m
     top = max(cut for _, _, cut in psf.components())
     n = min(math.ceil(top * period_px), 4096)
     step = top / n
     f = np.arange(n + 1) * step
-    fr = np.hypot(f[:, None], f[None, :])
-    otf = sum(w * fn(fr) for w, fn, _ in psf.components())
+    # the OTF is radial: evaluated once per pair j <= k (the many components cost)
+    j, k = np.triu_indices(n + 1)
+    fr = np.hypot(f[j], f[k])
+    otf = np.empty((n + 1, n + 1))
+    otf[j, k] = sum(w * fn(fr) for w, fn, _ in psf.components())
+    otf[k, j] = otf[j, k]
     mult = np.full(n + 1, 2.0)
     mult[0] = 1.0
     m = otf * (step * mult)[:, None] * (step * mult)[None, :]

@@ -30,13 +30,14 @@ The draws are seeded, so a band is reproducible.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from snrmon.model.contrast import Contrast
 from snrmon.model.footprint import average_pvf_square
-from snrmon.model.noise import noise_breakdown
+from snrmon.model.noise import total_noise_e
 from snrmon.model.psf import Psf
 from snrmon.model.pvf import average_pvf, solve_blur_sigma
 from snrmon.model.radiometry import spectral_photon_radiance, spectral_photon_radiance_dt
@@ -78,6 +79,7 @@ class InputUncertainty:
             raise ValueError(f"the Monte-Carlo band needs >= 10 samples, got {self.samples}")
 
 
+@functools.lru_cache(maxsize=32)
 def widened_psf(psf: Psf, fill_factor: float, pvf_drop: float) -> Psf:
     """The PSF blurred (Gaussian, or Airy/real base (x) Gaussian) until its point-source
     average PVF is (1 - pvf_drop) times ``psf``'s: the MTF error of the band."""
@@ -134,9 +136,7 @@ def draw_corrected(
     ln_tau = np.log(np.clip(c.transmission_contrast, 1e-300, 1.0))
     tau = np.exp(inputs.optical_depth * z[3][:, None] * ln_tau[None, :])
     intensity = c.intensity_e(t_tgt, t_air, t_sky, tau)  # (n, n_ranges)
-    noise = np.array(
-        [noise_breakdown(sensor, t, spatial_noise, measured_noise).total for t in t_sky]
-    )
+    noise = total_noise_e(sensor, t_sky, spatial_noise, measured_noise)
     outline = np.sqrt(np.clip(1.0 + inputs.outline_area * z[4], 0.05, None))  # size factor
     wide = widened_psf(psf, ff, inputs.psf_pvf) if inputs.psf_pvf > 0 else psf
     pixel_m = c.ranges_m * sensor.ifov_rad  # the pixel footprint at each range
