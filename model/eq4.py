@@ -80,10 +80,17 @@ def _rim_std_factors(n_rim: np.ndarray, ddof: int, rim_signal_var: np.ndarray) -
     return np.sqrt(n_rim - ddof) * e_inv_chi / np.sqrt(c)
 
 
-@functools.lru_cache(maxsize=4)
-def _log_phi_table(lo: int, hi: int) -> np.ndarray:
-    """ln Phi(i x 0.002) for i = lo..hi (the lattice of :func:`expected_max`)."""
-    t = np.log(np.maximum(ndtr(np.arange(lo, hi + 1) * _STEP), 1e-300))
+def _log_phi_table(lo: int, hi: int) -> tuple[np.ndarray, int]:
+    """ln Phi(i x 0.002) for (at least) i = lo..hi, the lattice of :func:`expected_max`, and
+    the first i it holds."""
+    block = 4096  # whole blocks, so that the usual spans (-6.5 to 18.5 sigma) share one table
+    first = (lo // block) * block
+    return _log_phi_blocks(first, -(-(hi + 1) // block) * block), first
+
+
+@functools.lru_cache(maxsize=8)
+def _log_phi_blocks(first: int, stop: int) -> np.ndarray:
+    t = np.log(np.maximum(ndtr(np.arange(first, stop) * _STEP), 1e-300))
     t.setflags(write=False)
     return t
 
@@ -109,27 +116,36 @@ def expected_max(means: np.ndarray) -> np.ndarray:
     unused = np.iinfo(np.int64).min
     q = np.where(used, q, 0.0).astype(np.int64)
     q[~used] = unused
-    q.sort(axis=1)
+    q = np.sort(q, axis=1)[:, ::-1]  # brightest first, the unused last
     first = np.ones(q.shape, bool)
     first[:, 1:] = q[:, 1:] != q[:, :-1]
-    group = np.cumsum(first, axis=1) - 1
+    group = np.cumsum(first, axis=1) - 1  # 0 for the top's value
     width = int(group[:, -1].max()) + 1
     slot = (np.arange(rows)[:, None] * width + group).ravel()
     counts = np.bincount(slot, minlength=rows * width).astype(float).reshape(rows, width)
-    values = np.repeat(q[:, -1:], width, axis=1)  # empty slots: the top, with no count
+    values = np.repeat(q[:, :1], width, axis=1)  # empty slots: the top, with no count
     r_i, c_i = np.nonzero(first)
     values[r_i, group[r_i, c_i]] = q[r_i, c_i]
     dead = values == unused
     counts[dead] = 0.0
-    values[dead] = np.broadcast_to(q[:, -1:], values.shape)[dead]
+    values[dead] = np.broadcast_to(q[:, :1], values.shape)[dead]
+    groups = np.count_nonzero(counts, axis=1)
     lo = np.floor((top - _TAIL) / _STEP).astype(np.int64)
     span = (np.maximum(top, 0.0) + _TAIL) / _STEP - lo
     k = np.arange(int(np.ceil(float(span.max()) / _X_STEPS)) + 1, dtype=np.int64)
     x = lo[:, None] + _X_STEPS * k[None, :]  # (rows, nodes) on the lattice
-    diff = x[:, :, None] - values[:, None, :]
-    first_i = min(int(diff.min()), -4000)
-    table = _log_phi_table(first_i, max(int(diff.max()), 10000))
-    f = np.exp(np.einsum("rku,ru->rk", table[diff - first_i], counts))
+    log_f = np.zeros(x.shape)
+    # rows of few distinct means (a bright peak: the rest is 12 sigma down) apart from rows of
+    # many (a faint one), so that neither pays for the other's width
+    order = np.argsort(groups, kind="stable")
+    for part in np.array_split(order, np.searchsorted(groups[order], [4, 16, 48])):
+        if part.size == 0:
+            continue
+        w = int(groups[part].max())
+        diff = x[part][:, :, None] - values[part, None, :w]
+        table, first_i = _log_phi_table(int(diff.min()), int(diff.max()))
+        log_f[part] = np.einsum("rku,ru->rk", table[diff - first_i], counts[part, :w])
+    f = np.exp(log_f)
     # beyond a row's own upper end 1 - F is < 1e-8: integrating the common grid is exact
     out = lo * _STEP + np.trapezoid(1.0 - f, dx=_X_STEPS * _STEP, axis=1)
     return out.reshape(m.shape[:-1])
@@ -201,8 +217,8 @@ def target_backgrounds(a: np.ndarray, r, c, box_px: int = 7):
     least the 7x7 box) grown by the guard. The extent is decided per frame on noisy pixels, so
     a target whose light on the 7x7 rim is near 3 sigma is measured one way or the other frame
     by frame: weighting the two by that probability keeps the expectation continuous in
-    range. Returns (p, (x0, y0, x1, y1)): the probability of the extent's rim and its
-    rectangle, per pattern."""
+    range. Returns (p, (x0, y0, x1, y1), too_small): the probability of the extent's rim,
+    its rectangle and whether that rim leaves the pattern, per pattern."""
     from scipy.ndimage import find_objects, label
 
     hb = box_px // 2
@@ -227,9 +243,7 @@ def target_backgrounds(a: np.ndarray, r, c, box_px: int = 7):
     g = GUARD_PX + 1
     rect = (x0 - g, y0 - g, x1 + g, y1 + g)
     outside = (rect[0] < 0) | (rect[1] < 0) | (rect[2] >= n) | (rect[3] >= n)
-    if np.any(outside & (p >= 1e-9)):
-        raise PatternTooSmallError("pattern too small for the target's background rim")
-    return p, rect
+    return p, rect, outside & (p >= 1e-9)
 
 
 def readings_of_patterns(
@@ -244,12 +258,16 @@ def readings_of_patterns(
     sigma: the search window and the box centred on each pattern's brightest pixel (ties, as
     for a uniform target or no target, go to the pixel nearest the centre); ``background``
     "rim" (the 7x7 rim) or "target" (:func:`target_backgrounds`)."""
-    return _readings(a, search_px, box_px, ddof, (background,))[0]
+    readings, too_small = _readings(a, search_px, box_px, ddof, (background,))
+    if np.any(too_small):
+        raise PatternTooSmallError("pattern too small for the target's background rim")
+    return readings[0]
 
 
 def _readings(a, search_px: int, box_px: int, ddof: int, backgrounds: tuple[str, ...]):
     """:func:`readings_of_patterns` for several background rules at once (one peak search):
-    shape (len(backgrounds), ...)."""
+    shape (len(backgrounds), ...), and whether each pattern was too small for the target
+    rule's background (its reading is then not valid), shape (...)."""
     for background in backgrounds:
         if background not in ("rim", "target"):
             raise ValueError(f"background must be 'rim' or 'target', got {background!r}")
@@ -279,21 +297,19 @@ def _readings(a, search_px: int, box_px: int, ddof: int, backgrounds: tuple[str,
     spread = np.sum((rim - mean[:, None]) ** 2, axis=1)
     seven = (peak - mean) * _rim_std_factors(np.asarray(rim.shape[1]), ddof, spread)
     out = np.zeros((len(backgrounds), len(pats)))
+    too_small = np.zeros(len(pats), bool)
     for b, background in enumerate(backgrounds):
+        out[b] = seven
         if background == "rim":
-            out[b] = seven
             continue
-        p, rect = target_backgrounds(pats, r, col, box_px)
-        far = p >= 1e-9
+        p, rect, too_small = target_backgrounds(pats, r, col, box_px)
+        far = (p >= 1e-9) & ~too_small
         if np.any(far):
             x0, y0, x1, y1 = (v[far] for v in rect)
             count, mean, spread = _rect_rims(pats[far], x0, y0, x1, y1)
             extent = (peak[far] - mean) * _rim_std_factors(count, ddof, spread)
-            out[b] = seven
             out[b, far] = (1.0 - p[far]) * seven[far] + p[far] * extent
-        else:
-            out[b] = seven
-    return out.reshape((len(backgrounds), *lead))
+    return out.reshape((len(backgrounds), *lead)), too_small.reshape(lead)
 
 
 def expected_eq4(
@@ -366,29 +382,65 @@ def expected_eq4_by_rule(
     else:
         ph_x, ph_y, weights = observed_phase_weights(phases_xy)
     phase_key = (tuple(ph_x.tolist()), tuple(ph_y.tolist()), tuple(map(tuple, weights.tolist())))
-    out = np.empty((len(backgrounds), *amp.shape))
-    # one set of patterns per target size: every amplitude of that size at once
-    sizes = np.stack([d.ravel(), s.ravel()], axis=1)
-    keys, which = np.unique(sizes, axis=0, return_inverse=True)
-    flat_amp = amp.ravel()
-    flat_out = out.reshape(len(backgrounds), -1)
-    for j, (d_px, s_px) in enumerate(keys):
-        members = np.nonzero(which.ravel() == j)[0]
-        half = base_half
-        if "target" in backgrounds:  # room for the target, the guard and the rim around it
-            half += int(np.ceil(float(d_px) / 2 + 3.0 * float(s_px)))
-        while True:
-            pats, w = phase_patterns(psf, fill_factor, float(d_px), float(s_px), half, phase_key)
-            a = flat_amp[members][:, None, None, None] * pats[None]
-            try:
-                readings = _readings(a, search_px, box_px, ddof, backgrounds)
-                break
-            except PatternTooSmallError:
-                if half >= MAX_HALF_PX:
-                    raise
-                half = min(2 * half, MAX_HALF_PX)  # a bright target's 3-sigma extent is wide
-        flat_out[:, members] = readings @ w
-    return {rule: out[b] for b, rule in enumerate(backgrounds)}
+    flat_amp, flat_d, flat_s = amp.ravel(), d.ravel(), s.ravel()
+    out = np.empty((len(backgrounds), flat_amp.size))
+    setting = (psf, float(fill_factor), phase_key, search_px, box_px, ddof, backgrounds)
+    keys = [
+        (*setting, float(x), float(y), float(z))
+        for x, y, z in zip(flat_d, flat_s, flat_amp, strict=True)
+    ]
+    todo = []
+    for i, key in enumerate(keys):
+        known = _READINGS.get(key)
+        if known is None:
+            todo.append(i)
+        else:
+            out[:, i] = known
+    # the targets' patterns, each size computed once, in batches of one pattern size
+    half = np.full(flat_amp.size, base_half)
+    if "target" in backgrounds:  # room for the target, the guard and the rim around it
+        half += np.ceil(flat_d / 2 + 3.0 * flat_s).astype(int)
+    pending = np.array(todo, dtype=int)
+    while pending.size:
+        retry = []
+        for h in np.unique(half[pending]):
+            batch = pending[half[pending] == h]
+            pats, w = zip(
+                *(
+                    phase_patterns(
+                        psf, fill_factor, float(flat_d[i]), float(flat_s[i]), int(h), phase_key
+                    )
+                    for i in batch
+                ),
+                strict=True,
+            )
+            a = flat_amp[batch][:, None, None, None] * np.stack(pats)
+            readings, too_small = _readings(a, search_px, box_px, ddof, backgrounds)
+            small = too_small.any(axis=1)
+            for j, i in enumerate(batch):
+                if small[j]:
+                    if h >= MAX_HALF_PX:
+                        raise PatternTooSmallError(
+                            "pattern too small for the target's background rim"
+                        )
+                    half[i] = min(2 * h, MAX_HALF_PX)  # a bright target's 3-sigma extent is wide
+                    retry.append(i)
+                    continue
+                out[:, i] = readings[:, j] @ w[j]
+                _remember(keys[i], out[:, i].copy())
+        pending = np.array(retry, dtype=int)
+    return {rule: out[b].reshape(amp.shape) for b, rule in enumerate(backgrounds)}
+
+
+_READINGS: dict[tuple, np.ndarray] = {}
+_READINGS_KEPT = 20000  # readings of a few cameras' PSFs over a few range grids and skies
+
+
+def _remember(key: tuple, readings: np.ndarray) -> None:
+    """Keep a node's readings (the same PSF, size and amplitude read the same again)."""
+    if len(_READINGS) >= _READINGS_KEPT:
+        _READINGS.pop(next(iter(_READINGS)), None)  # the oldest
+    _READINGS[key] = readings
 
 
 @functools.lru_cache(maxsize=256)
