@@ -162,17 +162,21 @@ class PatternTooSmallError(ValueError):
 
 def _rect_rims(a: np.ndarray, x0, y0, x1, y1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pixel count, mean and spread sum (a_j - mean)^2 of the one-pixel rim of the rectangle
-    (x0, y0)-(x1, y1) (inclusive, one per pattern) of each pattern ``a`` (P, n, n)."""
+    (x0, y0)-(x1, y1) (inclusive, one per pattern, at least 3 x 3) of each pattern ``a``
+    (P, n, n)."""
+    x0, y0, x1, y1 = (np.asarray(v, dtype=np.int64)[:, None] for v in (x0, y0, x1, y1))
+    w, h = x1 - x0, y1 - y0  # the top and bottom edges: w + 1 pixels, the sides h - 1 more
+    count = (2 * (w + h)).ravel()
+    t = np.arange(int(count.max()))[None, :]  # walk the rim: top, right, bottom, left
+    on_top, on_right, on_bottom = t < w, (t >= w) & (t < w + h), (t >= w + h) & (t < 2 * w + h)
+    x = np.where(on_top, x0 + t, np.where(on_right, x1, np.where(on_bottom, x1 - (t - w - h), x0)))
+    y = np.where(on_top, y0, np.where(on_right, y0 + (t - w), np.where(on_bottom, y1, 0)))
+    y = np.where(on_top | on_right | on_bottom, y, y1 - (t - 2 * w - h))
+    valid = t < count[:, None]
     n = a.shape[-1]
-    x = np.arange(n)[None, None, :]
-    y = np.arange(n)[None, :, None]
-    x0, y0, x1, y1 = (np.asarray(v)[:, None, None] for v in (x0, y0, x1, y1))
-    inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
-    interior = (x > x0) & (x < x1) & (y > y0) & (y < y1)
-    rim = inside & ~interior
-    count = rim.sum(axis=(1, 2))
-    mean = np.where(rim, a, 0.0).sum(axis=(1, 2)) / count
-    spread = np.where(rim, (a - mean[:, None, None]) ** 2, 0.0).sum(axis=(1, 2))
+    values = a[np.arange(len(a))[:, None], np.clip(y, 0, n - 1), np.clip(x, 0, n - 1)]
+    mean = np.where(valid, values, 0.0).sum(axis=1) / count
+    spread = np.where(valid, (values - mean[:, None]) ** 2, 0.0).sum(axis=1)
     return count, mean, spread
 
 
@@ -384,22 +388,27 @@ def expected_eq4_by_rule(
     phase_key = (tuple(ph_x.tolist()), tuple(ph_y.tolist()), tuple(map(tuple, weights.tolist())))
     flat_amp, flat_d, flat_s = amp.ravel(), d.ravel(), s.ravel()
     out = np.empty((len(backgrounds), flat_amp.size))
-    setting = (psf, float(fill_factor), phase_key, search_px, box_px, ddof, backgrounds)
+    readings_kept, halves_kept = _kept(
+        (psf, float(fill_factor), phase_key, search_px, box_px, ddof, backgrounds)
+    )
     keys = [
-        (*setting, float(x), float(y), float(z))
-        for x, y, z in zip(flat_d, flat_s, flat_amp, strict=True)
+        (float(x), float(y), float(z)) for x, y, z in zip(flat_d, flat_s, flat_amp, strict=True)
     ]
     todo = []
     for i, key in enumerate(keys):
-        known = _READINGS.get(key)
+        known = readings_kept.get(key)
         if known is None:
             todo.append(i)
         else:
             out[:, i] = known
-    # the targets' patterns, each size computed once, in batches of one pattern size
+    # the targets' patterns, each size computed once, in batches of one pattern size (sizes
+    # rounded up to 4 px for fewer batches: a larger pattern reads the same)
     half = np.full(flat_amp.size, base_half)
     if "target" in backgrounds:  # room for the target, the guard and the rim around it
-        half += np.ceil(flat_d / 2 + 3.0 * flat_s).astype(int)
+        room = np.ceil(flat_d / 2 + 3.0 * flat_s).astype(int)
+        half += np.where(room > 1, -(-room // 4) * 4, room)
+    for i in todo:  # a bright target's extent needed more the last time: start there
+        half[i] = max(half[i], halves_kept.get(keys[i][:2], 0))
     pending = np.array(todo, dtype=int)
     while pending.size:
         retry = []
@@ -427,20 +436,29 @@ def expected_eq4_by_rule(
                     retry.append(i)
                     continue
                 out[:, i] = readings[:, j] @ w[j]
-                _remember(keys[i], out[:, i].copy())
+                if len(readings_kept) >= _READINGS_KEPT:
+                    readings_kept.pop(next(iter(readings_kept)), None)  # the oldest
+                readings_kept[keys[i]] = out[:, i].copy()
+                if h > base_half + 1:
+                    halves_kept[keys[i][:2]] = int(h)
         pending = np.array(retry, dtype=int)
     return {rule: out[b].reshape(amp.shape) for b, rule in enumerate(backgrounds)}
 
 
-_READINGS: dict[tuple, np.ndarray] = {}
-_READINGS_KEPT = 20000  # readings of a few cameras' PSFs over a few range grids and skies
+_READINGS: dict[tuple, tuple[dict, dict]] = {}
+_READINGS_KEPT = 20000  # per PSF: its readings over a few range grids and many skies
 
 
-def _remember(key: tuple, readings: np.ndarray) -> None:
-    """Keep a node's readings (the same PSF, size and amplitude read the same again)."""
-    if len(_READINGS) >= _READINGS_KEPT:
-        _READINGS.pop(next(iter(_READINGS)), None)  # the oldest
-    _READINGS[key] = readings
+def _kept(setting: tuple) -> tuple[dict, dict]:
+    """The readings kept for ``setting`` (PSF, fill factor, phases, estimator) by (target size,
+    Gaussian sigma, amplitude), and the pattern size each target size last needed: the same
+    inputs read the same again."""
+    kept = _READINGS.get(setting)
+    if kept is None:
+        if len(_READINGS) >= 16:
+            _READINGS.pop(next(iter(_READINGS)), None)  # the oldest
+        kept = _READINGS[setting] = ({}, {})
+    return kept
 
 
 @functools.lru_cache(maxsize=256)

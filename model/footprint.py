@@ -151,6 +151,7 @@ def average_pvf_square(psf: Psf, fill_factor: float, d_px) -> np.ndarray | float
 
 @functools.lru_cache(maxsize=64)
 def _pattern_weights(psf: Psf, fill_factor: float, d_px: float, sigma_px: float):
+    """(omega = 2 pi f, u, M): the pattern is (C u) M (C u)^T, C the cosines."""
     f, m = otf_grid(psf, _PATTERN_PERIOD_PX)
     a = math.sqrt(fill_factor)
     u = a * np.sinc(a * f)  # the pixel's active square, not phase-averaged
@@ -158,7 +159,8 @@ def _pattern_weights(psf: Psf, fill_factor: float, d_px: float, sigma_px: float)
         u = u * np.sinc(d_px * f)
     if sigma_px > 0:
         u = u * np.exp(-2.0 * math.pi**2 * sigma_px**2 * f * f)
-    return 2.0 * math.pi * f, u[:, None] * m * u[None, :]
+    u.setflags(write=False)
+    return 2.0 * math.pi * f, u, m
 
 
 def pixel_patterns(
@@ -184,16 +186,27 @@ def pixel_patterns(
         raise ValueError(f"half_size_px must be >= 0, got {half_size_px!r}")
     d = float(_check_sizes(target_square_px))
     s = float(_check_sizes(target_sigma_px, "target sigma"))
-    omega, w = _pattern_weights(psf, ff, d, s)
-    k = np.arange(-h, h + 1, dtype=float)
-    dx = np.atleast_1d(np.asarray(dx_px, dtype=float))
-    dy = np.atleast_1d(np.asarray(dy_px, dtype=float))
-    # cos(omega (k - delta)) for every (phase, pixel): the even transform of the pattern.
-    cx = np.cos(((k[None, :] - dx[:, None]).reshape(-1))[:, None] * omega[None, :])
-    cy = np.cos(((k[None, :] - dy[:, None]).reshape(-1))[:, None] * omega[None, :])
-    out = matmul(matmul(cy, w), cx.T)  # (n_dy * n, n_dx * n)
+    omega, u, m = _pattern_weights(psf, ff, d, s)
+    dx = tuple(np.atleast_1d(np.asarray(dx_px, dtype=float)).tolist())
+    dy = tuple(np.atleast_1d(np.asarray(dy_px, dtype=float)).tolist())
+    grid = omega.tobytes()  # omega = 2 pi f on the PSF's grid (otf_grid)
+    cy = _cosines(grid, dy, h) * u
+    cx = cy if dx == dy else _cosines(grid, dx, h) * u
+    out = matmul(matmul(cy, m), cx.T)  # (n_dy * n, n_dx * n)
     n = 2 * h + 1
-    return out.reshape(dy.size, n, dx.size, n).transpose(0, 2, 1, 3)
+    return out.reshape(len(dy), n, len(dx), n).transpose(0, 2, 1, 3)
+
+
+@functools.lru_cache(maxsize=64)
+def _cosines(grid: bytes, phases: tuple[float, ...], h: int) -> np.ndarray:
+    """cos(omega (k - delta)) for every (phase delta, pixel k in -h..h) and frequency omega of
+    the grid ``grid`` (its bytes): the even transform of a pattern. The same for every target
+    size (the expected reading asks for dozens over one phase grid)."""
+    omega = np.frombuffer(grid)
+    k = np.arange(-h, h + 1, dtype=float)
+    out = np.cos(((k[None, :] - np.asarray(phases)[:, None]).reshape(-1))[:, None] * omega)
+    out.setflags(write=False)
+    return out
 
 
 def phase_grid(n: int) -> np.ndarray:
