@@ -59,7 +59,8 @@ from snrmon.model.psf import Psf
 _STEP = 0.002  # sigma: the lattice E[max] rounds the means near the top to
 _FAR_STEPS = 10  # 4 sigma or more below the top: rounded to 0.02 sigma
 _X_STEPS = 125  # the integration step of E[max], 0.25 sigma, in lattice steps
-_TAIL = 6.5  # sigmas: F(top - 6.5) < 1e-10, and 1 - F(max(top, 0) + 6.5) < 1e-8
+_BELOW = 5.5  # sigmas: F(top - 5.5) < 2e-8 (what lies below adds < 1e-8 sigma)
+_ABOVE = 6.0  # sigmas: 1 - F(max(top, 0) + 6) < 121 Phi(-6) = 1.2e-7 (< 3e-8 sigma beyond)
 
 
 def rim_std_factor(n_rim: int = 24, ddof: int = 1, rim_signal_var: float = 0.0) -> float:
@@ -98,9 +99,9 @@ def _log_phi_blocks(first: int, stop: int) -> np.ndarray:
 def expected_max(means: np.ndarray) -> np.ndarray:
     """E[max_i (m_i + z_i)] for each row of ``means`` (..., n_pixels), z_i independent unit
     normals: the integral of the distribution of the maximum, F(x) = prod Phi(x - m_i), from
-    6.5 sigma below the brightest mean (F < 1e-10 there) to 6.5 sigma above max(top, 0)
-    (the trapezoid rule converges fast on this smooth integrand: < 1e-8 sigma at a 0.25 step,
-    against a 0.02 step)."""
+    5.5 sigma below the brightest mean to 6 sigma above max(top, 0) (the trapezoid rule
+    converges fast on this smooth integrand: within 1e-8 sigma of a 0.01 step from 8 sigma
+    below to 8 above, at a 0.25 step; tested on 1554 rows, faint to 1e5 sigma)."""
     m = np.asarray(means, dtype=float)
     flat = m.reshape(-1, m.shape[-1])
     rows = len(flat)
@@ -130,21 +131,25 @@ def expected_max(means: np.ndarray) -> np.ndarray:
     counts[dead] = 0.0
     values[dead] = np.broadcast_to(q[:, :1], values.shape)[dead]
     groups = np.count_nonzero(counts, axis=1)
-    lo = np.floor((top - _TAIL) / _STEP).astype(np.int64)
-    span = (np.maximum(top, 0.0) + _TAIL) / _STEP - lo
-    k = np.arange(int(np.ceil(float(span.max()) / _X_STEPS)) + 1, dtype=np.int64)
-    x = lo[:, None] + _X_STEPS * k[None, :]  # (rows, nodes) on the lattice
-    log_f = np.zeros(x.shape)
+    lo = np.floor((top - _BELOW) / _STEP).astype(np.int64)
+    span = (np.maximum(top, 0.0) + _ABOVE) / _STEP - lo
+    nodes = int(np.ceil(float(span.max()) / _X_STEPS)) + 1  # x = lo + k 0.25 sigma
+    start = lo[:, None] - values  # (x_0 - m) on the lattice
+    log_f = np.zeros((rows, nodes))
     # rows of few distinct means (a bright peak: the rest is 12 sigma down) apart from rows of
-    # many (a faint one), so that neither pays for the other's width
+    # many (a faint one), so that neither pays for the other's width; one node at a time
+    # (small arrays: 3x faster than one (rows, nodes, means) array)
     order = np.argsort(groups, kind="stable")
     for part in np.array_split(order, np.searchsorted(groups[order], [4, 16, 48])):
         if part.size == 0:
             continue
         w = int(groups[part].max())
-        diff = x[part][:, :, None] - values[part, None, :w]
-        table, first_i = _log_phi_table(int(diff.min()), int(diff.max()))
-        log_f[part] = np.einsum("rku,ru->rk", table[diff - first_i], counts[part, :w])
+        offset = start[part, :w]
+        table, first_i = _log_phi_table(int(offset.min()), int(offset.max()) + _X_STEPS * nodes)
+        offset = offset - first_i
+        c = counts[part, :w]
+        for k in range(nodes):
+            log_f[part, k] = np.einsum("ru,ru->r", table[offset + _X_STEPS * k], c)
     f = np.exp(log_f)
     # beyond a row's own upper end 1 - F is < 1e-8: integrating the common grid is exact
     out = lo * _STEP + np.trapezoid(1.0 - f, dx=_X_STEPS * _STEP, axis=1)

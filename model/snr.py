@@ -391,12 +391,9 @@ def _refinements(
     spline and PCHIP through the nodes part by more than :data:`REFINE_TOL` (two
     interpolants of the same nodes that agree where the nodes resolve the curve)."""
     x = log_ranges[picked]
-    gap = np.zeros(log_ranges.size)
-    for v in values.values():
-        gap = np.maximum(
-            gap,
-            np.abs(CubicSpline(x, v)(log_ranges) - PchipInterpolator(x, v)(log_ranges)),
-        )
+    v = np.stack(list(values.values()), axis=1)  # every rule in one interpolant
+    spline, pchip = CubicSpline(x, v)(log_ranges), PchipInterpolator(x, v)(log_ranges)
+    gap = np.abs(spline - pchip).max(axis=1)
     lo, hi = picked[:-1], picked[1:]
     inner = (hi - lo >= 2) & (log_ranges[hi] - log_ranges[lo] >= 2.0 * NODE_SPACING_MIN)
     worst = np.maximum.reduceat(gap, lo)  # each interval's worst, nodes included (gap 0)
