@@ -59,8 +59,9 @@ from snrmon.model.psf import Psf
 _STEP = 0.002  # sigma: the lattice E[max] rounds the means near the top to
 _FAR_STEPS = 10  # 4 sigma or more below the top: rounded to 0.02 sigma
 _X_STEPS = 125  # the integration step of E[max], 0.25 sigma, in lattice steps
+_GATHER_CHUNK = 200_000  # ln Phi look-ups per array in E[max]
 _BELOW = 5.5  # sigmas: F(top - 5.5) < 2e-8 (what lies below adds < 1e-8 sigma)
-_ABOVE = 6.0  # sigmas: 1 - F(max(top, 0) + 6) < 121 Phi(-6) = 1.2e-7 (< 3e-8 sigma beyond)
+_ABOVE = 6.5  # sigmas: 1 - F(max(top, 0) + 6.5) < 121 Phi(-6.5) = 5e-9 (< 1e-9 sigma beyond)
 
 
 def rim_std_factor(n_rim: int = 24, ddof: int = 1, rim_signal_var: float = 0.0) -> float:
@@ -99,9 +100,10 @@ def _log_phi_blocks(first: int, stop: int) -> np.ndarray:
 def expected_max(means: np.ndarray) -> np.ndarray:
     """E[max_i (m_i + z_i)] for each row of ``means`` (..., n_pixels), z_i independent unit
     normals: the integral of the distribution of the maximum, F(x) = prod Phi(x - m_i), from
-    5.5 sigma below the brightest mean to 6 sigma above max(top, 0) (the trapezoid rule
-    converges fast on this smooth integrand: within 1e-8 sigma of a 0.01 step from 8 sigma
-    below to 8 above, at a 0.25 step; tested on 1554 rows, faint to 1e5 sigma)."""
+    5.5 sigma below the brightest mean to 6.5 sigma above max(top, 0) (the trapezoid rule
+    converges fast on this smooth integrand: within 4e-9 sigma of a 0.01 step from 8 sigma
+    below to 8 above, at a 0.25 step, on 1554 rows of the presets' patterns, faint to 1e5
+    sigma)."""
     m = np.asarray(means, dtype=float)
     flat = m.reshape(-1, m.shape[-1])
     rows = len(flat)
@@ -133,27 +135,34 @@ def expected_max(means: np.ndarray) -> np.ndarray:
     groups = np.count_nonzero(counts, axis=1)
     lo = np.floor((top - _BELOW) / _STEP).astype(np.int64)
     span = (np.maximum(top, 0.0) + _ABOVE) / _STEP - lo
-    nodes = int(np.ceil(float(span.max()) / _X_STEPS)) + 1  # x = lo + k 0.25 sigma
+    nodes = np.ceil(span / _X_STEPS).astype(int) + 1  # x = lo + k 0.25 sigma; 49 for top >= 0
     start = lo[:, None] - values  # (x_0 - m) on the lattice
-    log_f = np.zeros((rows, nodes))
-    # rows of few distinct means (a bright peak: the rest is 12 sigma down) apart from rows of
-    # many (a faint one), so that neither pays for the other's width; one node at a time
-    # (small arrays: 3x faster than one (rows, nodes, means) array)
-    order = np.argsort(groups, kind="stable")
-    for part in np.array_split(order, np.searchsorted(groups[order], [4, 16, 48])):
-        if part.size == 0:
-            continue
-        w = int(groups[part].max())
-        offset = start[part, :w]
-        table, first_i = _log_phi_table(int(offset.min()), int(offset.max()) + _X_STEPS * nodes)
-        offset = offset - first_i
-        c = counts[part, :w]
-        for k in range(nodes):
-            log_f[part, k] = np.einsum("ru,ru->r", table[offset + _X_STEPS * k], c)
-    f = np.exp(log_f)
-    # beyond a row's own upper end 1 - F is < 1e-8: integrating the common grid is exact
-    out = lo * _STEP + np.trapezoid(1.0 - f, dx=_X_STEPS * _STEP, axis=1)
-    return out.reshape(m.shape[:-1])
+    out = np.empty(rows)
+    # Rows of few distinct means (a bright peak: the rest is 12 sigma down) apart from rows of
+    # many (a faint one), so that neither pays for the other's width; in chunks (small
+    # arrays: 3x faster than one big (rows, nodes, means) array). Each row's sums have a length
+    # set by the row alone (its width class, its nodes), so that a row reads the same in any
+    # batch.
+    widths = np.array([4, 16, 48, max(width, 48)])
+    width_class = np.searchsorted(widths, groups)
+    for key in np.unique(width_class * 100000 + nodes):
+        part = np.nonzero(width_class * 100000 + nodes == key)[0]
+        w, n_x = int(widths[key // 100000]), int(key % 100000)
+        offset = np.zeros((part.size, w), np.int64)
+        c = np.zeros((part.size, w))
+        have = min(w, width)
+        offset[:, :have] = start[part, :have]
+        c[:, :have] = counts[part, :have]
+        table, first_i = _log_phi_table(int(offset.min()), int(offset.max()) + _X_STEPS * n_x)
+        offset -= first_i
+        steps = _X_STEPS * np.arange(n_x)
+        log_f = np.empty((part.size, n_x))
+        chunk = max(1, _GATHER_CHUNK // (n_x * w))  # small arrays: memory-bound otherwise
+        for i in range(0, part.size, chunk):
+            idx = offset[i : i + chunk, None, :] + steps[None, :, None]
+            log_f[i : i + chunk] = (table[idx] * c[i : i + chunk, None, :]).sum(axis=2)
+        out[part] = np.trapezoid(1.0 - np.exp(log_f), dx=_X_STEPS * _STEP, axis=1)
+    return (lo * _STEP + out).reshape(m.shape[:-1])
 
 
 GUARD_PX = 2  # guard pixels between the target's extent and its background rim (target_snr)
@@ -172,7 +181,9 @@ def _rect_rims(a: np.ndarray, x0, y0, x1, y1) -> tuple[np.ndarray, np.ndarray, n
     x0, y0, x1, y1 = (np.asarray(v, dtype=np.int64)[:, None] for v in (x0, y0, x1, y1))
     w, h = x1 - x0, y1 - y0  # the top and bottom edges: w + 1 pixels, the sides h - 1 more
     count = (2 * (w + h)).ravel()
-    t = np.arange(int(count.max()))[None, :]  # walk the rim: top, right, bottom, left
+    # walk the rim (top, right, bottom, left), always as far as the largest pattern's: the sums
+    # then do not depend on what else is in the batch
+    t = np.arange(max(int(count.max()), 8 * MAX_HALF_PX))[None, :]
     on_top, on_right, on_bottom = t < w, (t >= w) & (t < w + h), (t >= w + h) & (t < 2 * w + h)
     x = np.where(on_top, x0 + t, np.where(on_right, x1, np.where(on_bottom, x1 - (t - w - h), x0)))
     y = np.where(on_top, y0, np.where(on_right, y0 + (t - w), np.where(on_bottom, y1, 0)))
@@ -393,7 +404,7 @@ def expected_eq4_by_rule(
     phase_key = (tuple(ph_x.tolist()), tuple(ph_y.tolist()), tuple(map(tuple, weights.tolist())))
     flat_amp, flat_d, flat_s = amp.ravel(), d.ravel(), s.ravel()
     out = np.empty((len(backgrounds), flat_amp.size))
-    readings_kept, halves_kept = _kept(
+    readings_kept = _kept(
         (psf, float(fill_factor), phase_key, search_px, box_px, ddof, backgrounds)
     )
     keys = [
@@ -412,8 +423,6 @@ def expected_eq4_by_rule(
     if "target" in backgrounds:  # room for the target, the guard and the rim around it
         room = np.ceil(flat_d / 2 + 3.0 * flat_s).astype(int)
         half += np.where(room > 1, -(-room // 4) * 4, room)
-    for i in todo:  # a bright target's extent needed more the last time: start there
-        half[i] = max(half[i], halves_kept.get(keys[i][:2], 0))
     pending = np.array(todo, dtype=int)
     while pending.size:
         retry = []
@@ -444,25 +453,23 @@ def expected_eq4_by_rule(
                 if len(readings_kept) >= _READINGS_KEPT:
                     readings_kept.pop(next(iter(readings_kept)), None)  # the oldest
                 readings_kept[keys[i]] = out[:, i].copy()
-                if h > base_half + 1:
-                    halves_kept[keys[i][:2]] = int(h)
         pending = np.array(retry, dtype=int)
     return {rule: out[b].reshape(amp.shape) for b, rule in enumerate(backgrounds)}
 
 
-_READINGS: dict[tuple, tuple[dict, dict]] = {}
+_READINGS: dict[tuple, dict] = {}
 _READINGS_KEPT = 20000  # per PSF: its readings over a few range grids and many skies
 
 
-def _kept(setting: tuple) -> tuple[dict, dict]:
+def _kept(setting: tuple) -> dict:
     """The readings kept for ``setting`` (PSF, fill factor, phases, estimator) by (target size,
-    Gaussian sigma, amplitude), and the pattern size each target size last needed: the same
-    inputs read the same again."""
+    Gaussian sigma, amplitude): the same inputs read the same again (a reading does not depend
+    on what else was computed with it)."""
     kept = _READINGS.get(setting)
     if kept is None:
         if len(_READINGS) >= 16:
             _READINGS.pop(next(iter(_READINGS)), None)  # the oldest
-        kept = _READINGS[setting] = ({}, {})
+        kept = _READINGS[setting] = {}
     return kept
 
 

@@ -270,9 +270,9 @@ def expected_readings(
     backgrounds: tuple[str, ...] = ("rim", "target"),
 ) -> dict[str, np.ndarray]:
     """:func:`expected_reading` of several background rules at once (one pattern and peak
-    computation per node): ``{rule: readings}``. The nodes a grid settled on are kept per PSF,
-    target and range grid, so that the next call (a new sky: other amplitudes) reads the
-    patterns already computed for them (:func:`snrmon.model.eq4.phase_patterns`)."""
+    computation per node): ``{rule: readings}``. The nodes depend on the inputs alone (not on
+    what was computed before); their patterns are kept (:func:`snrmon.model.eq4.phase_patterns`),
+    so a new sky on a known grid reads the patterns already computed for most of them."""
     r = np.asarray(ranges_m, float)
 
     def at(idx):
@@ -295,14 +295,7 @@ def expected_readings(
     r_u, first, back = np.unique(r, return_index=True, return_inverse=True)
     lr = np.log(r_u)
     d_u = np.asarray(d_px, float)[first]
-    # the nodes a previous call settled on for this PSF, target and range grid: a new sky
-    # then reads the patterns it already has (only the amplitudes differ)
-    phases_key = None if phases_xy is None else np.asarray(phases_xy, float).tobytes()
-    grid_key: tuple = (psf, fill_factor, geometry, target_sigma_per_size, phases_key)
-    grid_key += (backgrounds, r_u.tobytes(), d_u.tobytes())
-    picked = _NODES.get(grid_key)
-    if picked is None:
-        picked = expected_nodes(lr, d_u)
+    picked = expected_nodes(lr, d_u)
     values = {rule: np.log(v) for rule, v in at(first[picked]).items()}
     for _ in range(REFINE_ROUNDS):
         more = _refinements(lr, picked, values)
@@ -313,9 +306,6 @@ def expected_readings(
         order = np.argsort(picked)
         picked = picked[order]
         values = {rule: np.concatenate([values[rule], new[rule]])[order] for rule in values}
-    if len(_NODES) >= _NODES_KEPT:
-        _NODES.pop(next(iter(_NODES)), None)  # the oldest
-    _NODES[grid_key] = picked
     out = {}
     for rule, v in values.items():
         keep = _spaced(lr[picked], d_u[picked] > STEP_PX) if rule == "target" else slice(None)
@@ -339,17 +329,12 @@ def _spaced(x: np.ndarray, wide: np.ndarray) -> np.ndarray:
     return np.array(keep)
 
 
-_NODES: dict[tuple, np.ndarray] = {}
-_NODES_KEPT = 32
-
-
 def clear_caches() -> None:
     """Forget what the model keeps between predictions (the PSFs' frequency grids and PVF
     tables, the expected reading's patterns, nodes and readings, the band's PVF draws): the
     next prediction computes everything again, as a fresh process would."""
     from snrmon.model import eq4, footprint, montecarlo, pvf
 
-    _NODES.clear()
     eq4._READINGS.clear()
     montecarlo._AREA_PVF.clear()
     for cached in (
@@ -398,10 +383,18 @@ def _refinements(
     inner = (hi - lo >= 2) & (log_ranges[hi] - log_ranges[lo] >= 2.0 * NODE_SPACING_MIN)
     worst = np.maximum.reduceat(gap, lo)  # each interval's worst, nodes included (gap 0)
     flagged = inner & (worst > REFINE_TOL)
-    mid = 0.5 * (log_ranges[lo] + log_ranges[hi])[flagged]
-    j = np.searchsorted(log_ranges, mid)
-    j = np.where(np.abs(log_ranges[j - 1] - mid) <= np.abs(log_ranges[j] - mid), j - 1, j)
-    return np.clip(j, lo[flagged] + 1, hi[flagged] - 1)
+    # a cubic's error falls as the fourth power of the spacing: split an interval into as many
+    # as bring its gap under the tolerance (fewer rounds), no part under NODE_SPACING_MIN
+    width = (log_ranges[hi] - log_ranges[lo])[flagged]
+    parts = np.ceil((worst[flagged] / REFINE_TOL) ** 0.25)
+    parts = np.clip(parts, 2, np.maximum(2, np.floor(width / NODE_SPACING_MIN)))
+    new = []
+    for a, b, n_parts in zip(lo[flagged], hi[flagged], parts.astype(int), strict=True):
+        at = np.linspace(log_ranges[a], log_ranges[b], n_parts + 1)[1:-1]
+        j = np.searchsorted(log_ranges, at)
+        j = np.where(np.abs(log_ranges[j - 1] - at) <= np.abs(log_ranges[j] - at), j - 1, j)
+        new.append(np.unique(np.clip(j, a + 1, b - 1)))
+    return np.concatenate(new) if new else np.zeros(0, int)
 
 
 def predict(

@@ -67,3 +67,20 @@ def test_on_a_linear_range_grid_too(camera):
     direct = _direct(sensor, psf, grid[picks], None)
     for name, rule in EXPECTED_CURVES.items():
         assert fast.snr(name)[picks] == pytest.approx(direct[rule], rel=TOLERANCE), name
+
+
+@pytest.mark.parametrize("camera", ["mwir", "lwir"])
+def test_a_prediction_does_not_depend_on_what_ran_before(camera):
+    """The caches hold patterns and readings that depend on their own inputs alone: the same
+    prediction after others (other skies, another grid) is the one a fresh process makes."""
+    sensor = load_sensor(camera)
+    grid = np.geomspace(10.0, 5000.0, 600)
+    clear_caches()
+    fresh = predict(sensor, UAV1, grid, background_temp_k=275.0)
+    clear_caches()
+    predict(sensor, UAV1, np.linspace(20.0, 3000.0, 500))
+    predict(sensor, UAV1, grid, background_temp_k=250.0, band=False)
+    again = predict(sensor, UAV1, grid, background_temp_k=275.0)
+    for name in (*EXPECTED_CURVES, "small_corrected"):
+        assert np.array_equal(again.snr(name), fresh.snr(name)), name
+        assert np.array_equal(again.lower[name], fresh.lower[name]), name
