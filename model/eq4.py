@@ -181,9 +181,9 @@ def _rect_rims(a: np.ndarray, x0, y0, x1, y1) -> tuple[np.ndarray, np.ndarray, n
     x0, y0, x1, y1 = (np.asarray(v, dtype=np.int64)[:, None] for v in (x0, y0, x1, y1))
     w, h = x1 - x0, y1 - y0  # the top and bottom edges: w + 1 pixels, the sides h - 1 more
     count = (2 * (w + h)).ravel()
-    # walk the rim (top, right, bottom, left), always as far as the largest pattern's: the sums
-    # then do not depend on what else is in the batch
-    t = np.arange(max(int(count.max()), 8 * MAX_HALF_PX))[None, :]
+    # walk the rim (top, right, bottom, left), always as far as the pattern's own edge: the
+    # sums then do not depend on what else is in the batch
+    t = np.arange(max(int(count.max()), 4 * (a.shape[-1] - 1)))[None, :]
     on_top, on_right, on_bottom = t < w, (t >= w) & (t < w + h), (t >= w + h) & (t < 2 * w + h)
     x = np.where(on_top, x0 + t, np.where(on_right, x1, np.where(on_bottom, x1 - (t - w - h), x0)))
     y = np.where(on_top, y0, np.where(on_right, y0 + (t - w), np.where(on_bottom, y1, 0)))
