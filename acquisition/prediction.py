@@ -15,8 +15,8 @@ the session's ``[weather]`` table, :func:`session_model_options`, or typed in th
 replay applies at the same time) drive the model's LOWTRAN7 atmosphere.
 
 A recomputation (a new sky temperature, a PSF measured from the flight, new met readings) takes
-~30-60 ms per camera once the process has computed one (the model keeps the PSF's tables and
-patterns), ~0.15 s the first time (``snrmon bench --only model``).
+~30-70 ms per camera once the process has computed one (the model keeps the PSF's tables and
+patterns), ~0.1 s the first time (``snrmon bench --only model``).
 With ``asynchronous=True`` :meth:`ModelPredictor.set_background` returns at once and the new
 curves replace the old ones, whole, when they are ready: the session calls it from a camera's
 measurement thread. They are computed in the worker process
