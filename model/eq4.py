@@ -458,7 +458,7 @@ def expected_eq4_by_rule(
 
 
 _READINGS: dict[tuple, dict] = {}
-_READINGS_KEPT = 20000  # per PSF: its readings over a few range grids and many skies
+_READINGS_KEPT = 5000  # per PSF: its readings over a few range grids and ~100 skies
 
 
 def _kept(setting: tuple) -> dict:
