@@ -17,7 +17,8 @@ noise" (:class:`MeasuredNoise`, a camera's 3D noise: :meth:`ModelPredictor.set_m
 recorded as a ``model_noise`` event) replaces the model's noise the same way.
 
 A recomputation (a new sky temperature, a PSF measured from the flight, new met readings) takes
-~0.5 s per camera.
+~30-70 ms per camera once the process has computed one (the model keeps the PSF's tables and
+patterns), ~0.1 s the first time (``snrmon bench --only model``).
 With ``asynchronous=True`` :meth:`ModelPredictor.set_background` returns at once and the new
 curves replace the old ones, whole, when they are ready: the session calls it from a camera's
 measurement thread. They are computed in the worker process

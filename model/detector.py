@@ -51,13 +51,17 @@ def _per_sr_to_e(sensor: Sensor, solid_angle_sr: float) -> float:
     return solid_angle_sr * sensor.detector_area_m2 * sensor.t_int_s
 
 
-def scene_electrons(sensor: Sensor, scene_temp_k: float) -> float:
-    """Electrons from a uniform blackbody scene at ``scene_temp_k`` filling the view."""
-    _check_temp("scene temperature", scene_temp_k)
+def scene_electrons(sensor: Sensor, scene_temp_k):
+    """Electrons from a uniform blackbody scene at ``scene_temp_k`` filling the view (a float;
+    an array for an array of temperatures)."""
+    t = np.asarray(scene_temp_k, dtype=float)
+    if not np.all((t > 0) & np.isfinite(t)):
+        raise ValueError(f"scene temperature must be > 0 K, got {scene_temp_k!r}")
     wl, w, resp = spectral_grid(sensor)
-    lq = spectral_photon_radiance(wl, float(scene_temp_k))
+    lq = spectral_photon_radiance(wl, t)  # (n_wl,) or (n_wl, n_temps)
     k = _per_sr_to_e(sensor, cone_projected_solid_angle(sensor.f_number))
-    return float(k * np.sum(w * resp * lq))
+    out = k * np.tensordot(w * resp, lq, axes=(0, 0))
+    return float(out) if out.ndim == 0 else out
 
 
 def lens_electrons(sensor: Sensor) -> float:

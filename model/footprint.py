@@ -29,7 +29,7 @@ import math
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-from snrmon.model.psf import Psf
+from snrmon.model.psf import AiryGaussianPsf, Psf
 
 _TABLE_PERIOD_PX = 256.0
 _PATTERN_PERIOD_PX = 128.0
@@ -37,11 +37,26 @@ _D_TABLE_MAX_PX = 64.0
 _N_D_TABLE = 193
 
 
+_SINGLE_THREAD_MACS = 200_000  # OpenBLAS threads a product above 65536 x 4 multiply-adds
+
+
 def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a @ b`` without BLAS: these products are small (~100 x 100), and a multi-threaded
-    OpenBLAS on a busy 2-core machine was measured 10-100x slower on them than numpy's own
-    loop (30 ms against 1 ms for 95 x 128 x 128)."""
-    return np.einsum("ij,jk->ik", a, b)
+    """``a @ b`` in blocks that BLAS runs on one thread. These products are small (~100 x
+    200 x 200), and a multi-threaded OpenBLAS on a busy 2-core machine took them 10-100x
+    longer now and then (16 ms against 0.2 ms for 175 x 218 x 218, 95th percentile of 200),
+    numpy's own loop (einsum) 3-5x longer every time; in blocks of < 200000 multiply-adds,
+    below OpenBLAS's threading threshold, they take 0.6 ms at the 95th percentile."""
+    m, k = a.shape
+    n = b.shape[1]
+    if m * k * n <= _SINGLE_THREAD_MACS:
+        return a @ b
+    rows = max(1, min(m, _SINGLE_THREAD_MACS // (k * min(n, 16))))
+    cols = max(1, _SINGLE_THREAD_MACS // (rows * k))
+    out = np.empty((m, n), dtype=np.result_type(a, b))
+    for i in range(0, m, rows):
+        for j in range(0, n, cols):
+            out[i : i + rows, j : j + cols] = a[i : i + rows] @ b[:, j : j + cols]
+    return out
 
 
 def _check_ff(fill_factor: float) -> float:
@@ -63,12 +78,29 @@ def otf_grid(psf: Psf, period_px: float) -> tuple[np.ndarray, np.ndarray]:
     """Frequencies f_k >= 0 [cycles/pitch] up to the PSF's cutoff and the matrix
     M[j, k] = OTF(f_j, f_k) dfx dfy m_j m_k (m = 1 at f = 0, else 2: the other quadrants),
     so that integral OTF(f) u(fx) u(fy) df = u^T M u for even functions u."""
+    if isinstance(psf, AiryGaussianPsf):
+        # the blur's MTF is separable and the Airy's cutoffs (so its grid) are the blurred
+        # PSF's: one Airy grid serves the diffraction PSF and every blur of it
+        f, m_airy = otf_grid(psf.airy, period_px)
+        g = np.exp(-2.0 * math.pi**2 * float(psf.sigma_px) ** 2 * f * f)
+        m = m_airy * g[:, None] * g[None, :]
+        m.setflags(write=False)
+        return f, m
     top = max(cut for _, _, cut in psf.components())
     n = min(math.ceil(top * period_px), 4096)
     step = top / n
     f = np.arange(n + 1) * step
-    fr = np.hypot(f[:, None], f[None, :])
-    otf = sum(w * fn(fr) for w, fn, _ in psf.components())
+    # the OTF is radial: evaluated once per pair j <= k, and each component (an Airy has one
+    # per wavelength) only inside its own cutoff, beyond which it is ~0 (psf.components)
+    j, k = np.triu_indices(n + 1)
+    fr = np.hypot(f[j], f[k])
+    half = np.zeros(fr.size)
+    for w, fn, cut in psf.components():
+        inside = fr < cut
+        half[inside] += w * fn(fr[inside])
+    otf = np.empty((n + 1, n + 1))
+    otf[j, k] = half
+    otf[k, j] = half
     mult = np.full(n + 1, 2.0)
     mult[0] = 1.0
     m = otf * (step * mult)[:, None] * (step * mult)[None, :]
@@ -119,6 +151,7 @@ def average_pvf_square(psf: Psf, fill_factor: float, d_px) -> np.ndarray | float
 
 @functools.lru_cache(maxsize=64)
 def _pattern_weights(psf: Psf, fill_factor: float, d_px: float, sigma_px: float):
+    """(omega = 2 pi f, u, M): the pattern is (C u) M (C u)^T, C the cosines."""
     f, m = otf_grid(psf, _PATTERN_PERIOD_PX)
     a = math.sqrt(fill_factor)
     u = a * np.sinc(a * f)  # the pixel's active square, not phase-averaged
@@ -126,7 +159,8 @@ def _pattern_weights(psf: Psf, fill_factor: float, d_px: float, sigma_px: float)
         u = u * np.sinc(d_px * f)
     if sigma_px > 0:
         u = u * np.exp(-2.0 * math.pi**2 * sigma_px**2 * f * f)
-    return 2.0 * math.pi * f, u[:, None] * m * u[None, :]
+    u.setflags(write=False)
+    return 2.0 * math.pi * f, u, m
 
 
 def pixel_patterns(
@@ -152,16 +186,27 @@ def pixel_patterns(
         raise ValueError(f"half_size_px must be >= 0, got {half_size_px!r}")
     d = float(_check_sizes(target_square_px))
     s = float(_check_sizes(target_sigma_px, "target sigma"))
-    omega, w = _pattern_weights(psf, ff, d, s)
-    k = np.arange(-h, h + 1, dtype=float)
-    dx = np.atleast_1d(np.asarray(dx_px, dtype=float))
-    dy = np.atleast_1d(np.asarray(dy_px, dtype=float))
-    # cos(omega (k - delta)) for every (phase, pixel): the even transform of the pattern.
-    cx = np.cos(((k[None, :] - dx[:, None]).reshape(-1))[:, None] * omega[None, :])
-    cy = np.cos(((k[None, :] - dy[:, None]).reshape(-1))[:, None] * omega[None, :])
-    out = matmul(matmul(cy, w), cx.T)  # (n_dy * n, n_dx * n)
+    omega, u, m = _pattern_weights(psf, ff, d, s)
+    dx = tuple(np.atleast_1d(np.asarray(dx_px, dtype=float)).tolist())
+    dy = tuple(np.atleast_1d(np.asarray(dy_px, dtype=float)).tolist())
+    grid = omega.tobytes()  # omega = 2 pi f on the PSF's grid (otf_grid)
+    cy = _cosines(grid, dy, h) * u
+    cx = cy if dx == dy else _cosines(grid, dx, h) * u
+    out = matmul(matmul(cy, m), cx.T)  # (n_dy * n, n_dx * n)
     n = 2 * h + 1
-    return out.reshape(dy.size, n, dx.size, n).transpose(0, 2, 1, 3)
+    return out.reshape(len(dy), n, len(dx), n).transpose(0, 2, 1, 3)
+
+
+@functools.lru_cache(maxsize=64)
+def _cosines(grid: bytes, phases: tuple[float, ...], h: int) -> np.ndarray:
+    """cos(omega (k - delta)) for every (phase delta, pixel k in -h..h) and frequency omega of
+    the grid ``grid`` (its bytes): the even transform of a pattern. The same for every target
+    size (the expected reading asks for dozens over one phase grid)."""
+    omega = np.frombuffer(grid)
+    k = np.arange(-h, h + 1, dtype=float)
+    out = np.cos(((k[None, :] - np.asarray(phases)[:, None]).reshape(-1))[:, None] * omega)
+    out.setflags(write=False)
+    return out
 
 
 def phase_grid(n: int) -> np.ndarray:

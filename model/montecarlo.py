@@ -30,13 +30,14 @@ The draws are seeded, so a band is reproducible.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from snrmon.model.contrast import Contrast
 from snrmon.model.footprint import average_pvf_square
-from snrmon.model.noise import noise_breakdown
+from snrmon.model.noise import total_noise_e
 from snrmon.model.psf import Psf
 from snrmon.model.pvf import average_pvf, solve_blur_sigma
 from snrmon.model.radiometry import spectral_photon_radiance, spectral_photon_radiance_dt
@@ -78,6 +79,7 @@ class InputUncertainty:
             raise ValueError(f"the Monte-Carlo band needs >= 10 samples, got {self.samples}")
 
 
+@functools.lru_cache(maxsize=32)
 def widened_psf(psf: Psf, fill_factor: float, pvf_drop: float) -> Psf:
     """The PSF blurred (Gaussian, or Airy/real base (x) Gaussian) until its point-source
     average PVF is (1 - pvf_drop) times ``psf``'s: the MTF error of the band."""
@@ -90,6 +92,46 @@ def widened_psf(psf: Psf, fill_factor: float, pvf_drop: float) -> Psf:
     if isinstance(base, AiryPsf):
         return AiryGaussianPsf(base, solve_blur_sigma(target, fill_factor, base_psf=base))
     raise ValueError(f"no widened version of a {type(psf).__name__} PSF for the band")
+
+
+_AREA_PVF: dict[tuple, np.ndarray] = {}
+_AREA_PVF_KEPT = 16
+
+
+def _drawn_area_pvf(
+    psf: Psf, fill_factor: float, inputs: InputUncertainty, size_m: float, pixel_m: np.ndarray
+) -> np.ndarray:
+    """Target area x PVF of each draw (n_samples + 1, n_ranges) for a target of ``size_m`` at
+    pixel footprints ``pixel_m``: the outline, PSF and size-rule draws (module docstring).
+    They depend on neither the sky nor the atmosphere: kept per PSF, target and range grid,
+    so a new sky temperature redraws only the radiometry."""
+    key = (psf, fill_factor, inputs, size_m, pixel_m.tobytes())
+    known = _AREA_PVF.get(key)
+    if known is not None:
+        return known
+    z = _draws(inputs)
+    outline = np.sqrt(np.clip(1.0 + inputs.outline_area * z[4], 0.05, None))  # size factor
+    wide = widened_psf(psf, fill_factor, inputs.psf_pvf) if inputs.psf_pvf > 0 else psf
+    d = (size_m * outline[:, None]) / pixel_m[None, :]
+    p_real = average_pvf_square(psf, fill_factor, d)
+    p_wide = average_pvf_square(wide, fill_factor, d)
+    reach = np.clip(np.minimum(d, 2.0 - d), 0.0, 1.0)
+    p = p_real + z[5][:, None] * (p_real - p_wide)
+    p = p * (1.0 - inputs.size_rule * np.abs(z[6])[:, None] * reach)
+    area_p = (size_m * outline[:, None]) ** 2 * p
+    area_p.setflags(write=False)
+    if len(_AREA_PVF) >= _AREA_PVF_KEPT:
+        _AREA_PVF.pop(next(iter(_AREA_PVF)), None)  # the oldest
+    _AREA_PVF[key] = area_p
+    return area_p
+
+
+def _draws(inputs: InputUncertainty) -> np.ndarray:
+    """The seeded unit normal draws (7, n_samples + 1); draw 0 is the nominal model."""
+    rng = np.random.default_rng(inputs.seed)
+    z = rng.standard_normal((7, inputs.samples + 1))
+    z[:, 0] = 0.0
+    return z
 
 
 @dataclass(frozen=True)
@@ -117,11 +159,7 @@ def draw_corrected(
     """Monte-Carlo draws of the corrected (real PSF, square target) curves (with
     ``measured_noise``, a :class:`snrmon.model.noise.MeasuredNoise`, the noise is the measured
     one in every draw: the sky temperature no longer moves it)."""
-    rng = np.random.default_rng(inputs.seed)
-    n = inputs.samples
-    z = rng.standard_normal((7, n + 1))
-    z[:, 0] = 0.0  # draw 0 is the nominal model
-    ff = sensor.fill_factor
+    z = _draws(inputs)
     wl = c.wavelengths_um
     w = c.k_spec / np.sum(c.k_spec)
     l_sky = float(np.sum(w * spectral_photon_radiance(wl, c.sky_temp_k)))
@@ -134,20 +172,10 @@ def draw_corrected(
     ln_tau = np.log(np.clip(c.transmission_contrast, 1e-300, 1.0))
     tau = np.exp(inputs.optical_depth * z[3][:, None] * ln_tau[None, :])
     intensity = c.intensity_e(t_tgt, t_air, t_sky, tau)  # (n, n_ranges)
-    noise = np.array(
-        [noise_breakdown(sensor, t, spatial_noise, measured_noise).total for t in t_sky]
-    )
-    outline = np.sqrt(np.clip(1.0 + inputs.outline_area * z[4], 0.05, None))  # size factor
-    wide = widened_psf(psf, ff, inputs.psf_pvf) if inputs.psf_pvf > 0 else psf
+    noise = total_noise_e(sensor, t_sky, spatial_noise, measured_noise)
     pixel_m = c.ranges_m * sensor.ifov_rad  # the pixel footprint at each range
     out = {}
     for size, size_m in sizes_m.items():
-        d = (size_m * outline[:, None]) / pixel_m[None, :]
-        p_real = average_pvf_square(psf, ff, d)
-        p_wide = average_pvf_square(wide, ff, d)
-        reach = np.clip(np.minimum(d, 2.0 - d), 0.0, 1.0)
-        p = p_real + z[5][:, None] * (p_real - p_wide)
-        p = p * (1.0 - inputs.size_rule * np.abs(z[6])[:, None] * reach)
-        area = (size_m * outline[:, None]) ** 2
-        out[f"{size}_corrected"] = intensity * area / c.ranges_m**2 * p / noise[:, None]
+        area_p = _drawn_area_pvf(psf, sensor.fill_factor, inputs, float(size_m), pixel_m)
+        out[f"{size}_corrected"] = intensity * area_p / c.ranges_m**2 / noise[:, None]
     return McDraws({k: v[1:] for k, v in out.items()}, {k: v[0] for k, v in out.items()})

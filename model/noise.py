@@ -27,6 +27,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from snrmon.model.detector import (
     cold_shield_electrons,
     dark_electrons,
@@ -105,23 +107,48 @@ def noise_breakdown(
     with ``measured``, its temporal and spatial noise in place of the model's."""
     if measured is not None and spatial_noise is not None:
         raise ValueError("give a spatial noise or a measured noise, not both")
-    bg = math.sqrt(scene_electrons(sensor, background_temp_k) + cold_shield_electrons(sensor))
-    lens = math.sqrt(lens_electrons(sensor))
-    if sensor.detector == "photon":
-        dark = math.sqrt(dark_electrons(sensor))
-        read = float(sensor.read_noise_e)
-        temporal = math.sqrt(bg**2 + lens**2 + dark**2 + read**2)
-    else:
-        dark = 0.0
-        temporal = bolometer_noise_e(sensor)
-        read = math.sqrt(max(temporal**2 - bg**2 - lens**2, 0.0))
-        temporal = math.sqrt(bg**2 + lens**2 + read**2)
+    bg, lens, dark, read, temporal = (
+        float(v) for v in _eq1(sensor, scene_electrons(sensor, background_temp_k))
+    )
     if measured is not None:
         gain = sensor.gain_e_per_dn
         return NoiseBreakdown(
             bg, lens, dark, read, measured.temporal_dn * gain, measured.spatial_dn * gain
         )
     return NoiseBreakdown(bg, lens, dark, read, temporal, spatial_noise_e(spatial_noise, temporal))
+
+
+def total_noise_e(
+    sensor: Sensor,
+    background_temp_k: np.ndarray,
+    spatial_noise: float | str | None = None,
+    measured: MeasuredNoise | None = None,
+) -> np.ndarray:
+    """:attr:`NoiseBreakdown.total` of :func:`noise_breakdown` for each of an array of
+    background temperatures at once (the Monte-Carlo band's sky draws)."""
+    t = np.asarray(background_temp_k, dtype=float)
+    if measured is not None:
+        one = noise_breakdown(sensor, float(t.flat[0]), spatial_noise, measured)
+        return np.full(t.shape, one.total)
+    temporal = _eq1(sensor, scene_electrons(sensor, t))[4]
+    return np.hypot(temporal, spatial_noise_e(spatial_noise, temporal))
+
+
+def _eq1(sensor: Sensor, scene_e):
+    """(background, lens, dark, read, temporal) noise [e- rms] for the scene's electrons
+    ``scene_e`` (a float or an array): Eq. 1, or a bolometer's NETD (module docstring)."""
+    bg = np.sqrt(scene_e + cold_shield_electrons(sensor))
+    lens = math.sqrt(lens_electrons(sensor))
+    if sensor.detector == "photon":
+        dark = math.sqrt(dark_electrons(sensor))
+        read = float(sensor.read_noise_e)
+        temporal = np.sqrt(bg**2 + lens**2 + dark**2 + read**2)
+    else:
+        dark = 0.0
+        netd_e = bolometer_noise_e(sensor)
+        read = np.sqrt(np.maximum(netd_e**2 - bg**2 - lens**2, 0.0))
+        temporal = np.sqrt(bg**2 + lens**2 + read**2)
+    return bg, lens, dark, read, temporal
 
 
 def temporal_noise_e(sensor: Sensor, background_temp_k: float) -> float:
@@ -136,8 +163,9 @@ def model_netd_mk(sensor: Sensor, scene_temp_k: float | None = None) -> float:
     return 1e3 * temporal_noise_e(sensor, t) / extended_responsivity_e_per_k(sensor, t)
 
 
-def spatial_noise_e(spec: float | str | None, temporal_e: float) -> float:
-    """None -> 0; a number -> electrons; "2.5x" -> 2.5 x temporal; a clutter category."""
+def spatial_noise_e(spec: float | str | None, temporal_e):
+    """None -> 0; a number -> electrons; "2.5x" -> 2.5 x temporal; a clutter category
+    (``temporal_e`` a float, or an array: the multiples are then arrays too)."""
     if spec is None:
         return 0.0
     if isinstance(spec, str):

@@ -39,7 +39,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
+from scipy.interpolate import CubicSpline, PchipInterpolator
 
 from snrmon.model.contrast import contrast
 from snrmon.model.eq4 import expected_eq4_by_rule
@@ -60,7 +60,26 @@ GEOMETRIES = ("square", "paper")
 DEFAULT_TARGET_SIGMA_PER_SIZE = 0.5
 """The paper geometry's sigma_t = D / 2 (with the paper's sigma = 0.8 px this
 reproduces its relative PVF drop with target size)."""
-_EXPECTED_NODES = 28  # the expected Eq. (4) curve is computed here and interpolated between
+_EXPECTED_NODES = 28  # up to this many ranges, the expected reading is computed at each
+# Above it, at nodes (expected_readings): every NODE_SPACING_FAR in ln(range) where the target
+# is compact (the reading is smooth there), every NODE_SPACING_NEAR where it is wider than
+# NODE_NEAR_PX (the 7x7 rim then lies on the drone: the paper's rim reading bends with the
+# sub-pixel detail of what it sees); then, in up to REFINE_ROUNDS rounds, a node at the middle
+# of each interval where the cubic spline and PCHIP through the nodes (two interpolants that
+# agree where the nodes resolve the curve) part by more than REFINE_TOL in ln(reading), down
+# to intervals of 2 x NODE_SPACING_MIN. The readings are a cubic spline in log-log through
+# them; the target rule's, where the drone is wider than STEP_PX, through nodes at least
+# STEP_SPACING apart (its steps, _spaced). Held to the direct computation within 0.5 %
+# (tests/model/test_expected_nodes.py; docs/model.md).
+NODE_SPACING_FAR = 0.5
+NODE_SPACING_NEAR = 0.25
+NODE_NEAR_PX = 2.0
+REFINE_TOL = 2e-3
+REFINE_ROUNDS = 5
+NODE_SPACING_MIN = 0.05
+STEP_SPACING = 0.15
+STEP_PX = 4.0
+MIN_NODES = 5
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,10 +236,12 @@ def expected_reading(
     background: str = "target",
 ) -> np.ndarray:
     """:func:`snrmon.model.eq4.expected_eq4` along a range grid (amplitude = point contrast / noise,
-    d_px the target's side in pixels): exact at up to ``nodes`` log-spaced ranges, PCHIP in
-    log-log between them (the reading is smooth in range). ``phases_xy``: over these observed
-    sub-pixel phases instead of the whole cell; ``background``: "rim" (the paper's 7x7 rim) or
-    "target" (the console's rule), see :data:`EXPECTED_CURVES`."""
+    d_px the target's side in pixels): computed at every range of a grid of up to ``nodes``
+    ranges; on a longer one at nodes placed and refined along it and interpolated between
+    them (:data:`_EXPECTED_NODES`; within 0.5 % of the reading computed at every range).
+    ``phases_xy``: over these observed sub-pixel phases instead of the whole cell;
+    ``background``: "rim" (the paper's 7x7 rim) or "target" (the console's rule), see
+    :data:`EXPECTED_CURVES`."""
     return expected_readings(
         psf,
         fill_factor,
@@ -249,7 +270,9 @@ def expected_readings(
     backgrounds: tuple[str, ...] = ("rim", "target"),
 ) -> dict[str, np.ndarray]:
     """:func:`expected_reading` of several background rules at once (one pattern and peak
-    computation per node): ``{rule: readings}``."""
+    computation per node): ``{rule: readings}``. The nodes depend on the inputs alone (not on
+    what was computed before); their patterns are kept (:func:`snrmon.model.eq4.phase_patterns`),
+    so a new sky on a known grid reads the patterns already computed for most of them."""
     r = np.asarray(ranges_m, float)
 
     def at(idx):
@@ -268,17 +291,110 @@ def expected_readings(
 
     if r.size <= nodes:
         return at(np.arange(r.size))
-    order = np.argsort(r)
-    picks = np.unique(np.round(np.linspace(0, r.size - 1, nodes)).astype(int))
-    idx = order[picks]
-    values = at(idx)
-    lr = np.log(r[idx])
-    keep = np.concatenate([[True], np.diff(lr) > 0])
+    # on the distinct ranges, ascending (a range given twice reads the same)
+    r_u, first, back = np.unique(r, return_index=True, return_inverse=True)
+    lr = np.log(r_u)
+    d_u = np.asarray(d_px, float)[first]
+    picked = expected_nodes(lr, d_u)
+    values = {rule: np.log(v) for rule, v in at(first[picked]).items()}
+    for _ in range(REFINE_ROUNDS):
+        more = _refinements(lr, picked, values)
+        if more.size == 0:
+            break
+        new = {rule: np.log(v) for rule, v in at(first[more]).items()}
+        picked = np.concatenate([picked, more])
+        order = np.argsort(picked)
+        picked = picked[order]
+        values = {rule: np.concatenate([values[rule], new[rule]])[order] for rule in values}
     out = {}
     for rule, v in values.items():
-        f = PchipInterpolator(lr[keep], np.log(v[keep]))
-        out[rule] = np.exp(f(np.log(r)))
+        keep = _spaced(lr[picked], d_u[picked] > STEP_PX) if rule == "target" else slice(None)
+        out[rule] = np.exp(CubicSpline(lr[picked][keep], v[keep])(lr))[back.ravel()]
     return out
+
+
+def _spaced(x: np.ndarray, wide: np.ndarray) -> np.ndarray:
+    """Indices of ascending ``x``: all where not ``wide``, else at least :data:`STEP_SPACING`
+    apart; both ends kept. Where the drone is wide, the target rule's reading steps by up to
+    0.4 % at the ranges where a pixel joins its 3-sigma extent (the background rim moves out
+    by a pixel): its spline steps over them, as the console's readings, noisy frame by frame,
+    do (the curve stays free of jumps, tests/model/test_continuous.py)."""
+    keep = [0]
+    for i in range(1, x.size - 1):
+        if not (wide[i] or wide[keep[-1]]) or x[i] - x[keep[-1]] >= STEP_SPACING:
+            keep.append(i)
+    if wide[-1] and x[-1] - x[keep[-1]] < 0.5 * STEP_SPACING and len(keep) > 1:
+        keep.pop()
+    keep.append(x.size - 1)
+    return np.array(keep)
+
+
+def clear_caches() -> None:
+    """Forget what the model keeps between predictions (the PSFs' frequency grids and PVF
+    tables, the expected reading's patterns, nodes and readings, the band's PVF draws): the
+    next prediction computes everything again, as a fresh process would."""
+    from snrmon.model import eq4, footprint, montecarlo, pvf
+
+    eq4._READINGS.clear()
+    montecarlo._AREA_PVF.clear()
+    for cached in (
+        eq4.phase_patterns,
+        montecarlo.widened_psf,
+        footprint.otf_grid,
+        footprint._square_table,
+        footprint._pattern_weights,
+        pvf._polar_weights,
+        pvf._pvf_table,
+    ):
+        cached.cache_clear()
+
+
+def expected_nodes(log_ranges: np.ndarray, d_px: np.ndarray) -> np.ndarray:
+    """The first nodes of the expected reading (indices into ``log_ranges``, ascending and
+    distinct): both ends and steps of :data:`NODE_SPACING_FAR` in ln(range), or
+    :data:`NODE_SPACING_NEAR` where the target is wider than :data:`NODE_NEAR_PX`."""
+    picks = [0]
+    last = log_ranges.size - 1
+    for i in range(1, last):
+        wide = max(d_px[i], d_px[picks[-1]]) > NODE_NEAR_PX
+        step = NODE_SPACING_NEAR if wide else NODE_SPACING_FAR
+        if log_ranges[i] - log_ranges[picks[-1]] >= step:
+            picks.append(i)
+    if last - picks[-1] == 1 and len(picks) > 1 and last > 2:
+        picks[-1] = last  # no interval of one step at the end
+    elif picks[-1] != last:
+        picks.append(last)
+    if len(picks) < MIN_NODES:  # a short span of ranges: a few nodes across it
+        return np.unique(np.round(np.linspace(0, last, MIN_NODES)).astype(int))
+    return np.array(picks)
+
+
+def _refinements(
+    log_ranges: np.ndarray, picked: np.ndarray, values: dict[str, np.ndarray]
+) -> np.ndarray:
+    """The ranges (indices) nearest the middle of each interval between nodes where the cubic
+    spline and PCHIP through the nodes part by more than :data:`REFINE_TOL` (two
+    interpolants of the same nodes that agree where the nodes resolve the curve)."""
+    x = log_ranges[picked]
+    v = np.stack(list(values.values()), axis=1)  # every rule in one interpolant
+    spline, pchip = CubicSpline(x, v)(log_ranges), PchipInterpolator(x, v)(log_ranges)
+    gap = np.abs(spline - pchip).max(axis=1)
+    lo, hi = picked[:-1], picked[1:]
+    inner = (hi - lo >= 2) & (log_ranges[hi] - log_ranges[lo] >= 2.0 * NODE_SPACING_MIN)
+    worst = np.maximum.reduceat(gap, lo)  # each interval's worst, nodes included (gap 0)
+    flagged = inner & (worst > REFINE_TOL)
+    # a cubic's error falls as the fourth power of the spacing: split an interval into as many
+    # as bring its gap under the tolerance (fewer rounds), no part under NODE_SPACING_MIN
+    width = (log_ranges[hi] - log_ranges[lo])[flagged]
+    parts = np.ceil((worst[flagged] / REFINE_TOL) ** 0.25)
+    parts = np.clip(parts, 2, np.maximum(2, np.floor(width / NODE_SPACING_MIN)))
+    new = []
+    for a, b, n_parts in zip(lo[flagged], hi[flagged], parts.astype(int), strict=True):
+        at = np.linspace(log_ranges[a], log_ranges[b], n_parts + 1)[1:-1]
+        j = np.searchsorted(log_ranges, at)
+        j = np.where(np.abs(log_ranges[j - 1] - at) <= np.abs(log_ranges[j] - at), j - 1, j)
+        new.append(np.unique(np.clip(j, a + 1, b - 1)))
+    return np.concatenate(new) if new else np.zeros(0, int)
 
 
 def predict(
