@@ -13,8 +13,9 @@ The goals, and why:
 - the console shows every frame the cameras deliver (shown / delivered >= 0.99) and its event
   loop is late by at most 8 ms at p99 (a click answered within half a frame);
 - ``replay --fast`` of both cameras >= 100x real time (a day's recording in minutes);
-- the model's four curves, expected Eq. (4) and band over 500 ranges <= 20 ms after the first
-  call, the first <= 100 ms (the model dialog answers at once);
+- the model's four curves, expected Eq. (4) and band over 500 ranges <= 20 ms for new inputs
+  after the first call (a new sky: what the console recomputes), the first <= 100 ms (the
+  model dialog answers at once);
 - Eq. (4) of one frame <= 20 us (independent of the frame's size);
 - the recorder >= 0.9 of a plain write of the same bytes, its pairs within 10 % of each other;
 - the full console demo beside a busy core: 0 frames dropped and every stop with its 100 frames
@@ -97,21 +98,27 @@ GOALS: tuple[Goal, ...] = (
         100.0,
         "x real time",
     ),
-    Goal(
-        "model, 500 ranges with band and expected Eq. (4), repeat",
-        "model",
-        _key("predict_500_warm_ms"),
-        "<=",
-        20.0,
-        "ms",
+    *(
+        Goal(
+            f"{cam.upper()} model, 500 ranges with band and expected Eq. (4), a new sky",
+            "model",
+            _key(f"{cam}_new_sky_500_ranges_ms"),
+            "<=",
+            20.0,
+            "ms",
+        )
+        for cam in ("mwir", "lwir")
     ),
-    Goal(
-        "model, 500 ranges with band and expected Eq. (4), first call",
-        "model",
-        _key("predict_500_first_ms"),
-        "<=",
-        100.0,
-        "ms",
+    *(
+        Goal(
+            f"{cam.upper()} model, the same, first call in a fresh process",
+            "model",
+            _key(f"{cam}_first_call_ms"),
+            "<=",
+            100.0,
+            "ms",
+        )
+        for cam in ("mwir", "lwir")
     ),
     Goal(
         "Eq. (4) per frame, 640x480",
