@@ -9,9 +9,15 @@ from tests.helpers import strict_json
 def test_bench_json_has_the_sections_asked_for(capsys):
     assert main(["bench", "--only", "measurement,model", "--duration", "0.2", "--json"]) == 0
     out = strict_json(capsys.readouterr().out)
-    assert set(out) == {"machine", "measurement", "model"}
+    assert set(out) == {"machine", "measurement", "model", "goals"}
     assert out["measurement"]["per_frame_us_1280x720"] > 0
     assert out["model"]["mwir_four_curves_500_ranges_ms"] > 0
+    # the goals of the two sections run, each with its figure read and a verdict
+    goals = {g["goal"]: g for g in out["goals"]}
+    assert len(goals) == 6 and all(g["met"] in (True, False) for g in goals.values())
+    assert (
+        goals["Eq. (4) per frame, 1280x720"]["value"] == out["measurement"]["per_frame_us_1280x720"]
+    )
 
 
 def test_bench_duration_must_be_positive(capsys):
