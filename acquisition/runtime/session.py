@@ -261,7 +261,11 @@ class Session:
         self.met_readings = weather
         for name in self.pipelines:
             self.engine.apply_model_input(name, "met_readings", payload)
-        self._event("met_readings", payload=payload, t_host_ns=time.monotonic_ns())
+        # after the last frame any camera measured with the old readings (as model_noise): a
+        # replay applies it there, so a stop row frozen after the change uses the new ones
+        seen = [t for t in map(self.engine.model_input_ns, self.pipelines) if t is not None]
+        t_ns = max(seen) if seen else time.monotonic_ns()
+        self._event("met_readings", payload=payload, t_host_ns=t_ns)
 
     def set_measured_noise(self, camera: str, noise: MeasuredNoise | None) -> None:
         """``camera``'s measured 3D noise (a ``snrmon.model.noise.MeasuredNoise``: sigma_tvh
