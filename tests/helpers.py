@@ -35,6 +35,26 @@ class SpotOnNoise:
         return np.clip(np.rint(frame), 0, 65535).astype(np.uint16)
 
 
+def shm_camera_config(
+    address: str,
+    *,
+    camera: str = "mwir",
+    width_px: int = W,
+    height_px: int = H,
+    **tables,
+):
+    """The session configuration of one camera (preset ``camera``) reading the shared-memory
+    ring ``address``; ``tables`` are more of the camera's keys (``calibration=...``) or, given
+    as dicts, top-level tables (``lrf={...}``)."""
+    from snrmon.acquisition.config import session_config_from_dict
+
+    top = {k: v for k, v in tables.items() if isinstance(v, dict)}
+    extra = {k: v for k, v in tables.items() if not isinstance(v, dict)}
+    cam = {"source": "shm", "address": address, "sensor": camera, "width_px": width_px}
+    cam.update(height_px=height_px, **extra)
+    return session_config_from_dict({"cameras": {camera: cam}, **top})
+
+
 def wait_until(predicate, timeout_s: float, what: str) -> None:
     cond = threading.Condition()
     deadline = time.monotonic() + timeout_s

@@ -110,9 +110,16 @@ class PeakSnr:
     extent_h_px: int = field(default=0, compare=False)
 
 
-def with_flags(m: PeakSnr, flags: frozenset[str]) -> PeakSnr:
-    """``m`` with ``flags`` (``dataclasses.replace``, without its per-call field lookup: this is
-    on every tracked frame)."""
+def result_with(
+    m: PeakSnr,
+    *,
+    flags: frozenset[str] | None = None,
+    extent_px: tuple[int, int] | None = None,
+) -> PeakSnr:
+    """``m`` with other ``flags`` and/or the segmented target's extent (w, h) in px
+    (``dataclasses.replace`` without its per-call field lookup: this is on every tracked
+    frame)."""
+    w, h = (m.extent_w_px, m.extent_h_px) if extent_px is None else extent_px
     return PeakSnr(
         m.peak_x,
         m.peak_y,
@@ -120,26 +127,10 @@ def with_flags(m: PeakSnr, flags: frozenset[str]) -> PeakSnr:
         m.bg_mean,
         m.bg_std,
         m.snr,
-        flags,
+        m.flags if flags is None else flags,
         m.background,
-        m.extent_w_px,
-        m.extent_h_px,
-    )
-
-
-def with_extent(m: PeakSnr, extent_w_px: int, extent_h_px: int) -> PeakSnr:
-    """``m`` with the segmented target's extent (as :func:`with_flags`)."""
-    return PeakSnr(
-        m.peak_x,
-        m.peak_y,
-        m.peak,
-        m.bg_mean,
-        m.bg_std,
-        m.snr,
-        m.flags,
-        m.background,
-        extent_w_px,
-        extent_h_px,
+        w,
+        h,
     )
 
 

@@ -49,8 +49,8 @@ from snrmon.acquisition.measure.peak_snr import (
     PeakSnr,
     PeakSnrConfig,
     peak_snr_with,
+    result_with,
     saturation_level,
-    with_extent,
 )
 from snrmon.acquisition.measure.rim_kernel import (
     pixel_kind,
@@ -358,7 +358,7 @@ class TargetMeter:
             else:
                 at, size = peak, 1
                 m = self.measure(pixels, at, size, reference_noise)
-            return with_extent(m, w, h), at, size
+            return result_with(m, extent_px=(w, h)), at, size
         m = measure_target(
             pixels, blob, cfg, guard_px=self.guard_px, rect=rect, reference_noise=reference_noise
         )

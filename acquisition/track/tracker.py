@@ -61,7 +61,7 @@ from snrmon.acquisition.measure.peak_snr import (
     PeakSnr,
     PeakSnrConfig,
     pixel_of,
-    with_flags,
+    result_with,
 )
 from snrmon.acquisition.measure.target_snr import TargetMeter
 from snrmon.acquisition.track.candidate import Candidate, ObjectHistory, box_at, consistent, judge
@@ -337,7 +337,7 @@ class Tracker:
 
     def _step(self, m: PeakSnr, at, size: int, reason: str, extra: set[str]) -> TrackStep:
         if extra - m.flags:
-            m = with_flags(m, m.flags | extra)
+            m = result_with(m, flags=m.flags | extra)
         return TrackStep(m, self.track_state, int(at[0]), int(at[1]), size, reason, self._misses)
 
     # ------------------------------------------------------------------ reacquisition

@@ -261,18 +261,19 @@ def test_eq4_estimator_bias_at_snr_10(ddof, expected):
     assert float(np.std(result.snr, ddof=1)) == pytest.approx(1.93 * expected / 1.0342, rel=0.03)
 
 
-def test_with_flags_and_with_extent_are_dataclasses_replace():
+def test_result_with_is_dataclasses_replace():
     """The tracker's copies of a result with other flags or an extent keep every other field
     (a field added to PeakSnr must be added to them: this fails until it is)."""
     import dataclasses
 
-    from snrmon.acquisition.measure.peak_snr import PeakSnr, with_extent, with_flags
+    from snrmon.acquisition.measure.peak_snr import PeakSnr, result_with
 
     m = PeakSnr(3, 4, 1200.0, 1000.5, 7.25, 27.5, frozenset({"edge"}), "extent_rim", 5, 6)
     flags = frozenset({"lost", "gps_cued"})
     for got, want in (
-        (with_flags(m, flags), dataclasses.replace(m, flags=flags)),
-        (with_extent(m, 9, 2), dataclasses.replace(m, extent_w_px=9, extent_h_px=2)),
+        (result_with(m, flags=flags), dataclasses.replace(m, flags=flags)),
+        (result_with(m, extent_px=(9, 2)), dataclasses.replace(m, extent_w_px=9, extent_h_px=2)),
+        (result_with(m), m),
     ):
         assert [getattr(got, f.name) for f in dataclasses.fields(PeakSnr)] == [
             getattr(want, f.name) for f in dataclasses.fields(PeakSnr)

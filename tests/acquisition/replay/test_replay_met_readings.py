@@ -21,7 +21,7 @@ from snrmon.acquisition.runtime.session import Session
 from snrmon.model.atmosphere_table import Weather
 from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.acquisition.session_factory import write_session
-from tests.helpers import H, SpotOnNoise, W
+from tests.helpers import H, SpotOnNoise, W, shm_camera_config
 
 HUMID = Weather(air_temp_c=28.0, rh_percent=95.0, pressure_hpa=1005.0, visibility_km=8.0)
 
@@ -61,19 +61,7 @@ def test_the_operator_s_readings_are_recorded_and_applied(tmp_path):
     name = f"snrmon-met-{time.monotonic_ns() % 10**9}"
     producer = ShmProducer(name, W, H, SpotOnNoise(3), fps=30.0, slots=8)
     producer.start()
-    config = session_config_from_dict(
-        {
-            "cameras": {
-                "mwir": {
-                    "source": "shm",
-                    "address": name,
-                    "sensor": "mwir",
-                    "width_px": W,
-                    "height_px": H,
-                }
-            }
-        }
-    )
+    config = shm_camera_config(name)
     predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
     session = Session(config, track=False, predictor=predictor)
     try:

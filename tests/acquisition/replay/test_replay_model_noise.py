@@ -11,7 +11,6 @@ import time
 import numpy as np
 import pytest
 
-from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.prediction import MeasuredNoise, ModelPredictor
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.replay.batch import replay_session
@@ -24,7 +23,7 @@ from snrmon.model.snr import predict
 from snrmon.sim.devices.ldm_sim import LdmSimulator
 from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.acquisition.session_factory import write_session
-from tests.helpers import SPOT_X, SPOT_Y, H, SpotOnNoise, W, wait_until
+from tests.helpers import SPOT_X, SPOT_Y, H, SpotOnNoise, W, shm_camera_config, wait_until
 
 GRID = np.geomspace(100.0, 2000.0, 12)  # a few ranges keep the model's build fast
 RANGE_M = 300.0
@@ -41,20 +40,7 @@ def live(tmp_path):
     producer = ShmProducer(name, W, H, SpotOnNoise(7), fps=60.0, slots=32)
     producer.start()
     lrf = LdmSimulator(lambda t: RANGE_M, rate_hz=20.0, tracking=True).start()
-    config = session_config_from_dict(
-        {
-            "cameras": {
-                "mwir": {
-                    "source": "shm",
-                    "address": name,
-                    "sensor": "mwir",
-                    "width_px": W,
-                    "height_px": H,
-                }
-            },
-            "lrf": {"protocol": "ldm", "port": lrf.path, "baud": 9600},
-        }
-    )
+    config = shm_camera_config(name, lrf={"protocol": "ldm", "port": lrf.path, "baud": 9600})
     # stops only where the operator marks them (the steady range would open one after 3 s)
     session = Session(config, predictor=_predictor(), stop_config=StopConfig(steady_s=600.0))
     try:

@@ -19,7 +19,7 @@ from snrmon.acquisition.replay.player import ReplayPlayer
 from snrmon.acquisition.runtime.session import Session
 from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.acquisition.calibration_scene import camera
-from tests.helpers import running_n, wait_until
+from tests.helpers import running_n, shm_camera_config, wait_until
 
 SKY_K = 280.0
 
@@ -53,20 +53,7 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
     name = f"snrmon-cal-{time.monotonic_ns() % 10**9}"
     producer = ShmProducer(name, 128, 96, CalibratedSky(1), fps=60.0, slots=16)
     producer.start()
-    config = session_config_from_dict(
-        {
-            "cameras": {
-                "mwir": {
-                    "source": "shm",
-                    "address": name,
-                    "sensor": "mwir",
-                    "width_px": 128,
-                    "height_px": 96,
-                    "calibration": str(calibration_file),
-                }
-            }
-        }
-    )
+    config = shm_camera_config(name, calibration=str(calibration_file))
     session = Session(config, track=False)
     path = tmp_path / "cal.h5"
     try:
