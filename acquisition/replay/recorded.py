@@ -223,9 +223,12 @@ def recorded_calibration(
 
     frames = f.cameras[camera].frames
     shape = (int(frames.shape[1]), int(frames.shape[2]))
-    kept = f.calibration_record(camera) if path is None else None
+    recorded_path = _recorded_calibration_path(f, camera)
+    # the recorded calibration asked for by its path (as a campaign passes the recorded
+    # settings) is the one the file keeps, whether or not that path still exists
+    kept = f.calibration_record(camera) if path in (None, recorded_path) else None
     if kept is None:
-        path = path or _recorded_calibration_path(f, camera)
+        path = path or recorded_path
         if path is None:
             return None
         return load_calibration(path, sensor, frame_shape=shape), str(path)

@@ -89,6 +89,10 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
     calibration_file.with_suffix(".toml").unlink()
     replay = replay_session(path).cameras["mwir"]
     assert replay.compared >= 50 and replay.identical == replay.compared
+    # the recorded calibration named by its (now missing) path, as a campaign passes the
+    # recorded settings: the same calibration, the same replay
+    again = replay_session(path, calibrations={"mwir": str(calibration_file)}).cameras["mwir"]
+    assert again.identical == again.compared == replay.compared
     # A batch replay reports no raw-SNR figure, so it does not track the raw frames (half of
     # a frame's work); the console's player below does, as live.
     assert all(math.isnan(m.snr_mean_raw) for m in replay.tally.measurements)
