@@ -57,6 +57,7 @@ def run(duration_s: float) -> dict:
             out=str(path),
         )
         segments = 1
+        rolls_s: list[float] = []  # when (s after the start) a new segment began
         rss_samples: list[tuple[float, float]] = []
         with HilRig(opts) as rig:
             rss_start = _rss_mb(proc)
@@ -74,6 +75,7 @@ def run(duration_s: float) -> dict:
                     rss_samples.append((round(now - t0, 1), round(_rss_mb(proc), 1)))
                     next_rss += RSS_EVERY_S
                 if now >= next_segment and deadline - now > SEGMENT_S / 10:
+                    rolls_s.append(round(now - t0, 2))
                     rig.session.stop_recording()
                     path.unlink()
                     rig.session.start_recording(path)
@@ -107,6 +109,7 @@ def run(duration_s: float) -> dict:
             duration_s=elapsed,
             rss_mb_samples=rss_samples,
             recording_segments=segments,
+            segment_rolls_s=rolls_s,
             recording_mb=path.stat().st_size / 2**20,
         )
         full = replay_session(path)
