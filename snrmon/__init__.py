@@ -15,18 +15,8 @@ One installed namespace. Its subpackages each own one job (docs/architecture.md)
 
 from __future__ import annotations
 
-from pathlib import Path
-
 __version__ = "0.1.0"
 __all__ = ["Session", "load_stack", "measure_stack", "open_session", "predict", "track_stack"]
-
-# Run from a source checkout (the repository's top folder on sys.path, as pytest and
-# ``python -m snrmon`` there put it), this folder is found before the installed package, and
-# the folders that install as snrmon.model, snrmon.acquisition, ... are its siblings, not its
-# children: let Python look for subpackages beside it too. An installed package (wheel or
-# editable link tree) has them inside and is left alone.
-if not (Path(__file__).parent / "model").is_dir():  # pragma: no cover - depends on the layout
-    __path__.append(str(Path(__file__).resolve().parent.parent))
 
 
 def __getattr__(name: str):
