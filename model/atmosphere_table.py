@@ -5,10 +5,11 @@
 pressure, visibility and the aerosol model) and the standard atmosphere of the season, whose
 sea-level values stand in for the readings not given. :class:`AtmosphereTable` reads
 ``model/tables/lowtran7_horizontal.npz`` (built from LOWTRAN7 by
-``tools/make_atmosphere_table.py --build`` at set-up, not kept in git; its inputs, LOWTRAN version, SHA-256 and a check against fresh LOWTRAN runs are
-in the ``.json`` beside it, and a table that does not match its checksum is refused) and gives
-the spectral transmittance of a path of any length at LOWTRAN7's 20 cm^-1 resolution, every
-5 cm^-1, over 3.0-6.0 um and 7.49-12.5 um:
+``tools/make_atmosphere_table.py --build`` at set-up, not kept in git; its inputs, LOWTRAN
+version, SHA-256 and a check against fresh LOWTRAN runs are in the ``.json`` beside it, and a
+table that does not match its checksum is refused) and gives the spectral transmittance of a
+path of any length at LOWTRAN7's 20 cm^-1 resolution, every 5 cm^-1, over 3.0-6.0 um and
+7.49-12.5 um:
 
     OD(nu, L) = OD_dry(nu; T, P, L) + (K rho L)^a + (s rho^2 + f rho) L + beta(nu; RH) v(V) L
 

@@ -20,7 +20,8 @@ path-radiance term is the radiance of ``sky_assumed_k`` (8 K) of sky temperature
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import ClassVar
 
 import numpy as np
 
@@ -38,15 +39,24 @@ class UncertaintyBudget:
     sky_assumed_k: float = 8.0  # the sky's error when assumed equal to the air (montecarlo.py)
     combine: str = "rss"
 
+    RELATIVE: ClassVar[tuple[str, ...]] = (
+        "target_outline",
+        "path_radiance",
+        "mtf",
+        "target_size_blur",
+        "radiometry",
+        "optical_depth",
+    )
+    """The terms that are fractions (``sky_assumed_k`` is in kelvin)."""
+
+    @classmethod
+    def only(cls, **terms: float) -> UncertaintyBudget:
+        """A budget with every term 0 but ``terms`` (one source of the band at a time)."""
+        zero = {f.name: 0.0 for f in fields(cls) if f.name != "combine"}
+        return cls(**{**zero, **terms})
+
     def __post_init__(self) -> None:
-        for name in (
-            "target_outline",
-            "path_radiance",
-            "mtf",
-            "target_size_blur",
-            "radiometry",
-            "optical_depth",
-        ):
+        for name in self.RELATIVE:
             v = getattr(self, name)
             if not (0.0 <= v < 10.0):
                 raise ValueError(f"uncertainty {name} must be a fraction >= 0, got {v!r}")

@@ -343,7 +343,7 @@ def uncertainty_budget(
             sensor,
             target,
             r,
-            uncertainty=UncertaintyBudget(**{**_zero(), "sky_assumed_k": 1.0}),
+            uncertainty=UncertaintyBudget.only(sky_assumed_k=1.0),
             band=False,
             expected=False,
             **extra,
@@ -365,21 +365,6 @@ def uncertainty_budget(
         )
         for i, rng in enumerate(r)
     ]
-
-
-def _zero() -> dict:
-    return {
-        name: 0.0
-        for name in (
-            "target_outline",
-            "path_radiance",
-            "mtf",
-            "target_size_blur",
-            "radiometry",
-            "optical_depth",
-            "sky_assumed_k",
-        )
-    }
 
 
 def stops_noise(path: str | Path, replay: ReplayResult, n: int = 100) -> list[StopNoise]:
