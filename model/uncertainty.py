@@ -20,7 +20,7 @@ path-radiance term is the radiance of ``sky_assumed_k`` (8 K) of sky temperature
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import ClassVar
 
 import numpy as np
@@ -53,7 +53,7 @@ class UncertaintyBudget:
     def only(cls, **terms: float) -> UncertaintyBudget:
         """A budget with every term 0 but ``terms`` (one source of the band at a time)."""
         zero = {f.name: 0.0 for f in fields(cls) if f.name != "combine"}
-        return cls(**{**zero, **terms})
+        return replace(cls(), **{**zero, **terms})
 
     def __post_init__(self) -> None:
         for name in self.RELATIVE:
