@@ -20,8 +20,8 @@ path-radiance term is the radiance of ``sky_assumed_k`` (8 K) of sky temperature
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
-from typing import ClassVar
+from dataclasses import dataclass, fields
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -52,8 +52,9 @@ class UncertaintyBudget:
     @classmethod
     def only(cls, **terms: float) -> UncertaintyBudget:
         """A budget with every term 0 but ``terms`` (one source of the band at a time)."""
-        zero = {f.name: 0.0 for f in fields(cls) if f.name != "combine"}
-        return replace(cls(), **{**zero, **terms})
+        values: dict[str, Any] = {f.name: 0.0 for f in fields(cls) if f.name != "combine"}
+        values.update(terms)
+        return cls(**values)
 
     def __post_init__(self) -> None:
         for name in self.RELATIVE:
