@@ -139,7 +139,11 @@ def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
             if mine is not None:
                 lags.append(abs(int(mine["t_host_ns"]) - int(lv["t_host_ns"])))
                 diffs.append(abs(rng(lv) - rng(mine)))
-        assert len(lags) >= 0.9 * len(live) > 50, kind
+        # The live receiver had a fix at most of the log's epochs (here 56 of 68: the log runs
+        # to a second past the last frame, the receiver stops with the recording), and nearly
+        # every live fix is in the imported log.
+        assert len(live) >= 0.7 * len(made["truth"]) > 40, (kind, len(live), len(made["truth"]))
+        assert len(lags) >= 0.9 * len(live), (kind, len(lags), len(live))
         # And the live feed's: the simulated receiver computed a live fix when its thread ran,
         # a few ms after the epoch (more on a loaded machine: 3 ms is 0.1 m in a transit at 4x),
         # so in the bulk they agree far closer than the 3.2 m of one epoch off.
