@@ -20,6 +20,8 @@ import datetime as _dt
 import logging
 import math
 import time
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -114,6 +116,9 @@ class ConsoleWindow(QMainWindow):
         self.settings = settings or QSettings("snrmon", "console")
         self.screenshot_path: Path | None = None
         self.last_status: SessionStatus | None = None
+        self._status_now_ns = 0  # the "now" of last_status (a replay's: its shown frame's)
+        self._curves_due = False  # the model's curves changed since they were drawn
+        self._status_steps_left: list[Callable[[], None]] = []  # of the timer's refresh
         self.messages: list[str] = []
         self._curves: dict[str, dict] = {}
         self._pixels: dict[str, np.ndarray] = {}
@@ -207,7 +212,7 @@ class ConsoleWindow(QMainWindow):
         self._timers = []
         for interval, slot in (
             (FRAME_INTERVAL_MS, self.refresh_frames),
-            (STATUS_INTERVAL_MS, self.refresh_status),
+            (STATUS_INTERVAL_MS, self._refresh_status_in_steps),
             (TABLE_INTERVAL_MS, self.refresh_stops),
         ):
             timer = QTimer(self)
@@ -425,37 +430,72 @@ class ConsoleWindow(QMainWindow):
         self.display_label.setStyleSheet("color: #ffb000;" if skipping else "")
 
     def refresh_status(self) -> None:
+        """Show the session's status in every panel, all of it now (an action's immediate
+        answer; tests)."""
+        for step in self._status_steps():
+            step()
+
+    def _refresh_status_in_steps(self) -> None:
+        """The status timer's refresh: the same steps, each its own event. The paints a step
+        asks for (strip chart, inset, header) run before the next step, and a click or a frame
+        between them: in one piece, a status refresh and its paints held the event loop for
+        ~10 ms, the largest share of its late ticks."""
+        if self._status_steps_left:
+            return  # the last refresh is still going (a very busy loop): no pile-up
+        self._status_steps_left = self._status_steps()
+
+        def next_step() -> None:
+            if not self._status_steps_left:
+                return
+            self._status_steps_left.pop(0)()
+            if self._status_steps_left:
+                QTimer.singleShot(0, self, next_step)
+
+        next_step()
+
+    def _status_steps(self) -> list[Callable[[], None]]:
+        """The status refresh in steps: the session's status and the shared panels, then each
+        camera's panels and range plot."""
+        steps: list[Callable[[], None]] = [self._show_session_status]
+        steps += [partial(self._show_camera_status, name) for name in self.panels]
+        return steps
+
+    def _show_session_status(self) -> None:
         self.show_display_rates()
         st = self.session.status()
         self.last_status = st
         # A replay's "now" is the recorded time of its shown frame.
-        now_ns = self.session.now_ns() if self.replay else time.monotonic_ns()
-        self.banner.show_alarms(st.alarms, now_ns / 1e9)
+        self._status_now_ns = self.session.now_ns() if self.replay else time.monotonic_ns()
+        self.banner.show_alarms(st.alarms, self._status_now_ns / 1e9)
         self.status_panel.show_status(st)
         self.noise_panel.show_status(st)
         version = self.model.version if self.model is not None else None
-        redraw = version is not None and version != self._model_version
+        self._curves_due = version is not None and version != self._model_version
         self._model_version = version
-        for name, panel in self.panels.items():
-            cs = st.cameras[name]
-            followed = self.model is not None and self.model.follow_sky(name, cs.figures.sky_temp_k)
-            if followed or redraw:  # a new sky, or curves computed in the background arrived
-                self._draw_curves(name)
-            panel.view.show_status(cs)
-            for message in self.session.pipelines[name].click_messages():
-                self.report(f"{name}: {message}")  # what the track made of a click
-            panel.inset.show_box(self._pixels.get(name), cs)
-            panel.chart.show_series(self.session.pipelines[name].series(), now_ns)
-            a = cs.agreement
-            panel.chart.show_model(a.rule if a else "", a.expected if a else None)
-            panel.header.show_status(cs, st)
-            panel.place()  # the header's height may follow its new words
-            m = cs.last
-            plot = self.range_plots[name]
-            plot.set_rule(a.rule if a else None)
-            if m is not None:
-                plot.show_live(m.range_m, m.snr_mean, cs.snr_sem)
         self._show_recording(st)
+
+    def _show_camera_status(self, name: str) -> None:
+        st, now_ns = self.last_status, self._status_now_ns
+        if st is None or name not in st.cameras:
+            return
+        panel, cs = self.panels[name], st.cameras[name]
+        followed = self.model is not None and self.model.follow_sky(name, cs.figures.sky_temp_k)
+        if followed or self._curves_due:  # a new sky, or curves computed in the background
+            self._draw_curves(name)
+        panel.view.show_status(cs)
+        for message in self.session.pipelines[name].click_messages():
+            self.report(f"{name}: {message}")  # what the track made of a click
+        panel.inset.show_box(self._pixels.get(name), cs)
+        panel.chart.show_series(self.session.pipelines[name].series(), now_ns)
+        a = cs.agreement
+        panel.chart.show_model(a.rule if a else "", a.expected if a else None)
+        panel.header.show_status(cs, st)
+        panel.place()  # the header's height may follow its new words
+        m = cs.last
+        plot = self.range_plots[name]
+        plot.set_rule(a.rule if a else None)
+        if m is not None:
+            plot.show_live(m.range_m, m.snr_mean, cs.snr_sem)
 
     def _show_recording(self, st: SessionStatus) -> None:
         rec = st.recording
