@@ -1,9 +1,10 @@
 """One camera's live image: levels (histogram control and robust auto-levels), zoom and pan, the
 operator's click that sets the ROI, and the measurement's geometry drawn on the image.
 
-The view never receives frames: the main window's timer hands it the newest
-:class:`snrmon.acquisition.streams.ring.RingFrame` it peeked, and the view skips a frame it has
-already shown.
+The view never receives frames: the main window's timer hands it the newest frame the display's
+worker made ready (:class:`snrmon.gui.frame_feed.ShownFrame`: the frame, its auto-levels and its
+image for the screen), and the view skips a frame it has already shown. The view tells the worker
+how it draws (:meth:`CameraView.display_request`).
 Drawn on the image (paper Fig. 4): the search window centred on the ROI, the box centred on the
 measured peak, and the inner edge of its one-pixel rim (the rim pixels lie between the two); and
 a cyan cross where the drone's GPS position projects into the camera (hidden with no projection).
@@ -24,9 +25,8 @@ from PySide6.QtWidgets import QGraphicsItem, QGraphicsRectItem, QVBoxLayout, QWi
 
 from snrmon.acquisition.engine.status import CameraStatus
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
-from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.gui.display_image import colour_table, shown_rgb32
-from snrmon.gui.levels import levels_moved, robust_levels
+from snrmon.gui.frame_feed import DisplayRequest, ShownFrame
 
 GPS_COLOR = "#00e5ff"  # cyan: distinct from the ROI blue, box yellow and peak red
 
@@ -94,6 +94,12 @@ class DisplayImageItem(pg.ImageItem):
         self._table_for: tuple | None = None  # (levels, lut bytes, n values) of _table
         self._table: np.ndarray | None = None
         self._argb: list[np.ndarray] = []  # the pixels of self.qimage (it does not own them)
+        # The image made off the GUI thread for the next frame (frame_feed.ShownFrame): drawn
+        # as it is when it was made with what this item draws with.
+        self.prepared: tuple[tuple, np.ndarray] | None = None
+        self.render_key: tuple | None = None  # (x, y factors, levels, lut bytes, n values)
+        self.render_lut: np.ndarray | None = None  # the colours of the last render
+        self.images_made_here = 0  # renders that could not use a prepared image
 
     def paint(self, painter, *args) -> None:
         super().paint(painter, *args)
@@ -144,16 +150,26 @@ class DisplayImageItem(pg.ImageItem):
         if lut is not None and (np.ndim(lut) != 2 or np.shape(lut)[1] not in (3, 4)):
             return False
         n_values = 1 << (8 * image.dtype.itemsize)
-        key = (float(levels[0]), float(levels[1]), None if lut is None else lut.tobytes(), n_values)
-        if key != self._table_for:
-            self._table = colour_table(levels, lut, n_values)
-            self._table_for = key
-        if len(self._argb) != 2 or self._argb[0].shape != (rows, cols):
-            self._argb = [np.empty((rows, cols), np.uint32) for _ in range(2)]
-        # Two arrays in turn: the QImage drawn last keeps its pixels until this one replaces it.
-        self._argb.reverse()
-        argb = self._argb[0]
-        shown_rgb32(image, xds, yds, self._table, argb)
+        lut_key = None if lut is None else lut.tobytes()
+        levels = (float(levels[0]), float(levels[1]))
+        self.render_key = (xds, yds, levels, lut_key, n_values)
+        self.render_lut = lut
+        prepared, self.prepared = self.prepared, None
+        if prepared is not None and prepared[0] == self.render_key:
+            argb = prepared[1]  # the feed keeps it until two frames later
+        else:
+            self.images_made_here += 1
+            key = (levels, lut_key, n_values)
+            if key != self._table_for:
+                self._table = colour_table(levels, lut, n_values)
+                self._table_for = key
+            if len(self._argb) != 2 or self._argb[0].shape != (rows, cols):
+                self._argb = [np.empty((rows, cols), np.uint32) for _ in range(2)]
+            # Two arrays in turn: the QImage drawn last keeps its pixels until this one
+            # replaces it.
+            self._argb.reverse()
+            argb = self._argb[0]
+            shown_rgb32(image, xds, yds, self._table, argb)
         self._lastDownsample = (xds, yds)
         self.qimage = QImage(argb.data, cols, rows, cols * 4, QImage.Format.Format_RGB32)
         self._renderRequired = False
@@ -184,9 +200,8 @@ class CameraView(QWidget):
         self.auto_levels = True
         self.frames_shown = 0
         self._last_seq: int | None = None
-        self._levels_every = 3  # percentiles on every 3rd shown frame: plenty for a display
-        self._levels_countdown = 0  # frames until the next percentiles (0: on the next frame)
-        self._levels_stale = True  # the next auto-levels apply whatever they find
+        self._auto_generation = 0  # raised each time auto-levels is asked for again
+        self._request: DisplayRequest | None = None
 
         self.graphics = pg.GraphicsLayoutWidget()
         self.view = self.graphics.addViewBox(lockAspect=True, invertY=True, enableMenu=False)
@@ -233,30 +248,49 @@ class CameraView(QWidget):
         lay.addWidget(self.graphics)
 
     # ------------------------------------------------------------------ frames
-    def show_frame(self, frame: RingFrame | None) -> bool:
-        """Draw ``frame`` if it is new; returns whether anything was drawn."""
-        if frame is None or frame.seq == self._last_seq:
+    def show_frame(self, shown: ShownFrame | None) -> bool:
+        """Draw the frame made ready by the display's worker (:mod:`snrmon.gui.frame_feed`)
+        if it is new, with its levels while auto-levels is on and its image if it was made the
+        way this view draws; returns whether anything was drawn."""
+        if shown is None or shown.frame.seq == self._last_seq:
             return False
+        frame = shown.frame
         self._last_seq = frame.seq
-        pixels = frame.pixels
-        if self.auto_levels:
-            if self._levels_countdown <= 0:
-                self._levels_countdown = self._levels_every
-                new = robust_levels(pixels)
-                # Within a few percent of the shown window the change is invisible; applying it
-                # would only repaint the histogram control (~2 ms) several times a second.
-                if self._levels_stale or levels_moved(self.histogram.getLevels(), new):
-                    self._set_levels_quietly(*new)
-                    self._levels_stale = False
-            self._levels_countdown -= 1
+        levels = self.histogram.getLevels()
+        if self.auto_levels and tuple(levels) != shown.levels:
+            # the worker moves them only beyond a dead band: a repaint of the histogram
+            # control (~2 ms) a few times a minute, not at every frame
+            levels = shown.levels
+            self._set_levels_quietly(*levels)
         self.image.frame_seq = frame.seq
-        self.image.setImage(pixels, autoLevels=False, levels=self.histogram.getLevels())
+        self.image.prepared = None if shown.image is None else (shown.image_key, shown.image)
+        self.image.setImage(frame.pixels, autoLevels=False, levels=levels)
         now = time.monotonic()
         if now - self._histogram_at >= self._histogram_every_s:
             self._histogram_at = now
             self.histogram.imageChanged()
         self.frames_shown += 1
         return True
+
+    def display_request(self) -> DisplayRequest | None:
+        """How this view draws its frames (the reduction and colours of its last image, the
+        levels), for the display's worker to make the next ones so; None before the first."""
+        key = self.image.render_key
+        if key is None:
+            return None
+        lo, hi = self.histogram.getLevels()
+        request = DisplayRequest(
+            x_factor=key[0],
+            y_factor=key[1],
+            lut=self.image.render_lut,
+            lut_key=key[3],
+            auto_levels=self.auto_levels,
+            levels=(float(lo), float(hi)),
+            auto_generation=self._auto_generation,
+        )
+        if request != self._request:
+            self._request = request
+        return self._request
 
     def _set_levels_quietly(self, lo: float, hi: float) -> None:
         self.histogram.sigLevelsChanged.disconnect(self._levels_dragged)
@@ -271,8 +305,7 @@ class CameraView(QWidget):
 
     def set_auto_levels(self, on: bool = True) -> None:
         self.auto_levels = on
-        self._levels_stale = True
-        self._levels_countdown = 0  # recompute on the next frame
+        self._auto_generation += 1  # the next levels found apply at once
 
     def reset_zoom(self) -> None:
         h, w = self.shape

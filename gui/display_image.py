@@ -35,7 +35,7 @@ def colour_table(levels, lut: np.ndarray | None, n_values: int) -> np.ndarray:
     return (rgb[:, 0] << 16) | (rgb[:, 1] << 8) | rgb[:, 2] | np.uint32(0xFF000000)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def shown_rgb32(image, x_factor, y_factor, table, out):
     """``out[r, c]`` = the colour in ``table`` of the mean of ``image``'s block of
     ``y_factor`` rows by ``x_factor`` columns at (r, c), rounded half up (the last partial block

@@ -60,3 +60,43 @@ def levels_moved(
     if not span > 0.0:  # a degenerate or NaN window: anything is better
         return True
     return abs(new[0] - lo) > tolerance * span or abs(new[1] - hi) > tolerance * span
+
+
+class AutoLevels:
+    """The display levels of a stream of frames: the operator's while auto-levels is off; else
+    :func:`robust_levels` of every ``every``-th frame, applied only when they moved beyond the
+    dead band (:func:`levels_moved`) of those in use, or at once after auto-levels is asked for
+    again. Plain code for the display's worker thread (the percentiles never run on the GUI's)."""
+
+    def __init__(self, every: int = 3) -> None:
+        self.every = every  # percentiles on every 3rd frame: plenty for a display
+        self.levels: tuple[float, float] | None = None  # in use
+        self._countdown = 0  # frames until the next percentiles (0: on the next frame)
+        self._generation: int | None = None  # of the auto-levels request the levels are from
+
+    def levels_of(
+        self,
+        pixels: np.ndarray,
+        auto: bool,
+        manual: tuple[float, float],
+        generation: int,
+    ) -> tuple[float, float]:
+        """The levels (low, high) to show ``pixels`` with: ``manual`` unless ``auto``; with
+        ``auto``, a new ``generation`` (auto-levels asked for again) takes the next percentiles
+        whatever they are."""
+        if not auto:
+            self.levels = (float(manual[0]), float(manual[1]))
+            return self.levels
+        current = self.levels
+        if current is None or generation != self._generation:
+            current = robust_levels(pixels)
+            self._generation = generation
+            self._countdown = self.every
+        elif self._countdown <= 0:
+            self._countdown = self.every
+            new = robust_levels(pixels)
+            if levels_moved(current, new):
+                current = new
+        self._countdown -= 1
+        self.levels = current
+        return current

@@ -50,7 +50,7 @@ from snrmon.gui import theme as th
 from snrmon.gui.actions import install_actions, shortcuts_text
 from snrmon.gui.alarms import AlarmBanner
 from snrmon.gui.camera_panel import CameraPanel
-from snrmon.gui.frame_feed import DisplayRates, FrameFeed, display_message
+from snrmon.gui.frame_feed import DisplayRates, DisplayWorker, FrameFeed, display_message
 from snrmon.gui.model_dialog import ModelOptionsDialog
 from snrmon.gui.noise_panel import NoisePanel
 from snrmon.gui.range_plot import CurveSource, RangePlot
@@ -196,6 +196,8 @@ class ConsoleWindow(QMainWindow):
         self.statusBar().showMessage("ready: click a drone to set its ROI")
         # Frames shown / delivered per camera (refresh_frames, refresh_status).
         self.feeds = {name: FrameFeed(pipe) for name, pipe in session.pipelines.items()}
+        self.display_worker = DisplayWorker(self.feeds.values())
+        self.display_worker.start()
         self.display_rates = DisplayRates()
         self.display_label = QLabel()
         self.statusBar().addPermanentWidget(self.display_label)
@@ -416,10 +418,12 @@ class ConsoleWindow(QMainWindow):
     def refresh_frames(self) -> None:
         """Show each camera's frame if it has a new one (gui/frame_feed.py)."""
         for name, panel in self.panels.items():
-            frame = self.feeds[name].newest()
-            if frame is not None and panel.view.show_frame(frame):
-                self._pixels[name] = frame.pixels
-                self.shown_counter[name] = frame.counter
+            feed = self.feeds[name]
+            shown = feed.newest()
+            if shown is not None and panel.view.show_frame(shown):
+                self._pixels[name] = shown.frame.pixels
+                self.shown_counter[name] = shown.frame.counter
+            feed.request = panel.view.display_request()
         if self.replay_bar is not None:
             self.replay_bar.show_position()
 
@@ -743,6 +747,7 @@ class ConsoleWindow(QMainWindow):
             self.save_screenshot(self.screenshot_path)
         for timer in self._timers:
             timer.stop()
+        self.display_worker.stop()
         if self.session.status().recording.state == "recording":
             self.session.stop_recording()
         self.save_settings()

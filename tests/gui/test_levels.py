@@ -125,25 +125,48 @@ def test_display_item_colours_as_pyqtgraph_colours(qtbot, monkeypatch, dtype):
     assert np.array_equal(fast, ref)
 
 
-def test_view_counts_painted_frames_and_keeps_levels_within_the_dead_band(qtbot):
+def test_view_draws_the_worker_s_image_and_levels_and_counts_painted_frames(qtbot):
+    """Frames made ready by the display's worker: the view draws their levels and, once it has
+    said how it draws, their image as it is (not made again on the GUI thread), and the picture
+    is the one it would make itself."""
+    from snrmon.gui.frame_feed import FrameFeed
+
+    class Camera:
+        name, shape = "mwir", (96, 160)
+        frame: RingFrame | None = None
+
+        def latest_frame(self, *, unless_seq=None, out=None):
+            f = self.frame
+            return None if f is None or f.seq == unless_seq else f
+
     view = CameraView("mwir", (96, 160), PeakSnrConfig())
     qtbot.addWidget(view)
     view.resize(400, 300)
     view.show()
     qtbot.waitExposed(view)
+    cam = Camera()
+    feed = FrameFeed(cam)
     sky = _sky(96, 160)
-    assert view.show_frame(_frame(sky, 0))
-    assert not view.show_frame(_frame(sky, 0))  # the same frame again is not drawn
-    qtbot.waitUntil(lambda: view.image.frames_painted == 1, timeout=2000)
-    first = view.histogram.getLevels()
-    assert first == pytest.approx(robust_levels(sky))
-    # a sky 1 DN warmer: within the dead band, the shown levels stay
+
+    def show(pixels, seq):
+        cam.frame = _frame(pixels, seq)
+        assert feed.prepare()
+        shown = feed.newest()
+        drawn = view.show_frame(shown)
+        qtbot.waitUntil(lambda: view.image.frames_painted == seq + 1, timeout=2000)
+        feed.request = view.display_request()
+        return drawn, shown
+
+    assert show(sky, 0)[0]
+    assert view.histogram.getLevels() == pytest.approx(robust_levels(sky))
+    assert view.image.images_made_here == 1  # the first: the view had not said how it draws
+    assert not view.show_frame(feed.newest())  # nothing new
     for seq in range(1, 4):
-        view.show_frame(_frame(sky + 1, seq))
-    assert view.histogram.getLevels() == pytest.approx(first)
-    # a sky 40 DN warmer: far outside it, the levels follow
-    for seq in range(4, 7):
-        view.show_frame(_frame(sky + 40, seq))
-    assert view.histogram.getLevels()[0] == pytest.approx(first[0] + 40, abs=1.0)
-    qtbot.waitUntil(lambda: view.image.frames_painted >= 2, timeout=2000)
-    assert view.image.frames_painted <= view.frames_shown == 7
+        drawn, shown = show(sky + seq, seq)
+        assert drawn and shown.image is not None
+        assert view.image.images_made_here == 1  # the worker's image, as it was made
+    made = _rgb(view.image.qimage)
+    view.image.prepared = None  # the same frame made on the GUI thread: the same picture
+    view.image.render()
+    assert np.array_equal(_rgb(view.image.qimage), made)
+    assert view.image.frames_painted == view.frames_shown == 4
