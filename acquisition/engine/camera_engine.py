@@ -39,7 +39,6 @@ from __future__ import annotations
 import logging
 import math
 import threading
-from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -143,7 +142,11 @@ class CameraEngine:
         # Figures only a display shows, off in a batch replay: the raw-SNR track beside a
         # corrected one (the console, the HIL's FPN check; half a frame's work), the noise.
         self.display_figures = True
-        self._series: deque[tuple[int, float, float, float, float]] = deque(maxlen=series_length)
+        # The strip chart's rows in a ring of preallocated rows: a row written per frame here,
+        # two slices copied when the console asks (a list of tuples made into an array cost
+        # the GUI thread ~0.5 ms at each status refresh).
+        self._series = np.empty((series_length, 5))
+        self._series_rows = 0  # rows ever written
 
     def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
         try:
@@ -274,7 +277,9 @@ class CameraEngine:
             self._window = window
             self._state = m.track_state
             self._roi = m.window_xy
-            self._series.append((m.t_host_ns, m.result.snr, m.snr_mean, m.snr_std, rng))
+            row = self._series[self._series_rows % len(self._series)]
+            row[:] = (m.t_host_ns, m.result.snr, m.snr_mean, m.snr_std, rng)
+            self._series_rows += 1
 
     def _apply_commands(self) -> tuple[Command, ...]:
         with self._lock:
@@ -351,8 +356,11 @@ class CameraEngine:
         """The recent per-frame record for charts: rows of (t_host_ns, snr, running mean,
         running std, range_m or NaN)."""
         with self._lock:
-            rows = list(self._series)
-        return np.array(rows, dtype=float) if rows else np.empty((0, 5))
+            n, ring = self._series_rows, self._series
+            if n <= len(ring):
+                return ring[:n].copy()
+            k = n % len(ring)  # the oldest row kept
+            return np.concatenate([ring[k:], ring[:k]])
 
     def figures(self) -> AnalysisFigures:
         total, temporal, spatial = self.noise.figures()

@@ -136,3 +136,19 @@ def test_a_rule_the_model_does_not_state_is_no_agreement_and_no_band_is_a_point(
     a = model_agreement(10.0, 1.0, {"expected_x": 11.0}, "expected_x")  # no band
     assert a is not None and a.lower == a.upper == 11.0 and a.verdict == "near"
     assert a.ratio == pytest.approx(10.0 / 11.0) and a.ratio_lower == a.ratio_upper == 1.0
+
+
+def test_the_strip_chart_series_keeps_the_newest_rows_in_order_when_its_ring_wraps():
+    """The per-frame rows for the strip chart: the newest ``series_length`` frames, oldest first,
+    the same rows whether the ring has wrapped or not."""
+    config = session_config_from_dict({"cameras": {"mwir": {"source": "shm", "address": "x"}}})
+    rows = {}
+    for length in (200, 48):  # 130 frames: kept whole, then wrapped twice and a bit
+        engine = SessionEngine(config, {"mwir": (H, W)}, series_length=length)
+        engine.set_roi("mwir", X, Y)
+        for i in range(130):
+            engine.on_frame("mwir", _frame(i), seq=i, counter=i, t_host_ns=T0 + i * FRAME_NS)
+        rows[length] = engine.cameras["mwir"].series()
+    assert rows[200].shape == (130, 5)
+    assert np.array_equal(rows[200][:, 0], T0 + np.arange(130.0) * FRAME_NS)
+    np.testing.assert_array_equal(rows[48], rows[200][-48:])
