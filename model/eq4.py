@@ -176,49 +176,72 @@ class PatternTooSmallError(ValueError):
     """The noise-free pattern does not hold the background rim the rule asks for."""
 
 
-def _rim_walk(x0, y0, x1, y1, length: int):
-    """The pixels (x, y) (P, ``length``) of the one-pixel rim of each rectangle (x0, y0)-(x1,
-    y1) (inclusive, at least 3 x 3), walked top, right, bottom, left, the walk's first
-    ``count`` steps valid (the rest repeat the rim), and ``count`` (P,)."""
-    x0, y0, x1, y1 = (np.asarray(v, dtype=np.int64)[:, None] for v in (x0, y0, x1, y1))
+class _Patterns(NamedTuple):
+    """Square patterns of any sizes one after another: pixel (y, x) of pattern p is
+    ``pixels[start[p] + y n[p] + x]`` (one estimator pass reads patterns of every size)."""
+
+    pixels: np.ndarray
+    start: np.ndarray  # (P,)
+    n: np.ndarray  # (P,) their sides
+
+    @classmethod
+    def stack(cls, a: np.ndarray) -> _Patterns:
+        """The patterns ``a`` (P, n, n)."""
+        n = a.shape[-1]
+        return cls(
+            np.ascontiguousarray(a).reshape(-1), np.arange(len(a)) * n * n, np.full(len(a), n)
+        )
+
+    def at(self, which, y, x) -> np.ndarray:
+        """Pixels (``y``, ``x``) of the patterns ``which``, the indices broadcast together."""
+        return self.pixels[self.start[which] + y * self.n[which] + x]
+
+    def full(self, which: np.ndarray) -> np.ndarray:
+        """The patterns ``which`` (all of one size) as (len(which), n, n)."""
+        n = int(self.n[which[0]])
+        return self.pixels[self.start[which][:, None] + np.arange(n * n)].reshape(-1, n, n)
+
+
+def _rim_walk(x0, y0, x1, y1):
+    """The pixels (x, y) (L, P) of the one-pixel rim of each rectangle (x0, y0)-(x1, y1)
+    (inclusive, at least 3 x 3), walked top, right, bottom, left; the walk's first ``count``
+    steps valid (the rest repeat the rim); and ``count`` (P,)."""
+    x0, y0, x1, y1 = (np.asarray(v, dtype=np.int64)[None, :] for v in (x0, y0, x1, y1))
     w, h = x1 - x0, y1 - y0  # the top and bottom edges: w + 1 pixels, the sides h - 1 more
     count = (2 * (w + h)).ravel()
-    t = np.arange(max(int(count.max()), length))[None, :]
+    t = np.arange(int(count.max()))[:, None]
     on_top, on_right, on_bottom = t < w, (t >= w) & (t < w + h), (t >= w + h) & (t < 2 * w + h)
     x = np.where(on_top, x0 + t, np.where(on_right, x1, np.where(on_bottom, x1 - (t - w - h), x0)))
     y = np.where(on_top, y0, np.where(on_right, y0 + (t - w), np.where(on_bottom, y1, 0)))
     y = np.where(on_top | on_right | on_bottom, y, y1 - (t - 2 * w - h))
-    return x, y, t < count[:, None], count
+    return x, y, t < count[None, :], count
 
 
 @functools.lru_cache(maxsize=4)
 def _square_rim(side: int) -> tuple[np.ndarray, np.ndarray]:
     """The rim of a ``side`` x ``side`` square as (dx, dy) from its top-left pixel, in the
     order :func:`_rim_walk` walks it."""
-    x, y, valid, _ = _rim_walk([0], [0], [side - 1], [side - 1], 0)
-    return x[valid], y[valid]
+    x, y, _, _ = _rim_walk([0], [0], [side - 1], [side - 1])
+    return x[:, 0], y[:, 0]
 
 
 def _rim_stats(values: np.ndarray, valid: np.ndarray, count: np.ndarray):
-    """Mean and spread sum (a_j - mean)^2 of the ``valid`` ``values`` of each row."""
-    mean = np.where(valid, values, 0.0).sum(axis=1) / count
-    spread = np.where(valid, (values - mean[:, None]) ** 2, 0.0).sum(axis=1)
+    """Mean and spread sum (a_j - mean)^2 of the ``valid`` ``values`` (L, P) of each column,
+    summed in the walk's order (axis 0: one value after another, so that the invalid zeros
+    after a short rim leave its sums as they are, whatever else is in the batch)."""
+    mean = np.where(valid, values, 0.0).sum(axis=0) / count
+    dev = values - mean
+    spread = np.where(valid, dev * dev, 0.0).sum(axis=0)
     return mean, spread
 
 
-def _rect_rims(
-    u: np.ndarray, amp: np.ndarray, x0, y0, x1, y1
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _rect_rims(pats: _Patterns, amp: np.ndarray, which: np.ndarray, x0, y0, x1, y1):
     """Pixel count, mean and spread sum (a_j - mean)^2 of the one-pixel rim of the rectangle
-    (x0, y0)-(x1, y1) (inclusive, one per pattern, at least 3 x 3) of each pattern
-    a = ``amp`` x ``u`` (P, n, n)."""
-    # walk the rim always as far as the pattern's own edge: the sums then do not depend on
-    # what else is in the batch
-    n = u.shape[-1]
-    x, y, valid, count = _rim_walk(x0, y0, x1, y1, 4 * (n - 1))
-    values = (
-        amp[:, None] * u[np.arange(len(u))[:, None], np.clip(y, 0, n - 1), np.clip(x, 0, n - 1)]
-    )
+    (x0, y0)-(x1, y1) (inclusive, one per pattern, at least 3 x 3, inside the pattern) of the
+    patterns a = ``amp`` x pattern at ``which``."""
+    x, y, valid, count = _rim_walk(x0, y0, x1, y1)
+    last = pats.n[which] - 1
+    values = amp[which] * pats.at(which, np.clip(y, 0, last), np.clip(x, 0, last))
     return (count, *_rim_stats(values, valid, count))
 
 
@@ -265,27 +288,28 @@ def target_backgrounds(a: np.ndarray, r, c, box_px: int = 7):
     by frame: weighting the two by that probability keeps the expectation continuous in
     range. Returns (p, (x0, y0, x1, y1), too_small): the probability of the extent's rim,
     its rectangle and whether that rim leaves the pattern, per pattern."""
-    a = np.asarray(a, dtype=float)
-    one = np.ones(len(a))
-    return _target_backgrounds(a, one, r, c, _box(a, one, r, c, box_px))[:3]
+    pats = _Patterns.stack(np.asarray(a, dtype=float))
+    one = np.ones(len(pats.n))
+    r, c = np.asarray(r), np.asarray(c)
+    return _target_backgrounds(pats, one, r, c, _box(pats, one, r, c, box_px))[:3]
 
 
-def _box(u: np.ndarray, amp: np.ndarray, r, c, box_px: int) -> np.ndarray:
-    """The ``box_px`` square around (``r``, ``c``) of each pattern ``amp`` x ``u``."""
-    hb = box_px // 2
-    i = np.arange(len(u))[:, None, None]
-    d = np.arange(-hb, hb + 1)
-    return amp[:, None, None] * u[i, (r[:, None] + d)[:, :, None], (c[:, None] + d)[:, None, :]]
+def _box(pats: _Patterns, amp: np.ndarray, r, c, box_px: int) -> np.ndarray:
+    """The ``box_px`` square around (``r``, ``c``) of each pattern ``amp`` x pattern."""
+    d = np.arange(-(box_px // 2), box_px // 2 + 1)
+    which = np.arange(len(pats.n))[:, None, None]
+    y, x = r[:, None, None] + d[None, :, None], c[:, None, None] + d[None, None, :]
+    return amp[:, None, None] * pats.at(which, y, x)
 
 
-def _target_backgrounds(u: np.ndarray, amp: np.ndarray, r, c, box: np.ndarray, shapes=None):
-    """:func:`target_backgrounds` of the patterns ``amp`` x ``u`` (P, n, n), given their
-    boxes around the peaks (:func:`_box`), and whether each pattern's extent reached the box's
-    rim (else the rectangle is the box grown by the guard). ``shapes``: a function that gives
-    the :func:`extent_shapes` of the patterns at the indices it is given (or None)."""
+def _target_backgrounds(pats: _Patterns, amp: np.ndarray, r, c, box: np.ndarray, shapes=None):
+    """:func:`target_backgrounds` of the patterns ``amp`` x ``pats``, given their boxes around
+    the peaks (:func:`_box`), and whether each pattern's extent reached the box's rim (else
+    the rectangle is the box grown by the guard). ``shapes``: a function that gives the
+    :func:`extent_shapes` of the patterns at the indices it is given (or None)."""
     box_px = box.shape[-1]
     hb = box_px // 2
-    n_pat, n = len(u), u.shape[-1]
+    n_pat, n = len(pats.n), pats.n
     p = extent_probabilities(box)
     x0, y0, x1, y1 = c - hb, r - hb, c + hb, r + hb
     lit = (p >= 1e-9) & (box[:, hb, hb] >= EXTENT_SIGMA)
@@ -303,16 +327,19 @@ def _target_backgrounds(u: np.ndarray, amp: np.ndarray, r, c, box: np.ndarray, s
         rows, cols = a * row_max >= EXTENT_SIGMA, a * col_max >= EXTENT_SIGMA
         _widen_to_extent((x0, y0, x1, y1), which[whole], rows[whole], cols[whole])
         which = which[~whole]
-    if which.size:
+    for side in np.unique(n[which]).tolist():
         from scipy.ndimage import label
 
         # each pattern's 8-connected extent at once: a structure that links no two patterns
         structure = np.zeros((3, 3, 3), bool)
         structure[1] = True
-        labels, _ = label(amp[which, None, None] * u[which] >= EXTENT_SIGMA, structure=structure)
+        some = which[n[which] == side]
+        labels, _ = label(
+            amp[some, None, None] * pats.full(some) >= EXTENT_SIGMA, structure=structure
+        )
         # the bounding box of the peak's own component (other components: Airy rings)
-        extent = labels == labels[np.arange(which.size), r[which], c[which]][:, None, None]
-        _widen_to_extent((x0, y0, x1, y1), which, extent.any(axis=2), extent.any(axis=1))
+        extent = labels == labels[np.arange(some.size), r[some], c[some]][:, None, None]
+        _widen_to_extent((x0, y0, x1, y1), some, extent.any(axis=2), extent.any(axis=1))
     g = GUARD_PX + 1
     rect = (x0 - g, y0 - g, x1 + g, y1 + g)
     outside = (rect[0] < 0) | (rect[1] < 0) | (rect[2] >= n) | (rect[3] >= n)
@@ -321,13 +348,14 @@ def _target_backgrounds(u: np.ndarray, amp: np.ndarray, r, c, box: np.ndarray, s
 
 def _widen_to_extent(box, which: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
     """Grow the rectangles ``box`` (x0, y0, x1, y1) at ``which`` to hold the extents whose
-    rows and columns are the True of ``rows``, ``cols`` (len(which), n)."""
+    rows and columns are the True of ``rows``, ``cols`` (len(which), m; False past a
+    pattern's own side)."""
     x0, y0, x1, y1 = box
-    n = rows.shape[-1]
+    m = rows.shape[-1]
     x0[which] = np.minimum(x0[which], cols.argmax(axis=1))
     y0[which] = np.minimum(y0[which], rows.argmax(axis=1))
-    x1[which] = np.maximum(x1[which], n - 1 - cols[:, ::-1].argmax(axis=1))
-    y1[which] = np.maximum(y1[which], n - 1 - rows[:, ::-1].argmax(axis=1))
+    x1[which] = np.maximum(x1[which], m - 1 - cols[:, ::-1].argmax(axis=1))
+    y1[which] = np.maximum(y1[which], m - 1 - rows[:, ::-1].argmax(axis=1))
 
 
 def extent_shapes(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -377,9 +405,10 @@ def _readings(a, search_px: int, box_px: int, ddof: int, backgrounds: tuple[str,
     a = np.asarray(a, dtype=float)
     lead = a.shape[:-2]
     n = a.shape[-1]
-    pats = a.reshape(-1, n, n)
-    one = np.ones(len(pats))
-    max_abs, candidates = _peak_candidates(pats)
+    stacked = a.reshape(-1, n, n)
+    pats = _Patterns.stack(stacked)
+    one = np.ones(len(stacked))
+    max_abs, candidates = _peak_candidates(stacked)
     r, col, search = _peaks(pats, one, max_abs, candidates, search_px, box_px)
     peak = expected_max(search)
     out, too_small = _readings_at_peaks(pats, one, r, col, peak, box_px, ddof, backgrounds)
@@ -414,64 +443,64 @@ def _peak_candidates(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.abs(flat).max(axis=1), candidates
 
 
-def _peaks(u, amp, max_abs, candidates, search_px: int, box_px: int):
-    """Each pattern's (``amp`` x ``u``, u (P, n, n)) brightest pixel, row and column (ties,
-    as for a uniform target or no target, go to the pixel nearest the centre), and the search
-    window around it (P, search_px^2); ``max_abs``, ``candidates``: :func:`_peak_candidates`
-    of ``u``."""
-    n = u.shape[-1]
+def _peaks(pats: _Patterns, amp, max_abs, candidates, search_px: int, box_px: int):
+    """Each pattern's (``amp`` x pattern) brightest pixel, row and column (ties, as for a
+    uniform target or no target, go to the pixel nearest the centre), and the search window
+    around it (P, search_px^2); ``max_abs``, ``candidates``: :func:`_peak_candidates` of the
+    patterns."""
+    n = pats.n[:, None]
     c = n // 2
     hs, hb = search_px // 2, box_px // 2
-    k = np.arange(n) - c
-    dist = (k[:, None] ** 2 + k[None, :] ** 2).ravel()
+    cy, cx = np.divmod(candidates, n)
+    dist = (cy - c) ** 2 + (cx - c) ** 2
     scale = 1.0 + amp * max_abs
-    values = amp[:, None] * np.take_along_axis(u.reshape(len(u), -1), candidates, axis=1)
-    pick = np.argmax(values - 1e-9 * scale[:, None] * dist[candidates], axis=1)
-    r, col = np.divmod(np.take_along_axis(candidates, pick[:, None], axis=1)[:, 0], n)
-    reach = max(hs, hb)
+    values = amp[:, None] * pats.pixels[pats.start[:, None] + candidates]
+    pick = np.argmax(values - 1e-9 * scale[:, None] * dist, axis=1)
+    r, col = np.divmod(np.take_along_axis(candidates, pick[:, None], axis=1)[:, 0], pats.n)
+    c, reach = pats.n // 2, max(hs, hb)
     if np.any(np.abs(r - c) + reach > c) or np.any(np.abs(col - c) + reach > c):
-        raise ValueError(f"pattern of {n} px is too small for the search window and the box")
-    i = np.arange(len(u))[:, None, None]
+        raise ValueError(f"pattern of {n.min()} px is too small for the search window and the box")
     ds = np.arange(-hs, hs + 1)
-    search = u[i, (r[:, None] + ds)[:, :, None], (col[:, None] + ds)[:, None, :]]
-    return r, col, amp[:, None] * search.reshape(len(u), -1)
+    which = np.arange(len(r))[:, None, None]
+    search = pats.at(which, r[:, None, None] + ds[None, :, None], col[:, None, None] + ds)
+    return r, col, amp[:, None] * search.reshape(len(r), -1)
 
 
-def _readings_at_peaks(u, amp, r, col, peak, box_px: int, ddof: int, backgrounds, shapes=None):
-    """The readings (len(backgrounds), P) of patterns ``amp`` x ``u`` (P, n, n) whose
-    brightest pixels are ``r``, ``col`` and whose search windows' E[max] is ``peak``, and
-    whether each was too small for the target rule's background (P,); ``shapes`` as in
+def _readings_at_peaks(
+    pats: _Patterns, amp, r, col, peak, box_px: int, ddof: int, backgrounds, shapes=None
+):
+    """The readings (len(backgrounds), P) of patterns ``amp`` x ``pats`` whose brightest
+    pixels are ``r``, ``col`` and whose search windows' E[max] is ``peak``, and whether each
+    was too small for the target rule's background (P,); ``shapes`` as in
     :func:`_target_backgrounds`."""
-    box = _box(u, amp, r, col, box_px)
+    box = _box(pats, amp, r, col, box_px)
     cells, _ = _rim_links(box_px)
-    rim = box.reshape(len(u), -1)[:, cells]
+    rim = box.reshape(len(r), -1)[:, cells]
     mean = rim.mean(axis=1)
     spread = np.sum((rim - mean[:, None]) ** 2, axis=1)
     seven = (peak - mean) * _rim_std_factors(np.asarray(rim.shape[1]), ddof, spread)
-    out = np.zeros((len(backgrounds), len(u)))
-    too_small = np.zeros(len(u), bool)
+    out = np.zeros((len(backgrounds), len(r)))
+    too_small = np.zeros(len(r), bool)
     for b, background in enumerate(backgrounds):
         out[b] = seven
         if background == "rim":
             continue
-        p, rect, too_small, wide = _target_backgrounds(u, amp, r, col, box, shapes)
+        p, rect, too_small, wide = _target_backgrounds(pats, amp, r, col, box, shapes)
         far = (p >= 1e-9) & ~too_small
         # the box grown by the guard: its rim at the same place around every peak
         grown = np.flatnonzero(far & ~wide)
-        if grown.size:
-            dx, dy = _square_rim(box_px + 2 * (GUARD_PX + 1))
-            x0, y0 = rect[0][grown][:, None], rect[1][grown][:, None]
-            values = amp[grown, None] * u[grown[:, None], y0 + dy, x0 + dx]
-            count = np.full(grown.size, dx.size)
-            mean, spread = _rim_stats(values, np.ones(values.shape, bool), count)
-            extent = (peak[grown] - mean) * _rim_std_factors(count, ddof, spread)
-            out[b, grown] = (1.0 - p[grown]) * seven[grown] + p[grown] * extent
         wide = np.flatnonzero(far & wide)
+        x0, y0, x1, y1 = rect
+        dx, dy = _square_rim(box_px + 2 * (GUARD_PX + 1))
+        values = amp[grown] * pats.at(grown, y0[grown] + dy[:, None], x0[grown] + dx[:, None])
+        count = np.full(grown.size, dx.size)
+        stats = [(grown, count, *_rim_stats(values, np.ones(values.shape, bool), count))]
         if wide.size:
-            x0, y0, x1, y1 = (v[wide] for v in rect)
-            count, mean, spread = _rect_rims(u[wide], amp[wide], x0, y0, x1, y1)
-            extent = (peak[wide] - mean) * _rim_std_factors(count, ddof, spread)
-            out[b, wide] = (1.0 - p[wide]) * seven[wide] + p[wide] * extent
+            rims = _rect_rims(pats, amp, wide, x0[wide], y0[wide], x1[wide], y1[wide])
+            stats.append((wide, *rims))
+        for at, count, mean, spread in stats:
+            extent = (peak[at] - mean) * _rim_std_factors(count, ddof, spread)
+            out[b, at] = (1.0 - p[at]) * seven[at] + p[at] * extent
     return out, too_small
 
 
@@ -569,46 +598,42 @@ def expected_eq4_by_rule(
     pending = np.array(todo, dtype=int)
     _check_backgrounds(backgrounds)
     while pending.size:
-        # every size's peaks first, then E[max] of all their search windows at once
-        batches = []
-        for h in np.unique(half[pending]).tolist():
-            batch = pending[half[pending] == h]
-            kept = [
-                phase_patterns(psf, fill_factor, float(flat_d[i]), float(flat_s[i]), h, phase_key)
-                for i in batch
-            ]
-            u = np.concatenate([k.patterns for k in kept])
-            n_ph = len(kept[0].weights)
-            a = np.repeat(flat_amp[batch], n_ph)
-            max_abs = np.concatenate([k.max_abs for k in kept])
-            width = max(k.candidates.shape[1] for k in kept)
-            candidates = np.concatenate([_widened(k.candidates, width) for k in kept])
-            r, col, search = _peaks(u, a, max_abs, candidates, search_px, box_px)
-            batches.append((h, batch, kept, u, a, r, col, search))
-        windows = [b[-1] for b in batches]
-        peaks = np.split(
-            expected_max(np.concatenate(windows)), np.cumsum([len(w) for w in windows])[:-1]
-        )
-        retry = []
-        for (h, batch, kept, u, a, r, col, _), peak in zip(batches, peaks, strict=True):
-            readings, too_small = _readings_at_peaks(
-                u, a, r, col, peak, box_px, ddof, backgrounds, _shapes_of(kept)
+        # every target's patterns in one pass of the estimator, whatever their sizes
+        kept = [
+            phase_patterns(
+                psf, fill_factor, float(flat_d[i]), float(flat_s[i]), int(half[i]), phase_key
             )
-            readings = readings.reshape(len(backgrounds), len(batch), -1)
-            small = too_small.reshape(len(batch), -1).any(axis=1)
-            for j, i in enumerate(batch):
-                if small[j]:
-                    if h >= MAX_HALF_PX:
-                        raise PatternTooSmallError(
-                            "pattern too small for the target's background rim"
-                        )
-                    half[i] = min(2 * h, MAX_HALF_PX)  # a bright target's 3-sigma extent is wide
-                    retry.append(i)
-                    continue
-                out[:, i] = readings[:, j] @ kept[j].weights
-                if len(readings_kept) >= _READINGS_KEPT:
-                    readings_kept.pop(next(iter(readings_kept)), None)  # the oldest
-                readings_kept[keys[i]] = out[:, i].copy()
+            for i in pending.tolist()
+        ]
+        per = len(kept[0].weights)
+        n = np.repeat([k.patterns.shape[-1] for k in kept], per)
+        pats = _Patterns(
+            np.concatenate([k.patterns.reshape(-1) for k in kept]),
+            np.concatenate([[0], np.cumsum(n * n)[:-1]]),
+            n,
+        )
+        a = np.repeat(flat_amp[pending], per)
+        width = max(k.candidates.shape[1] for k in kept)
+        candidates = np.concatenate([_widened(k.candidates, width) for k in kept])
+        max_abs = np.concatenate([k.max_abs for k in kept])
+        r, col, search = _peaks(pats, a, max_abs, candidates, search_px, box_px)
+        readings, too_small = _readings_at_peaks(
+            pats, a, r, col, expected_max(search), box_px, ddof, backgrounds, _shapes_of(kept)
+        )
+        readings = readings.reshape(len(backgrounds), len(kept), per)
+        small = too_small.reshape(len(kept), per).any(axis=1)
+        retry = []
+        for j, i in enumerate(pending.tolist()):
+            if small[j]:
+                if half[i] >= MAX_HALF_PX:
+                    raise PatternTooSmallError("pattern too small for the target's background rim")
+                half[i] = min(2 * half[i], MAX_HALF_PX)  # a bright target's 3-sigma extent is wide
+                retry.append(i)
+                continue
+            out[:, i] = readings[:, j] @ kept[j].weights
+            if len(readings_kept) >= _READINGS_KEPT:
+                readings_kept.pop(next(iter(readings_kept)), None)  # the oldest
+            readings_kept[keys[i]] = out[:, i].copy()
         pending = np.array(retry, dtype=int)
     return {rule: out[b].reshape(amp.shape) for b, rule in enumerate(backgrounds)}
 
@@ -646,18 +671,22 @@ def _shapes_of(kept: list[PhasePatterns]):
 
     def shapes(which: np.ndarray):
         target, row = np.divmod(which, per)
-        need = np.unique(target)
-        for t in need.tolist():
+        need = np.unique(target).tolist()
+        for t in need:
             if "extent" not in kept[t].shapes:
                 made = extent_shapes(kept[t].patterns)
                 for v in made:
                     v.setflags(write=False)
                 kept[t].shapes["extent"] = made
+        made = [kept[t].shapes["extent"] for t in need]
+        # rows and columns past a pattern's own side: -inf, never >= 3 sigma
+        side = max(m[0].shape[1] for m in made)
+        lines = np.full((2, len(need) * per, side), -np.inf)
+        for j, m in enumerate(made):
+            lines[0, j * per : (j + 1) * per, : m[0].shape[1]] = m[0]
+            lines[1, j * per : (j + 1) * per, : m[1].shape[1]] = m[1]
         at = np.searchsorted(need, target) * per + row
-        return tuple(
-            np.concatenate([kept[t].shapes["extent"][k] for t in need.tolist()])[at]
-            for k in range(3)
-        )
+        return lines[0, at], lines[1, at], np.concatenate([m[2] for m in made])[at]
 
     return shapes
 
