@@ -674,10 +674,10 @@ def _shapes_of(kept: list[PhasePatterns]):
         need = np.unique(target).tolist()
         for t in need:
             if "extent" not in kept[t].shapes:
-                made = extent_shapes(kept[t].patterns)
-                for v in made:
+                new = extent_shapes(kept[t].patterns)
+                for v in new:
                     v.setflags(write=False)
-                kept[t].shapes["extent"] = made
+                kept[t].shapes["extent"] = new
         made = [kept[t].shapes["extent"] for t in need]
         # rows and columns past a pattern's own side: -inf, never >= 3 sigma
         side = max(m[0].shape[1] for m in made)
