@@ -431,16 +431,19 @@ def _peak_candidates(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = u.shape[-1]
     flat = u.reshape(len(u), -1)
     centre = (n // 2) * n + n // 2
-    brighter = flat > flat[:, centre : centre + 1]
+    max_abs = np.maximum(flat.max(axis=1), -flat.min(axis=1))
+    # the patterns whose brightest pixel is not the centre (a target off the pixel's centre)
+    off = np.flatnonzero(max_abs > flat[:, centre])
+    brighter = flat[off] > flat[off, centre : centre + 1]
     brighter[:, centre] = True
     # each row's candidates in index order, then the centre again (a repeat never wins the
     # argmax over its first occurrence)
     row, index = np.nonzero(brighter)
-    count = np.bincount(row, minlength=len(u))
+    count = np.bincount(row, minlength=off.size)
     rank = np.arange(row.size) - np.repeat(np.cumsum(count) - count, count)
-    candidates = np.full((len(u), int(count.max())), centre)
-    candidates[row, rank] = index
-    return np.abs(flat).max(axis=1), candidates
+    candidates = np.full((len(u), max(1, int(count.max(initial=0)))), centre)
+    candidates[off[row], rank] = index
+    return max_abs, candidates
 
 
 def _peaks(pats: _Patterns, amp, max_abs, candidates, search_px: int, box_px: int):

@@ -346,6 +346,7 @@ def clear_caches() -> None:
         montecarlo.widened_psf,
         footprint.otf_grid,
         footprint._square_table,
+        footprint._square_table_chunk,
         footprint._pattern_weights,
         pvf._polar_weights,
         pvf._pvf_table,
