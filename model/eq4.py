@@ -592,8 +592,8 @@ def expected_eq4_by_rule(
             todo.append(i)
         else:
             out[:, i] = known
-    # the targets' patterns, each size computed once, in batches of one pattern size (sizes
-    # rounded up to 4 px for fewer batches: a larger pattern reads the same)
+    # the targets' patterns, their sizes rounded up to 4 px (fewer sizes; a larger pattern
+    # reads the same)
     half = np.full(flat_amp.size, base_half)
     if "target" in backgrounds:  # room for the target, the guard and the rim around it
         room = np.ceil(flat_d / 2 + 3.0 * flat_s).astype(int)
