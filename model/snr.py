@@ -332,9 +332,10 @@ def _spaced(x: np.ndarray, wide: np.ndarray) -> np.ndarray:
 
 def clear_caches() -> None:
     """Forget what the model keeps between predictions (the PSFs' frequency grids and PVF
-    tables, the expected reading's patterns, nodes and readings, the band's PVF draws): the
-    next prediction computes everything again, as a fresh process would."""
-    from snrmon.model import contrast, eq4, footprint, montecarlo, pvf
+    tables, the quadrature nodes, the path's transmission, the expected reading's patterns,
+    nodes and readings, the band's sky-free draws): the next prediction computes everything
+    again, as a fresh process would."""
+    from snrmon.model import contrast, eq4, footprint, montecarlo, pvf, quadrature
 
     eq4._READINGS.clear()
     montecarlo._AREA_PVF.clear()
@@ -350,6 +351,7 @@ def clear_caches() -> None:
         footprint._pattern_weights,
         pvf._polar_weights,
         pvf._pvf_table,
+        quadrature.gauss_legendre,
     ):
         cached.cache_clear()
 
