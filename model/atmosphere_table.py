@@ -293,10 +293,12 @@ class AtmosphereTable:
         return np.exp(-self.optical_depth(weather, ranges_m, columns))
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True)
 class TablePath:
     """The table's spectrum for one weather, in ascending wavelength, as the atmosphere's
-    spectral path (:mod:`snrmon.model.atmosphere`): ``transmission_at_ranges``."""
+    spectral path (:mod:`snrmon.model.atmosphere`): ``transmission_at_ranges``. Equal for
+    equal weather (an atmosphere of the same readings is the same atmosphere: its
+    transmission is kept, :func:`snrmon.model.contrast.contrast`)."""
 
     weather: Weather
 

@@ -71,32 +71,46 @@ class Contrast:
     ) -> np.ndarray:
         """Contrast electrons per (m^2 of target / m^2 of range^2) at each range; any argument
         given (scalar or an array of samples, shape (n,)) replaces the chain's value: the
-        result is then (n, n_ranges)."""
+        result is then (n, n_ranges). The sum of :meth:`through_air_e` and :meth:`path_e`."""
         sampled = not (
             target_temp_k is None
             and air_temp_k is None
             and sky_temp_k is None
             and np.ndim(tau_scale) == 0
         )
-        # tau_scale: a number, one per sample (n,), or one per sample and range (n, n_ranges)
+        out = self.through_air_e(target_temp_k, air_temp_k, tau_scale) + self.path_e(
+            air_temp_k, sky_temp_k
+        )
+        return out if sampled else out[0]
+
+    def _radiance(self, temp_k, default) -> np.ndarray:
+        """Photon radiance per wavelength (n, n_wl) at temperatures ``temp_k`` (n,), or
+        ``default`` (one row) for None."""
+        if temp_k is None:
+            return np.atleast_2d(default)
         wl = self.wavelengths_um
+        return spectral_photon_radiance(wl, np.atleast_1d(np.asarray(temp_k, float))).T
 
-        def rad(t, default):
-            if t is None:
-                return np.atleast_2d(default)
-            return spectral_photon_radiance(wl, np.atleast_1d(np.asarray(t, float))).T
-
-        lt = rad(target_temp_k, spectral_photon_radiance(wl, self.target_temp_k))
-        air = rad(air_temp_k, self.source_air)
-        sky = rad(sky_temp_k, self.sky)
+    def through_air_e(self, target_temp_k=None, air_temp_k=None, tau_scale=1.0) -> np.ndarray:
+        """The target's part of :meth:`intensity_e`, tau (L_t - S_air), (n, n_ranges): it
+        holds no sky. ``tau_scale``: a number, one per sample (n,), or one per sample and range
+        (n, n_ranges)."""
+        lt = self._radiance(
+            target_temp_k, spectral_photon_radiance(self.wavelengths_um, self.target_temp_k)
+        )
+        air = self._radiance(air_temp_k, self.source_air)
         scale = np.asarray(tau_scale, float)
         scale = scale if scale.ndim == 2 else np.atleast_1d(scale)[:, None]
         # (n, n_ranges): the Monte-Carlo band's 201 x 48 x 500 product, in blocks that a
         # threaded BLAS runs on one thread (50 ms now and then as one product)
-        through = matmul((lt - air) * self.k_spec, self.tau.T)
-        path = np.sum((air - sky) * self.k_spec, axis=1)[:, None]
-        out = scale * through + path
-        return out if sampled else out[0]
+        return scale * matmul((lt - air) * self.k_spec, self.tau.T)
+
+    def path_e(self, air_temp_k=None, sky_temp_k=None) -> np.ndarray:
+        """The path's part of :meth:`intensity_e`, S_air - L_sky, (n, 1): the same at every
+        range."""
+        air = self._radiance(air_temp_k, self.source_air)
+        sky = self._radiance(sky_temp_k, self.sky)
+        return np.sum((air - sky) * self.k_spec, axis=1)[:, None]
 
     @property
     def background_over_contrast(self) -> np.ndarray:
@@ -129,6 +143,24 @@ class Contrast:
         from snrmon.model.radiometry import band_nodes
 
         return band_nodes(self.band_um, len(self.wavelengths_um))[1]
+
+
+_TAU: dict[tuple, np.ndarray] = {}
+_TAU_KEPT = 8
+
+
+def _signal_transmission(atm: Atmosphere, ranges_m: np.ndarray, wl: np.ndarray, w: np.ndarray):
+    """:meth:`Atmosphere.signal_transmission` at ``ranges_m``, kept per atmosphere and range
+    grid: a new sky temperature on the same path does not change it."""
+    key = (atm, ranges_m.tobytes(), wl.tobytes(), w.tobytes())
+    tau = _TAU.get(key)
+    if tau is None:
+        tau = np.asarray(atm.signal_transmission(ranges_m, wl, w), dtype=float)
+        tau.setflags(write=False)
+        if len(_TAU) >= _TAU_KEPT:
+            _TAU.pop(next(iter(_TAU)), None)  # the oldest
+        _TAU[key] = tau
+    return tau
 
 
 def contrast(
@@ -169,7 +201,7 @@ def contrast(
         target_temp_k=t_target,
         ranges_m=ranges,
         band_um=band,
-        tau=atm.signal_transmission(ranges, wl, w),
+        tau=_signal_transmission(atm, ranges, wl, w),
         k_spec=sensor.aperture_area_m2 * sensor.t_int_s * w * resp,
         wavelengths_um=wl,
         source_air=source_air,

@@ -48,7 +48,9 @@ Monte Carlo of the real estimator (``acquisition.measure.peak_snr``) within 2 %.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
+from typing import NamedTuple
 
 import numpy as np
 from scipy.special import gammaln, ndtr
@@ -59,7 +61,6 @@ from snrmon.model.psf import Psf
 _STEP = 0.002  # sigma: the lattice E[max] rounds the means near the top to
 _FAR_STEPS = 10  # 4 sigma or more below the top: rounded to 0.02 sigma
 _X_STEPS = 125  # the integration step of E[max], 0.25 sigma, in lattice steps
-_GATHER_CHUNK = 200_000  # ln Phi look-ups per array in E[max]
 _BELOW = 5.5  # sigmas: F(top - 5.5) < 2e-8 (what lies below adds < 1e-8 sigma)
 _ABOVE = 6.5  # sigmas: 1 - F(max(top, 0) + 6.5) < 121 Phi(-6.5) = 5e-9 (< 1e-9 sigma beyond)
 
@@ -82,12 +83,8 @@ def _rim_std_factors(n_rim: np.ndarray, ddof: int, rim_signal_var: np.ndarray) -
     return np.sqrt(n_rim - ddof) * e_inv_chi / np.sqrt(c)
 
 
-def _log_phi_table(lo: int, hi: int) -> tuple[np.ndarray, int]:
-    """ln Phi(i x 0.002) for (at least) i = lo..hi, the lattice of :func:`expected_max`, and
-    the first i it holds."""
-    block = 4096  # whole blocks, so that the usual spans (-6.5 to 18.5 sigma) share one table
-    first = (lo // block) * block
-    return _log_phi_blocks(first, -(-(hi + 1) // block) * block), first
+_LATTICE_BLOCK = 4096  # the ln Phi table in whole blocks: the usual spans share one table
+_PAIRS_CHUNK = 4096  # (row, mean) pairs per gather in E[max]: arrays that stay in cache
 
 
 @functools.lru_cache(maxsize=8)
@@ -95,6 +92,19 @@ def _log_phi_blocks(first: int, stop: int) -> np.ndarray:
     t = np.log(np.maximum(ndtr(np.arange(first, stop) * _STEP), 1e-300))
     t.setflags(write=False)
     return t
+
+
+@functools.lru_cache(maxsize=4)
+def _log_phi_comb(first: int, stop: int, n_x: int) -> np.ndarray:
+    """ln Phi((first + i + k x 125) x 0.002) in row i, column k < ``n_x``: the integrand's
+    ``n_x`` nodes of one mean (x - m on the lattice, 0.25 sigma apart) in one contiguous row,
+    for the lattice [first, stop) (whole blocks)."""
+    table = _log_phi_blocks(first, stop)
+    step = table.strides[0]
+    rows = table.size - _X_STEPS * (n_x - 1)
+    comb = np.lib.stride_tricks.as_strided(table, (rows, n_x), (step, _X_STEPS * step)).copy()
+    comb.setflags(write=False)
+    return comb
 
 
 def expected_max(means: np.ndarray) -> np.ndarray:
@@ -106,7 +116,7 @@ def expected_max(means: np.ndarray) -> np.ndarray:
     sigma)."""
     m = np.asarray(means, dtype=float)
     flat = m.reshape(-1, m.shape[-1])
-    rows = len(flat)
+    rows, width = flat.shape
     # Pixels 12 sigma below the top never matter (Phi(x - m) = 1 within 1e-9 where F > 0);
     # equal means (a symmetric pattern, the many noise-only pixels) enter once with a count,
     # rounded to 0.002 sigma near the top and 0.02 sigma 4 sigma below it (< 0.001 sigma).
@@ -114,54 +124,46 @@ def expected_max(means: np.ndarray) -> np.ndarray:
     top = flat.max(axis=1)
     below = top[:, None] - flat
     near = below < 4.0
-    used = near | (below < 12.0)
     q = np.where(near, np.round(flat / _STEP), np.round(flat / (_STEP * _FAR_STEPS)) * _FAR_STEPS)
-    unused = np.iinfo(np.int64).min
-    q = np.where(used, q, 0.0).astype(np.int64)
-    q[~used] = unused
-    q = np.sort(q, axis=1)[:, ::-1]  # brightest first, the unused last
-    first = np.ones(q.shape, bool)
-    first[:, 1:] = q[:, 1:] != q[:, :-1]
-    group = np.cumsum(first, axis=1) - 1  # 0 for the top's value
-    width = int(group[:, -1].max()) + 1
-    slot = (np.arange(rows)[:, None] * width + group).ravel()
-    counts = np.bincount(slot, minlength=rows * width).astype(float).reshape(rows, width)
-    values = np.repeat(q[:, :1], width, axis=1)  # empty slots: the top, with no count
-    r_i, c_i = np.nonzero(first)
-    values[r_i, group[r_i, c_i]] = q[r_i, c_i]
-    dead = values == unused
-    counts[dead] = 0.0
-    values[dead] = np.broadcast_to(q[:, :1], values.shape)[dead]
-    groups = np.count_nonzero(counts, axis=1)
+    q[~(near | (below < 12.0))] = -np.inf
+    q = np.sort(q, axis=1)[:, ::-1].ravel()  # each row brightest first, the unused last
+    # each row's distinct values (runs of equal values, a run never crossing a row) and counts
+    new = np.empty(q.size, bool)
+    new[0] = True
+    np.not_equal(q[1:], q[:-1], out=new[1:])
+    new[::width] = True
+    starts = np.flatnonzero(new)
+    counts = np.diff(np.append(starts, q.size)).astype(float)
+    used = q[starts] > -np.inf
+    starts, counts = starts[used], counts[used]
+    row = starts // width
     lo = np.floor((top - _BELOW) / _STEP).astype(np.int64)
     span = (np.maximum(top, 0.0) + _ABOVE) / _STEP - lo
-    nodes = np.ceil(span / _X_STEPS).astype(int) + 1  # x = lo + k 0.25 sigma; 49 for top >= 0
-    start = lo[:, None] - values  # (x_0 - m) on the lattice
+    nodes = np.ceil(span / _X_STEPS).astype(np.int64) + 1  # x = lo + k 0.25 sigma; 49 for top >= 0
+    offset = lo[row] - q[starts].astype(np.int64)  # (x_0 - m) on the lattice
     out = np.empty(rows)
-    # Rows of few distinct means (a bright peak: the rest is 12 sigma down) apart from rows of
-    # many (a faint one), so that neither pays for the other's width; in chunks (small
-    # arrays: 3x faster than one big (rows, nodes, means) array). Each row's sums have a length
-    # set by the row alone (its width class, its nodes), so that a row reads the same in any
-    # batch.
-    widths = np.array([4, 16, 48, max(width, 48)])
-    width_class = np.searchsorted(widths, groups)
-    for key in np.unique(width_class * 100000 + nodes):
-        part = np.nonzero(width_class * 100000 + nodes == key)[0]
-        w, n_x = int(widths[key // 100000]), int(key % 100000)
-        offset = np.zeros((part.size, w), np.int64)
-        c = np.zeros((part.size, w))
-        have = min(w, width)
-        offset[:, :have] = start[part, :have]
-        c[:, :have] = counts[part, :have]
-        table, first_i = _log_phi_table(int(offset.min()), int(offset.max()) + _X_STEPS * n_x)
-        offset -= first_i
-        steps = _X_STEPS * np.arange(n_x)
-        log_f = np.empty((part.size, n_x))
-        chunk = max(1, _GATHER_CHUNK // (n_x * w))  # small arrays: memory-bound otherwise
-        for i in range(0, part.size, chunk):
-            idx = offset[i : i + chunk, None, :] + steps[None, :, None]
-            log_f[i : i + chunk] = (table[idx] * c[i : i + chunk, None, :]).sum(axis=2)
-        out[part] = np.trapezoid(1.0 - np.exp(log_f), dx=_X_STEPS * _STEP, axis=1)
+    # ln F at each node is the sum over a row's distinct means, in their order (brightest
+    # first): a row's sums depend on the row alone, so it reads the same in any batch
+    for n_x in np.unique(nodes).tolist():
+        in_rows = np.flatnonzero(nodes == n_x)
+        pick = np.isin(row, in_rows) if in_rows.size < rows else slice(None)
+        off, cnt, pair_row = offset[pick], counts[pick], row[pick]
+        first = (int(off.min()) // _LATTICE_BLOCK) * _LATTICE_BLOCK
+        stop = int(off.max()) + _X_STEPS * (n_x - 1) + 1
+        comb = _log_phi_comb(first, -(-stop // _LATTICE_BLOCK) * _LATTICE_BLOCK, n_x)
+        off = off - first
+        row_start = np.flatnonzero(np.r_[True, pair_row[1:] != pair_row[:-1]])
+        bounds = np.r_[row_start, pair_row.size]
+        cuts = np.unique(
+            np.r_[np.searchsorted(bounds, np.arange(0, off.size, _PAIRS_CHUNK)), row_start.size]
+        )
+        log_f = np.empty((row_start.size, n_x))
+        for a, b in itertools.pairwise(cuts.tolist()):
+            p0, p1 = bounds[a], bounds[b]
+            terms = comb[off[p0:p1]]
+            terms *= cnt[p0:p1, None]
+            log_f[a:b] = np.add.reduceat(terms, row_start[a:b] - p0, axis=0)
+        out[in_rows] = np.trapezoid(1.0 - np.exp(log_f), dx=_X_STEPS * _STEP, axis=1)
     return (lo * _STEP + out).reshape(m.shape[:-1])
 
 
@@ -174,26 +176,73 @@ class PatternTooSmallError(ValueError):
     """The noise-free pattern does not hold the background rim the rule asks for."""
 
 
-def _rect_rims(a: np.ndarray, x0, y0, x1, y1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel count, mean and spread sum (a_j - mean)^2 of the one-pixel rim of the rectangle
-    (x0, y0)-(x1, y1) (inclusive, one per pattern, at least 3 x 3) of each pattern ``a``
-    (P, n, n)."""
-    x0, y0, x1, y1 = (np.asarray(v, dtype=np.int64)[:, None] for v in (x0, y0, x1, y1))
+class _Patterns(NamedTuple):
+    """Square patterns of any sizes one after another: pixel (y, x) of pattern p is
+    ``pixels[start[p] + y n[p] + x]`` (one estimator pass reads patterns of every size)."""
+
+    pixels: np.ndarray
+    start: np.ndarray  # (P,)
+    n: np.ndarray  # (P,) their sides
+
+    @classmethod
+    def stack(cls, a: np.ndarray) -> _Patterns:
+        """The patterns ``a`` (P, n, n)."""
+        n = a.shape[-1]
+        return cls(
+            np.ascontiguousarray(a).reshape(-1), np.arange(len(a)) * n * n, np.full(len(a), n)
+        )
+
+    def at(self, which, y, x) -> np.ndarray:
+        """Pixels (``y``, ``x``) of the patterns ``which``, the indices broadcast together."""
+        return self.pixels[self.start[which] + y * self.n[which] + x]
+
+    def full(self, which: np.ndarray) -> np.ndarray:
+        """The patterns ``which`` (all of one size) as (len(which), n, n)."""
+        n = int(self.n[which[0]])
+        return self.pixels[self.start[which][:, None] + np.arange(n * n)].reshape(-1, n, n)
+
+
+def _rim_walk(x0, y0, x1, y1):
+    """The pixels (x, y) (L, P) of the one-pixel rim of each rectangle (x0, y0)-(x1, y1)
+    (inclusive, at least 3 x 3), walked top, right, bottom, left; the walk's first ``count``
+    steps valid (the rest repeat the rim); and ``count`` (P,)."""
+    x0, y0, x1, y1 = (np.asarray(v, dtype=np.int64)[None, :] for v in (x0, y0, x1, y1))
     w, h = x1 - x0, y1 - y0  # the top and bottom edges: w + 1 pixels, the sides h - 1 more
     count = (2 * (w + h)).ravel()
-    # walk the rim (top, right, bottom, left), always as far as the pattern's own edge: the
-    # sums then do not depend on what else is in the batch
-    t = np.arange(max(int(count.max()), 4 * (a.shape[-1] - 1)))[None, :]
+    t = np.arange(int(count.max()))[:, None]
     on_top, on_right, on_bottom = t < w, (t >= w) & (t < w + h), (t >= w + h) & (t < 2 * w + h)
     x = np.where(on_top, x0 + t, np.where(on_right, x1, np.where(on_bottom, x1 - (t - w - h), x0)))
     y = np.where(on_top, y0, np.where(on_right, y0 + (t - w), np.where(on_bottom, y1, 0)))
     y = np.where(on_top | on_right | on_bottom, y, y1 - (t - 2 * w - h))
-    valid = t < count[:, None]
-    n = a.shape[-1]
-    values = a[np.arange(len(a))[:, None], np.clip(y, 0, n - 1), np.clip(x, 0, n - 1)]
-    mean = np.where(valid, values, 0.0).sum(axis=1) / count
-    spread = np.where(valid, (values - mean[:, None]) ** 2, 0.0).sum(axis=1)
-    return count, mean, spread
+    return x, y, t < count[None, :], count
+
+
+@functools.lru_cache(maxsize=4)
+def _square_rim(side: int) -> tuple[np.ndarray, np.ndarray]:
+    """The rim of a ``side`` x ``side`` square as (dx, dy) from its top-left pixel, in the
+    order :func:`_rim_walk` walks it."""
+    x, y, _, _ = _rim_walk([0], [0], [side - 1], [side - 1])
+    return x[:, 0], y[:, 0]
+
+
+def _rim_stats(values: np.ndarray, valid: np.ndarray, count: np.ndarray):
+    """Mean and spread sum (a_j - mean)^2 of the ``valid`` ``values`` (L, P) of each column,
+    summed in the walk's order (axis 0: one value after another, so that the invalid zeros
+    after a short rim leave its sums as they are, whatever else is in the batch)."""
+    mean = np.where(valid, values, 0.0).sum(axis=0) / count
+    dev = values - mean
+    spread = np.where(valid, dev * dev, 0.0).sum(axis=0)
+    return mean, spread
+
+
+def _rect_rims(pats: _Patterns, amp: np.ndarray, which: np.ndarray, x0, y0, x1, y1):
+    """Pixel count, mean and spread sum (a_j - mean)^2 of the one-pixel rim of the rectangle
+    (x0, y0)-(x1, y1) (inclusive, one per pattern, at least 3 x 3, inside the pattern) of the
+    patterns a = ``amp`` x pattern at ``which``."""
+    x, y, valid, count = _rim_walk(x0, y0, x1, y1)
+    last = pats.n[which] - 1
+    values = amp[which] * pats.at(which, np.clip(y, 0, last), np.clip(x, 0, last))
+    return (count, *_rim_stats(values, valid, count))
 
 
 @functools.lru_cache(maxsize=4)
@@ -239,31 +288,95 @@ def target_backgrounds(a: np.ndarray, r, c, box_px: int = 7):
     by frame: weighting the two by that probability keeps the expectation continuous in
     range. Returns (p, (x0, y0, x1, y1), too_small): the probability of the extent's rim,
     its rectangle and whether that rim leaves the pattern, per pattern."""
-    from scipy.ndimage import find_objects, label
+    pats = _Patterns.stack(np.asarray(a, dtype=float))
+    one = np.ones(len(pats.n))
+    r, c = np.asarray(r), np.asarray(c)
+    return _target_backgrounds(pats, one, r, c, _box(pats, one, r, c, box_px))[:3]
 
+
+def _box(pats: _Patterns, amp: np.ndarray, r, c, box_px: int) -> np.ndarray:
+    """The ``box_px`` square around (``r``, ``c``) of each pattern ``amp`` x pattern."""
+    d = np.arange(-(box_px // 2), box_px // 2 + 1)
+    which = np.arange(len(pats.n))[:, None, None]
+    y, x = r[:, None, None] + d[None, :, None], c[:, None, None] + d[None, None, :]
+    return amp[:, None, None] * pats.at(which, y, x)
+
+
+def _target_backgrounds(pats: _Patterns, amp: np.ndarray, r, c, box: np.ndarray, shapes=None):
+    """:func:`target_backgrounds` of the patterns ``amp`` x ``pats``, given their boxes around
+    the peaks (:func:`_box`), and whether each pattern's extent reached the box's rim (else
+    the rectangle is the box grown by the guard). ``shapes``: a function that gives the
+    :func:`extent_shapes` of the patterns at the indices it is given (or None)."""
+    box_px = box.shape[-1]
     hb = box_px // 2
-    n_pat, n = len(a), a.shape[-1]
-    i = np.arange(n_pat)[:, None, None]
-    d = np.arange(-hb, hb + 1)
-    box = a[i, (r[:, None] + d)[:, :, None], (c[:, None] + d)[:, None, :]]
+    n_pat, n = len(pats.n), pats.n
     p = extent_probabilities(box)
     x0, y0, x1, y1 = c - hb, r - hb, c + hb, r + hb
-    lit = (p >= 1e-9) & (a[np.arange(n_pat), r, c] >= EXTENT_SIGMA)
-    if np.any(lit):
+    lit = (p >= 1e-9) & (box[:, hb, hb] >= EXTENT_SIGMA)
+    # an 8-connected extent that leaves the box crosses its rim: none of whose pixels are
+    # >= 3 sigma keeps the extent inside the box (the rectangle is the box's own)
+    cells, _ = _rim_links(box_px)
+    lit &= box.reshape(n_pat, -1)[:, cells].max(axis=1) >= EXTENT_SIGMA
+    which = np.flatnonzero(lit)
+    if which.size and shapes is not None:
+        # where every pixel >= 3 sigma joins the peak (extent_shapes), the extent's box is
+        # that of the rows and columns that hold one
+        row_max, col_max, joined = shapes(which)
+        a = amp[which, None]
+        whole = a[:, 0] * joined < EXTENT_SIGMA
+        rows, cols = a * row_max >= EXTENT_SIGMA, a * col_max >= EXTENT_SIGMA
+        _widen_to_extent((x0, y0, x1, y1), which[whole], rows[whole], cols[whole])
+        which = which[~whole]
+    for side in np.unique(n[which]).tolist():
+        from scipy.ndimage import label
+
         # each pattern's 8-connected extent at once: a structure that links no two patterns
         structure = np.zeros((3, 3, 3), bool)
         structure[1] = True
-        which = np.nonzero(lit)[0]
-        labels, _ = label(a[which] >= EXTENT_SIGMA, structure=structure)
-        objects = find_objects(labels)
-        for j, w in enumerate(which):
-            ys, xs = objects[labels[j, r[w], c[w]] - 1][1:]
-            x0[w], y0[w] = min(x0[w], xs.start), min(y0[w], ys.start)
-            x1[w], y1[w] = max(x1[w], xs.stop - 1), max(y1[w], ys.stop - 1)
+        some = which[n[which] == side]
+        labels, _ = label(
+            amp[some, None, None] * pats.full(some) >= EXTENT_SIGMA, structure=structure
+        )
+        # the bounding box of the peak's own component (other components: Airy rings)
+        extent = labels == labels[np.arange(some.size), r[some], c[some]][:, None, None]
+        _widen_to_extent((x0, y0, x1, y1), some, extent.any(axis=2), extent.any(axis=1))
     g = GUARD_PX + 1
     rect = (x0 - g, y0 - g, x1 + g, y1 + g)
     outside = (rect[0] < 0) | (rect[1] < 0) | (rect[2] >= n) | (rect[3] >= n)
-    return p, rect, outside & (p >= 1e-9)
+    return p, rect, outside & (p >= 1e-9), lit
+
+
+def _widen_to_extent(box, which: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
+    """Grow the rectangles ``box`` (x0, y0, x1, y1) at ``which`` to hold the extents whose
+    rows and columns are the True of ``rows``, ``cols`` (len(which), m; False past a
+    pattern's own side)."""
+    x0, y0, x1, y1 = box
+    m = rows.shape[-1]
+    x0[which] = np.minimum(x0[which], cols.argmax(axis=1))
+    y0[which] = np.minimum(y0[which], rows.argmax(axis=1))
+    x1[which] = np.maximum(x1[which], m - 1 - cols[:, ::-1].argmax(axis=1))
+    y1[which] = np.maximum(y1[which], m - 1 - rows[:, ::-1].argmax(axis=1))
+
+
+def extent_shapes(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the extent's box of each pattern ``u`` (P, n, n) needs at any amplitude: the
+    maximum of each row and each column (P, n), and the brightest pixel that does not join
+    the pattern's brightest by the step toward it (P,; -inf if none). Every pixel that is
+    not brighter than its neighbour one step toward the brightest (diagonal, or along the
+    row or column it shares with it) is linked to it through pixels at least as bright: at
+    an amplitude where no pixel that is (A x ``joined`` < 3 sigma), every pixel >= 3 sigma
+    belongs to the peak's 8-connected extent, and the extent's box is that of the rows and
+    columns that hold one. (On the presets' Airy-based PSFs every pixel joins; a flat-topped
+    pattern may not, and is then labelled.)"""
+    n_pat, n = len(u), u.shape[-1]
+    flat = u.reshape(n_pat, -1)
+    my, mx = np.divmod(flat.argmax(axis=1), n)
+    k = np.arange(n)
+    ny = k[None, :] + np.sign(my[:, None] - k[None, :])  # the row one step toward it
+    nx = k[None, :] + np.sign(mx[:, None] - k[None, :])
+    toward = u[np.arange(n_pat)[:, None, None], ny[:, :, None], nx[:, None, :]]
+    joined = np.where(toward < u, u, -np.inf).reshape(n_pat, -1).max(axis=1)
+    return u.max(axis=2), u.max(axis=1), joined
 
 
 def readings_of_patterns(
@@ -288,48 +401,110 @@ def _readings(a, search_px: int, box_px: int, ddof: int, backgrounds: tuple[str,
     """:func:`readings_of_patterns` for several background rules at once (one peak search):
     shape (len(backgrounds), ...), and whether each pattern was too small for the target
     rule's background (its reading is then not valid), shape (...)."""
-    for background in backgrounds:
-        if background not in ("rim", "target"):
-            raise ValueError(f"background must be 'rim' or 'target', got {background!r}")
+    _check_backgrounds(backgrounds)
     a = np.asarray(a, dtype=float)
     lead = a.shape[:-2]
     n = a.shape[-1]
-    pats = a.reshape(-1, n, n)
+    stacked = a.reshape(-1, n, n)
+    pats = _Patterns.stack(stacked)
+    one = np.ones(len(stacked))
+    max_abs, candidates = _peak_candidates(stacked)
+    r, col, search = _peaks(pats, one, max_abs, candidates, search_px, box_px)
+    peak = expected_max(search)
+    out, too_small = _readings_at_peaks(pats, one, r, col, peak, box_px, ddof, backgrounds)
+    return out.reshape((len(backgrounds), *lead)), too_small.reshape(lead)
+
+
+def _check_backgrounds(backgrounds: tuple[str, ...]) -> None:
+    for background in backgrounds:
+        if background not in ("rim", "target"):
+            raise ValueError(f"background must be 'rim' or 'target', got {background!r}")
+
+
+def _peak_candidates(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """max |u| of each pattern ``u`` (P, n, n) and the pixels (flat indices, ascending, padded
+    by repeating the centre) that can be its brightest at any amplitude A >= 0: the centre and
+    those brighter than it. The peak search (:func:`_peaks`) maximises A u_i - eps (1 + A
+    max|u|) d_i (d_i the squared distance from the centre, eps 1e-9): a pixel no brighter
+    than the centre has A u_i <= A u_c and a penalty > 0 (d_i >= 1), so it falls strictly
+    below the centre, whatever the rounding."""
+    n = u.shape[-1]
+    flat = u.reshape(len(u), -1)
+    centre = (n // 2) * n + n // 2
+    max_abs = np.maximum(flat.max(axis=1), -flat.min(axis=1))
+    # the patterns whose brightest pixel is not the centre (a target off the pixel's centre)
+    off = np.flatnonzero(max_abs > flat[:, centre])
+    brighter = flat[off] > flat[off, centre : centre + 1]
+    brighter[:, centre] = True
+    # each row's candidates in index order, then the centre again (a repeat never wins the
+    # argmax over its first occurrence)
+    row, index = np.nonzero(brighter)
+    count = np.bincount(row, minlength=off.size)
+    rank = np.arange(row.size) - np.repeat(np.cumsum(count) - count, count)
+    candidates = np.full((len(u), max(1, int(count.max(initial=0)))), centre)
+    candidates[off[row], rank] = index
+    return max_abs, candidates
+
+
+def _peaks(pats: _Patterns, amp, max_abs, candidates, search_px: int, box_px: int):
+    """Each pattern's (``amp`` x pattern) brightest pixel, row and column (ties, as for a
+    uniform target or no target, go to the pixel nearest the centre), and the search window
+    around it (P, search_px^2); ``max_abs``, ``candidates``: :func:`_peak_candidates` of the
+    patterns."""
+    n = pats.n[:, None]
     c = n // 2
     hs, hb = search_px // 2, box_px // 2
-    k = np.arange(n) - c
-    dist = (k[:, None] ** 2 + k[None, :] ** 2).ravel()
-    scale = 1.0 + np.abs(pats).reshape(len(pats), -1).max(axis=1)
-    best = np.argmax(pats.reshape(len(pats), -1) - 1e-9 * scale[:, None] * dist[None, :], axis=1)
-    r, col = np.divmod(best, n)
-    reach = max(hs, hb)
+    cy, cx = np.divmod(candidates, n)
+    dist = (cy - c) ** 2 + (cx - c) ** 2
+    scale = 1.0 + amp * max_abs
+    values = amp[:, None] * pats.pixels[pats.start[:, None] + candidates]
+    pick = np.argmax(values - 1e-9 * scale[:, None] * dist, axis=1)
+    r, col = np.divmod(np.take_along_axis(candidates, pick[:, None], axis=1)[:, 0], pats.n)
+    c, reach = pats.n // 2, max(hs, hb)
     if np.any(np.abs(r - c) + reach > c) or np.any(np.abs(col - c) + reach > c):
-        raise ValueError(f"pattern of {n} px is too small for the search window and the box")
-    i = np.arange(len(pats))[:, None, None]
+        raise ValueError(f"pattern of {n.min()} px is too small for the search window and the box")
     ds = np.arange(-hs, hs + 1)
-    search = pats[i, (r[:, None] + ds)[:, :, None], (col[:, None] + ds)[:, None, :]]
-    peak = expected_max(search.reshape(len(pats), -1))
-    d = np.arange(-hb, hb + 1)
-    box = pats[i, (r[:, None] + d)[:, :, None], (col[:, None] + d)[:, None, :]]
+    which = np.arange(len(r))[:, None, None]
+    search = pats.at(which, r[:, None, None] + ds[None, :, None], col[:, None, None] + ds)
+    return r, col, amp[:, None] * search.reshape(len(r), -1)
+
+
+def _readings_at_peaks(
+    pats: _Patterns, amp, r, col, peak, box_px: int, ddof: int, backgrounds, shapes=None
+):
+    """The readings (len(backgrounds), P) of patterns ``amp`` x ``pats`` whose brightest
+    pixels are ``r``, ``col`` and whose search windows' E[max] is ``peak``, and whether each
+    was too small for the target rule's background (P,); ``shapes`` as in
+    :func:`_target_backgrounds`."""
+    box = _box(pats, amp, r, col, box_px)
     cells, _ = _rim_links(box_px)
-    rim = box.reshape(len(pats), -1)[:, cells]
+    rim = box.reshape(len(r), -1)[:, cells]
     mean = rim.mean(axis=1)
     spread = np.sum((rim - mean[:, None]) ** 2, axis=1)
     seven = (peak - mean) * _rim_std_factors(np.asarray(rim.shape[1]), ddof, spread)
-    out = np.zeros((len(backgrounds), len(pats)))
-    too_small = np.zeros(len(pats), bool)
+    out = np.zeros((len(backgrounds), len(r)))
+    too_small = np.zeros(len(r), bool)
     for b, background in enumerate(backgrounds):
         out[b] = seven
         if background == "rim":
             continue
-        p, rect, too_small = target_backgrounds(pats, r, col, box_px)
+        p, rect, too_small, wide = _target_backgrounds(pats, amp, r, col, box, shapes)
         far = (p >= 1e-9) & ~too_small
-        if np.any(far):
-            x0, y0, x1, y1 = (v[far] for v in rect)
-            count, mean, spread = _rect_rims(pats[far], x0, y0, x1, y1)
-            extent = (peak[far] - mean) * _rim_std_factors(count, ddof, spread)
-            out[b, far] = (1.0 - p[far]) * seven[far] + p[far] * extent
-    return out.reshape((len(backgrounds), *lead)), too_small.reshape(lead)
+        # the box grown by the guard: its rim at the same place around every peak
+        grown = np.flatnonzero(far & ~wide)
+        wide = np.flatnonzero(far & wide)
+        x0, y0, x1, y1 = rect
+        dx, dy = _square_rim(box_px + 2 * (GUARD_PX + 1))
+        values = amp[grown] * pats.at(grown, y0[grown] + dy[:, None], x0[grown] + dx[:, None])
+        count = np.full(grown.size, dx.size)
+        stats = [(grown, count, *_rim_stats(values, np.ones(values.shape, bool), count))]
+        if wide.size:
+            rims = _rect_rims(pats, amp, wide, x0[wide], y0[wide], x1[wide], y1[wide])
+            stats.append((wide, *rims))
+        for at, count, mean, spread in stats:
+            extent = (peak[at] - mean) * _rim_std_factors(count, ddof, spread)
+            out[b, at] = (1.0 - p[at]) * seven[at] + p[at] * extent
+    return out, too_small
 
 
 def expected_eq4(
@@ -417,42 +592,51 @@ def expected_eq4_by_rule(
             todo.append(i)
         else:
             out[:, i] = known
-    # the targets' patterns, each size computed once, in batches of one pattern size (sizes
-    # rounded up to 4 px for fewer batches: a larger pattern reads the same)
+    # the targets' patterns, their sizes rounded up to 4 px (fewer sizes; a larger pattern
+    # reads the same)
     half = np.full(flat_amp.size, base_half)
     if "target" in backgrounds:  # room for the target, the guard and the rim around it
         room = np.ceil(flat_d / 2 + 3.0 * flat_s).astype(int)
         half += np.where(room > 1, -(-room // 4) * 4, room)
     pending = np.array(todo, dtype=int)
+    _check_backgrounds(backgrounds)
     while pending.size:
-        retry = []
-        for h in np.unique(half[pending]):
-            batch = pending[half[pending] == h]
-            pats, w = zip(
-                *(
-                    phase_patterns(
-                        psf, fill_factor, float(flat_d[i]), float(flat_s[i]), int(h), phase_key
-                    )
-                    for i in batch
-                ),
-                strict=True,
+        # every target's patterns in one pass of the estimator, whatever their sizes
+        kept = [
+            phase_patterns(
+                psf, fill_factor, float(flat_d[i]), float(flat_s[i]), int(half[i]), phase_key
             )
-            a = flat_amp[batch][:, None, None, None] * np.stack(pats)
-            readings, too_small = _readings(a, search_px, box_px, ddof, backgrounds)
-            small = too_small.any(axis=1)
-            for j, i in enumerate(batch):
-                if small[j]:
-                    if h >= MAX_HALF_PX:
-                        raise PatternTooSmallError(
-                            "pattern too small for the target's background rim"
-                        )
-                    half[i] = min(2 * h, MAX_HALF_PX)  # a bright target's 3-sigma extent is wide
-                    retry.append(i)
-                    continue
-                out[:, i] = readings[:, j] @ w[j]
-                if len(readings_kept) >= _READINGS_KEPT:
-                    readings_kept.pop(next(iter(readings_kept)), None)  # the oldest
-                readings_kept[keys[i]] = out[:, i].copy()
+            for i in pending.tolist()
+        ]
+        per = len(kept[0].weights)
+        n = np.repeat([k.patterns.shape[-1] for k in kept], per)
+        pats = _Patterns(
+            np.concatenate([k.patterns.reshape(-1) for k in kept]),
+            np.concatenate([[0], np.cumsum(n * n)[:-1]]),
+            n,
+        )
+        a = np.repeat(flat_amp[pending], per)
+        width = max(k.candidates.shape[1] for k in kept)
+        candidates = np.concatenate([_widened(k.candidates, width) for k in kept])
+        max_abs = np.concatenate([k.max_abs for k in kept])
+        r, col, search = _peaks(pats, a, max_abs, candidates, search_px, box_px)
+        readings, too_small = _readings_at_peaks(
+            pats, a, r, col, expected_max(search), box_px, ddof, backgrounds, _shapes_of(kept)
+        )
+        readings = readings.reshape(len(backgrounds), len(kept), per)
+        small = too_small.reshape(len(kept), per).any(axis=1)
+        retry = []
+        for j, i in enumerate(pending.tolist()):
+            if small[j]:
+                if half[i] >= MAX_HALF_PX:
+                    raise PatternTooSmallError("pattern too small for the target's background rim")
+                half[i] = min(2 * half[i], MAX_HALF_PX)  # a bright target's 3-sigma extent is wide
+                retry.append(i)
+                continue
+            out[:, i] = readings[:, j] @ kept[j].weights
+            if len(readings_kept) >= _READINGS_KEPT:
+                readings_kept.pop(next(iter(readings_kept)), None)  # the oldest
+            readings_kept[keys[i]] = out[:, i].copy()
         pending = np.array(retry, dtype=int)
     return {rule: out[b].reshape(amp.shape) for b, rule in enumerate(backgrounds)}
 
@@ -473,6 +657,49 @@ def _kept(setting: tuple) -> dict:
     return kept
 
 
+class PhasePatterns(NamedTuple):
+    """One target's noise-free patterns over the phases (:func:`phase_patterns`)."""
+
+    patterns: np.ndarray  # (P, n, n), unit amplitude
+    weights: np.ndarray  # (P,)
+    max_abs: np.ndarray  # (P,) max |pattern|, and the pixels that can be the peak
+    candidates: np.ndarray  # (P, K) (:func:`_peak_candidates`)
+    shapes: dict  # extent_shapes, made the first time the target rule asks (_shapes_of)
+
+
+def _shapes_of(kept: list[PhasePatterns]):
+    """The ``shapes`` function (:func:`_target_backgrounds`) of the patterns of ``kept``
+    stacked in order: :func:`extent_shapes` of each target's patterns, made once."""
+    per = len(kept[0].weights)
+
+    def shapes(which: np.ndarray):
+        target, row = np.divmod(which, per)
+        need = np.unique(target).tolist()
+        for t in need:
+            if "extent" not in kept[t].shapes:
+                new = extent_shapes(kept[t].patterns)
+                for v in new:
+                    v.setflags(write=False)
+                kept[t].shapes["extent"] = new
+        made = [kept[t].shapes["extent"] for t in need]
+        # rows and columns past a pattern's own side: -inf, never >= 3 sigma
+        side = max(m[0].shape[1] for m in made)
+        lines = np.full((2, len(need) * per, side), -np.inf)
+        for j, m in enumerate(made):
+            lines[0, j * per : (j + 1) * per, : m[0].shape[1]] = m[0]
+            lines[1, j * per : (j + 1) * per, : m[1].shape[1]] = m[1]
+        at = np.searchsorted(need, target) * per + row
+        return lines[0, at], lines[1, at], np.concatenate([m[2] for m in made])[at]
+
+    return shapes
+
+
+def _widened(candidates: np.ndarray, width: int) -> np.ndarray:
+    """Peak candidates padded to ``width`` columns by repeating their last (the centre)."""
+    extra = width - candidates.shape[1]
+    return candidates if extra == 0 else np.pad(candidates, ((0, 0), (0, extra)), mode="edge")
+
+
 @functools.lru_cache(maxsize=256)
 def phase_patterns(
     psf: Psf,
@@ -481,10 +708,11 @@ def phase_patterns(
     target_sigma_px: float,
     half_size_px: int,
     phase_key: tuple,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> PhasePatterns:
     """The noise-free patterns (unit amplitude) of one target over the phases ``phase_key`` =
-    (x phases, y phases, weights (n_y, n_x)) as tuples, and their weights: (P, n, n) and (P,),
-    cached (the expected reading's cost at a new amplitude is then the estimator's alone).
+    (x phases, y phases, weights (n_y, n_x)) as tuples, their weights and the pixels that can
+    be their peaks: (P, n, n), (P,), and :func:`_peak_candidates`, cached (the expected
+    reading's cost at a new amplitude is then the estimator's alone, on the pixels it reads).
     Phases of no weight are left out; on a grid symmetric in x and y (the uniform cell) a
     pattern and its transpose read alike (the PSF and the target are symmetric), so each pair
     enters once with both weights."""
@@ -507,9 +735,10 @@ def phase_patterns(
         weights = np.triu(weights + weights.T) - np.diag(np.diag(weights))
     keep = weights > 0
     out, w = np.ascontiguousarray(pats[keep]), weights[keep]
-    out.setflags(write=False)
-    w.setflags(write=False)
-    return out, w
+    max_abs, candidates = _peak_candidates(out)
+    for v in (out, w, max_abs, candidates):
+        v.setflags(write=False)
+    return PhasePatterns(out, w, max_abs, candidates, {})
 
 
 PHASE_STEP_PX = 1.0 / 24.0  # observed phases are binned to this (the reading changes < 0.5 %)

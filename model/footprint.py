@@ -90,23 +90,31 @@ def otf_grid(psf: Psf, period_px: float) -> tuple[np.ndarray, np.ndarray]:
     n = min(math.ceil(top * period_px), 4096)
     step = top / n
     f = np.arange(n + 1) * step
-    # the OTF is radial: evaluated once per pair j <= k, and each component (an Airy has one
-    # per wavelength) only inside its own cutoff, beyond which it is ~0 (psf.components)
-    j, k = np.triu_indices(n + 1)
-    fr = np.hypot(f[j], f[k])
-    half = np.zeros(fr.size)
+    # The OTF is radial: on the grid a function of j^2 + k^2, evaluated once per distinct sum
+    # (a third of the pairs), at radius step sqrt(j^2 + k^2), ascending; each component (an
+    # Airy has one per wavelength) only inside its own cutoff, beyond which it is ~0
+    # (psf.components): from the first radius up to it. The sums are marked in a table of
+    # all of them up to 2 n^2 (no sort).
+    i = np.arange(n + 1, dtype=np.int32)
+    sums = i[:, None] ** 2 + i[None, :] ** 2
+    present = np.zeros(2 * n * n + 1, bool)
+    present[sums] = True
+    distinct = np.flatnonzero(present)
+    radius = step * np.sqrt(distinct)
+    by_radius = np.zeros(distinct.size)
     for w, fn, cut in psf.components():
-        inside = fr < cut
-        half[inside] += w * fn(fr[inside])
-    otf = np.empty((n + 1, n + 1))
-    otf[j, k] = half
-    otf[k, j] = half
+        inside = int(np.searchsorted(radius, cut))  # the radii < cut
+        by_radius[:inside] += w * fn(radius[:inside])
+    which = np.empty(present.size, np.int32)
+    which[distinct] = np.arange(distinct.size, dtype=np.int32)
+    otf = by_radius[which[sums]]
     mult = np.full(n + 1, 2.0)
     mult[0] = 1.0
-    m = otf * (step * mult)[:, None] * (step * mult)[None, :]
+    otf *= (step * mult)[:, None]
+    otf *= (step * mult)[None, :]
     f.setflags(write=False)
-    m.setflags(write=False)
-    return f, m
+    otf.setflags(write=False)
+    return f, otf
 
 
 def _pixel_kernel(f: np.ndarray, fill_factor: float) -> np.ndarray:
@@ -121,13 +129,42 @@ def _direct_pvf_square(psf: Psf, fill_factor: float, d_px: np.ndarray, period_px
     return np.einsum("jd,jd->d", matmul(m, k), k)
 
 
-@functools.lru_cache(maxsize=32)
-def _square_table(psf: Psf, fill_factor: float) -> PchipInterpolator:
+_TABLE_CHUNK = 32  # table nodes computed together, as far as the sizes asked for need
+
+
+def _table_nodes() -> np.ndarray:
     # h(D) = PVF(D) (1 + D^2) / FF is smooth and O(1) everywhere: PVF0 / FF at D = 0, and
     # -> 1 for large D (the pixel-filling limit); quadratic spacing puts nodes where it bends.
-    d = _D_TABLE_MAX_PX * np.linspace(0.0, 1.0, _N_D_TABLE) ** 2
-    pvf = _direct_pvf_square(psf, fill_factor, d, _TABLE_PERIOD_PX)
-    return PchipInterpolator(d, pvf * (1.0 + d * d) / fill_factor)
+    return _D_TABLE_MAX_PX * np.linspace(0.0, 1.0, _N_D_TABLE) ** 2
+
+
+@functools.lru_cache(maxsize=256)
+def _square_table_chunk(psf: Psf, fill_factor: float, chunk: int) -> np.ndarray:
+    """h(D) at the table's nodes ``chunk`` x 32 to 32 further (always the same nodes
+    together: a node's value does not depend on what else was asked)."""
+    d = _table_nodes()[chunk * _TABLE_CHUNK : (chunk + 1) * _TABLE_CHUNK]
+    h = _direct_pvf_square(psf, fill_factor, d, _TABLE_PERIOD_PX) * (1.0 + d * d) / fill_factor
+    h.setflags(write=False)
+    return h
+
+
+@functools.lru_cache(maxsize=64)
+def _square_table(psf: Psf, fill_factor: float, chunks: int) -> PchipInterpolator:
+    """PCHIP through the table's first ``chunks`` chunks of nodes. Its pieces below the last
+    two nodes are those of the whole table (PCHIP's slope at a node is set by its neighbours
+    alone, the ends' by the end): the table is computed only as far as the sizes need."""
+    d = _table_nodes()[: chunks * _TABLE_CHUNK]
+    h = np.concatenate([_square_table_chunk(psf, fill_factor, c) for c in range(chunks)])
+    return PchipInterpolator(d, h)
+
+
+def _square_table_for(psf: Psf, fill_factor: float, d_max_px: float) -> PchipInterpolator:
+    """:func:`_square_table` far enough to interpolate up to ``d_max_px`` (<= the table's
+    end): the piece that holds it and the nodes that set its end slopes."""
+    nodes = _table_nodes()
+    piece = int(np.searchsorted(nodes, d_max_px, side="right")) - 1
+    need = min(piece + 3, nodes.size)  # nodes up to piece + 2: the piece's far slope is interior
+    return _square_table(psf, fill_factor, -(-need // _TABLE_CHUNK))
 
 
 def average_pvf_square(psf: Psf, fill_factor: float, d_px) -> np.ndarray | float:
@@ -138,8 +175,8 @@ def average_pvf_square(psf: Psf, fill_factor: float, d_px) -> np.ndarray | float
     tends to 1 as the PSF wings fall inside the square (their energy falls as 1/D)."""
     ff = _check_ff(fill_factor)
     d = _check_sizes(d_px)
-    table = _square_table(psf, ff)
     inside = np.minimum(d, _D_TABLE_MAX_PX)
+    table = _square_table_for(psf, ff, float(np.max(inside, initial=0.0)))
     h = table(inside)
     far = d > _D_TABLE_MAX_PX
     if np.any(far):

@@ -134,6 +134,45 @@ def _draws(inputs: InputUncertainty) -> np.ndarray:
     return z
 
 
+_THROUGH: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+_THROUGH_KEPT = 8
+
+
+def _drawn_through_air(c: Contrast, inputs: InputUncertainty) -> np.ndarray:
+    """Each draw's :meth:`Contrast.through_air_e` (n_samples + 1, n_ranges): the target's
+    temperature, the air's and the optical depth drawn (module docstring). It holds no sky:
+    kept per chain (target and air temperatures, response, transmission) so that a new sky
+    temperature redraws only the path and the noise. ``c.tau`` is the kept, read-only
+    transmission of its path (:func:`snrmon.model.contrast.contrast`), held by the entry so
+    that its id names it."""
+    key = (
+        inputs,
+        c.target_temp_k,
+        c.air_temp_k,
+        c.photon,
+        c.k_spec.tobytes(),
+        c.wavelengths_um.tobytes(),
+        c.source_air.tobytes(),
+        id(c.tau),
+    )
+    known = _THROUGH.get(key)
+    if known is not None and known[0] is c.tau:
+        return known[1]
+    z = _draws(inputs)
+    t_air = c.air_temp_k + inputs.air_temp_k * z[1]
+    t_tgt = c.target_temp_k + inputs.target_temp_k * z[2]
+    # Beer-Lambert on the band's optical depth: tau_c -> tau_c^(1 + u z)
+    ln_tau = np.log(np.clip(c.transmission_contrast, 1e-300, 1.0))
+    tau = np.exp(inputs.optical_depth * z[3][:, None] * ln_tau[None, :])
+    out = c.through_air_e(t_tgt, t_air, tau)
+    out.setflags(write=False)
+    if not c.tau.flags.writeable:  # a transmission that will not change under its id
+        if len(_THROUGH) >= _THROUGH_KEPT:
+            _THROUGH.pop(next(iter(_THROUGH)), None)  # the oldest
+        _THROUGH[key] = (c.tau, out)
+    return out
+
+
 @dataclass(frozen=True)
 class McDraws:
     """SNR draws (n_samples, n_ranges) of the corrected small and large curves, and the
@@ -143,8 +182,26 @@ class McDraws:
     nominal: dict[str, np.ndarray]
 
     def band(self, curve: str) -> tuple[np.ndarray, np.ndarray]:
-        lo, hi = np.quantile(self.snr[curve], BAND_QUANTILES, axis=0)
+        lo, hi = quantiles_by_column(self.snr[curve], BAND_QUANTILES)
         return lo, hi
+
+
+def quantiles_by_column(x: np.ndarray, q: tuple[float, ...]) -> np.ndarray:
+    """``np.quantile(x, q, axis=0)`` (its default, linear method, bit for bit) of the columns
+    of ``x`` (n, m), from each column sorted (a SIMD sort of contiguous rows: 5x faster than
+    the partition np.quantile does across rows, 0.7 against 3.5 ms for two 200 x 500 draws)."""
+    x = np.asarray(x, dtype=float)
+    if np.isnan(x).any():
+        return np.quantile(x, q, axis=0)  # NaN propagation as numpy does it
+    n = x.shape[0]
+    virtual = (n - 1) * np.asarray(q, dtype=float)  # numpy's linear method
+    below = np.floor(virtual)
+    gamma = (virtual - below)[:, None]
+    below = below.astype(np.intp)
+    ordered = np.sort(x.T, axis=1)
+    a, b = ordered[:, below].T, ordered[:, np.minimum(below + 1, n - 1)].T
+    diff = b - a
+    return np.where(gamma >= 0.5, b - diff * (1.0 - gamma), a + diff * gamma)
 
 
 def draw_corrected(
@@ -167,11 +224,7 @@ def draw_corrected(
     sigma_sky = inputs.sky_assumed_k if c.sky_assumed else inputs.sky_radiance * l_sky / dl_sky
     t_sky = np.maximum(c.sky_temp_k + sigma_sky * z[0], 1.0)
     t_air = c.air_temp_k + inputs.air_temp_k * z[1]
-    t_tgt = c.target_temp_k + inputs.target_temp_k * z[2]
-    # Beer-Lambert on the band's optical depth: tau_c -> tau_c^(1 + u z)
-    ln_tau = np.log(np.clip(c.transmission_contrast, 1e-300, 1.0))
-    tau = np.exp(inputs.optical_depth * z[3][:, None] * ln_tau[None, :])
-    intensity = c.intensity_e(t_tgt, t_air, t_sky, tau)  # (n, n_ranges)
+    intensity = _drawn_through_air(c, inputs) + c.path_e(t_air, t_sky)  # (n, n_ranges)
     noise = total_noise_e(sensor, t_sky, spatial_noise, measured_noise)
     pixel_m = c.ranges_m * sensor.ifov_rad  # the pixel footprint at each range
     out = {}

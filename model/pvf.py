@@ -10,10 +10,11 @@ standard deviation ``target_sigma_px`` convolved with the PSF, same total flux):
   of the energy on that pixel's active area. In the frequency domain (f in cycles/pitch)
   ``PVF = integral OTF(f) FF sinc(a fx) sinc(a fy) sinc(fx) sinc(fy) df`` with a = sqrt(FF).
 
-Gaussian PSFs use closed forms (erf); other PSFs integrate their OTF: polar Gauss-Legendre for
-the averages, a Cartesian trapezoid grid (exact up to aliasing at a 128-pixel period, by Poisson
-summation) for :func:`pixel_energy_fractions`. :func:`average_pvf_spatial` is an independent
-spatial-domain integration used to check the Airy values.
+Gaussian PSFs use closed forms (erf); other PSFs integrate their OTF: polar Gauss-Legendre
+(:mod:`snrmon.model.quadrature`) for the averages, a Cartesian trapezoid grid (exact up to
+aliasing at a 128-pixel period, by Poisson summation) for :func:`pixel_energy_fractions`.
+:func:`average_pvf_spatial` is an independent spatial-domain integration used to check the Airy
+values.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from scipy.optimize import brentq
 from scipy.special import ndtr
 
 from snrmon.model.psf import AiryGaussianPsf, AiryPsf, GaussianPsf, Psf
+from snrmon.model.quadrature import gauss_legendre
 
 _SQ2PI = math.sqrt(2.0 * math.pi)
 _N_R, _N_THETA = 96, 24
@@ -68,21 +70,12 @@ def _gauss_sigma(psf: GaussianPsf, target_sigma_px) -> np.ndarray:
     return np.sqrt(psf.sigma_px**2 + _check_sigma_t(target_sigma_px) ** 2)
 
 
-@functools.lru_cache(maxsize=8)
-def _leggauss(n: int) -> tuple[np.ndarray, np.ndarray]:
-    # an eigenvalue problem per call (4 ms at n = 96): the nodes are the same every time
-    x, w = np.polynomial.legendre.leggauss(n)
-    x.setflags(write=False)
-    w.setflags(write=False)
-    return x, w
-
-
 @functools.lru_cache(maxsize=64)
 def _polar_weights(psf: Psf, fill_factor: float, averaged: bool) -> tuple[np.ndarray, np.ndarray]:
     """Nodes |f| and weights W so that PVF (or EE) = sum W exp(-2 pi^2 sigma_t^2 f^2)."""
     a = math.sqrt(fill_factor)
-    xr, wr = _leggauss(_N_R)
-    xt, wt = _leggauss(_N_THETA)
+    xr, wr = gauss_legendre(_N_R)
+    xt, wt = gauss_legendre(_N_THETA)
     theta = (xt + 1.0) * math.pi / 8.0
     w_theta = wt * math.pi / 8.0
     fs, ws = [], []

@@ -35,6 +35,7 @@ The band (``lower``/``upper``) is the Monte-Carlo band of :mod:`snrmon.model.mon
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -295,7 +296,7 @@ def expected_readings(
     r_u, first, back = np.unique(r, return_index=True, return_inverse=True)
     lr = np.log(r_u)
     d_u = np.asarray(d_px, float)[first]
-    picked = expected_nodes(lr, d_u)
+    picked = _first_nodes(lr.tobytes(), d_u.tobytes())
     values = {rule: np.log(v) for rule, v in at(first[picked]).items()}
     for _ in range(REFINE_ROUNDS):
         more = _refinements(lr, picked, values)
@@ -331,22 +332,36 @@ def _spaced(x: np.ndarray, wide: np.ndarray) -> np.ndarray:
 
 def clear_caches() -> None:
     """Forget what the model keeps between predictions (the PSFs' frequency grids and PVF
-    tables, the expected reading's patterns, nodes and readings, the band's PVF draws): the
-    next prediction computes everything again, as a fresh process would."""
-    from snrmon.model import eq4, footprint, montecarlo, pvf
+    tables, the quadrature nodes, the path's transmission, the expected reading's patterns,
+    nodes and readings, the band's sky-free draws): the next prediction computes everything
+    again, as a fresh process would."""
+    from snrmon.model import contrast, eq4, footprint, montecarlo, pvf, quadrature
 
     eq4._READINGS.clear()
     montecarlo._AREA_PVF.clear()
+    contrast._TAU.clear()
+    montecarlo._THROUGH.clear()
     for cached in (
+        _first_nodes,
         eq4.phase_patterns,
         montecarlo.widened_psf,
         footprint.otf_grid,
         footprint._square_table,
+        footprint._square_table_chunk,
         footprint._pattern_weights,
         pvf._polar_weights,
         pvf._pvf_table,
+        quadrature.gauss_legendre,
     ):
         cached.cache_clear()
+
+
+@functools.lru_cache(maxsize=16)
+def _first_nodes(log_ranges: bytes, d_px: bytes) -> np.ndarray:
+    """:func:`expected_nodes`, kept per range grid and target (a new sky reads the same)."""
+    picked = expected_nodes(np.frombuffer(log_ranges), np.frombuffer(d_px))
+    picked.setflags(write=False)
+    return picked
 
 
 def expected_nodes(log_ranges: np.ndarray, d_px: np.ndarray) -> np.ndarray:
@@ -388,13 +403,15 @@ def _refinements(
     width = (log_ranges[hi] - log_ranges[lo])[flagged]
     parts = np.ceil((worst[flagged] / REFINE_TOL) ** 0.25)
     parts = np.clip(parts, 2, np.maximum(2, np.floor(width / NODE_SPACING_MIN)))
-    new = []
-    for a, b, n_parts in zip(lo[flagged], hi[flagged], parts.astype(int), strict=True):
-        at = np.linspace(log_ranges[a], log_ranges[b], n_parts + 1)[1:-1]
-        j = np.searchsorted(log_ranges, at)
-        j = np.where(np.abs(log_ranges[j - 1] - at) <= np.abs(log_ranges[j] - at), j - 1, j)
-        new.append(np.unique(np.clip(j, a + 1, b - 1)))
-    return np.concatenate(new) if new else np.zeros(0, int)
+    # the ranges nearest the points k / parts of the way along each interval, 0 < k < parts
+    # (the arithmetic of np.linspace)
+    inside = parts.astype(int) - 1
+    a, b = np.repeat(lo[flagged], inside), np.repeat(hi[flagged], inside)
+    k = np.arange(a.size) - np.repeat(np.cumsum(inside) - inside, inside) + 1.0
+    at = k * ((log_ranges[b] - log_ranges[a]) / np.repeat(parts, inside)) + log_ranges[a]
+    j = np.searchsorted(log_ranges, at)
+    j = np.where(np.abs(log_ranges[j - 1] - at) <= np.abs(log_ranges[j] - at), j - 1, j)
+    return np.unique(np.clip(j, a + 1, b - 1))
 
 
 def predict(

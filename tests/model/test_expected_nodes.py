@@ -84,3 +84,21 @@ def test_a_prediction_does_not_depend_on_what_ran_before(camera):
     for name in (*EXPECTED_CURVES, "small_corrected"):
         assert np.array_equal(again.snr(name), fresh.snr(name)), name
         assert np.array_equal(again.lower[name], fresh.lower[name]), name
+
+
+@pytest.mark.parametrize("camera", ["mwir", "lwir"])
+def test_a_new_sky_reads_what_a_fresh_process_reads(camera):
+    """What is kept across skies on a grid (the path's transmission, the band's sky-free
+    draws, the patterns and their peak candidates and extent shapes, the first nodes) gives
+    the prediction of a new sky bit for bit as computed from nothing."""
+    sensor = load_sensor(camera)
+    grid = np.linspace(20.0, 3000.0, 500)
+    clear_caches()
+    predict(sensor, UAV1, grid, background_temp_k=262.0)
+    kept = predict(sensor, UAV1, grid, background_temp_k=281.0)
+    clear_caches()
+    fresh = predict(sensor, UAV1, grid, background_temp_k=281.0)
+    for name in (*EXPECTED_CURVES, "small_corrected", "large_corrected"):
+        assert np.array_equal(kept.snr(name), fresh.snr(name)), name
+        assert np.array_equal(kept.lower[name], fresh.lower[name]), name
+        assert np.array_equal(kept.upper[name], fresh.upper[name]), name
