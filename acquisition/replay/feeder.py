@@ -104,8 +104,9 @@ def _flags(bits: int) -> frozenset[str]:
 def same_result(row, m: Measurement) -> bool:
     """The replayed frame reads exactly what the live one recorded: Eq. (4) (peak, SNR,
     flags) and, where the file has them (format 2), the running statistics after it and the
-    track's state and window. ``row``: a measurement row (np.void, or a dict of its fields);
-    the fields compared are those of :func:`peak_snr_from_row`, read without building it."""
+    track's state and window. ``row``: a measurement row (np.void, or a dict of its fields
+    :data:`_ROW_FIELDS`); the fields compared are those of :func:`peak_snr_from_row`, read
+    without building it."""
     r = m.result
     same = (
         _same(float(row["snr"]), r.snr)
@@ -123,6 +124,14 @@ def same_result(row, m: Measurement) -> bool:
             and track_state_of(row) is m.track_state
         )
     return same
+
+
+_ROW_FIELDS = (
+    *("snr", "peak_x", "peak_y", "flags", "background", "track_state"),
+    *("snr_mean", "snr_std", "snr_n", "window_x", "window_y", "cue_x", "cue_y"),
+)
+"""The fields of a measurement row a replay compares (:func:`same_result`) or applies (the
+GPS cue)."""
 
 
 class Feeder:
@@ -159,7 +168,7 @@ class Feeder:
         self._crops: dict[str, FrameCrops] = {}  # made at a camera's first frame (fast only)
         self._next_command = dict.fromkeys(inputs.cameras, 0)
         self._next_model_input = dict.fromkeys(inputs.cameras, 0)
-        self._names = {n: f.cameras[n].measurements.dtype.names or () for n in inputs.cameras}
+        self._columns: dict[str, dict[str, list]] = {}  # per camera (_columns_of)
         self._entries: list[tuple[int, int, int, int, int]] | None = None  # the timeline
         self._counters: dict[str, list[int]] = {}  # each camera's frame counters
 
@@ -225,8 +234,8 @@ class Feeder:
         cam = self.f.cameras[name]
         tally = self.tally[name]
         row = None
-        if r >= 0:  # its fields as a dict: one conversion, then cheap lookups
-            row = dict(zip(self._names[name], cam.measurements[r].item(), strict=True))
+        if r >= 0:  # the fields compared and applied, from the columns as Python values
+            row = {k: column[r] for k, column in self._columns_of(name).items()}
         if i < 0:  # measured live, not in the file
             assert row is not None  # a timeline entry without a frame always has its row
             m = measurement_from_row(name, cam.measurements[r])
@@ -260,6 +269,16 @@ class Feeder:
                     tally.first_difference = m.counter
         self._after(name, t)
         return out
+
+    def _columns_of(self, name: str) -> dict[str, list]:
+        """The measurement rows' fields :func:`same_result` and :meth:`_post_commands` read,
+        column by column as Python lists (once per camera: a row's own conversion costs more
+        than the comparison)."""
+        columns = self._columns.get(name)
+        if columns is None:
+            rows = self.f.cameras[name].measurements
+            columns = self._columns[name] = {k: rows[k].tolist() for k in _ROW_FIELDS}
+        return columns
 
     def _after(self, name: str, t: int) -> None:
         self._apply_model_inputs(name, t, inclusive=True)
