@@ -166,6 +166,7 @@ class Feeder:
         self.tally = {n: CameraTally(n, f.cameras[n].n_frames) for n in inputs.cameras}
         self.fast = fast
         self._crops: dict[str, FrameCrops] = {}  # made at a camera's first frame (fast only)
+        self._references: dict[tuple[str, int], np.ndarray] = {}  # (camera, index): image
         self._next_command = dict.fromkeys(inputs.cameras, 0)
         self._next_model_input = dict.fromkeys(inputs.cameras, 0)
         self._columns: dict[str, dict[str, list]] = {}  # per camera (_columns_of)
@@ -293,10 +294,33 @@ class Feeder:
             k += 1
         self._next_model_input[name] = k
 
-    def _pixels(self, name: str, i: int) -> np.ndarray:
+    def held_in_memory(self, name: str) -> bool:
+        """Read now what ``name``'s replay would later read through HDF5 (the reference images
+        its commands name) and map its frames (``fast``); True when nothing of it is then left
+        to read through HDF5: every frame in the memory map, every reference read (format 2).
+        A process forked from this one can then play it without touching the open file
+        (:mod:`snrmon.acquisition.replay.forked`)."""
+        if not self.fast or self.inputs.version < 2:
+            return False
+        cam = self.f.cameras[name]
+        crops = self._frame_crops(name)
+        if crops.frames_mapped < cam.n_frames:
+            return False
+        for _, kind, payload in self.inputs.per_camera[name].commands:
+            if kind != "background_reference":
+                continue
+            if self._reference_image(name, payload.get("reference_index")) is None:
+                return False  # format 1: rebuilt from its frames, through h5py
+        return True
+
+    def _frame_crops(self, name: str) -> FrameCrops:
         crops = self._crops.get(name)
-        if crops is None and self.fast:
+        if crops is None:
             crops = self._crops[name] = FrameCrops(self.f.cameras[name].frames)
+        return crops
+
+    def _pixels(self, name: str, i: int) -> np.ndarray:
+        crops = self._frame_crops(name) if self.fast else None
         if crops is not None:
             view = crops.frame_view(i)
             if view is not None:
@@ -331,11 +355,21 @@ class Feeder:
             if cx == cx and cy == cy:  # finite: a cue was applied before this frame live
                 engine.post(Cue(cx, cy))
 
+    def _reference_image(self, name: str, k: int | None) -> np.ndarray | None:
+        """The recorded reference image ``k`` of ``name`` (read once); None when the file
+        does not hold it (format 1)."""
+        refs = self.f.cameras[name].references
+        if k is None or refs is None or not k < refs.shape[0]:
+            return None
+        image = self._references.get((name, int(k)))
+        if image is None:
+            image = self._references[(name, int(k))] = np.asarray(refs[int(k)], np.float32)
+        return image
+
     def _reference(self, name: str, payload: dict) -> ApplyReference:
         cam = self.f.cameras[name]
-        k = payload.get("reference_index")
-        if k is not None and cam.references is not None and k < cam.references.shape[0]:
-            offset = np.asarray(cam.references[int(k)], np.float32)
+        offset = self._reference_image(name, payload.get("reference_index"))
+        if offset is not None:
             # "in_force": recorded at the start of a recording or after a gap, not a capture
             # that just ended: the raw track is not restarted by it.
             return ApplyReference(offset, payload, restart_raw=not payload.get("in_force"))
