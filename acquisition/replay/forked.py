@@ -20,6 +20,7 @@ import os
 import pickle
 import signal
 import threading
+import time
 import traceback
 from collections.abc import Callable
 from typing import Generic, TypeVar
@@ -34,17 +35,25 @@ def can_fork() -> bool:
     return hasattr(os, "fork") and _cores() > 1
 
 
-def idle_core() -> bool:
-    """True when a core is idle now: fewer tasks are running or waiting to run than there are
-    cores, this process included (Linux's ``/proc/loadavg``; elsewhere assumed). A child
-    forked beside another running task made a replay slower, not faster, on the 2-core
-    development machine (docs/engine.md, "Fast replay")."""
-    try:
-        with open("/proc/loadavg") as fh:
-            running = int(fh.read().split()[3].split("/")[0])
-    except (OSError, ValueError, IndexError):
-        return True
-    return running < _cores()
+def idle_core(looks: int = 5) -> bool:
+    """True when a core is idle: fewer tasks running or waiting to run than there are cores,
+    this process included, in one of ``looks`` readings of Linux's ``/proc/loadavg`` a
+    millisecond apart (a task that runs for a moment, a shell command or a kernel worker, does
+    not keep a core busy; elsewhere a core is assumed idle). A child forked beside another
+    running task made a replay slower, not faster, on the 2-core development machine
+    (docs/engine.md, "Fast replay")."""
+    cores = _cores()
+    for look in range(looks):
+        if look:
+            time.sleep(0.001)  # the next reading, not a synchronisation
+        try:
+            with open("/proc/loadavg") as fh:
+                running = int(fh.read().split()[3].split("/")[0])
+        except (OSError, ValueError, IndexError):
+            return True
+        if running < cores:
+            return True
+    return False
 
 
 def _cores() -> int:
