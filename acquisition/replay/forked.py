@@ -15,6 +15,7 @@ with ``os._exit``, so no exit handler or finaliser of the parent's runs twice.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import gc
 import os
 import pickle
@@ -28,6 +29,7 @@ from typing import Generic, TypeVar
 T = TypeVar("T")
 
 _CHUNK = 1 << 20
+_PIPE_BYTES = 1 << 20  # Linux's default most for an unprivileged process
 
 
 def can_fork() -> bool:
@@ -68,6 +70,11 @@ class Forked(Generic[T]):
 
     def __init__(self, fn: Callable[[], T]) -> None:
         read_fd, write_fd = os.pipe()
+        # A pipe that holds the whole result (hundreds of kB; 64 kB by default): the child
+        # writes it and is gone, and the parent need not wait for a busy machine to give the
+        # child a core again to write the rest once the parent reads.
+        with contextlib.suppress(OSError, AttributeError):
+            fcntl.fcntl(write_fd, fcntl.F_SETPIPE_SZ, _PIPE_BYTES)
         pid = os.fork()
         if pid == 0:  # the child: never returns
             os.close(read_fd)
