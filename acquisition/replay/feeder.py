@@ -358,11 +358,13 @@ class Feeder:
     def _reference_image(self, name: str, k: int | None) -> np.ndarray | None:
         """The recorded reference image ``k`` of ``name`` (read once); None when the file
         does not hold it (format 1)."""
-        refs = self.f.cameras[name].references
-        if k is None or refs is None or not k < refs.shape[0]:
+        if k is None:
             return None
-        image = self._references.get((name, int(k)))
+        image = self._references.get((name, int(k)))  # first: no HDF5 call once read
         if image is None:
+            refs = self.f.cameras[name].references
+            if refs is None or not k < refs.shape[0]:
+                return None
             image = self._references[(name, int(k))] = np.asarray(refs[int(k)], np.float32)
         return image
 
