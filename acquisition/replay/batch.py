@@ -4,7 +4,9 @@
 given: a re-analysis), plays the recording's timeline into it
 (:class:`snrmon.acquisition.replay.feeder.Feeder`), paced to the recorded clock or as fast as the
 disk allows, and returns every per-frame measurement, the comparison with the recorded ones, the
-stop table, and the file's own frame accounting (what the recorder dropped, and why).
+stop table, and the file's own frame accounting (what the recorder dropped, and why). As fast as
+it can, with several cameras and a core idle, it plays each camera through an engine of its own
+in a process of its own (:mod:`snrmon.acquisition.replay.forked`): the same results.
 """
 
 from __future__ import annotations
