@@ -54,6 +54,12 @@ def test_acquisition_soak_rolls_its_recording_and_samples_memory(monkeypatch):
     assert all(f"\n  {name:12s}" in text for name in COLUMNS)
     assert len(out["replay"]["fast_realtime_factor_runs"]) == bench_acquisition.REPEATS
     assert out["replay"]["identical_every_run"] is True
+    # Each fast replay in the order run: its factor among the sorted ones, the processes that
+    # played it (two cameras: one or two), what it read from the disk.
+    runs = out["replay"]["fast_runs_in_order"]
+    assert sorted(r["realtime_factor"] for r in runs) == out["replay"]["fast_realtime_factor_runs"]
+    assert all(r["processes"] in (1, 2) and r["read_mb"] >= 0 for r in runs)
+    assert {r["processes"] for r in out["replay"]["fast_runs_in_order_mwir"]} == {1}
 
 
 def test_tracking_real_summary_and_table_from_scored_runs():

@@ -140,7 +140,8 @@ class CameraEngine:
         # recorded before it was told: format 2.0).
         self.tell_gaps = True
         # Figures only a display shows, off in a batch replay: the raw-SNR track beside a
-        # corrected one (the console, the HIL's FPN check; half a frame's work), the noise.
+        # corrected one (the console, the HIL's FPN check; half a frame's work), the noise, the
+        # running window's values the status takes the error of the mean from.
         self.display_figures = True
         # The strip chart's rows in a ring of preallocated rows: a row written per frame here,
         # two slices copied when the console asks (a list of tuples made into an array cost
@@ -259,7 +260,8 @@ class CameraEngine:
                 self._measured += 1
                 self._roi, self._state = None, TrackState.IDLE
             return FrameOutput(None, applied, done)
-        self._publish(m, self.measurer.meter.running.values())
+        window = self.measurer.meter.running.values() if self.display_figures else None
+        self._publish(m, window)
         return FrameOutput(m, applied, done)
 
     def publish_recorded(self, m: Measurement) -> None:

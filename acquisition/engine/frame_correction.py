@@ -31,6 +31,7 @@ from snrmon.acquisition.engine.lazy_frame import LazyFrame, Region
 from snrmon.acquisition.stage_clock import CORRECTION, enter
 
 TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
+AROUND_PX = 10  # corrected around the centre before the first read (FrameCorrector.apply)
 _NONE = np.zeros((1, 1), np.float32)  # an absent map, for the compiled correction
 
 
@@ -70,6 +71,19 @@ class FrameCorrector:
         self._sum: np.ndarray | None = None
         self._wanted = 0
         self._counters: list[int] = []
+
+    @property
+    def calibration(self):
+        """The radiometric calibration applied (None: none)."""
+        return self._calibration
+
+    @calibration.setter
+    def calibration(self, calibration) -> None:
+        self._calibration = calibration
+        if calibration is not None:
+            # The maps and means the correction uses (cached on the calibration): computed
+            # now, not in the first frame's time (about 8 ms for a 1280 x 720 camera).
+            _ = calibration.safe_responsivity, calibration.mean_offset_dn
 
     @property
     def active(self) -> bool:
@@ -159,6 +173,11 @@ class FrameCorrector:
         self._covered = []
         self._state[:] = (y0, y1, x0, x1, TILE_PX, 0)
         self._fast = self._compiled(pixels)
+        # The reads of a tracked unresolved drone (the brightest pixel near the prediction, the
+        # object's analysis window, Eq. 4's rims) lie within AROUND_PX of the centre: one
+        # correction now instead of two or three as they come (the same pixels either way).
+        a = AROUND_PX
+        self.ensure((y - a, y + a + 1, x - a, x + a + 1))
         return self._lazy_frame
 
     def _compiled(self, pixels: np.ndarray) -> tuple | None:

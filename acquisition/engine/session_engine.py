@@ -24,6 +24,7 @@ import functools
 import logging
 import math
 import threading
+from collections import deque
 from collections.abc import Callable, Mapping
 from typing import Protocol
 
@@ -117,7 +118,12 @@ class SessionEngine:
             for name, shape in shapes.items()
         }
         self.lrf_range = ScalarHistory(max_gap_ns=int(config.lrf_fresh_s * 1e9))
-        self.gps_range = ScalarHistory()
+        self._gps_range = ScalarHistory()
+        # Fixes whose slant range nobody has needed yet (gps_range): with the stops a replay
+        # recorded there is no detector to feed, and a frame reads the GPS range only when the
+        # rangefinder's is stale, so most fixes never need one (pymap3d: 20 us a fix).
+        self._fixes: deque[GpsFix] = deque()
+        self._fixes_lock = threading.Lock()
         self.projector = GpsProjector(config)
         self.stop_detector = StopDetector(stop_config)
         self.stop_source: StopSource = stops if stops is not None else self.stop_detector
@@ -240,13 +246,10 @@ class SessionEngine:
         site = self.config.site
         if site is None:
             return
-        r = gps_slant_range_m(fix, site)
-        if r is not None:
-            try:
-                self.gps_range.append(fix.t_host_ns, r)
-            except ValueError:
-                log.warning("GPS fix out of order dropped from the history")
-            self._feed_stops(lambda d: d.add_gps_range(fix.t_host_ns, r))
+        if self.stop_source is self.stop_detector:
+            self._add_gps_range(fix)  # the stop detector takes it now
+        else:
+            self._fixes.append(fix)  # its slant range when it is read (gps_range), in order
         if not self.project_gps:
             return
         for name, (x, y) in self.projector.pixels(fix).items():
@@ -257,6 +260,27 @@ class SessionEngine:
                 camera.post(Cue(x, y))
             else:
                 camera.show_gps(x, y)
+
+    @property
+    def gps_range(self) -> ScalarHistory:
+        """The GPS slant ranges from the site, fix by fix (those of fixes not read yet are
+        computed now, in the order the fixes came: the same history either way)."""
+        if self._fixes:
+            with self._fixes_lock:
+                while self._fixes:
+                    self._add_gps_range(self._fixes.popleft())
+        return self._gps_range
+
+    def _add_gps_range(self, fix: GpsFix) -> None:
+        site = self.config.site
+        r = None if site is None else gps_slant_range_m(fix, site)
+        if r is None:
+            return
+        try:
+            self._gps_range.append(fix.t_host_ns, r)
+        except ValueError:
+            log.warning("GPS fix out of order dropped from the history")
+        self._feed_stops(lambda d: d.add_gps_range(fix.t_host_ns, r))
 
     def _feed_stops(self, feed: Callable[[StopDetector], Stop | None]) -> None:
         if self.stop_source is not self.stop_detector:

@@ -40,6 +40,11 @@ class FrameCrops:
         """True when crops come from the memory map rather than through h5py."""
         return self._map is not None
 
+    @property
+    def frames_mapped(self) -> int:
+        """How many frames come from the memory map (the others through h5py)."""
+        return len(self._offsets) if self._map is not None else 0
+
     def _chunk_offsets(self) -> dict[int, int]:
         ds = self._frames
         if ds.chunks != (1, *self._shape) or not hasattr(ds.id, "chunk_iter"):

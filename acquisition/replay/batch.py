@@ -4,11 +4,14 @@
 given: a re-analysis), plays the recording's timeline into it
 (:class:`snrmon.acquisition.replay.feeder.Feeder`), paced to the recorded clock or as fast as the
 disk allows, and returns every per-frame measurement, the comparison with the recorded ones, the
-stop table, and the file's own frame accounting (what the recorder dropped, and why).
+stop table, and the file's own frame accounting (what the recorder dropped, and why). As fast as
+it can, with several cameras and a core idle, it plays each camera through an engine of its own
+in a process of its own (:mod:`snrmon.acquisition.replay.forked`): the same results.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -21,6 +24,7 @@ from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
 from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.record.reader import SessionFile, open_session
 from snrmon.acquisition.replay.feeder import CameraTally, Feeder, RecordedStops
+from snrmon.acquisition.replay.forked import Forked, can_fork, idle_core
 from snrmon.acquisition.replay.recorded import (
     FRAME,
     RecordedInputs,
@@ -69,6 +73,7 @@ class ReplayResult:
     recorded_rows: dict[tuple[int, str], dict]  # the live session's final rows, as recorded
     stops_identical: int | None  # final rows equal to the recorded ones (None: none recorded)
     format_version: str
+    processes: int = 1  # the processes the cameras were played in (replay_session's parallel)
 
     @property
     def realtime_factor(self) -> float:
@@ -156,6 +161,7 @@ def replay_session(
     predictor: Predictor | None = None,
     redetect_stops: bool = False,
     progress: Callable[[int, int], None] | None = None,
+    parallel: bool = True,
 ) -> ReplayResult:
     """Measure every recorded frame again through the live engine (module docstring).
 
@@ -170,7 +176,12 @@ def replay_session(
         predictor: the model for the stop table's model column.
         redetect_stops: detect the stops again from the readings instead of using the ones the
             live session recorded.
-        progress: ``progress(done, total)`` every 500 timeline entries.
+        progress: ``progress(done, total)`` every 500 timeline entries (of the cameras played
+            in this process).
+        parallel: play each camera in a process of its own where that gives the same results
+            (unpaced, no model, frames memory-mapped: :func:`_may_fork`) and a core is idle
+            to run it (:func:`snrmon.acquisition.replay.forked.idle_core`); False plays them
+            all in this one.
     """
     with open_session(path) as f:
         inputs = recorded_inputs(f)
@@ -181,10 +192,7 @@ def replay_session(
                 f"{Path(path).name} has no camera {unknown[0]!r} (it holds "
                 f"{', '.join(f.cameras) or 'none'})"
             )
-        engine, feeder = engine_for(
-            f,
-            inputs,
-            cameras=names,
+        settings: dict[str, Any] = dict(
             track=inputs.track if track is None else track,
             measurement=measurement,
             calibrations=calibrations,
@@ -192,30 +200,35 @@ def replay_session(
             redetect_stops=redetect_stops,
             fast=fast,
         )
-        timeline = inputs.timeline
-        wanted = {inputs.cameras.index(n) for n in names}
-        keep = (timeline["kind"] != FRAME) | [int(c) in wanted for c in timeline["camera"]]
-        entries = [int(k) for k in range(len(timeline)) if keep[k]]
+        groups = [names]
+        apart = parallel and speed is None and predictor is None and len(names) > 1
+        if apart and can_fork() and idle_core():
+            groups = [[n] for n in names]
+        plays = [_Play(f, inputs, group, settings) for group in groups]
+        # The camera with the most frames plays here, the others each in a forked child.
+        plays.sort(key=lambda p: -sum(f.cameras[n].n_frames for n in p.names))
+        if not _may_fork(plays[1:]):
+            plays = [_Play(f, inputs, names, settings)]
         t_start = time.monotonic()
-        t0_rec = int(timeline["t_ns"][0]) if len(timeline) else 0
-        for done, k in enumerate(entries, 1):
-            if speed is not None:
-                due = t_start + (int(timeline["t_ns"][k]) - t0_rec) / 1e9 / speed
-                delay = due - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)  # pacing to the recorded clock, not synchronisation
-            feeder.apply(k)
-            if progress is not None and (done % 500 == 0 or done == len(entries)):
-                progress(done, len(entries))
-        engine.finalize()
+        children: list[Forked] = []
+        try:
+            for p in plays[1:]:
+                children.append(Forked(functools.partial(p.run, None, t_start, None)))
+            played = [plays[0].run(speed, t_start, progress)]
+            played += [child.result() for child in children]
+        finally:
+            for child in children:
+                child.cancel()
         seconds = time.monotonic() - t_start
-        rows = engine.stops()
+        order = {n: i for i, n in enumerate(names)}
+        rows = sorted((r for p in played for r in p[1]), key=lambda r: (r.stop, order[r.camera]))
+        tallies = {n: t for p in played for n, t in p[0].items()}
         drops = recording_drops(f)
         out = {
             n: CameraReplay(
                 n,
                 f.cameras[n].n_frames,
-                feeder.tally[n],
+                tallies[n],
                 drops.get(n, {}),
                 ((f.summary or {}).get("extra") or {}).get("accounting", {}).get(n),
             )
@@ -235,7 +248,56 @@ def replay_session(
             recorded,
             _count_identical(rows, recorded) if recorded else None,
             f.format_version,
+            len(plays),
         )
+
+
+class _Play:
+    """Some cameras' replay: their engine, built as the live console built it, and the
+    timeline entries that reach it (every reading and stop event, their frames)."""
+
+    def __init__(
+        self, f: SessionFile, inputs: RecordedInputs, names: list[str], settings: dict
+    ) -> None:
+        self.names = names
+        self.engine, self.feeder = engine_for(f, inputs, cameras=names, **settings)
+        timeline = inputs.timeline
+        wanted = {inputs.cameras.index(n) for n in names}
+        keep = (timeline["kind"] != FRAME) | [int(c) in wanted for c in timeline["camera"]]
+        self.entries = [int(k) for k in range(len(timeline)) if keep[k]]
+        self.t_ns = timeline["t_ns"]
+
+    def run(
+        self,
+        speed: float | None,
+        t_start: float,
+        progress: Callable[[int, int], None] | None,
+    ) -> tuple[dict[str, CameraTally], list[StopRow]]:
+        """Every entry through the engine (paced to the recorded clock at ``speed``), then
+        the end of the session: what each camera's frames gave, and the stop rows."""
+        feeder, entries = self.feeder, self.entries
+        t0_rec = int(self.t_ns[0]) if len(self.t_ns) else 0
+        for done, k in enumerate(entries, 1):
+            if speed is not None:
+                due = t_start + (int(self.t_ns[k]) - t0_rec) / 1e9 / speed
+                delay = due - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)  # pacing to the recorded clock, not synchronisation
+            feeder.apply(k)
+            if progress is not None and (done % 500 == 0 or done == len(entries)):
+                progress(done, len(entries))
+        self.engine.finalize()
+        return {n: feeder.tally[n] for n in self.names}, self.engine.stops()
+
+
+def _may_fork(plays: list[_Play]) -> bool:
+    """Whether these cameras may each play in a forked child: their engines, stop rows and
+    per-frame results depend only on their own frames and on the readings and stops that every
+    process applies (not so with a model, whose curves the cameras share and whose worker this
+    process owns, nor when paced: the caller decides that), and a child must not read through
+    the HDF5 library of its parent (:mod:`snrmon.acquisition.replay.forked`): each camera must
+    be held in memory (frames memory-mapped, references read)."""
+    return all(p.feeder.held_in_memory(n) for p in plays for n in p.names)
 
 
 def _count_identical(rows: list[StopRow], recorded: dict[tuple[int, str], dict]) -> int:

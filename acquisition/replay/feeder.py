@@ -104,8 +104,9 @@ def _flags(bits: int) -> frozenset[str]:
 def same_result(row, m: Measurement) -> bool:
     """The replayed frame reads exactly what the live one recorded: Eq. (4) (peak, SNR,
     flags) and, where the file has them (format 2), the running statistics after it and the
-    track's state and window. ``row``: a measurement row (np.void, or a dict of its fields);
-    the fields compared are those of :func:`peak_snr_from_row`, read without building it."""
+    track's state and window. ``row``: a measurement row (np.void, or a dict of its fields
+    :data:`_ROW_FIELDS`); the fields compared are those of :func:`peak_snr_from_row`, read
+    without building it."""
     r = m.result
     same = (
         _same(float(row["snr"]), r.snr)
@@ -123,6 +124,14 @@ def same_result(row, m: Measurement) -> bool:
             and track_state_of(row) is m.track_state
         )
     return same
+
+
+_ROW_FIELDS = (
+    *("snr", "peak_x", "peak_y", "flags", "background", "track_state"),
+    *("snr_mean", "snr_std", "snr_n", "window_x", "window_y", "cue_x", "cue_y"),
+)
+"""The fields of a measurement row a replay compares (:func:`same_result`) or applies (the
+GPS cue)."""
 
 
 class Feeder:
@@ -157,9 +166,10 @@ class Feeder:
         self.tally = {n: CameraTally(n, f.cameras[n].n_frames) for n in inputs.cameras}
         self.fast = fast
         self._crops: dict[str, FrameCrops] = {}  # made at a camera's first frame (fast only)
+        self._references: dict[tuple[str, int], np.ndarray] = {}  # (camera, index): image
         self._next_command = dict.fromkeys(inputs.cameras, 0)
         self._next_model_input = dict.fromkeys(inputs.cameras, 0)
-        self._names = {n: f.cameras[n].measurements.dtype.names or () for n in inputs.cameras}
+        self._columns: dict[str, dict[str, list]] = {}  # per camera (_columns_of)
         self._entries: list[tuple[int, int, int, int, int]] | None = None  # the timeline
         self._counters: dict[str, list[int]] = {}  # each camera's frame counters
 
@@ -225,8 +235,8 @@ class Feeder:
         cam = self.f.cameras[name]
         tally = self.tally[name]
         row = None
-        if r >= 0:  # its fields as a dict: one conversion, then cheap lookups
-            row = dict(zip(self._names[name], cam.measurements[r].item(), strict=True))
+        if r >= 0:  # the fields compared and applied, from the columns as Python values
+            row = {k: column[r] for k, column in self._columns_of(name).items()}
         if i < 0:  # measured live, not in the file
             assert row is not None  # a timeline entry without a frame always has its row
             m = measurement_from_row(name, cam.measurements[r])
@@ -261,6 +271,16 @@ class Feeder:
         self._after(name, t)
         return out
 
+    def _columns_of(self, name: str) -> dict[str, list]:
+        """The measurement rows' fields :func:`same_result` and :meth:`_post_commands` read,
+        column by column as Python lists (once per camera: a row's own conversion costs more
+        than the comparison)."""
+        columns = self._columns.get(name)
+        if columns is None:
+            rows = self.f.cameras[name].measurements
+            columns = self._columns[name] = {k: rows[k].tolist() for k in _ROW_FIELDS}
+        return columns
+
     def _after(self, name: str, t: int) -> None:
         self._apply_model_inputs(name, t, inclusive=True)
 
@@ -274,10 +294,33 @@ class Feeder:
             k += 1
         self._next_model_input[name] = k
 
-    def _pixels(self, name: str, i: int) -> np.ndarray:
+    def held_in_memory(self, name: str) -> bool:
+        """Read now what ``name``'s replay would later read through HDF5 (the reference images
+        its commands name) and map its frames (``fast``); True when nothing of it is then left
+        to read through HDF5: every frame in the memory map, every reference read (format 2).
+        A process forked from this one can then play it without touching the open file
+        (:mod:`snrmon.acquisition.replay.forked`)."""
+        if not self.fast or self.inputs.version < 2:
+            return False
+        cam = self.f.cameras[name]
+        crops = self._frame_crops(name)
+        if crops.frames_mapped < cam.n_frames:
+            return False
+        for _, kind, payload in self.inputs.per_camera[name].commands:
+            if kind != "background_reference":
+                continue
+            if self._reference_image(name, payload.get("reference_index")) is None:
+                return False  # format 1: rebuilt from its frames, through h5py
+        return True
+
+    def _frame_crops(self, name: str) -> FrameCrops:
         crops = self._crops.get(name)
-        if crops is None and self.fast:
+        if crops is None:
             crops = self._crops[name] = FrameCrops(self.f.cameras[name].frames)
+        return crops
+
+    def _pixels(self, name: str, i: int) -> np.ndarray:
+        crops = self._frame_crops(name) if self.fast else None
         if crops is not None:
             view = crops.frame_view(i)
             if view is not None:
@@ -312,11 +355,23 @@ class Feeder:
             if cx == cx and cy == cy:  # finite: a cue was applied before this frame live
                 engine.post(Cue(cx, cy))
 
+    def _reference_image(self, name: str, k: int | None) -> np.ndarray | None:
+        """The recorded reference image ``k`` of ``name`` (read once); None when the file
+        does not hold it (format 1)."""
+        if k is None:
+            return None
+        image = self._references.get((name, int(k)))  # first: no HDF5 call once read
+        if image is None:
+            refs = self.f.cameras[name].references
+            if refs is None or not k < refs.shape[0]:
+                return None
+            image = self._references[(name, int(k))] = np.asarray(refs[int(k)], np.float32)
+        return image
+
     def _reference(self, name: str, payload: dict) -> ApplyReference:
         cam = self.f.cameras[name]
-        k = payload.get("reference_index")
-        if k is not None and cam.references is not None and k < cam.references.shape[0]:
-            offset = np.asarray(cam.references[int(k)], np.float32)
+        offset = self._reference_image(name, payload.get("reference_index"))
+        if offset is not None:
             # "in_force": recorded at the start of a recording or after a gap, not a capture
             # that just ended: the raw track is not restarted by it.
             return ApplyReference(offset, payload, restart_raw=not payload.get("in_force"))

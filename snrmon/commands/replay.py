@@ -138,6 +138,7 @@ def result_json(result) -> dict:
         "stops_identical": result.stops_identical,
         "frames": frames,
         "realtime_factor": _finite(result.realtime_factor),
+        "processes": result.processes,
     }
 
 

@@ -56,7 +56,9 @@ def _frames(shape, n: int, seed: int, resolved: bool) -> list[np.ndarray]:
 
 
 def _first_frames_load(calibrated: bool, warm: bool, resolved: bool) -> dict[str, int]:
-    """The kernel signatures the first real frames added (in this process)."""
+    """The kernel signatures the first real frames added (in this process): frames as a camera
+    gives them, then read-only, as ``replay --fast`` hands them over (views into the file's
+    memory map, which numba types apart from writable arrays)."""
     cam = camera("mwir", shape=(96, 128), seed=3)
     engine = CameraEngine("mwir", cam.shape)
     if calibrated:
@@ -69,7 +71,10 @@ def _first_frames_load(calibrated: bool, warm: bool, resolved: bool) -> dict[str
         assert engine.roi is None and engine.measurer.tracker is None  # the live engine untouched
     before = _signatures()
     engine.post(SetRoi(64, 48))
-    for i, f in enumerate(_frames(cam.shape, 4, seed=8, resolved=resolved)):
+    frames = _frames(cam.shape, 8, seed=8, resolved=resolved)
+    for f in frames[4:]:
+        f.flags.writeable = False
+    for i, f in enumerate(frames):
         assert engine.process(f, seq=i, counter=i, t_host_ns=i).measurement is not None
     after = _signatures()
     return {k: after[k] - before[k] for k in after if after[k] != before[k]}
