@@ -166,3 +166,20 @@ def running_n(status, camera: str) -> int:
     measured frame)."""
     last = status.cameras[camera].last
     return last.snr_n if last is not None else 0
+
+
+def replay_frames_text(replay, camera: str) -> list[str]:
+    """Each frame's Eq. (4) result, track and running statistics of a replay's camera, as text
+    (NaN equals NaN): what two replays that must agree are compared on."""
+    return [
+        repr((m.counter, m.t_host_ns, m.result, m.track_state, m.window_xy, m.snr_mean, m.snr_std))
+        for m in replay.cameras[camera].tally.measurements
+    ]
+
+
+def replay_rows_text(replay) -> list[str]:
+    """A replay's stop rows (their times, frame counts and statistics) as text."""
+    return [
+        repr((r.stop, r.camera, r.t_start_ns, r.t_end_ns, r.n_frames, r.snr_mean, r.snr_std))
+        for r in replay.stops
+    ]

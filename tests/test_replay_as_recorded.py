@@ -17,26 +17,11 @@ from snrmon.acquisition.replay.batch import replay_session
 from snrmon.acquisition.replay.recorded import recorded_inputs
 from snrmon.campaign.settings import AnalysisSettings
 from snrmon.campaign.tasks import analyse_camera
-from tests.helpers import twin_recording
+from tests.helpers import replay_frames_text, replay_rows_text, twin_recording
 
 
 def _none(v: float) -> float | None:
     return None if math.isnan(v) else v
-
-
-def _per_frame(replay, name) -> list[str]:
-    """Each frame's Eq. (4) result, track and running statistics (as text: NaN equals NaN)."""
-    return [
-        repr((m.counter, m.t_host_ns, m.result, m.track_state, m.window_xy, m.snr_mean, m.snr_std))
-        for m in replay.cameras[name].tally.measurements
-    ]
-
-
-def _rows(replay) -> list[str]:
-    return [
-        repr((r.stop, r.camera, r.t_start_ns, r.n_frames, r.snr_mean, r.snr_std))
-        for r in replay.stops
-    ]
 
 
 @pytest.fixture(scope="module")
@@ -57,10 +42,11 @@ def test_fast_full_and_explicit_settings_replay_every_frame_of_a_37m_stop(record
     for name in inputs.cameras:
         c = full.cameras[name]
         assert c.identical == c.compared > 0, (name, c.tally.first_difference)
-        assert _per_frame(fast, name) == _per_frame(full, name), name
-        assert _per_frame(explicit, name) == _per_frame(full, name), name
+        assert replay_frames_text(fast, name) == replay_frames_text(full, name), name
+        assert replay_frames_text(explicit, name) == replay_frames_text(full, name), name
         assert explicit.cameras[name].identical == c.compared, name
-    assert _rows(fast) == _rows(full) and _rows(explicit) == _rows(full)
+    rows = replay_rows_text(full)
+    assert replay_rows_text(fast) == rows and replay_rows_text(explicit) == rows
     assert full.stops_identical == fast.stops_identical == explicit.stops_identical
     assert explicit.stops_identical == len(full.recorded_rows) > 0
     # The campaign's own task (fast, the recorded settings given explicitly) gives the same rows.

@@ -22,22 +22,9 @@ from snrmon.acquisition.runtime.camera_pipeline import CameraPipeline
 from snrmon.acquisition.streams.ring import RingFrame
 from tests.acquisition.replay.test_replay_gaps import DT, T0, H, W, _frame, _NoDevice
 from tests.acquisition.session_factory import write_session
+from tests.helpers import replay_frames_text, replay_rows_text
 
 pytestmark = pytest.mark.skipif(not can_fork(), reason="needs fork and two cores")
-
-
-def _per_frame(replay, name) -> list[str]:
-    return [
-        repr((m.counter, m.t_host_ns, m.result, m.track_state, m.window_xy, m.snr_mean, m.snr_std))
-        for m in replay.cameras[name].tally.measurements
-    ]
-
-
-def _rows(replay) -> list[str]:
-    return [
-        repr((r.stop, r.camera, r.t_start_ns, r.t_end_ns, r.n_frames, r.snr_mean, r.snr_std))
-        for r in replay.stops
-    ]
 
 
 def test_each_camera_in_its_own_process_gives_what_one_process_gives(tmp_path, monkeypatch):
@@ -60,11 +47,11 @@ def test_each_camera_in_its_own_process_gives_what_one_process_gives(tmp_path, m
     for name in made.cameras:
         a, t = apart.cameras[name].tally, together.cameras[name].tally
         assert t.measured == a.measured == len(made.frame_t_ns)
-        assert _per_frame(apart, name) == _per_frame(together, name), name
+        assert replay_frames_text(apart, name) == replay_frames_text(together, name), name
     # Two stops detected from the recorded readings in each process, one row per camera each,
     # in the table's order (stop, then camera).
     assert [(r.stop, r.camera) for r in apart.stops] == [(s, c) for s in (0, 1) for c in names]
-    assert _rows(apart) == _rows(together)
+    assert replay_rows_text(apart) == replay_rows_text(together)
     # Paced replays and a model (shared by the cameras) stay in one process.
     replay_session(made.path, fast=True, cameras=["mwir"])
     replay_session(made.path, fast=True, speed=1000.0)
@@ -141,7 +128,7 @@ def test_the_child_reads_nothing_through_hdf5(tmp_path, monkeypatch):
         t = apart.cameras[name].tally
         assert t.compared == sum(m.camera == name for m in live) > 0
         assert t.identical == t.compared, (name, t.first_difference)
-        assert _per_frame(apart, name) == _per_frame(together, name), name
+        assert replay_frames_text(apart, name) == replay_frames_text(together, name), name
 
 
 def test_the_childs_exception_is_raised_in_the_parent():
