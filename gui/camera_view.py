@@ -201,7 +201,6 @@ class CameraView(QWidget):
         self.frames_shown = 0
         self._last_seq: int | None = None
         self._auto_generation = 0  # raised each time auto-levels is asked for again
-        self._request: DisplayRequest | None = None
 
         self.graphics = pg.GraphicsLayoutWidget()
         self.view = self.graphics.addViewBox(lockAspect=True, invertY=True, enableMenu=False)
@@ -279,7 +278,7 @@ class CameraView(QWidget):
         if key is None:
             return None
         lo, hi = self.histogram.getLevels()
-        request = DisplayRequest(
+        return DisplayRequest(
             x_factor=key[0],
             y_factor=key[1],
             lut=self.image.render_lut,
@@ -288,9 +287,6 @@ class CameraView(QWidget):
             levels=(float(lo), float(hi)),
             auto_generation=self._auto_generation,
         )
-        if request != self._request:
-            self._request = request
-        return self._request
 
     def _set_levels_quietly(self, lo: float, hi: float) -> None:
         self.histogram.sigLevelsChanged.disconnect(self._levels_dragged)
