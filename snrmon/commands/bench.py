@@ -1,5 +1,6 @@
-"""``snrmon bench``: speed and memory figures of this machine (see ``benchmarks/``), and the
-goals they are held to (``benchmarks/goals.py``)."""
+"""``snrmon bench``: speed and memory figures of this machine (see ``benchmarks/``), each
+benchmark in a fresh interpreter (``benchmarks/fresh_process.py``), and the goals they are held
+to (``benchmarks/goals.py``)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import platform
 import sys
 
 from snrmon import benchmarks
+from snrmon.benchmarks.fresh_process import figures_in_fresh_process
 from snrmon.cli import UsageError
 from snrmon.extras import MissingExtraError, require
 from snrmon.output import emit_json
@@ -74,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
                     continue
         if not args.json:
             print(f"running {key} ...", file=sys.stderr, flush=True)
-        figures = module.run(args.duration)
+        figures = figures_in_fresh_process(module, args.duration)
         if getattr(module, "TOP_LEVEL", False):
             # A module that reports several top-level sections (acquisition and replay).
             for section, values in figures.items():
