@@ -17,7 +17,6 @@ import dataclasses
 import logging
 import math
 import shutil
-import sys
 import threading
 import time
 from collections.abc import Callable
@@ -40,6 +39,7 @@ from snrmon.acquisition.protocols import RecordingWriter
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.acquisition.record.session_log import RecordingLog
 from snrmon.acquisition.runtime.camera_pipeline import CameraPipeline
+from snrmon.acquisition.runtime.interpreter import LiveInterpreter
 from snrmon.acquisition.stops.detector import Stop, StopConfig
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import RingFrame
@@ -52,7 +52,6 @@ log = logging.getLogger(__name__)
 DROP_ALARM_S = 5.0
 """How long (s) the banner keeps a camera's drop alarm after its last lost frame."""
 
-SWITCH_INTERVAL_S = 0.001
 """The interpreter's switch interval while a session runs (Python's default: 5 ms). A thread
 that needs the interpreter lock while another runs Python gets it after at most this long; a
 measurement thread needs it again after every wait (a frame, a lock, a copy that let it go), so
@@ -140,7 +139,7 @@ class Session:
         self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
         # per camera, the measured 3D noise the model uses in place of its own (none: its own)
         self.measured_noise: dict[str, MeasuredNoise] = {}
-        self._switch_interval: float | None = None  # the interpreter's, while we run
+        self._interpreter = LiveInterpreter()  # switch interval and BLAS threads, while we run
 
     # ------------------------------------------------------------------ construction helpers
     @staticmethod
@@ -189,10 +188,9 @@ class Session:
     # ------------------------------------------------------------------ control
     def start(self) -> None:
         """Open every device and start the pipelines; a device that fails is retried. The
-        interpreter's switch interval is :data:`SWITCH_INTERVAL_S` until :meth:`stop`."""
-        if self._switch_interval is None and sys.getswitchinterval() > SWITCH_INTERVAL_S:
-            self._switch_interval = sys.getswitchinterval()
-            sys.setswitchinterval(SWITCH_INTERVAL_S)
+        interpreter runs with the live settings of
+        :mod:`snrmon.acquisition.runtime.interpreter` until :meth:`stop`."""
+        self._interpreter.apply()
         for dev in (self.gps, self.lrf):
             if dev is not None:
                 dev.open()
@@ -209,9 +207,7 @@ class Session:
                 dev.close()
         self._started = False
         self.stop_recording()
-        if self._switch_interval is not None:
-            sys.setswitchinterval(self._switch_interval)
-            self._switch_interval = None
+        self._interpreter.restore()
 
     def __enter__(self) -> Session:
         self.start()

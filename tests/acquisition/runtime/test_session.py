@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_info
 
 from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.record.reader import open_session
@@ -57,6 +58,8 @@ def rig(tmp_path):
 def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     session, _, tmp_path = rig
     session.start()
+    # the live settings (acquisition/runtime/interpreter.py): BLAS on one thread while it runs
+    assert {p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"} == {1}
     session.set_roi("cam", 66, 39)  # a click within the search window of the spot
     # The click takes effect before the next frame: wait until the engine has measured with it,
     # so that the recording begins after the click (the first recorded state holds the track).
