@@ -13,7 +13,6 @@ a cyan cross where the drone's GPS position projects into the camera (hidden wit
 from __future__ import annotations
 
 import math
-import time
 
 import cv2
 import numpy as np
@@ -27,6 +26,7 @@ from snrmon.acquisition.engine.status import CameraStatus
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.gui.display_image import colour_table, shown_rgb32
 from snrmon.gui.frame_feed import DisplayRequest, ShownFrame
+from snrmon.gui.levels import histogram_range
 
 GPS_COLOR = "#00e5ff"  # cyan: distinct from the ROI blue, box yellow and peak red
 
@@ -209,14 +209,12 @@ class CameraView(QWidget):
         self.image = DisplayImageItem(axisOrder="row-major", autoDownsample=True)
         self.view.addItem(self.image)
         self.histogram = pg.HistogramLUTItem(image=self.image)
-        # The histogram item recomputes and replots the image histogram on every new frame;
-        # at 30 frames/s on two cameras that is a large share of the GUI thread. Refresh it
-        # once a second instead (show_frame; it was every 15th frame, 4 a second at 60 fps): a
-        # refresh repaints its plot, axis and region, the slowest paints of a view (10 ms of
-        # CPU at the 99th percentile against 1.6 ms for a frame).
+        # The histogram item recomputes and replots the image histogram on every new frame, in
+        # the GUI thread. The display's worker takes it instead, once a second
+        # (frame_feed.HISTOGRAM_EVERY_S), and the view only plots it; its DN range moves only
+        # when the data leave it (levels.histogram_range), so that its axis is not re-typeset.
         self.image.sigImageChanged.disconnect(self.histogram.imageChanged)
-        self._histogram_every_s = 1.0
-        self._histogram_at = 0.0  # monotonic s of the last refresh
+        self.histogram_range: tuple[float, float] | None = None
         self.histogram.sigLevelsChanged.connect(self._levels_dragged)
         # its tick labels only change with the histogram's range: blit them, don't re-typeset
         self.histogram.axis.setCacheMode(QGraphicsItem.CacheMode.DeviceCoordinateCache)
@@ -264,12 +262,24 @@ class CameraView(QWidget):
         self.image.frame_seq = frame.seq
         self.image.prepared = None if shown.image is None else (shown.image_key, shown.image)
         self.image.setImage(frame.pixels, autoLevels=False, levels=levels)
-        now = time.monotonic()
-        if now - self._histogram_at >= self._histogram_every_s:
-            self._histogram_at = now
-            self.histogram.imageChanged()
+        if shown.histogram is not None:
+            self.show_histogram(*shown.histogram)
         self.frames_shown += 1
         return True
+
+    def show_histogram(self, dn: np.ndarray, counts: np.ndarray) -> None:
+        """Plot a frame's histogram (``dn``: the bins' left edges) in the levels control, over
+        a range that holds it and the levels (:func:`snrmon.gui.levels.histogram_range`)."""
+        if dn.size == 0:
+            return
+        self.histogram.plot.setData(dn, counts)
+        lo, hi = self.histogram.getLevels()
+        wanted = histogram_range(
+            min(float(dn[0]), lo), max(float(dn[-1]), hi), self.histogram_range
+        )
+        if wanted != self.histogram_range:
+            self.histogram_range = wanted
+            self.histogram.setHistogramRange(*wanted, padding=0.0)
 
     def display_request(self) -> DisplayRequest | None:
         """How this view draws its frames (the reduction and colours of its last image, the

@@ -6,7 +6,8 @@ The worker fills buffers, the GUI timer draws. A :class:`DisplayWorker` thread a
 :class:`FrameFeed` to :meth:`~FrameFeed.prepare` the camera's newest frame once the view has taken
 the last one: the frame is copied into one of three arrays the feed keeps (a fresh 1.8 MB array
 per frame would cost its page faults on every frame), its display levels are taken (robust
-percentiles, :class:`snrmon.gui.levels.AutoLevels`, while auto-levels is on) and the image the
+percentiles, :class:`snrmon.gui.levels.AutoLevels`, while auto-levels is on; once a second the
+levels control's histogram) and the image the
 screen shows is made from it (reduced and coloured in one compiled pass that releases the
 interpreter lock, :mod:`snrmon.gui.display_image`) at the reduction and colours the view last
 drew with (its :class:`DisplayRequest`). The main window's frame timer ticks every few ms
@@ -21,6 +22,7 @@ and shown in the status bar (:func:`display_message`), not silently dropped.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 import time
@@ -33,12 +35,15 @@ import numpy as np
 from snrmon.acquisition.protocols import CameraView
 from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.gui.display_image import colour_table, shown_rgb32
-from snrmon.gui.levels import AutoLevels
+from snrmon.gui.levels import AutoLevels, display_histogram
 
 log = logging.getLogger(__name__)
 
 BUFFERS = 3  # the frame shown, the one drawn before it, and the next one
 PREPARE_INTERVAL_S = 0.002  # how often the worker looks for a new frame (a lock and a compare)
+# The levels control's histogram is taken of a frame this often (s); each new one repaints the
+# control, the costliest paint of a camera view (~7 ms of CPU at the 99th percentile).
+HISTOGRAM_EVERY_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -74,6 +79,10 @@ class ShownFrame:
     image_key: tuple | None = None
     """(x_factor, y_factor, levels, lut_key, n_values) of ``image``: the view uses it only if
     it draws with the same."""
+    histogram: tuple[np.ndarray, np.ndarray] | None = None
+    """The levels control's new histogram of this frame (bins' left edges in DN, counts;
+    :func:`snrmon.gui.levels.display_histogram`), None between two (every
+    :data:`HISTOGRAM_EVERY_S`)."""
 
 
 class FrameFeed:
@@ -96,6 +105,7 @@ class FrameFeed:
         self._levels = AutoLevels()
         self._table_for: tuple | None = None
         self._table: np.ndarray | None = None
+        self._histogram_due = 0.0  # monotonic s
 
     # ------------------------------------------------------------------ worker thread
     def prepare(self) -> bool:
@@ -114,6 +124,10 @@ class FrameFeed:
             self._pixels = [np.empty_like(frame.pixels) for _ in range(BUFFERS)]
         self._prepared_seq = frame.seq
         shown = self._made_ready(frame, slot, self.request)
+        now = time.monotonic()
+        if now >= self._histogram_due:
+            self._histogram_due = now + HISTOGRAM_EVERY_S
+            shown = dataclasses.replace(shown, histogram=display_histogram(frame.pixels))
         with self._lock:
             self._ready = (slot, shown)
         return True

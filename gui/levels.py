@@ -11,6 +11,8 @@ the view when new levels differ enough from the shown ones to be worth applying,
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 DEFAULT_PERCENTILES = (0.5, 99.9)
@@ -100,3 +102,52 @@ class AutoLevels:
         self._countdown -= 1
         self.levels = current
         return current
+
+
+HISTOGRAM_SIDE_PX = 200  # the histogram samples about this many rows and columns, as pyqtgraph
+HISTOGRAM_BINS = 500  # at most this many bins; integer DN never split between two
+
+
+def display_histogram(pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The levels control's histogram of a frame: (left edges of the bins in DN, counts), as
+    pyqtgraph's ``ImageItem.getHistogram`` makes it (every ``ceil(rows / 200)``-th row and
+    ``ceil(columns / 200)``-th column; integer frames in bins of a whole number of DN, at most
+    about :data:`HISTOGRAM_BINS` of them; float frames in 500 bins, NaN left out). None for an
+    empty or all-NaN frame. For the display's worker thread: a statistic is never taken on the
+    GUI's."""
+    if pixels.ndim != 2 or pixels.size == 0:
+        return None
+    step_r = max(1, math.ceil(pixels.shape[0] / HISTOGRAM_SIDE_PX))
+    step_c = max(1, math.ceil(pixels.shape[1] / HISTOGRAM_SIDE_PX))
+    sample = pixels[::step_r, ::step_c]
+    if sample.dtype.kind == "f":
+        sample = sample[np.isfinite(sample)]
+        if sample.size == 0:
+            return None
+    lo, hi = sample.min().item(), sample.max().item()
+    if sample.dtype.kind in "ui":
+        width = max(1, math.ceil((hi - lo) / HISTOGRAM_BINS))
+        counts = np.bincount((sample.ravel() - lo) // width)
+        return lo + width * np.arange(counts.size, dtype=np.float64), counts
+    counts, edges = np.histogram(sample, bins=np.linspace(lo, hi if hi > lo else lo + 1, 500))
+    return edges[:-1], counts
+
+
+def histogram_range(
+    lo: float, hi: float, shown: tuple[float, float] | None = None
+) -> tuple[float, float]:
+    """The DN range the levels control shows a histogram of ``lo`` .. ``hi`` over.
+
+    A noisy sky's minimum and maximum move at every frame and a new range re-typesets the
+    control's axis (~2 ms of the GUI thread), so the range does not follow them: the ``shown``
+    range is kept while it holds the data and the data fill at least half of it; else the data
+    are widened by a step on each side, the step a whole 1, 2 or 5 times a power of ten of at
+    least a tenth of the span, and rounded out to whole steps."""
+    if shown is not None:
+        s_lo, s_hi = shown
+        if s_lo <= lo and hi <= s_hi and (hi - lo) >= 0.5 * (s_hi - s_lo):
+            return shown
+    span = max(hi - lo, 1.0)
+    power = 10.0 ** math.floor(math.log10(span / 10.0)) if span >= 10.0 else 1.0
+    step = next(m * power for m in (1.0, 2.0, 5.0, 10.0) if m * power >= span / 10.0)
+    return math.floor(lo / step) * step - step, math.ceil(hi / step) * step + step

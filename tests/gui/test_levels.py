@@ -170,3 +170,78 @@ def test_view_draws_the_worker_s_image_and_levels_and_counts_painted_frames(qtbo
     view.image.render()
     assert np.array_equal(_rgb(view.image.qimage), made)
     assert view.image.frames_painted == view.frames_shown == 4
+
+
+# ---------------------------------------------------------------------- histogram
+@pytest.mark.parametrize("dtype", [np.uint16, np.uint8, np.float32])
+def test_display_histogram_is_pyqtgraph_s_histogram_of_the_frame(qtbot, dtype):
+    """The worker's histogram of a frame is the one pyqtgraph's ImageItem makes of it (its
+    own code is the reference), for a noisy sky with a glint (bins wider than one DN)."""
+    from snrmon.gui.levels import display_histogram
+
+    sky = _sky(720, 1280).astype(np.float64)
+    sky[300:304, 600:604] = 3000.0  # a glint: the span is ~2000 DN, 5 DN a bin
+    if dtype == np.uint8:
+        sky = np.clip(sky - 900.0, 0, 255)
+    pixels = sky.astype(dtype)
+    item = pg.ImageItem(axisOrder="row-major")
+    item.setImage(pixels, autoLevels=False, levels=(0, 1))
+    want_x, want_counts = item.getHistogram()
+    got_x, got_counts = display_histogram(pixels)
+    n = len(want_counts)
+    assert np.allclose(got_x[:n], want_x) and np.array_equal(got_counts[:n], want_counts)
+    assert not got_counts[n:].any()  # any bin beyond pyqtgraph's last one is empty
+    assert got_counts.sum() == (720 // 4) * (1280 // 7 + 1)  # every 4th row, 7th column
+
+
+def test_histogram_range_holds_still_for_a_noisy_sky_and_follows_a_new_scene():
+    from snrmon.gui.levels import histogram_range
+
+    shown = histogram_range(952.0, 1047.0)  # a sky of ~1000 +/- 8 DN with a few outliers
+    assert shown[0] < 952.0 and shown[1] > 1047.0
+    assert shown == (940.0, 1060.0)  # a span of 95: steps of 10 DN, one more on each side
+    rng = np.random.default_rng(5)
+    for lo, hi in zip(952.0 + rng.integers(-3, 4, 50), 1047.0 + rng.integers(-3, 4, 50)):
+        assert histogram_range(float(lo), float(hi), shown) == shown  # frame to frame: still
+    warm = histogram_range(1500.0, 1600.0, shown)  # the scene left the range
+    assert warm[0] <= 1500.0 and warm[1] >= 1600.0 and warm != shown
+    narrow = histogram_range(990.0, 1010.0, shown)  # a fifth of the range: zoom in
+    assert narrow != shown and narrow[0] <= 990.0 and narrow[1] >= 1010.0
+
+
+def test_the_view_plots_the_worker_s_histogram_without_moving_its_axis(qtbot, monkeypatch):
+    """Frames with a histogram (the worker's, once a second) replot the levels control; the
+    control's DN range stays put while the sky only jitters."""
+    from snrmon.gui import frame_feed
+    from snrmon.gui.frame_feed import FrameFeed
+
+    class Camera:
+        name, shape = "mwir", (96, 160)
+        frame: RingFrame | None = None
+
+        def latest_frame(self, *, unless_seq=None, out=None):
+            f = self.frame
+            return None if f is None or f.seq == unless_seq else f
+
+    clock = [100.0]
+    monkeypatch.setattr(frame_feed.time, "monotonic", lambda: clock[0])
+    view = CameraView("mwir", (96, 160), PeakSnrConfig())
+    qtbot.addWidget(view)
+    cam = Camera()
+    feed = FrameFeed(cam)
+    ranges, histograms = [], 0
+    for seq in range(8):
+        cam.frame = _frame(_sky(96, 160, seed=seq), seq)
+        assert feed.prepare()
+        shown = feed.newest()
+        histograms += shown.histogram is not None
+        view.show_frame(shown)
+        if shown.histogram is not None:
+            x, counts = view.histogram.plot.getData()
+            assert np.array_equal(counts, shown.histogram[1])
+            ranges.append(view.histogram.vb.viewRange()[1])
+        clock[0] += 0.5  # two frames a second: a histogram every other frame
+    assert histograms == 4
+    assert all(r == pytest.approx(ranges[0]) for r in ranges)  # the axis did not move
+    lo, hi = ranges[0]
+    assert lo <= _sky(96, 160).min() and hi >= _sky(96, 160).max()
