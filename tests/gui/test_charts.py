@@ -21,9 +21,22 @@ def _series(n: int, now_ns: int) -> np.ndarray:
     return np.column_stack([t, snr, mean, std, np.full(n, np.nan)])
 
 
+def test_vertex_stride_keeps_every_point_or_one_a_pixel_column():
+    from snrmon.gui.strip_chart import vertex_stride
+
+    assert vertex_stride(5, 700.0).tolist() == [0, 1, 2, 3, 4]
+    kept = vertex_stride(1800, 700.0)
+    assert len(kept) == 700 and kept[0] == 0 and kept[-1] == 1799
+    assert np.all(np.diff(kept) >= 2) and np.all(np.diff(kept) <= 3)  # evenly spread
+    assert vertex_stride(10, 0.0).tolist() == [0, 9]  # a chart not laid out yet: the ends
+
+
 def test_strip_chart_draws_the_points_the_mean_and_its_band(qtbot):
     chart = StripChart("mwir")
     qtbot.addWidget(chart)
+    chart.resize(700, 250)
+    chart.show()
+    qtbot.waitExposed(chart)
     now = 10**12
     series = _series(2400, now)  # 40 s at 60 fps: the first 10 s fall outside the window
     chart.show_series(series, now)
@@ -36,6 +49,12 @@ def test_strip_chart_draws_the_points_the_mean_and_its_band(qtbot):
     bx, by = chart.band.getData()
     assert by.min() == pytest.approx(11.5) and by.max() == pytest.approx(12.5)
     assert bx.min() >= -WINDOW_S and len(bx) == 2 * len(chart.mean_curve.getData()[0])
+    # the smooth mean and band: a vertex a pixel column at most, from the first to the last
+    mx, my = chart.mean_curve.getData()
+    width = chart.plot.getPlotItem().vb.width()
+    assert 300 < len(mx) <= width < keep.sum()
+    assert mx[0] == t_s[keep][0] and mx[-1] == t_s[keep][-1]
+    np.testing.assert_allclose(my, np.interp(mx, t_s, series[:, 2]))
     # the view's auto-range takes in every point
     (_, _), (y0, y1) = chart.plot.getPlotItem().getViewBox().childrenBounds()
     assert y0 <= y.min() and y1 >= y.max()
