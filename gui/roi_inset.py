@@ -8,11 +8,9 @@ The inset cuts pixels out of the frame; it computes no statistic.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from PySide6.QtCore import QRectF, Qt
-from PySide6.QtGui import QColor, QFont, QPainter, QPalette, QPen
+from PySide6.QtGui import QColor, QFont, QImage, QPainter, QPalette, QPen
 from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
 from snrmon.acquisition.engine.status import CameraStatus
@@ -82,17 +80,21 @@ class _BoxGrid(QWidget):
         font = QFont()
         font.setPixelSize(max(7, int(cell * 0.28)))
         p.setFont(font)
-        for r in range(n):
-            for c in range(n):
+        # The shading as one image scaled up, the numbers a pen at a time: each Qt call lets
+        # the busy measuring threads take the interpreter lock, and a cell a call made the
+        # paint 0.5 ms alone and 6.5 ms beside a thread running Python.
+        grey = np.zeros(v.shape, np.uint32)
+        ok = np.isfinite(v)
+        levels = (40 + 200 * (np.where(ok, v, lo) - lo) / span).astype(np.uint32)
+        grey[ok] = levels[ok] * 0x010101
+        grey |= np.uint32(0xFF000000)
+        shades = QImage(grey.data, n, n, 4 * n, QImage.Format.Format_RGB32)
+        p.drawImage(QRectF(x0, y0, side, side), shades)
+        for colour, dark in (("#000000", False), ("#ffffff", True)):
+            p.setPen(QColor(colour))
+            for r, c in zip(*np.nonzero(ok & ((levels <= 140) == dark)), strict=True):
                 rect = QRectF(x0 + c * cell, y0 + r * cell, cell, cell)
-                val = v[r, c]
-                if not math.isfinite(val):
-                    p.fillRect(rect, QColor("#000000"))
-                    continue
-                g = int(40 + 200 * (val - lo) / span)
-                p.fillRect(rect, QColor(g, g, g))
-                p.setPen(QColor("#000000") if g > 140 else QColor("#ffffff"))
-                p.drawText(rect, Qt.AlignmentFlag.AlignCenter, f"{val:.0f}")
+                p.drawText(rect, Qt.AlignmentFlag.AlignCenter, f"{v[r, c]:.0f}")
         rim_pen = QPen(QColor("#ffd34d"), 2)
         p.setPen(rim_pen)
         p.setBrush(Qt.BrushStyle.NoBrush)
