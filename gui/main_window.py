@@ -69,7 +69,7 @@ from snrmon.gui.window_settings import (
 # comparison (gui/frame_feed.py); at 16 ms a frame fell between two ticks whenever one was late,
 # and MWIR showed 54-57 of its 60 frames a second.
 FRAME_INTERVAL_MS = 4
-STATUS_INTERVAL_MS = 200
+STATUS_INTERVAL_MS = 200  # every panel's status refresh, its steps spread over it
 TABLE_INTERVAL_MS = 1000
 DEFAULT_STOP_ROWS = 14  # the paper's seven stops, both cameras: in view at 1920 x 1080
 CAMERAS_MIN_PX = 520  # the camera panels' height the stop table leaves them at the least
@@ -116,9 +116,8 @@ class ConsoleWindow(QMainWindow):
         self.settings = settings or QSettings("snrmon", "console")
         self.screenshot_path: Path | None = None
         self.last_status: SessionStatus | None = None
-        self._status_now_ns = 0  # the "now" of last_status (a replay's: its shown frame's)
         self._curves_due = False  # the model's curves changed since they were drawn
-        self._status_steps_left: list[Callable[[], None]] = []  # of the timer's refresh
+        self._status_steps_left: list[Callable[[], None]] = []  # of the refresh under way
         self.messages: list[str] = []
         self._curves: dict[str, dict] = {}
         self._pixels: dict[str, np.ndarray] = {}
@@ -212,9 +211,10 @@ class ConsoleWindow(QMainWindow):
         )
         self._mark_active()
         self._timers = []
+        status_step_ms = max(STATUS_INTERVAL_MS // len(self._status_steps()), 1)
         for interval, slot in (
             (FRAME_INTERVAL_MS, self.refresh_frames),
-            (STATUS_INTERVAL_MS, self._refresh_status_in_steps),
+            (status_step_ms, self._refresh_status_step),
             (TABLE_INTERVAL_MS, self.refresh_stops),
         ):
             timer = QTimer(self)
@@ -439,38 +439,35 @@ class ConsoleWindow(QMainWindow):
         for step in self._status_steps():
             step()
 
-    def _refresh_status_in_steps(self) -> None:
-        """The status timer's refresh: the same steps, each its own event. The paints a step
-        asks for (strip chart, inset, header) run before the next step, and a click or a frame
-        between them: in one piece, a status refresh and its paints held the event loop for
-        ~10 ms, the largest share of its late ticks."""
-        if self._status_steps_left:
-            return  # the last refresh is still going (a very busy loop): no pile-up
-        self._status_steps_left = self._status_steps()
+    def _refresh_status_step(self) -> None:
+        """The status timer's tick: the next step of the refresh (:meth:`_status_steps`).
 
-        def next_step() -> None:
-            if not self._status_steps_left:
-                return
-            self._status_steps_left.pop(0)()
-            if self._status_steps_left:
-                QTimer.singleShot(0, self, next_step)
-
-        next_step()
+        The steps of one refresh are spread evenly over :data:`STATUS_INTERVAL_MS`, each with
+        the paints it asks for (a strip chart, an inset, a header) running before the next
+        step, with frames between them. Run back to back, a refresh and its paints held the
+        event loop for 20-30 ms of the GUI thread's CPU every 200 ms: the late ticks of a
+        10 ms timer were all in such bursts."""
+        if not self._status_steps_left:
+            self._status_steps_left = self._status_steps()
+        self._status_steps_left.pop(0)()
 
     def _status_steps(self) -> list[Callable[[], None]]:
-        """The status refresh in steps: the session's status and the shared panels, then each
-        camera's panels and range plot."""
+        """The status refresh in steps: the session's status and the shared panels, then for
+        each camera its panels and range plot, and its strip chart."""
         steps: list[Callable[[], None]] = [self._show_session_status]
-        steps += [partial(self._show_camera_status, name) for name in self.panels]
+        for name in self.panels:
+            steps += [partial(self._show_camera_status, name), partial(self._show_chart, name)]
         return steps
+
+    def _now_ns(self) -> int:
+        """Now on the status's clock: a replay's is the recorded time of its shown frame."""
+        return self.session.now_ns() if self.replay else time.monotonic_ns()
 
     def _show_session_status(self) -> None:
         self.show_display_rates()
         st = self.session.status()
         self.last_status = st
-        # A replay's "now" is the recorded time of its shown frame.
-        self._status_now_ns = self.session.now_ns() if self.replay else time.monotonic_ns()
-        self.banner.show_alarms(st.alarms, self._status_now_ns / 1e9)
+        self.banner.show_alarms(st.alarms, self._now_ns() / 1e9)
         self.status_panel.show_status(st)
         self.noise_panel.show_status(st)
         version = self.model.version if self.model is not None else None
@@ -479,7 +476,7 @@ class ConsoleWindow(QMainWindow):
         self._show_recording(st)
 
     def _show_camera_status(self, name: str) -> None:
-        st, now_ns = self.last_status, self._status_now_ns
+        st = self.last_status
         if st is None or name not in st.cameras:
             return
         panel, cs = self.panels[name], st.cameras[name]
@@ -490,9 +487,7 @@ class ConsoleWindow(QMainWindow):
         for message in self.session.pipelines[name].click_messages():
             self.report(f"{name}: {message}")  # what the track made of a click
         panel.inset.show_box(self._pixels.get(name), cs)
-        panel.chart.show_series(self.session.pipelines[name].series(), now_ns)
         a = cs.agreement
-        panel.chart.show_model(a.rule if a else "", a.expected if a else None)
         panel.header.show_status(cs, st)
         panel.place()  # the header's height may follow its new words
         m = cs.last
@@ -500,6 +495,16 @@ class ConsoleWindow(QMainWindow):
         plot.set_rule(a.rule if a else None)
         if m is not None:
             plot.show_live(m.range_m, m.snr_mean, cs.snr_sem)
+
+    def _show_chart(self, name: str) -> None:
+        """``name``'s strip chart: its series up to now, the model's reading at its range."""
+        st = self.last_status
+        if st is None or name not in st.cameras:
+            return
+        chart = self.panels[name].chart
+        chart.show_series(self.session.pipelines[name].series(), self._now_ns())
+        a = st.cameras[name].agreement
+        chart.show_model(a.rule if a else "", a.expected if a else None)
 
     def _show_recording(self, st: SessionStatus) -> None:
         rec = st.recording
