@@ -123,14 +123,14 @@ def run_console(
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
     }
     tick = QTimer()
+    tick.timeout.connect(lambda: None)
+    tick.start(200)
     if status_file is not None:
         from snrmon.gui.status_file import write_status_file
 
-        # The idle tick is also the status file's: after the window's own refresh has run.
-        tick.timeout.connect(lambda: write_status_file(window, status_file))
-    else:
-        tick.timeout.connect(lambda: None)
-    tick.start(200)
+        # Once a status refresh is complete: every panel shows the snapshot the file reports
+        # (its steps are spread over 200 ms; between two, the headers show two snapshots).
+        window.status_refreshed.connect(lambda: write_status_file(window, status_file))
     loop = QEventLoop()
     window.closed.connect(loop.quit)
     try:

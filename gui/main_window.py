@@ -95,6 +95,7 @@ class ConsoleWindow(QMainWindow):
     """
 
     closed = Signal()
+    status_refreshed = Signal()  # every panel shows the same status snapshot (last_status)
 
     def __init__(
         self,
@@ -438,6 +439,8 @@ class ConsoleWindow(QMainWindow):
         answer; tests)."""
         for step in self._status_steps():
             step()
+        self._status_steps_left = []  # a refresh under way is complete now
+        self.status_refreshed.emit()
 
     def _refresh_status_step(self) -> None:
         """The status timer's tick: the next step of the refresh (:meth:`_status_steps`).
@@ -450,6 +453,8 @@ class ConsoleWindow(QMainWindow):
         if not self._status_steps_left:
             self._status_steps_left = self._status_steps()
         self._status_steps_left.pop(0)()
+        if not self._status_steps_left:
+            self.status_refreshed.emit()
 
     def _status_steps(self) -> list[Callable[[], None]]:
         """The status refresh in steps: the session's status and the shared panels, then for

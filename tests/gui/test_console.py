@@ -245,3 +245,29 @@ def test_the_status_bar_counts_frames_shown_against_frames_delivered(qtbot, wind
     assert window.panels["mwir"].view.frames_shown == feed.shown
     shown, delivered = window.display_rates.sample(window.feeds)["mwir"]
     assert 0 < shown <= delivered
+
+
+def test_the_status_refresh_is_spread_in_steps_and_says_when_it_is_whole(qtbot, window):
+    """The status timer runs one step of a refresh at a time (the session's panels, the
+    camera's panels, its chart), evenly over 200 ms; once the last step has run, every panel
+    shows the snapshot the window holds, and it says so (the status file is written then)."""
+    _click_pixel(qtbot, window, SPOT_X, SPOT_Y)
+    qtbot.waitUntil(lambda: window.panels["mwir"].chart.points_drawn >= 20, timeout=10_000)
+    status_timer = window._timers[1]
+    assert status_timer.interval() == 200 // 3  # one camera: three steps
+    headers = []
+
+    def whole() -> None:
+        cam = window.last_status.cameras["mwir"]
+        headers.append((window.panels["mwir"].header.text(), cam.last.snr_mean, cam.snr_sem))
+
+    window.status_refreshed.connect(whole)
+    qtbot.waitUntil(lambda: len(headers) >= 3, timeout=5000)
+    for text, mean, sem in headers:  # each header from the snapshot the window holds
+        assert f"SNR(100) ± error {mean:.2f} ± {sem:.2f}" in text
+    window.status_refreshed.disconnect(whole)
+    status_timer.stop()
+    told = []
+    window.status_refreshed.connect(lambda: told.append(window.last_status))
+    window.refresh_status()  # an action's immediate refresh is whole at once, and says so
+    assert len(told) == 1 and told[0] is window.last_status

@@ -201,7 +201,8 @@ def test_histogram_range_holds_still_for_a_noisy_sky_and_follows_a_new_scene():
     assert shown[0] < 952.0 and shown[1] > 1047.0
     assert shown == (940.0, 1060.0)  # a span of 95: steps of 10 DN, one more on each side
     rng = np.random.default_rng(5)
-    for lo, hi in zip(952.0 + rng.integers(-3, 4, 50), 1047.0 + rng.integers(-3, 4, 50)):
+    jitter = rng.integers(-3, 4, (50, 2))
+    for lo, hi in zip(952.0 + jitter[:, 0], 1047.0 + jitter[:, 1], strict=True):
         assert histogram_range(float(lo), float(hi), shown) == shown  # frame to frame: still
     warm = histogram_range(1500.0, 1600.0, shown)  # the scene left the range
     assert warm[0] <= 1500.0 and warm[1] >= 1600.0 and warm != shown
@@ -237,7 +238,8 @@ def test_the_view_plots_the_worker_s_histogram_without_moving_its_axis(qtbot, mo
         histograms += shown.histogram is not None
         view.show_frame(shown)
         if shown.histogram is not None:
-            x, counts = view.histogram.plot.getData()
+            dn, counts = view.histogram.plot.getData()
+            assert np.array_equal(dn, shown.histogram[0])
             assert np.array_equal(counts, shown.histogram[1])
             ranges.append(view.histogram.vb.viewRange()[1])
         clock[0] += 0.5  # two frames a second: a histogram every other frame
