@@ -16,6 +16,9 @@ import sys
 import tempfile
 from pathlib import Path
 from types import ModuleType
+from typing import Any
+
+import numpy as np
 
 
 class BenchmarkError(RuntimeError):
@@ -33,9 +36,19 @@ def figures_in_fresh_process(module: ModuleType, duration_s: float) -> dict:
         if proc.returncode != 0 or not out.exists():
             raise BenchmarkError(
                 f"benchmark {module.__name__.rsplit('.', 1)[-1]} failed "
-                f"(its process exited with {proc.returncode})"
+                f"(exited with {proc.returncode})"
             )
         return json.loads(out.read_text())
+
+
+def plain(value: Any) -> Any:
+    """A figure JSON cannot write as it is, as plain Python: a NumPy scalar its value, an array
+    its list, anything else its text. NaN stays NaN (json writes it; the parent reads it)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return str(value)
 
 
 def main(argv: list[str]) -> int:
@@ -43,7 +56,7 @@ def main(argv: list[str]) -> int:
 
     name, duration, out = argv
     figures = importlib.import_module(name).run(float(duration))
-    Path(out).write_text(json.dumps(figures))
+    Path(out).write_text(json.dumps(figures, default=plain))
     return 0
 
 

@@ -9,7 +9,8 @@ from tests.helpers import strict_json
 def test_bench_json_has_the_sections_asked_for(capsys):
     assert main(["bench", "--only", "measurement,model", "--duration", "0.2", "--json"]) == 0
     out = strict_json(capsys.readouterr().out)
-    assert set(out) == {"machine", "measurement", "model", "goals"}
+    assert set(out) == {"machine", "measurement", "model", "goals", "failed"}
+    assert out["failed"] == []
     assert out["measurement"]["per_frame_us_1280x720"] > 0
     assert out["model"]["mwir_four_curves_500_ranges_ms"] > 0
     # the goals of the two sections run, each with its figure read and a verdict
@@ -133,3 +134,28 @@ def test_goals_read_the_bench_figures_and_say_which_are_met():
     assert worst["value"] == 3 and worst["met"] is False
     text = format_goals(list(rows.values()))
     assert "NOT MET" in text and "not measured" in text
+
+
+def test_each_benchmark_runs_in_a_fresh_interpreter_and_its_figures_come_back():
+    import math
+    import os
+
+    from snrmon.benchmarks.fresh_process import figures_in_fresh_process
+    from tests import bench_stub
+
+    figures = figures_in_fresh_process(bench_stub, 0.25)
+    assert figures["pid"] != os.getpid()  # another process
+    assert figures["frames"] == 3 and figures["fps"] == 0.5 and figures["per_run"] == [0, 1]
+    assert math.isnan(figures["not_measured"]) and figures["pair"] == [1, 2]
+    assert figures["seconds"] == 0.25
+
+
+def test_a_benchmark_that_fails_is_named_and_its_error_shown(capsys):
+    import pytest
+
+    from snrmon.benchmarks.fresh_process import BenchmarkError, figures_in_fresh_process
+    from tests import bench_stub
+
+    with pytest.raises(BenchmarkError, match=r"benchmark bench_stub failed \(exited with 1\)"):
+        figures_in_fresh_process(bench_stub, -1.0)
+    assert "ValueError: a negative duration: -1.0" in capsys.readouterr().err

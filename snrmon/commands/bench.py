@@ -11,8 +11,8 @@ import platform
 import sys
 
 from snrmon import benchmarks
-from snrmon.benchmarks.fresh_process import figures_in_fresh_process
-from snrmon.cli import UsageError
+from snrmon.benchmarks.fresh_process import BenchmarkError, figures_in_fresh_process
+from snrmon.cli import EXIT_FAILURE, EXIT_OK, UsageError
 from snrmon.extras import MissingExtraError, require
 from snrmon.output import emit_json
 
@@ -61,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
         }
     }
     texts: dict[str, str] = {}
+    failed: list[str] = []
     for key, module in modules.items():
         if only and key not in only:
             continue
@@ -76,7 +77,12 @@ def run(args: argparse.Namespace) -> int:
                     continue
         if not args.json:
             print(f"running {key} ...", file=sys.stderr, flush=True)
-        figures = figures_in_fresh_process(module, args.duration)
+        try:
+            figures = figures_in_fresh_process(module, args.duration)
+        except BenchmarkError as exc:  # the others' figures are still worth their minutes
+            print(f"{args.prog}: error: {exc}", file=sys.stderr, flush=True)
+            failed.append(key)
+            continue
         if getattr(module, "TOP_LEVEL", False):
             # A module that reports several top-level sections (acquisition and replay).
             for section, values in figures.items():
@@ -88,8 +94,10 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.benchmarks.goals import format_goals, goal_rows
 
     goals = goal_rows(result)
+    status = EXIT_FAILURE if failed else EXIT_OK
     if args.json:
-        return emit_json({**result, "goals": goals}, indent=2)
+        emit_json({**result, "goals": goals, "failed": failed}, indent=2)
+        return status
     for key, figures in result.items():
         print(f"[{key}]")
         if key in texts:
@@ -101,4 +109,6 @@ def run(args: argparse.Namespace) -> int:
     if goals:
         print("[goals]")
         print(format_goals(goals))
-    return 0
+    if failed:
+        print(f"[failed]\n  {', '.join(failed)}")
+    return status
