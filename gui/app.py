@@ -125,18 +125,27 @@ def run_console(
     tick = QTimer()
     tick.timeout.connect(lambda: None)
     tick.start(200)
+    write_file = None
     if status_file is not None:
         from snrmon.gui.status_file import write_status_file
 
         # Once a status refresh is complete: every panel shows the snapshot the file reports
         # (its steps are spread over 200 ms; between two, the headers show two snapshots).
-        window.status_refreshed.connect(lambda: write_status_file(window, status_file))
+        def write_file() -> None:
+            write_status_file(window, status_file)
+
+        window.status_refreshed.connect(write_file)
     loop = QEventLoop()
     window.closed.connect(loop.quit)
     try:
         loop.exec()
     finally:
         tick.stop()
+        if write_file is not None:
+            # The slot refers to the window: left connected, the two would be a cycle that
+            # the garbage collector frees later in whatever thread runs it, and a Qt window
+            # destroyed outside the GUI thread hangs waiting for the interpreter lock.
+            window.status_refreshed.disconnect(write_file)
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     return 0
