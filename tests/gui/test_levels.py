@@ -24,6 +24,19 @@ def _frame(pixels: np.ndarray, seq: int) -> RingFrame:
     return RingFrame(pixels=pixels, seq=seq, counter=seq, t_host_ns=0, t_device_ns=None)
 
 
+class Camera:
+    """A 96 x 160 camera as the display's feed sees it: its one frame, until it is replaced."""
+
+    name, shape = "mwir", (96, 160)
+
+    def __init__(self) -> None:
+        self.frame: RingFrame | None = None
+
+    def latest_frame(self, *, unless_seq=None, out=None):
+        f = self.frame
+        return None if f is None or f.seq == unless_seq else f
+
+
 # ---------------------------------------------------------------------- levels
 def test_robust_levels_ignore_a_hot_spot_and_match_the_full_frame_percentiles():
     sky = _sky(720, 1280)
@@ -131,14 +144,6 @@ def test_view_draws_the_worker_s_image_and_levels_and_counts_painted_frames(qtbo
     is the one it would make itself."""
     from snrmon.gui.frame_feed import FrameFeed
 
-    class Camera:
-        name, shape = "mwir", (96, 160)
-        frame: RingFrame | None = None
-
-        def latest_frame(self, *, unless_seq=None, out=None):
-            f = self.frame
-            return None if f is None or f.seq == unless_seq else f
-
     view = CameraView("mwir", (96, 160), PeakSnrConfig())
     qtbot.addWidget(view)
     view.resize(400, 300)
@@ -215,14 +220,6 @@ def test_the_view_plots_the_worker_s_histogram_without_moving_its_axis(qtbot, mo
     control's DN range stays put while the sky only jitters."""
     from snrmon.gui import frame_feed
     from snrmon.gui.frame_feed import FrameFeed
-
-    class Camera:
-        name, shape = "mwir", (96, 160)
-        frame: RingFrame | None = None
-
-        def latest_frame(self, *, unless_seq=None, out=None):
-            f = self.frame
-            return None if f is None or f.seq == unless_seq else f
 
     clock = [100.0]
     monkeypatch.setattr(frame_feed.time, "monotonic", lambda: clock[0])
