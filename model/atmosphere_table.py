@@ -4,10 +4,10 @@
 :class:`Weather` holds the met readings (air temperature, relative humidity or dew point,
 pressure, visibility and the aerosol model) and the standard atmosphere of the season, whose
 sea-level values stand in for the readings not given. :class:`AtmosphereTable` reads
-``model/tables/lowtran7_horizontal.npz`` (built from LOWTRAN7 by
-``tools/make_atmosphere_table.py --build`` at set-up, not kept in git; its inputs, LOWTRAN
-version, SHA-256 and a check against fresh LOWTRAN runs are in the ``.json`` beside it, and a
-table that does not match its checksum is refused) and gives the spectral transmittance of a
+``model/tables/lowtran7_horizontal.npz`` (data shipped with the package, generated from LOWTRAN7
+by ``tools/make_atmosphere_table.py``; its inputs, LOWTRAN version, the SHA-256 of the shipped
+bytes and a check against fresh LOWTRAN runs are in the ``.json`` beside it, and a file that does
+not match its checksum is refused: a damaged or substituted file, not a machine's rounding) and gives the spectral transmittance of a
 path of any length at LOWTRAN7's 20 cm^-1 resolution, every 5 cm^-1, over 3.0-6.0 um and
 7.49-12.5 um:
 
@@ -174,7 +174,8 @@ def load_table(path: str | None = None) -> AtmosphereTable:
     if digest != meta["sha256"]:
         raise ValueError(
             f"atmosphere table {p} does not match its checksum ({digest[:12]} against "
-            f"{meta['sha256'][:12]} in {p.with_suffix('.json').name}): regenerate it with "
+            f"{meta['sha256'][:12]} in {p.with_suffix('.json').name}): restore the "
+            "shipped file (git checkout -- model/tables), or regenerate table and record with "
             "tools/make_atmosphere_table.py"
         )
     with np.load(io.BytesIO(data)) as z:
