@@ -7,9 +7,9 @@ sea-level values stand in for the readings not given. :class:`AtmosphereTable` r
 ``model/tables/lowtran7_horizontal.npz`` (data shipped with the package, generated from LOWTRAN7
 by ``tools/make_atmosphere_table.py``; its inputs, LOWTRAN version, the SHA-256 of the shipped
 bytes and a check against fresh LOWTRAN runs are in the ``.json`` beside it, and a file that does
-not match its checksum is refused: a damaged or substituted file, not a machine's rounding) and gives the spectral transmittance of a
-path of any length at LOWTRAN7's 20 cm^-1 resolution, every 5 cm^-1, over 3.0-6.0 um and
-7.49-12.5 um:
+not match its checksum is refused: a damaged or substituted file, not a machine's rounding) and
+gives the spectral transmittance of a path of any length at LOWTRAN7's 20 cm^-1 resolution,
+every 5 cm^-1, over 3.0-6.0 um and 7.49-12.5 um:
 
     OD(nu, L) = OD_dry(nu; T, P, L) + (K rho L)^a + (s rho^2 + f rho) L + beta(nu; RH) v(V) L
 

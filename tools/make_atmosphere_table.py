@@ -1,7 +1,7 @@
 """Generate the model's built-in atmosphere table from LOWTRAN7 (run offline; not a run-time need).
 
     python tools/make_atmosphere_table.py --check     # rebuild, compare by value (make table-check)
-    python tools/make_atmosphere_table.py --off-grid  # the shipped table against fresh off-grid runs
+    python tools/make_atmosphere_table.py --off-grid  # the shipped table against off-grid runs
     python tools/make_atmosphere_table.py             # a new table and record (new inputs)
 
 The table (``model/tables/lowtran7_horizontal.npz``) is data in the repository, with its record
@@ -305,9 +305,7 @@ def check(n: int = 60, seed: int = 22) -> dict:
     }
 
 
-def table_differences(
-    shipped: dict[str, np.ndarray], rebuilt: dict[str, np.ndarray]
-) -> list[str]:
+def table_differences(shipped: dict[str, np.ndarray], rebuilt: dict[str, np.ndarray]) -> list[str]:
     """What differs between two tables beyond :data:`ULP_TOLERANCE`, one line per array (its
     name, the worst element, both values and how many ulp apart); empty when they agree."""
     out = []

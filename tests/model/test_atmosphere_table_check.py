@@ -15,7 +15,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 
-import make_atmosphere_table as gen  # noqa: E402
+import make_atmosphere_table as gen
 
 
 @pytest.fixture(scope="module")
