@@ -9,6 +9,7 @@ import json
 import runpy
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import h5py
@@ -23,7 +24,10 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.mark.parametrize("module", [api, examples], ids=lambda m: m.__name__)
-def test_every_example_in_the_docstrings_runs(module):
+def test_every_example_in_the_docstrings_runs(module, tmp_path, monkeypatch):
+    # the examples make their sessions in tempfile.mkdtemp(), as a user would: here, under
+    # this test's own folder, which pytest removes when the test passes
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     failed, tried = doctest.testmod(
         module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
     )

@@ -20,8 +20,8 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 @pytest.fixture(scope="module")
-def files(tmp_path_factory) -> dict[str, Path]:
-    d = tmp_path_factory.mktemp("bad-inputs")
+def files(module_tmp) -> dict[str, Path]:
+    d = module_tmp("bad-inputs")
     session = write_session(d / "s.h5", ranges_m=(120.0,), hover_s=2.0, transit_s=1.0).path
     data = session.read_bytes()
     (d / "truncated.h5").write_bytes(data[: len(data) // 2])

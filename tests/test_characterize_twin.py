@@ -27,10 +27,10 @@ UAV1 = load_target("uav1")
 
 
 @pytest.fixture(scope="module")
-def close_stop(tmp_path_factory):
+def close_stop(module_tmp):
     """``snrmon hil --out`` of the 37 m stop and an unresolved one for the PSF (seed 0, 4 s
     hovers at speed 2, a fast transit, both cameras, calibrated)."""
-    path = tmp_path_factory.mktemp("twin-37m") / "s.h5"
+    path = module_tmp("twin-37m") / "s.h5"
     return twin_recording(path, stops="37,393", speed=2, transit_mps=60.0)
 
 

@@ -67,8 +67,8 @@ def test_frames_and_region_of_a_stack(capsys):
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory):
-    return write_session(tmp_path_factory.mktemp("noise") / "s.h5", ranges_m=(120.0,))
+def session(module_tmp):
+    return write_session(module_tmp("noise") / "s.h5", ranges_m=(120.0,))
 
 
 def test_a_session_cameras_span_of_frames_or_seconds(session, capsys):

@@ -25,8 +25,8 @@ def _none(v: float) -> float | None:
 
 
 @pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    return twin_recording(tmp_path_factory.mktemp("as-recorded") / "s.h5", stops="37,126", speed=4)
+def recording(module_tmp):
+    return twin_recording(module_tmp("as-recorded") / "s.h5", stops="37,126", speed=4)
 
 
 @pytest.mark.slow

@@ -99,8 +99,8 @@ def rng(row) -> float:
 
 
 @pytest.fixture(scope="module")
-def session_copy(hil_sessions, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("gps-import")
+def session_copy(hil_sessions, module_tmp):
+    folder = module_tmp("gps-import")
     copy = folder / "flight.h5"
     shutil.copyfile(hil_sessions[0], copy)
     return copy, folder

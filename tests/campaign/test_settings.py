@@ -43,9 +43,9 @@ def test_relative_calibration_paths_are_relative_to_the_file(tmp_path):
 
 
 @pytest.fixture(scope="module")
-def small_sessions(tmp_path_factory):
+def small_sessions(module_tmp):
     """Two sessions named s.h5 in two folders (as two days of a campaign would be)."""
-    folder = tmp_path_factory.mktemp("small")
+    folder = module_tmp("small")
     paths = []
     for i in (1, 2):
         (folder / f"day{i}").mkdir()

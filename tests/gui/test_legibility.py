@@ -29,9 +29,9 @@ STOPS_M = (37.0, 126.0, 199.0, 336.0, 393.0, 451.0, 508.0)  # the paper's (secti
 
 
 @pytest.fixture(scope="module")
-def flight(tmp_path_factory):
+def flight(module_tmp):
     """The recording, replayed to its end through the model (a ReplayPlayer: the session)."""
-    path = tmp_path_factory.mktemp("legible") / "flight.h5"
+    path = module_tmp("legible") / "flight.h5"
     example_session(path, ranges_m=STOPS_M, hover_s=4.0, transit_s=1.0, fps=10.0)
     player = ReplayPlayer(path, speed=1000.0)
     cfg = player.config

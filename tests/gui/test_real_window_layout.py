@@ -31,8 +31,8 @@ STOPS_M = (37.0, 126.0, 199.0, 336.0, 393.0, 451.0, 508.0)
 
 
 @pytest.fixture(scope="module")
-def flight(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("real-layout") / "flight.h5"
+def flight(module_tmp) -> Path:
+    path = module_tmp("real-layout") / "flight.h5"
     example_session(path, ranges_m=STOPS_M, hover_s=4.0, transit_s=1.0, fps=10.0)
     return path
 

@@ -24,8 +24,8 @@ def curves(camera: str) -> dict:
 
 
 @pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    path = tmp_path_factory.mktemp("replay") / "flight.h5"
+def recording(module_tmp):
+    path = module_tmp("replay") / "flight.h5"
     return write_session(path, cameras=("mwir",), ranges_m=(120.0, 240.0), hover_s=6.0)
 
 

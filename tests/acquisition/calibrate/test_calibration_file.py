@@ -26,8 +26,8 @@ def full_cal():
 
 
 @pytest.fixture(scope="module")
-def saved(full_cal, tmp_path_factory):
-    return save_calibration(full_cal, tmp_path_factory.mktemp("cal") / "mwir.npz")
+def saved(full_cal, module_tmp):
+    return save_calibration(full_cal, module_tmp("cal") / "mwir.npz")
 
 
 def test_round_trip_is_exact_and_the_sidecar_is_readable(tmp_path, full_cal):

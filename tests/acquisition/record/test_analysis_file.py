@@ -18,9 +18,9 @@ from tests.acquisition.session_factory import write_session
 
 
 @pytest.fixture(scope="module")
-def far_stops(tmp_path_factory):
+def far_stops(module_tmp):
     """Two unresolved MWIR stops (393 m, 508 m) of a bright point: enough for a PSF fit."""
-    d = tmp_path_factory.mktemp("analysis")
+    d = module_tmp("analysis")
     return write_session(
         d / "f.h5", ranges_m=(393.0, 508.0), cameras=("mwir",), amplitude_dn=3000.0
     ).path

@@ -19,8 +19,8 @@ from tests.acquisition.record.test_recorder import CAMS, CONFIG, make_frames
 
 
 @pytest.fixture(scope="module")
-def recording(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("described") / "s.h5"
+def recording(module_tmp) -> Path:
+    path = module_tmp("described") / "s.h5"
     clock = ClockMap()
     rec = SessionRecorder(path, config=CONFIG, cameras=CAMS, flush_interval_s=0.1, clock=clock)
     for camera, n, seed in (("mwir", 12, 3), ("lwir", 5, 4)):

@@ -77,8 +77,8 @@ def _rig(path, recorder_class):
 
 
 @pytest.fixture(scope="module")
-def recorded(tmp_path_factory):
-    path = tmp_path_factory.mktemp("gaps") / "gaps.h5"
+def recorded(module_tmp):
+    path = module_tmp("gaps") / "gaps.h5"
     engine, pipe, rec = _rig(path, DroppingRecorder)
     pipe.attach_recorder(rec)
     rng = np.random.default_rng(2019)

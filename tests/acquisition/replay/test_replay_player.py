@@ -62,8 +62,8 @@ def _fix(k: int) -> GpsFix:
 
 
 @pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    path = tmp_path_factory.mktemp("replay_player") / "session.h5"
+def recording(module_tmp):
+    path = module_tmp("replay_player") / "session.h5"
     frames = _frames()
     config = {
         "session": {

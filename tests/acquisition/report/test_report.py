@@ -22,8 +22,8 @@ RANGES_M = (120.0, 240.0)
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory):
-    return write_session(tmp_path_factory.mktemp("report") / "s.h5", ranges_m=RANGES_M)
+def session(module_tmp):
+    return write_session(module_tmp("report") / "s.h5", ranges_m=RANGES_M)
 
 
 @pytest.fixture(scope="module")
@@ -32,8 +32,8 @@ def data(session):
 
 
 @pytest.fixture(scope="module")
-def outputs(session, tmp_path_factory):
-    out = tmp_path_factory.mktemp("out")
+def outputs(session, module_tmp):
+    out = module_tmp("out")
     pdf, png, table = out / "r.pdf", out / "r.png", out / "t.csv"
     assert main(["report", str(session.path), "-o", str(pdf), "--csv", str(table)]) == 0
     assert (

@@ -95,11 +95,11 @@ def _csv_rows(path) -> list[dict[str, str]]:
 
 
 @pytest.fixture(scope="module")
-def air2s(shared_data, tmp_path_factory):
+def air2s(shared_data, module_tmp):
     import gzip
 
     folder = shared_data / "dji-airdata"
-    csv_path = tmp_path_factory.mktemp("dji") / "air-2s.csv"
+    csv_path = module_tmp("dji") / "air-2s.csv"
     csv_path.write_bytes(gzip.decompress((folder / "air-2s.csv.gz").read_bytes()))
     return csv_path, _csv_rows(folder / "air-2s.csv.gz"), _gpx_points(folder / "air-2s.gpx.gz")
 
