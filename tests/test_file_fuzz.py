@@ -230,8 +230,8 @@ def test_damaged_files_through_the_commands(how, shared_data, tmp_path, capsys):
     target = tmp_path / "target.h5"
     shutil.copyfile(session, target)
     runs = {
-        "nmea": (_nmea("nmea-rtk"), ["gps-import", str(target), "--replace", "--nmea"]),
-        "dji": (_dji, ["gps-import", str(target), "--replace", "--dji"]),
+        "nmea": (_nmea("nmea-rtk"), ["gps-import", str(target), "--replace", "--format", "nmea"]),
+        "dji": (_dji, ["gps-import", str(target), "--replace", "--format", "dji_csv"]),
         "tiff": (_tiff, ["measure", "--at", "60,60", "--json"]),
         "session": (_session, ["replay", "--fast", "--json"]),
     }
