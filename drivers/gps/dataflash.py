@@ -110,10 +110,6 @@ def read_dataflash(path: str | Path) -> DataflashLog:
             where.append(f"{p}: GPS at boot time {m.TimeUS / 1e6:.3f} s")
     finally:
         reader.close()
-    if not out.fixes:
-        raise ParseError(
-            f"{p}: no GPS fix in the log ({out.counts.get('GPS', 0)} GPS messages, "
-            f"{out.no_fix} without a fix or GPS time)"
-        )
-    out.fixes, out.clock = fixes_on_their_clock(out.fixes, where)
+    read = f"{out.counts.get('GPS', 0)} GPS messages, {out.no_fix} without a fix or GPS time"
+    out.fixes, out.clock = fixes_on_their_clock(out.fixes, where, log=p, read=read)
     return out

@@ -12,13 +12,13 @@ out of the fix rather than mislabelled. The files may hold NUL bytes and Latin-1
 For a replay the fix's ``t_host_ns`` is the log's own time since its first row (ns), so the
 track can be re-timed onto a session clock.
 
-Sub-second UTC: AirData's ``datetime(utc)`` holds whole seconds, rounded to the nearest (a row
-written ``02:48:09`` lies in [02:48:08.5, 02:48:09.5)), while ``time(millisecond)`` counts the
-log's own clock in 0.1 s steps. Rounded, not truncated: AirData's own GPX of a flight, which
-carries tenths of a second, falls inside its rows' rounded second at 89 % of its 10,817 points
-and inside the truncated one at only 39 % (the real Air 2S export in the tests). With both,
-every row's UTC is
-``anchor + time(millisecond)``. Real logs have gaps in ``time(millisecond)`` (the recorder paused)
+Sub-second UTC: AirData's ``datetime(utc)`` holds whole seconds, while ``time(millisecond)``
+counts the log's own clock in 0.1 s steps; every row's UTC is ``anchor + time(millisecond)``.
+The anchor's whole seconds come from the rows (below); its fraction from the file's own second
+ticks: within one file the written second changes at one phase of ``time(millisecond)`` mod 1000
+(:func:`tick_phase`, the most common over all ticks: 0 in the real Air 2S export, 900 in
+another drone's), and at a tick the row's UTC is ``TICK_UTC_S`` before the new second
+(:func:`on_the_ticks`). Real logs have gaps in ``time(millisecond)`` (the recorder paused)
 and rows around a gap whose ``datetime(utc)`` is seconds off their neighbours', so the anchor is
 never taken from one row: :func:`snrmon.drivers.gps.log_clock.anchored_utc` cuts the log at its
 gaps, estimates each anchor from the whole-second bounds its rows agree on, and leaves the rows

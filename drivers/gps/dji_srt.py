@@ -127,7 +127,6 @@ def read_dji_srt(path: str | Path) -> SrtLog:
             f"{p}: no date and time in its {out.blocks} subtitle blocks (only the video's "
             "time code): it cannot be placed on a clock"
         )
-    if not out.fixes:
-        raise ParseError(f"{p}: no GPS fix in its {out.blocks} subtitle blocks")
-    out.fixes, out.clock = fixes_on_their_clock(out.fixes, where)
+    read = f"{out.blocks} subtitle blocks, {out.no_fix} at 0, 0 or without a position"
+    out.fixes, out.clock = fixes_on_their_clock(out.fixes, where, log=p, read=read)
     return out

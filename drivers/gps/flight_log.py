@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from snrmon.drivers.errors import ParseError
 from snrmon.drivers.gps.fix import GpsFix
@@ -96,8 +97,10 @@ def detect_format(path: str | Path) -> str:
     )
 
 
-def _outliers(clock: ClockReport | None) -> int:
-    return 0 if clock is None else clock.outliers
+def _counted(read: Any, utc_source: str) -> FlightLog:
+    """A reader's log (``fixes``, ``clock``, ``no_fix``) whose every clock outlier is a fix."""
+    off = 0 if read.clock is None else read.clock.outliers
+    return FlightLog(read.fixes, utc_source, read.clock, dropped=read.no_fix, off_clock=off)
 
 
 def read_flight_log(kind: str, path: str | Path) -> FlightLog:
@@ -117,15 +120,9 @@ def read_flight_log(kind: str, path: str | Path) -> FlightLog:
     if kind == "dji_srt":
         from snrmon.drivers.gps.dji_srt import read_dji_srt
 
-        srt = read_dji_srt(p)
-        return FlightLog(
-            srt.fixes,
-            "the drone's local time",
-            srt.clock,
-            local_time=True,
-            dropped=srt.no_fix,
-            off_clock=_outliers(srt.clock),
-        )
+        srt = _counted(read_dji_srt(p), "the drone's local time")
+        srt.local_time = True
+        return srt
     if kind == "nmea":
         from snrmon.drivers.gps.nmea_log import read_nmea_log
 
@@ -163,34 +160,14 @@ def read_flight_log(kind: str, path: str | Path) -> FlightLog:
     if kind == "dataflash":
         from snrmon.drivers.gps.dataflash import read_dataflash
 
-        bin_ = read_dataflash(p)
-        return FlightLog(
-            bin_.fixes,
-            "GPS week and ms (GWk, GMS) - leap seconds",
-            bin_.clock,
-            dropped=bin_.no_fix,
-            off_clock=_outliers(bin_.clock),
-        )
+        return _counted(read_dataflash(p), "GPS week and ms (GWk, GMS) - leap seconds")
     if kind == "ulog":
         from snrmon.drivers.gps.ulog import read_ulog
 
         ulg = read_ulog(p)
-        return FlightLog(
-            ulg.fixes,
-            f"{ulg.topic}.time_utc_usec",
-            ulg.clock,
-            dropped=ulg.no_fix,
-            off_clock=_outliers(ulg.clock),
-        )
+        return _counted(ulg, f"{ulg.topic}.time_utc_usec")
     if kind == "ubx":
         from snrmon.drivers.gps.ubx import read_ubx
 
-        ubx = read_ubx(p)
-        return FlightLog(
-            ubx.fixes,
-            "NAV-PVT date, time and nano",
-            ubx.clock,
-            dropped=ubx.no_fix,
-            off_clock=_outliers(ubx.clock),
-        )
+        return _counted(read_ubx(p), "NAV-PVT date, time and nano")
     raise ValueError(f"flight log format must be one of {', '.join(FORMATS)}, got {kind!r}")

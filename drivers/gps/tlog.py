@@ -15,7 +15,14 @@ Positions and their UTC, best first:
    (as good as that computer's clock, plus the link's latency).
 
 Fix type, satellites and HDOP (``eph`` / 100) come from the latest ``GPS_RAW_INT`` at or before
-each position. ``t_host_ns`` of a fix is the log's own time: ns since its first fix's UTC.
+each position. Only fixes are kept: a position before the log's first ``GPS_RAW_INT`` (nothing
+says it is a fix: the autopilot reports its origin, 0 N 0 E, until the receiver locks), one
+whose ``GPS_RAW_INT`` has ``fix_type`` below 2, or one at 0 N 0 E, is counted in ``no_fix`` and
+dropped; a log without a fix is refused. (A log with no ``GPS_RAW_INT`` at all takes its
+positions as fixes.) The ground station's receipt time minus each fix's UTC is measured
+(``clock_offset_s``, the median, and its spread): a link's latency is tens of ms, so an offset
+beyond ``CLOCK_OFFSET_WARN_S`` says one of the two clocks is wrong.
+``t_host_ns`` of a fix is the log's own time: ns since its first fix's UTC.
 Resolution: 1e-7 deg (about 1 cm) and 1 mm.
 
 Logs as they are: an autopilot that reboots starts ``time_boot_ms`` again, so the log is cut into

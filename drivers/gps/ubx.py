@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
-from snrmon.drivers.errors import MissingDependencyError, ParseError
+from snrmon.drivers.errors import MissingDependencyError
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.gps.log_clock import ClockReport, fixes_on_their_clock
 
@@ -98,10 +98,6 @@ def read_ubx(path: str | Path) -> UbxLog:
                 )
             )
             where.append(f"{p}: NAV-PVT {out.nav_pvt} (iTOW {msg.iTOW})")
-    if not out.fixes:
-        raise ParseError(
-            f"{p}: no GPS fix in the log ({out.nav_pvt} NAV-PVT messages, "
-            f"{out.no_fix} without a valid fix or UTC)"
-        )
-    out.fixes, out.clock = fixes_on_their_clock(out.fixes, where)
+    read = f"{out.nav_pvt} NAV-PVT messages, {out.no_fix} without a valid fix or UTC"
+    out.fixes, out.clock = fixes_on_their_clock(out.fixes, where, log=p, read=read)
     return out

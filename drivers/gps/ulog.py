@@ -88,11 +88,6 @@ def read_ulog(path: str | Path) -> UlogLog:
     utc_us = np.asarray(data["time_utc_usec"], np.int64)
     ok = (fix_type >= 2) & (utc_us > 0)
     out = UlogLog([], topic, no_fix=int((~ok).sum()))
-    if not ok.any():
-        raise ParseError(
-            f"{p}: no GPS fix in the log ({len(fix_type)} {topic} messages, none with "
-            f"fix_type 2 or more and a UTC time)"
-        )
     sats = data.get("satellites_used")
     hdop = data.get("hdop")
     where = []
@@ -113,5 +108,6 @@ def read_ulog(path: str | Path) -> UlogLog:
             )
         )
         where.append(f"{p}: {topic} message {i}")
-    out.fixes, out.clock = fixes_on_their_clock(out.fixes, where)
+    read = f"{len(fix_type)} {topic} messages, none with fix_type 2 or more and a UTC time"
+    out.fixes, out.clock = fixes_on_their_clock(out.fixes, where, log=p, read=read)
     return out
