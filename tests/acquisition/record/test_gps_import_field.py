@@ -249,3 +249,21 @@ def test_a_missing_extra_is_named_in_one_line(shared_data, tmp_path, capsys, mon
     assert main(["gps-import", str(session), str(log)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "pip install 'snrmon[flightlogs]'" in err[0]
+
+
+def test_a_ulog_without_a_fix_is_refused(shared_data, tmp_path, capsys):
+    """The PX4 SITL log cut at 30 % of its bytes (a logger stopped before the simulated
+    receiver's first fix: 139 vehicle_gps_position messages, all fix_type 0) is refused, the
+    session untouched. (The whole file has 437 fixes after its first 146 messages: it imports.)"""
+    whole = _field_file(shared_data, tmp_path, "px4-ulog/pyulog-sample_px4_events.ulg.gz")
+    data = whole.read_bytes()
+    log = tmp_path / "stopped-early.ulg"
+    log.write_bytes(data[: int(0.3 * len(data))])
+    session = tmp_path / "s.h5"
+    bare_session(session, datetime(2024, 3, 18, 14, 49, tzinfo=UTC), 60)
+    assert main(["gps-import", str(session), str(log)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert f"{log}: no GPS fix in the log (139 vehicle_gps_position messages, none with" in err[0]
+    with h5py.File(session, "r") as f:
+        assert len(f["gps"]) == 0 and "source" not in f["gps"].attrs
