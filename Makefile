@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 CONSTRAINTS := constraints.txt
 # Every extra the demo and the tests use: the console, the campaign's cluster, the test tools.
 # Not `tables` (LOWTRAN7, compiled with gfortran and cmake): only `make table-check` needs it.
-EXTRAS := gui,campaign,dev,mavlink,compress
+EXTRAS := gui,campaign,dev,mavlink,compress,flightlogs
 # The folders that install as snrmon.<name> (setup.py). The editable install is a link tree
 # (build/__editable__*, strict mode, so that mypy and import-linter see one namespace): a module
 # added or removed needs a re-install, so the list of the package's files is an input of it.

@@ -20,7 +20,7 @@ from pathlib import Path
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 
-EXTRAS = ("gui", "campaign", "dev", "mavlink", "compress", "aravis", "tiff", "tables")
+EXTRAS = ("gui", "campaign", "dev", "mavlink", "compress", "flightlogs", "aravis", "tiff", "tables")
 
 
 def closure(root: str, extras: tuple[str, ...]) -> dict[str, str]:

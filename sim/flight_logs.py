@@ -4,10 +4,11 @@ log and a MAVLink ``.tlog``, each in its real format, for testing ``snrmon gps-i
 Each writer takes :class:`LogEpoch` rows (UTC and position, from :func:`flight_epochs`) and writes
 what the real logger would, at the resolution it would:
 
-- AirData CSV: ``time(millisecond)`` from the log's start, ``datetime(utc)`` rounded to the
-  nearest whole second (as AirData does: its GPX of the same flight, in tenths, sits in the
-  rows' rounded seconds), latitude/longitude with 8 decimals, ``altitude_above_seaLevel(feet)``
-  with 1 decimal (3 cm), ``satellites``; rows with 0,0 before the first fix, as DJI writes them;
+- AirData CSV: ``time(millisecond)`` from the log's start, ``datetime(utc)`` the whole second
+  of the row's UTC + 0.6 s (as AirData writes it: at every second tick of the real export its
+  GPX of the same flight, in tenths, is 0.6 s before the new second), latitude/longitude
+  with 8 decimals, ``altitude_above_seaLevel(feet)`` with 1 decimal (3 cm), ``satellites``;
+  rows with 0,0 before the first fix, as DJI writes them;
 - NMEA: GGA + RMC per epoch (the simulated receiver's own sentences: centisecond UTC,
   minutes with 7 decimals, altitude in mm);
 - tlog: per epoch ``GPS_RAW_INT`` and ``GLOBAL_POSITION_INT`` (degE7, mm) on the autopilot's
@@ -65,8 +66,8 @@ def write_airdata_csv(
     rows += [(e.utc, e) for e in epochs]
     for u, e in rows:
         ms = round((u - t0).total_seconds() * 1000)
-        # whole seconds, rounded to the nearest (half a second up)
-        stamp = (u + timedelta(microseconds=500_000)).strftime("%Y-%m-%d %H:%M:%S")
+        # whole seconds, 0.6 s ahead of the row's UTC (AirData's own tick)
+        stamp = (u + timedelta(microseconds=600_000)).strftime("%Y-%m-%d %H:%M:%S")
         if e is None:
             lines.append(f"{ms},{stamp},0.0,0.0,0.0,0.0,0,0,0.0,0.0,0,")
             continue

@@ -15,6 +15,8 @@ from snrmon.cli import UsageError
 EXTRAS: dict[str, tuple[str, ...]] = {
     "gui": ("PySide6", "pyqtgraph"),
     "campaign": ("dask", "distributed", "pyarrow"),
+    "mavlink": ("pymavlink",),
+    "flightlogs": ("pyulog", "pyubx2"),
 }
 
 

@@ -58,7 +58,7 @@ def _one_line(capsys, argv: list[str], *needles: str) -> str:
         ["psf", "{f}", "--camera", "lwir", "--stop", "1"],
         ["characterize", "{f}", "--camera", "lwir", "--stop", "1"],
         ["campaign", "{f}", "--out", "{dir}/c", "--workers", "0"],
-        ["gps-import", "{f}", "--nmea", "{dir}/notes.txt"],
+        ["gps-import", "{f}", "{dir}/notes.txt"],
     ],
     ids=lambda a: a[0],
 )
@@ -86,7 +86,7 @@ def test_empty_or_text_file_named_h5_is_not_a_session(files, capsys, name, says)
         ["measure", "{d}", "--at", "1,1"],
         ["psf", "{d}", "--camera", "lwir", "--stop", "1"],
         ["report", "{d}", "-o", "{out}.pdf"],
-        ["gps-import", "{s}", "--dji", "{d}"],
+        ["gps-import", "{s}", "{d}"],
     ],
     ids=lambda a: a[0],
 )
@@ -121,7 +121,7 @@ def test_gps_import_into_an_hdf5_file_that_is_not_a_session(files, capsys) -> No
     plain = files["plain.h5"]
     _one_line(
         capsys,
-        ["gps-import", plain, "--dji", files["notes.txt"]],
+        ["gps-import", plain, files["notes.txt"]],
         str(plain),
         "not a snrmon session",
     )

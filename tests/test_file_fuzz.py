@@ -230,8 +230,8 @@ def test_damaged_files_through_the_commands(how, shared_data, tmp_path, capsys):
     target = tmp_path / "target.h5"
     shutil.copyfile(session, target)
     runs = {
-        "nmea": (_nmea("nmea-rtk"), ["gps-import", str(target), "--replace", "--nmea"]),
-        "dji": (_dji, ["gps-import", str(target), "--replace", "--dji"]),
+        "nmea": (_nmea("nmea-rtk"), ["gps-import", str(target), "--format", "nmea", "--replace"]),
+        "dji": (_dji, ["gps-import", str(target), "--format", "dji_csv", "--replace"]),
         "tiff": (_tiff, ["measure", "--at", "60,60", "--json"]),
         "session": (_session, ["replay", "--fast", "--json"]),
     }
@@ -242,7 +242,10 @@ def test_damaged_files_through_the_commands(how, shared_data, tmp_path, capsys):
         damaged = folder / "damaged" / original.name
         damaged.parent.mkdir()
         damaged.write_bytes(mutate(original.read_bytes(), how, rng))
-        full = [*argv, str(damaged)] if name != "tiff" else ["measure", str(damaged), *argv[1:]]
+        # gps-import takes the session, then the log
+        full = [*argv[:2], str(damaged), *argv[2:]]
+        if name == "tiff":
+            full = ["measure", str(damaged), *argv[1:]]
         if name == "session":
             full = ["replay", str(damaged), "--fast", "--json"]
         code = _guarded(lambda a=full: main(a), f"snrmon {' '.join(full)}")

@@ -22,6 +22,8 @@ import json
 import math
 import os
 from dataclasses import dataclass
+from dataclasses import replace as dc_replace
+from datetime import timedelta
 from pathlib import Path
 
 import h5py
@@ -40,12 +42,16 @@ from snrmon.acquisition.record.reader import append_event, clear_status_flags
 from snrmon.acquisition.record.stream_rows import gps_row
 from snrmon.acquisition.record.writer import copy_rows, resize_rows
 from snrmon.drivers.gps.fix import GpsFix
+from snrmon.drivers.gps.flight_log import FORMATS, read_flight_log
 from snrmon.drivers.gps.log_clock import ClockReport
 
 LIVE_COPY = "gps_live"
 SOURCE_ATTR = "source"
 IMPORTED = "imported"
-KINDS = ("dji_csv", "nmea", "tlog")
+KINDS = FORMATS
+MIN_WRITTEN = 0.5  # an import that would write less than this share of the log's fixes: refused
+UTC_OFFSET_STEP_S = 900  # time zones are whole quarter hours
+UTC_OFFSETS_S = range(-12 * 3600, 14 * 3600 + 1, UTC_OFFSET_STEP_S)
 
 
 @dataclass(frozen=True)
@@ -66,6 +72,10 @@ class GpsImport:
     live_rows_kept: int  # live rows moved to /gps_live (0: there were none)
     flags_cleared: bool
     clock: dict | None = None  # the log's own clock: segments, gaps, jumps, outliers left out
+    dropped_no_fix: int = 0  # positions in the log without a fix: never written
+    utc_offset_s: float | None = None  # local time - UTC applied (a DJI SRT), else None
+    details: dict | None = None  # what the reader measured (lines moved, clock offset, ...)
+    notes: tuple[str, ...] = ()  # the same, one line each for the operator
 
     def as_dict(self) -> dict:
         d = {k: v for k, v in self.__dict__.items() if k != "offset"}
@@ -86,24 +96,10 @@ def _utc_ns(fix: GpsFix) -> int:
 
 
 def read_log(kind: str, path: str | Path) -> tuple[list[GpsFix], str, ClockReport | None]:
-    """(fixes, how their UTC was obtained, what the log's own clock looked like: its segments,
-    gaps, time jumps and the rows left out) of a flight log of ``kind`` (:data:`KINDS`)."""
-    if kind == "dji_csv":
-        from snrmon.drivers.gps.dji_csv import read_dji_log
-
-        dji = read_dji_log(path)
-        return dji.fixes, "datetime(utc) + time(millisecond)", dji.clock
-    if kind == "nmea":
-        from snrmon.drivers.gps.nmea_log import read_nmea_log
-
-        nmea = read_nmea_log(path)
-        return nmea.fixes, "NMEA RMC/ZDA date + GGA/RMC time", nmea.clock
-    if kind == "tlog":
-        from snrmon.drivers.gps.tlog import read_tlog
-
-        log = read_tlog(path)
-        return log.fixes, log.utc_source, log.clock
-    raise ValueError(f"flight log kind must be one of {', '.join(KINDS)}, got {kind!r}")
+    """(fixes, how their UTC was obtained, what the log's own clock looked like) of a flight log
+    of ``kind`` (:data:`KINDS`): :func:`snrmon.drivers.gps.flight_log.read_flight_log`."""
+    log = read_flight_log(kind, path)
+    return log.fixes, log.utc_source, log.clock
 
 
 def _session_site(f: h5py.File) -> Site | None:
@@ -144,25 +140,33 @@ def import_gps_log(
     offset_s: float | None = None,
     max_offset_s: float = 10.0,
     margin_s: float = 60.0,
+    utc_offset_s: float | None = None,
 ) -> GpsImport:
     """Align the flight log ``log`` to ``session`` on UTC and write it as its ``/gps``.
 
     ``offset_s`` None searches the offset against the rangefinder (applied only when it is
     identifiable, :func:`snrmon.acquisition.record.gps_align.search_offset`); a number is applied as
     given (the search still runs and is reported). Fixes more than ``margin_s`` outside the
-    session's recorded span are left out.
+    session's recorded span are left out. A log whose times are the drone's local time (a DJI
+    SRT) is placed on UTC with ``utc_offset_s`` (local time - UTC) where given, else with the
+    one whole quarter hour that puts it within the session (:func:`_local_time_offset`).
+
+    Raises:
+        ValueError: the log has no fix, or the import would write fewer than ``MIN_WRITTEN`` of
+            its fixes (outside the session, times out of order): ``/gps`` is left unchanged.
     """
     session, log = Path(session), Path(log)
     if not session.is_file():
         raise FileNotFoundError(f"session file {session} not found")
     if not log.is_file():
         raise FileNotFoundError(f"flight log {log} not found")
-    fixes, utc_source, clock = read_log(kind, log)
-    fixes = [f for f in fixes if f.utc is not None and f.lat_deg is not None]
+    flight = read_flight_log(kind, log)
+    utc_source, clock = flight.utc_source, flight.clock
+    fixes = [f for f in flight.fixes if f.utc is not None and f.has_fix]
     if not fixes:
-        raise ValueError(f"{log}: no fix with a position and a UTC time")
-    fixes.sort(key=_utc_ns)
-    utc = np.array([_utc_ns(f) for f in fixes], np.int64)
+        raise ValueError(f"{log}: no fix in the log ({flight.dropped} positions without a fix)")
+    off_clock = flight.off_clock
+    in_log = len(fixes) + off_clock
     f, flags_cleared = _open_rw(session)
     try:
         if f.attrs.get("format") != S.FORMAT:
@@ -174,14 +178,28 @@ def import_gps_log(
                 f"{session} already holds {gps.shape[0]} live GPS rows; give --replace to "
                 f"import the log anyway (the live rows are kept in /{LIVE_COPY})"
             )
+        span = _span_ns(f)
+        margin = round(margin_s * 1e9)
+        local_offset = None
+        if flight.local_time:
+            local_offset, how = _local_time_offset(
+                log, fixes, utc_offset_s, f[S.CLOCK][()], span, margin
+            )
+            shift_local = timedelta(seconds=local_offset)
+            fixes = [dc_replace(x, utc=x.utc - shift_local) for x in fixes if x.utc is not None]
+            utc_source = f"{utc_source} - {_hhmm(local_offset)} ({how})"
+        fixes.sort(key=_utc_ns)
+        utc = np.array([_utc_ns(x) for x in fixes], np.int64)
         t_host = utc_to_host_ns(utc, f[S.CLOCK][()])
         search = _offset(f, fixes, t_host, offset_s, max_offset_s)
         shift = round(search.offset_s * 1e9)
-        span = _span_ns(f)
         keep = np.ones(len(fixes), bool)
         if span is not None:
-            margin = round(margin_s * 1e9)
             keep = (t_host + shift >= span[0] - margin) & (t_host + shift <= span[1] + margin)
+        if keep.sum() < MIN_WRITTEN * in_log:
+            raise ValueError(
+                _why_refused(log, int(keep.sum()), in_log, off_clock, clock, t_host + shift, span)
+            )
         rows = []
         for fix, t, u, k in zip(fixes, t_host, utc, keep, strict=True):
             if k:
@@ -203,7 +221,7 @@ def import_gps_log(
             kind=kind,
             log_sha256=_sha256(log),
             utc_source=utc_source,
-            fixes_in_log=len(fixes),
+            fixes_in_log=in_log,
             fixes_written=len(rows),
             fixes_outside=int((~keep).sum()),
             first_utc_ns=int(utc[0]),
@@ -212,6 +230,10 @@ def import_gps_log(
             live_rows_kept=kept,
             flags_cleared=flags_cleared,
             clock=None if clock is None else clock.as_dict(),
+            dropped_no_fix=flight.dropped,
+            utc_offset_s=local_offset,
+            details=flight.details,
+            notes=tuple(flight.notes),
         )
         gps.attrs[SOURCE_ATTR] = IMPORTED
         gps.attrs["import_json"] = json.dumps(result.as_dict())
@@ -224,6 +246,65 @@ def import_gps_log(
     payload.pop("session")
     append_event(session, "gps_imported", payload=payload)
     return result
+
+
+def _hhmm(offset_s: float) -> str:
+    sign = "-" if offset_s < 0 else "+"
+    minutes = round(abs(offset_s) / 60)
+    return f"UTC{sign}{minutes // 60:02d}:{minutes % 60:02d}"
+
+
+def _local_time_offset(
+    log: Path, fixes: list[GpsFix], given_s: float | None, clock_rows, span, margin: int
+) -> tuple[float, str]:
+    """(local time - UTC in seconds, how it was chosen) for a log in the drone's local time:
+    the offset given, or the one whole quarter hour that puts at least ``MIN_WRITTEN`` of its
+    fixes within the session's span (the session's own UTC). Refused when none does, or when
+    several do (a session longer than a quarter hour): then the operator gives it."""
+    if given_s is not None:
+        return float(given_s), "--utc-offset"
+    if span is None:
+        raise ValueError(
+            f"{log} is in the drone's local time and the session has no frames to place it by: "
+            "give --utc-offset"
+        )
+    local = np.array([_utc_ns(x) for x in fixes], np.int64)
+    fits = []
+    for off in UTC_OFFSETS_S:
+        t = utc_to_host_ns(local - off * 10**9, clock_rows)
+        inside = int(((t >= span[0] - margin) & (t <= span[1] + margin)).sum())
+        if inside >= MIN_WRITTEN * len(fixes):
+            fits.append(off)
+    if len(fits) == 1:
+        return float(fits[0]), "from the session's own UTC"
+    if not fits:
+        raise ValueError(
+            f"{log} is in the drone's local time and no time zone puts it within the session "
+            "(its date or the session's is wrong): give --utc-offset"
+        )
+    raise ValueError(
+        f"{log} is in the drone's local time and {len(fits)} time zones put it within the "
+        f"session ({', '.join(_hhmm(o) for o in fits[:4])}): give --utc-offset"
+    )
+
+
+def _why_refused(log: Path, written: int, in_log: int, off_clock: int, clock, t_host, span) -> str:
+    """Why an import would keep fewer than half of the log's fixes, for the refusal."""
+    head = f"{log}: the import would write {written} of the log's {in_log} fixes, refused"
+    if off_clock > in_log / 2 and clock is not None:
+        first = f"; first: {clock.examples[0]}" if clock.examples else ""
+        return (
+            f"{head}: times out of order, {off_clock} fixes are off the log's clock{first} "
+            "(/gps unchanged)"
+        )
+    assert span is not None
+    if t_host.max() < span[0]:
+        where = f"the log ends {(span[0] - t_host.max()) / 1e9:.1f} s before the session starts"
+    elif t_host.min() > span[1]:
+        where = f"the log starts {(t_host.min() - span[1]) / 1e9:.1f} s after the session ends"
+    else:
+        where = "most of its fixes lie outside the session's span"
+    return f"{head}: outside the session, {where} (/gps unchanged)"
 
 
 def _offset(
@@ -271,8 +352,6 @@ def _offset(
     )
     if offset_s is None:
         return found
-    from dataclasses import replace as dc_replace
-
     return dc_replace(found, offset_s=float(offset_s), applied=True, reason="given by the user")
 
 

@@ -12,13 +12,13 @@ out of the fix rather than mislabelled. The files may hold NUL bytes and Latin-1
 For a replay the fix's ``t_host_ns`` is the log's own time since its first row (ns), so the
 track can be re-timed onto a session clock.
 
-Sub-second UTC: AirData's ``datetime(utc)`` holds whole seconds, rounded to the nearest (a row
-written ``02:48:09`` lies in [02:48:08.5, 02:48:09.5)), while ``time(millisecond)`` counts the
-log's own clock in 0.1 s steps. Rounded, not truncated: AirData's own GPX of a flight, which
-carries tenths of a second, falls inside its rows' rounded second at 89 % of its 10,817 points
-and inside the truncated one at only 39 % (the real Air 2S export in the tests). With both,
-every row's UTC is
-``anchor + time(millisecond)``. Real logs have gaps in ``time(millisecond)`` (the recorder paused)
+Sub-second UTC: AirData's ``datetime(utc)`` holds whole seconds, while ``time(millisecond)``
+counts the log's own clock in 0.1 s steps; every row's UTC is ``anchor + time(millisecond)``.
+The anchor's whole seconds come from the rows (below); its fraction from the file's own second
+ticks: within one file the written second changes at one phase of ``time(millisecond)`` mod 1000
+(:func:`tick_phase`, the most common over all ticks: 0 in the real Air 2S export, 900 in
+another drone's), and at a tick the row's UTC is ``TICK_UTC_S`` before the new second
+(:func:`on_the_ticks`). Real logs have gaps in ``time(millisecond)`` (the recorder paused)
 and rows around a gap whose ``datetime(utc)`` is seconds off their neighbours', so the anchor is
 never taken from one row: :func:`snrmon.drivers.gps.log_clock.anchored_utc` cuts the log at its
 gaps, estimates each anchor from the whole-second bounds its rows agree on, and leaves the rows
@@ -34,14 +34,23 @@ import csv
 import io
 import math
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
+
+import numpy as np
 
 from snrmon.drivers.errors import ParseError
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.gps.log_clock import ClockReport, anchored_utc
 
+MIN_TICKS = 1  # the phase is the most common over all ticks: one tick already pins it
+TICK_UTC_S = -0.6
+"""The UTC of the row where AirData's ``datetime(utc)`` becomes ``u``, relative to ``u``: AirData
+writes each row's second 0.6 s ahead of the row's own UTC (measured on the real Air 2S export
+against AirData's GPX of the flight, which carries tenths of a second: at 1060 of its 1131
+ticks the GPX's time is ``u - 0.6 s``, at the other 71 one 0.1 s row earlier). The file's
+phase says where in ``time(millisecond)`` the ticks fall; this says where UTC is at a tick."""
 _UNIT_TO_M = {"feet": 0.3048, "ft": 0.3048, "meters": 1.0, "metres": 1.0, "m": 1.0}
 _UNIT = re.compile(r"^(?P<name>.+?)\s*[\(\[](?P<unit>[A-Za-z]+)[\)\]]$")
 
@@ -82,6 +91,10 @@ class DjiLog:
 
     fixes: list[GpsFix]
     clock: ClockReport | None
+    utc_source: str = "datetime(utc) + time(millisecond)"
+    tick_phase_ms: int | None = None  # time(millisecond) mod 1000 where datetime(utc) changes
+    ticks: int = 0  # second changes the phase was estimated from
+    details: dict = field(default_factory=dict)
 
 
 def read_dji_csv(path: str | Path) -> list[GpsFix]:
@@ -182,12 +195,59 @@ def read_dji_log(path: str | Path) -> DjiLog:
         resolution_s=0.001 if fractional else 1.0,
         truncated=False,  # whole seconds rounded (module docstring); fractions: to the digit
     )
+    utc_s = timed.utc_s
+    phase = None if fractional else tick_phase(clock_t, clock_u)
+    if phase is not None:
+        utc_s = on_the_ticks(np.asarray(clock_t, float), utc_s, phase[0])
     out = []
     for f, i in zip(fixes, fix_row, strict=True):
-        if i is not None and math.isfinite(timed.utc_s[i]):
-            us = round(timed.utc_s[i] * 1e6)  # to the microsecond: no float residue in the time
+        if i is not None and math.isfinite(utc_s[i]):
+            us = round(utc_s[i] * 1e6)  # to the microsecond: no float residue in the time
             f = replace(
                 f, utc=datetime.fromtimestamp(us // 10**6, UTC).replace(microsecond=us % 10**6)
             )
         out.append(f)
-    return DjiLog(out, timed.report)
+    if phase is None:
+        return DjiLog(out, timed.report)
+    return DjiLog(
+        out,
+        timed.report,
+        "datetime(utc) second ticks + time(millisecond)",
+        phase[0],
+        phase[1],
+        {"tick_phase_ms": phase[0], "ticks": phase[1], "ticks_at_phase": phase[2]},
+    )
+
+
+def tick_phase(t_log_s: list[float], utc_whole_s: list[float]) -> tuple[int, int, int] | None:
+    """Where in the log's own clock the whole-second ``datetime(utc)`` changes: (the phase,
+    ``time(millisecond)`` mod 1000 in ms, the most common over every tick of the file; how many
+    ticks; how many of them at that phase), or None where the file has fewer than
+    ``MIN_TICKS``. A tick is a row whose written second is one more than the row before, one
+    step of the log's clock earlier (rows across a gap say nothing about where the second
+    changed)."""
+    t = np.asarray(t_log_s, float)
+    u = np.asarray(utc_whole_s, float)
+    if t.size < 2:
+        return None
+    dt, du = np.diff(t), np.diff(u)
+    step = float(np.median(dt[dt > 0])) if (dt > 0).any() else 0.0
+    tick = (du == 1) & (dt > 0) & (dt <= 1.5 * step)
+    if tick.sum() < MIN_TICKS:
+        return None
+    phases = np.round(t[1:][tick] * 1000).astype(np.int64) % 1000
+    values, counts = np.unique(phases, return_counts=True)
+    best = int(np.argmax(counts))
+    return int(values[best]), int(tick.sum()), int(counts[best])
+
+
+def on_the_ticks(t_log_s: np.ndarray, utc_s: np.ndarray, phase_ms: int) -> np.ndarray:
+    """Each row's UTC (``anchor + t_log``, from :func:`anchored_utc`) with its anchor's
+    fraction of a second set by the file's tick phase: at a row where the written second
+    becomes ``u`` the UTC is ``u + TICK_UTC_S``. The anchor moves by less than half a second
+    (its whole seconds are the rows' own)."""
+    anchor = utc_s - t_log_s
+    target = (TICK_UTC_S - phase_ms / 1000.0) % 1.0
+    move = (target - anchor) % 1.0
+    move = np.where(move >= 0.5, move - 1.0, move)
+    return anchor + move + t_log_s

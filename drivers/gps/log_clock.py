@@ -292,3 +292,27 @@ def consistent_chain(
         outliers=int((~keep).sum()),
         examples=tuple(examples),
     )
+
+
+def fixes_on_their_clock(
+    fixes: list, where: Sequence[str], *, log: object, read: str
+) -> tuple[list, ClockReport]:
+    """The fixes (each with a UTC, in file order) that lie on the log's clock
+    (:func:`consistent_chain`), each with ``t_host_ns`` the log's own time: ns since the first
+    kept fix's UTC; and the report.
+
+    Raises:
+        ParseError: there is no fix; the message names ``log`` and says what was ``read``
+            ("244 GPS messages, 0 with a fix").
+    """
+    from dataclasses import replace
+
+    from snrmon.drivers.errors import ParseError
+
+    if not fixes:
+        raise ParseError(f"{log}: no GPS fix in the log ({read})")
+    first = fixes[0].utc
+    keep, report = consistent_chain([(f.utc - first).total_seconds() for f in fixes], where=where)
+    kept = [f for f, k in zip(fixes, keep, strict=True) if k]
+    t0 = kept[0].utc
+    return [replace(f, t_host_ns=round((f.utc - t0).total_seconds() * 1e9)) for f in kept], report

@@ -35,6 +35,12 @@ from snrmon.drivers.gps.nmea_frame import (  # noqa: F401 (re-exported: the modu
     parse_sentence,
 )
 
+# Unicore receivers (UM98x) send high-precision twins of the standard sentences, the type
+# followed by ``H`` (``$GNGGAH``, ``$GNRMCH``): the same fields in the same order, latitude and
+# longitude to 8 decimals of a minute and heights to 0.1 mm (Unicore's NMEA reference). They
+# decode as the standard sentence.
+HIGH_PRECISION = {"GGAH": "GGA", "RMCH": "RMC", "GSAH": "GSA", "VTGH": "VTG", "ZDAH": "ZDA"}
+
 _NUMBER = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)$")
 _HMS = re.compile(r"^(\d{2})(\d{2})(\d{2})(\.\d+)?$")
 
@@ -276,17 +282,18 @@ class NmeaAssembler:
         if s.talker not in TALKERS:
             c.ignored += 1
             return []
-        if s.kind == "GGA":
+        kind = HIGH_PRECISION.get(s.kind, s.kind)
+        if kind == "GGA":
             return [self._from_gga(decode_gga(s), s.raw, t_host_ns)]
-        if s.kind == "RMC":
+        if kind == "RMC":
             return [self._from_rmc(decode_rmc(s), s.raw, t_host_ns)]
-        if s.kind == "ZDA":
+        if kind == "ZDA":
             z = decode_zda(s)
             if z.day is not None:
                 self._set_day(z.day, z.tod)
-        elif s.kind == "GSA":
+        elif kind == "GSA":
             self._hdop_gsa = decode_gsa(s).hdop
-        elif s.kind == "VTG":
+        elif kind == "VTG":
             decode_vtg(s)  # validated; course and speed are not part of a GpsFix
         else:
             c.ignored += 1

@@ -92,7 +92,8 @@ def parse_sentence(
             raise ParseError(f"NMEA: no checksum in {text[:60]!r}")
     if address.startswith("P"):
         talker, kind = "P", address[1:]
-    elif len(address) == 5:
+    elif len(address) == 5 or (len(address) == 6 and address[:2] in TALKERS):
+        # a talker and a type: GPGGA, or a Unicore high-precision type (GNGGAH, GNRMCH)
         talker, kind = address[:2], address[2:]
     else:  # e.g. SkyTraq's loader messages "$STI,...": framed, but no talker to decode
         talker, kind = "", address

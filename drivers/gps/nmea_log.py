@@ -21,6 +21,7 @@ own time: ns since its first kept epoch's UTC.
 
 from __future__ import annotations
 
+import bisect
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -43,6 +44,30 @@ class NmeaLog:
     without_utc: int = 0
     first_error: str | None = None
     by_address: dict[str, int] = field(default_factory=dict)
+    lines_moved: int = 0  # epochs moved to sort an out-of-order log by its UTC (0: in order)
+    off_clock: int = 0  # epochs with a fix left out because their time is off the log's clock
+
+
+def _chain(epochs: list[tuple[GpsFix, int]], p: Path) -> tuple[list[bool], ClockReport]:
+    """Which epochs lie on the log's clock, in the order given (consistent_chain)."""
+    utc = [f.utc for f, _ in epochs]
+    first_utc = min(u for u in utc if u is not None)
+    keep, clock = consistent_chain(
+        [(u - first_utc).total_seconds() for u in utc],  # type: ignore[operator]
+        where=[f"{p}:{line} ({f.utc:%Y-%m-%d %H:%M:%S})" for f, line in epochs],
+        weight=[1.0 if f.has_fix else NO_FIX_WEIGHT for f, _ in epochs],
+    )
+    return [bool(k) for k in keep], clock
+
+
+def _longest_increasing_run(values: list[int]) -> int:
+    """The length of the longest increasing subsequence: the lines that can stay where they
+    are when the rest are moved (patience sorting, O(n log n))."""
+    tails: list[int] = []
+    for v in values:
+        i = bisect.bisect_left(tails, v)
+        tails[i : i + 1] = [v]
+    return len(tails)
 
 
 def _merge(a: GpsFix, b: GpsFix) -> GpsFix:
@@ -102,14 +127,24 @@ def read_nmea_log(path: str | Path) -> NmeaLog:
     if not epochs:
         why = f" (first bad line: {out.first_error})" if out.first_error else ""
         raise ParseError(f"{p}: no NMEA fix with a UTC date and time in {out.lines} lines{why}")
-    utc = [f.utc for f, _ in epochs]
-    first_utc = min(u for u in utc if u is not None)
-    keep, out.clock = consistent_chain(
-        [(u - first_utc).total_seconds() for u in utc],
-        where=[f"{p}:{line} ({f.utc:%Y-%m-%d %H:%M:%S})" for f, line in epochs],
-        weight=[1.0 if f.has_fix else NO_FIX_WEIGHT for f, _ in epochs],
-    )
+    keep, out.clock = _chain(epochs, p)
+    # A log whose lines were reordered (reversed, shuffled by a tool that sorted on another
+    # field) is not a clock that jumped: when file order keeps fewer than half of the fixes,
+    # the epochs are sorted by their own UTC, and the lines that had to move are counted.
+    fixed = sum(f.has_fix for f, _ in epochs)
+    if sum(f.has_fix for (f, _), k in zip(epochs, keep, strict=True) if k) < 0.5 * fixed:
+        ordered: list[tuple[GpsFix, int]] = []
+        for f, line in sorted(epochs, key=lambda e: e[0].utc):  # type: ignore[arg-type,return-value]
+            if ordered and ordered[-1][0].utc == f.utc:  # one epoch's GGA and RMC, apart
+                ordered[-1] = (_merge(ordered[-1][0], f), min(ordered[-1][1], line))
+            else:
+                ordered.append((f, line))
+        keep_sorted, clock_sorted = _chain(ordered, p)
+        if sum(keep_sorted) > sum(keep):
+            out.lines_moved = len(ordered) - _longest_increasing_run([ln for _, ln in ordered])
+            epochs, keep, out.clock = ordered, keep_sorted, clock_sorted
     kept = [f for (f, _), k in zip(epochs, keep, strict=True) if k]
+    out.off_clock = sum(f.has_fix for (f, _), k in zip(epochs, keep, strict=True) if not k)
     first = kept[0].utc
     assert first is not None
     out.fixes = [

@@ -15,7 +15,14 @@ Positions and their UTC, best first:
    (as good as that computer's clock, plus the link's latency).
 
 Fix type, satellites and HDOP (``eph`` / 100) come from the latest ``GPS_RAW_INT`` at or before
-each position. ``t_host_ns`` of a fix is the log's own time: ns since its first fix's UTC.
+each position. Only fixes are kept: a position before the log's first ``GPS_RAW_INT`` (nothing
+says it is a fix: the autopilot reports its origin, 0 N 0 E, until the receiver locks), one
+whose ``GPS_RAW_INT`` has ``fix_type`` below 2, or one at 0 N 0 E, is counted in ``no_fix`` and
+dropped; a log without a fix is refused. (A log with no ``GPS_RAW_INT`` at all takes its
+positions as fixes.) The ground station's receipt time minus each fix's UTC is measured
+(``clock_offset_s``, the median, and its spread): a link's latency is tens of ms, so an offset
+beyond ``CLOCK_OFFSET_WARN_S`` says one of the two clocks is wrong.
+``t_host_ns`` of a fix is the log's own time: ns since its first fix's UTC.
 Resolution: 1e-7 deg (about 1 cm) and 1 mm.
 
 Logs as they are: an autopilot that reboots starts ``time_boot_ms`` again, so the log is cut into
@@ -35,6 +42,8 @@ from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
+
 from snrmon.drivers.errors import ParseError
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.gps.log_clock import ClockReport, consistent_chain
@@ -43,6 +52,7 @@ from snrmon.drivers.gps.mavlink import FIX_TYPE_TO_QUALITY, mavutil
 UNIX_USEC_2001 = 978_307_200_000_000  # a time_usec below this is time since boot, not UTC
 REBOOT_MS = 1000  # time_boot_ms going back by more than this: the autopilot restarted
 SYSTEM_TIME_TOLERANCE_S = 1.0
+CLOCK_OFFSET_WARN_S = 1.0  # a link's latency is tens of ms; beyond this a clock is off
 
 
 @dataclass
@@ -52,6 +62,27 @@ class TlogLog:
     counts: dict[str, int] = field(default_factory=dict)
     clock: ClockReport | None = None
     boots: int = 1
+    no_fix: int = 0  # positions without a fix (before the first GPS_RAW_INT with one): dropped
+    off_clock: int = 0  # fixes left out because their time is off the log's clock
+    clock_offset_s: float | None = None  # median receipt time - the fix's UTC (None: receipt)
+    clock_offset_spread_s: float | None = None  # its 5..95 % range
+
+    def describe_clock_offset(self) -> str:
+        """One line: the ground station's receipt time against the autopilot's UTC."""
+        off = self.clock_offset_s
+        if off is None:
+            return "positions on the ground station's receipt time (the autopilot gave no UTC)"
+        line = (
+            f"the autopilot's clock against the ground station's receipt time: received "
+            f"{off:+.3f} s after the fix's UTC (median; 5-95 % spread "
+            f"{self.clock_offset_spread_s:.3f} s)"
+        )
+        if abs(off) > CLOCK_OFFSET_WARN_S:
+            line += (
+                f"; more than {CLOCK_OFFSET_WARN_S:g} s: one of the two clocks is wrong (the "
+                "fixes keep the autopilot's UTC)"
+            )
+        return line
 
 
 def _utc(usec: float) -> datetime:
@@ -104,7 +135,10 @@ def read_tlog(path: str | Path) -> TlogLog:
     def with_raw(fix: GpsFix, t_receipt: float) -> GpsFix:
         i = bisect.bisect_right(raw_t, t_receipt) - 1
         if i < 0:
-            return fix
+            # Before the first GPS_RAW_INT nothing says the position is a fix (it is the
+            # autopilot's origin until the receiver locks); in a log without any, a position
+            # away from 0 N 0 E is taken as one (the link was set up without GPS_RAW_INT).
+            return replace(fix, fix_quality=0) if raw else fix
         r = raw[i][1]
         return replace(
             fix,
@@ -116,6 +150,7 @@ def read_tlog(path: str | Path) -> TlogLog:
     pairings, set_aside = _consistent_system_times(system_time, p)
     fixes: list[GpsFix] = []
     where: list[str] = []
+    receipts: list[float] = []  # the ground station's receipt time of each (s since 1970)
     if gpi and any(pairings.get(b) for _, b, _ in gpi):
         source = "system_time"
         for t, b, m in gpi:
@@ -133,6 +168,7 @@ def read_tlog(path: str | Path) -> TlogLog:
             bt, unix = pairs[near]
             utc = _utc(unix + (m.time_boot_ms - bt) * 1000)
             fixes.append(with_raw(_position(m, utc, m.alt), t))
+            receipts.append(t)
             where.append(f"{p}: position at boot {b + 1} time {m.time_boot_ms / 1000:.3f} s")
     elif any(m.time_usec > UNIX_USEC_2001 and m.fix_type >= 2 for _, m in raw):
         source = "gps_raw_int"
@@ -147,21 +183,36 @@ def read_tlog(path: str | Path) -> TlogLog:
                         hdop=None if m.eph == 65535 else m.eph / 100.0,
                     )
                 )
+                receipts.append(t)
                 where.append(f"{p}: GPS_RAW_INT received at {_utc(t * 1e6):%H:%M:%S.%f}")
     elif gpi:
         source = "tlog_receipt"
         for t, _, m in gpi:
             fixes.append(with_raw(_position(m, _utc(t * 1e6), m.alt), t))
+            receipts.append(t)
             where.append(f"{p}: position received at {_utc(t * 1e6):%H:%M:%S.%f}")
     else:
         raise ParseError(f"{p}: no GLOBAL_POSITION_INT or GPS_RAW_INT message in the log")
     if not fixes:
         raise ParseError(f"{p}: no position with a UTC time ({set_aside[0]})")
+    # Only fixes: a position before the receiver's first fix is the autopilot's origin
+    # (0 N 0 E, or the home it was given), not a place the drone was.
+    has = [f.has_fix and (f.lat_deg, f.lon_deg) != (0.0, 0.0) for f in fixes]
+    no_fix = len(fixes) - sum(has)
+    if not any(has):
+        raise ParseError(
+            f"{p}: no GPS fix in the log: {len(fixes)} positions, none while GPS_RAW_INT "
+            "reported a fix (fix_type 2 or more)"
+        )
+    fixes = [f for f, h in zip(fixes, has, strict=True) if h]
+    where = [w for w, h in zip(where, has, strict=True) if h]
+    receipts = [r for r, h in zip(receipts, has, strict=True) if h]
     first_utc = fixes[0].utc
     keep, report = consistent_chain(
         [(f.utc - first_utc).total_seconds() for f in fixes],  # type: ignore[operator]
         where=where,
     )
+    lag = [r - f.utc.timestamp() for f, r, k in zip(fixes, receipts, keep, strict=True) if k]  # type: ignore[union-attr]
     fixes = [f for f, k in zip(fixes, keep, strict=True) if k]
     report = replace(
         report,
@@ -170,7 +221,13 @@ def read_tlog(path: str | Path) -> TlogLog:
     )
     first = fixes[0].utc
     fixes = [replace(f, t_host_ns=round((f.utc - first).total_seconds() * 1e9)) for f in fixes]
-    return TlogLog(fixes, source, counts, report, boot + 1)
+    out = TlogLog(
+        fixes, source, counts, report, boot + 1, no_fix=no_fix, off_clock=int(len(keep) - sum(keep))
+    )
+    if source != "tlog_receipt":
+        q = np.percentile(lag, [5, 50, 95])
+        out.clock_offset_s, out.clock_offset_spread_s = float(q[1]), float(q[2] - q[0])
+    return out
 
 
 def _consistent_system_times(

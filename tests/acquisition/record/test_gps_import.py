@@ -55,7 +55,7 @@ def test_real_nmea_log_imports_one_fix_per_epoch_at_its_utc(shared_data, tmp_pat
     span = (utcs[-1] - utcs[0]).total_seconds()
     session = tmp_path / "s.h5"
     bare_session(session, utcs[0], span)
-    code = main(["gps-import", str(session), "--nmea", str(log), "--json"])
+    code = main(["gps-import", str(session), str(log), "--json"])
     assert code == 0
     with h5py.File(session, "r") as f:  # plain h5py reads it, no SWMR flags left
         gps = f["gps"][()]
@@ -83,7 +83,9 @@ def test_a_receivers_date_before_lock_is_left_out(shared_data, tmp_path):
     session = tmp_path / "s.h5"
     bare_session(session, fixes[0].utc, (fixes[-1].utc - fixes[0].utc).total_seconds())
     result = import_gps_log(session, log, "nmea")
-    assert result.fixes_written == len(fixes) and result.fixes_outside == 0
+    # The one 2008 epoch before the lock (quality 0) is a position without a fix: not written.
+    assert result.fixes_written == sum(f.has_fix for f in fixes) == len(fixes) - 1
+    assert result.dropped_no_fix == 1 and result.fixes_outside == 0
     assert result.clock["outliers"] == 8 and result.clock["jumps"] == 3
 
 
@@ -122,11 +124,11 @@ def test_import_refuses_a_live_stream_and_missing_files(tmp_path, capsys):
     s = write_session(tmp_path / "s.h5", ranges_m=(120.0,), hover_s=2.0, transit_s=1.0)
     log = tmp_path / "log.nmea"
     log.write_bytes(b"$GPGGA,120000.00,3222.8,N,10628.8,W,1,08,0.9,1200.0,M,,M,,*7C\r\n")
-    assert main(["gps-import", str(s.path), "--nmea", str(log)]) == 2
+    assert main(["gps-import", str(s.path), str(log)]) == 2
     err = capsys.readouterr().err
     assert "already holds a live GPS stream; give --replace" in err
     assert gps_source(s.path) == "live"
-    assert main(["gps-import", str(tmp_path / "none.h5"), "--nmea", str(log)]) == 2
+    assert main(["gps-import", str(tmp_path / "none.h5"), str(log)]) == 2
     assert "does not exist" in capsys.readouterr().err
     with pytest.raises(ValueError, match="no NMEA fix with a UTC date"):
         import_gps_log(s.path, log, "nmea", replace=True)  # GGA alone has no date
@@ -161,7 +163,7 @@ def test_the_import_says_what_the_logs_clock_looked_like(shared_data, tmp_path, 
     log.write_bytes(gzip.decompress((shared_data / "dji-airdata" / "air-2s.csv.gz").read_bytes()))
     session = tmp_path / "s.h5"
     bare_session(session, datetime(2021, 9, 6, 2, 48, 9, tzinfo=UTC), 900.0)
-    assert main(["gps-import", str(session), "--dji", str(log)]) == 0
+    assert main(["gps-import", str(session), str(log)]) == 0
     out = capsys.readouterr().out
     assert (
         "the log's clock: 25 segments (24 gaps, 0 time jumps), 31 rows whose time disagrees "

@@ -117,39 +117,57 @@ def test_real_export_every_gpx_point_is_a_fix_with_its_position_and_altitude(air
 
 def test_real_export_one_clock_across_its_gaps_no_row_moves_the_rest(air2s) -> None:
     """The log has 24 gaps in time(millisecond) and rows beside them up to 12.3 s off (the
-    reader before this took the latest row's anchor: every fix 12.3 s late on the GPX). Now
-    every fix is on one anchor, and within 0.15 s of AirData's own GPX of the flight (an
-    independent rendering with tenths of a second) at all 10,817 points."""
+    reader before this took the latest row's anchor: every fix 12.3 s late on the GPX). Every
+    fix is on one anchor whose sub-second comes from the file's own second ticks (the reader
+    before this put it in the middle of the rounded seconds: 0.15 s late), and within 0.1 s of
+    AirData's own GPX of the flight (an independent rendering with tenths of a second) at all
+    10,817 points."""
     from snrmon.drivers.gps.dji_csv import read_dji_log
 
-    path, rows, gpx = air2s
+    path, _rows, gpx = air2s
     log = read_dji_log(path)
     assert log.clock is not None
     assert (log.clock.segments, log.clock.gaps, log.clock.jumps) == (25, 24, 0)
     assert log.clock.anchors == 1
+    # The phase from the file alone: datetime(utc) changes at time(millisecond) = 0 mod 1000
+    # at 1071 of its 1165 ticks.
+    assert (log.tick_phase_ms, log.ticks, log.details["ticks_at_phase"]) == (0, 1165, 1071)
     fixes = {(f.lat_deg, f.lon_deg): f for f in log.fixes}
     offsets = [(fixes[(lat, lon)].utc - t).total_seconds() for lat, lon, _, t in gpx]
-    assert max(abs(o) for o in offsets) <= 0.15 + 1e-6
+    assert max(abs(o) for o in offsets) <= 0.1
     assert max(offsets) - min(offsets) < 1e-6  # one anchor: the GPX's own is one too
-    # datetime(utc) is rounded to the nearest second: every fix's UTC lies within its row's
-    # rounded second (within one 0.1 s step of the log) except the outliers the report names;
-    # AirData's GPX lies there at 89 % of its points, in the truncated second at 39 %.
-    by_pos = {
-        (float(r["latitude"]), float(r["longitude"])): r
-        for r in rows
-        if float(r["latitude"]) or float(r["longitude"])
-    }
-
-    def within(utc: datetime, row: dict, start_s: float) -> bool:
-        u = datetime.strptime(row["datetime(utc)"], "%Y-%m-%d %H:%M:%S").replace(tzinfo=UTC)
-        return start_s - 0.1 <= (utc - u).total_seconds() < start_s + 1.1
-
-    ours_off = sum(not within(f.utc, by_pos[k], -0.5) for k, f in fixes.items())
-    assert ours_off <= log.clock.outliers == 31
-    rounded = sum(within(t, by_pos[(lat, lon)], -0.5) for lat, lon, _, t in gpx) / len(gpx)
-    truncated = sum(within(t, by_pos[(lat, lon)], 0.0) for lat, lon, _, t in gpx) / len(gpx)
-    assert rounded > 0.85 and truncated < 0.5
     assert "off the log's clock" in log.clock.describe()
+
+
+def test_the_phase_is_the_files_own_not_a_constant(air2s, tmp_path) -> None:
+    """The real export re-written with its seconds changing 0.3 s later in its rows (each row's
+    datetime(utc) the second of its UTC + 0.3 s instead of + 0.6 s): the ticks move to 300 mod
+    1000 and every fix's UTC moves with them, 0.3 s earlier: the reader follows the file's
+    ticks, not a fixed phase."""
+    import csv
+    import math
+
+    from snrmon.drivers.gps.dji_csv import read_dji_log
+
+    path, rows, _ = air2s
+    log = read_dji_log(path)
+    before = {(f.lat_deg, f.lon_deg): f.utc for f in log.fixes}
+    first = log.fixes[0]
+    anchor = first.utc.timestamp() - first.t_host_ns / 1e9  # one anchor (the test above)
+    moved = tmp_path / "moved.csv"
+    with moved.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, list(rows[0]))
+        w.writeheader()
+        for r in rows:
+            u = math.floor(anchor + int(r["time(millisecond)"]) / 1000 + 0.3 + 1e-6)
+            w.writerow(
+                {**r, "datetime(utc)": f"{datetime.fromtimestamp(u, UTC):%Y-%m-%d %H:%M:%S}"}
+            )
+    log = read_dji_log(moved)
+    assert log.tick_phase_ms == 300
+    after = {(f.lat_deg, f.lon_deg): f.utc for f in log.fixes}
+    diffs = {round((after[k] - before[k]).total_seconds(), 6) for k in before}
+    assert diffs == {-0.3}
 
 
 def test_a_clock_that_stopped_gets_a_new_anchor_after_its_gap(air2s, tmp_path) -> None:
