@@ -340,6 +340,21 @@ def _strided(buf, frames: list[_Frame]) -> np.ndarray | None:
     )
 
 
+def _decoded(buf, frames: list[_Frame], shape: tuple[int, int], name: str) -> np.ndarray:
+    """Every frame decoded into one array, allocated once the first frame has shown that the
+    records' size is true (a damaged record's size is never allocated)."""
+    stack: np.ndarray | None = None
+    for i, f in enumerate(frames):
+        image = _decode(buf, f, name, i)
+        if image.shape != shape:
+            raise ValueError(f"{name}: frame {i} decodes to {image.shape}, its record says {shape}")
+        if stack is None:
+            stack = np.empty((len(frames), *shape), np.uint16)
+        stack[i] = image
+    assert stack is not None  # frames is never empty
+    return stack
+
+
 def load_flir(path: str | Path) -> FlirRecording:
     """The frames of a FLIR ``.fff``, ``.seq``, ``.csq`` or radiometric ``.jpg``: raw frames
     memory-mapped (read only) where they lie equally spaced in the file, decoded otherwise."""
@@ -361,14 +376,7 @@ def load_flir(path: str | Path) -> FlirRecording:
         raise ValueError(f"{path}: FFF frames differ in size: {shapes} (rows, columns)")
     stack = _strided(buf, frames)
     if stack is None:
-        stack = np.empty((len(frames), *shapes[0]), np.uint16)
-        for i, f in enumerate(frames):
-            image = _decode(buf, f, str(path), i)
-            if image.shape != shapes[0]:
-                raise ValueError(
-                    f"{path}: frame {i} decodes to {image.shape}, its record says {shapes[0]}"
-                )
-            stack[i] = image
+        stack = _decoded(buf, frames, shapes[0], str(path))
     utc = np.array([_utc_ns(buf, f) for f in frames], np.int64).view("datetime64[ns]")
     first = frames[0]
     calibration = camera = None
