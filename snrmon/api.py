@@ -448,7 +448,8 @@ def load_stack(path: str | Path, units: str = "counts") -> xr.DataArray:
         emissivity 1 through a transparent path), and ``temperature_c``, the object
         temperature [degC] by FLIR's raw-to-temperature relation with the file's emissivity,
         reflected and atmospheric temperatures, humidity and distance
-        (docs/measurement.md, "FLIR raw counts to temperature"). Both are float64.
+        (docs/measurement.md, "FLIR raw counts to temperature"). Both are float64 arrays
+        in memory (8 bytes a pixel), where counts stay memory-mapped.
 
     Returns
     -------
