@@ -122,7 +122,7 @@ def _frame(buf, start: int, name: str, index: int) -> _Frame:
     end = start + directory + entries * ENTRY_BYTES
     if end > size:
         raise _TruncatedError(f"its record directory ends at byte {end}")
-    raw: tuple[int, int, int] | None = None
+    raw: tuple[int, int] | None = None
     info: tuple[int, int] | None = None
     for i in range(entries):
         entry = start + directory + i * ENTRY_BYTES
@@ -133,14 +133,14 @@ def _frame(buf, start: int, name: str, index: int) -> _Frame:
         length = _u32(buf, entry + 0x10, order)
         end = max(end, at + length)
         if kind == RAW_DATA and raw is None:
-            raw = (at, length, _u16(buf, entry + 2, order))
+            raw = (at, length)  # its pixels' byte order is the record's own, not the subtype
         elif kind == CAMERA_INFO and info is None:
             info = (at, length)
     if end > size:
         raise _TruncatedError(f"its records end at byte {end}")
     if raw is None:
         raise ValueError(f"{name}: frame {index} (byte {start}) holds no raw data record")
-    at, length, _subtype = raw
+    at, length = raw
     if length < PIXELS_AT:
         raise ValueError(f"{name}: frame {index}: raw data record of {length} bytes")
     pixel_order = _record_order(buf, at)
