@@ -9,7 +9,11 @@ STAMP  := $(VENV)/.installed
 CONSTRAINTS := constraints.txt
 # Every extra the demo and the tests use: the console, the campaign's cluster, the test tools.
 # Not `tables` (LOWTRAN7, compiled with gfortran and cmake): only `make table-check` needs it.
-EXTRAS := gui,campaign,dev,mavlink,compress,flightlogs
+EXTRAS := gui,campaign,dev,mavlink,compress,flightlogs,flir
+# The FLIR tests' independent reader (flirpy, pinned in constraints.txt). Without its own
+# requirements: it caps numpy below the version pinned here, and they would add a second
+# OpenCV distribution over ours and USB camera libraries the tests never use.
+TEST_ONLY := flirpy
 # The folders that install as snrmon.<name> (setup.py). The editable install is a link tree
 # (build/__editable__*, strict mode, so that mypy and import-linter see one namespace): a module
 # added or removed needs a re-install, so the list of the package's files is an input of it.
@@ -26,6 +30,7 @@ $(STAMP): pyproject.toml setup.py $(CONSTRAINTS) $(MODULES)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) -e '.[$(EXTRAS)]' \
 		--config-settings editable_mode=strict
+	$(BIN)/python -m pip install --quiet --no-deps -c $(CONSTRAINTS) $(TEST_ONLY)
 	@# Aravis (GigE/USB3 Vision) needs PyGObject, which builds only where gobject-introspection
 	@# headers are installed (.ci/run installs them); without it the Aravis tests skip.
 	-$(BIN)/python -m pip install --quiet -c $(CONSTRAINTS) 'PyGObject<3.51' \

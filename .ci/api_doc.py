@@ -25,7 +25,9 @@ import snrmon
 snrmon.__all__  # {names}
 ```
 
-`pip install snrmon` is enough for all of it: no Qt, no Dask.
+`pip install snrmon` is enough for all of it: no Qt, no Dask. The camera files `load_stack`,
+`measure_stack` and `track_stack` read, and what they read of each:
+[camera-files.md](camera-files.md).
 """
 
 

@@ -20,7 +20,21 @@ from pathlib import Path
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 
-EXTRAS = ("gui", "campaign", "dev", "mavlink", "compress", "flightlogs", "aravis", "tiff", "tables")
+EXTRAS = (
+    "gui",
+    "campaign",
+    "dev",
+    "mavlink",
+    "compress",
+    "flightlogs",
+    "aravis",
+    "tiff",
+    "tables",
+    "flir",
+)
+# Installed by the Makefile without their requirements (test-only independent readers whose
+# own requirements conflict with the pins here): pinned when installed, their needs not followed.
+TEST_ONLY = ("flirpy",)
 
 
 def closure(root: str, extras: tuple[str, ...]) -> dict[str, str]:
@@ -53,6 +67,11 @@ def closure(root: str, extras: tuple[str, ...]) -> dict[str, str]:
 def pins() -> dict[str, str]:
     found = closure("snrmon", EXTRAS)
     found.pop("snrmon", None)
+    for name in TEST_ONLY:
+        try:
+            found[canonicalize_name(name)] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
     return found
 
 

@@ -426,7 +426,10 @@ def _add_flag_columns(frame: pd.DataFrame, bits: np.ndarray) -> None:
 
 
 # ----------------------------------------------------------------------------- stacks
-def load_stack(path: str | Path) -> xr.DataArray:
+STACK_UNITS = ("counts", "radiance", "temperature_c")
+
+
+def load_stack(path: str | Path, units: str = "counts") -> xr.DataArray:
     """The frames of a stack file as a DataArray ``(frame, row, col)``, memory-mapped where
     the format allows.
 
@@ -435,15 +438,32 @@ def load_stack(path: str | Path) -> xr.DataArray:
     path : str or os.PathLike
         ``.npy`` (N, H, W) or (H, W); a multi-page TIFF; PNG; a raw file with ``FILE.json``
         beside it (``{"shape": [N, H, W], "dtype": "<u2"}``); a video (8-bit grey); a
-        Cedip/Altair ``.ptw`` radiometric recording; and every other format
-        :mod:`snrmon.acquisition.replay.stack_io` reads.
+        Cedip/Altair ``.ptw`` radiometric recording; a FLIR ``.seq``, ``.csq``, ``.fff`` or
+        radiometric ``.jpg``; and every other format
+        :mod:`snrmon.acquisition.replay.stack_io` reads (docs/camera-files.md).
+    units : {"counts", "radiance", "temperature_c"}
+        ``counts``: the pixels as the file stores them. For a file that carries its camera's
+        radiometric calibration (FLIR): ``radiance``, the object signal in the camera's
+        radiometric unit (the count a blackbody at the object's temperature would give at
+        emissivity 1 through a transparent path), and ``temperature_c``, the object
+        temperature [degC] by FLIR's raw-to-temperature relation with the file's emissivity,
+        reflected and atmospheric temperatures, humidity and distance
+        (docs/measurement.md, "FLIR raw counts to temperature"). Both are float64 arrays
+        in memory (8 bytes a pixel), where counts stay memory-mapped.
 
     Returns
     -------
     xarray.DataArray
-        Dimensions ``frame``, ``row``, ``col``; attributes ``source`` (the path) and, for a
-        ``.ptw`` recording, what its header says (``camera``, ``lens``,
-        ``integration_time_s``, ``frame_period_s``).
+        Dimensions ``frame``, ``row``, ``col``; a ``time`` coordinate on ``frame`` (UTC,
+        datetime64[ns]) where the file stores each frame's time; attributes ``source`` (the
+        path), ``units`` (``DN``, ``DN (object signal)`` or ``degC``), what the file says of
+        its camera (``.ptw``: ``camera``, ``lens``, ``filter``, ``integration_time_s``,
+        ``frame_period_s``; FLIR: ``camera``, ``serial_number``, ``lens``, ``frame_rate_hz``,
+        ``utc_offset_min``) and a FLIR file's calibration (``planck_r1``, ``planck_r2``,
+        ``planck_b``, ``planck_f``, ``planck_o``, ``emissivity``, ``object_distance_m``,
+        ``reflected_temp_k``, ``atmospheric_temp_k``, ``ir_window_temp_k``,
+        ``ir_window_transmission``, ``relative_humidity`` (a ratio), ``atm_trans_alpha1``,
+        ``atm_trans_alpha2``, ``atm_trans_beta1``, ``atm_trans_beta2``, ``atm_trans_x``).
 
     Examples
     --------
@@ -453,21 +473,29 @@ def load_stack(path: str | Path) -> xr.DataArray:
     >>> snrmon.load_stack(path).sizes
     Frozen({'frame': 5, 'row': 16, 'col': 20})
     """
-    from snrmon.acquisition.replay.stack_io import load_stack as read
+    from snrmon.acquisition.replay.stack_io import read_stack
 
-    stack = read(path)
-    attrs: dict[str, Any] = {"source": str(path), "units": "DN"}
-    if Path(path).suffix.lower() == ".ptw":  # a radiometric camera's file names the camera
-        from snrmon.acquisition.replay.ptw import read_ptw_header
-
-        header = read_ptw_header(path)
-        attrs |= {
-            "camera": header.camera_name,
-            "lens": header.lens_name,
-            "integration_time_s": header.integration_time_s,
-            "frame_period_s": header.frame_period_s,
-        }
-    return xr.DataArray(stack, dims=("frame", "row", "col"), attrs=attrs, name="frames")
+    if units not in STACK_UNITS:
+        raise ValueError(f"units must be one of {', '.join(STACK_UNITS)}; got {units!r}")
+    stack = read_stack(path)
+    attrs: dict[str, Any] = {"source": str(path), "units": "DN", **stack.attrs}
+    data: np.ndarray = stack.frames
+    if stack.radiometry is not None:
+        attrs |= stack.radiometry.attrs()
+    if units != "counts":
+        if stack.radiometry is None:
+            raise ValueError(
+                f"{path}: units={units!r} needs the camera's radiometric calibration, which "
+                "this file does not carry (a FLIR .seq/.csq/.fff/.jpg does); only counts"
+            )
+        if units == "radiance":
+            data, attrs["units"] = stack.radiometry.object_signal(data), "DN (object signal)"
+        else:
+            data, attrs["units"] = stack.radiometry.temperature_c(data), "degC"
+    coords = {} if stack.utc is None else {"time": ("frame", stack.utc)}
+    return xr.DataArray(
+        data, dims=("frame", "row", "col"), coords=coords, attrs=attrs, name="frames"
+    )
 
 
 def measure_stack(

@@ -31,6 +31,11 @@ STACK_SIGNATURES: dict[str, tuple[bytes, ...]] = {
     ".tiff": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
     ".npy": (b"\x93NUMPY",),
     ".png": (b"\x89PNG\r\n\x1a\n",),
+    ".seq": (b"FFF\x00",),
+    ".csq": (b"FFF\x00",),
+    ".fff": (b"FFF\x00",),
+    ".jpg": (b"\xff\xd8\xff",),
+    ".jpeg": (b"\xff\xd8\xff",),
 }
 STACK_KINDS = {
     ".h5": "an HDF5 file",
@@ -39,6 +44,11 @@ STACK_KINDS = {
     ".tiff": "a TIFF file",
     ".npy": "a numpy .npy array",
     ".png": "a PNG image",
+    ".seq": "a FLIR SEQ recording (FFF frames)",
+    ".csq": "a FLIR CSQ recording (FFF frames)",
+    ".fff": "a FLIR FFF frame",
+    ".jpg": "a JPEG image",
+    ".jpeg": "a JPEG image",
 }
 
 

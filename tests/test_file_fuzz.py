@@ -5,8 +5,9 @@ shows as one line and exit 2.
 
 The files: the real NMEA logs and the real AirData export (its first 1,500 rows) of tests/data;
 frames of the real thermal clips as a multi-page TIFF and as a raw file with its descriptor; a
-real clip (mp4); the real .ptw recordings when the stack reader knows the format; a session file
-written by the recorder. There is no real .tlog in tests/data: the tlog here is one that
+real clip (mp4); the real .ptw recordings when the stack reader knows the format; the real FLIR
+.seq and .fff, and that .fff in a radiometric JPEG's APP1 chunks; a session file written by the
+recorder. There is no real .tlog in tests/data: the tlog here is one that
 pymavlink writes for a simulated flight.
 """
 
@@ -145,6 +146,33 @@ def _read_gps(kind: str) -> Callable[[Path], None]:
     return read
 
 
+def _flir(name: str) -> Callable[[Path, Path], Path]:
+    def make(data: Path, folder: Path) -> Path:
+        return Path(shutil.copy(data / "field-formats" / "flir" / name, folder / name))
+
+    return make
+
+
+def _flir_jpeg(data: Path, folder: Path) -> Path:
+    """The real little-endian FFF frame in the FLIR APP1 chunks of a radiometric JPEG."""
+    import cv2
+
+    fff = (data / "field-formats" / "flir" / "flirpy-frame_000000_le.fff").read_bytes()
+    chunks = [fff[i : i + 60000] for i in range(0, len(fff), 60000)]
+    app1 = b"".join(
+        b"\xff\xe1"
+        + (len(c) + 10).to_bytes(2, "big")
+        + b"FLIR\0\x01"
+        + bytes([i, len(chunks) - 1])
+        + c
+        for i, c in enumerate(chunks)
+    )
+    jpeg = cv2.imencode(".jpg", np.full((24, 32), 128, np.uint8))[1].tobytes()
+    path = folder / "IR_0001.jpg"
+    path.write_bytes(jpeg[:2] + app1 + jpeg[2:])
+    return path
+
+
 FILES: dict[str, tuple[Callable[[Path, Path], Path], Callable[[Path], None]]] = {
     **{f"nmea:{n}": (_nmea(n), _read_gps("nmea")) for n in ("mtk-3301", "nmea-rtk")},
     "dji": (_dji, _read_gps("dji_csv")),
@@ -154,6 +182,9 @@ FILES: dict[str, tuple[Callable[[Path, Path], Path], Callable[[Path], None]]] = 
     "mp4": (_mp4, _read_stack),
     "ptw:MWIR": (_ptw("PyradiSampleMWIR"), _read_stack),
     "ptw:LWIR": (_ptw("PyradiSampleLWIR"), _read_stack),
+    "flir:seq": (_flir("flirpy-test.seq"), _read_stack),
+    "flir:fff": (_flir("flirpy-frame_000000_le.fff"), _read_stack),
+    "flir:jpg": (_flir_jpeg, _read_stack),
     "session": (_session, _read_session),
 }
 
@@ -233,6 +264,7 @@ def test_damaged_files_through_the_commands(how, shared_data, tmp_path, capsys):
         "nmea": (_nmea("nmea-rtk"), ["gps-import", str(target), "--format", "nmea", "--replace"]),
         "dji": (_dji, ["gps-import", str(target), "--format", "dji_csv", "--replace"]),
         "tiff": (_tiff, ["measure", "--at", "60,60", "--json"]),
+        "flir": (_flir("flirpy-test.seq"), ["measure", "--at", "363,92", "--json"]),
         "session": (_session, ["replay", "--fast", "--json"]),
     }
     for name, (make, argv) in runs.items():
@@ -244,7 +276,7 @@ def test_damaged_files_through_the_commands(how, shared_data, tmp_path, capsys):
         damaged.write_bytes(mutate(original.read_bytes(), how, rng))
         # gps-import takes the session, then the log
         full = [*argv[:2], str(damaged), *argv[2:]]
-        if name == "tiff":
+        if name in ("tiff", "flir"):
             full = ["measure", str(damaged), *argv[1:]]
         if name == "session":
             full = ["replay", str(damaged), "--fast", "--json"]

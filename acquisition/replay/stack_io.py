@@ -18,8 +18,14 @@ Sources (chosen by the file name's suffix):
 * ``.ptw``: an Altair/ResearchIR radiometric recording (Cedip, FLIR): 16-bit frames as written,
   memory-mapped past each frame header (:mod:`snrmon.acquisition.replay.ptw`; rows, columns and
   frame count from its header, which is checked against the file).
+* FLIR ``.seq``, ``.csq``, ``.fff`` and radiometric ``.jpg``: the raw 16-bit counts of every
+  FFF frame, each frame's time and the camera's calibration (:mod:`snrmon.acquisition.replay.flir`).
 * video (``.mp4 .avi .mkv .mov .mpg .mpeg .wmv .m4v``) through OpenCV: 8-bit frames (the camera's
   AGC'd output, not radiometric counts), first channel of each.
+
+:func:`read_stack` is the one reader of every format: the frames and what the file says about
+them (:class:`StackFile`: the camera, each frame's time, the camera's own radiometric
+calibration); :func:`load_stack` is its frames.
 
 Bad input is a ValueError (wrong shape, dtype, size, descriptor) or OSError (missing, unreadable)
 with one message naming the file and the value.
@@ -29,11 +35,14 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Protocol
 
 import cv2
 import numpy as np
 
+from snrmon.acquisition.replay.flir import FLIR_SUFFIXES, load_flir
 from snrmon.acquisition.replay.ptw import load_ptw
 
 VIDEO_SUFFIXES = frozenset({".mp4", ".avi", ".mkv", ".mov", ".mpg", ".mpeg", ".wmv", ".m4v"})
@@ -102,7 +111,9 @@ def _raw_descriptor(path: Path) -> tuple[Path, tuple[int, int, int], np.dtype]:
 
 def _is_raw(path: Path) -> bool:
     _, desc = _raw_paths(path)
-    return desc.is_file() and path.suffix not in (".npy", ".tif", ".tiff", ".png", ".ptw")
+    return desc.is_file() and path.suffix.lower() not in (
+        {".npy", ".tif", ".tiff", ".png", ".ptw"} | FLIR_SUFFIXES
+    )
 
 
 def _open_video(path: Path) -> cv2.VideoCapture:
@@ -208,7 +219,8 @@ def _load_tiff(path: Path) -> np.ndarray:
 
 def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
     """Frames (H, W) of a stack file one by one, without loading the whole file where the
-    format allows (npy, raw and PTW are memory-mapped, TIFF read page by page, video decoded)."""
+    format allows (npy, raw, PTW and FLIR raw frames are memory-mapped, TIFF read page by page,
+    video decoded)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in VIDEO_SUFFIXES:
@@ -231,13 +243,77 @@ def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
         yield from load_stack(path)
 
 
-def load_stack(path: str | Path) -> np.ndarray:
-    """The frames of ``path`` as an array (N, H, W) (see the module docstring for formats)."""
+class Radiometry(Protocol):
+    """A camera's own calibration of its counts, as its file carries it."""
+
+    def object_signal(self, raw: np.ndarray) -> np.ndarray:
+        """The object's radiance in the camera's radiometric unit."""
+        ...
+
+    def temperature_c(self, raw: np.ndarray) -> np.ndarray:
+        """The object's temperature [degC]."""
+        ...
+
+    def attrs(self) -> dict[str, float]:
+        """The calibration's constants, named."""
+        ...
+
+
+@dataclass(frozen=True)
+class StackFile:
+    """A stack file's frames (N, H, W) and what the file says about them: ``attrs`` (the
+    camera, lens, filter, ... units in the names), ``utc`` (each frame's time, datetime64[ns],
+    NaT where unknown; None for a file that stores no times) and ``radiometry`` (None for
+    counts with no calibration in the file)."""
+
+    frames: np.ndarray
+    attrs: dict[str, Any] = field(default_factory=dict)
+    utc: np.ndarray | None = None
+    radiometry: Radiometry | None = None
+
+    def camera_line(self) -> str:
+        """``camera NAME (LENS, filter F)``, or "" for a file that names no camera."""
+        if "camera" not in self.attrs:
+            return ""
+        optics = [self.attrs.get("lens") or "", self.attrs.get("filter") or ""]
+        optics[1] = optics[1] and f"filter {optics[1]}"
+        inner = ", ".join(o for o in optics if o)
+        return f"camera {self.attrs['camera'] or '?'}" + (f" ({inner})" if inner else "")
+
+
+def _ptw_file(path: Path) -> StackFile:
+    frames, header = load_ptw(path)
+    attrs = {
+        "camera": header.camera_name,
+        "lens": header.lens_name,
+        "filter": header.filter_name,
+        "integration_time_s": header.integration_time_s,
+        "frame_period_s": header.frame_period_s,
+    }
+    return StackFile(_as_stack(frames, path), attrs)
+
+
+def _flir_file(path: Path) -> StackFile:
+    rec = load_flir(path)
+    attrs: dict[str, Any] = {}
+    if rec.camera is not None:
+        attrs = {
+            "camera": rec.camera.model,
+            "serial_number": rec.camera.serial_number,
+            "lens": rec.camera.lens,
+            "frame_rate_hz": rec.camera.frame_rate_hz,
+            "utc_offset_min": rec.camera.utc_offset_min,
+        }
+    return StackFile(_as_stack(rec.frames, path), attrs, rec.utc, rec.calibration)
+
+
+def read_stack(path: str | Path) -> StackFile:
+    """The frames of ``path`` and what the file says about them (module docstring)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if _is_raw(path):
         data, shape, dtype = _raw_descriptor(path)
-        return _as_stack(np.memmap(data, dtype=dtype, mode="r", shape=shape), data)
+        return StackFile(_as_stack(np.memmap(data, dtype=dtype, mode="r", shape=shape), data))
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
     if suffix == ".npy":
@@ -245,22 +321,30 @@ def load_stack(path: str | Path) -> np.ndarray:
             array = np.load(path, mmap_mode="r", allow_pickle=False)
         except (ValueError, OSError, EOFError) as exc:
             raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
-        return _as_stack(array, path)
+        return StackFile(_as_stack(array, path))
     if suffix in (".tif", ".tiff"):
-        return _as_stack(_load_tiff(path), path)
+        return StackFile(_as_stack(_load_tiff(path), path))
     if suffix == ".ptw":
-        return _as_stack(load_ptw(path)[0], path)
+        return _ptw_file(path)
+    if suffix in FLIR_SUFFIXES:
+        return _flir_file(path)
     if suffix == ".png":
         image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         if image is None:
             raise ValueError(f"{path}: OpenCV cannot read this PNG")
-        return _as_stack(_grey(image), path)
+        return StackFile(_as_stack(_grey(image), path))
     if suffix in VIDEO_SUFFIXES:
         frames = list(iter_stack(path))
         if not frames:
             raise ValueError(f"{path}: the video holds no frames OpenCV can decode")
-        return _as_stack(np.stack(frames), path)
+        return StackFile(_as_stack(np.stack(frames), path))
     raise ValueError(
         f"{path}: unknown stack format {suffix or '(no suffix)'!r}; expected .npy, .tif/.tiff, "
-        f".ptw, .png, a video, or a raw file with {path.name}.json beside it"
+        f".ptw, FLIR .seq/.csq/.fff/.jpg, .png, a video, or a raw file with {path.name}.json "
+        "beside it"
     )
+
+
+def load_stack(path: str | Path) -> np.ndarray:
+    """The frames of ``path`` as an array (N, H, W) (see the module docstring for formats)."""
+    return read_stack(path).frames

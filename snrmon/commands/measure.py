@@ -72,7 +72,8 @@ def register(sub: argparse._SubParsersAction) -> None:
             "Per frame: the brightest pixel in a search window centred on X,Y; the box centred on "
             "it; SNR = (peak - mean(rim)) / std(rim), sample std (ddof=1). X is the column, Y the "
             "row, zero-based. STACK: .npy (N,H,W) or (H,W), multi-page TIFF, an Altair/ResearchIR "
-            ".ptw recording, PNG, a raw file with FILE.json beside it, or a video (8-bit)."
+            ".ptw recording, a FLIR .seq/.csq/.fff/radiometric .jpg (raw counts), PNG, a raw file "
+            "with FILE.json beside it, or a video (8-bit)."
         ),
     )
     p.add_argument("stack", metavar="STACK", help="the frames")

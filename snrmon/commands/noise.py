@@ -6,9 +6,10 @@
 D'Agostino and Webb's seven components (sigma_t ... sigma_tvh), each directional estimate and its
 finite-size bias removed (Haefner and Burks) with a 95 % confidence interval, and the total
 (:mod:`snrmon.acquisition.measure.noise3d`, docs/measurement.md). A STACK is any file
-``snrmon measure`` reads (.npy, TIFF, .ptw, raw + JSON, video); a session file gives one camera's
-frames over a span of frames or seconds, or a stop's background: the frames the stop's SNR
-summarises, in the largest region clear of the target (``--roi`` replaces it).
+``snrmon measure`` reads (.npy, TIFF, .ptw, FLIR .seq/.csq/.fff/.jpg, raw + JSON, video); a
+session file gives one camera's frames over a span of frames or seconds, or a stop's background:
+the frames the stop's SNR summarises, in the largest region clear of the target (``--roi``
+replaces it).
 
 With a radiometric calibration (``--calibration``, or the one the session's camera was measured
 with) every figure is also given in kelvin and NETD = sigma_tvh / SiTF, the SiTF [DN/K] being the
@@ -62,8 +63,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         description=(
             "The 3D noise (D'Agostino and Webb) of a stack file, a recorded camera or blackbody "
             "frames: the seven directional estimates, the bias-corrected ones with 95 %% "
-            "intervals, the total, and NETD with a calibration. STACK: .npy, TIFF, .ptw, raw + "
-            "JSON, video, or a snrmon session file (.h5)."
+            "intervals, the total, and NETD with a calibration. STACK: .npy, TIFF, .ptw, FLIR "
+            ".seq/.csq/.fff/.jpg, raw + JSON, video, or a snrmon session file (.h5)."
         ),
     )
     p.add_argument("stack", metavar="STACK", help="the frames: a stack file or a session file")
@@ -129,22 +130,21 @@ def _roi(text: str | None, shape: tuple[int, int]):
 def _stack_noise(args: argparse.Namespace):
     """(source line, region, sums, (calibration, its source) or None) of a stack file."""
     from snrmon.acquisition.measure.noise3d import Noise3dSums
-    from snrmon.acquisition.replay.ptw import read_ptw_header
-    from snrmon.acquisition.replay.stack_io import load_stack
+    from snrmon.acquisition.replay.stack_io import read_stack
 
     for opt in ("seconds", "stop", "camera"):
         if getattr(args, opt) is not None:
             raise UsageError(f"--{opt} needs a session file; {args.stack} is a stack")
-    stack = load_stack(args.stack)
+    stack_file = read_stack(args.stack)
+    stack = stack_file.frames
     lo, hi = _frame_range(args.frames, stack.shape[0], "--frames")
     region = _roi(args.roi, stack.shape[1:])
     x0, y0, x1, y1 = region
     sums = Noise3dSums(y1 - y0 + 1, x1 - x0 + 1)
     sums.add(stack[lo:hi, y0 : y1 + 1, x0 : x1 + 1])
     source = f"{Path(args.stack).name}: frames {lo}-{hi - 1}"
-    if Path(args.stack).suffix.lower() == ".ptw":
-        h = read_ptw_header(args.stack)
-        source += f", camera {h.camera_name or '?'} ({h.lens_name}, filter {h.filter_name})"
+    if stack_file.camera_line():
+        source += f", {stack_file.camera_line()}"
     calibration = None
     if args.calibration is not None:
         from snrmon.acquisition.calibrate.calibration_file import load_calibration

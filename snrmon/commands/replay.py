@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "file",
         metavar="FILE",
         help="a snrmon session file (.h5), or another tool's recording (multi-page TIFF, .ptw, "
-        "raw file with FILE.json, video, .npy) measured from --at",
+        "FLIR .seq/.csq/.fff/.jpg, raw file with FILE.json, video, .npy) measured from --at",
     )
     p.add_argument(
         "--at",

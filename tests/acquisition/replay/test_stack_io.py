@@ -36,8 +36,13 @@ def test_npy_wrong_shape_and_missing_file(tmp_path):
         load_stack(tmp_path / "junk.npy")
 
 
-def test_multipage_tiff_keeps_16_bits(tmp_path, stack):
-    # OpenCV writes LZW, which tifffile decodes only with imagecodecs: the OpenCV fallback.
+def test_multipage_tiff_keeps_16_bits(tmp_path, stack, monkeypatch):
+    # OpenCV writes LZW, which tifffile decodes only with imagecodecs: the OpenCV fallback
+    # (tifffile made to answer as it does where imagecodecs is not installed).
+    def no_codec(self, *args, **kwargs):
+        raise ValueError(f"<COMPRESSION.LZW: 5> requires the 'imagecodecs' package ({self})")
+
+    monkeypatch.setattr(tifffile.TiffPage, "asarray", no_codec)
     path = str(tmp_path / "s.tif")
     assert cv2.imwritemulti(path, list(stack))
     loaded = load_stack(path)
