@@ -7,7 +7,8 @@ An :class:`Atmosphere` is spectral, one of
   the readings not given; by default the US Standard 1976 atmosphere's sea-level air and no
   aerosol), at any path length;
 * a file's spectrum (MODTRAN tape7 or CSV, :mod:`snrmon.model.modtran`) of one path length
-  L0, scaled to other ranges per spectral point as tau(R) = tau(L0)^(R/L0);
+  L0, moved to other ranges per spectral sample along the LOWTRAN7 table's curve of growth
+  (up to 300 x L0), or one tape7 per range, interpolated per sample between them;
 
 or grey (no spectrum: transmission 1, "none"); any of them times a constant transmission
 ``constant_tau`` and a grey aerosol factor exp(-beta R_km) (user parameters).
