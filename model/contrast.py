@@ -12,10 +12,10 @@ blackbody at the measured sky temperature, or S_air itself when no sky temperatu
 infinite path of the model's own atmosphere; then dLq = tau (L_t - S_air) as before). The paper
 corrected the background with the measured sky (its path-radiance correction, sections 8-9);
 using the sky temperature for the path as well understates the contrast when the air is warmer
-than the sky (7-10 % with a 280 K sky and 288 K air in the MWIR). tau is the atmosphere's
-spectral transmission averaged over each quadrature cell
-(:meth:`snrmon.model.atmosphere.Atmosphere.signal_transmission`), so the integral weights it by
-the contrast spectrum itself.
+than the sky (4-13 % at 37-508 m with a 280 K sky and 288 K air in the MWIR, UAV1;
+tools/doc_figures.py). tau is the atmosphere's spectral transmission averaged over each
+quadrature cell (:meth:`snrmon.model.atmosphere.Atmosphere.signal_transmission`), so the
+integral weights it by the contrast spectrum itself.
 
 When no sky temperature is given the sky is ASSUMED equal to the air (``sky_assumed``): the
 Monte-Carlo band then draws the sky with :attr:`snrmon.model.montecarlo.InputUncertainty.
