@@ -20,8 +20,9 @@ response (:mod:`snrmon.model.contrast`), so the transmission that multiplies it 
 that contrast spectrum at every standard atmosphere and weather: where the mid-wave CO2 band eats
 the strongest part of a warm target's contrast the weighted value is 7-14 % below the flat
 band average. :meth:`Atmosphere.contrast_transmission` gives the band's value weighted by the
-thermal contrast of a near-ambient target (dLq/dT at the air temperature, photon units; dL/dT,
-power, for a thermal detector), the number to quote beside the flat :meth:`transmission`.
+thermal contrast of a near-ambient target (dLq/dT at the air temperature, photon units: the
+units in which the model integrates every detector's signal, the bolometer's included; dL/dT,
+power, on request), the number to quote beside the flat :meth:`transmission`.
 
 Path radiance is (1 - tau) L(T_path) per spectral cell: T_path is the air temperature unless
 the paper's correction is applied (a measured sky/background temperature, see
