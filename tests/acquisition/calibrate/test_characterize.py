@@ -194,24 +194,28 @@ def test_rss_delta_t_includes_the_target_spread(cam, cal):
     assert r.rss_delta_t_k > r.temp_k - r.background_k + 0.3
 
 
+def _cross(camera, range_m: float, temp_k: float) -> np.ndarray:
+    """The cross without blades at ``temp_k`` against the sky, off the pixel grid (electrons)."""
+    e, _, _ = cross_drone(
+        camera,
+        range_m=range_m,
+        xc=XC + 0.3,
+        yc=YC + 0.6,
+        span_m=SPAN_M,
+        arm_m=ARM_M,
+        temp_k=temp_k,
+        sky_temp_k=SKY_K,
+    )
+    return e
+
+
 def test_what_it_cannot_measure_it_refuses_with_the_numbers(cam, cal):
     """At least 25 frames and 7 px per dimension (twice the 3-px opening, plus one). The cross
     at 37 m (12 x 16 px) holds; 10 frames of it do not; at 80 m the opening has eaten its
     2.5-px arms (large 6.3 px, 16 % low) and in the LWIR at 37 m (2.7-px arms) too."""
 
     def summary(camera, range_m, n):
-        sky = camera.electrons(SKY_K)
-        e, _, _ = cross_drone(
-            camera,
-            range_m=range_m,
-            xc=XC + 0.3,
-            yc=YC + 0.6,
-            span_m=SPAN_M,
-            arm_m=ARM_M,
-            temp_k=DRONE_K,
-            sky_temp_k=SKY_K,
-        )
-        assert e.min() >= 0.99 * sky
+        e = _cross(camera, range_m, DRONE_K)
         res = characterize_frames(
             ((f, (XC, YC)) for f in camera.frames(e, n, seed=5)),
             camera=camera.sensor.name,
@@ -247,17 +251,7 @@ def test_through_the_air_the_drone_is_corrected_and_the_sky_read_as_seen(cam, ca
         temperature_of(band, path.apparent_radiance(radiance_of(band, DRONE_K), band), ())
     )
     assert DRONE_K - seen_k > 2.5
-    e, _, _ = cross_drone(
-        cam,
-        range_m=RANGE_M,
-        xc=XC + 0.3,
-        yc=YC + 0.6,
-        span_m=SPAN_M,
-        arm_m=ARM_M,
-        temp_k=seen_k,
-        sky_temp_k=SKY_K,
-    )
-    frames = cam.frames(e, 8, seed=9)
+    frames = cam.frames(_cross(cam, RANGE_M, seen_k), 8, seed=9)
     kw = dict(range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal)
     own = summarise_frames(
         [characterize_frame(f, (XC, YC), path=path, **kw) for f in frames],
