@@ -106,6 +106,8 @@ class Predictor(Protocol):
     """The background temperature the current curves were computed for, per camera (K)."""
     curves_psf: dict[str, Any]
     """The corrected PSF the current curves were computed with, per camera (None: preset's)."""
+    curves_psf_source: dict[str, str]
+    """Which PSF that is, in words for the console (:func:`psf_source`), per camera."""
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
         """The curves at ``range_m`` (``CURVES``, ``EXPECTED_CURVES``, ``resolved_small``, and
@@ -139,6 +141,19 @@ class Predictor(Protocol):
     ) -> None:
         """``camera``'s measured 3D noise in place of the model's (None: the model's own)."""
         ...
+
+
+def psf_source(sensor, psf) -> str:
+    """Which PSF a prediction's corrected curves used, in words (paper sections 5 and 8): the
+    sensor preset's (``psf`` None: ``Sensor.corrected_psf_source``, e.g. "preset: PVF 0.082
+    (sensor mwir)"), or one measured from the flight's unresolved stops ("fitted: sigma 0.59 px
+    from this flight's stops", its Gaussian blur)."""
+    if psf is None:
+        return str(sensor.corrected_psf_source)
+    sigma = getattr(psf, "sigma_px", None)
+    if sigma is None:
+        return "fitted: from this flight's stops"
+    return f"fitted: sigma {float(sigma):.2f} px from this flight's stops"
 
 
 class ModelPredictor:
@@ -177,6 +192,7 @@ class ModelPredictor:
         # The corrected PSF the current curves were computed with (None: the sensor preset's),
         # swapped in with them, so a stop row names the curves its values came from.
         self.curves_psf: dict[str, object] = {}
+        self.curves_psf_source: dict[str, str] = {}
         self.psf: dict[str, object] = {}
         # The met readings each camera's curves are (being) computed for (None: the options')
         default_weather = predict_options.get("atmosphere")
@@ -313,6 +329,8 @@ class ModelPredictor:
             self.curves = {**self.curves, camera: curves}  # swapped whole: no half reads
             self.curves_background_k = {**self.curves_background_k, camera: used_k}
             self.curves_psf = {**self.curves_psf, camera: psf}
+            source = psf_source(self.sensors[camera], psf)
+            self.curves_psf_source = {**self.curves_psf_source, camera: source}
             self.version += 1
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:

@@ -7,7 +7,8 @@ An :class:`Atmosphere` is spectral, one of
   the readings not given; by default the US Standard 1976 atmosphere's sea-level air and no
   aerosol), at any path length;
 * a file's spectrum (MODTRAN tape7 or CSV, :mod:`snrmon.model.modtran`) of one path length
-  L0, scaled to other ranges per spectral point as tau(R) = tau(L0)^(R/L0);
+  L0, moved to other ranges per spectral sample along the LOWTRAN7 table's curve of growth
+  (up to 300 x L0), or one tape7 per range, interpolated per sample between them;
 
 or grey (no spectrum: transmission 1, "none"); any of them times a constant transmission
 ``constant_tau`` and a grey aerosol factor exp(-beta R_km) (user parameters).
@@ -19,8 +20,9 @@ response (:mod:`snrmon.model.contrast`), so the transmission that multiplies it 
 that contrast spectrum at every standard atmosphere and weather: where the mid-wave CO2 band eats
 the strongest part of a warm target's contrast the weighted value is 7-14 % below the flat
 band average. :meth:`Atmosphere.contrast_transmission` gives the band's value weighted by the
-thermal contrast of a near-ambient target (dLq/dT at the air temperature, photon units; dL/dT,
-power, for a thermal detector), the number to quote beside the flat :meth:`transmission`.
+thermal contrast of a near-ambient target (dLq/dT at the air temperature, photon units: the
+units in which the model integrates every detector's signal, the bolometer's included; dL/dT,
+power, on request), the number to quote beside the flat :meth:`transmission`.
 
 Path radiance is (1 - tau) L(T_path) per spectral cell: T_path is the air temperature unless
 the paper's correction is applied (a measured sky/background temperature, see

@@ -54,6 +54,8 @@ PRESSURE_RANGE_HPA = (700.0, 1060.0)
 VISIBILITY_RANGE_KM = (0.5, 300.0)  # 3.912 / 0.01159 = 337 km is LOWTRAN7's aerosol-free limit
 AEROSOL_REFERENCE_VIS_KM = 23.0
 _RAYLEIGH_550_PER_KM = 0.01159
+GROWTH_PATHS_M = np.geomspace(0.1, 1e5, 241)  # the curve of growth's nodes: 40 per decade
+_OPAQUE_OD = -math.log(1e-3)  # beyond: a sample's OD is not read from it (moved_optical_depth)
 
 
 def saturation_density_g_m3(temp_k: float) -> float:
@@ -292,6 +294,75 @@ class AtmosphereTable:
     ) -> np.ndarray:
         """(n_ranges, n_nu) spectral transmittance, in the table's wavenumber order."""
         return np.exp(-self.optical_depth(weather, ranges_m, columns))
+
+    @functools.lru_cache(maxsize=16)  # noqa: B019 (one table, loaded once)
+    def _growth_curves(self, weather: Weather, wavenumber: bytes) -> tuple[np.ndarray, np.ndarray]:
+        """ln OD (n_paths, n) of the paths :data:`GROWTH_PATHS_M` at the wavenumbers
+        ``wavenumber`` (float64 bytes), interpolated linearly between the table's samples,
+        non-decreasing in path; and which wavenumbers lie inside its windows (n,)."""
+        nu = np.frombuffer(wavenumber)
+        od = self.optical_depth(weather, GROWTH_PATHS_M)
+        ln_od = np.log(np.maximum(od, 1e-300))
+        out = np.zeros((GROWTH_PATHS_M.size, nu.size))
+        inside = np.zeros(nu.size, bool)
+        grid = self.wavenumber_cm1
+        # the table's windows: runs of its 5 cm^-1 steps (nothing is interpolated across a gap)
+        breaks = np.flatnonzero(np.diff(grid) > 1.5 * np.min(np.diff(grid))) + 1
+        for part in np.split(np.arange(grid.size), breaks):
+            here = (nu >= grid[part[0]]) & (nu <= grid[part[-1]])
+            inside |= here
+            for i in range(GROWTH_PATHS_M.size):
+                out[i, here] = np.interp(nu[here], grid[part], ln_od[i, part])
+        out = np.maximum.accumulate(out, axis=0)
+        out.setflags(write=False)
+        inside.setflags(write=False)
+        return out, inside
+
+    def moved_optical_depth(
+        self, weather: Weather, wavenumber_cm1, od0, path_m: float, ranges_m
+    ) -> np.ndarray:
+        """(n_ranges, n) optical depth at ``ranges_m`` of a spectrum whose samples (at
+        ``wavenumber_cm1``) have optical depth ``od0`` over a path of ``path_m``, moved along
+        the band model's own curve of growth (paper sections 8-9): each sample's OD is placed
+        on this table's curve OD(L) for ``weather`` at that wavenumber (its equivalent path,
+        where the curve reaches ``od0``), and read again at that path times R / ``path_m``. The
+        curve holds what Beer-Lambert per sample does not: a sample 20 cm^-1 wide is a band of
+        lines, whose absorption grows as (K rho L)^a with a < 1, not as L. A sample nearly
+        opaque (tau < 1e-3, OD > 6.9, total included) says little of its absorber: a file's
+        four decimals hold its OD to 5 % at best; its equivalent path is taken as ``path_m``
+        itself (the air is ``weather``'s). Samples outside the table's windows, and of no
+        absorption, grow as L (Beer-Lambert)."""
+        nu = np.ascontiguousarray(wavenumber_cm1, dtype=float)
+        od0 = np.asarray(od0, dtype=float)
+        scale = np.atleast_1d(np.asarray(ranges_m, dtype=float)) / float(path_m)
+        out = od0[None, :] * scale[:, None]
+        curves, inside = self._growth_curves(weather, nu.tobytes())
+        use = inside & (od0 > 0)
+        if not np.any(use):
+            return out
+        y = curves[:, use]
+        ln_l = np.log(GROWTH_PATHS_M)
+        step = ln_l[1] - ln_l[0]
+        # the equivalent path: the last node at or below od0 on each sample's curve, then
+        # linear between it and the next (extrapolated past the ends)
+        opaque = od0[use] > _OPAQUE_OD
+        target = np.log(np.minimum(od0[use], _OPAQUE_OD))
+        k = np.clip(np.sum(y <= target[None, :], axis=0) - 1, 0, ln_l.size - 2)
+        cols = np.arange(y.shape[1])
+        y0, y1 = y[k, cols], y[k + 1, cols]
+        rise = np.where(y1 > y0, y1 - y0, np.inf)
+        ln_eq = np.where(opaque, math.log(path_m), ln_l[k] + (target - y0) / rise * step)
+        for i, f in enumerate(scale):
+            if f == 1.0:  # its own path: the spectrum as it is
+                continue
+            if f <= 0:
+                out[i, use] = 0.0
+                continue
+            x = (ln_eq + math.log(f) - ln_l[0]) / step
+            j = np.clip(np.floor(x).astype(int), 0, ln_l.size - 2)
+            t = x - j
+            out[i, use] = np.exp(y[j, cols] + t * (y[j + 1, cols] - y[j, cols]))
+        return out
 
 
 @dataclass(frozen=True)

@@ -12,10 +12,10 @@ blackbody at the measured sky temperature, or S_air itself when no sky temperatu
 infinite path of the model's own atmosphere; then dLq = tau (L_t - S_air) as before). The paper
 corrected the background with the measured sky (its path-radiance correction, sections 8-9);
 using the sky temperature for the path as well understates the contrast when the air is warmer
-than the sky (7-10 % with a 280 K sky and 288 K air in the MWIR). tau is the atmosphere's
-spectral transmission averaged over each quadrature cell
-(:meth:`snrmon.model.atmosphere.Atmosphere.signal_transmission`), so the integral weights it by
-the contrast spectrum itself.
+than the sky (4-13 % at 37-508 m with a 280 K sky and 288 K air in the MWIR, UAV1;
+tools/doc_figures.py). tau is the atmosphere's spectral transmission averaged over each
+quadrature cell (:meth:`snrmon.model.atmosphere.Atmosphere.signal_transmission`), so the
+integral weights it by the contrast spectrum itself.
 
 When no sky temperature is given the sky is ASSUMED equal to the air (``sky_assumed``): the
 Monte-Carlo band then draws the sky with :attr:`snrmon.model.montecarlo.InputUncertainty.
@@ -64,7 +64,6 @@ class Contrast:
     source_air: np.ndarray  # S_air per wavelength (photon, per um)
     sky: np.ndarray  # L_sky per wavelength
     sky_assumed: bool = False  # no sky temperature given: the sky is the air's (widened band)
-    photon: bool = True  # a photon detector (else thermal: the contrast weight in power)
 
     def intensity_e(
         self, target_temp_k=None, air_temp_k=None, sky_temp_k=None, tau_scale=1.0
@@ -120,16 +119,16 @@ class Contrast:
     @property
     def transmission_contrast(self) -> np.ndarray:
         """The band transmission per range weighted by the response and a near-ambient
-        target's thermal contrast at the air temperature: dLq/dT for a photon detector, dL/dT
-        (power) for a thermal one."""
-        from snrmon.model.radiometry import spectral_photon_radiance_dt, spectral_radiance_dt
+        target's thermal contrast at the air temperature, in the units the signal is
+        integrated in (Eq. 2): photons, dLq/dT, for the photon detector and the bolometer
+        alike (the model's bolometer signal is absorbed photons x absorptance,
+        :mod:`snrmon.model.detector`). Weighted in power (dL/dT), as it once was for the
+        bolometer, the LWIR preset's read 1.0 % high at 1.5 km in humid air (30 C, 90 %) and
+        0.6 % low in the default air (tests/model/test_continuous.py). It sets the optical
+        depth of the uncertainty band (paper section 9), not the signal."""
+        from snrmon.model.radiometry import spectral_photon_radiance_dt
 
-        wl = self.wavelengths_um
-        if self.photon:
-            d = spectral_photon_radiance_dt(wl, self.air_temp_k)
-        else:
-            d = spectral_radiance_dt(wl, self.air_temp_k)
-        w = self.k_spec * d
+        w = self.k_spec * spectral_photon_radiance_dt(self.wavelengths_um, self.air_temp_k)
         return self.tau @ (w / np.sum(w))
 
     @property
@@ -207,5 +206,4 @@ def contrast(
         source_air=source_air,
         sky=sky,
         sky_assumed=sky_temp_k is None,
-        photon=sensor.detector == "photon",
     )

@@ -55,7 +55,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.special import gammaln, ndtr
 
-from snrmon.model.footprint import phase_grid, pixel_patterns
+from snrmon.model.footprint import phase_nodes, pixel_patterns
 from snrmon.model.psf import Psf
 
 _STEP = 0.002  # sigma: the lattice E[max] rounds the means near the top to
@@ -572,8 +572,8 @@ def expected_eq4_by_rule(
         raise ValueError(f"signal amplitude must be >= 0, got {amplitude!r}")
     base_half = search_px // 2 + box_px // 2 + 1
     if phases_xy is None:
-        ph = phase_grid(phases)
-        ph_x, ph_y, weights = ph, ph, np.full((len(ph), len(ph)), 1.0 / len(ph) ** 2)
+        ph, w = phase_nodes(psf, fill_factor, phases)
+        ph_x, ph_y, weights = ph, ph, np.outer(w, w)
     else:
         ph_x, ph_y, weights = observed_phase_weights(phases_xy)
     phase_key = (tuple(ph_x.tolist()), tuple(ph_y.tolist()), tuple(map(tuple, weights.tolist())))

@@ -24,12 +24,14 @@ table of D values costs one matrix product.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 
 import numpy as np
 from scipy.interpolate import PchipInterpolator
+from scipy.special import ndtr
 
-from snrmon.model.psf import AiryGaussianPsf, Psf
+from snrmon.model.psf import AiryGaussianPsf, GaussianPsf, Psf
 
 _TABLE_PERIOD_PX = 256.0
 _PATTERN_PERIOD_PX = 128.0
@@ -223,15 +225,55 @@ def pixel_patterns(
         raise ValueError(f"half_size_px must be >= 0, got {half_size_px!r}")
     d = float(_check_sizes(target_square_px))
     s = float(_check_sizes(target_sigma_px, "target sigma"))
-    omega, u, m = _pattern_weights(psf, ff, d, s)
     dx = tuple(np.atleast_1d(np.asarray(dx_px, dtype=float)).tolist())
     dy = tuple(np.atleast_1d(np.asarray(dy_px, dtype=float)).tolist())
+    if isinstance(psf, GaussianPsf):
+        # separable and closed-form at any width, a delta (sigma 0) included: the OTF grid
+        # cannot hold a PSF much narrower than a pixel (its cutoff ~1.2 / sigma needs
+        # 128 / sigma frequencies; at 4096 of them sigma 0.001 px aliased at a 3.5-px period)
+        sigma = math.hypot(float(psf.sigma_px), s)
+        fy = _gaussian_fractions_1d(np.asarray(dy), sigma, d, ff, h)
+        fx = fy if dx == dy else _gaussian_fractions_1d(np.asarray(dx), sigma, d, ff, h)
+        return fy[:, None, :, None] * fx[None, :, None, :]
+    omega, u, m = _pattern_weights(psf, ff, d, s)
     grid = omega.tobytes()  # omega = 2 pi f on the PSF's grid (otf_grid)
     cy = _cosines(grid, dy, h) * u
     cx = cy if dx == dy else _cosines(grid, dx, h) * u
     out = matmul(matmul(cy, m), cx.T)  # (n_dy * n, n_dx * n)
     n = 2 * h + 1
     return out.reshape(len(dy), n, len(dx), n).transpose(0, 2, 1, 3)
+
+
+def _gaussian_fractions_1d(
+    phases: np.ndarray, sigma_px: float, d_px: float, fill_factor: float, h: int
+) -> np.ndarray:
+    """(n_phases, 2h+1): the share of a 1-D box of width ``d_px`` (0: a point) blurred by a
+    Gaussian of ``sigma_px`` (0: none) centred at each phase that falls on the active interval
+    (width sqrt(FF)) of pixels -h..h. The active interval's share is a difference of the
+    box-blurred profile's antiderivative at its two ends, itself (1/D) times differences of
+    the Gaussian CDF's antiderivative, sigma G(x / sigma) with G(z) = z Phi(z) + phi(z)
+    (x+ = max(x, 0) at sigma 0)."""
+    from snrmon.model.pvf import _g_int
+
+    a = 0.5 * math.sqrt(fill_factor)
+    k = np.arange(-h, h + 1, dtype=float)
+    rel = k[None, :] - phases[:, None]  # each pixel's centre from the target's
+    lo, hi = rel - a, rel + a
+
+    def cdf(x):  # the blurred point's share below x
+        if sigma_px == 0.0:
+            return np.where(x > 0, 1.0, np.where(x < 0, 0.0, 0.5))
+        return ndtr(x / sigma_px)
+
+    def cdf_int(x):  # its antiderivative
+        if sigma_px == 0.0:
+            return np.maximum(x, 0.0)
+        return sigma_px * _g_int(x / sigma_px)
+
+    if d_px == 0.0:
+        return cdf(hi) - cdf(lo)
+    b = 0.5 * d_px
+    return (cdf_int(hi + b) - cdf_int(hi - b) - cdf_int(lo + b) + cdf_int(lo - b)) / d_px
 
 
 @functools.lru_cache(maxsize=64)
@@ -252,3 +294,23 @@ def phase_grid(n: int) -> np.ndarray:
     if n < 1:
         raise ValueError(f"phase grid needs n >= 1, got {n}")
     return (np.arange(n) + 0.5) / (2.0 * n)
+
+
+def phase_nodes(psf: Psf, fill_factor: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Phases over the half cell [0, 0.5) and their weights (summing to 1) for an average over
+    phases uniform in the cell: :func:`phase_grid`'s ``n`` equal midpoints, except for a
+    Gaussian PSF narrower than their step (1 / (2 n) px), a delta included. Its point's light
+    leaves the active area within 3 sigma of the active edge (phase sqrt(FF) / 2, or the
+    cell's), so what a pixel holds is nearly a step in phase there, which equal midpoints
+    weight by where they happen to fall (FF 0.8: 4 of 5 inside, 0.64 of the cell in 2-D
+    against the 0.8 it is); the half cell is then cut at the edge +- 3 sigma, ``n`` midpoints
+    in each piece, each weighted by its piece's length: the pixel-phase integral taken
+    directly (for a delta, the two sides of the step exactly)."""
+    ph = phase_grid(n)
+    if not (isinstance(psf, GaussianPsf) and psf.sigma_px < 0.5 / n):
+        return ph, np.full(n, 1.0 / n)
+    edge, spread = 0.5 * math.sqrt(_check_ff(fill_factor)), 3.0 * float(psf.sigma_px)
+    cuts = np.unique(np.clip([0.0, edge - spread, edge, edge + spread, 0.5], 0.0, 0.5))
+    nodes = [lo + (hi - lo) * 2.0 * ph for lo, hi in itertools.pairwise(cuts)]
+    weights = [np.full(n, (hi - lo) / n / 0.5) for lo, hi in itertools.pairwise(cuts)]
+    return np.concatenate(nodes), np.concatenate(weights)

@@ -149,7 +149,6 @@ def _drawn_through_air(c: Contrast, inputs: InputUncertainty) -> np.ndarray:
         inputs,
         c.target_temp_k,
         c.air_temp_k,
-        c.photon,
         c.k_spec.tobytes(),
         c.wavelengths_um.tobytes(),
         c.source_air.tobytes(),

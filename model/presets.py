@@ -9,11 +9,14 @@ built-in LOWTRAN7 table), the met readings ``air_temp_c``, ``rh_percent`` or ``d
 ``pressure_hpa``, ``visibility_km``, ``aerosol`` (:class:`snrmon.model.atmosphere_table.Weather`),
 ``transmission`` (constant), ``aerosol_beta_per_km``, ``air_temp_k``, and optionally
 ``modtran_file`` or ``csv_file`` (relative to the TOML) with ``path_length_m`` (the file's
-spectrum then replaces the table's).
+spectrum then replaces the table's), or ``modtran_files`` with ``path_lengths_m``, one tape7
+per range of one air (``model.modtran.SpectralPath.at_ranges``); the met readings given are
+the air whose curve of growth moves a file's spectrum to other ranges.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 from pathlib import Path
@@ -84,6 +87,8 @@ _ATM_FIELDS = {
     "modtran_file": (_STR, False),
     "csv_file": (_STR, False),
     "path_length_m": (_POS, False),
+    "modtran_files": ("strlist", False),
+    "path_lengths_m": ("poslist", False),
     "source": (_STR, False),
 }
 
@@ -150,6 +155,11 @@ def _value(path: Path, where: str, kind: str, v: Any) -> Any:
         if wl <= 0 or not 0 <= q <= 1:
             raise ValueError(f"{path}: {where} row {v!r} needs wavelength > 0 and 0 <= qe <= 1")
         return (wl, q)
+    if kind in ("strlist", "poslist"):
+        one = _STR if kind == "strlist" else _POS
+        if not isinstance(v, list) or not v:
+            raise ValueError(f"{path}: {where} must be a non-empty list, got {v!r}")
+        return [_value(path, f"{where}[{i}]", one, x) for i, x in enumerate(v)]
     if kind == "bandmap":
         if isinstance(v, dict):
             return {str(k): _number(path, f"{where}.{k}", x) for k, x in v.items()}
@@ -233,7 +243,7 @@ def load_atmosphere(path_like, band_um: tuple[float, float], path_length_m: floa
     tape7 and CSV files describe one path: ``path_length_m`` is required for them."""
     from snrmon.model.atmosphere import Atmosphere, weather_atmosphere
     from snrmon.model.atmosphere_table import Weather
-    from snrmon.model.modtran import read_spectral_csv, read_tape7
+    from snrmon.model.modtran import SpectralPath, read_spectral_csv, read_tape7
 
     p = Path(path_like)
     if not p.is_file():
@@ -249,11 +259,29 @@ def load_atmosphere(path_like, band_um: tuple[float, float], path_length_m: floa
                 raise ValueError(f"{p}: [atmosphere] {exc}") from None
             base = weather_atmosphere(band_um, weather)
         spectral = base.spectral
+        # the air whose curve of growth moves a file's spectrum to other ranges: the readings
+        # given here, else the model's default
+        growth = base.weather
         for key, reader in (("modtran_file", read_tape7), ("csv_file", read_spectral_csv)):
             if key in v:
                 if "path_length_m" not in v:
                     raise ValueError(f"{p}: {key} needs path_length_m (the file's path length)")
-                spectral = reader(p.parent / v[key], v["path_length_m"])
+                spectral = dataclasses.replace(
+                    reader(p.parent / v[key], v["path_length_m"]), growth=growth
+                )
+        if "modtran_files" in v:
+            files, lengths = v["modtran_files"], v.get("path_lengths_m")
+            if lengths is None or len(lengths) != len(files):
+                raise ValueError(
+                    f"{p}: modtran_files needs path_lengths_m, one per file (got "
+                    f"{len(files)} files, {0 if lengths is None else len(lengths)} lengths)"
+                )
+            if "modtran_file" in v or "csv_file" in v:
+                raise ValueError(f"{p}: give modtran_files or one modtran_file/csv_file, not both")
+            spectral = SpectralPath.at_ranges(
+                [read_tape7(p.parent / f, L) for f, L in zip(files, lengths, strict=True)],
+                growth=growth,
+            )
         atm = Atmosphere(
             name=v.get("name", p.stem),
             constant_tau=v.get("transmission", 1.0),

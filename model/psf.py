@@ -54,16 +54,24 @@ def _blurred_otf(f: np.ndarray, otf: OtfFn, sigma_px: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class GaussianPsf:
-    """Gaussian PSF exp(-r^2 / (2 sigma^2)), ``sigma_px`` in pixel pitches."""
+    """Gaussian PSF exp(-r^2 / (2 sigma^2)), ``sigma_px`` in pixel pitches (paper section 5's
+    fit); ``sigma_px`` 0 is a delta function (a point imaged to a point), which the pixel
+    patterns (:func:`snrmon.model.footprint.pixel_patterns`) and the PVF's closed forms
+    (:mod:`snrmon.model.pvf`) take directly: it has no band-limited OTF to integrate."""
 
     sigma_px: float
 
     def __post_init__(self) -> None:
-        if not (self.sigma_px > 0 and math.isfinite(self.sigma_px)):
-            raise ValueError(f"Gaussian PSF sigma_px must be > 0, got {self.sigma_px!r}")
+        if not (self.sigma_px >= 0 and math.isfinite(self.sigma_px)):
+            raise ValueError(f"Gaussian PSF sigma_px must be >= 0, got {self.sigma_px!r}")
 
     def components(self) -> list[Component]:
         s = float(self.sigma_px)
+        if s == 0.0:
+            raise ValueError(
+                "a delta-function PSF (Gaussian sigma 0) has no band-limited OTF: its pixel "
+                "patterns and PVF are closed forms, its OTF integrals do not exist"
+            )
         return [(1.0, lambda f: _gauss_mtf(f, s), _GAUSS_CUT / s)]
 
 

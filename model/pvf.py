@@ -58,12 +58,14 @@ def gaussian_pvf_1d(sigma_px, side: float):
     centre uniform over one pitch: integral of g(u) * overlap(u) du (u in pitches)."""
     s = np.asarray(sigma_px, dtype=float)
     a = float(side)
-    return s * (
-        _g_int((a + 1) / (2 * s))
-        - _g_int((a - 1) / (2 * s))
-        - _g_int((1 - a) / (2 * s))
-        + _g_int(-(a + 1) / (2 * s))
+    w = np.where(s > 0, s, 1.0)  # sigma 0 (a delta PSF): the overlap at the centre, min(a, 1)
+    out = w * (
+        _g_int((a + 1) / (2 * w))
+        - _g_int((a - 1) / (2 * w))
+        - _g_int((1 - a) / (2 * w))
+        + _g_int(-(a + 1) / (2 * w))
     )
+    return np.where(s > 0, out, min(a, 1.0))
 
 
 def _gauss_sigma(psf: GaussianPsf, target_sigma_px) -> np.ndarray:
@@ -122,8 +124,8 @@ def ensquared_energy(psf: Psf, fill_factor: float, target_sigma_px: float = 0.0)
     """Fraction of the energy on the active area with the PSF centred on the pixel."""
     ff = _check_ff(fill_factor)
     if isinstance(psf, GaussianPsf):
-        s = _gauss_sigma(psf, target_sigma_px)
-        return float((2.0 * ndtr(math.sqrt(ff) / (2.0 * s)) - 1.0) ** 2)
+        s = float(_gauss_sigma(psf, target_sigma_px))
+        return 1.0 if s == 0.0 else float((2.0 * ndtr(math.sqrt(ff) / (2.0 * s)) - 1.0) ** 2)
     return _otf_integral(psf, ff, target_sigma_px, averaged=False)
 
 
@@ -187,13 +189,6 @@ def pixel_energy_fractions(
     if h < 0:
         raise ValueError(f"half_size_px must be >= 0, got {half_size_px!r}")
     st = float(_check_sigma_t(target_sigma_px))
-    k = np.arange(-h, h + 1, dtype=float)
-    if isinstance(psf, GaussianPsf):
-        s = math.hypot(psf.sigma_px, st)
-        half = 0.5 * math.sqrt(ff)
-        fx = ndtr((k - dx_px + half) / s) - ndtr((k - dx_px - half) / s)
-        fy = ndtr((k - dy_px + half) / s) - ndtr((k - dy_px - half) / s)
-        return np.outer(fy, fx)
     from snrmon.model.footprint import pixel_patterns
 
     return pixel_patterns(psf, ff, dx_px, dy_px, half_size_px=h, target_sigma_px=st)[0, 0]

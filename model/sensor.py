@@ -103,6 +103,20 @@ class Sensor:
             self.f_number, self.pitch_um, tuple(self.band_um), tuple(self.qe_curve)
         )
 
+    @property
+    def corrected_psf_source(self) -> str:
+        """Which real PSF the corrected curves use when no PSF was measured (paper section 8),
+        in words for a display: "preset: PVF 0.082 (sensor mwir)" where the blur is solved
+        from the sensor's average PVF, "preset: airy+gaussian sigma 0.8 px (sensor ...)" where
+        it is given, "preset: diffraction limited (sensor ...)"."""
+        if self.real_psf == "airy":
+            what = "diffraction limited"
+        elif self.real_psf_sigma_px is not None:
+            what = f"{self.real_psf} sigma {self.real_psf_sigma_px:g} px"
+        else:
+            what = f"PVF {self.real_psf_average_pvf:g}"
+        return f"preset: {what} (sensor {self.name})"
+
     def corrected_psf(self) -> Psf:
         """The "real" PSF of the corrected curves (paper section 8)."""
         return _real_psf(self)

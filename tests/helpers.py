@@ -134,16 +134,22 @@ def field_config(path: Path, ring: str, gps_port: str, lrf_port: str, camera: st
 
 
 def twin_recording(
-    path: Path, *, stops: str, speed: float, hover_s: float = 4.0, transit_mps: float = 8.0
+    path: Path,
+    *,
+    stops: str,
+    speed: float,
+    hover_s: float = 4.0,
+    transit_mps: float = 8.0,
+    seed: int = 0,
 ) -> Path:
-    """``snrmon hil --seed 0 --out path`` (both cameras, calibrated): the digital twin's
+    """``snrmon hil --seed SEED --out path`` (both cameras, calibrated): the digital twin's
     flight over ``stops`` (metres, comma-separated) as a session file."""
     from snrmon.cli import main
 
     argv = [
         "hil",
         "--seed",
-        "0",
+        str(seed),
         "--stops",
         stops,
         "--hover-s",

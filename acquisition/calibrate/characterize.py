@@ -29,12 +29,30 @@ Per frame, in a square ROI around the tracked position:
    6-cm bars are 3.2 MWIR pixels at 37 m) still mixes sky into its core, 6-7 % of its contrast
    on the twin. The uncorrected core temperature is kept (``core_seen_temp_k``).
 
+7. with the air between the camera and the drone (:class:`AirPath`: the contrast-weighted
+   transmission at the stop's range and the air's temperature, paper sections 8-9), the
+   drone's pixels are taken back through it before any of its temperatures is read,
+   L = (L_app - (1 - tau) L_air) / tau, and the sky is read as seen: the convention of the
+   model's inputs (``model.contrast``: the target's own temperature against the measured,
+   apparent sky, which holds the whole path and has none to take out), so the drone's
+   temperature, its spread and the RSS delta-T are all of it (``temperature_convention``
+   "path_corrected"). Without it all are apparent. The core's apparent temperature is kept
+   (``apparent_temp_k``).
+
 Frames are summarised by the mean and sample std of each quantity (:func:`summarise_frames`).
 At a close stop only the frames where the drone is at rest count (:func:`at_rest_frames`): its
 range steady (within the stop detector's tolerance of the stop's range) and its segmented size
 steady (the run of frames whose size varies least), wherever they lie in the stop: a stop's
 first or last frames may show a drone still arriving or already leaving, smaller or larger.
 :func:`target_toml` writes the result as a target file ``model.presets.load_target`` reads.
+
+What it cannot measure it refuses (:func:`unmeasurable`): fewer than :data:`MIN_FRAMES_AT_REST`
+frames at rest (the sample std of a quantity over n frames is itself uncertain by
+1 / sqrt(2 (n - 1)): 14 % at 25), or a dimension under ``2 open_px + 1`` pixels (7 px with the
+3-px opening): the opening removes a drone's parts thinner than 3 px, and what it leaves of a
+drone near that size is no longer its outline. On a synthetic 30-cm cross with 10-cm arms
+(docs/calibration.md) the dimensions are within 7 % down to a measured large dimension of
+8 px (MWIR 70 m) and off by 14-16 % at 6.3-6.8 px (MWIR 80 m, LWIR 37 m), by 35-50 % below.
 """
 
 from __future__ import annotations
@@ -52,6 +70,41 @@ from snrmon.acquisition.calibrate.calibration import Calibration, temperature_of
 ZERO_C_K = 273.15
 METHODS = ("otsu", "ksigma")
 BOXES = ("upright", "rotated")
+MIN_FRAMES_AT_REST = 25  # the std over the frames known to 14 % (module docstring)
+CONVENTIONS = ("path_corrected", "apparent")
+
+
+@dataclass(frozen=True)
+class AirPath:
+    """The air between the camera and the drone (paper sections 8-9): a calibrated camera
+    sees L_app = tau L + (1 - tau) L_air, band radiances through the calibration's response,
+    with ``transmission`` the contrast-weighted band transmission at the stop's range
+    (``model.atmosphere.Atmosphere.contrast_transmission``) and L_air the air's radiance."""
+
+    transmission: float
+    air_temp_k: float
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.transmission <= 1.0 and self.air_temp_k > 0):
+            raise ValueError(
+                f"air path needs 0 < tau <= 1 and T_air > 0 K, got {self.transmission}, "
+                f"{self.air_temp_k} K"
+            )
+
+    def _air(self, band_um, qe_curve: tuple) -> float:
+        from snrmon.acquisition.calibrate.calibration import radiance_of
+
+        return float(radiance_of(band_um, self.air_temp_k, qe_curve))
+
+    def own_radiance(self, apparent, band_um, qe_curve: tuple = ()) -> np.ndarray:
+        """L = (L_app - (1 - tau) L_air) / tau: the radiance before the air."""
+        tau = self.transmission
+        return (np.asarray(apparent, float) - (1.0 - tau) * self._air(band_um, qe_curve)) / tau
+
+    def apparent_radiance(self, own, band_um, qe_curve: tuple = ()) -> np.ndarray:
+        """L_app = tau L + (1 - tau) L_air: the radiance through the air."""
+        tau = self.transmission
+        return tau * np.asarray(own, float) + (1.0 - tau) * self._air(band_um, qe_curve)
 
 
 @dataclass(frozen=True)
@@ -99,6 +152,7 @@ class FrameTarget:
     core_px: int | None = None  # pixels the temperature was read on
     core_seen_temp_k: float | None = None  # the core before the PSF correction
     core_psf_share: float | None = None  # share of a uniform drone's contrast the core keeps
+    apparent_temp_k: float | None = None  # the (PSF-corrected) core through the air
 
 
 @dataclass(frozen=True)
@@ -123,6 +177,8 @@ class Characterization:
     core_pixels: float | None = None  # mean count of core pixels a frame's temperature read
     core_seen_temp_c: float | None = None  # the core's temperature before the PSF correction
     core_psf_share: float | None = None  # mean share of the contrast the core keeps (PSF)
+    apparent_temp_c: float | None = None  # the drone's temperature as seen through the air
+    temperature_convention: str = "apparent"  # of every temperature above but apparent_temp_c
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -212,11 +268,13 @@ def characterize_frame(
     config: CharacterizeConfig | None = None,
     psf=None,
     fill_factor: float | None = None,
+    path: AirPath | None = None,
 ) -> FrameTarget | None:
     """One frame (raw DN); None when nothing is segmented. With a calibration the frame is
     non-uniformity corrected before segmentation and temperatures are measured; with the
     camera's ``psf`` (and its ``fill_factor``) the core's contrast is corrected for the PSF's
-    mixing (:func:`core_psf_share`)."""
+    mixing (:func:`core_psf_share`); with the air ``path`` every temperature is read on the
+    radiance before the air (module docstring, step 7)."""
     cfg = config or CharacterizeConfig()
     if not (range_m > 0 and ifov_rad > 0):
         raise ValueError(f"range and IFOV must be > 0, got {range_m} m, {ifov_rad} rad")
@@ -233,15 +291,20 @@ def characterize_frame(
         return None
     px_m = range_m * ifov_rad
     box = _box_area(mask, cfg.box)
-    temp = sig = bgk = rss = outline = seen = share = None
+    temp = sig = bgk = rss = outline = seen = share = apparent = None
     n_core = None
     if calibration is not None:
+        band, qe = calibration.band_um, calibration.qe_curve
+        # the sky as seen (the model's sky temperature); the drone's pixels before the air
+        sky_lq = lq
+        if path is not None:
+            lq = path.own_radiance(lq, band, qe)
         inner = mask
         if cfg.erode_px:
             k = np.ones((2 * cfg.erode_px + 1,) * 2, np.uint8)
             eroded = cv2.erode(mask, k)
             inner = eroded if eroded.sum() >= 2 else mask
-        temps = temperature_of(calibration.band_um, lq[inner > 0], calibration.qe_curve)
+        temps = temperature_of(band, lq[inner > 0], qe)
         outline = float(np.mean(temps))
         sig = float(np.std(temps, ddof=1)) if temps.size > 1 else 0.0
         # distance of each outline pixel's centre to the nearest sky pixel's centre
@@ -253,17 +316,20 @@ def characterize_frame(
         outside = _ring(mask.shape, cfg.ring_px) & (
             cv2.dilate(mask, np.ones((7, 7), np.uint8)) == 0
         )
-        l_bg = float(np.mean(lq[outside]))
+        l_sky = float(np.mean(sky_lq[outside]))
+        l_bg = l_sky if path is None else float(path.own_radiance(l_sky, band, qe))
         l_core = float(np.mean(lq[core]))
-        band, qe = calibration.band_um, calibration.qe_curve
         seen = float(temperature_of(band, l_core, qe))
-        temp = seen
+        l_drone = l_core
         if psf is not None:
             if fill_factor is None:
                 raise ValueError("a PSF correction needs the camera's fill factor")
             share = core_psf_share(mask, core, psf, fill_factor)
-            temp = float(temperature_of(band, l_bg + (l_core - l_bg) / share, qe))
-        bgk = float(temperature_of(band, l_bg, qe))
+            l_drone = l_bg + (l_core - l_bg) / share
+        temp = float(temperature_of(band, l_drone, qe))
+        l_app = l_drone if path is None else float(path.apparent_radiance(l_drone, band, qe))
+        apparent = float(temperature_of(band, l_app, qe))
+        bgk = float(temperature_of(band, l_sky, qe))
         rss = math.hypot(temp - bgk, sig)
     return FrameTarget(
         area,
@@ -279,6 +345,7 @@ def characterize_frame(
         n_core,
         seen,
         share,
+        apparent,
     )
 
 
@@ -324,24 +391,33 @@ def at_rest_frames(
 
 
 def summarise_frames(
-    rows: Sequence[FrameTarget], *, camera: str, range_m: float, method: str
+    rows: Sequence[FrameTarget],
+    *,
+    camera: str,
+    range_m: float,
+    method: str,
+    convention: str = "apparent",
 ) -> Characterization:
-    """The mean and sample std over frames of each quantity (temperatures in C)."""
+    """The mean and sample std over frames of each quantity (temperatures in C);
+    ``convention``: "path_corrected" when the rows were read through an :class:`AirPath`."""
+    if convention not in CONVENTIONS:
+        raise ValueError(f"temperature convention must be one of {CONVENTIONS}, got {convention!r}")
     if not rows:
         raise ValueError(f"no target segmented in any frame of {camera!r} at {range_m:.1f} m")
+
+    def celsius(kelvin: list[float | None]) -> list[float | None]:
+        return [None if k is None else k - ZERO_C_K for k in kelvin]
+
     small = _mean_std([r.small_m for r in rows])
     large = _mean_std([r.large_m for r in rows])
-    temp = _mean_std([None if r.temp_k is None else r.temp_k - ZERO_C_K for r in rows])
-    bg = _mean_std([None if r.background_k is None else r.background_k - ZERO_C_K for r in rows])
+    temp = _mean_std(celsius([r.temp_k for r in rows]))
+    bg = _mean_std(celsius([r.background_k for r in rows]))
     rss = _mean_std([r.rss_delta_t_k for r in rows])
-    outline, _ = _mean_std(
-        [None if r.outline_temp_k is None else r.outline_temp_k - ZERO_C_K for r in rows]
-    )
+    outline, _ = _mean_std(celsius([r.outline_temp_k for r in rows]))
     n_core, _ = _mean_std([None if r.core_px is None else float(r.core_px) for r in rows])
-    seen, _ = _mean_std(
-        [None if r.core_seen_temp_k is None else r.core_seen_temp_k - ZERO_C_K for r in rows]
-    )
+    seen, _ = _mean_std(celsius([r.core_seen_temp_k for r in rows]))
     share, _ = _mean_std([r.core_psf_share for r in rows])
+    apparent, _ = _mean_std(celsius([r.apparent_temp_k for r in rows]))
     (small_m, small_std), (large_m, large_std) = small, large
     assert small_m is not None and large_m is not None  # every row has its dimensions
     return Characterization(
@@ -360,7 +436,36 @@ def summarise_frames(
         n_core,
         seen,
         share,
+        apparent,
+        convention,
     )
+
+
+def unmeasurable(
+    result: Characterization,
+    *,
+    pixel_m: float,
+    min_frames: int = MIN_FRAMES_AT_REST,
+    min_size_px: float | None = None,
+    config: CharacterizeConfig | None = None,
+) -> str | None:
+    """Why ``result`` cannot be trusted, naming the numbers (None: it can): fewer than
+    ``min_frames`` frames, or a dimension under ``min_size_px`` pixels of ``pixel_m`` (default
+    2 open_px + 1 of ``config``: module docstring)."""
+    cfg = config or CharacterizeConfig()
+    need_px = 2 * cfg.open_px + 1 if min_size_px is None else float(min_size_px)
+    small_px, large_px = result.small_m / pixel_m, result.large_m / pixel_m
+    why = []
+    if result.n_frames < min_frames:
+        why.append(f"{result.n_frames} frames at rest (need >= {min_frames})")
+    if min(small_px, large_px) < need_px:
+        why.append(
+            f"small {small_px:.1f} px and large {large_px:.1f} px (need >= {need_px:g} px each: "
+            f"the {cfg.open_px}-px opening removes parts thinner than {cfg.open_px} px)"
+        )
+    if not why:
+        return None
+    return f"{result.camera} at {result.range_m:.1f} m cannot be characterised: " + "; ".join(why)
 
 
 def _mean_std(values: list[float | None]) -> tuple[float | None, float | None]:

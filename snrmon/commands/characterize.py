@@ -2,7 +2,8 @@
 (paper section 3).
 
     snrmon characterize FILE.h5 --camera mwir --stop 1 [--calibration CAL.npz] [--json]
-                        [--frames 100] [--method otsu|ksigma] [--target-out T.toml]
+                        [--frames 100] [--min-frames 25] [--min-size-px 7]
+                        [--method otsu|ksigma] [--target-out T.toml] [--apparent]
                         [--write | --no-record]
 
 The session is replayed as recorded (``acquisition.replay.batch.replay_session``: the same
@@ -14,9 +15,22 @@ steadiest), wherever they lie in the stop. JSON contract: ``{"camera",
 "stop", "range_m", "n_frames", "small_m", "small_m_std", "large_m", "large_m_std",
 "mean_temp_c", "mean_temp_c_std", "background_temp_c", "background_temp_c_std",
 "rss_delta_t_k", "rss_delta_t_k_std", "method", "outline_temp_c", "core_pixels",
-"at_rest_s", "core_seen_temp_c", "core_psf_share", "psf_blur_px", "psf_source"}``
-(``at_rest_s``: [first, last] frame of those used, seconds from the stop's start);
-temperatures are null without a calibration. ``mean_temp_c`` is read on the outline's core,
+"core_seen_temp_c", "core_psf_share", "apparent_temp_c", "temperature_convention",
+"at_rest_s", "psf_blur_px", "psf_source"}`` and, through the air, ``"transmission",
+"air_temp_c"`` (``at_rest_s``: [first, last] frame of those used, seconds from the stop's
+start); temperatures are null without a calibration.
+
+What it cannot measure it refuses, exit 2 with the numbers and nothing kept: fewer than
+``--min-frames`` (25) frames at rest, or a small or large dimension under ``--min-size-px``
+(2 x the 3-px opening + 1 = 7 px) pixels (``acquisition.calibrate.characterize.unmeasurable``).
+
+One convention for every temperature (``temperature_convention``): "path_corrected" (the
+default) takes each pixel's radiance back through the air before reading it,
+L = (L_app - (1 - tau) L_air) / tau with the model's contrast-weighted transmission at the
+stop's range and the air of the session's [weather] (``--air-temp-c`` over it), so the
+drone's temperature, its spread, the sky behind it and the RSS delta-T are all as a camera at
+the drone would read them; ``apparent_temp_c`` keeps the drone as seen. "apparent"
+(``--apparent``): every temperature as seen. ``mean_temp_c`` is read on the outline's core,
 the pixels farthest from the sky (``acquisition.calibrate.characterize``), its contrast
 corrected for the PSF's mixing with the camera's PSF measured from the flight (the session's
 latest ``psf_measured`` or ``model_psf`` event of the camera: the Airy blurred by its
@@ -38,11 +52,14 @@ from pathlib import Path
 import numpy as np
 
 from snrmon.acquisition.calibrate.characterize import (
+    MIN_FRAMES_AT_REST,
+    AirPath,
     CharacterizeConfig,
     at_rest_frames,
     characterize_frame,
     summarise_frames,
     target_toml,
+    unmeasurable,
 )
 from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
 from snrmon.acquisition.record.reader import open_session
@@ -78,7 +95,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--apparent",
         action="store_true",
-        help="report the apparent temperature only (no atmospheric correction)",
+        help="report every temperature as seen, through the air (default: all corrected "
+        "for the air in front of the drone)",
     )
     p.add_argument("--sensor", help="sensor preset/TOML (default: the session's, else --camera)")
     p.add_argument(
@@ -93,6 +111,19 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="read the core as seen, without correcting for the PSF's mixing",
     )
     p.add_argument("--frames", type=int, default=100, help="frames of the stop to use (100)")
+    p.add_argument(
+        "--min-frames",
+        type=int,
+        default=MIN_FRAMES_AT_REST,
+        help=f"refuse (exit 2) with fewer frames of the drone at rest ({MIN_FRAMES_AT_REST}: "
+        "the frames' std then known to 14 %%)",
+    )
+    p.add_argument(
+        "--min-size-px",
+        type=float,
+        help="refuse (exit 2) a drone whose small or large dimension is under this many pixels "
+        "(default 7: twice the 3-px opening plus one; smaller, the opening has eaten its parts)",
+    )
     p.add_argument(
         "--method",
         choices=("otsu", "ksigma"),
@@ -113,8 +144,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _weather(args):
     """The met readings of the session's [weather] (None: none), --air-temp-c over its air."""
-    import dataclasses
-
     from snrmon.acquisition.config import session_config_from_dict
     from snrmon.acquisition.prediction import Weather
 
@@ -126,36 +155,15 @@ def _weather(args):
     return weather
 
 
-def through_the_air(result, sensor, range_m: float, weather=None) -> dict:
-    """The drone's own temperature from its apparent one: the calibrated camera sees
-    L_app = tau L_t + (1 - tau) L_air through the air in front of it (``model.contrast``), so
-    L_t = (L_app - (1 - tau) L_air) / tau with the model's contrast-weighted transmission at
-    the stop's range, through the day's met readings ``weather`` (None: the model's default
-    atmosphere). The apparent value stays as ``apparent_temp_c``; the eroded outline's
-    mean (``outline_temp_c``) is corrected the same way."""
-    from snrmon.acquisition.calibrate.calibration import radiance_of, temperature_of
+def air_path(sensor, range_m: float, weather=None) -> AirPath:
+    """The air in front of the drone at the stop (paper sections 8-9): the model's
+    contrast-weighted band transmission at ``range_m`` through the day's met readings
+    ``weather`` (None: the model's default atmosphere), and the air's temperature. The
+    calibrated camera sees L_app = tau L_t + (1 - tau) L_air (``model.contrast``)."""
     from snrmon.model.atmosphere import resolve_atmosphere
 
     atm = resolve_atmosphere(weather, tuple(sensor.band_um))
-    t_air = atm.air_temp_k
-    tau = float(atm.contrast_transmission(range_m))
-    band = tuple(sensor.band_um)
-
-    def own_c(apparent_c: float) -> float:
-        app = float(radiance_of(band, apparent_c + 273.15))
-        own = (app - (1.0 - tau) * float(radiance_of(band, t_air))) / tau
-        return float(temperature_of(band, own)) - 273.15
-
-    out = {
-        "apparent_temp_c": result.mean_temp_c,
-        "mean_temp_c": own_c(result.mean_temp_c),
-        "transmission": tau,
-        "air_temp_c": t_air - 273.15,
-    }
-    for key in ("outline_temp_c", "core_seen_temp_c"):
-        if getattr(result, key) is not None:
-            out[key] = own_c(getattr(result, key))
-    return out
+    return AirPath(float(atm.contrast_transmission(range_m)), float(atm.air_temp_k))
 
 
 def _measured_psf(args, sensor) -> tuple[object | None, float | None, str | None]:
@@ -196,6 +204,10 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--frames must be >= 1, got {args.frames}")
     if args.roi_px < 1:
         raise UsageError(f"--roi-px must be >= 1, got {args.roi_px}")
+    if args.min_frames < 2:
+        raise UsageError(f"--min-frames must be >= 2, got {args.min_frames}")
+    if args.min_size_px is not None and not args.min_size_px > 0:
+        raise UsageError(f"--min-size-px must be > 0, got {args.min_size_px}")
     session_file(args.file, camera=args.camera)
     if args.calibration:
         input_file(args.calibration, "--calibration")
@@ -218,6 +230,9 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"stop {args.stop} has no range (no rangefinder or GPS readings)")
     rep = replay.cameras[args.camera]
     psf, blur, psf_source = _measured_psf(args, sensor)
+    # one convention for every temperature: through the air (as a camera at the drone would
+    # read them), or, with --apparent, all as seen
+    path = None if args.apparent else air_path(sensor, float(range_m), _weather(args))
     end = row.t_end_ns if row.t_end_ns is not None else np.iinfo(np.int64).max
     # every tracked frame of the stop: those where the drone is at rest are chosen below
     picks = [
@@ -260,6 +275,7 @@ def run(args: argparse.Namespace) -> int:
                 config=config,
                 psf=psf,
                 fill_factor=sensor.fill_factor,
+                path=path,
             )
             for i, _, at, _ in held
         ]
@@ -272,21 +288,34 @@ def run(args: argparse.Namespace) -> int:
         range_tolerance_m=StopConfig().tolerance_m(source),
     )
     used = [targets[k] for k in rest if targets[k] is not None]
+    convention = "path_corrected" if path is not None and cal is not None else "apparent"
     try:
         result = summarise_frames(
-            used, camera=args.camera, range_m=float(range_m), method=args.method
+            used,
+            camera=args.camera,
+            range_m=float(range_m),
+            method=args.method,
+            convention=convention,
         )
     except ValueError as exc:
         raise UsageError(f"stop {args.stop}: {exc}") from None
+    why = unmeasurable(
+        result,
+        pixel_m=float(range_m) * sensor.ifov_rad,
+        min_frames=args.min_frames,
+        min_size_px=args.min_size_px,
+        config=config,
+    )
+    if why is not None:  # nothing is kept: a figure that is not measured is not a result
+        raise UsageError(f"stop {args.stop}: {why}")
     out = {"stop": args.stop, **result.as_dict(), "calibration": cal_source}
     out["at_rest_s"] = [(held[k][1] - row.t_start_ns) / 1e9 for k in (rest[0], rest[-1])]
     corrected = cal is not None and psf is not None  # a PSF corrects a temperature
     out["psf_blur_px"], out["psf_source"] = (blur, psf_source) if corrected else (None, None)
-    if result.mean_temp_c is not None and not args.apparent:
-        out.update(through_the_air(result, sensor, float(range_m), _weather(args)))
+    if path is not None and cal is not None:
+        out["transmission"], out["air_temp_c"] = path.transmission, path.air_temp_k - 273.15
     if args.target_out:
-        own = dataclasses.replace(result, mean_temp_c=out["mean_temp_c"])
-        Path(args.target_out).write_text(target_toml(own, args.target_name))
+        Path(args.target_out).write_text(target_toml(result, args.target_name))
         out["target_file"] = args.target_out
     # The characterization belongs to the session it was measured from: beside it, or in it
     # with --write.

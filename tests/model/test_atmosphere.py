@@ -16,6 +16,7 @@ from snrmon.model.atmosphere_table import SEASONS, Weather, load_table, saturati
 from snrmon.model.modtran import read_spectral_csv, read_tape7
 from snrmon.model.presets import load_atmosphere
 from snrmon.model.radiometry import band_nodes, spectral_photon_radiance
+from tests.model.growth_reference import moved_reference
 
 FIX = Path(__file__).with_name("fixtures")
 MW, LW = (3.45, 5.25), (8.0, 12.0)
@@ -143,9 +144,17 @@ def test_tape7_transmittance_run_two_header_lines_and_range_scaling():
     sp = read_tape7(FIX / "tape7_transmittance.txt", 500.0)
     assert not sp.has_radiance
     atm = Atmosphere(spectral=sp)
-    # per sample tau(L0)^(R/L0): 0.9 at 500 m is 0.81 at 1000 m where the fixture is flat
+    # per sample along the LOWTRAN7 table's curve of growth (not tau(L0)^(R/L0), which band
+    # model samples do not follow): 0.9 at 500 m, where the fixture is flat, is 0.81 at
+    # 1000 m between the table's windows (6-7.5 um: Beer-Lambert) and 0.81-0.85 in the LWIR
     fine = sp.transmission_at_ranges([500.0, 1000.0])
-    assert np.allclose(fine[:, sp.wavelength_um > 6.0], [[0.9], [0.81]], atol=1e-9)
+    long = sp.wavelength_um > 6.0
+    assert np.allclose(fine[0, long], 0.9, atol=1e-9)
+    ref = moved_reference(sp.wavelength_um, sp.transmission, 500.0, 1000.0)
+    assert np.allclose(fine[1], ref, atol=2e-4)
+    gap = long & (sp.wavelength_um < 7.4)
+    assert gap.any() and np.allclose(fine[1, gap], 0.81, atol=1e-9)
+    assert np.all(fine[1, long] >= 0.81 - 1e-9) and fine[1, long].max() > 0.83
     # band average: the CO2 notch 2250-2400 cm-1 (4.167-4.444 um) is opaque
     assert 0.6 < atm.transmission(500.0, MW) < 0.8
 

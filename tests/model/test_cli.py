@@ -5,7 +5,11 @@ from pathlib import Path
 import pytest
 
 from snrmon.cli import main
+from snrmon.model.modtran import read_tape7
+from snrmon.model.presets import load_sensor
 from tests.helpers import strict_json
+from tests.model.growth_reference import moved_reference
+from tests.model.test_modtran_tape7 import trapezoid_mean
 
 FIX = Path(__file__).with_name("fixtures")
 
@@ -58,7 +62,13 @@ def test_snr_with_background_and_modtran_file(capsys):
     )
     assert code == 0
     rec = strict_json(out)[0]
-    assert rec["transmission"] == pytest.approx(0.7 ** (393 / 1000), rel=1e-6)
+    # the flat 0.7 of 1000 m moved to 393 m along the curve of growth, over the band
+    sp = read_tape7(tape, 1000.0)
+    band = load_sensor("lwir").band_um
+    moved = moved_reference(sp.wavelength_um, sp.transmission, 1000.0, 393.0)
+    flat = trapezoid_mean(sp.wavelength_um, moved, *band)
+    assert rec["transmission"] == pytest.approx(flat, rel=2e-3)
+    assert rec["transmission"] < 0.7 ** (393 / 1000) - 0.01  # not Beer-Lambert per sample
 
 
 def test_pvf_radiance_netd_json(capsys):

@@ -12,6 +12,7 @@ import pytest
 from snrmon.model.atmosphere import Atmosphere
 from snrmon.model.modtran import read_tape7
 from snrmon.model.radiometry import band_nodes
+from tests.model.growth_reference import moved_reference
 
 TAPE7 = Path(__file__).parents[1] / "data" / "pyradi" / "tape7"
 TRANSMITTANCE = ["ModTrantape7file", "tape7-01"]  # COMBIN TRANS, two header lines
@@ -70,9 +71,11 @@ def test_band_transmission_is_the_spectrum_averaged_not_sampled():
     for i in (0, 11, 23, 36, 47):
         mean = trapezoid_mean(sp.wavelength_um, sp.transmission, edges[i], edges[i + 1])
         assert cells[i] == pytest.approx(mean, abs=1e-6)
-    # another range: each sample scales as tau^(R/L0) before the averaging
-    truth_2 = trapezoid_mean(sp.wavelength_um, sp.transmission**2, *band)
-    assert atm.transmission(2000.0) == pytest.approx(truth_2, abs=2e-4)
+    # another range: each sample moved along the curve of growth before the averaging
+    inside = (sp.wavelength_um > band[0] - 0.01) & (sp.wavelength_um < band[1] + 0.01)
+    wl = sp.wavelength_um[inside]
+    moved = moved_reference(wl, sp.transmission[inside], 1000.0, 2000.0)
+    assert atm.transmission(2000.0) == pytest.approx(trapezoid_mean(wl, moved, *band), abs=3e-4)
 
 
 @pytest.mark.parametrize("name", RADIANCE)

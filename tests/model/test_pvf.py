@@ -143,6 +143,6 @@ def test_bad_inputs_are_refused():
     with pytest.raises(ValueError, match="fill factor"):
         average_pvf(GaussianPsf(1.0), 1.5)
     with pytest.raises(ValueError, match="sigma"):
-        GaussianPsf(0.0)
+        GaussianPsf(-0.5)  # sigma 0 is a delta function (tests/model/test_eq4_narrow_psf.py)
     with pytest.raises(ValueError, match="MTF"):
         TabulatedMtfPsf((0.0, 0.5), (0.9, 0.1))

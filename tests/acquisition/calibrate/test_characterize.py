@@ -19,15 +19,22 @@ import tomllib
 import numpy as np
 import pytest
 
-from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+from snrmon.acquisition.calibrate.calibration import (
+    BlackbodyCapture,
+    calibrate_sensor,
+    radiance_of,
+    temperature_of,
+)
 from snrmon.acquisition.calibrate.calibration_file import save_calibration
 from snrmon.acquisition.calibrate.characterize import (
+    AirPath,
     CharacterizeConfig,
     at_rest_frames,
     characterize_frame,
     characterize_frames,
     summarise_frames,
     target_toml,
+    unmeasurable,
 )
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.cli import main
@@ -185,6 +192,91 @@ def test_rss_delta_t_includes_the_target_spread(cam, cal):
     assert r.sigma_target_k > 5.0
     assert r.rss_delta_t_k == pytest.approx(math.hypot(r.temp_k - r.background_k, r.sigma_target_k))
     assert r.rss_delta_t_k > r.temp_k - r.background_k + 0.3
+
+
+def _cross(camera, range_m: float, temp_k: float) -> np.ndarray:
+    """The cross without blades at ``temp_k`` against the sky, off the pixel grid (electrons)."""
+    e, _, _ = cross_drone(
+        camera,
+        range_m=range_m,
+        xc=XC + 0.3,
+        yc=YC + 0.6,
+        span_m=SPAN_M,
+        arm_m=ARM_M,
+        temp_k=temp_k,
+        sky_temp_k=SKY_K,
+    )
+    return e
+
+
+def test_what_it_cannot_measure_it_refuses_with_the_numbers(cam, cal):
+    """At least 25 frames and 7 px per dimension (twice the 3-px opening, plus one). The cross
+    at 37 m (12 x 16 px) holds; 10 frames of it do not; at 80 m the opening has eaten its
+    2.5-px arms (large 6.3 px, 16 % low) and in the LWIR at 37 m (2.7-px arms) too."""
+
+    def summary(camera, range_m, n):
+        e = _cross(camera, range_m, DRONE_K)
+        res = characterize_frames(
+            ((f, (XC, YC)) for f in camera.frames(e, n, seed=5)),
+            camera=camera.sensor.name,
+            range_m=range_m,
+            ifov_rad=camera.sensor.ifov_rad,
+        )
+        return res, range_m * camera.sensor.ifov_rad
+
+    res, px = summary(cam, RANGE_M, 30)
+    assert unmeasurable(res, pixel_m=px) is None
+    res, px = summary(cam, RANGE_M, 10)
+    assert unmeasurable(res, pixel_m=px).endswith(
+        "cannot be characterised: 10 frames at rest (need >= 25)"
+    )
+    res, px = summary(cam, 80.0, 30)
+    why = unmeasurable(res, pixel_m=px)
+    assert why is not None and "(need >= 7 px each" in why and "frames" not in why
+    assert res.large_m / px < 7
+    lwir = camera("lwir", shape=(96, 128), seed=21)
+    res, px = summary(lwir, RANGE_M, 30)
+    why = unmeasurable(res, pixel_m=px)
+    assert why is not None and why.startswith("lwir at 37.0 m cannot be characterised: small ")
+    assert unmeasurable(res, pixel_m=px, min_size_px=5.0) is None  # a looser limit given
+
+
+def test_through_the_air_the_drone_is_corrected_and_the_sky_read_as_seen(cam, cal):
+    """A drone at 36.7 C rendered as the camera sees it through air of transmission 0.83 at
+    15 C (the MWIR at 37 m): with the path its temperature, spread and RSS delta-T are its
+    own, against the sky as seen; without it every one is apparent, some 3 K lower."""
+    band = cal.band_um
+    path = AirPath(0.83, 288.15)
+    seen_k = float(
+        temperature_of(band, path.apparent_radiance(radiance_of(band, DRONE_K), band), ())
+    )
+    assert DRONE_K - seen_k > 2.5
+    frames = cam.frames(_cross(cam, RANGE_M, seen_k), 8, seed=9)
+    kw = dict(range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal)
+    own = summarise_frames(
+        [characterize_frame(f, (XC, YC), path=path, **kw) for f in frames],
+        camera="mwir",
+        range_m=RANGE_M,
+        method="otsu",
+        convention="path_corrected",
+    )
+    app = summarise_frames(
+        [characterize_frame(f, (XC, YC), **kw) for f in frames],
+        camera="mwir",
+        range_m=RANGE_M,
+        method="otsu",
+    )
+    assert (
+        own.temperature_convention == "path_corrected" and app.temperature_convention == "apparent"
+    )
+    assert own.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
+    assert own.apparent_temp_c == pytest.approx(app.mean_temp_c, abs=1e-3)
+    assert own.background_temp_c == pytest.approx(app.background_temp_c, abs=1e-6)  # as seen
+    assert own.background_temp_c == pytest.approx(SKY_K - 273.15, abs=0.1)
+    assert own.rss_delta_t_k == pytest.approx(DRONE_K - SKY_K, rel=0.02)
+    assert app.rss_delta_t_k == pytest.approx(seen_k - SKY_K, rel=0.02)
+    with pytest.raises(ValueError, match="convention"):
+        summarise_frames([], camera="mwir", range_m=1.0, method="otsu", convention="own")
 
 
 def test_target_toml_is_read_by_the_model(cam, cal, tmp_path):

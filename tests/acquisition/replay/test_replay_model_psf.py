@@ -56,6 +56,17 @@ def test_adopting_a_psf_sets_the_curves_and_tells_the_sink():
     assert sink.changes == [("mwir", "model_psf", ESTIMATE, 123)]
     assert predictor.curves_psf["mwir"].sigma_px == 0.57
     assert predictor("mwir", 393.0)["small_corrected"] > 1.4 * preset
+    # which PSF the curves used, in words the console can show
+    assert predictor.curves_psf_source["mwir"] == "fitted: sigma 0.57 px from this flight's stops"
+
+
+def test_the_preset_psf_is_named_until_one_is_fitted():
+    """The MWIR preset's blur is solved from the paper's average PVF 0.082 (section 8)."""
+    predictor = ModelPredictor({"mwir": "mwir", "lwir": "lwir"}, "uav1")
+    assert predictor.curves_psf_source == {
+        "mwir": "preset: PVF 0.082 (sensor mwir)",
+        "lwir": "preset: PVF 0.45 (sensor lwir)",
+    }
 
 
 def test_a_replay_applies_the_recorded_psf(tmp_path):
