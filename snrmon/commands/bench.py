@@ -10,8 +10,6 @@ import pkgutil
 import platform
 import sys
 
-from snrmon import benchmarks
-from snrmon.benchmarks.fresh_process import BenchmarkError, figures_in_fresh_process
 from snrmon.cli import EXIT_FAILURE, EXIT_OK, UsageError
 from snrmon.extras import MissingExtraError, require
 from snrmon.output import emit_json
@@ -38,6 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _modules() -> dict:
     """{key: module} of every ``benchmarks/bench_*.py``."""
+    from snrmon import benchmarks
+
     out = {}
     for info in sorted(pkgutil.iter_modules(benchmarks.__path__), key=lambda m: m.name):
         if info.name.startswith("bench_"):
@@ -47,6 +47,8 @@ def _modules() -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    from snrmon.benchmarks.fresh_process import BenchmarkError, figures_in_fresh_process
+
     if not args.duration > 0:
         raise UsageError(f"--duration must be positive, got {args.duration}")
     only = {k.strip() for k in args.only.split(",") if k.strip()}

@@ -16,16 +16,8 @@ from __future__ import annotations
 
 import argparse
 
-from snrmon.acquisition.calibrate.calibration import (
-    BlackbodyCapture,
-    calibrate_sensor,
-)
-from snrmon.acquisition.calibrate.calibration_file import save_calibration
-from snrmon.acquisition.calibrate.quality import calibration_quality
-from snrmon.acquisition.replay.stack_io import load_stack
 from snrmon.cli import UsageError
 from snrmon.inputs import output_file, stack_file
-from snrmon.model.presets import load_sensor
 from snrmon.output import emit_json
 
 ZERO_C_K = 273.15
@@ -60,6 +52,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+    from snrmon.acquisition.calibrate.calibration_file import save_calibration
+    from snrmon.acquisition.calibrate.quality import calibration_quality
+    from snrmon.acquisition.replay.stack_io import load_stack
+    from snrmon.model.presets import load_sensor
+
     sensor = load_sensor(args.camera)
     if not str(args.output).endswith(".npz"):
         raise UsageError(f"-o must name a .npz file, got {args.output!r}")

@@ -33,31 +33,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 from pathlib import Path
 
-import numpy as np
-
-from snrmon.acquisition.calibrate.characterize import (
-    CharacterizeConfig,
-    at_rest_frames,
-    characterize_frame,
-    summarise_frames,
-    target_toml,
-)
-from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
-from snrmon.acquisition.record.reader import open_session
-from snrmon.acquisition.replay.batch import replay_session
-from snrmon.acquisition.replay.recorded import recorded_calibration
-from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, output_file, session_file
-from snrmon.model.presets import load_sensor
 from snrmon.output import emit_json
 from snrmon.results import add_result_options, keep_result
-
-# A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
-# stop; only a frame without a trustworthy position is skipped.
-_NO_POSITION = frozenset({FLAG_LOST, FLAG_EDGE})
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -113,10 +95,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _weather(args):
     """The met readings of the session's [weather] (None: none), --air-temp-c over its air."""
-    import dataclasses
-
     from snrmon.acquisition.config import session_config_from_dict
     from snrmon.acquisition.prediction import Weather
+    from snrmon.acquisition.record.reader import open_session
 
     with open_session(args.file) as f:
         raw = f.config.get("session") if isinstance(f.config, dict) else None
@@ -161,6 +142,7 @@ def through_the_air(result, sensor, range_m: float, weather=None) -> dict:
 def _measured_psf(args, sensor) -> tuple[object | None, float | None, str | None]:
     """(PSF, blur_px, where it came from): ``--psf-blur-px``, else the session's latest
     ``psf_measured`` / ``model_psf`` event of the camera; (None, None, None) without one."""
+    from snrmon.acquisition.record.reader import open_session
     from snrmon.model.psf import AiryGaussianPsf
 
     if args.no_psf_correction:
@@ -180,18 +162,39 @@ def _measured_psf(args, sensor) -> tuple[object | None, float | None, str | None
             return None, None, None
         last = events[-1]  # the latest: events are in the order they were added
         blur, source = float(last["payload"]["blur_px"]), f"{last['kind']} event"
-    if not (blur >= 0 and np.isfinite(blur)):
+    if not (blur >= 0 and math.isfinite(blur)):
         raise UsageError(f"--psf-blur-px must be >= 0 px, got {blur}")
     return AiryGaussianPsf(sensor.diffraction_psf(), float(blur)), float(blur), source
 
 
 def _sensor_name(path: str, camera: str) -> str:
+    from snrmon.acquisition.record.reader import open_session
+
     with open_session(path) as f:
         cams = (f.config.get("session") or {}).get("cameras") or {}
         return str((cams.get(camera) or {}).get("sensor", camera))
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from snrmon.acquisition.calibrate.characterize import (
+        CharacterizeConfig,
+        at_rest_frames,
+        characterize_frame,
+        summarise_frames,
+        target_toml,
+    )
+    from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
+    from snrmon.acquisition.record.reader import open_session
+    from snrmon.acquisition.replay.batch import replay_session
+    from snrmon.acquisition.replay.recorded import recorded_calibration
+    from snrmon.acquisition.stops.detector import StopConfig
+    from snrmon.model.presets import load_sensor
+
+    # A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
+    # stop; only a frame without a trustworthy position is skipped.
+    no_position = frozenset({FLAG_LOST, FLAG_EDGE})
     if args.frames < 1:
         raise UsageError(f"--frames must be >= 1, got {args.frames}")
     if args.roi_px < 1:
@@ -223,7 +226,7 @@ def run(args: argparse.Namespace) -> int:
     picks = [
         (m.t_host_ns, (m.result.peak_x, m.result.peak_y), m.range_m)
         for m in rep.tally.measurements
-        if row.t_start_ns <= m.t_host_ns < end and not (m.result.flags & _NO_POSITION)
+        if row.t_start_ns <= m.t_host_ns < end and not (m.result.flags & no_position)
     ]
     if not picks:
         raise UsageError(f"stop {args.stop} holds no tracked frames of {args.camera}")

@@ -19,18 +19,14 @@ import argparse
 import csv
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from snrmon.acquisition.geo.pointing import calibrate_pointing
-from snrmon.acquisition.geo.projection import (
-    CameraIntrinsics,
-    Pointing,
-    Site,
-    parse_triple,
-    project_to_pixel,
-)
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file
 from snrmon.output import emit_json
+
+if TYPE_CHECKING:  # imported when a subcommand runs: `--help` starts at once
+    from snrmon.acquisition.geo.projection import CameraIntrinsics
 
 PAIR_COLUMNS = ("x_px", "y_px", "lat_deg", "lon_deg", "alt_m")
 
@@ -41,6 +37,8 @@ PAIR_COLUMNS = ("x_px", "y_px", "lat_deg", "lon_deg", "alt_m")
 
 def camera_of(text: str) -> CameraIntrinsics:
     """``F_M,PITCH_UM,W,H`` -> intrinsics; anything else is a ValueError naming --camera."""
+    from snrmon.acquisition.geo.projection import CameraIntrinsics
+
     parts = text.split(",")
     try:
         if len(parts) != 4:
@@ -55,6 +53,8 @@ def camera_of(text: str) -> CameraIntrinsics:
 
 def intrinsics_of(args: argparse.Namespace) -> CameraIntrinsics:
     """The intrinsics from ``--camera`` or from the sensor preset/file of ``--sensor``."""
+    from snrmon.acquisition.geo.projection import CameraIntrinsics
+
     if args.camera is not None:
         return camera_of(args.camera)
     if args.sensor is None:
@@ -119,6 +119,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_pixel(args: argparse.Namespace) -> int:
+    from snrmon.acquisition.geo.projection import Pointing, Site, parse_triple, project_to_pixel
+
     cam = intrinsics_of(args)
     site = Site(*parse_triple(args.site, "--site"))
     pointing = Pointing(*parse_triple(args.pointing, "--pointing"))
@@ -150,6 +152,9 @@ def read_pairs(path: Path) -> list[tuple[float, float, float, float, float]]:
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
+    from snrmon.acquisition.geo.pointing import calibrate_pointing
+    from snrmon.acquisition.geo.projection import Pointing, Site, parse_triple
+
     cam = intrinsics_of(args)
     site = Site(*parse_triple(args.site, "--site"))
     initial = (

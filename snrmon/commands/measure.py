@@ -25,23 +25,17 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from snrmon.acquisition.measure.background import parse_rect, validate_rect
-from snrmon.acquisition.measure.peak_snr import (
-    FLAG_NAMES,
-    RUNNING_EXCLUDED,
-    PeakSnr,
-    PeakSnrMeter,
-    saturation_level,
-)
-from snrmon.acquisition.measure.running_stats import RunningSnr
-from snrmon.acquisition.measure.stack_snr import StackSnr, measure_stack
-from snrmon.acquisition.replay.stack_io import load_stack
-from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackStep, track_stack
 from snrmon.cli import UsageError
 from snrmon.output import emit_json
+
+if TYPE_CHECKING:  # the work's modules are imported when it runs: `--help` starts at once
+    import numpy as np
+
+    from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrMeter
+    from snrmon.acquisition.measure.stack_snr import StackSnr
+    from snrmon.acquisition.track.tracker import TrackStep
 
 
 def _point(text: str) -> tuple[int, int]:
@@ -99,6 +93,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _meter(args: argparse.Namespace, shape: tuple[int, int]) -> PeakSnrMeter:
+    from snrmon.acquisition.measure.background import parse_rect, validate_rect
+    from snrmon.acquisition.measure.peak_snr import PeakSnrMeter
+
     if args.box < 3:
         raise UsageError(f"--box must be an odd integer >= 3, got {args.box}")
     if args.window < 1:
@@ -125,6 +122,8 @@ def _meter(args: argparse.Namespace, shape: tuple[int, int]) -> PeakSnrMeter:
 
 def _measure_frames(args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrMeter) -> StackSnr:
     """The operator's point stays fixed (no tracking): the vectorised stack path."""
+    from snrmon.acquisition.measure.stack_snr import measure_stack
+
     return measure_stack(stack, args.at, meter=meter)
 
 
@@ -133,6 +132,9 @@ def _track_frames(
 ) -> tuple[list[PeakSnr], list[TrackStep]]:
     """The window follows the object (acquisition.track.tracker); the meter's settings carry
     over. A click the tracker finds nothing compact near is a UsageError."""
+    from snrmon.acquisition.measure.peak_snr import saturation_level
+    from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, track_stack
+
     first = Tracker(args.at, measurement=meter.config).update(stack[0])
     if first.reason == "no_object":
         x, y = args.at
@@ -157,6 +159,8 @@ def _num(value: float) -> float | None:
 
 
 def _summary(snr: np.ndarray) -> tuple[float, float]:
+    import numpy as np
+
     finite = snr[np.isfinite(snr)]
     mean = float(finite.mean()) if finite.size else math.nan
     std = float(finite.std(ddof=1)) if finite.size > 1 else math.nan
@@ -164,6 +168,11 @@ def _summary(snr: np.ndarray) -> tuple[float, float]:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from snrmon.acquisition.measure.peak_snr import FLAG_NAMES, RUNNING_EXCLUDED
+    from snrmon.acquisition.measure.running_stats import RunningSnr
+    from snrmon.acquisition.replay.stack_io import load_stack
     from snrmon.inputs import stack_file
 
     stack = load_stack(stack_file(args.stack))

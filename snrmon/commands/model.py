@@ -28,8 +28,6 @@ from __future__ import annotations
 import argparse
 import math
 
-import numpy as np
-
 from snrmon.cli import UsageError
 from snrmon.inputs import output_file
 from snrmon.output import emit_json
@@ -402,6 +400,8 @@ def run_netd(args) -> int:
 
 
 def run_plot(args) -> int:
+    import numpy as np
+
     from snrmon.model.plot import plot_prediction
     from snrmon.model.snr import predict
 

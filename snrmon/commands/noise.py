@@ -29,12 +29,14 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, is_hdf5
 from snrmon.output import emit_json
+
+if TYPE_CHECKING:  # imported when the work runs: `--help` starts at once
+    import numpy as np
 
 FIGURE_NOTES = {
     "t": "frame-to-frame flicker",
@@ -167,6 +169,8 @@ def _camera(f, name: str | None):
 
 
 def _seconds_range(span: tuple[str, str], t_ns: np.ndarray) -> tuple[int, int]:
+    import numpy as np
+
     try:
         lo = float(span[0]) if span[0] else 0.0
         hi = float(span[1]) if span[1] else np.inf
@@ -232,6 +236,8 @@ def _session_noise(args: argparse.Namespace):
 def _kelvin(calibration: tuple, region, mean_image: np.ndarray, noise) -> dict:
     """The kelvin figures and NETD from ``calibration``, (a calibration, its source) (module
     docstring)."""
+    import numpy as np
+
     cal, source = calibration
     x0, y0, x1, y1 = region
     rows, cols = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]

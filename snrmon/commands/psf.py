@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, session_file
 from snrmon.output import emit_json
@@ -55,6 +53,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from snrmon.acquisition.calibrate.psf_estimate import (
         PsfEstimateError,
         StopCrops,
