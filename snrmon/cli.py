@@ -20,6 +20,9 @@ Exit codes, the same for every command (docs/cli.md):
 Every message has the one prefix ``snrmon COMMAND: error: ...`` (``warning:``, ``info:`` for
 log lines), on one line, never a traceback unless ``-v``.
 
+A closed pipe on standard output (``snrmon measure ... --json | head -c 10``) ends the output
+quietly with exit 0, as ``cat`` and ``grep`` do: the reader has what it asked for.
+
 SIGTERM (``kill``, a service manager stopping it, a closed terminal's SIGHUP) is taken as
 Ctrl-C: the command's ``finally`` blocks run, so a recording is closed whole and the camera
 processes and temporary files are cleaned up, instead of Python's default of dying on the spot.
@@ -30,8 +33,10 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import pkgutil
 import re
+import select
 import signal
 import sys
 import threading
@@ -161,7 +166,39 @@ def _interrupt(signum: int, _frame: object) -> None:
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
+def stdout_closed() -> bool:
+    """True when standard output is a pipe or socket whose reader is gone (``| head``): a
+    BrokenPipeError is then the end of the output, not a device's or a link's failure."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # captured or replaced: no descriptor
+        return False
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return any(events & (select.POLLERR | select.POLLHUP) for _, events in poller.poll(0))
+
+
+def _silence_stdout() -> None:
+    """Standard output to the null device, so the interpreter's own flush at exit does not
+    fail on the closed pipe again (the Python documentation's recipe, signal module)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        code = _main(argv)
+        sys.stdout.flush()  # here, not at exit: a closed pipe is handled as below
+        return code
+    except BrokenPipeError:
+        if not stdout_closed():
+            raise
+        _silence_stdout()
+        return EXIT_OK
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra:  # refused by the (sub)command they were given to, in its own words
@@ -180,6 +217,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         with logs.configured(prog, verbose=args.verbose, quiet=args.quiet, log_file=args.log_file):
             progress.set_quiet(args.quiet, verbose=args.verbose >= 1)
             return _run(args, prog)
+    except BrokenPipeError:
+        raise
     except OSError as exc:  # the --log-file itself cannot be opened
         print(f"{prog}: error: --log-file: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -205,6 +244,8 @@ def _run(args: argparse.Namespace, prog: str) -> int:
         _report(prog, _first_line(exc), exc, verbose)
         return EXIT_USAGE
     except OSError as exc:
+        if isinstance(exc, BrokenPipeError) and stdout_closed():
+            raise  # the reader of the output is gone: main() ends quietly
         # A device, a link or a disk failed while working: a runtime failure.
         _report(prog, _first_line(exc), exc, verbose)
         return EXIT_FAILURE
