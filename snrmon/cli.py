@@ -80,6 +80,25 @@ class Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = re.compile(r"^-\.?\d")
 
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+        # A required option given by its deprecated spelling is given: argparse counts only
+        # the action it saw, so the new spelling is not required while the old one is used.
+        words = list(sys.argv[1:] if args is None else args)
+        relaxed = [
+            a.target
+            for a in self._actions
+            if isinstance(a, DeprecatedAlias)
+            and a.target.required
+            and any(w == s or w.startswith(f"{s}=") for w in words for s in a.option_strings)
+        ]
+        for target in relaxed:
+            target.required = False
+        try:
+            return super().parse_known_args(words, namespace)
+        finally:
+            for target in relaxed:
+                target.required = True
+
     def error(self, message: str):  # type: ignore[override]
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
@@ -122,6 +141,36 @@ def _add_common(p: argparse.ArgumentParser, top: bool) -> None:
         g.add_argument(*flags, **kw)
 
 
+class DeprecatedAlias(argparse.Action):
+    """An old spelling of an option: hidden from ``--help``, it warns on one line and does
+    what the new option does (the same type, choices and action)."""
+
+    def __init__(self, option_strings: list[str], dest: str, *, target: argparse.Action):
+        super().__init__(
+            option_strings,
+            dest,
+            nargs=target.nargs,
+            const=target.const,
+            default=argparse.SUPPRESS,
+            type=target.type,
+            choices=target.choices,
+            metavar=target.metavar,
+            help=argparse.SUPPRESS,
+        )
+        self.target = target
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        new = max(self.target.option_strings, key=len)
+        print(f"{parser.prog}: warning: {option_string} is deprecated, use {new}", file=sys.stderr)
+        self.target(parser, namespace, values, new)
+
+
+def add_deprecated_alias(parser: argparse.ArgumentParser, old: str, new: str) -> None:
+    """``old`` as a deprecated spelling of ``parser``'s option ``new``."""
+    target = parser._option_string_actions[new]
+    parser.add_argument(old, action=DeprecatedAlias, dest=target.dest, target=target)
+
+
 def iter_parsers(
     parser: argparse.ArgumentParser,
 ) -> Iterator[argparse.ArgumentParser]:
@@ -155,7 +204,12 @@ def build_parser() -> argparse.ArgumentParser:
         register = getattr(module, "register", None)
         if register is not None:
             register(sub)
+    from snrmon.cli_vocabulary import DEPRECATED
+
     for p in iter_parsers(parser):
+        for (prog, old), new in DEPRECATED.items():
+            if prog == p.prog:
+                add_deprecated_alias(p, old, new)
         if p is not parser:
             _add_common(p, top=False)
             p.set_defaults(prog=p.prog)  # the message prefix of the (sub)command that runs

@@ -31,7 +31,7 @@ def _hil_record(path: Path, seed: int) -> Path:
     from snrmon.cli import main
 
     argv = ["hil", "--out", str(path), "--stops", "37,126", "--hover-s", "4", "--speed", "4"]
-    argv += ["--camera", "lwir", "--seed", str(seed), "--json"]
+    argv += ["--cameras", "lwir", "--seed", str(seed), "--json"]
     assert main(argv) == 0, f"snrmon hil --out {path} failed"
     return path
 

@@ -41,7 +41,7 @@ def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):
             str(out),
             "--duration",
             "2",
-            "--roi",
+            "--click",
             "cam:64,41",
         ]
     )
@@ -129,7 +129,7 @@ def test_kill_9_loses_at_most_a_second_and_the_file_replays(devices, tmp_path):
         str(devices),
         "--out",
         str(out),
-        "--roi",
+        "--click",
         "cam:66,39",
     ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)

@@ -22,11 +22,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=float,
         default=10.0,
         metavar="S",
-        help="seconds of sustained acquisition (an hour is the soak test)",
+        help="seconds of sustained acquisition, an hour is the soak test (default: %(default)s)",
     )
     p.add_argument(
         "--only",
-        default="",
         metavar="KEYS",
         help="comma-separated benchmark keys to run (default: all)",
     )
@@ -51,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.duration > 0:
         raise UsageError(f"--duration must be positive, got {args.duration}")
-    only = {k.strip() for k in args.only.split(",") if k.strip()}
+    only = {k.strip() for k in (args.only or "").split(",") if k.strip()}
     modules = _modules()
     unknown = sorted(only - set(modules))
     if unknown:

@@ -40,19 +40,33 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="FILE.png",
         help="save the window at the end (headless default: out/demo.png)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of every simulated device")
-    p.add_argument("--speed", type=float, default=1.0, help="flight time per wall second")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        metavar="N",
+        help="seed of every simulated device (default: %(default)s)",
+    )
+    p.add_argument(
+        "--speed",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="flight time per wall second (default: %(default)s)",
+    )
     p.add_argument(
         "--stops",
         default="37,126,199,336,393,451,508",
         metavar="M,M,...",
-        help="hover ranges in metres (the paper's by default)",
+        help="hover ranges in metres (default: the paper's, %(default)s)",
     )
-    p.add_argument("--out", type=Path, metavar="FILE.h5", help="record the session")
+    p.add_argument(
+        "-o", "--out", type=Path, metavar="PATH", help="record the session into this file (.h5)"
+    )
     p.add_argument(
         "--report",
         type=Path,
-        metavar="FILE.pdf|png",
+        metavar="REPORT.pdf|png",
         help="render the report at the end: from the recording with --out, else from the "
         "live stop table (headless default: out/demo-report.pdf)",
     )

@@ -11,6 +11,7 @@ import glob
 import os
 from pathlib import Path
 
+from snrmon.drivers.camera.usb import list_usb_cameras
 from snrmon.output import emit_json
 
 
@@ -41,8 +42,6 @@ def serial_ports() -> dict:
 
 def usb_cameras() -> dict:
     """Cameras on the USB bus (pyusb), with their link speed."""
-    from snrmon.drivers.camera.usb import list_usb_cameras
-
     try:
         cams = list_usb_cameras()
     except OSError as exc:

@@ -39,15 +39,15 @@ def _kelvin(celsius: float, what: str) -> float:
     return celsius + 273.15
 
 
-def _window(text: str | None) -> tuple[int, int] | None:
+def _size(text: str | None) -> tuple[int, int] | None:
     if text is None:
         return None
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise UsageError(f"--window must be WxH in pixels, e.g. 256x192, got {text!r}") from None
+        raise UsageError(f"--size must be WxH in pixels, e.g. 256x192, got {text!r}") from None
     if w < 64 or h < 64:
-        raise UsageError(f"--window must be at least 64x64 pixels, got {text!r}")
+        raise UsageError(f"--size must be at least 64x64 pixels, got {text!r}")
     return w, h
 
 
@@ -56,35 +56,67 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--headless", action="store_true", help="no window (always: `snrmon demo` has the console)"
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of every simulated device")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        metavar="N",
+        help="seed of every simulated device (default: %(default)s)",
+    )
     p.add_argument(
         "--speed",
         default="1",
+        metavar="X",
         help="flight time per wall-clock second (e.g. 2), or max: as fast as the console takes "
         "the frames (at most 8x). A simulated day never drops a frame: where the machine is "
-        "busier than the speed needs, the day slows down (said on stderr and in the JSON)",
+        "busier than the speed needs, the day slows down (said on stderr and in the JSON) "
+        "(default: %(default)s)",
     )
     p.add_argument(
         "--stops",
         default="37,126,199,336,393,451,508",
         metavar="M,M,...",
-        help="hover ranges in metres",
+        help="hover ranges in metres (default: %(default)s)",
     )
-    p.add_argument("--camera", default="mwir,lwir", help="cameras to simulate")
-    p.add_argument("--target", default="uav1", help="target preset or TOML file")
-    p.add_argument("--hover-s", type=float, default=7.0, help="hover time per stop (flight s)")
-    p.add_argument("--transit-mps", type=float, default=8.0, help="transit speed between stops")
+    p.add_argument(
+        "--cameras",
+        default="mwir,lwir",
+        metavar="NAME,...",
+        help="cameras to simulate (default: %(default)s)",
+    )
+    p.add_argument(
+        "--target",
+        default="uav1",
+        metavar="uav1|uav2|FILE",
+        help="target preset or TOML file (default: %(default)s)",
+    )
+    p.add_argument(
+        "--hover-s",
+        type=float,
+        default=7.0,
+        metavar="S",
+        help="hover time per stop, flight seconds (default: %(default)s)",
+    )
+    p.add_argument(
+        "--transit-mps",
+        type=float,
+        default=8.0,
+        metavar="M_S",
+        help="transit speed between stops, m/s (default: %(default)s)",
+    )
     p.add_argument(
         "--sky-temp-c",
         type=float,
-        default=280.0 - 273.15,
-        help="the scenario's clear-sky apparent temperature, C (6.85)",
+        default=6.85,
+        metavar="T",
+        help="the scenario's clear-sky apparent temperature, C (default: %(default)s)",
     )
     p.add_argument(
         "--air-temp-c",
         type=float,
         default=15.0,
-        help="the scenario's air temperature along the path, C (15)",
+        metavar="T",
+        help="the scenario's air temperature along the path, C (default: %(default)s)",
     )
     p.add_argument(
         "--rh",
@@ -98,7 +130,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=float,
         default=None,
         metavar="P",
-        help="the scenario's air pressure, hPa (1013.25)",
+        help="the scenario's air pressure, hPa (default: 1013.25)",
     )
     p.add_argument(
         "--visibility-km",
@@ -108,7 +140,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="the scenario's visibility (rural aerosol), km (default: no aerosol)",
     )
     p.add_argument(
-        "--window", metavar="WxH", help="read a sub-array of W x H pixels around the line of sight"
+        "--size",
+        metavar="WxH",
+        help="read a sub-array of W x H pixels around the line of sight (default: the whole frame)",
     )
     p.add_argument(
         "--no-calibration",
@@ -121,7 +155,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="keep the search window where clicked (re-clicked at every stop)",
     )
-    p.add_argument("--out", metavar="FILE.h5", help="record the run into a session file")
+    p.add_argument(
+        "-o", "--out", metavar="PATH", help="record the run into this new session file (.h5)"
+    )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
 
@@ -138,10 +174,10 @@ def run(args: argparse.Namespace) -> int:
     for option, value in (("--hover-s", args.hover_s), ("--transit-mps", args.transit_mps)):
         if not value > 0:
             raise UsageError(f"{option} must be positive, got {value}")
-    cameras = tuple(c.strip() for c in args.camera.split(",") if c.strip())
+    cameras = tuple(c.strip() for c in args.cameras.split(",") if c.strip())
     unknown = [c for c in cameras if c not in ("mwir", "lwir")]
     if unknown or not cameras:
-        raise UsageError(f"--camera must name mwir and/or lwir, got {args.camera!r}")
+        raise UsageError(f"--cameras must name mwir and/or lwir, got {args.cameras!r}")
     opts = HilOptions(
         seed=args.seed,
         speed=speed,
@@ -155,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
         rh_percent=args.rh,
         pressure_hpa=args.pressure_hpa,
         visibility_km=args.visibility_km,
-        window_px=_window(args.window),
+        window_px=_size(args.size),
         calibrate=not args.no_calibration,
         fpn=args.fpn,
         track=not args.no_track,

@@ -28,7 +28,7 @@ DEFAULT_COUNT_TIMEOUT_S = 30.0
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("listen", help="print readings from a GPS or rangefinder as they arrive")
-    p.add_argument("kind", choices=("gps", "lrf"), help="what is on the port")
+    p.add_argument("kind", choices=("gps", "lrf"), metavar="gps|lrf", help="what is on the port")
     p.add_argument(
         "--port",
         required=True,
@@ -39,9 +39,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--protocol",
         choices=GPS_PROTOCOLS + LRF_PROTOCOLS,
+        metavar="|".join(GPS_PROTOCOLS + LRF_PROTOCOLS),
         help="default nmea for gps, trupulse for lrf",
     )
-    p.add_argument("--baud", type=int, help="line speed (default: the protocol's)")
+    p.add_argument("--baud", type=int, metavar="BAUD", help="line speed (default: the protocol's)")
     p.add_argument("--count", type=int, metavar="N", help="exit after N readings of any status")
     p.add_argument(
         "--timeout",

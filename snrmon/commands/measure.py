@@ -8,7 +8,7 @@ JSON contract (``--json``), on stdout::
 
 ``snr_mean``/``snr_std`` (sample std, ddof=1) are over all frames whose SNR is defined (finite),
 flagged or not; a value that is not a finite number (an undefined SNR) is written as ``null``.
-The readable table adds the running mean/std over the last ``--window`` valid frames.
+The readable table adds the running mean/std over the last ``--window-frames`` valid frames.
 
 ``--track`` runs :func:`snrmon.acquisition.track.tracker.track_stack` from ``--at`` (the compact
 object nearest the click, followed, measured against the background its extent allows, found
@@ -71,16 +71,35 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("stack", metavar="STACK", help="the frames")
     p.add_argument("--at", type=_point, required=True, metavar="X,Y", help="operator's point")
-    p.add_argument("--search", type=_odd, default=11, metavar="N", help="search window (11)")
-    p.add_argument("--box", type=_odd, default=7, metavar="N", help="box size, odd (7)")
+    p.add_argument(
+        "--search",
+        type=_odd,
+        default=11,
+        metavar="N",
+        help="search window's side, pixels, odd (default: %(default)s)",
+    )
+    p.add_argument(
+        "--box",
+        type=_odd,
+        default=7,
+        metavar="N",
+        help="box size, pixels, odd (default: %(default)s)",
+    )
     p.add_argument(
         "--background",
         default="rim",
         metavar="rim|X0,Y0,X1,Y1",
-        help="background pixels: the box rim (default) or a clear-sky rectangle, corners included",
+        help="background pixels: the box rim or a clear-sky rectangle, corners included "
+        "(default: %(default)s)",
     )
     p.add_argument("--detrend", action="store_true", help="remove a plane from the background")
-    p.add_argument("--window", type=int, default=100, metavar="N", help="running window (100)")
+    p.add_argument(
+        "--window-frames",
+        type=int,
+        default=100,
+        metavar="N",
+        help="running window, frames (default: %(default)s)",
+    )
     p.add_argument("--saturation", type=float, default=None, metavar="DN", help="saturation level")
     p.add_argument("--json", action="store_true", help="print the JSON contract on stdout")
     p.add_argument(
@@ -98,8 +117,8 @@ def _meter(args: argparse.Namespace, shape: tuple[int, int]) -> PeakSnrMeter:
 
     if args.box < 3:
         raise UsageError(f"--box must be an odd integer >= 3, got {args.box}")
-    if args.window < 1:
-        raise UsageError(f"--window must be a positive integer, got {args.window}")
+    if args.window_frames < 1:
+        raise UsageError(f"--window-frames must be a positive integer, got {args.window_frames}")
     background = None
     if args.background != "rim":
         background = validate_rect(parse_rect(args.background), shape)
@@ -111,7 +130,7 @@ def _meter(args: argparse.Namespace, shape: tuple[int, int]) -> PeakSnrMeter:
             f"y 0..{rows - 1})"
         )
     return PeakSnrMeter(
-        window=args.window,
+        window=args.window_frames,
         search_px=args.search,
         box_px=args.box,
         background=background,
@@ -180,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
     steps: list[TrackStep] | None = None
     if getattr(args, "track", False):
         results, steps = _track_frames(args, stack, meter)
-        running = RunningSnr(args.window)
+        running = RunningSnr(args.window_frames)
         for r in results:
             if not r.flags & RUNNING_EXCLUDED:
                 running.push(r.snr)

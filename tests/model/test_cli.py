@@ -52,7 +52,7 @@ def test_snr_with_background_and_modtran_file(capsys):
         tape,
         "--atmosphere-path-m",
         "1000",
-        "--background-temp-c",
+        "--sky-temp-c",
         "29.5",
         "--json",
     )

@@ -55,7 +55,7 @@ def test_undefined_snr_is_null_in_json(tmp_path, capsys):
 def test_table_and_options(stack_path, capsys):
     path, _ = stack_path
     args = ["measure", str(path), "--at", "26,19", "--background", "2,2,15,12", "--detrend"]
-    assert main([*args, "--window", "5", "--search", "5", "--box", "5"]) == 0
+    assert main([*args, "--window-frames", "5", "--search", "5", "--box", "5"]) == 0
     out = capsys.readouterr().out
     assert "running, last 5 valid of window 5" in out and "saturated" in out
     assert len(out.strip().splitlines()) == 1 + 12 + 2
