@@ -73,12 +73,13 @@ class Parser(argparse.ArgumentParser):
 
     A value that starts with a minus and a digit is a value, not an option: argparse's own rule
     takes only a plain negative number, so ``--stops -100,200`` or ``--offset-s -1e-3`` was
-    refused as "expected one argument" before the command could say what is wrong with it.
+    refused as "expected one argument" before the command could say what is wrong with it
+    (``-inf`` and ``-nan`` too: a number, refused by the option's range).
     """
 
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
-        self._negative_number_matcher = re.compile(r"^-\.?\d")
+        self._negative_number_matcher = re.compile(r"^-(\.?\d|inf|nan)", re.IGNORECASE)
 
     def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
         # A required option given by its deprecated spelling is given: argparse counts only

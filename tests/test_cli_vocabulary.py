@@ -181,10 +181,13 @@ ALIAS_CASES = {
     ),
     ("snrmon gui", "--size"): (["gui", "--size", "5x5"], SIZE_REFUSED),
     ("snrmon hil", "--camera"): (["hil", "--camera", "swir"], "--cameras must name mwir"),
-    ("snrmon hil", "--window"): (["hil", "--window", "10x10"], "--size must be at least 64x64"),
+    ("snrmon hil", "--window"): (
+        ["hil", "--window", "100x100", "--cameras", "swir"],
+        "--cameras must name mwir",
+    ),
     ("snrmon measure", "--window"): (
-        ["measure", "s.npy", "--at", "4,4", "--window", "0"],
-        "--window-frames must be a positive integer",
+        ["measure", "s.npy", "--at", "4,4", "--window", "5", "--box", "17"],
+        "--box 17 is larger than the 9x9 frames",
     ),
     ("snrmon model snr", "--background-temp-c"): (
         ["model", "snr", "--sensor", "mwir", "--target", "uav1", "--background-temp-c", "-300"],
@@ -231,9 +234,9 @@ def test_a_deprecated_spelling_still_works_and_warns_on_one_line(
 
 def test_the_new_spellings_do_not_warn(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert main(["hil", "--size", "10x10"]) == 2
+    assert main(["hil", "--size", "100x100", "--cameras", "swir"]) == 2
     err = capsys.readouterr().err
-    assert "deprecated" not in err and "--size must be at least 64x64" in err
+    assert "deprecated" not in err and "--cameras must name mwir" in err
 
 
 def test_a_required_option_given_by_its_old_spelling_is_given(tmp_path, monkeypatch, capsys):

@@ -84,7 +84,13 @@ def test_record_duration_must_be_positive(tmp_path, capsys, duration):
     cfg = tmp_path / "c.toml"
     cfg.write_text('[cameras.a]\nsource = "shm"\n')
     args = ["record", "--config", str(cfg), "--out", str(tmp_path / "o.h5"), "--duration"]
-    assert main([*args, duration]) == 2
+    with pytest.raises(SystemExit) as refused:  # by the parser, before the config is read
+        main([*args, duration])
+    assert refused.value.code == 2
+    assert (
+        f"argument --duration: must be a number above 0 and up to 2678400 s, got '{duration}'"
+        in (capsys.readouterr().err)
+    )
 
 
 def test_sigterm_closes_the_recording_whole(devices, tmp_path):

@@ -21,7 +21,7 @@ from pathlib import Path
 from snrmon.cli import UsageError
 from snrmon.commands.gui import add_status_file_option, add_view_options, view_options
 from snrmon.extras import require
-from snrmon.inputs import output_file
+from snrmon.inputs import duration_s, output_file, seed, stop_ranges
 from snrmon.output import emit_json
 
 
@@ -30,7 +30,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--headless", action="store_true", help="offscreen, print the stop table")
     p.add_argument(
         "--duration",
-        type=float,
+        type=duration_s(),
         metavar="S",
         help="close after S seconds (default: when the flight is over)",
     )
@@ -42,7 +42,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--seed",
-        type=int,
+        type=seed(),
         default=0,
         metavar="N",
         help="seed of every simulated device (default: %(default)s)",
@@ -56,6 +56,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--stops",
+        type=stop_ranges(),
         default="37,126,199,336,393,451,508",
         metavar="M,M,...",
         help="hover ranges in metres (default: the paper's, %(default)s)",
@@ -106,7 +107,6 @@ def _operate(rig, done: threading.Event, printed: set, verbose: bool) -> None:
 
 def run(args: argparse.Namespace) -> int:
     require("gui", "the console demo")
-    from snrmon.commands.hil import _floats
     from snrmon.gui.app import run_console
     from snrmon.rig.rig import HilOptions, HilRig
     from snrmon.rig.table import TABLE_HEADER, format_result
@@ -115,8 +115,6 @@ def run(args: argparse.Namespace) -> int:
         output_file(args.out, "--out", suffixes=(".h5",), new=True)
     if not args.speed > 0:
         raise UsageError(f"--speed must be positive, got {args.speed}")
-    if args.duration is not None and not args.duration > 0:
-        raise UsageError(f"--duration must be positive, got {args.duration}")
     if args.status_file is not None:
         output_file(args.status_file, "--status-file", suffixes=(".json",))
     view = view_options(args)  # before the flight: a bad option is exit 2 at once
@@ -135,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     opts = HilOptions(
         seed=args.seed,
         speed=args.speed,
-        stops_m=_floats(args.stops, "--stops"),
+        stops_m=args.stops,
         transit_mps=12.0,
         out=str(args.out) if args.out else None,
         adopt_psf=True,  # the model takes the PSF measured at each unresolved stop

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from snrmon.cli import UsageError
 from snrmon.extras import require
-from snrmon.inputs import input_file, output_file, session_file
+from snrmon.inputs import duration_s, input_file, output_file, session_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--replay", type=Path, metavar="SESSION.h5", help="replay a recorded session in the console"
     )
     p.add_argument("--headless", action="store_true", help="run offscreen (no display needed)")
-    p.add_argument("--duration", type=float, metavar="S", help="close after S seconds")
+    p.add_argument("--duration", type=duration_s(), metavar="S", help="close after S seconds")
     p.add_argument(
         "--screenshot", type=Path, metavar="FILE.png", help="save the window to this PNG at the end"
     )
@@ -100,8 +100,6 @@ def add_status_file_option(p: argparse.ArgumentParser) -> None:
 
 def check_console_outputs(args: argparse.Namespace) -> None:
     """Before a window opens: the files it will write can be written."""
-    if args.duration is not None and not args.duration > 0:
-        raise UsageError(f"--duration must be positive, got {args.duration}")
     if args.screenshot is not None:
         output_file(args.screenshot, "--screenshot", suffixes=(".png",))
     if args.status_file is not None:

@@ -13,7 +13,7 @@ import math
 import sys
 
 from snrmon.cli import UsageError
-from snrmon.inputs import output_file
+from snrmon.inputs import Number, Size, output_file, seed, stop_ranges
 from snrmon.output import emit_json
 
 
@@ -39,18 +39,6 @@ def _kelvin(celsius: float, what: str) -> float:
     return celsius + 273.15
 
 
-def _size(text: str | None) -> tuple[int, int] | None:
-    if text is None:
-        return None
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise UsageError(f"--size must be WxH in pixels, e.g. 256x192, got {text!r}") from None
-    if w < 64 or h < 64:
-        raise UsageError(f"--size must be at least 64x64 pixels, got {text!r}")
-    return w, h
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("hil", help="run the simulated field test through the real console")
     p.add_argument(
@@ -58,7 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--seed",
-        type=int,
+        type=seed(),
         default=0,
         metavar="N",
         help="seed of every simulated device (default: %(default)s)",
@@ -74,6 +62,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--stops",
+        type=stop_ranges(),
         default="37,126,199,336,393,451,508",
         metavar="M,M,...",
         help="hover ranges in metres (default: %(default)s)",
@@ -92,14 +81,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--hover-s",
-        type=float,
+        type=Number(0.0, 3600.0, above=True, unit="s"),
         default=7.0,
         metavar="S",
         help="hover time per stop, flight seconds (default: %(default)s)",
     )
     p.add_argument(
         "--transit-mps",
-        type=float,
+        type=Number(0.0, 100.0, above=True, unit="m/s"),
         default=8.0,
         metavar="M_S",
         help="transit speed between stops, m/s (default: %(default)s)",
@@ -141,6 +130,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--size",
+        type=Size(64),
         metavar="WxH",
         help="read a sub-array of W x H pixels around the line of sight (default: the whole frame)",
     )
@@ -171,9 +161,6 @@ def run(args: argparse.Namespace) -> int:
     speed = MAX_SPEED if speed_max else _floats(args.speed, "--speed")[0]
     if args.out is not None:
         output_file(args.out, "--out", suffixes=(".h5",), new=True)
-    for option, value in (("--hover-s", args.hover_s), ("--transit-mps", args.transit_mps)):
-        if not value > 0:
-            raise UsageError(f"{option} must be positive, got {value}")
     cameras = tuple(c.strip() for c in args.cameras.split(",") if c.strip())
     unknown = [c for c in cameras if c not in ("mwir", "lwir")]
     if unknown or not cameras:
@@ -181,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
     opts = HilOptions(
         seed=args.seed,
         speed=speed,
-        stops_m=_floats(args.stops, "--stops"),
+        stops_m=args.stops,
         cameras=cameras,
         target=args.target,
         hover_s=args.hover_s,
@@ -191,7 +178,7 @@ def run(args: argparse.Namespace) -> int:
         rh_percent=args.rh,
         pressure_hpa=args.pressure_hpa,
         visibility_km=args.visibility_km,
-        window_px=_size(args.size),
+        window_px=args.size,
         calibrate=not args.no_calibration,
         fpn=args.fpn,
         track=not args.no_track,

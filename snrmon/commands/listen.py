@@ -15,6 +15,7 @@ import time
 from typing import TYPE_CHECKING
 
 from snrmon.drivers.config import GPS_PROTOCOLS, LRF_PROTOCOLS
+from snrmon.inputs import Number, duration_s
 from snrmon.output import dumps
 
 if TYPE_CHECKING:  # the drivers are imported when the command runs: `--help` starts at once
@@ -43,10 +44,15 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="default nmea for gps, trupulse for lrf",
     )
     p.add_argument("--baud", type=int, metavar="BAUD", help="line speed (default: the protocol's)")
-    p.add_argument("--count", type=int, metavar="N", help="exit after N readings of any status")
+    p.add_argument(
+        "--count",
+        type=Number(1, 10**9, integer=True),
+        metavar="N",
+        help="exit after N readings of any status",
+    )
     p.add_argument(
         "--timeout",
-        type=float,
+        type=duration_s(),
         metavar="S",
         help=f"give up after S seconds (default {DEFAULT_COUNT_TIMEOUT_S:g} with "
         "--count, otherwise run until interrupted)",

@@ -28,6 +28,8 @@ import math
 from typing import TYPE_CHECKING
 
 from snrmon.cli import UsageError
+from snrmon.inputs import Number
+from snrmon.limits import MAX_FRAME_PX, MAX_WINDOW_FRAMES
 from snrmon.output import emit_json
 
 if TYPE_CHECKING:  # the work's modules are imported when it runs: `--help` starts at once
@@ -48,14 +50,9 @@ def _point(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(f"must be X,Y (two integers), got {text!r}") from None
 
 
-def _odd(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1 or value % 2 == 0:
-        raise argparse.ArgumentTypeError(f"must be an odd positive integer, got {text!r}")
-    return value
+# An odd side in pixels, up to the largest frame (a box of a million pixels a side was a
+# MemoryError); the frame's own size is checked when the stack is read.
+ODD_PX = Number(1, MAX_FRAME_PX - 1, integer=True, odd=True, unit="px")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -73,14 +70,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--at", type=_point, required=True, metavar="X,Y", help="operator's point")
     p.add_argument(
         "--search",
-        type=_odd,
+        type=ODD_PX,
         default=11,
         metavar="N",
         help="search window's side, pixels, odd (default: %(default)s)",
     )
     p.add_argument(
         "--box",
-        type=_odd,
+        type=ODD_PX,
         default=7,
         metavar="N",
         help="box size, pixels, odd (default: %(default)s)",
@@ -95,12 +92,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--detrend", action="store_true", help="remove a plane from the background")
     p.add_argument(
         "--window-frames",
-        type=int,
+        type=Number(1, MAX_WINDOW_FRAMES, integer=True),
         default=100,
         metavar="N",
         help="running window, frames (default: %(default)s)",
     )
-    p.add_argument("--saturation", type=float, default=None, metavar="DN", help="saturation level")
+    p.add_argument(
+        "--saturation",
+        type=Number(-1e12, 1e12),
+        default=None,
+        metavar="DN",
+        help="saturation level",
+    )
     p.add_argument("--json", action="store_true", help="print the JSON contract on stdout")
     p.add_argument(
         "--track",
@@ -119,11 +122,13 @@ def _meter(args: argparse.Namespace, shape: tuple[int, int]) -> PeakSnrMeter:
         raise UsageError(f"--box must be an odd integer >= 3, got {args.box}")
     if args.window_frames < 1:
         raise UsageError(f"--window-frames must be a positive integer, got {args.window_frames}")
+    rows, cols = shape
+    if args.box > min(rows, cols):  # no rim inside the frame: every frame would be undefined
+        raise UsageError(f"--box {args.box} is larger than the {cols}x{rows} frames")
     background = None
     if args.background != "rim":
         background = validate_rect(parse_rect(args.background), shape)
     x, y = args.at
-    rows, cols = shape
     if not (0 <= x < cols and 0 <= y < rows):
         raise UsageError(
             f"--at {x},{y} is off the {cols}x{rows} image (x must be 0..{cols - 1}, "

@@ -30,7 +30,7 @@ import argparse
 import math
 
 from snrmon.cli import UsageError
-from snrmon.inputs import output_file
+from snrmon.inputs import Number, NumberList, output_file
 from snrmon.output import emit_json
 
 ZERO_C_K = 273.15
@@ -62,14 +62,6 @@ def _band(text: str) -> tuple[float, float]:
     if len(v) != 2 or not 0 < v[0] < v[1]:
         raise UsageError(f"--band must be L1,L2 in um with 0 < L1 < L2, got {text!r}")
     return v[0], v[1]
-
-
-def _ranges(text: str) -> list[float]:
-    v = _floats(text, "--ranges")
-    for r in v:
-        if r <= 0:
-            raise UsageError(f"--ranges: range must be > 0 m, got {r:g}")
-    return v
 
 
 def _bg_k(args) -> float | None:
@@ -229,7 +221,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     _add_common(s)
     s.add_argument(
         "--ranges",
-        type=str,
+        type=NumberList(Number(1.0, 100_000.0, above=True, unit="m"), 10_000),
         default="37,126,199,336,393,451,508",
         metavar="R,...",
         help="slant ranges in metres (default: the paper's stops, %(default)s)",
@@ -301,7 +293,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     _add_common(pl)
     pl.add_argument(
         "--max-range-m",
-        type=float,
+        type=Number(10.0, 100_000.0, above=True, unit="m"),
         default=600.0,
         metavar="M",
         help="last range plotted, metres (default: %(default)s)",
@@ -331,7 +323,7 @@ def run_snr(args) -> int:
     pred = predict(
         sensor,
         target,
-        _ranges(args.ranges),
+        list(args.ranges),
         atmosphere=_atmosphere(args, sensor),
         background_temp_k=_bg_k(args),
         air_temp_k=_air_k(args),
@@ -430,8 +422,6 @@ def run_plot(args) -> int:
     from snrmon.model.snr import predict
 
     sensor, target = _load(args)
-    if not args.max_range_m > 10:
-        raise UsageError(f"--max-range-m must be > 10, got {args.max_range_m}")
     output_file(args.out, "-o/--out", suffixes=(".png", ".pdf", ".svg"))
     ranges = np.linspace(10.0, args.max_range_m, 500)
     pred = predict(

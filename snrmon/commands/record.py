@@ -12,7 +12,7 @@ import sys
 import time
 
 from snrmon.cli import UsageError
-from snrmon.inputs import input_file, output_file
+from snrmon.inputs import duration_s, input_file, output_file
 from snrmon.output import emit_json
 from snrmon.progress import status_progress
 
@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--out", required=True, metavar="PATH", help="new session file (.h5)")
     p.add_argument(
         "--duration",
-        type=float,
+        type=duration_s(),
         default=None,
         metavar="S",
         help="stop after S seconds (default: until Ctrl-C)",
@@ -67,8 +67,6 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.acquisition.config import load_session_config
     from snrmon.acquisition.runtime.session import Session
 
-    if args.duration is not None and not args.duration > 0:
-        raise UsageError(f"--duration must be positive, got {args.duration}")
     out = output_file(args.out, "--out", suffixes=(".h5",), new=True)
     rois = [_click(r) for r in args.click or ()]
     session = Session(load_session_config(input_file(args.config, "--config")))

@@ -11,7 +11,10 @@ FIX = Path(__file__).with_name("fixtures")
 
 
 def _run(capsys, *argv):
-    code = main(["model", *argv])
+    try:
+        code = main(["model", *argv])
+    except SystemExit as exc:  # refused by the parser (a value out of its option's range)
+        code = exc.code
     out, err = capsys.readouterr()
     return code, out, err
 

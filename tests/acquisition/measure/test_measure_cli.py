@@ -90,4 +90,6 @@ def test_even_box_is_refused_by_the_parser(stack_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["measure", str(stack_path[0]), "--at", "3,3", "--box", "6"])
     assert exc.value.code != 0
-    assert "odd positive integer, got '6'" in capsys.readouterr().err
+    assert "argument --box: must be an odd integer from 1 to 8191 px, got '6' (even)" in (
+        capsys.readouterr().err
+    )
