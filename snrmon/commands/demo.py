@@ -20,8 +20,9 @@ from pathlib import Path
 
 from snrmon.cli import UsageError
 from snrmon.commands.gui import add_status_file_option, add_view_options, view_options
+from snrmon.commands.hil import add_flight_options
 from snrmon.extras import require
-from snrmon.inputs import duration_s, output_file, seed, stop_ranges
+from snrmon.inputs import duration_s, output_file
 from snrmon.output import emit_json
 
 
@@ -40,26 +41,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="FILE.png",
         help="save the window at the end (headless default: out/demo.png)",
     )
-    p.add_argument(
-        "--seed",
-        type=seed(),
-        default=0,
-        metavar="N",
-        help="seed of every simulated device (default: %(default)s)",
-    )
+    add_flight_options(p)
     p.add_argument(
         "--speed",
         type=float,
         default=1.0,
         metavar="X",
         help="flight time per wall second (default: %(default)s)",
-    )
-    p.add_argument(
-        "--stops",
-        type=stop_ranges(),
-        default="37,126,199,336,393,451,508",
-        metavar="M,M,...",
-        help="hover ranges in metres (default: the paper's, %(default)s)",
     )
     p.add_argument(
         "-o", "--out", type=Path, metavar="PATH", help="record the session into this file (.h5)"

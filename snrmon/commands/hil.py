@@ -39,11 +39,11 @@ def _kelvin(celsius: float, what: str) -> float:
     return celsius + 273.15
 
 
-def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("hil", help="run the simulated field test through the real console")
-    p.add_argument(
-        "--headless", action="store_true", help="no window (always: `snrmon demo` has the console)"
-    )
+PAPER_STOPS_M = "37,126,199,336,393,451,508"
+
+
+def add_flight_options(p: argparse.ArgumentParser) -> None:
+    """``--seed`` and ``--stops`` of a simulated flight, shared with ``snrmon demo``."""
     p.add_argument(
         "--seed",
         type=seed(),
@@ -52,6 +52,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="seed of every simulated device (default: %(default)s)",
     )
     p.add_argument(
+        "--stops",
+        type=stop_ranges(),
+        default=PAPER_STOPS_M,
+        metavar="M,M,...",
+        help="hover ranges in metres (default: the paper's, %(default)s)",
+    )
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("hil", help="run the simulated field test through the real console")
+    p.add_argument(
+        "--headless", action="store_true", help="no window (always: `snrmon demo` has the console)"
+    )
+    add_flight_options(p)
+    p.add_argument(
         "--speed",
         default="1",
         metavar="X",
@@ -59,13 +74,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         "the frames (at most 8x). A simulated day never drops a frame: where the machine is "
         "busier than the speed needs, the day slows down (said on stderr and in the JSON) "
         "(default: %(default)s)",
-    )
-    p.add_argument(
-        "--stops",
-        type=stop_ranges(),
-        default="37,126,199,336,393,451,508",
-        metavar="M,M,...",
-        help="hover ranges in metres (default: %(default)s)",
     )
     p.add_argument(
         "--cameras",
