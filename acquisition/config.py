@@ -59,6 +59,7 @@ from snrmon.acquisition.geo.projection import Pointing, Site
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.drivers.config import check_device_table
 from snrmon.drivers.errors import ConfigError, toml_repr
+from snrmon.limits import MAX_WINDOW_FRAMES
 from snrmon.model.atmosphere_table import (
     AEROSOLS,
     AIR_TEMP_RANGE_C,
@@ -180,7 +181,10 @@ MEASUREMENT_FIELDS = {
     "contamination_gradient_factor": Field("a positive number", _positive),
     "reference_frames": Field("an integer >= 1", _int_at_least(1)),
     "reference_min_frames": Field("an integer >= 1", _int_at_least(1)),
-    "window": Field("an integer >= 1 (frames of the running SNR)", _int_at_least(1)),
+    "window": Field(
+        f"an integer from 1 to {MAX_WINDOW_FRAMES} (frames of the running SNR)",
+        lambda v: _integer(v) and 1 <= v <= MAX_WINDOW_FRAMES,
+    ),
     "lrf_fresh_s": Field("a positive number of seconds", _positive),
 }
 CAMERA_FIELDS = {

@@ -20,6 +20,9 @@ Exit codes, the same for every command (docs/cli.md):
 Every message has the one prefix ``snrmon COMMAND: error: ...`` (``warning:``, ``info:`` for
 log lines), on one line, never a traceback unless ``-v``.
 
+A closed pipe on standard output (``snrmon measure ... --json | head -c 10``) ends the output
+quietly with exit 0, as ``cat`` and ``grep`` do: the reader has what it asked for.
+
 SIGTERM (``kill``, a service manager stopping it, a closed terminal's SIGHUP) is taken as
 Ctrl-C: the command's ``finally`` blocks run, so a recording is closed whole and the camera
 processes and temporary files are cleaned up, instead of Python's default of dying on the spot.
@@ -30,8 +33,10 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import pkgutil
 import re
+import select
 import signal
 import sys
 import threading
@@ -68,12 +73,32 @@ class Parser(argparse.ArgumentParser):
 
     A value that starts with a minus and a digit is a value, not an option: argparse's own rule
     takes only a plain negative number, so ``--stops -100,200`` or ``--offset-s -1e-3`` was
-    refused as "expected one argument" before the command could say what is wrong with it.
+    refused as "expected one argument" before the command could say what is wrong with it
+    (``-inf`` and ``-nan`` too: a number, refused by the option's range).
     """
 
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
-        self._negative_number_matcher = re.compile(r"^-\.?\d")
+        self._negative_number_matcher = re.compile(r"^-(\.?\d|inf|nan)", re.IGNORECASE)
+
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+        # A required option given by its deprecated spelling is given: argparse counts only
+        # the action it saw, so the new spelling is not required while the old one is used.
+        words = list(sys.argv[1:] if args is None else args)
+        relaxed = [
+            a.target
+            for a in self._actions
+            if isinstance(a, DeprecatedAlias)
+            and a.target.required
+            and any(w == s or w.startswith(f"{s}=") for w in words for s in a.option_strings)
+        ]
+        for target in relaxed:
+            target.required = False
+        try:
+            return super().parse_known_args(words, namespace)
+        finally:
+            for target in relaxed:
+                target.required = True
 
     def error(self, message: str):  # type: ignore[override]
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
@@ -117,6 +142,36 @@ def _add_common(p: argparse.ArgumentParser, top: bool) -> None:
         g.add_argument(*flags, **kw)
 
 
+class DeprecatedAlias(argparse.Action):
+    """An old spelling of an option: hidden from ``--help``, it warns on one line and does
+    what the new option does (the same type, choices and action)."""
+
+    def __init__(self, option_strings: list[str], dest: str, *, target: argparse.Action):
+        super().__init__(
+            option_strings,
+            dest,
+            nargs=target.nargs,
+            const=target.const,
+            default=argparse.SUPPRESS,
+            type=target.type,
+            choices=target.choices,
+            metavar=target.metavar,
+            help=argparse.SUPPRESS,
+        )
+        self.target = target
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        new = max(self.target.option_strings, key=len)
+        print(f"{parser.prog}: warning: {option_string} is deprecated, use {new}", file=sys.stderr)
+        self.target(parser, namespace, values, new)
+
+
+def add_deprecated_alias(parser: argparse.ArgumentParser, old: str, new: str) -> None:
+    """``old`` as a deprecated spelling of ``parser``'s option ``new``."""
+    target = parser._option_string_actions[new]
+    parser.add_argument(old, action=DeprecatedAlias, dest=target.dest, target=target)
+
+
 def iter_parsers(
     parser: argparse.ArgumentParser,
 ) -> Iterator[argparse.ArgumentParser]:
@@ -150,7 +205,12 @@ def build_parser() -> argparse.ArgumentParser:
         register = getattr(module, "register", None)
         if register is not None:
             register(sub)
+    from snrmon.cli_vocabulary import DEPRECATED
+
     for p in iter_parsers(parser):
+        for (prog, old), new in DEPRECATED.items():
+            if prog == p.prog:
+                add_deprecated_alias(p, old, new)
         if p is not parser:
             _add_common(p, top=False)
             p.set_defaults(prog=p.prog)  # the message prefix of the (sub)command that runs
@@ -161,7 +221,39 @@ def _interrupt(signum: int, _frame: object) -> None:
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
+def stdout_closed() -> bool:
+    """True when standard output is a pipe or socket whose reader is gone (``| head``): a
+    BrokenPipeError is then the end of the output, not a device's or a link's failure."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # captured or replaced: no descriptor
+        return False
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return any(events & (select.POLLERR | select.POLLHUP) for _, events in poller.poll(0))
+
+
+def _silence_stdout() -> None:
+    """Standard output to the null device, so the interpreter's own flush at exit does not
+    fail on the closed pipe again (the Python documentation's recipe, signal module)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        code = _main(argv)
+        sys.stdout.flush()  # here, not at exit: a closed pipe is handled as below
+        return code
+    except BrokenPipeError:
+        if not stdout_closed():
+            raise
+        _silence_stdout()
+        return EXIT_OK
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra:  # refused by the (sub)command they were given to, in its own words
@@ -180,6 +272,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         with logs.configured(prog, verbose=args.verbose, quiet=args.quiet, log_file=args.log_file):
             progress.set_quiet(args.quiet, verbose=args.verbose >= 1)
             return _run(args, prog)
+    except BrokenPipeError:
+        raise
     except OSError as exc:  # the --log-file itself cannot be opened
         print(f"{prog}: error: --log-file: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -205,6 +299,8 @@ def _run(args: argparse.Namespace, prog: str) -> int:
         _report(prog, _first_line(exc), exc, verbose)
         return EXIT_USAGE
     except OSError as exc:
+        if isinstance(exc, BrokenPipeError) and stdout_closed():
+            raise  # the reader of the output is gone: main() ends quietly
         # A device, a link or a disk failed while working: a runtime failure.
         _report(prog, _first_line(exc), exc, verbose)
         return EXIT_FAILURE

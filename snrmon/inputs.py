@@ -15,12 +15,26 @@ What is checked, in order (each a ``ValueError`` or an ``OSError`` subclass that
   ``.h5`` that is not HDF5, a ``.tif`` that is not a TIFF, an ``.npy`` that is not an array);
 * where output goes (:func:`output_file`, :func:`output_folder`): its folder exists, a file is
   not a folder and a folder is not a file, a session is never overwritten.
+
+And every number an option takes, when argparse reads it (:class:`Number`,
+:class:`NumberList`, :class:`Size`): finite, within the range where the work is possible, so a
+value that would hang a command or ask for terabytes is refused with one line naming the option
+and the value (``argument --ranges: must be ... got '0.0001'``), exit 2, before anything starts.
 """
 
 from __future__ import annotations
 
+import argparse
+import math
 from collections.abc import Iterable
 from pathlib import Path
+
+from snrmon.limits import (
+    MAX_DURATION_S,
+    MAX_FRAME_PX,
+    MAX_SEED,
+    MAX_STOP_RANGE_M,
+)
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 # The first bytes of what a stack file's ending promises (the formats whose header is fixed).
@@ -182,3 +196,109 @@ def output_folder(path: str | Path, what: str) -> Path:
     if not p.exists() and not p.parent.is_dir():
         raise FileNotFoundError(f"{what} {p}: its folder {p.parent} does not exist")
     return p
+
+
+def _g(value: float) -> str:
+    return f"{value:.10g}" if isinstance(value, float) else str(value)
+
+
+class Number:
+    """An argparse type: a finite number from ``lo`` to ``hi`` (``lo`` itself excluded with
+    ``above``), an integer with ``integer``; anything else one line naming the value."""
+
+    def __init__(
+        self,
+        lo: float,
+        hi: float,
+        *,
+        integer: bool = False,
+        above: bool = False,
+        odd: bool = False,
+        unit: str = "",
+    ) -> None:
+        self.lo, self.hi, self.integer, self.above, self.odd = lo, hi, integer, above, odd
+        self.unit = f" {unit}" if unit else ""
+        self.__name__ = "integer" if integer else "number"  # argparse names a type by it
+
+    def describe(self) -> str:
+        """The range in words, as the error says it."""
+        kind = ("an odd integer" if self.odd else "an integer") if self.integer else "a number"
+        if self.above:
+            return f"{kind} above {_g(self.lo)} and up to {_g(self.hi)}{self.unit}"
+        return f"{kind} from {_g(self.lo)} to {_g(self.hi)}{self.unit}"
+
+    def value(self, text: str) -> float:
+        """The number ``text`` says, checked (ValueError naming the range otherwise)."""
+        try:
+            value: float = int(text) if self.integer else float(text)
+        except ValueError:
+            value = math.nan
+        inside = self.lo < value if self.above else self.lo <= value
+        if not (math.isfinite(value) and inside and value <= self.hi):
+            sign = " (negative)" if value < 0 <= self.lo else ""
+            raise ValueError(f"must be {self.describe()}, got {text!r}{sign}")
+        if self.odd and value % 2 == 0:
+            raise ValueError(f"must be {self.describe()}, got {text!r} (even)")
+        return value
+
+    def __call__(self, text: str) -> float:
+        try:
+            return self.value(text.strip())
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def duration_s() -> Number:
+    """A ``--duration``/``--timeout``: seconds, above 0 and finite (up to a month)."""
+    return Number(0.0, MAX_DURATION_S, above=True, unit="s")
+
+
+def seed() -> Number:
+    """A ``--seed``: a non-negative integer every simulated device's generator takes."""
+    return Number(0, MAX_SEED, integer=True)
+
+
+def stop_ranges() -> NumberList:
+    """A flight's ``--stops``: hover ranges in metres, above 0 and up to 5 km, at most 50."""
+    return NumberList(Number(0.0, MAX_STOP_RANGE_M, above=True, unit="m"), 50)
+
+
+class NumberList:
+    """An argparse type: comma-separated numbers, each a :class:`Number` ``each``, at most
+    ``max_count`` of them."""
+
+    def __init__(self, each: Number, max_count: int) -> None:
+        self.each, self.max_count = each, max_count
+        self.__name__ = "list"
+
+    def __call__(self, text: str) -> tuple[float, ...]:
+        words = [w.strip() for w in text.split(",") if w.strip()]
+        if not 1 <= len(words) <= self.max_count:
+            raise argparse.ArgumentTypeError(
+                f"must be 1 to {self.max_count} comma-separated numbers, got {text!r}"
+            )
+        try:
+            return tuple(self.each.value(w) for w in words)
+        except ValueError as exc:
+            where = f" in {text!r}" if len(words) > 1 else ""
+            raise argparse.ArgumentTypeError(f"each {exc}{where}") from None
+
+
+class Size:
+    """An argparse type: ``WxH`` in pixels, each side from ``lo`` to ``hi``."""
+
+    def __init__(self, lo: int, hi: int = MAX_FRAME_PX) -> None:
+        self.lo, self.hi = lo, hi
+        self.__name__ = "size"
+
+    def __call__(self, text: str) -> tuple[int, int]:
+        w, sep, h = text.strip().lower().partition("x")
+        try:
+            size = (int(w), int(h))
+        except ValueError:
+            size = (0, 0)
+        if not sep or not all(self.lo <= v <= self.hi for v in size):
+            raise argparse.ArgumentTypeError(
+                f"must be WxH in pixels, {self.lo} to {self.hi} each, got {text!r}"
+            )
+        return size

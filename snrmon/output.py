@@ -18,26 +18,32 @@ from collections.abc import Mapping
 from pathlib import PurePath
 from typing import Any, TextIO
 
-import numpy as np
-
 
 def strict(obj: Any) -> Any:
     """``obj`` with every non-finite float replaced by None and numpy/other types made plain."""
     if obj is None or isinstance(obj, bool | str):
         return obj
-    if isinstance(obj, int | np.integer) and not isinstance(obj, np.bool_):
+    # numpy only when it is loaded: no numpy value exists before, and the command line's
+    # start does not pay for it.
+    np = sys.modules.get("numpy")
+    if np is not None:
+        if isinstance(obj, np.bool_):
+            return bool(obj)
+        if isinstance(obj, np.integer):
+            return int(obj)
+        if isinstance(obj, np.floating):
+            obj = float(obj)
+        elif isinstance(obj, np.ndarray):
+            return strict(obj.tolist())
+    if isinstance(obj, int):
         return int(obj)
-    if isinstance(obj, float | np.floating):
+    if isinstance(obj, float):
         value = float(obj)
         return value if math.isfinite(value) else None
-    if isinstance(obj, np.bool_):
-        return bool(obj)
     if isinstance(obj, Mapping):
         return {str(k): strict(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple | set | frozenset):
         return [strict(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return strict(obj.tolist())
     if isinstance(obj, enum.Enum):
         return strict(obj.value)
     if isinstance(obj, PurePath):

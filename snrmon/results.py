@@ -35,10 +35,10 @@ def keep_result(args: argparse.Namespace, kind: str, camera: str, payload: dict)
     if args.write:
         from snrmon.acquisition.record.reader import append_event
 
-        append_event(args.file, kind, camera=camera, payload=strict(payload))
-        return Path(args.file)
+        append_event(args.session, kind, camera=camera, payload=strict(payload))
+        return Path(args.session)
     from snrmon.acquisition.record.analysis_file import append_result
 
     return append_result(
-        args.file, kind, camera=camera, payload=strict(payload), software=f"snrmon {__version__}"
+        args.session, kind, camera=camera, payload=strict(payload), software=f"snrmon {__version__}"
     )

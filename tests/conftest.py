@@ -54,7 +54,7 @@ def _hil_record(path: Path, seed: int) -> Path:
     argv = ["hil", "--out", str(path), "--stops", "37,126", "--hover-s", "4", "--speed", "4"]
     # a 256x192 sub-array around the line of sight holds the drone at both stops: a ninth of
     # the full frame's bytes
-    argv += ["--camera", "lwir", "--seed", str(seed), "--window", "256x192", "--json"]
+    argv += ["--cameras", "lwir", "--seed", str(seed), "--size", "256x192", "--json"]
     assert main(argv) == 0, f"snrmon hil --out {path} failed"
     return path
 
@@ -62,8 +62,8 @@ def _hil_record(path: Path, seed: int) -> Path:
 @pytest.fixture(scope="session")
 def hil_sessions(tmp_path_factory) -> list[Path]:
     """Two small sessions recorded live by ``snrmon hil --out`` (short flights: two stops, 4 s
-    hovers at four times real time, LWIR only, a 256x192 sub-array: ~9 s each), built once for the campaign, GPS
-    import and API tests."""
+    hovers at four times real time, LWIR only, a 256x192 sub-array: ~9 s each), built once for
+    the campaign, GPS import and API tests."""
     folder = tmp_path_factory.mktemp("hil-sessions")
     return [_hil_record(folder / f"flight-{seed}.h5", seed) for seed in HIL_SEEDS]
 

@@ -159,3 +159,24 @@ def test_a_benchmark_that_fails_is_named_and_its_error_shown(capsys):
     with pytest.raises(BenchmarkError, match=r"benchmark bench_stub failed \(exited with 1\)"):
         figures_in_fresh_process(bench_stub, -1.0)
     assert "ValueError: a negative duration: -1.0" in capsys.readouterr().err
+
+
+def test_cli_benchmark_runs_every_command_help_and_holds_the_slowest_to_its_goal(monkeypatch):
+    from snrmon.benchmarks import bench_cli
+    from snrmon.benchmarks.goals import goal_rows
+    from snrmon.cli import build_parser, iter_parsers
+
+    lines = bench_cli.command_lines()
+    progs = {p.prog for p in iter_parsers(build_parser())}
+    assert {"snrmon " + " ".join(a[:-1]) for a in lines[2:]} | {"snrmon"} == progs
+    assert lines[:2] == [["--version"], ["--help"]]
+    # Two of them, once each (the whole list is `snrmon bench --only cli`).
+    monkeypatch.setattr(bench_cli, "command_lines", lambda: [["--version"], ["noise", "--help"]])
+    monkeypatch.setattr(bench_cli, "REPEATS", 1)
+    figures = bench_cli.run(0.0)
+    assert set(figures["cpu_s"]) == {"snrmon --version", "snrmon noise --help"}
+    assert all(0 < v < 30 for v in figures["cpu_s"].values())
+    assert figures["max_cpu_s"] == max(figures["cpu_s"].values())
+    (row,) = goal_rows({"cli": figures})
+    assert row["value"] == figures["max_cpu_s"] and row["target"] == "<= 0.3 s"
+    assert "slowest: snrmon" in bench_cli.format_text(figures)

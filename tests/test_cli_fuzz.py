@@ -17,7 +17,7 @@ import signal
 import numpy as np
 import pytest
 
-from snrmon.cli import build_parser, iter_parsers, main
+from snrmon.cli import DeprecatedAlias, build_parser, iter_parsers, main
 
 TIMEOUT_S = 60  # a command that starts working instead of refusing would hang the suite
 
@@ -78,7 +78,11 @@ def _value_actions(p: argparse.ArgumentParser) -> list[argparse.Action]:
         argparse._CountAction,
         argparse._SubParsersAction,
     )
-    return [a for a in p._actions if not isinstance(a, skip) and a.dest != "log_file"]
+    return [
+        a
+        for a in p._actions
+        if not isinstance(a, (*skip, DeprecatedAlias)) and a.dest != "log_file"
+    ]
 
 
 @pytest.fixture
@@ -95,7 +99,7 @@ def samples(tmp_path):
         "sensor": "mwir",
         "target": "uav1",
         "blackbody": f"{stack}:15",
-        "output": str(tmp_path / "out.npz"),
+        "out": str(tmp_path / "out.npz"),
         "site": "32,-106,1200",
         "pointing": "40,8,0",
         "band": "3,5",
@@ -112,10 +116,10 @@ def _argv(words, p, samples, override: dict[str, str]) -> list[str]:
     """The command with its required arguments: ``override`` first, else a sample, else the
     bad path (some commands have nothing plausible to offer without real files)."""
     values, bad_path = samples
-    values = {
-        **values,
-        "output": values["output"].replace(".npz", OUTPUT_SUFFIX.get(words, ".npz")),
-    }
+    values = dict(values)
+    out = values.pop("out")
+    if words in OUTPUT_SUFFIX:  # the others' outputs get the path that cannot exist
+        values["out"] = out.replace(".npz", OUTPUT_SUFFIX[words])
     argv = list(words) + EXTRA.get(words, [])
     for a in _value_actions(p):
         value = override.get(a.dest)

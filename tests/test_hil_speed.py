@@ -69,7 +69,7 @@ def test_speed_max_on_a_busy_machine_keeps_and_accounts_for_every_frame(
     folder = tmp_path / "day"
     folder.mkdir()
     path = folder / "s.h5"
-    argv = ["hil", "--speed", "max", "--seed", "4", "--camera", "lwir", "--stops", "393"]
+    argv = ["hil", "--speed", "max", "--seed", "4", "--cameras", "lwir", "--stops", "393"]
     argv += ["--transit-mps", "40", "--out", str(path), "--json"]
     assert main(argv) == 0
     out, err = capsys.readouterr()

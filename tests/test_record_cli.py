@@ -41,7 +41,7 @@ def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):
             str(out),
             "--duration",
             "2",
-            "--roi",
+            "--click",
             "cam:64,41",
         ]
     )
@@ -84,7 +84,13 @@ def test_record_duration_must_be_positive(tmp_path, capsys, duration):
     cfg = tmp_path / "c.toml"
     cfg.write_text('[cameras.a]\nsource = "shm"\n')
     args = ["record", "--config", str(cfg), "--out", str(tmp_path / "o.h5"), "--duration"]
-    assert main([*args, duration]) == 2
+    with pytest.raises(SystemExit) as refused:  # by the parser, before the config is read
+        main([*args, duration])
+    assert refused.value.code == 2
+    assert (
+        f"argument --duration: must be a number above 0 and up to 2678400 s, got '{duration}'"
+        in (capsys.readouterr().err)
+    )
 
 
 def test_sigterm_closes_the_recording_whole(devices, tmp_path):
@@ -129,7 +135,7 @@ def test_kill_9_loses_at_most_a_second_and_the_file_replays(devices, tmp_path):
         str(devices),
         "--out",
         str(out),
-        "--roi",
+        "--click",
         "cam:66,39",
     ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)

@@ -10,8 +10,6 @@ import pkgutil
 import platform
 import sys
 
-from snrmon import benchmarks
-from snrmon.benchmarks.fresh_process import BenchmarkError, figures_in_fresh_process
 from snrmon.cli import EXIT_FAILURE, EXIT_OK, UsageError
 from snrmon.extras import MissingExtraError, require
 from snrmon.output import emit_json
@@ -24,11 +22,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=float,
         default=10.0,
         metavar="S",
-        help="seconds of sustained acquisition (an hour is the soak test)",
+        help="seconds of sustained acquisition, an hour is the soak test (default: %(default)s)",
     )
     p.add_argument(
         "--only",
-        default="",
         metavar="KEYS",
         help="comma-separated benchmark keys to run (default: all)",
     )
@@ -38,6 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _modules() -> dict:
     """{key: module} of every ``benchmarks/bench_*.py``."""
+    from snrmon import benchmarks
+
     out = {}
     for info in sorted(pkgutil.iter_modules(benchmarks.__path__), key=lambda m: m.name):
         if info.name.startswith("bench_"):
@@ -47,9 +46,11 @@ def _modules() -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    from snrmon.benchmarks.fresh_process import BenchmarkError, figures_in_fresh_process
+
     if not args.duration > 0:
         raise UsageError(f"--duration must be positive, got {args.duration}")
-    only = {k.strip() for k in args.only.split(",") if k.strip()}
+    only = {k.strip() for k in (args.only or "").split(",") if k.strip()}
     modules = _modules()
     unknown = sorted(only - set(modules))
     if unknown:

@@ -1,6 +1,6 @@
 """``snrmon calibrate``: per-pixel radiometric calibration from blackbody stacks.
 
-    snrmon calibrate --camera mwir --blackbody T1.npy:15 --blackbody T2.npy:40 -o CAL.npz [--json]
+    snrmon calibrate --sensor mwir --blackbody T1.npy:15 --blackbody T2.npy:40 -o CAL.npz [--json]
 
 Each ``--blackbody`` is a stack file (any format of ``acquisition.replay.stack_io.load_stack``) and
 the
@@ -16,16 +16,8 @@ from __future__ import annotations
 
 import argparse
 
-from snrmon.acquisition.calibrate.calibration import (
-    BlackbodyCapture,
-    calibrate_sensor,
-)
-from snrmon.acquisition.calibrate.calibration_file import save_calibration
-from snrmon.acquisition.calibrate.quality import calibration_quality
-from snrmon.acquisition.replay.stack_io import load_stack
 from snrmon.cli import UsageError
 from snrmon.inputs import output_file, stack_file
-from snrmon.model.presets import load_sensor
 from snrmon.output import emit_json
 
 ZERO_C_K = 273.15
@@ -45,7 +37,9 @@ def _blackbody(text: str) -> tuple[str, float]:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("calibrate", help="radiometric calibration from blackbody stacks")
-    p.add_argument("--camera", required=True, help="sensor preset (mwir, lwir) or TOML")
+    p.add_argument(
+        "--sensor", required=True, metavar="mwir|lwir|FILE", help="sensor preset or TOML file"
+    )
     p.add_argument(
         "--blackbody",
         type=_blackbody,
@@ -54,23 +48,31 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="STACK:TEMP_C",
         help="a stack of the blackbody and its temperature in C (repeat: two or more)",
     )
-    p.add_argument("-o", "--output", required=True, help="calibration file to write (.npz)")
+    p.add_argument(
+        "-o", "--out", required=True, metavar="PATH", help="calibration file to write (.npz)"
+    )
     p.add_argument("--json", action="store_true", help="print the quality report as JSON")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    sensor = load_sensor(args.camera)
-    if not str(args.output).endswith(".npz"):
-        raise UsageError(f"-o must name a .npz file, got {args.output!r}")
-    output_file(args.output, "-o")
+    from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate_sensor
+    from snrmon.acquisition.calibrate.calibration_file import save_calibration
+    from snrmon.acquisition.calibrate.quality import calibration_quality
+    from snrmon.acquisition.replay.stack_io import load_stack
+    from snrmon.model.presets import load_sensor
+
+    sensor = load_sensor(args.sensor)
+    if not str(args.out).endswith(".npz"):
+        raise UsageError(f"-o/--out must name a .npz file, got {args.out!r}")
+    output_file(args.out, "-o/--out")
     for path, _ in args.blackbody:
         stack_file(path, "--blackbody")
     captures = [
         BlackbodyCapture(temp_c + ZERO_C_K, load_stack(path)) for path, temp_c in args.blackbody
     ]
     cal = calibrate_sensor(captures, sensor)
-    path = save_calibration(cal, args.output)
+    path = save_calibration(cal, args.out)
     q = calibration_quality(cal, captures, sensor.netd_mk)
     if args.json:
         return emit_json({"file": str(path), **q.as_dict()})

@@ -30,7 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="re-analyse many sessions on a Dask cluster: one stop table, one report",
     )
     p.add_argument("sessions", nargs="+", metavar="SESSION.h5", help="session files")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder (made if absent)")
+    p.add_argument(
+        "-o", "--out", required=True, metavar="PATH", help="output folder (made if absent)"
+    )
     where = p.add_mutually_exclusive_group()
     where.add_argument(
         "--scheduler",
@@ -42,14 +44,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=int,
         default=min(4, os.cpu_count() or 1),
         metavar="N",
-        help="processes of the local cluster (default: cores, at most 4); 0 runs serially "
-        "in this process without Dask",
+        help="processes of the local cluster (default: %(default)s, the cores up to 4); 0 runs "
+        "serially in this process without Dask",
     )
-    p.add_argument("--settings", metavar="analysis.toml", help="re-analysis settings")
-    p.add_argument("--frames", action="store_true", help="also a per-frame table per session")
+    p.add_argument("--settings", metavar="FILE.toml", help="re-analysis settings")
+    p.add_argument("--frame-table", action="store_true", help="also a per-frame table per session")
     p.add_argument(
         "--report",
-        metavar="R.pdf|R.png",
+        metavar="REPORT.pdf|png",
         help=f"campaign report file (default DIR/{REPORT}); 'none' for no report",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
@@ -93,13 +95,13 @@ def run(args: argparse.Namespace) -> int:
             result = run_dask(
                 args.sessions,
                 settings,
-                frames=args.frames,
+                frames=args.frame_table,
                 scheduler=args.scheduler,
                 workers=args.workers,
                 progress=update,
             )
         else:
-            result = run_serial(args.sessions, settings, frames=args.frames, progress=update)
+            result = run_serial(args.sessions, settings, frames=args.frame_table, progress=update)
     return write_outputs(args, result, settings, out, report)
 
 
@@ -147,7 +149,7 @@ def write_outputs(args, result, settings, out: Path, report: Path | None) -> int
     campaign = strict(campaign)
     table = write_stop_table(out / STOP_TABLE, rows, settings_d, campaign)
     frame_files = []
-    if args.frames:
+    if args.frame_table:
         (out / FRAMES_DIR).mkdir(exist_ok=True)
         by_session: dict[str, list] = {}
         for t in result.tasks:

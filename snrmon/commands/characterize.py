@@ -1,15 +1,15 @@
 """``snrmon characterize``: drone dimensions and temperature from a recorded close stop
 (paper section 3).
 
-    snrmon characterize FILE.h5 --camera mwir --stop 1 [--calibration CAL.npz] [--json]
-                        [--frames 100] [--min-frames 25] [--min-size-px 7]
+    snrmon characterize SESSION.h5 --camera mwir --stop 1 [--calibration CAL.npz] [--json]
+                        [--n-frames 100] [--min-frames 25] [--min-size-px 7]
                         [--method otsu|ksigma] [--target-out T.toml] [--apparent]
                         [--write | --no-record]
 
 The session is replayed as recorded (``acquisition.replay.batch.replay_session``: the same
 measurement, live track and stop table as live); the stop's range (rangefinder, else GPS) and
 the tracked peak of each of its frames give the ROI; ``acquisition.calibrate.characterize``
-segments the drone in every tracked frame of the stop and summarises the ``--frames`` where it
+segments the drone in every tracked frame of the stop and summarises the ``--n-frames`` where it
 is at rest (``at_rest_frames``: range within the stop detector's tolerance, segmented size
 steadiest), wherever they lie in the stop. JSON contract: ``{"camera",
 "stop", "range_m", "n_frames", "small_m", "small_m_std", "large_m", "large_m_std",
@@ -47,48 +47,38 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from snrmon.acquisition.calibrate.characterize import (
-    MIN_FRAMES_AT_REST,
-    AirPath,
-    CharacterizeConfig,
-    at_rest_frames,
-    characterize_frame,
-    summarise_frames,
-    target_toml,
-    unmeasurable,
-)
-from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
-from snrmon.acquisition.record.reader import open_session
-from snrmon.acquisition.replay.batch import replay_session
-from snrmon.acquisition.replay.recorded import recorded_calibration
-from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, output_file, session_file
-from snrmon.model.presets import load_sensor
+from snrmon.limits import MIN_FRAMES_AT_REST
 from snrmon.output import emit_json
 from snrmon.results import add_result_options, keep_result
 
-# A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
-# stop; only a frame without a trustworthy position is skipped.
-_NO_POSITION = frozenset({FLAG_LOST, FLAG_EDGE})
+if TYPE_CHECKING:
+    from snrmon.acquisition.calibrate.characterize import AirPath
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("characterize", help="drone size and temperature from a close stop")
-    p.add_argument("file", help="session file (.h5)")
-    p.add_argument("--camera", required=True, help="camera of the session to characterize")
-    p.add_argument("--stop", type=int, required=True, help="stop number as in the stop table")
+    p.add_argument("session", metavar="SESSION.h5", help="a snrmon session file")
+    p.add_argument(
+        "--camera", required=True, metavar="NAME", help="camera of the session to characterize"
+    )
+    p.add_argument(
+        "--stop", type=int, required=True, metavar="N", help="stop number as in the stop table"
+    )
     p.add_argument(
         "--calibration",
-        help="calibration .npz of this camera (default: the session's recorded one)",
+        metavar="CAL.npz",
+        help="calibration of this camera (default: the session's recorded one)",
     )
     p.add_argument(
         "--air-temp-c",
         type=float,
+        metavar="T",
         help="air along the path, C, for the atmospheric correction of the drone's "
         "temperature (default: the session's [weather], else the atmosphere's)",
     )
@@ -98,10 +88,15 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="report every temperature as seen, through the air (default: all corrected "
         "for the air in front of the drone)",
     )
-    p.add_argument("--sensor", help="sensor preset/TOML (default: the session's, else --camera)")
+    p.add_argument(
+        "--sensor",
+        metavar="mwir|lwir|FILE",
+        help="sensor preset or TOML file (default: the session's, else --camera)",
+    )
     p.add_argument(
         "--psf-blur-px",
         type=float,
+        metavar="PX",
         help="the camera's PSF for the core's correction: its Airy blurred by this Gaussian "
         "(default: the session's measured PSF, snrmon psf)",
     )
@@ -110,17 +105,25 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="read the core as seen, without correcting for the PSF's mixing",
     )
-    p.add_argument("--frames", type=int, default=100, help="frames of the stop to use (100)")
+    p.add_argument(
+        "--n-frames",
+        type=int,
+        default=100,
+        metavar="N",
+        help="frames of the stop to use (default: %(default)s)",
+    )
     p.add_argument(
         "--min-frames",
         type=int,
         default=MIN_FRAMES_AT_REST,
-        help=f"refuse (exit 2) with fewer frames of the drone at rest ({MIN_FRAMES_AT_REST}: "
+        metavar="N",
+        help="refuse (exit 2) with fewer frames of the drone at rest (default: %(default)s: "
         "the frames' std then known to 14 %%)",
     )
     p.add_argument(
         "--min-size-px",
         type=float,
+        metavar="PX",
         help="refuse (exit 2) a drone whose small or large dimension is under this many pixels "
         "(default 7: twice the 3-px opening plus one; smaller, the opening has eaten its parts)",
     )
@@ -128,14 +131,25 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--method",
         choices=("otsu", "ksigma"),
         default="otsu",
-        help="segmentation of the drone from the sky: Otsu's threshold (default) or k sigma",
+        metavar="otsu|ksigma",
+        help="segmentation of the drone from the sky: Otsu's threshold or k sigma "
+        "(default: %(default)s)",
     )
-    p.add_argument("--roi-px", type=int, default=32, help="ROI half size [px] (32)")
-    p.add_argument("--target-out", help="write a target TOML (needs --calibration)")
+    p.add_argument(
+        "--roi-px",
+        type=int,
+        default=32,
+        metavar="PX",
+        help="half size of the region around the drone, pixels (default: %(default)s)",
+    )
+    p.add_argument(
+        "--target-out", metavar="FILE.toml", help="write a target TOML (needs a calibration)"
+    )
     p.add_argument(
         "--target-name",
         default="characterized",
-        help="the name written into --target-out (default: characterized)",
+        metavar="NAME",
+        help="the name written into --target-out (default: %(default)s)",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     add_result_options(p, "target_characterized")
@@ -146,8 +160,9 @@ def _weather(args):
     """The met readings of the session's [weather] (None: none), --air-temp-c over its air."""
     from snrmon.acquisition.config import session_config_from_dict
     from snrmon.acquisition.prediction import Weather
+    from snrmon.acquisition.record.reader import open_session
 
-    with open_session(args.file) as f:
+    with open_session(args.session) as f:
         raw = f.config.get("session") if isinstance(f.config, dict) else None
     weather = session_config_from_dict(raw).weather if raw else None
     if args.air_temp_c is not None:
@@ -160,6 +175,7 @@ def air_path(sensor, range_m: float, weather=None) -> AirPath:
     contrast-weighted band transmission at ``range_m`` through the day's met readings
     ``weather`` (None: the model's default atmosphere), and the air's temperature. The
     calibrated camera sees L_app = tau L_t + (1 - tau) L_air (``model.contrast``)."""
+    from snrmon.acquisition.calibrate.characterize import AirPath
     from snrmon.model.atmosphere import resolve_atmosphere
 
     atm = resolve_atmosphere(weather, tuple(sensor.band_um))
@@ -169,13 +185,14 @@ def air_path(sensor, range_m: float, weather=None) -> AirPath:
 def _measured_psf(args, sensor) -> tuple[object | None, float | None, str | None]:
     """(PSF, blur_px, where it came from): ``--psf-blur-px``, else the session's latest
     ``psf_measured`` / ``model_psf`` event of the camera; (None, None, None) without one."""
+    from snrmon.acquisition.record.reader import open_session
     from snrmon.model.psf import AiryGaussianPsf
 
     if args.no_psf_correction:
         return None, None, None
     blur, source = args.psf_blur_px, "--psf-blur-px"
     if blur is None:
-        with open_session(args.file) as f:
+        with open_session(args.session) as f:
             events = [
                 e
                 for e in f.event_list()
@@ -188,43 +205,69 @@ def _measured_psf(args, sensor) -> tuple[object | None, float | None, str | None
             return None, None, None
         last = events[-1]  # the latest: events are in the order they were added
         blur, source = float(last["payload"]["blur_px"]), f"{last['kind']} event"
-    if not (blur >= 0 and np.isfinite(blur)):
+    if not (blur >= 0 and math.isfinite(blur)):
         raise UsageError(f"--psf-blur-px must be >= 0 px, got {blur}")
     return AiryGaussianPsf(sensor.diffraction_psf(), float(blur)), float(blur), source
 
 
 def _sensor_name(path: str, camera: str) -> str:
+    from snrmon.acquisition.record.reader import open_session
+
     with open_session(path) as f:
         cams = (f.config.get("session") or {}).get("cameras") or {}
         return str((cams.get(camera) or {}).get("sensor", camera))
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.frames < 1:
-        raise UsageError(f"--frames must be >= 1, got {args.frames}")
+    import numpy as np
+
+    from snrmon.acquisition.calibrate.characterize import (
+        CharacterizeConfig,
+        at_rest_frames,
+        characterize_frame,
+        summarise_frames,
+        target_toml,
+        unmeasurable,
+    )
+    from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
+    from snrmon.acquisition.record.reader import open_session
+    from snrmon.acquisition.replay.batch import replay_session
+    from snrmon.acquisition.replay.recorded import recorded_calibration
+    from snrmon.acquisition.stops.detector import StopConfig
+    from snrmon.model.presets import load_sensor
+
+    # A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
+    # stop; only a frame without a trustworthy position is skipped.
+    no_position = frozenset({FLAG_LOST, FLAG_EDGE})
+    if args.n_frames < 1:
+        raise UsageError(f"--n-frames must be >= 1, got {args.n_frames}")
     if args.roi_px < 1:
         raise UsageError(f"--roi-px must be >= 1, got {args.roi_px}")
     if args.min_frames < 2:
         raise UsageError(f"--min-frames must be >= 2, got {args.min_frames}")
     if args.min_size_px is not None and not args.min_size_px > 0:
         raise UsageError(f"--min-size-px must be > 0, got {args.min_size_px}")
-    session_file(args.file, camera=args.camera)
+    session_file(args.session, camera=args.camera)
     if args.calibration:
         input_file(args.calibration, "--calibration")
     if args.target_out:  # (a calibration comes from the session, or from --calibration)
         output_file(args.target_out, "--target-out", suffixes=(".toml",))
-    sensor = load_sensor(args.sensor or _sensor_name(args.file, args.camera))
+    sensor = load_sensor(args.sensor or _sensor_name(args.session, args.camera))
     # As recorded: the live track (it follows a resolved drone) gives each frame's
     # position. A fixed window at the click would sit where the operator clicked, which at a
     # close stop can be tens of pixels off the drone (a click on its GPS position).
-    replay = replay_session(args.file, fast=True)
+    replay = replay_session(args.session, fast=True)
     if args.camera not in replay.cameras:
-        raise UsageError(f"camera {args.camera!r} not in {args.file} ({', '.join(replay.cameras)})")
+        raise UsageError(
+            f"camera {args.camera!r} not in {args.session} ({', '.join(replay.cameras)})"
+        )
     rows = [r for r in replay.stops if r.camera == args.camera]
     row = next((r for r in rows if r.stop == args.stop), None)
     if row is None:
         known = ", ".join(str(r.stop) for r in rows) or "none"
-        raise UsageError(f"no stop {args.stop} for {args.camera} in {args.file} (stops: {known})")
+        raise UsageError(
+            f"no stop {args.stop} for {args.camera} in {args.session} (stops: {known})"
+        )
     range_m = row.lrf_range_m if row.lrf_range_m is not None else row.gps_range_m
     if range_m is None:
         raise UsageError(f"stop {args.stop} has no range (no rangefinder or GPS readings)")
@@ -238,11 +281,11 @@ def run(args: argparse.Namespace) -> int:
     picks = [
         (m.t_host_ns, (m.result.peak_x, m.result.peak_y), m.range_m)
         for m in rep.tally.measurements
-        if row.t_start_ns <= m.t_host_ns < end and not (m.result.flags & _NO_POSITION)
+        if row.t_start_ns <= m.t_host_ns < end and not (m.result.flags & no_position)
     ]
     if not picks:
         raise UsageError(f"stop {args.stop} holds no tracked frames of {args.camera}")
-    with open_session(args.file) as f:
+    with open_session(args.session) as f:
         cam = f.cameras[args.camera]
         found = recorded_calibration(f, args.camera, args.calibration, sensor)
         cal, cal_source = found if found is not None else (None, None)
@@ -261,7 +304,7 @@ def run(args: argparse.Namespace) -> int:
             if i < t_file.size and t_file[i] == t
         ]
         if not held:
-            raise UsageError(f"stop {args.stop}: none of its tracked frames is in {args.file}")
+            raise UsageError(f"stop {args.stop}: none of its tracked frames is in {args.session}")
         if cal is not None and cal.camera != args.camera:
             raise ValueError(f"calibration is for camera {cal.camera!r}, not {args.camera!r}")
         config = CharacterizeConfig(roi_half_px=args.roi_px, method=args.method)
@@ -283,7 +326,7 @@ def run(args: argparse.Namespace) -> int:
     rest = at_rest_frames(
         [None if f is None else float(np.sqrt(f.area_px)) for f in targets],
         [rng for _, _, _, rng in held],
-        args.frames,
+        args.n_frames,
         stop_range_m=float(range_m),
         range_tolerance_m=StopConfig().tolerance_m(source),
     )

@@ -20,8 +20,9 @@ from pathlib import Path
 
 from snrmon.cli import UsageError
 from snrmon.commands.gui import add_status_file_option, add_view_options, view_options
+from snrmon.commands.hil import add_flight_options
 from snrmon.extras import require
-from snrmon.inputs import output_file
+from snrmon.inputs import duration_s, output_file
 from snrmon.output import emit_json
 
 
@@ -30,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--headless", action="store_true", help="offscreen, print the stop table")
     p.add_argument(
         "--duration",
-        type=float,
+        type=duration_s(),
         metavar="S",
         help="close after S seconds (default: when the flight is over)",
     )
@@ -40,19 +41,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="FILE.png",
         help="save the window at the end (headless default: out/demo.png)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of every simulated device")
-    p.add_argument("--speed", type=float, default=1.0, help="flight time per wall second")
+    add_flight_options(p)
     p.add_argument(
-        "--stops",
-        default="37,126,199,336,393,451,508",
-        metavar="M,M,...",
-        help="hover ranges in metres (the paper's by default)",
+        "--speed",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="flight time per wall second (default: %(default)s)",
     )
-    p.add_argument("--out", type=Path, metavar="FILE.h5", help="record the session")
+    p.add_argument(
+        "-o", "--out", type=Path, metavar="PATH", help="record the session into this file (.h5)"
+    )
     p.add_argument(
         "--report",
         type=Path,
-        metavar="FILE.pdf|png",
+        metavar="REPORT.pdf|png",
         help="render the report at the end: from the recording with --out, else from the "
         "live stop table (headless default: out/demo-report.pdf)",
     )
@@ -92,7 +95,6 @@ def _operate(rig, done: threading.Event, printed: set, verbose: bool) -> None:
 
 def run(args: argparse.Namespace) -> int:
     require("gui", "the console demo")
-    from snrmon.commands.hil import _floats
     from snrmon.gui.app import run_console
     from snrmon.rig.rig import HilOptions, HilRig
     from snrmon.rig.table import TABLE_HEADER, format_result
@@ -101,8 +103,6 @@ def run(args: argparse.Namespace) -> int:
         output_file(args.out, "--out", suffixes=(".h5",), new=True)
     if not args.speed > 0:
         raise UsageError(f"--speed must be positive, got {args.speed}")
-    if args.duration is not None and not args.duration > 0:
-        raise UsageError(f"--duration must be positive, got {args.duration}")
     if args.status_file is not None:
         output_file(args.status_file, "--status-file", suffixes=(".json",))
     view = view_options(args)  # before the flight: a bad option is exit 2 at once
@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
     opts = HilOptions(
         seed=args.seed,
         speed=args.speed,
-        stops_m=_floats(args.stops, "--stops"),
+        stops_m=args.stops,
         transit_mps=12.0,
         out=str(args.out) if args.out else None,
         adopt_psf=True,  # the model takes the PSF measured at each unresolved stop

@@ -39,28 +39,28 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=Path,
         default=Path("."),
         metavar="DIR",
-        help="where the recordings will go (default: here)",
+        help="where the recordings will go (default: %(default)s)",
     )
     p.add_argument(
         "--duration",
         type=float,
         default=3600.0,
         metavar="S",
-        help="planned recording, for the free-space check (default 3600)",
+        help="planned recording, for the free-space check (default: %(default)s)",
     )
     p.add_argument(
         "--wait",
         type=float,
         default=5.0,
         metavar="S",
-        help="how long each device may take to answer (default 5)",
+        help="how long each device may take to answer (default: %(default)s)",
     )
     p.add_argument(
         "--disk-test-mb",
         type=int,
         default=256,
         metavar="MB",
-        help="how much to write when measuring the disk (default 256)",
+        help="how much to write when measuring the disk (default: %(default)s)",
     )
     p.add_argument(
         "--headless",

@@ -1,9 +1,9 @@
 """``snrmon geo``: project a GPS position into a camera, and calibrate a camera's pointing.
 
 ``snrmon geo pixel --site LAT,LON,ALT --pointing AZ,EL,ROLL --sensor mwir|lwir|FILE
---target LAT,LON,ALT [--json]`` prints, with ``--json``, exactly
+--target-at LAT,LON,ALT [--json]`` prints, with ``--json``, exactly
 ``{"x": float, "y": float, "range_m": float, "in_view": bool}`` (x column, y row, zero-based;
-x and y are ``null`` when the target is behind the camera). ``--camera F_M,PITCH_UM,W,H`` gives
+x and y are ``null`` when the target is behind the camera). ``--intrinsics F_M,PITCH_UM,W,H`` gives
 the intrinsics directly instead of a sensor preset.
 
 ``snrmon geo calibrate --pairs FILE.csv --site LAT,LON,ALT --sensor ... [--initial AZ,EL,ROLL]
@@ -19,18 +19,14 @@ import argparse
 import csv
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from snrmon.acquisition.geo.pointing import calibrate_pointing
-from snrmon.acquisition.geo.projection import (
-    CameraIntrinsics,
-    Pointing,
-    Site,
-    parse_triple,
-    project_to_pixel,
-)
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file
 from snrmon.output import emit_json
+
+if TYPE_CHECKING:  # imported when a subcommand runs: `--help` starts at once
+    from snrmon.acquisition.geo.projection import CameraIntrinsics
 
 PAIR_COLUMNS = ("x_px", "y_px", "lat_deg", "lon_deg", "alt_m")
 
@@ -40,7 +36,9 @@ PAIR_COLUMNS = ("x_px", "y_px", "lat_deg", "lon_deg", "alt_m")
 
 
 def camera_of(text: str) -> CameraIntrinsics:
-    """``F_M,PITCH_UM,W,H`` -> intrinsics; anything else is a ValueError naming --camera."""
+    """``F_M,PITCH_UM,W,H`` -> intrinsics; anything else is a ValueError naming --intrinsics."""
+    from snrmon.acquisition.geo.projection import CameraIntrinsics
+
     parts = text.split(",")
     try:
         if len(parts) != 4:
@@ -48,23 +46,25 @@ def camera_of(text: str) -> CameraIntrinsics:
         f_m, pitch_um, w, h = float(parts[0]), float(parts[1]), int(parts[2]), int(parts[3])
     except ValueError:
         raise ValueError(
-            f"--camera must be F_M,PITCH_UM,W,H (e.g. 0.016,8,1280,720), got {text!r}"
+            f"--intrinsics must be F_M,PITCH_UM,W,H (e.g. 0.016,8,1280,720), got {text!r}"
         ) from None
     return CameraIntrinsics(f_m, pitch_um * 1e-6, w, h)
 
 
 def intrinsics_of(args: argparse.Namespace) -> CameraIntrinsics:
-    """The intrinsics from ``--camera`` or from the sensor preset/file of ``--sensor``."""
-    if args.camera is not None:
-        return camera_of(args.camera)
+    """The intrinsics from ``--intrinsics`` or from the sensor preset/file of ``--sensor``."""
+    from snrmon.acquisition.geo.projection import CameraIntrinsics
+
+    if args.intrinsics is not None:
+        return camera_of(args.intrinsics)
     if args.sensor is None:
-        raise UsageError("give --sensor mwir|lwir|FILE or --camera F_M,PITCH_UM,W,H")
+        raise UsageError("give --sensor mwir|lwir|FILE or --intrinsics F_M,PITCH_UM,W,H")
     try:
         from snrmon.model.presets import load_sensor
     except ImportError as exc:
         raise UsageError(
             f"--sensor needs the sensor presets (model.presets), not available here: {exc}; "
-            "use --camera F_M,PITCH_UM,W,H"
+            "use --intrinsics F_M,PITCH_UM,W,H"
         ) from None
     return CameraIntrinsics.from_sensor(load_sensor(args.sensor))
 
@@ -78,7 +78,9 @@ def _add_camera_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--sensor", metavar="mwir|lwir|FILE", help="sensor preset or TOML file")
     p.add_argument(
-        "--camera", metavar="F_M,PITCH_UM,W,H", help="intrinsics given directly instead of --sensor"
+        "--intrinsics",
+        metavar="F_M,PITCH_UM,W,H",
+        help="intrinsics given directly instead of --sensor",
     )
     p.add_argument("--json", action="store_true", help="print JSON on stdout")
 
@@ -99,7 +101,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     _add_camera_options(px)
     px.add_argument("--pointing", required=True, metavar="AZ,EL,ROLL", help="degrees")
     px.add_argument(
-        "--target", required=True, metavar="LAT,LON,ALT", help="degrees, degrees, metres"
+        "--target-at",
+        required=True,
+        metavar="LAT,LON,ALT",
+        help="the target's position: degrees, degrees, metres",
     )
     px.set_defaults(func=run_pixel)
 
@@ -119,10 +124,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_pixel(args: argparse.Namespace) -> int:
+    from snrmon.acquisition.geo.projection import Pointing, Site, parse_triple, project_to_pixel
+
     cam = intrinsics_of(args)
     site = Site(*parse_triple(args.site, "--site"))
     pointing = Pointing(*parse_triple(args.pointing, "--pointing"))
-    p = project_to_pixel(site, pointing, cam, *parse_triple(args.target, "--target"))
+    p = project_to_pixel(site, pointing, cam, *parse_triple(args.target_at, "--target-at"))
     if args.json:
         return emit_json({"x": p.x, "y": p.y, "range_m": p.range_m, "in_view": p.in_view})
     else:
@@ -150,6 +157,9 @@ def read_pairs(path: Path) -> list[tuple[float, float, float, float, float]]:
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
+    from snrmon.acquisition.geo.pointing import calibrate_pointing
+    from snrmon.acquisition.geo.projection import Pointing, Site, parse_triple
+
     cam = intrinsics_of(args)
     site = Site(*parse_triple(args.site, "--site"))
     initial = (

@@ -84,7 +84,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=float,
         default=10.0,
         metavar="S",
-        help="search the offset against the rangefinder within +/- S seconds (default 10)",
+        help="search the offset against the rangefinder within +/- S seconds (default: "
+        "%(default)s)",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)

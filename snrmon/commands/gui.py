@@ -7,24 +7,31 @@ from pathlib import Path
 
 from snrmon.cli import UsageError
 from snrmon.extras import require
-from snrmon.inputs import input_file, output_file, session_file
+from snrmon.inputs import duration_s, input_file, output_file, session_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("gui", help="the operator console on real devices (session TOML)")
-    p.add_argument("--config", type=Path, help="session TOML file (cameras, lrf, gps, site)")
     p.add_argument(
-        "--replay", type=Path, help="replay a recorded session file (FILE.h5) in the console"
+        "--config",
+        type=Path,
+        metavar="FILE.toml",
+        help="session config (cameras, lrf, gps, site)",
+    )
+    p.add_argument(
+        "--replay", type=Path, metavar="SESSION.h5", help="replay a recorded session in the console"
     )
     p.add_argument("--headless", action="store_true", help="run offscreen (no display needed)")
-    p.add_argument("--duration", type=float, help="close after this many seconds")
-    p.add_argument("--screenshot", type=Path, help="save the window to this PNG at the end")
+    p.add_argument("--duration", type=duration_s(), metavar="S", help="close after S seconds")
+    p.add_argument(
+        "--screenshot", type=Path, metavar="FILE.png", help="save the window to this PNG at the end"
+    )
     p.add_argument(
         "--speed",
         type=float,
         default=1.0,
         metavar="X",
-        help="with --replay: play at X times real time (0.01 to 1000; default 1)",
+        help="with --replay: play at X times real time, 0.01 to 1000 (default: %(default)s)",
     )
     add_status_file_option(p)
     add_view_options(p)
@@ -32,10 +39,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def add_view_options(p: argparse.ArgumentParser) -> None:
-    """``--theme``, ``--font-scale`` and ``--size``, shared with ``snrmon demo``."""
+    """``--theme``, ``--font-scale`` and ``--window-size``, shared with ``snrmon demo``."""
     p.add_argument(
         "--theme",
         choices=("dark", "daylight"),
+        metavar="dark|daylight",
         help="dark, or daylight (light background, high contrast); default: the last one used",
     )
     p.add_argument(
@@ -45,7 +53,7 @@ def add_view_options(p: argparse.ArgumentParser) -> None:
         help="every text's size over normal, 0.8 to 2 (default: the last one used)",
     )
     p.add_argument(
-        "--size",
+        "--window-size",
         metavar="WxH",
         help="open the window at W x H pixels (default: the saved layout, or the whole screen "
         "at a first start; offscreen 1920x1080)",
@@ -53,7 +61,7 @@ def add_view_options(p: argparse.ArgumentParser) -> None:
 
 
 def window_size(text: str | None) -> tuple[int, int] | None:
-    """``--size WxH`` as (width, height); None when not given."""
+    """``--window-size WxH`` as (width, height); None when not given."""
     if text is None:
         return None
     w, sep, h = text.lower().partition("x")
@@ -62,7 +70,7 @@ def window_size(text: str | None) -> tuple[int, int] | None:
     except ValueError:
         size = (0, 0)
     if not sep or not (200 <= size[0] <= 16384 and 200 <= size[1] <= 16384):
-        raise UsageError(f"--size must be WxH in pixels (200 to 16384 each), got {text!r}")
+        raise UsageError(f"--window-size must be WxH in pixels (200 to 16384 each), got {text!r}")
     return size
 
 
@@ -76,7 +84,7 @@ def view_options(args: argparse.Namespace) -> dict:
             check_font_scale(scale)
         except ValueError as exc:
             raise UsageError(f"--font-scale: {exc}") from None
-    return {"theme": args.theme, "font_scale": scale, "size": window_size(args.size)}
+    return {"theme": args.theme, "font_scale": scale, "size": window_size(args.window_size)}
 
 
 def add_status_file_option(p: argparse.ArgumentParser) -> None:
@@ -92,13 +100,11 @@ def add_status_file_option(p: argparse.ArgumentParser) -> None:
 
 def check_console_outputs(args: argparse.Namespace) -> None:
     """Before a window opens: the files it will write can be written."""
-    if args.duration is not None and not args.duration > 0:
-        raise UsageError(f"--duration must be positive, got {args.duration}")
     if args.screenshot is not None:
         output_file(args.screenshot, "--screenshot", suffixes=(".png",))
     if args.status_file is not None:
         output_file(args.status_file, "--status-file", suffixes=(".json",))
-    window_size(args.size)
+    window_size(args.window_size)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -13,7 +13,7 @@ import math
 import sys
 
 from snrmon.cli import UsageError
-from snrmon.inputs import output_file
+from snrmon.inputs import Number, Size, output_file, seed, stop_ranges
 from snrmon.output import emit_json
 
 
@@ -39,16 +39,25 @@ def _kelvin(celsius: float, what: str) -> float:
     return celsius + 273.15
 
 
-def _window(text: str | None) -> tuple[int, int] | None:
-    if text is None:
-        return None
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise UsageError(f"--window must be WxH in pixels, e.g. 256x192, got {text!r}") from None
-    if w < 64 or h < 64:
-        raise UsageError(f"--window must be at least 64x64 pixels, got {text!r}")
-    return w, h
+PAPER_STOPS_M = "37,126,199,336,393,451,508"
+
+
+def add_flight_options(p: argparse.ArgumentParser) -> None:
+    """``--seed`` and ``--stops`` of a simulated flight, shared with ``snrmon demo``."""
+    p.add_argument(
+        "--seed",
+        type=seed(),
+        default=0,
+        metavar="N",
+        help="seed of every simulated device (default: %(default)s)",
+    )
+    p.add_argument(
+        "--stops",
+        type=stop_ranges(),
+        default=PAPER_STOPS_M,
+        metavar="M,M,...",
+        help="hover ranges in metres (default: the paper's, %(default)s)",
+    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -56,35 +65,55 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--headless", action="store_true", help="no window (always: `snrmon demo` has the console)"
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of every simulated device")
+    add_flight_options(p)
     p.add_argument(
         "--speed",
         default="1",
+        metavar="X",
         help="flight time per wall-clock second (e.g. 2), or max: as fast as the console takes "
         "the frames (at most 8x). A simulated day never drops a frame: where the machine is "
-        "busier than the speed needs, the day slows down (said on stderr and in the JSON)",
+        "busier than the speed needs, the day slows down (said on stderr and in the JSON) "
+        "(default: %(default)s)",
     )
     p.add_argument(
-        "--stops",
-        default="37,126,199,336,393,451,508",
-        metavar="M,M,...",
-        help="hover ranges in metres",
+        "--cameras",
+        default="mwir,lwir",
+        metavar="NAME,...",
+        help="cameras to simulate (default: %(default)s)",
     )
-    p.add_argument("--camera", default="mwir,lwir", help="cameras to simulate")
-    p.add_argument("--target", default="uav1", help="target preset or TOML file")
-    p.add_argument("--hover-s", type=float, default=7.0, help="hover time per stop (flight s)")
-    p.add_argument("--transit-mps", type=float, default=8.0, help="transit speed between stops")
+    p.add_argument(
+        "--target",
+        default="uav1",
+        metavar="uav1|uav2|FILE",
+        help="target preset or TOML file (default: %(default)s)",
+    )
+    p.add_argument(
+        "--hover-s",
+        type=Number(0.0, 3600.0, above=True, unit="s"),
+        default=7.0,
+        metavar="S",
+        help="hover time per stop, flight seconds (default: %(default)s)",
+    )
+    p.add_argument(
+        "--transit-mps",
+        type=Number(0.0, 100.0, above=True, unit="m/s"),
+        default=8.0,
+        metavar="M_S",
+        help="transit speed between stops, m/s (default: %(default)s)",
+    )
     p.add_argument(
         "--sky-temp-c",
         type=float,
-        default=280.0 - 273.15,
-        help="the scenario's clear-sky apparent temperature, C (6.85)",
+        default=6.85,
+        metavar="T",
+        help="the scenario's clear-sky apparent temperature, C (default: %(default)s)",
     )
     p.add_argument(
         "--air-temp-c",
         type=float,
         default=15.0,
-        help="the scenario's air temperature along the path, C (15)",
+        metavar="T",
+        help="the scenario's air temperature along the path, C (default: %(default)s)",
     )
     p.add_argument(
         "--rh",
@@ -98,7 +127,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=float,
         default=None,
         metavar="P",
-        help="the scenario's air pressure, hPa (1013.25)",
+        help="the scenario's air pressure, hPa (default: 1013.25)",
     )
     p.add_argument(
         "--visibility-km",
@@ -108,7 +137,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="the scenario's visibility (rural aerosol), km (default: no aerosol)",
     )
     p.add_argument(
-        "--window", metavar="WxH", help="read a sub-array of W x H pixels around the line of sight"
+        "--size",
+        type=Size(64),
+        metavar="WxH",
+        help="read a sub-array of W x H pixels around the line of sight (default: the whole frame)",
     )
     p.add_argument(
         "--no-calibration",
@@ -121,7 +153,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="keep the search window where clicked (re-clicked at every stop)",
     )
-    p.add_argument("--out", metavar="FILE.h5", help="record the run into a session file")
+    p.add_argument(
+        "-o", "--out", metavar="PATH", help="record the run into this new session file (.h5)"
+    )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
 
@@ -135,17 +169,14 @@ def run(args: argparse.Namespace) -> int:
     speed = MAX_SPEED if speed_max else _floats(args.speed, "--speed")[0]
     if args.out is not None:
         output_file(args.out, "--out", suffixes=(".h5",), new=True)
-    for option, value in (("--hover-s", args.hover_s), ("--transit-mps", args.transit_mps)):
-        if not value > 0:
-            raise UsageError(f"{option} must be positive, got {value}")
-    cameras = tuple(c.strip() for c in args.camera.split(",") if c.strip())
+    cameras = tuple(c.strip() for c in args.cameras.split(",") if c.strip())
     unknown = [c for c in cameras if c not in ("mwir", "lwir")]
     if unknown or not cameras:
-        raise UsageError(f"--camera must name mwir and/or lwir, got {args.camera!r}")
+        raise UsageError(f"--cameras must name mwir and/or lwir, got {args.cameras!r}")
     opts = HilOptions(
         seed=args.seed,
         speed=speed,
-        stops_m=_floats(args.stops, "--stops"),
+        stops_m=args.stops,
         cameras=cameras,
         target=args.target,
         hover_s=args.hover_s,
@@ -155,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
         rh_percent=args.rh,
         pressure_hpa=args.pressure_hpa,
         visibility_km=args.visibility_km,
-        window_px=_window(args.window),
+        window_px=args.size,
         calibrate=not args.no_calibration,
         fpn=args.fpn,
         track=not args.no_track,

@@ -12,12 +12,16 @@ import queue
 import sys
 import threading
 import time
+from typing import TYPE_CHECKING
 
-from snrmon.drivers.config import GPS_PROTOCOLS, LRF_PROTOCOLS, device_from_config
-from snrmon.drivers.device import DeviceState, DeviceStatus
-from snrmon.drivers.gps.fix import GpsFix
-from snrmon.drivers.rangefinder.reading import RangeReading
+from snrmon.drivers.config import GPS_PROTOCOLS, LRF_PROTOCOLS
+from snrmon.inputs import Number, duration_s
 from snrmon.output import dumps
+
+if TYPE_CHECKING:  # the drivers are imported when the command runs: `--help` starts at once
+    from snrmon.drivers.device import DeviceStatus
+    from snrmon.drivers.gps.fix import GpsFix
+    from snrmon.drivers.rangefinder.reading import RangeReading
 
 DEFAULT_PROTOCOL = {"gps": "nmea", "lrf": "trupulse"}
 DEFAULT_COUNT_TIMEOUT_S = 30.0
@@ -25,7 +29,7 @@ DEFAULT_COUNT_TIMEOUT_S = 30.0
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("listen", help="print readings from a GPS or rangefinder as they arrive")
-    p.add_argument("kind", choices=("gps", "lrf"), help="what is on the port")
+    p.add_argument("kind", choices=("gps", "lrf"), metavar="gps|lrf", help="what is on the port")
     p.add_argument(
         "--port",
         required=True,
@@ -36,13 +40,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--protocol",
         choices=GPS_PROTOCOLS + LRF_PROTOCOLS,
+        metavar="|".join(GPS_PROTOCOLS + LRF_PROTOCOLS),
         help="default nmea for gps, trupulse for lrf",
     )
-    p.add_argument("--baud", type=int, help="line speed (default: the protocol's)")
-    p.add_argument("--count", type=int, metavar="N", help="exit after N readings of any status")
+    p.add_argument("--baud", type=int, metavar="BAUD", help="line speed (default: the protocol's)")
+    p.add_argument(
+        "--count",
+        type=Number(1, 10**9, integer=True),
+        metavar="N",
+        help="exit after N readings of any status",
+    )
     p.add_argument(
         "--timeout",
-        type=float,
+        type=duration_s(),
         metavar="S",
         help=f"give up after S seconds (default {DEFAULT_COUNT_TIMEOUT_S:g} with "
         "--count, otherwise run until interrupted)",
@@ -85,6 +95,8 @@ def _fmt(v: float | None, spec: str, unit: str = "") -> str:
 
 def reading_line(reading: GpsFix | RangeReading) -> str:
     """The human-readable line for one reading."""
+    from snrmon.drivers.gps.fix import GpsFix
+
     if isinstance(reading, GpsFix):
         rec = gps_record(reading)
         return (
@@ -105,12 +117,16 @@ class StatusReporter:
     """Turns status changes into stderr lines, once per event (not once per retry)."""
 
     def __init__(self, name: str) -> None:
+        from snrmon.drivers.device import DeviceStatus
+
         self.name = name
         self._last = DeviceStatus(name=name)
         self._lock = threading.Lock()
         self.failed = threading.Event()
 
     def __call__(self, st: DeviceStatus) -> None:
+        from snrmon.drivers.device import DeviceState
+
         with self._lock:
             old, self._last = self._last, st
         msgs = []
@@ -138,6 +154,8 @@ class StatusReporter:
 
 
 def run(args: argparse.Namespace) -> int:
+    from snrmon.drivers.config import device_from_config
+
     protocol = args.protocol or DEFAULT_PROTOCOL[args.kind]
     allowed = GPS_PROTOCOLS if args.kind == "gps" else LRF_PROTOCOLS
     if protocol not in allowed:

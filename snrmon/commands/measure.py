@@ -8,7 +8,7 @@ JSON contract (``--json``), on stdout::
 
 ``snr_mean``/``snr_std`` (sample std, ddof=1) are over all frames whose SNR is defined (finite),
 flagged or not; a value that is not a finite number (an undefined SNR) is written as ``null``.
-The readable table adds the running mean/std over the last ``--window`` valid frames.
+The readable table adds the running mean/std over the last ``--window-frames`` valid frames.
 
 ``--track`` runs :func:`snrmon.acquisition.track.tracker.track_stack` from ``--at`` (the compact
 object nearest the click, followed, measured against the background its extent allows, found
@@ -25,23 +25,19 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from snrmon.acquisition.measure.background import parse_rect, validate_rect
-from snrmon.acquisition.measure.peak_snr import (
-    FLAG_NAMES,
-    RUNNING_EXCLUDED,
-    PeakSnr,
-    PeakSnrMeter,
-    saturation_level,
-)
-from snrmon.acquisition.measure.running_stats import RunningSnr
-from snrmon.acquisition.measure.stack_snr import StackSnr, measure_stack
-from snrmon.acquisition.replay.stack_io import load_stack
-from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackStep, track_stack
 from snrmon.cli import UsageError
+from snrmon.inputs import Number
+from snrmon.limits import MAX_FRAME_PX, MAX_WINDOW_FRAMES
 from snrmon.output import emit_json
+
+if TYPE_CHECKING:  # the work's modules are imported when it runs: `--help` starts at once
+    import numpy as np
+
+    from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrMeter
+    from snrmon.acquisition.measure.stack_snr import StackSnr
+    from snrmon.acquisition.track.tracker import TrackStep
 
 
 def _point(text: str) -> tuple[int, int]:
@@ -54,14 +50,9 @@ def _point(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(f"must be X,Y (two integers), got {text!r}") from None
 
 
-def _odd(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1 or value % 2 == 0:
-        raise argparse.ArgumentTypeError(f"must be an odd positive integer, got {text!r}")
-    return value
+# An odd side in pixels, up to the largest frame (a box of a million pixels a side was a
+# MemoryError); the frame's own size is checked when the stack is read.
+ODD_PX = Number(1, MAX_FRAME_PX - 1, integer=True, odd=True, unit="px")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -78,17 +69,42 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("stack", metavar="STACK", help="the frames")
     p.add_argument("--at", type=_point, required=True, metavar="X,Y", help="operator's point")
-    p.add_argument("--search", type=_odd, default=11, metavar="N", help="search window (11)")
-    p.add_argument("--box", type=_odd, default=7, metavar="N", help="box size, odd (7)")
+    p.add_argument(
+        "--search",
+        type=ODD_PX,
+        default=11,
+        metavar="N",
+        help="search window's side, pixels, odd (default: %(default)s)",
+    )
+    p.add_argument(
+        "--box",
+        type=ODD_PX,
+        default=7,
+        metavar="N",
+        help="box size, pixels, odd (default: %(default)s)",
+    )
     p.add_argument(
         "--background",
         default="rim",
         metavar="rim|X0,Y0,X1,Y1",
-        help="background pixels: the box rim (default) or a clear-sky rectangle, corners included",
+        help="background pixels: the box rim or a clear-sky rectangle, corners included "
+        "(default: %(default)s)",
     )
     p.add_argument("--detrend", action="store_true", help="remove a plane from the background")
-    p.add_argument("--window", type=int, default=100, metavar="N", help="running window (100)")
-    p.add_argument("--saturation", type=float, default=None, metavar="DN", help="saturation level")
+    p.add_argument(
+        "--window-frames",
+        type=Number(1, MAX_WINDOW_FRAMES, integer=True),
+        default=100,
+        metavar="N",
+        help="running window, frames (default: %(default)s)",
+    )
+    p.add_argument(
+        "--saturation",
+        type=Number(-1e12, 1e12),
+        default=None,
+        metavar="DN",
+        help="saturation level",
+    )
     p.add_argument("--json", action="store_true", help="print the JSON contract on stdout")
     p.add_argument(
         "--track",
@@ -100,22 +116,27 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _meter(args: argparse.Namespace, shape: tuple[int, int]) -> PeakSnrMeter:
+    from snrmon.acquisition.measure.background import parse_rect, validate_rect
+    from snrmon.acquisition.measure.peak_snr import PeakSnrMeter
+
     if args.box < 3:
         raise UsageError(f"--box must be an odd integer >= 3, got {args.box}")
-    if args.window < 1:
-        raise UsageError(f"--window must be a positive integer, got {args.window}")
+    if args.window_frames < 1:
+        raise UsageError(f"--window-frames must be a positive integer, got {args.window_frames}")
+    rows, cols = shape
+    if args.box > min(rows, cols):  # no rim inside the frame: every frame would be undefined
+        raise UsageError(f"--box {args.box} is larger than the {cols}x{rows} frames")
     background = None
     if args.background != "rim":
         background = validate_rect(parse_rect(args.background), shape)
     x, y = args.at
-    rows, cols = shape
     if not (0 <= x < cols and 0 <= y < rows):
         raise UsageError(
             f"--at {x},{y} is off the {cols}x{rows} image (x must be 0..{cols - 1}, "
             f"y 0..{rows - 1})"
         )
     return PeakSnrMeter(
-        window=args.window,
+        window=args.window_frames,
         search_px=args.search,
         box_px=args.box,
         background=background,
@@ -126,6 +147,8 @@ def _meter(args: argparse.Namespace, shape: tuple[int, int]) -> PeakSnrMeter:
 
 def _measure_frames(args: argparse.Namespace, stack: np.ndarray, meter: PeakSnrMeter) -> StackSnr:
     """The operator's point stays fixed (no tracking): the vectorised stack path."""
+    from snrmon.acquisition.measure.stack_snr import measure_stack
+
     return measure_stack(stack, args.at, meter=meter)
 
 
@@ -134,6 +157,9 @@ def _track_frames(
 ) -> tuple[list[PeakSnr], list[TrackStep]]:
     """The window follows the object (acquisition.track.tracker); the meter's settings carry
     over. A click the tracker finds nothing compact near is a UsageError."""
+    from snrmon.acquisition.measure.peak_snr import saturation_level
+    from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, track_stack
+
     first = Tracker(args.at, measurement=meter.config).update(stack[0])
     if first.reason == "no_object":
         x, y = args.at
@@ -158,6 +184,8 @@ def _num(value: float) -> float | None:
 
 
 def _summary(snr: np.ndarray) -> tuple[float, float]:
+    import numpy as np
+
     finite = snr[np.isfinite(snr)]
     mean = float(finite.mean()) if finite.size else math.nan
     std = float(finite.std(ddof=1)) if finite.size > 1 else math.nan
@@ -165,6 +193,11 @@ def _summary(snr: np.ndarray) -> tuple[float, float]:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from snrmon.acquisition.measure.peak_snr import FLAG_NAMES, RUNNING_EXCLUDED
+    from snrmon.acquisition.measure.running_stats import RunningSnr
+    from snrmon.acquisition.replay.stack_io import load_stack
     from snrmon.inputs import stack_file
 
     stack = load_stack(stack_file(args.stack))
@@ -172,7 +205,7 @@ def run(args: argparse.Namespace) -> int:
     steps: list[TrackStep] | None = None
     if getattr(args, "track", False):
         results, steps = _track_frames(args, stack, meter)
-        running = RunningSnr(args.window)
+        running = RunningSnr(args.window_frames)
         for r in results:
             if not r.flags & RUNNING_EXCLUDED:
                 running.push(r.snr)

@@ -19,8 +19,9 @@ Subcommands and their ``--json`` contracts (stdout):
 * ``radiance --band L1,L2 --temp-k T`` -> ``{"radiance_w_m2_sr", "photon_radiance",
   "d_radiance_dt", "d_photon_radiance_dt"}`` (SI, per steradian; photons s^-1 m^-2 sr^-1).
 * ``netd --sensor S`` -> ``{"netd_mk", "temporal_noise_e", "temporal_noise_dn"}`` (noise against
-  a 290 K sky unless ``--background-temp-c``; NETD at the sensor's 300 K reference).
-* ``plot --sensor S --target T -o FILE.png`` -> the four curves with the Fig. 12 band.
+  a 290 K sky unless ``--sky-temp-c``; NETD at the sensor's 300 K reference).
+* ``plot --sensor S --target T -o FILE.png`` -> the four curves with the Fig. 12 band
+  (``{"file"}`` with ``--json``).
 """
 
 from __future__ import annotations
@@ -28,10 +29,8 @@ from __future__ import annotations
 import argparse
 import math
 
-import numpy as np
-
 from snrmon.cli import UsageError
-from snrmon.inputs import output_file
+from snrmon.inputs import Number, NumberList, output_file
 from snrmon.output import emit_json
 
 ZERO_C_K = 273.15
@@ -65,20 +64,12 @@ def _band(text: str) -> tuple[float, float]:
     return v[0], v[1]
 
 
-def _ranges(text: str) -> list[float]:
-    v = _floats(text, "--ranges")
-    for r in v:
-        if r <= 0:
-            raise UsageError(f"--ranges: range must be > 0 m, got {r:g}")
-    return v
-
-
 def _bg_k(args) -> float | None:
     if args.background_temp_c is None:
         return None
     t = args.background_temp_c + ZERO_C_K
     if not t > 0:
-        raise UsageError(f"--background-temp-c must be above -273.15, got {args.background_temp_c}")
+        raise UsageError(f"--sky-temp-c must be above -273.15, got {args.background_temp_c}")
     return t
 
 
@@ -154,8 +145,8 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
             "--atmosphere",
             default="default",
             metavar="default|none|TAU|FILE",
-            help="built-in LOWTRAN7 table for the met readings below (default), none, a "
-            "constant transmission, or a TOML/tape7/CSV file",
+            help="built-in LOWTRAN7 table for the met readings below, none, a constant "
+            "transmission, or a TOML/tape7/CSV file (default: %(default)s)",
         )
         p.add_argument(
             "--air-temp-c", type=float, default=None, metavar="T", help="air temperature, C"
@@ -181,12 +172,14 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
             "--aerosol",
             default=None,
             choices=AEROSOL_CHOICES,
+            metavar="|".join(AEROSOL_CHOICES),
             help="LOWTRAN7 aerosol model with --visibility-km (rural)",
         )
         p.add_argument(
             "--season",
             default=None,
             choices=SEASON_CHOICES,
+            metavar="|".join(SEASON_CHOICES),
             help="standard atmosphere whose sea-level air stands in for readings not given "
             "(us_std_1976)",
         )
@@ -206,7 +199,6 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
         )
     p.add_argument(
         "--sky-temp-c",
-        "--background-temp-c",
         dest="background_temp_c",
         type=float,
         default=None,
@@ -229,10 +221,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     _add_common(s)
     s.add_argument(
         "--ranges",
-        type=str,
+        type=NumberList(Number(1.0, 100_000.0, above=True, unit="m"), 10_000),
         default="37,126,199,336,393,451,508",
         metavar="R,...",
-        help="slant ranges in metres (default: the paper's stops)",
+        help="slant ranges in metres (default: the paper's stops, %(default)s)",
     )
     s.set_defaults(func=run_snr)
 
@@ -241,15 +233,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--psf",
         required=True,
         choices=("airy", "gaussian", "airy+gaussian"),
+        metavar="airy|gaussian|airy+gaussian",
         help="diffraction (Airy), Gaussian blur, or both convolved",
     )
-    v.add_argument("--f-number", type=float, default=None, help="optics f-number (Airy)")
-    v.add_argument("--pitch-um", type=float, default=None, help="detector pitch in um (Airy)")
+    v.add_argument(
+        "--f-number", type=float, default=None, metavar="N", help="optics f-number (Airy)"
+    )
+    v.add_argument(
+        "--pitch-um", type=float, default=None, metavar="UM", help="detector pitch in um (Airy)"
+    )
     g = v.add_mutually_exclusive_group()
     g.add_argument(
         "--wavelength-um",
         type=float,
         default=None,
+        metavar="UM",
         help="one wavelength in um (monochromatic Airy)",
     )
     g.add_argument(
@@ -259,21 +257,31 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="L1,L2",
         help="band in um (polychromatic Airy over the band)",
     )
-    v.add_argument("--sigma-px", type=float, default=None, help="Gaussian sigma in pixels")
-    v.add_argument("--fill-factor", type=float, default=1.0, help="area fill factor (1.0)")
+    v.add_argument(
+        "--sigma-px", type=float, default=None, metavar="PX", help="Gaussian sigma in pixels"
+    )
+    v.add_argument(
+        "--fill-factor",
+        type=float,
+        default=1.0,
+        metavar="F",
+        help="area fill factor (default: %(default)s)",
+    )
     v.add_argument(
         "--target-size-px",
         type=float,
         default=0.0,
         metavar="D",
-        help="Gaussian target of sigma D/2 convolved with the PSF",
+        help="Gaussian target of sigma D/2 convolved with the PSF (default: %(default)s)",
     )
     v.add_argument("--json", action="store_true", help="JSON on stdout")
     v.set_defaults(func=run_pvf)
 
     r = msub.add_parser("radiance", help="blackbody band radiance and its derivative")
     r.add_argument("--band", required=True, metavar="L1,L2", help="band in um")
-    r.add_argument("--temp-k", required=True, type=float, help="blackbody temperature in K")
+    r.add_argument(
+        "--temp-k", required=True, type=float, metavar="K", help="blackbody temperature in K"
+    )
     r.add_argument("--json", action="store_true", help="JSON on stdout")
     r.set_defaults(func=run_radiance)
 
@@ -283,12 +291,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     pl = msub.add_parser("plot", help="SNR vs range figure like Figs. 7-10")
     _add_common(pl)
-    pl.add_argument("--max-range-m", type=float, default=600.0, help="last range plotted (600 m)")
+    pl.add_argument(
+        "--max-range-m",
+        type=Number(10.0, 100_000.0, above=True, unit="m"),
+        default=600.0,
+        metavar="M",
+        help="last range plotted, metres (default: %(default)s)",
+    )
     pl.add_argument(
         "-o",
-        "--output",
+        "--out",
         required=True,
-        metavar="FILE.png",
+        metavar="PATH",
         help="figure to write (.png, .pdf or .svg)",
     )
     pl.set_defaults(func=run_plot)
@@ -309,7 +323,7 @@ def run_snr(args) -> int:
     pred = predict(
         sensor,
         target,
-        _ranges(args.ranges),
+        list(args.ranges),
         atmosphere=_atmosphere(args, sensor),
         background_temp_k=_bg_k(args),
         air_temp_k=_air_k(args),
@@ -402,13 +416,13 @@ def run_netd(args) -> int:
 
 
 def run_plot(args) -> int:
+    import numpy as np
+
     from snrmon.model.plot import plot_prediction
     from snrmon.model.snr import predict
 
     sensor, target = _load(args)
-    if not args.max_range_m > 10:
-        raise UsageError(f"--max-range-m must be > 10, got {args.max_range_m}")
-    output_file(args.output, "-o", suffixes=(".png", ".pdf", ".svg"))
+    output_file(args.out, "-o/--out", suffixes=(".png", ".pdf", ".svg"))
     ranges = np.linspace(10.0, args.max_range_m, 500)
     pred = predict(
         sensor,
@@ -419,6 +433,5 @@ def run_plot(args) -> int:
         air_temp_k=_air_k(args),
         spatial_noise=args.spatial_noise,
     )
-    path = plot_prediction(pred, args.output)
-    print(path)
-    return 0
+    path = plot_prediction(pred, args.out)
+    return _emit(args, {"file": str(path)}, str(path))

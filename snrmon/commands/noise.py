@@ -1,7 +1,8 @@
 """``snrmon noise``: the 3D noise of a stack, a recorded camera or blackbody frames.
 
-    snrmon noise STACK [--frames A:B] [--roi X0,Y0,X1,Y1] [--calibration CAL.npz] [--json]
-    snrmon noise SESSION.h5 [--camera NAME] [--frames A:B | --seconds A:B | --stop N] [--roi ...]
+    snrmon noise STACK [--frames START:STOP] [--roi X0,Y0,X1,Y1] [--calibration CAL.npz] [--json]
+    snrmon noise SESSION.h5 [--camera NAME] [--frames START:STOP | --seconds START:STOP
+                            | --stop N] [--roi ...]
 
 D'Agostino and Webb's seven components (sigma_t ... sigma_tvh), each directional estimate and its
 finite-size bias removed (Haefner and Burks) with a 95 % confidence interval, and the total
@@ -30,12 +31,14 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, is_hdf5
 from snrmon.output import emit_json
+
+if TYPE_CHECKING:  # imported when the work runs: `--help` starts at once
+    import numpy as np
 
 FIGURE_NOTES = {
     "t": "frame-to-frame flicker",
@@ -52,7 +55,9 @@ FIGURE_NOTES = {
 def _span(text: str) -> tuple[str, str]:
     lo, sep, hi = text.partition(":")
     if not sep:
-        raise argparse.ArgumentTypeError(f"must be A:B (either may be left out), got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"must be START:STOP (either may be left out), got {text!r}"
+        )
     return lo.strip(), hi.strip()
 
 
@@ -71,14 +76,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--frames",
         type=_span,
-        metavar="A:B",
-        help="frames A to B-1 (zero-based; A or B may be left out)",
+        metavar="START:STOP",
+        help="frames START to STOP-1 (zero-based; either may be left out)",
     )
     p.add_argument(
         "--seconds",
         type=_span,
-        metavar="A:B",
-        help="session: the camera's frames from A to B seconds after its first frame",
+        metavar="START:STOP",
+        help="session: the camera's frames from START to STOP seconds after its first frame",
     )
     p.add_argument(
         "--stop",
@@ -108,10 +113,12 @@ def _frame_range(span: tuple[str, str] | None, count: int, what: str) -> tuple[i
         lo = int(span[0]) if span[0] else 0
         hi = int(span[1]) if span[1] else count
     except ValueError:
-        raise UsageError(f"{what} must be A:B with integers, got {':'.join(span)!r}") from None
+        raise UsageError(
+            f"{what} must be START:STOP with integers, got {':'.join(span)!r}"
+        ) from None
     if not 0 <= lo < hi <= count:
         raise UsageError(
-            f"{what} {':'.join(span)} is outside the {count} frames (0 <= A < B <= {count})"
+            f"{what} {':'.join(span)} is outside the {count} frames (0 <= START < STOP <= {count})"
         )
     return lo, hi
 
@@ -167,11 +174,15 @@ def _camera(f, name: str | None):
 
 
 def _seconds_range(span: tuple[str, str], t_ns: np.ndarray) -> tuple[int, int]:
+    import numpy as np
+
     try:
         lo = float(span[0]) if span[0] else 0.0
         hi = float(span[1]) if span[1] else np.inf
     except ValueError:
-        raise UsageError(f"--seconds must be A:B in seconds, got {':'.join(span)!r}") from None
+        raise UsageError(
+            f"--seconds must be START:STOP in seconds, got {':'.join(span)!r}"
+        ) from None
     t_s = (t_ns - t_ns[0]) / 1e9
     a, b = int(np.searchsorted(t_s, lo)), int(np.searchsorted(t_s, hi))
     if not (lo < hi and b - a >= 2):
@@ -232,6 +243,8 @@ def _session_noise(args: argparse.Namespace):
 def _kelvin(calibration: tuple, region, mean_image: np.ndarray, noise) -> dict:
     """The kelvin figures and NETD from ``calibration``, (a calibration, its source) (module
     docstring)."""
+    import numpy as np
+
     cal, source = calibration
     x0, y0, x1, y1 = region
     rows, cols = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]

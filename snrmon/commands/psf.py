@@ -1,6 +1,6 @@
 """``snrmon psf``: the camera's PSF from a recorded stop of an unresolved drone.
 
-    snrmon psf FILE.h5 --camera C --stop N [--stop M ...] [--calibration CAL.npz]
+    snrmon psf SESSION.h5 --camera C --stop N [--stop M ...] [--calibration CAL.npz]
                [--min-frames 50] [--json] [--write | --no-record]
 
 The session is replayed like ``snrmon characterize`` (the same stop table as live); the stop's
@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, session_file
 from snrmon.output import emit_json
@@ -31,23 +29,31 @@ from snrmon.results import add_result_options, keep_result
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("psf", help="the PSF and its average PVF from an unresolved stop")
-    p.add_argument("file", help="session file (.h5)")
-    p.add_argument("--camera", required=True, help="the recorded camera (mwir, lwir, ...)")
+    p.add_argument("session", metavar="SESSION.h5", help="a snrmon session file")
+    p.add_argument(
+        "--camera", required=True, metavar="NAME", help="the recorded camera (mwir, lwir, ...)"
+    )
     p.add_argument(
         "--stop",
         type=int,
         action="append",
         required=True,
+        metavar="N",
         help="stop number as in the stop table (repeat to pool stops)",
     )
-    p.add_argument("--calibration", help="calibration .npz (default: the session's)")
-    p.add_argument("--sensor", help="sensor preset/TOML (default: the session's)")
-    p.add_argument("--target", help="target preset/TOML (default: the session's)")
+    p.add_argument("--calibration", metavar="CAL.npz", help="calibration (default: the session's)")
+    p.add_argument(
+        "--sensor", metavar="mwir|lwir|FILE", help="sensor preset or TOML (default: the session's)"
+    )
+    p.add_argument(
+        "--target", metavar="uav1|uav2|FILE", help="target preset or TOML (default: the session's)"
+    )
     p.add_argument(
         "--min-frames",
         type=int,
         default=50,
-        help="fewest valid frames a stop must give (at least 10)",
+        metavar="N",
+        help="fewest valid frames a stop must give, at least 10 (default: %(default)s)",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     add_result_options(p, "psf_measured")
@@ -55,6 +61,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from snrmon.acquisition.calibrate.psf_estimate import (
         PsfEstimateError,
         StopCrops,
@@ -70,19 +78,19 @@ def run(args: argparse.Namespace) -> int:
 
     if args.min_frames < 10:
         raise UsageError(f"--min-frames must be >= 10, got {args.min_frames}")
-    session_file(args.file, camera=args.camera)
+    session_file(args.session, camera=args.camera)
     if args.calibration:
         input_file(args.calibration, "--calibration")
-    sensors, target_name = session_models(args.file, args.target)
+    sensors, target_name = session_models(args.session, args.target)
     if args.camera not in sensors:
-        raise UsageError(f"camera {args.camera!r} not in {args.file} ({', '.join(sensors)})")
+        raise UsageError(f"camera {args.camera!r} not in {args.session} ({', '.join(sensors)})")
     sensor = load_sensor(args.sensor or sensors[args.camera])
     target = load_target(target_name)
-    replay = replay_session(args.file)
+    replay = replay_session(args.session)
     rows = {r.stop: r for r in replay.stops if r.camera == args.camera}
     rep = replay.cameras[args.camera]
     stops, ranges = [], []
-    with open_session(args.file) as f:
+    with open_session(args.session) as f:
         cam = f.cameras[args.camera]
         found = recorded_calibration(f, args.camera, args.calibration, sensor)
         cal = found[0] if found is not None else None
@@ -90,7 +98,9 @@ def run(args: argparse.Namespace) -> int:
             row = rows.get(n)
             if row is None:
                 known = ", ".join(str(k) for k in sorted(rows)) or "none"
-                raise UsageError(f"no stop {n} for {args.camera} in {args.file} (stops: {known})")
+                raise UsageError(
+                    f"no stop {n} for {args.camera} in {args.session} (stops: {known})"
+                )
             label = f"stop {n} of {args.camera}"
             try:
                 d = target_px(target, row.range_m, sensor.ifov_rad)

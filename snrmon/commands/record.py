@@ -1,4 +1,8 @@
-"""``snrmon record``: a headless recording of the devices in a session config."""
+"""``snrmon record``: a headless recording of the devices in a session config.
+
+With ``--json`` the result is one object on stdout: ``{"file", "frames_written": {camera: n},
+"error" (why the recording stopped early, or null), "free_bytes" (the disk's after)}``.
+"""
 
 from __future__ import annotations
 
@@ -8,37 +12,38 @@ import sys
 import time
 
 from snrmon.cli import UsageError
-from snrmon.inputs import input_file, output_file
+from snrmon.inputs import duration_s, input_file, output_file
+from snrmon.output import emit_json
 from snrmon.progress import status_progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("record", help="record the devices of a session config, headless")
     p.add_argument("--config", required=True, metavar="FILE.toml", help="session config")
-    p.add_argument("--out", required=True, metavar="FILE.h5", help="new session file")
+    p.add_argument("-o", "--out", required=True, metavar="PATH", help="new session file (.h5)")
     p.add_argument(
         "--duration",
-        type=float,
+        type=duration_s(),
         default=None,
         metavar="S",
         help="stop after S seconds (default: until Ctrl-C)",
     )
     p.add_argument(
-        "--roi",
+        "--click",
         action="append",
-        default=[],
         metavar="CAMERA:X,Y",
-        help="set a camera's ROI at start (repeatable)",
+        help="the operator's click at start: the camera's ROI at X,Y (repeat for each camera)",
     )
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
 
 
-def _roi(text: str) -> tuple[str, int, int]:
+def _click(text: str) -> tuple[str, int, int]:
     try:
         cam, xy = text.split(":", 1)
         x, y = (int(v) for v in xy.split(","))
     except ValueError:
-        raise UsageError(f"--roi must be CAMERA:X,Y, got {text!r}") from None
+        raise UsageError(f"--click must be CAMERA:X,Y, got {text!r}") from None
     return cam, x, y
 
 
@@ -62,10 +67,8 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.acquisition.config import load_session_config
     from snrmon.acquisition.runtime.session import Session
 
-    if args.duration is not None and not args.duration > 0:
-        raise UsageError(f"--duration must be positive, got {args.duration}")
     out = output_file(args.out, "--out", suffixes=(".h5",), new=True)
-    rois = [_roi(r) for r in args.roi]
+    rois = [_click(r) for r in args.click or ()]
     session = Session(load_session_config(input_file(args.config, "--config")))
     session.start()
     try:
@@ -84,6 +87,17 @@ def run(args: argparse.Namespace) -> int:
     finally:
         summary = session.stop_recording()
         session.stop()
+    free = shutil.disk_usage(out.parent).free
+    if args.json:
+        emit_json(
+            {
+                "file": str(out),
+                "frames_written": dict(summary.frames_written) if summary is not None else None,
+                "error": summary.error or None if summary is not None else None,
+                "free_bytes": free,
+            }
+        )
+        return 1 if summary is not None and summary.error else 0
     if summary is not None:
         print(
             f"recorded {out}: "
@@ -92,5 +106,5 @@ def run(args: argparse.Namespace) -> int:
         if summary.error:
             print(f"recording stopped early: {summary.error}", file=sys.stderr)
             return 1
-    print(f"free disk after: {shutil.disk_usage(out.parent).free / 2**30:.1f} GB", file=sys.stderr)
+    print(f"free disk after: {free / 2**30:.1f} GB", file=sys.stderr)
     return 0

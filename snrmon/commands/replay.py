@@ -18,8 +18,8 @@ SESSION_SUFFIXES = (".h5", ".hdf5")
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("replay", help="measure a recorded session again and rebuild its stops")
     p.add_argument(
-        "file",
-        metavar="FILE",
+        "recording",
+        metavar="RECORDING",
         help="a snrmon session file (.h5), or another tool's recording (multi-page TIFF, .ptw, "
         "FLIR .seq/.csq/.fff/.jpg, raw file with FILE.json, video, .npy) measured from --at",
     )
@@ -31,17 +31,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         "snrmon sessions: they carry no ROI events)",
     )
     pace = p.add_mutually_exclusive_group()
-    pace.add_argument("--speed", type=float, help="pace to the recorded clock (1 = real time)")
+    pace.add_argument(
+        "--speed", type=float, metavar="X", help="pace to the recorded clock (1 = real time)"
+    )
     pace.add_argument(
         "--fast",
         action="store_true",
         help="read only the pixels around the track from the file (same results, far faster)",
     )
     p.add_argument(
-        "--track",
+        "--tracking",
         choices=("recorded", "on", "off"),
         default="recorded",
-        help="follow the drone as the recording did (default), or force tracking on/off",
+        metavar="recorded|on|off",
+        help="follow the drone as the recording did, or force tracking on/off "
+        "(default: %(default)s)",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
@@ -67,18 +71,20 @@ def _replay_foreign(args: argparse.Namespace) -> int:
     from snrmon.commands import measure
 
     if args.at is None:
-        raise UsageError(f"{args.file} is not a snrmon session: give --at X,Y (the drone's pixel)")
+        raise UsageError(
+            f"{args.recording} is not a snrmon session: give --at X,Y (the drone's pixel)"
+        )
     ns = argparse.Namespace(
-        stack=args.file,
+        stack=args.recording,
         at=args.at,
         search=11,
         box=7,
         background="rim",
         detrend=False,
-        window=100,
+        window_frames=100,
         saturation=None,
         json=args.json,
-        track=args.track != "off",
+        track=args.tracking != "off",
     )
     return measure.run(ns)
 
@@ -145,21 +151,21 @@ def result_json(result) -> dict:
 def run(args: argparse.Namespace) -> int:
     from snrmon.acquisition.replay.batch import replay_session
 
-    if not _is_session(args.file):
+    if not _is_session(args.recording):
         return _replay_foreign(args)
     if args.at is not None:
         raise UsageError(
-            f"--at is for recordings that are not snrmon sessions; {args.file} is a session "
+            f"--at is for recordings that are not snrmon sessions; {args.recording} is a session "
             "(it carries the operator's clicks)"
         )
     if args.speed is not None and not args.speed > 0:
         raise UsageError(f"--speed must be positive, got {args.speed}")
     with frame_progress("replay") as progress:  # a bar on a terminal only
         result = replay_session(
-            args.file,
+            args.recording,
             speed=args.speed,
             fast=args.fast,
-            track={"recorded": None, "on": True, "off": False}[args.track],
+            track={"recorded": None, "on": True, "off": False}[args.tracking],
             progress=progress,
         )
     out = result_json(result)

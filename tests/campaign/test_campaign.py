@@ -60,7 +60,7 @@ def reference(hil_sessions) -> dict[str, list[dict]]:
 def test_local_cluster_table_equals_serial_replay(hil_sessions, reference, tmp_path, capsys):
     out = tmp_path / "out"
     code, result = campaign(
-        [*map(str, hil_sessions), "--out", str(out), "--workers", "2", "--frames"], capsys
+        [*map(str, hil_sessions), "--out", str(out), "--workers", "2", "--frame-table"], capsys
     )
     assert code == 0, result["failures"]
     assert result["executor"] == "LocalCluster(2)" and result["failures"] == []

@@ -116,8 +116,8 @@ def test_bad_view_options_are_one_line_each_and_exit_2(capsys, tmp_path):
     rec = write_session(tmp_path / "flight.h5", cameras=("mwir",), hover_s=4.0)
     replay = ["gui", "--replay", str(rec.path), "--headless", "--duration", "1"]
     for extra, named in (
-        (["--size", "1366by768"], "'1366by768'"),
-        (["--size", "100x768"], "'100x768'"),
+        (["--window-size", "1366by768"], "'1366by768'"),
+        (["--window-size", "100x768"], "'100x768'"),
         (["--font-scale", "5"], "got 5.0"),
         (["--speed", "0"], "got 0.0"),
         (["--theme", "sepia"], "'sepia'"),
@@ -132,7 +132,7 @@ def test_gui_replay_opens_at_the_size_and_theme_asked(tmp_path):
     rec = write_session(tmp_path / "flight.h5", cameras=("mwir",), hover_s=4.0)
     shot, status = tmp_path / "replay.png", tmp_path / "status.json"
     argv = ["gui", "--replay", str(rec.path), "--headless", "--duration", "1.5"]
-    argv += ["--screenshot", str(shot), "--size", "1366x768", "--theme", "daylight"]
+    argv += ["--screenshot", str(shot), "--window-size", "1366x768", "--theme", "daylight"]
     assert main([*argv, "--status-file", str(status)]) == 0
     assert json.loads(status.read_text())["view"]["theme"] == "daylight"
     img = QImage(str(shot))

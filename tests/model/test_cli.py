@@ -15,7 +15,10 @@ FIX = Path(__file__).with_name("fixtures")
 
 
 def _run(capsys, *argv):
-    code = main(["model", *argv])
+    try:
+        code = main(["model", *argv])
+    except SystemExit as exc:  # refused by the parser (a value out of its option's range)
+        code = exc.code
     out, err = capsys.readouterr()
     return code, out, err
 
@@ -56,7 +59,7 @@ def test_snr_with_background_and_modtran_file(capsys):
         tape,
         "--atmosphere-path-m",
         "1000",
-        "--background-temp-c",
+        "--sky-temp-c",
         "29.5",
         "--json",
     )

@@ -178,7 +178,7 @@ def test_snrmon_calibrate_writes_the_file_and_reports(cam, tmp_path, capsys):
     for name, t in (("a", 288.15), ("b", 313.15)):
         np.save(tmp_path / f"{name}.npy", cam.blackbody(t, 8, seed=int(t)))
     out = tmp_path / "cal.npz"
-    argv = ["calibrate", "--camera", "mwir", "-o", str(out), "--json"]
+    argv = ["calibrate", "--sensor", "mwir", "-o", str(out), "--json"]
     bb = ["--blackbody", f"{tmp_path / 'a.npy'}:15", "--blackbody", f"{tmp_path / 'b.npy'}:40"]
     assert main([*argv, *bb]) == 0
     report = strict_json(capsys.readouterr().out)

@@ -137,9 +137,9 @@ def test_cli_geo_pixel_json(capsys):
             f"{SITE.lat_deg},{SITE.lon_deg},{SITE.alt_m}",
             "--pointing",
             "40,8,0",
-            "--camera",
+            "--intrinsics",
             "0.016,8,1280,720",
-            "--target",
+            "--target-at",
             f"{float(lat)!r},{float(lon)!r},{float(alt)!r}",
             "--json",
         ]
@@ -162,9 +162,9 @@ def test_cli_geo_pixel_bad_site_is_one_line(capsys):
             "1,2",
             "--pointing",
             "0,0,0",
-            "--camera",
+            "--intrinsics",
             "0.016,8,1280,720",
-            "--target",
+            "--target-at",
             "1,2,3",
         ]
     )
@@ -214,7 +214,7 @@ def test_cli_with_sensor_preset(name, f_m, pitch_m, w, h, capsys):
             "40,8,0",
             "--sensor",
             name,
-            "--target",
+            "--target-at",
             f"{float(lat)!r},{float(lon)!r},{float(alt)!r}",
             "--json",
         ]

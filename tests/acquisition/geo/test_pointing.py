@@ -100,7 +100,7 @@ def test_cli_geo_calibrate(tmp_path, capsys):
             str(path),
             "--site",
             "32.38,-106.48,1200",
-            "--camera",
+            "--intrinsics",
             "0.016,8,1280,720",
             "--json",
         ]

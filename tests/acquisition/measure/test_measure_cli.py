@@ -55,7 +55,7 @@ def test_undefined_snr_is_null_in_json(tmp_path, capsys):
 def test_table_and_options(stack_path, capsys):
     path, _ = stack_path
     args = ["measure", str(path), "--at", "26,19", "--background", "2,2,15,12", "--detrend"]
-    assert main([*args, "--window", "5", "--search", "5", "--box", "5"]) == 0
+    assert main([*args, "--window-frames", "5", "--search", "5", "--box", "5"]) == 0
     out = capsys.readouterr().out
     assert "running, last 5 valid of window 5" in out and "saturated" in out
     assert len(out.strip().splitlines()) == 1 + 12 + 2
@@ -90,4 +90,6 @@ def test_even_box_is_refused_by_the_parser(stack_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["measure", str(stack_path[0]), "--at", "3,3", "--box", "6"])
     assert exc.value.code != 0
-    assert "odd positive integer, got '6'" in capsys.readouterr().err
+    assert "argument --box: must be an odd integer from 1 to 8191 px, got '6' (even)" in (
+        capsys.readouterr().err
+    )

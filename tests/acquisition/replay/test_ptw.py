@@ -112,5 +112,5 @@ def test_measure_and_replay_read_a_ptw_stack(capsys):
     assert out["n"] == 100
     for f in out["frames"]:
         assert f["peak"] == ref[f["index"], f["peak_y"], f["peak_x"]]
-    assert main(["replay", str(path), "--at", "30,30", "--track", "off", "--json"]) == 0
+    assert main(["replay", str(path), "--at", "30,30", "--tracking", "off", "--json"]) == 0
     assert json.loads(capsys.readouterr().out) == out

@@ -1,0 +1,17 @@
+"""The ranges where the work is possible, shared by the command line's checks
+(:mod:`snrmon.inputs`) and the session config's (:mod:`snrmon.acquisition.config`): a value
+beyond one would hang a command or ask for terabytes. Imports nothing."""
+
+MAX_FRAME_PX = 8192
+"""The largest frame side (and window, box or sub-array) in pixels any command takes."""
+MAX_WINDOW_FRAMES = 100_000
+"""The longest running window in frames (17 minutes at 100 fps; its values are kept)."""
+MAX_SEED = 2**31 - 1
+"""The largest seed: each simulated device adds its index, within numpy's 2**32 - 1."""
+MAX_DURATION_S = 31 * 86400.0
+"""The longest duration any command runs for (a month: finite, unlike ``inf``)."""
+MAX_STOP_RANGE_M = 5000.0
+"""The farthest hover stop of a simulated flight, metres (the paper's is 508 m)."""
+MIN_FRAMES_AT_REST = 25
+"""The fewest frames of a drone at rest that ``snrmon characterize`` measures from: the
+standard deviation over the frames is then known to 14 %."""
