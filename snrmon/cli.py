@@ -217,6 +217,25 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _fill_optional_positionals(
+    leaf: argparse.ArgumentParser, args: argparse.Namespace, extra: list[str]
+) -> list[str]:
+    """What is left of ``extra`` once the command's optional positionals (``nargs="?"``) that
+    are still empty took their values from it, in order: argparse fills positionals from the
+    first run of them only, so ``gps-import S.h5 --replace LOG`` left LOG unrecognized while
+    ``gps-import S.h5 LOG --replace`` worked."""
+    rest = list(extra)
+    for action in leaf._actions:
+        if action.option_strings or action.nargs != "?" or getattr(args, action.dest) is not None:
+            continue
+        value = next((v for v in rest if not v.startswith("-")), None)
+        if value is None:
+            break
+        rest.remove(value)
+        setattr(args, action.dest, action.type(value) if callable(action.type) else value)
+    return rest
+
+
 def _interrupt(signum: int, _frame: object) -> None:
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
@@ -256,9 +275,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
+    prog = getattr(args, "prog", "")
+    leaf = next((p for p in iter_parsers(parser) if p.prog == prog), parser)
+    extra = _fill_optional_positionals(leaf, args, extra)
     if extra:  # refused by the (sub)command they were given to, in its own words
-        prog = getattr(args, "prog", "")
-        leaf = next((p for p in iter_parsers(parser) if p.prog == prog), parser)
         leaf.error(f"unrecognized arguments: {' '.join(extra)}")
     if getattr(args, "func", None) is None:
         parser.print_help()

@@ -62,9 +62,15 @@ OPTIONS: dict[str, Word] = {
     "--pairs": Word("FILE.csv", "(pixel, GPS position) pairs"),
     "--settings": Word("FILE.toml", "re-analysis settings"),
     "--replay": Word("SESSION.h5", "a recorded session to play in the console"),
-    "--dji": Word("FLIGHT.csv", "a DJI flight record (AirData CSV)"),
-    "--nmea": Word("LOG", "an NMEA 0183 log"),
-    "--tlog": Word("FILE.tlog", "a MAVLink telemetry log"),
+    "--format": Word(
+        "dji_csv|dji_srt|nmea|tlog|dataflash|ulog|ubx",
+        "a flight log's kind, instead of the one found from its content",
+    ),
+    "--utc-offset": Word("+HH:MM", "a log's local time minus UTC"),
+    "--dji": Word("LOG", "a DJI AirData CSV (kept for old scripts: LOG --format dji_csv)"),
+    "--srt": Word("LOG", "a DJI SRT (kept for old scripts: LOG --format dji_srt)"),
+    "--nmea": Word("LOG", "an NMEA 0183 log (kept for old scripts: LOG --format nmea)"),
+    "--tlog": Word("LOG", "a MAVLink telemetry log (kept for old scripts: LOG --format tlog)"),
     # files written
     "--out": Word("PATH", "the command's main output (file or folder), also -o"),
     "--report": Word("REPORT.pdf|png", "a report written beside the main output"),
@@ -118,9 +124,10 @@ OPTIONS: dict[str, Word] = {
     "--fill-factor": Word("F", "the detector's area fill factor"),
     "--target-size-px": Word("D", "the target's size, pixels"),
     "--temp-k": Word("K", "a blackbody temperature, kelvin"),
-    "--apparent": Word(None, "the apparent temperature only"),
+    "--apparent": Word(None, "every temperature as seen, through the air"),
     "--method": Word("otsu|ksigma", "the segmentation of the drone from the sky"),
     "--min-frames": Word("N", "the fewest valid frames a stop must give"),
+    "--min-size-px": Word("PX", "the smallest dimension measured, pixels"),
     "--noise": Word("model|measured", "the model's noise: its own or the measured 3D noise"),
     "--no-paper-curves": Word(None, "leave out the paper's switched curves"),
     # devices and machines
@@ -149,6 +156,7 @@ POSITIONALS: dict[str, Word] = {
     "stack": Word("STACK", "frames: a stack file of another tool (or a session)"),
     "recording": Word("RECORDING", "a snrmon session, or another tool's recording"),
     "kind": Word("gps|lrf", "what kind of device is on the port"),
+    "log": Word("LOG", "a flight log of the drone, its kind found from its content"),
 }
 """Every positional argument's name (its ``dest``) and what it is."""
 

@@ -128,3 +128,12 @@ def test_a_broken_pipe_of_a_device_is_still_a_runtime_failure(monkeypatch, capsy
     monkeypatch.setattr(devices, "collect", broken)
     assert main(["devices"]) == 1
     assert "Broken pipe: link to the rangefinder" in capsys.readouterr().err
+
+
+def test_an_optional_positional_given_after_an_option_is_taken(tmp_path, capsys):
+    # gps-import SESSION [LOG]: LOG after --replace was "unrecognized arguments" (argparse fills
+    # positionals from their first run only); now it is the log, and the session is checked
+    missing = tmp_path / "missing.h5"
+    assert main(["gps-import", str(missing), "--replace", str(tmp_path / "flight.log")]) == 2
+    err = capsys.readouterr().err
+    assert "unrecognized" not in err and str(missing) in err

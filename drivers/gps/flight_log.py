@@ -15,11 +15,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from snrmon.drivers.errors import ParseError
 from snrmon.drivers.gps.fix import GpsFix
-from snrmon.drivers.gps.log_clock import ClockReport
+
+if TYPE_CHECKING:  # numpy: not for the command line's parser, which reads FORMATS
+    from snrmon.drivers.gps.log_clock import ClockReport
 
 FORMATS = ("dji_csv", "dji_srt", "nmea", "tlog", "dataflash", "ulog", "ubx")
 SNIFF_BYTES = 1 << 16
