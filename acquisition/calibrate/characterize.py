@@ -66,8 +66,8 @@ import numpy as np
 import tomli_w
 
 from snrmon.acquisition.calibrate.calibration import Calibration, temperature_of
+from snrmon.model.constants import ZERO_C_K
 
-ZERO_C_K = 273.15
 METHODS = ("otsu", "ksigma")
 BOXES = ("upright", "rotated")
 MIN_FRAMES_AT_REST = 25  # the std over the frames known to 14 % (module docstring)

@@ -25,10 +25,9 @@ from snrmon.acquisition.calibrate.quality import calibration_quality
 from snrmon.acquisition.replay.stack_io import load_stack
 from snrmon.cli import UsageError
 from snrmon.inputs import output_file, stack_file
+from snrmon.model.constants import ZERO_C_K
 from snrmon.model.presets import load_sensor
 from snrmon.output import emit_json
-
-ZERO_C_K = 273.15
 
 
 def _blackbody(text: str) -> tuple[str, float]:

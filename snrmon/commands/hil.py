@@ -14,6 +14,7 @@ import sys
 
 from snrmon.cli import UsageError
 from snrmon.inputs import output_file
+from snrmon.model.constants import ZERO_C_K
 from snrmon.output import emit_json
 
 
@@ -36,7 +37,7 @@ def _floats(text: str, what: str) -> tuple[float, ...]:
 def _kelvin(celsius: float, what: str) -> float:
     if not (math.isfinite(celsius) and -100.0 < celsius < 100.0):
         raise UsageError(f"{what} must be a temperature in C, got {celsius}")
-    return celsius + 273.15
+    return celsius + ZERO_C_K
 
 
 def _window(text: str | None) -> tuple[int, int] | None:
@@ -77,7 +78,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--sky-temp-c",
         type=float,
-        default=280.0 - 273.15,
+        default=280.0 - ZERO_C_K,
         help="the scenario's clear-sky apparent temperature, C (6.85)",
     )
     p.add_argument(

@@ -32,9 +32,9 @@ import numpy as np
 
 from snrmon.cli import UsageError
 from snrmon.inputs import output_file
+from snrmon.model.constants import ZERO_C_K
 from snrmon.output import emit_json
 
-ZERO_C_K = 273.15
 NOISE_REFERENCE_SKY_K = 290.0
 # the names of model/atmosphere_table.py (not imported here: the parser is built on every run)
 SEASON_CHOICES = (
@@ -78,7 +78,9 @@ def _bg_k(args) -> float | None:
         return None
     t = args.background_temp_c + ZERO_C_K
     if not t > 0:
-        raise UsageError(f"--background-temp-c must be above -273.15, got {args.background_temp_c}")
+        raise UsageError(
+            f"--background-temp-c must be above {-ZERO_C_K}, got {args.background_temp_c}"
+        )
     return t
 
 
@@ -111,7 +113,7 @@ def _air_k(args) -> float | None:
         return None
     t = args.air_temp_c + ZERO_C_K
     if not t > 0:
-        raise UsageError(f"--air-temp-c must be above -273.15, got {args.air_temp_c}")
+        raise UsageError(f"--air-temp-c must be above {-ZERO_C_K}, got {args.air_temp_c}")
     return t
 
 
