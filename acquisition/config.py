@@ -68,6 +68,7 @@ from snrmon.model.atmosphere_table import (
     VISIBILITY_RANGE_KM,
     Weather,
 )
+from snrmon.model.constants import ZERO_C_K
 
 CAMERA_SOURCES = ("shm", "v4l2", "aravis")
 
@@ -248,7 +249,7 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
         s = checked(top["site"], SITE_FIELDS, "site")
         site = Site(float(s["lat_deg"]), float(s["lon_deg"]), float(s["alt_m"]))
     weather = checked(top.get("weather", {}), WEATHER_FIELDS, "weather")
-    air_temp_k = float(weather["air_temp_c"]) + 273.15 if "air_temp_c" in weather else None
+    air_temp_k = float(weather["air_temp_c"]) + ZERO_C_K if "air_temp_c" in weather else None
     try:  # the combination (a dew point above the air, RH and dew point both)
         met = Weather.from_dict(
             {k: (v if isinstance(v, str) else float(v)) for k, v in weather.items()}

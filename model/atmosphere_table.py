@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from snrmon.model.constants import ZERO_C_K
+
 TABLE_PATH = Path(__file__).with_name("tables") / "lowtran7_horizontal.npz"
 SEASONS = (
     "tropical",
@@ -61,7 +63,7 @@ _OPAQUE_OD = -math.log(1e-3)  # beyond: a sample's OD is not read from it (moved
 def saturation_density_g_m3(temp_k: float) -> float:
     """Saturated water vapour density over water [g m^-3]: LOWTRAN7's formula (better than 1 %
     from -50 to +50 C), so that a relative humidity means here what it means to LOWTRAN."""
-    a = 273.15 / float(temp_k)
+    a = ZERO_C_K / float(temp_k)
     return a * math.exp(18.9766 - 14.9595 * a - 2.43882 * a * a)
 
 
@@ -113,18 +115,18 @@ class Weather:
     def resolved_air_temp_c(self) -> float:
         if self.air_temp_c is not None:
             return float(self.air_temp_c)
-        return season_defaults(self.season)["temp_k"] - 273.15
+        return season_defaults(self.season)["temp_k"] - ZERO_C_K
 
     def state(self) -> tuple[float, float, float, float | None, str]:
         """(air K, RH %, pressure hPa, visibility km or None, aerosol): the readings, the
         season's values where none was given."""
         d = season_defaults(self.season)
-        t_k = self.resolved_air_temp_c() + 273.15
+        t_k = self.resolved_air_temp_c() + ZERO_C_K
         if self.rh_percent is not None:
             rh = float(self.rh_percent)
         elif self.dew_point_c is not None:
             # the same vapour pressure at the air temperature: e = rho R T
-            td = self.dew_point_c + 273.15
+            td = self.dew_point_c + ZERO_C_K
             rh = 100.0 * saturation_density_g_m3(td) * td / (saturation_density_g_m3(t_k) * t_k)
         elif self.air_temp_c is None:
             rh = d["rh_percent"]
@@ -149,7 +151,7 @@ class Weather:
             and self.pressure_hpa is not None
         )
         filled = "" if complete else f"; {self.season} sea level where not read"
-        return f"{t_k - 273.15:.1f} C, RH {rh:.0f} %, {p:.0f} hPa, {haze}{filled}"
+        return f"{t_k - ZERO_C_K:.1f} C, RH {rh:.0f} %, {p:.0f} hPa, {haze}{filled}"
 
     def as_dict(self) -> dict:
         """JSON-ready (None where not read), the record of a session's met readings."""
@@ -221,7 +223,7 @@ class AtmosphereTable:
         self._foreign = np.asarray(arrays["water_foreign"], float)
         self._aer_x = np.log(100.0 - np.minimum(np.asarray(arrays["aerosol_rh_percent"]), 99.9))
         self._aer = np.asarray(arrays["aerosol_ext_per_km"], float)
-        lo_t, hi_t = self._temp_k[[0, -1]] - 273.15
+        lo_t, hi_t = self._temp_k[[0, -1]] - ZERO_C_K
         lo_p, hi_p = np.exp(self._ln_p[[0, -1]])
         if lo_t > AIR_TEMP_RANGE_C[0] + 1e-6 or hi_t < AIR_TEMP_RANGE_C[1] - 1e-6:
             raise ValueError(f"atmosphere table covers {lo_t:g}-{hi_t:g} C only")

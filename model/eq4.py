@@ -608,23 +608,9 @@ def expected_eq4_by_rule(
             )
             for i in pending.tolist()
         ]
-        per = len(kept[0].weights)
-        n = np.repeat([k.patterns.shape[-1] for k in kept], per)
-        pats = _Patterns(
-            np.concatenate([k.patterns.reshape(-1) for k in kept]),
-            np.concatenate([[0], np.cumsum(n * n)[:-1]]),
-            n,
+        readings, small = _pass_readings(
+            kept, flat_amp[pending], search_px, box_px, ddof, backgrounds
         )
-        a = np.repeat(flat_amp[pending], per)
-        width = max(k.candidates.shape[1] for k in kept)
-        candidates = np.concatenate([_widened(k.candidates, width) for k in kept])
-        max_abs = np.concatenate([k.max_abs for k in kept])
-        r, col, search = _peaks(pats, a, max_abs, candidates, search_px, box_px)
-        readings, too_small = _readings_at_peaks(
-            pats, a, r, col, expected_max(search), box_px, ddof, backgrounds, _shapes_of(kept)
-        )
-        readings = readings.reshape(len(backgrounds), len(kept), per)
-        small = too_small.reshape(len(kept), per).any(axis=1)
         retry = []
         for j, i in enumerate(pending.tolist()):
             if small[j]:
@@ -639,6 +625,31 @@ def expected_eq4_by_rule(
             readings_kept[keys[i]] = out[:, i].copy()
         pending = np.array(retry, dtype=int)
     return {rule: out[b].reshape(amp.shape) for b, rule in enumerate(backgrounds)}
+
+
+def _pass_readings(
+    kept: list, amplitude: np.ndarray, search_px: int, box_px: int, ddof: int, backgrounds
+) -> tuple[np.ndarray, np.ndarray]:
+    """One pass of the estimator over the targets of ``kept`` (their :func:`phase_patterns`)
+    at their ``amplitude``: the readings (n_rules, n_targets, n_phases) and, per target,
+    whether a pattern was too small for its background rule."""
+    per = len(kept[0].weights)
+    n = np.repeat([k.patterns.shape[-1] for k in kept], per)
+    pats = _Patterns(
+        np.concatenate([k.patterns.reshape(-1) for k in kept]),
+        np.concatenate([[0], np.cumsum(n * n)[:-1]]),
+        n,
+    )
+    a = np.repeat(amplitude, per)
+    width = max(k.candidates.shape[1] for k in kept)
+    candidates = np.concatenate([_widened(k.candidates, width) for k in kept])
+    max_abs = np.concatenate([k.max_abs for k in kept])
+    r, col, search = _peaks(pats, a, max_abs, candidates, search_px, box_px)
+    readings, too_small = _readings_at_peaks(
+        pats, a, r, col, expected_max(search), box_px, ddof, backgrounds, _shapes_of(kept)
+    )
+    readings = readings.reshape(len(backgrounds), len(kept), per)
+    return readings, too_small.reshape(len(kept), per).any(axis=1)
 
 
 _READINGS: dict[tuple, dict] = {}

@@ -22,6 +22,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from snrmon.model.constants import ZERO_C_K
 from snrmon.model.sensor import DETECTOR_KINDS, REAL_PSF_KINDS, Sensor
 from snrmon.model.target import Target
 
@@ -218,7 +219,7 @@ def target_from_dict(data: dict[str, Any], path: Path | str = "<target>") -> Tar
     if v["small_m"] > v["large_m"]:
         raise ValueError(f"{p}: target.small_m ({v['small_m']}) is larger than large_m")
     for band, t in v["temp_c"].items():
-        if t <= -273.15:
+        if t <= -ZERO_C_K:
             raise ValueError(f"{p}: target.temp_c.{band} must be above absolute zero, got {t}")
     return Target(**v)
 

@@ -449,11 +449,7 @@ def predict(
     the Monte-Carlo band (``inputs``, default :class:`snrmon.model.montecarlo.InputUncertainty`).
     """
     ranges = _check_ranges(ranges_m)
-    if geometry not in GEOMETRIES:
-        raise ValueError(f"geometry must be one of {', '.join(GEOMETRIES)}, got {geometry!r}")
-    if not (target_sigma_per_size >= 0 and math.isfinite(target_sigma_per_size)):
-        raise ValueError(f"target_sigma_per_size must be >= 0, got {target_sigma_per_size!r}")
-    budget = uncertainty or UncertaintyBudget()
+    _check_geometry(geometry, target_sigma_per_size)
     c = contrast(
         sensor,
         target,
@@ -463,77 +459,23 @@ def predict(
         air_temp_k=air_temp_k,
     )
     noise = noise_breakdown(sensor, c.sky_temp_k, spatial_noise, measured_noise)
-    denom = noise.total
-    intensity = c.intensity_e()
-    ext = intensity * sensor.fill_factor * sensor.ifov_rad**2
-    ff = sensor.fill_factor
-    diffraction = sensor.diffraction_psf()
     real = corrected_psf if corrected_psf is not None else sensor.corrected_psf()
-    footprint = ranges * sensor.ifov_rad
-    out: dict[str, dict[str, np.ndarray]] = {"snr": {}, "sig": {}, "pvf": {}, "paper": {}}
-    resolved, point, d_of = {}, {}, {}
-    for size in ("small", "large"):
-        d_px = target.size_m(size) / footprint
-        res = d_px >= 1.0
-        resolved[size], d_of[size] = res, d_px
-        point[size] = intensity * target.area_m2(size) / ranges**2
-        for curve, psf, corrected in (
-            (size, diffraction, False),
-            (f"{size}_corrected", real, True),
-        ):
-            # the paper corrects for the finite size on the corrected curves of both cameras,
-            # whatever their PSF (the LWIR's "real" PSF may be the diffraction limit itself)
-            paper_pvf = _paper_pvf(psf, ff, d_px, res, target_sigma_per_size, not corrected)
-            paper_sig = np.where(res, ext, point[size] * paper_pvf)
-            out["paper"][curve] = paper_sig / denom
-            if geometry == "square":
-                pvf = np.asarray(average_pvf_square(psf, ff, d_px), float)
-                sig = point[size] * pvf
-            else:
-                pvf, sig = np.where(res, np.nan, paper_pvf), paper_sig
-            out["sig"][curve], out["pvf"][curve] = sig, pvf
-            out["snr"][curve] = sig / denom
-    lower, upper, rel = {}, {}, {}
-    amp = c.background_over_contrast
-    od = -np.log(np.clip(c.transmission_contrast, 1e-300, 1.0))
-    sky_per_k = _sky_fraction_per_k(c) if c.sky_assumed else None
-    for size in ("small", "large"):
-        rel[f"{size}_corrected"] = budget.relative(amp, ~resolved[size], od, sky_per_k)
+    curves = _size_curves(sensor, target, c, noise.total, real, geometry, target_sigma_per_size)
+    rel = _relative_uncertainties(c, uncertainty or UncertaintyBudget(), curves.resolved)
     expected_curves: dict[str, np.ndarray] = {}
-    draws = None
     if expected:
-        by_rule = expected_readings(
-            real,
-            ff,
-            ranges,
-            point["small"] / denom,
-            d_of["small"],
-            geometry=geometry,
-            target_sigma_per_size=target_sigma_per_size,
-            phases_xy=phases_xy,
-            backgrounds=tuple(EXPECTED_CURVES.values()),
+        expected_curves = _expected_curves(
+            real, sensor.fill_factor, curves, geometry, target_sigma_per_size, phases_xy
         )
-        expected_curves = {name: by_rule[rule] for name, rule in EXPECTED_CURVES.items()}
+    draws = None
+    lower: dict[str, np.ndarray] = {}
+    upper: dict[str, np.ndarray] = {}
     if band:
+        sizes_m = {s: target.size_m(s) for s in ("small", "large")}
         draws = draw_corrected(
-            sensor,
-            c,
-            {s: target.size_m(s) for s in ("small", "large")},
-            real,
-            spatial_noise,
-            inputs or InputUncertainty(),
-            measured_noise,
+            sensor, c, sizes_m, real, spatial_noise, inputs or InputUncertainty(), measured_noise
         )
-        for name in ("small_corrected", "large_corrected"):
-            lo, hi = draws.band(name)
-            # the draws are of the square geometry: as relative spreads about their own nominal
-            # curve they carry over to the paper's
-            scale = out["snr"][name] / draws.nominal[name]
-            lower[name], upper[name] = lo * scale, hi * scale
-        for name, reading in expected_curves.items():
-            ratio = reading / out["snr"]["small_corrected"]
-            lower[name] = lower["small_corrected"] * ratio
-            upper[name] = upper["small_corrected"] * ratio
+        lower, upper = _band_limits(draws, curves.snr, expected_curves)
     return SnrPrediction(
         sensor_name=sensor.name,
         target_name=target.name,
@@ -542,14 +484,14 @@ def predict(
         air_temp_k=c.air_temp_k,
         geometry=geometry,
         ranges_m=ranges,
-        snr_small=out["snr"]["small"],
-        snr_large=out["snr"]["large"],
-        snr_small_corrected=out["snr"]["small_corrected"],
-        snr_large_corrected=out["snr"]["large_corrected"],
-        resolved_small=resolved["small"],
-        resolved_large=resolved["large"],
-        signal_e=out["sig"],
-        pvf=out["pvf"],
+        snr_small=curves.snr["small"],
+        snr_large=curves.snr["large"],
+        snr_small_corrected=curves.snr["small_corrected"],
+        snr_large_corrected=curves.snr["large_corrected"],
+        resolved_small=curves.resolved["small"],
+        resolved_large=curves.resolved["large"],
+        signal_e=curves.signal_e,
+        pvf=curves.pvf,
         noise=noise,
         transmission=c.transmission_flat,
         transmission_contrast=c.transmission_contrast,
@@ -558,13 +500,130 @@ def predict(
         relative_uncertainty=rel,
         transition_range_small_m=transition_range_m(sensor, target.small_m),
         transition_range_large_m=transition_range_m(sensor, target.large_m),
-        point_contrast_e=point,
-        paper=out["paper"],
+        point_contrast_e=curves.point,
+        paper=curves.paper,
         expected_eq4_rim=expected_curves.get("expected_eq4_rim"),
         expected_eq4_extent=expected_curves.get("expected_eq4_extent"),
         draws=draws,
         sky_assumed=c.sky_assumed,
     )
+
+
+@dataclass(frozen=True)
+class _SizeCurves:
+    """Per curve (:data:`CURVES`): the Eq. (3) SNR, the peak pixel's signal [e-], its PVF and
+    the paper's own SNR; per size ("small", "large"): resolved or not, the point-source
+    contrast [e-] before the PVF, and the target's size in pixels; at ``ranges_m``, against
+    the total noise ``noise_e`` [e-]."""
+
+    snr: dict[str, np.ndarray]
+    signal_e: dict[str, np.ndarray]
+    pvf: dict[str, np.ndarray]
+    paper: dict[str, np.ndarray]
+    resolved: dict[str, np.ndarray]
+    point: dict[str, np.ndarray]
+    d_px: dict[str, np.ndarray]
+    ranges_m: np.ndarray
+    noise_e: float
+
+
+def _size_curves(
+    sensor: Sensor, target: Target, c, denom: float, real: Psf, geometry: str, sigma_per_size: float
+) -> _SizeCurves:
+    """The four curves of Figs. 7-10 (each size with the diffraction PSF and with ``real``)
+    over the contrast ``c``'s ranges, against the total noise ``denom`` [e-] (Eq. 3)."""
+    ranges = c.ranges_m
+    intensity = c.intensity_e()
+    ff = sensor.fill_factor
+    ext = intensity * ff * sensor.ifov_rad**2
+    diffraction = sensor.diffraction_psf()
+    footprint = ranges * sensor.ifov_rad
+    out = _SizeCurves({}, {}, {}, {}, {}, {}, {}, ranges, denom)
+    for size in ("small", "large"):
+        d_px = target.size_m(size) / footprint
+        res = d_px >= 1.0
+        out.resolved[size], out.d_px[size] = res, d_px
+        out.point[size] = intensity * target.area_m2(size) / ranges**2
+        for curve, psf, corrected in (
+            (size, diffraction, False),
+            (f"{size}_corrected", real, True),
+        ):
+            # the paper corrects for the finite size on the corrected curves of both cameras,
+            # whatever their PSF (the LWIR's "real" PSF may be the diffraction limit itself)
+            paper_pvf = _paper_pvf(psf, ff, d_px, res, sigma_per_size, not corrected)
+            paper_sig = np.where(res, ext, out.point[size] * paper_pvf)
+            out.paper[curve] = paper_sig / denom
+            if geometry == "square":
+                pvf = np.asarray(average_pvf_square(psf, ff, d_px), float)
+                sig = out.point[size] * pvf
+            else:
+                pvf, sig = np.where(res, np.nan, paper_pvf), paper_sig
+            out.signal_e[curve], out.pvf[curve] = sig, pvf
+            out.snr[curve] = sig / denom
+    return out
+
+
+def _check_geometry(geometry: str, target_sigma_per_size: float) -> None:
+    if geometry not in GEOMETRIES:
+        raise ValueError(f"geometry must be one of {', '.join(GEOMETRIES)}, got {geometry!r}")
+    if not (target_sigma_per_size >= 0 and math.isfinite(target_sigma_per_size)):
+        raise ValueError(f"target_sigma_per_size must be >= 0, got {target_sigma_per_size!r}")
+
+
+def _expected_curves(
+    real: Psf,
+    ff: float,
+    curves: _SizeCurves,
+    geometry: str,
+    target_sigma_per_size: float,
+    phases_xy,
+) -> dict[str, np.ndarray]:
+    """The expected Eq. (4) readings of the small target at the ranges of ``curves``, one per
+    rule of :data:`EXPECTED_CURVES`."""
+    by_rule = expected_readings(
+        real,
+        ff,
+        curves.ranges_m,
+        curves.point["small"] / curves.noise_e,
+        curves.d_px["small"],
+        geometry=geometry,
+        target_sigma_per_size=target_sigma_per_size,
+        phases_xy=phases_xy,
+        backgrounds=tuple(EXPECTED_CURVES.values()),
+    )
+    return {name: by_rule[rule] for name, rule in EXPECTED_CURVES.items()}
+
+
+def _relative_uncertainties(
+    c, budget: UncertaintyBudget, resolved: dict[str, np.ndarray]
+) -> dict[str, np.ndarray]:
+    """The corrected curves' relative 1-sigma uncertainty from ``budget``, per range."""
+    amp = c.background_over_contrast
+    od = -np.log(np.clip(c.transmission_contrast, 1e-300, 1.0))
+    sky_per_k = _sky_fraction_per_k(c) if c.sky_assumed else None
+    return {
+        f"{size}_corrected": budget.relative(amp, ~resolved[size], od, sky_per_k)
+        for size in ("small", "large")
+    }
+
+
+def _band_limits(
+    draws: McDraws, snr: dict[str, np.ndarray], expected_curves: dict[str, np.ndarray]
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """(lower, upper): the Monte-Carlo band of the corrected curves and of the expected
+    readings, scaled onto the curves as computed."""
+    lower, upper = {}, {}
+    for name in ("small_corrected", "large_corrected"):
+        lo, hi = draws.band(name)
+        # the draws are of the square geometry: as relative spreads about their own nominal
+        # curve they carry over to the paper's
+        scale = snr[name] / draws.nominal[name]
+        lower[name], upper[name] = lo * scale, hi * scale
+    for name, reading in expected_curves.items():
+        ratio = reading / snr["small_corrected"]
+        lower[name] = lower["small_corrected"] * ratio
+        upper[name] = upper["small_corrected"] * ratio
+    return lower, upper
 
 
 def _sky_fraction_per_k(c) -> float:

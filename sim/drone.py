@@ -174,12 +174,6 @@ class DronePatch:
     row0: int
     col0: int
 
-    @property
-    def peak_index(self) -> tuple[int, int]:
-        """(row, col) in the image of the brightest noise-free pixel."""
-        r, c = np.unravel_index(int(np.argmax(self.electrons)), self.electrons.shape)
-        return self.row0 + int(r), self.col0 + int(c)
-
 
 def drone_patch(spread, x_px: float, y_px: float, size_px: float, total_e: float) -> DronePatch:
     """The drone's electrons around image position (x_px, y_px) (x = column, y = row; pixel

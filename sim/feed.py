@@ -71,10 +71,6 @@ class FlightCameraFeed:
         t_s = self.time_of(counter)
         return self.renderer.render(counter, t_s, self.target_at(t_s))
 
-    def frame_and_truth(self, counter: int) -> tuple[np.ndarray, FrameTruth | None]:
-        t_s = self.time_of(counter)
-        return self.renderer.render_with_truth(counter, t_s, self.target_at(t_s))
-
     def truth(self, counter: int) -> FrameTruth | None:
         """Truth of frame ``counter`` without rendering it."""
         t_s = self.time_of(counter)

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import cv2
 import numpy as np
 
+from snrmon.model.constants import ZERO_C_K
 from snrmon.model.radiometry import (
     band_nodes,
     spectral_photon_radiance,
@@ -215,7 +216,7 @@ def _check_captures(captures: Sequence[BlackbodyCapture], full_scale_dn: int) ->
     if len(temps) < 2:
         raise ValueError(
             f"calibration needs blackbody captures at >= 2 distinct temperatures, got "
-            f"{[round(t - 273.15, 3) for t in temps]} C"
+            f"{[round(t - ZERO_C_K, 3) for t in temps]} C"
         )
     shapes = {np.shape(c.frames)[-2:] for c in captures}
     if len(shapes) != 1:
@@ -224,14 +225,14 @@ def _check_captures(captures: Sequence[BlackbodyCapture], full_scale_dn: int) ->
         f = np.asarray(c.frames)
         if f.ndim != 3 or f.shape[0] < 2:
             raise ValueError(
-                f"blackbody capture at {c.temp_k - 273.15:.2f} C needs a stack of >= 2 frames "
+                f"blackbody capture at {c.temp_k - ZERO_C_K:.2f} C needs a stack of >= 2 frames "
                 f"(the temporal noise), got shape {f.shape}"
             )
         for rail, what in ((full_scale_dn, f"full scale {full_scale_dn} DN"), (0, "0 DN")):
             share = float(np.mean(f == rail) if rail == 0 else np.mean(f >= rail))
             if share > SATURATED_SHARE:
                 raise ValueError(
-                    f"blackbody capture at {c.temp_k - 273.15:.2f} C saturates: "
+                    f"blackbody capture at {c.temp_k - ZERO_C_K:.2f} C saturates: "
                     f"{100 * share:.2f}% of pixel values at {what}"
                 )
 
@@ -286,7 +287,7 @@ def calibrate_means(
     levels = np.median(m.reshape(len(m), -1), axis=1)
     if np.any(np.diff(levels) <= 0):
         pairs = ", ".join(
-            f"{t - 273.15:.2f} C: {lv:.1f} DN" for t, lv in zip(temps_k, levels, strict=True)
+            f"{t - ZERO_C_K:.2f} C: {lv:.1f} DN" for t, lv in zip(temps_k, levels, strict=True)
         )
         raise ValueError(
             f"non-monotonic response: median DN does not rise with temperature ({pairs})"

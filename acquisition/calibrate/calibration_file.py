@@ -22,10 +22,10 @@ from snrmon.acquisition.calibrate.calibration import (
     Calibration,
     check_matches_sensor,
 )
+from snrmon.model.constants import ZERO_C_K
 
 FORMAT = "snrmon-calibration-1"
 _MAPS = ("responsivity", "offset_dn", "bad", "fit_rms_dn", "temporal_noise_dn")
-_ZERO_C_K = 273.15
 
 
 def sidecar_path(path: str | Path) -> Path:
@@ -41,7 +41,7 @@ def calibration_metadata(cal: Calibration) -> dict:
         "band_um": list(cal.band_um),
         "t_int_s": cal.t_int_s,
         "date": cal.date,
-        "blackbody_temps_c": [round(t - _ZERO_C_K, 6) for t in cal.temps_k],
+        "blackbody_temps_c": [round(t - ZERO_C_K, 6) for t in cal.temps_k],
         "frames_per_temp": list(cal.frames_per_temp),
         "width_px": int(cal.shape[1]),
         "height_px": int(cal.shape[0]),
@@ -123,7 +123,7 @@ def calibration_from_record(meta: dict, maps: dict[str, np.ndarray], *, source: 
             camera=str(meta["camera"]),
             band_um=(float(meta["band_um"][0]), float(meta["band_um"][1])),
             t_int_s=float(meta["t_int_s"]),
-            temps_k=tuple(float(t) + _ZERO_C_K for t in meta["blackbody_temps_c"]),
+            temps_k=tuple(float(t) + ZERO_C_K for t in meta["blackbody_temps_c"]),
             responsivity=maps["responsivity"].astype(np.float32, copy=False),
             offset_dn=maps["offset_dn"].astype(np.float32, copy=False),
             bad=maps["bad"].astype(np.uint8, copy=False),

@@ -67,8 +67,8 @@ import tomli_w
 
 from snrmon.acquisition.calibrate.calibration import Calibration, temperature_of
 from snrmon.limits import MIN_FRAMES_AT_REST
+from snrmon.model.constants import ZERO_C_K
 
-ZERO_C_K = 273.15
 METHODS = ("otsu", "ksigma")
 BOXES = ("upright", "rotated")
 CONVENTIONS = ("path_corrected", "apparent")

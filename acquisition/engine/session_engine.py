@@ -32,7 +32,7 @@ import numpy as np
 
 from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.camera_engine import CameraEngine
-from snrmon.acquisition.engine.inputs import Cue, FrameOutput, Measurement, SetRoi
+from snrmon.acquisition.engine.inputs import Cue, FrameOutput, Measurement
 from snrmon.acquisition.geo.gps_cue import GpsProjector
 from snrmon.acquisition.geo.projection import gps_slant_range_m
 from snrmon.acquisition.prediction import Predictor
@@ -199,10 +199,6 @@ class SessionEngine:
             raise ValueError(
                 f"no camera {name!r} in this session (have: {', '.join(self.cameras)})"
             ) from None
-
-    def set_roi(self, camera: str, x: int, y: int) -> None:
-        """The operator clicked the drone at column ``x``, row ``y`` of ``camera``."""
-        self.camera(camera).post(SetRoi(int(x), int(y)))
 
     def mark_stop(self, t_ns: int) -> Stop:
         """The operator says the drone is hovering at a stop from ``t_ns`` on."""

@@ -52,12 +52,6 @@ log = logging.getLogger(__name__)
 DROP_ALARM_S = 5.0
 """How long (s) the banner keeps a camera's drop alarm after its last lost frame."""
 
-"""The interpreter's switch interval while a session runs (Python's default: 5 ms). A thread
-that needs the interpreter lock while another runs Python gets it after at most this long; a
-measurement thread needs it again after every wait (a frame, a lock, a copy that let it go), so
-with the console painting beside it the default cost a frame 5-10 ms, 1 ms costs it 1-2 ms
-(docs/engine.md, "Where a live frame's time goes")."""
-
 
 def stop_payload(stop: Stop) -> dict:
     """A stop as recorded in its events (format 2: with its times, so a replay can use it)."""

@@ -449,8 +449,6 @@ class Tracker:
         self.reacquisitions += 1
         return self._step(m, at, size, "", set())
 
-    # ------------------------------------------------------------------ measurement
-
     # ------------------------------------------------------------------ state
     def snapshot(self) -> dict:
         """Everything the tracker remembers, JSON-able (str/int/float/bool/None, lists and

@@ -115,98 +115,24 @@ def read_dji_log(path: str | Path) -> DjiLog:
     header = next(rows, None)
     if header is None:
         raise ParseError(f"{path}: empty file")
-    cols = _columns(header)
-
-    def col(*names: str) -> tuple[int, float] | None:
-        return next((cols[n] for n in names if n in cols), None)
-
-    lat_c, lon_c = col("latitude", "OSD.latitude"), col("longitude", "OSD.longitude")
-    if lat_c is None or lon_c is None:
-        raise ParseError(f"{path}: no latitude/longitude columns in header {header[:6]}...")
-    msl_c = col("altitude_above_seaLevel")
-    if msl_c is None and "altitude_above_seaLevel" in "".join(header):
-        raise ParseError(f"{path}: altitude_above_seaLevel column without a known unit: {header}")
-    utc_c = col("datetime(utc)", "CUSTOM.updateTime")
-    ms_c = col("time(millisecond)")
-    sats_c = col("satellites", "OSD.gpsNum")
-    fixes: list[GpsFix] = []
-    fix_row: list[int | None] = []  # each fix's index into the clock's rows
-    clock_t: list[float] = []  # time(millisecond) / 1000 of every row that has one
-    clock_u: list[float] = []  # its datetime(utc) as written, s since 1970 (NaN: none)
-    clock_where: list[str] = []
-    fractional = False  # a datetime(utc) with fractions of a second: exact, not whole
-    t0: datetime | None = None
-    for lineno, row in enumerate(rows, start=2):
-        if not row or all(not c.strip() for c in row):
-            continue
-        where = f"{path}:{lineno}"
-
-        def num(c: tuple[int, float] | None, what: str, row=row, where=where) -> float | None:
-            if c is None or c[0] >= len(row) or row[c[0]].strip() == "":
-                return None
-            try:
-                v = float(row[c[0]])
-            except ValueError:
-                raise ParseError(f"{where}: {what} {row[c[0]]!r} is not a number") from None
-            if not math.isfinite(v):
-                raise ParseError(f"{where}: {what} {row[c[0]]!r} is not finite")
-            return v * c[1]
-
-        utc_text = row[utc_c[0]].strip() if utc_c is not None and utc_c[0] < len(row) else ""
-        utc = _time(utc_text, where) if utc_text else None
-        ms = num(ms_c, "time")
-        if ms is not None:
-            clock_t.append(ms / 1000.0)
-            clock_u.append(math.nan if utc is None else utc.timestamp())
-            clock_where.append(where)
-            fractional = fractional or (utc is not None and "." in utc_text)
-        lat, lon = num(lat_c, "latitude"), num(lon_c, "longitude")
-        if lat is None or lon is None or (lat == 0.0 and lon == 0.0):
-            continue  # DJI writes 0,0 before the first satellite fix
-        if abs(lat) > 90 or abs(lon) > 180:
-            raise ParseError(f"{where}: position {lat}, {lon} out of range")
-        sats = num(sats_c, "satellites")
-        fix_row.append(None if ms is None else len(clock_t) - 1)
-        if ms is not None:
-            t_ns = round(ms * 1e6)
-        elif utc is not None:
-            t0 = t0 or utc
-            t_ns = round((utc - t0).total_seconds() * 1e9)
-        else:
-            t_ns = len(fixes)
-        fixes.append(
-            GpsFix(
-                t_host_ns=t_ns,
-                utc=utc,
-                lat_deg=lat,
-                lon_deg=lon,
-                alt_msl_m=num(msl_c, "altitude"),
-                fix_quality=1,
-                sats=None if sats is None else int(sats),
-                raw=",".join(row),
-            )
-        )
-    if not any(math.isfinite(u) for u in clock_u):
-        return DjiLog(fixes, None)
+    read = _read_rows(path, rows, _dji_columns(path, header))
+    if not any(math.isfinite(u) for u in read.clock_u):
+        return DjiLog(read.fixes, None)
     timed = anchored_utc(
-        clock_t,
-        clock_u,
-        where=clock_where,
-        resolution_s=0.001 if fractional else 1.0,
+        read.clock_t,
+        read.clock_u,
+        where=read.clock_where,
+        resolution_s=0.001 if read.fractional else 1.0,
         truncated=False,  # whole seconds rounded (module docstring); fractions: to the digit
     )
     utc_s = timed.utc_s
-    phase = None if fractional else tick_phase(clock_t, clock_u)
+    phase = None if read.fractional else tick_phase(read.clock_t, read.clock_u)
     if phase is not None:
-        utc_s = on_the_ticks(np.asarray(clock_t, float), utc_s, phase[0])
-    out = []
-    for f, i in zip(fixes, fix_row, strict=True):
-        if i is not None and math.isfinite(utc_s[i]):
-            us = round(utc_s[i] * 1e6)  # to the microsecond: no float residue in the time
-            f = replace(
-                f, utc=datetime.fromtimestamp(us // 10**6, UTC).replace(microsecond=us % 10**6)
-            )
-        out.append(f)
+        utc_s = on_the_ticks(np.asarray(read.clock_t, float), utc_s, phase[0])
+    out = [
+        f if i is None or not math.isfinite(utc_s[i]) else replace(f, utc=_utc_of(utc_s[i]))
+        for f, i in zip(read.fixes, read.fix_row, strict=True)
+    ]
     if phase is None:
         return DjiLog(out, timed.report)
     return DjiLog(
@@ -217,6 +143,119 @@ def read_dji_log(path: str | Path) -> DjiLog:
         phase[1],
         {"tick_phase_ms": phase[0], "ticks": phase[1], "ticks_at_phase": phase[2]},
     )
+
+
+def _utc_of(utc_s: float) -> datetime:
+    """``utc_s`` (s since 1970) to the microsecond: no float residue in the time."""
+    us = round(utc_s * 1e6)
+    return datetime.fromtimestamp(us // 10**6, UTC).replace(microsecond=us % 10**6)
+
+
+_Column = tuple[int, float] | None
+"""A column's (index, factor to SI), None where the file has none."""
+
+
+@dataclass(frozen=True)
+class _DjiColumns:
+    """The columns a fix is read from."""
+
+    lat: _Column
+    lon: _Column
+    msl: _Column
+    utc: _Column
+    ms: _Column
+    sats: _Column
+
+
+def _dji_columns(path: Path, header: list[str]) -> _DjiColumns:
+    """The columns read, each under the first of its names the header has (AirData's, then
+    TXTlogToCSVtool's)."""
+    cols = _columns(header)
+
+    def col(*names: str) -> _Column:
+        return next((cols[n] for n in names if n in cols), None)
+
+    lat_c, lon_c = col("latitude", "OSD.latitude"), col("longitude", "OSD.longitude")
+    if lat_c is None or lon_c is None:
+        raise ParseError(f"{path}: no latitude/longitude columns in header {header[:6]}...")
+    msl_c = col("altitude_above_seaLevel")
+    if msl_c is None and "altitude_above_seaLevel" in "".join(header):
+        raise ParseError(f"{path}: altitude_above_seaLevel column without a known unit: {header}")
+    utc_c = col("datetime(utc)", "CUSTOM.updateTime")
+    return _DjiColumns(
+        lat_c, lon_c, msl_c, utc_c, col("time(millisecond)"), col("satellites", "OSD.gpsNum")
+    )
+
+
+def _number(row: list[str], c: _Column, what: str, where: str) -> float | None:
+    """_Column ``c`` of ``row`` in SI units; None where the row has no value there."""
+    if c is None or c[0] >= len(row) or row[c[0]].strip() == "":
+        return None
+    try:
+        v = float(row[c[0]])
+    except ValueError:
+        raise ParseError(f"{where}: {what} {row[c[0]]!r} is not a number") from None
+    if not math.isfinite(v):
+        raise ParseError(f"{where}: {what} {row[c[0]]!r} is not finite")
+    return v * c[1]
+
+
+@dataclass
+class _DjiRows:
+    """The rows' fixes and the log's clock: every row with a ``time(millisecond)`` has a row of
+    the clock, its written UTC beside it."""
+
+    fixes: list[GpsFix] = field(default_factory=list)
+    fix_row: list[int | None] = field(default_factory=list)  # each fix's row of the clock
+    clock_t: list[float] = field(default_factory=list)  # time(millisecond) / 1000
+    clock_u: list[float] = field(default_factory=list)  # datetime(utc), s since 1970 (NaN: none)
+    clock_where: list[str] = field(default_factory=list)
+    fractional: bool = False  # a datetime(utc) with fractions of a second: exact, not whole
+
+
+def _read_rows(path: Path, rows, c: _DjiColumns) -> _DjiRows:
+    """Each row's fix (one with a position away from 0, 0) and clock reading, in file order."""
+    out = _DjiRows()
+    t0: datetime | None = None
+    for lineno, row in enumerate(rows, start=2):
+        if not row or all(not v.strip() for v in row):
+            continue
+        where = f"{path}:{lineno}"
+        utc_text = row[c.utc[0]].strip() if c.utc is not None and c.utc[0] < len(row) else ""
+        utc = _time(utc_text, where) if utc_text else None
+        ms = _number(row, c.ms, "time", where)
+        if ms is not None:
+            out.clock_t.append(ms / 1000.0)
+            out.clock_u.append(math.nan if utc is None else utc.timestamp())
+            out.clock_where.append(where)
+            out.fractional = out.fractional or (utc is not None and "." in utc_text)
+        lat, lon = _number(row, c.lat, "latitude", where), _number(row, c.lon, "longitude", where)
+        if lat is None or lon is None or (lat == 0.0 and lon == 0.0):
+            continue  # DJI writes 0,0 before the first satellite fix
+        if abs(lat) > 90 or abs(lon) > 180:
+            raise ParseError(f"{where}: position {lat}, {lon} out of range")
+        sats = _number(row, c.sats, "satellites", where)
+        out.fix_row.append(None if ms is None else len(out.clock_t) - 1)
+        if ms is not None:
+            t_ns = round(ms * 1e6)
+        elif utc is not None:
+            t0 = t0 or utc
+            t_ns = round((utc - t0).total_seconds() * 1e9)
+        else:
+            t_ns = len(out.fixes)
+        out.fixes.append(
+            GpsFix(
+                t_host_ns=t_ns,
+                utc=utc,
+                lat_deg=lat,
+                lon_deg=lon,
+                alt_msl_m=_number(row, c.msl, "altitude", where),
+                fix_quality=1,
+                sats=None if sats is None else int(sats),
+                raw=",".join(row),
+            )
+        )
+    return out
 
 
 def tick_phase(t_log_s: list[float], utc_whole_s: list[float]) -> tuple[int, int, int] | None:

@@ -33,7 +33,7 @@ first few outliers named by row, so an import can say what it found.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -178,37 +178,7 @@ def anchored_utc(
         idx = idx[timed[idx]]
         return _max_overlap(lo[idx], hi[idx]) if idx.size else None
 
-    # Runs of segments that share one anchor.
-    runs: list[list[int]] = []  # segment indices
-    pending: list[int] = []  # untrusted segments before the first run
-    run_region: tuple[float, float, int] | None = None
-    for k, (a, b) in enumerate(bounds):
-        idx = np.arange(a, b)
-        own = region(idx)
-        span = t[b - 1] - t[a] + step
-        trusted = (
-            own is not None
-            and span >= MIN_SEGMENT_S
-            and own[2] >= max(MIN_SEGMENT_ROWS, 0.5 * int(timed[idx].sum()))
-        )
-        if not trusted:
-            if runs:
-                runs[-1].append(k)
-            else:
-                pending.append(k)
-            continue
-        assert own is not None
-        if run_region is not None and own[0] < run_region[1] + tol and run_region[0] < own[1] + tol:
-            runs[-1].append(k)  # the same clock: rows were missing, the clock went on
-        else:
-            runs.append([*pending, k] if not runs else [k])
-            pending = []
-        run_idx = np.concatenate([np.arange(*bounds[j]) for j in runs[-1]])
-        run_region = region(run_idx)
-    if not runs:  # no segment long enough to trust on its own: the whole log is one run
-        runs = [list(range(len(bounds)))]
-    elif pending:
-        runs[0][:0] = pending
+    runs = _anchor_runs(bounds, t, timed, step, region)
 
     utc = np.full(n, np.nan)
     outlier = np.zeros(n, bool)
@@ -242,6 +212,52 @@ def anchored_utc(
         examples=tuple(examples),
     )
     return AnchoredTimes(utc, outlier, report)
+
+
+def _anchor_runs(
+    bounds: list[tuple[int, int]],
+    t: np.ndarray,
+    timed: np.ndarray,
+    step: float,
+    region: Callable[[np.ndarray], tuple[float, float, int] | None],
+) -> list[list[int]]:
+    """The runs of segments (``bounds``: each segment's rows [a, b)) that share one anchor, in
+    order: a segment long enough to trust on its own starts a run unless its UTC region
+    (``region`` of its rows) meets the run's within one step of the log's clock (rows were
+    missing, the clock went on); an untrusted segment joins the run before it (the first run,
+    if none is before it); with no trusted segment, the whole log is one run."""
+    tol = step
+    runs: list[list[int]] = []  # segment indices
+    pending: list[int] = []  # untrusted segments before the first run
+    run_region: tuple[float, float, int] | None = None
+    for k, (a, b) in enumerate(bounds):
+        idx = np.arange(a, b)
+        own = region(idx)
+        span = t[b - 1] - t[a] + step
+        trusted = (
+            own is not None
+            and span >= MIN_SEGMENT_S
+            and own[2] >= max(MIN_SEGMENT_ROWS, 0.5 * int(timed[idx].sum()))
+        )
+        if not trusted:
+            if runs:
+                runs[-1].append(k)
+            else:
+                pending.append(k)
+            continue
+        assert own is not None
+        if run_region is not None and own[0] < run_region[1] + tol and run_region[0] < own[1] + tol:
+            runs[-1].append(k)  # the same clock: rows were missing, the clock went on
+        else:
+            runs.append([*pending, k] if not runs else [k])
+            pending = []
+        run_idx = np.concatenate([np.arange(*bounds[j]) for j in runs[-1]])
+        run_region = region(run_idx)
+    if not runs:  # no segment long enough to trust on its own: the whole log is one run
+        runs = [list(range(len(bounds)))]
+    elif pending:
+        runs[0][:0] = pending
+    return runs
 
 
 def consistent_chain(

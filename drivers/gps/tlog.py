@@ -41,6 +41,7 @@ import statistics
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -99,114 +100,23 @@ def read_tlog(path: str | Path) -> TlogLog:
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"MAVLink log {p} not found")
-    conn = mavutil().mavlink_connection(str(p))
-    # (boot, time_boot_ms, time_unix_usec, file position) of every SYSTEM_TIME with a UTC
-    system_time: list[tuple[int, int, int, int]] = []
-    gpi: list[tuple[float, int, object]] = []  # (receipt s, boot, msg)
-    raw: list[tuple[float, object]] = []
-    counts: dict[str, int] = {}
-    boot, last_boot_ms = 0, None
-    try:
-        while True:
-            msg = conn.recv_match(
-                type=["GLOBAL_POSITION_INT", "GPS_RAW_INT", "SYSTEM_TIME"], blocking=False
-            )
-            if msg is None:
-                break
-            kind = msg.get_type()
-            counts[kind] = counts.get(kind, 0) + 1
-            if kind in ("SYSTEM_TIME", "GLOBAL_POSITION_INT"):
-                if last_boot_ms is not None and msg.time_boot_ms < last_boot_ms - REBOOT_MS:
-                    boot += 1
-                last_boot_ms = int(msg.time_boot_ms)
-            if kind == "SYSTEM_TIME":
-                if msg.time_unix_usec > UNIX_USEC_2001:
-                    system_time.append(
-                        (boot, int(msg.time_boot_ms), int(msg.time_unix_usec), sum(counts.values()))
-                    )
-            elif kind == "GLOBAL_POSITION_INT":
-                gpi.append((float(msg._timestamp), boot, msg))
-            else:
-                raw.append((float(msg._timestamp), msg))
-    finally:
-        conn.close()
-    raw_t = [t for t, _ in raw]
-
-    def with_raw(fix: GpsFix, t_receipt: float) -> GpsFix:
-        i = bisect.bisect_right(raw_t, t_receipt) - 1
-        if i < 0:
-            # Before the first GPS_RAW_INT nothing says the position is a fix (it is the
-            # autopilot's origin until the receiver locks); in a log without any, a position
-            # away from 0 N 0 E is taken as one (the link was set up without GPS_RAW_INT).
-            return replace(fix, fix_quality=0) if raw else fix
-        r = raw[i][1]
-        return replace(
-            fix,
-            fix_quality=FIX_TYPE_TO_QUALITY.get(r.fix_type, 1),
-            sats=None if r.satellites_visible == 255 else int(r.satellites_visible),
-            hdop=None if r.eph == 65535 else r.eph / 100.0,
-        )
-
-    pairings, set_aside = _consistent_system_times(system_time, p)
-    fixes: list[GpsFix] = []
-    where: list[str] = []
-    receipts: list[float] = []  # the ground station's receipt time of each (s since 1970)
-    if gpi and any(pairings.get(b) for _, b, _ in gpi):
-        source = "system_time"
-        for t, b, m in gpi:
-            pairs = pairings.get(b)
-            if not pairs:  # a boot without a usable SYSTEM_TIME: its positions have no UTC
-                set_aside.append(f"{p}: a position of boot {b + 1} without a SYSTEM_TIME")
-                continue
-            boots = [bt for bt, _ in pairs]
-            # The SYSTEM_TIME nearest in boot time: the autopilot's clock drifts from UTC.
-            i = bisect.bisect_left(boots, m.time_boot_ms)
-            near = min(
-                (j for j in (i - 1, i) if 0 <= j < len(boots)),
-                key=lambda j: abs(boots[j] - m.time_boot_ms),
-            )
-            bt, unix = pairs[near]
-            utc = _utc(unix + (m.time_boot_ms - bt) * 1000)
-            fixes.append(with_raw(_position(m, utc, m.alt), t))
-            receipts.append(t)
-            where.append(f"{p}: position at boot {b + 1} time {m.time_boot_ms / 1000:.3f} s")
-    elif any(m.time_usec > UNIX_USEC_2001 and m.fix_type >= 2 for _, m in raw):
-        source = "gps_raw_int"
-        for t, m in raw:
-            if m.time_usec > UNIX_USEC_2001 and m.fix_type >= 2:
-                fix = _position(m, _utc(m.time_usec), m.alt)
-                fixes.append(
-                    replace(
-                        fix,
-                        fix_quality=FIX_TYPE_TO_QUALITY.get(m.fix_type, 1),
-                        sats=None if m.satellites_visible == 255 else int(m.satellites_visible),
-                        hdop=None if m.eph == 65535 else m.eph / 100.0,
-                    )
-                )
-                receipts.append(t)
-                where.append(f"{p}: GPS_RAW_INT received at {_utc(t * 1e6):%H:%M:%S.%f}")
-    elif gpi:
-        source = "tlog_receipt"
-        for t, _, m in gpi:
-            fixes.append(with_raw(_position(m, _utc(t * 1e6), m.alt), t))
-            receipts.append(t)
-            where.append(f"{p}: position received at {_utc(t * 1e6):%H:%M:%S.%f}")
-    else:
-        raise ParseError(f"{p}: no GLOBAL_POSITION_INT or GPS_RAW_INT message in the log")
-    if not fixes:
+    msgs = _tlog_messages(p)
+    pairings, set_aside = _consistent_system_times(msgs.system_time, p)
+    source, timed = _timed_positions(msgs, pairings, set_aside, p)
+    if not timed.fixes:
         raise ParseError(f"{p}: no position with a UTC time ({set_aside[0]})")
     # Only fixes: a position before the receiver's first fix is the autopilot's origin
     # (0 N 0 E, or the home it was given), not a place the drone was.
-    has = [f.has_fix and (f.lat_deg, f.lon_deg) != (0.0, 0.0) for f in fixes]
-    no_fix = len(fixes) - sum(has)
+    has = [f.has_fix and (f.lat_deg, f.lon_deg) != (0.0, 0.0) for f in timed.fixes]
+    no_fix = len(timed.fixes) - sum(has)
     if not any(has):
         raise ParseError(
-            f"{p}: no GPS fix in the log: {len(fixes)} positions, none while GPS_RAW_INT "
+            f"{p}: no GPS fix in the log: {len(timed.fixes)} positions, none while GPS_RAW_INT "
             "reported a fix (fix_type 2 or more)"
         )
-    fixes = [f for f, h in zip(fixes, has, strict=True) if h]
-    where = [w for w, h in zip(where, has, strict=True) if h]
-    receipts = [r for r, h in zip(receipts, has, strict=True) if h]
+    fixes = [f for f, h in zip(timed.fixes, has, strict=True) if h]
+    where = [w for w, h in zip(timed.where, has, strict=True) if h]
+    receipts = [r for r, h in zip(timed.receipts, has, strict=True) if h]
     first_utc = fixes[0].utc
     keep, report = consistent_chain(
         [(f.utc - first_utc).total_seconds() for f in fixes],  # type: ignore[operator]
@@ -222,12 +132,153 @@ def read_tlog(path: str | Path) -> TlogLog:
     first = fixes[0].utc
     fixes = [replace(f, t_host_ns=round((f.utc - first).total_seconds() * 1e9)) for f in fixes]
     out = TlogLog(
-        fixes, source, counts, report, boot + 1, no_fix=no_fix, off_clock=int(len(keep) - sum(keep))
+        fixes,
+        source,
+        msgs.counts,
+        report,
+        msgs.boot + 1,
+        no_fix=no_fix,
+        off_clock=int(len(keep) - sum(keep)),
     )
     if source != "tlog_receipt":
         q = np.percentile(lag, [5, 50, 95])
         out.clock_offset_s, out.clock_offset_spread_s = float(q[1]), float(q[2] - q[0])
     return out
+
+
+@dataclass
+class _TlogMessages:
+    """The messages of a log that hold positions and time, in file order."""
+
+    # (boot, time_boot_ms, time_unix_usec, file position) of every SYSTEM_TIME with a UTC
+    system_time: list[tuple[int, int, int, int]] = field(default_factory=list)
+    gpi: list[tuple[float, int, Any]] = field(default_factory=list)  # (receipt s, boot, msg)
+    raw: list[tuple[float, Any]] = field(default_factory=list)  # (receipt s, GPS_RAW_INT)
+    counts: dict[str, int] = field(default_factory=dict)
+    boot: int = 0  # the last boot's index (0: the autopilot never restarted)
+
+
+def _tlog_messages(p: Path) -> _TlogMessages:
+    """SYSTEM_TIME, GLOBAL_POSITION_INT and GPS_RAW_INT of the log at ``p``, each position and
+    SYSTEM_TIME with the boot it belongs to, and the count of each type."""
+    conn = mavutil().mavlink_connection(str(p))
+    out = _TlogMessages()
+    last_boot_ms = None
+    try:
+        while True:
+            msg = conn.recv_match(
+                type=["GLOBAL_POSITION_INT", "GPS_RAW_INT", "SYSTEM_TIME"], blocking=False
+            )
+            if msg is None:
+                break
+            kind = msg.get_type()
+            out.counts[kind] = out.counts.get(kind, 0) + 1
+            if kind in ("SYSTEM_TIME", "GLOBAL_POSITION_INT"):
+                if last_boot_ms is not None and msg.time_boot_ms < last_boot_ms - REBOOT_MS:
+                    out.boot += 1
+                last_boot_ms = int(msg.time_boot_ms)
+            if kind == "SYSTEM_TIME":
+                if msg.time_unix_usec > UNIX_USEC_2001:
+                    n = sum(out.counts.values())
+                    out.system_time.append(
+                        (out.boot, int(msg.time_boot_ms), int(msg.time_unix_usec), n)
+                    )
+            elif kind == "GLOBAL_POSITION_INT":
+                out.gpi.append((float(msg._timestamp), out.boot, msg))
+            else:
+                out.raw.append((float(msg._timestamp), msg))
+    finally:
+        conn.close()
+    return out
+
+
+@dataclass
+class _TimedPositions:
+    """Positions with their UTC, each with where in the log it is and its receipt time (s since
+    1970 by the ground station's clock)."""
+
+    fixes: list[GpsFix] = field(default_factory=list)
+    where: list[str] = field(default_factory=list)
+    receipts: list[float] = field(default_factory=list)
+
+    def add(self, fix: GpsFix, where: str, t_receipt: float) -> None:
+        self.fixes.append(fix)
+        self.where.append(where)
+        self.receipts.append(t_receipt)
+
+
+def _timed_positions(
+    msgs: _TlogMessages,
+    pairings: dict[int, list[tuple[int, int]]],
+    set_aside: list[str],
+    p: Path,
+) -> tuple[str, _TimedPositions]:
+    """(utc_source, positions) from the best UTC source the log holds (the module docstring's
+    order); a position of a boot without a usable SYSTEM_TIME is named in ``set_aside``."""
+    gpi, raw = msgs.gpi, msgs.raw
+    if gpi and any(pairings.get(b) for _, b, _ in gpi):
+        return "system_time", _system_time_positions(msgs, pairings, set_aside, p)
+    out = _TimedPositions()
+    if any(m.time_usec > UNIX_USEC_2001 and m.fix_type >= 2 for _, m in raw):
+        for t, m in raw:
+            if m.time_usec > UNIX_USEC_2001 and m.fix_type >= 2:
+                fix = _with_receiver_status(_position(m, _utc(m.time_usec), m.alt), m)
+                out.add(fix, f"{p}: GPS_RAW_INT received at {_utc(t * 1e6):%H:%M:%S.%f}", t)
+        return "gps_raw_int", out
+    if gpi:
+        for t, _, m in gpi:
+            fix = _with_raw(_position(m, _utc(t * 1e6), m.alt), t, raw)
+            out.add(fix, f"{p}: position received at {_utc(t * 1e6):%H:%M:%S.%f}", t)
+        return "tlog_receipt", out
+    raise ParseError(f"{p}: no GLOBAL_POSITION_INT or GPS_RAW_INT message in the log")
+
+
+def _system_time_positions(
+    msgs: _TlogMessages,
+    pairings: dict[int, list[tuple[int, int]]],
+    set_aside: list[str],
+    p: Path,
+) -> _TimedPositions:
+    """Each GLOBAL_POSITION_INT at the UTC of its boot's SYSTEM_TIME nearest in boot time (the
+    autopilot's clock drifts from UTC); one of a boot without any is named in ``set_aside``."""
+    out = _TimedPositions()
+    for t, b, m in msgs.gpi:
+        pairs = pairings.get(b)
+        if not pairs:  # a boot without a usable SYSTEM_TIME: its positions have no UTC
+            set_aside.append(f"{p}: a position of boot {b + 1} without a SYSTEM_TIME")
+            continue
+        boots = [bt for bt, _ in pairs]
+        i = bisect.bisect_left(boots, m.time_boot_ms)
+        near = min(
+            (j for j in (i - 1, i) if 0 <= j < len(boots)),
+            key=lambda j: abs(boots[j] - m.time_boot_ms),
+        )
+        bt, unix = pairs[near]
+        utc = _utc(unix + (m.time_boot_ms - bt) * 1000)
+        fix = _with_raw(_position(m, utc, m.alt), t, msgs.raw)
+        out.add(fix, f"{p}: position at boot {b + 1} time {m.time_boot_ms / 1000:.3f} s", t)
+    return out
+
+
+def _with_raw(fix: GpsFix, t_receipt: float, raw: list[tuple[float, Any]]) -> GpsFix:
+    """``fix`` with the status of the latest GPS_RAW_INT received at or before ``t_receipt``."""
+    i = bisect.bisect_right(raw, t_receipt, key=lambda r: r[0]) - 1
+    if i < 0:
+        # Before the first GPS_RAW_INT nothing says the position is a fix (it is the
+        # autopilot's origin until the receiver locks); in a log without any, a position
+        # away from 0 N 0 E is taken as one (the link was set up without GPS_RAW_INT).
+        return replace(fix, fix_quality=0) if raw else fix
+    return _with_receiver_status(fix, raw[i][1])
+
+
+def _with_receiver_status(fix: GpsFix, r) -> GpsFix:
+    """``fix`` with the fix type, satellites and HDOP of the GPS_RAW_INT ``r``."""
+    return replace(
+        fix,
+        fix_quality=FIX_TYPE_TO_QUALITY.get(r.fix_type, 1),
+        sats=None if r.satellites_visible == 255 else int(r.satellites_visible),
+        hdop=None if r.eph == 65535 else r.eph / 100.0,
+    )
 
 
 def _consistent_system_times(

@@ -20,8 +20,6 @@ from snrmon.cli import UsageError
 from snrmon.inputs import output_file, stack_file
 from snrmon.output import emit_json
 
-ZERO_C_K = 273.15
-
 
 def _blackbody(text: str) -> tuple[str, float]:
     path, sep, temp = text.rpartition(":")
@@ -60,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.acquisition.calibrate.calibration_file import save_calibration
     from snrmon.acquisition.calibrate.quality import calibration_quality
     from snrmon.acquisition.replay.stack_io import load_stack
+    from snrmon.model.constants import ZERO_C_K
     from snrmon.model.presets import load_sensor
 
     sensor = load_sensor(args.sensor)

@@ -234,6 +234,7 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.acquisition.replay.batch import replay_session
     from snrmon.acquisition.replay.recorded import recorded_calibration
     from snrmon.acquisition.stops.detector import StopConfig
+    from snrmon.model.constants import ZERO_C_K
     from snrmon.model.presets import load_sensor
 
     # A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
@@ -356,7 +357,7 @@ def run(args: argparse.Namespace) -> int:
     corrected = cal is not None and psf is not None  # a PSF corrects a temperature
     out["psf_blur_px"], out["psf_source"] = (blur, psf_source) if corrected else (None, None)
     if path is not None and cal is not None:
-        out["transmission"], out["air_temp_c"] = path.transmission, path.air_temp_k - 273.15
+        out["transmission"], out["air_temp_c"] = path.transmission, path.air_temp_k - ZERO_C_K
     if args.target_out:
         Path(args.target_out).write_text(target_toml(result, args.target_name))
         out["target_file"] = args.target_out

@@ -34,9 +34,11 @@ def _floats(text: str, what: str) -> tuple[float, ...]:
 
 
 def _kelvin(celsius: float, what: str) -> float:
+    from snrmon.model.constants import ZERO_C_K
+
     if not (math.isfinite(celsius) and -100.0 < celsius < 100.0):
         raise UsageError(f"{what} must be a temperature in C, got {celsius}")
-    return celsius + 273.15
+    return celsius + ZERO_C_K
 
 
 PAPER_STOPS_M = "37,126,199,336,393,451,508"

@@ -33,7 +33,6 @@ from snrmon.cli import UsageError
 from snrmon.inputs import Number, NumberList, output_file
 from snrmon.output import emit_json
 
-ZERO_C_K = 273.15
 NOISE_REFERENCE_SKY_K = 290.0
 # the names of model/atmosphere_table.py (not imported here: the parser is built on every run)
 SEASON_CHOICES = (
@@ -65,6 +64,8 @@ def _band(text: str) -> tuple[float, float]:
 
 
 def _bg_k(args) -> float | None:
+    from snrmon.model.constants import ZERO_C_K
+
     if args.background_temp_c is None:
         return None
     t = args.background_temp_c + ZERO_C_K
@@ -98,11 +99,13 @@ def _weather(args):
 
 def _air_k(args) -> float | None:
     """--air-temp-c with a non-built-in atmosphere: the path temperature only."""
+    from snrmon.model.constants import ZERO_C_K
+
     if args.air_temp_c is None or args.atmosphere == "default":
         return None
     t = args.air_temp_c + ZERO_C_K
     if not t > 0:
-        raise UsageError(f"--air-temp-c must be above -273.15, got {args.air_temp_c}")
+        raise UsageError(f"--air-temp-c must be above {-ZERO_C_K}, got {args.air_temp_c}")
     return t
 
 

@@ -28,6 +28,7 @@ from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.runtime.session import Session
 from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.acquisition.track.config import TrackState
+from snrmon.model.constants import ZERO_C_K
 from snrmon.rig.flight_clock import MAX_SPEED, FlightClock
 from snrmon.rig.twin_day import CropLog, calibrate_cameras, camera_feeds
 
@@ -70,7 +71,7 @@ class HilOptions:
         from snrmon.model.atmosphere_table import Weather
 
         return Weather(
-            air_temp_c=round(self.air_temp_k - 273.15, 6),
+            air_temp_c=round(self.air_temp_k - ZERO_C_K, 6),
             rh_percent=self.rh_percent,
             pressure_hpa=self.pressure_hpa,
             visibility_km=self.visibility_km,

@@ -24,7 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-BLACKBODY_K = (273.15, 318.15)
+from snrmon.model.constants import ZERO_C_K
+
+BLACKBODY_K = (ZERO_C_K, ZERO_C_K + 45.0)
 """The two blackbody temperatures of the day's calibration (0 and 45 C: around the sky and
 the drone)."""
 BLACKBODY_FRAMES = 128

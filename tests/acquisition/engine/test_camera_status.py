@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.engine.inputs import SetRoi
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.measure.model_agreement import model_agreement, verdict
 from snrmon.acquisition.prediction import EXPECTED_EXTENT, EXPECTED_RIM, ModelPredictor
@@ -53,7 +54,7 @@ def hover():
     config = session_config_from_dict({"cameras": {"mwir": {"source": "shm", "address": "x"}}})
     predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
     engine = SessionEngine(config, {"mwir": (H, W)}, predictor=predictor)
-    engine.set_roi("mwir", X, Y)
+    engine.camera("mwir").post(SetRoi(X, Y))
     engine.mark_stop(T0)
     for i in range(130):
         t = T0 + i * FRAME_NS
@@ -105,7 +106,7 @@ def test_the_open_stop_s_progress_is_its_row_s_frame_count(hover):
 def test_without_a_model_there_is_no_expected_reading():
     config = session_config_from_dict({"cameras": {"mwir": {"source": "shm", "address": "x"}}})
     engine = SessionEngine(config, {"mwir": (H, W)})
-    engine.set_roi("mwir", X, Y)
+    engine.camera("mwir").post(SetRoi(X, Y))
     engine.on_range(RangeReading(T0, 336.0, raw="336.0"))
     engine.on_frame("mwir", _frame(0), seq=0, counter=0, t_host_ns=T0)
     st = engine.cameras["mwir"].status()
@@ -145,7 +146,7 @@ def test_the_strip_chart_series_keeps_the_newest_rows_in_order_when_its_ring_wra
     rows = {}
     for length in (200, 48):  # 130 frames: kept whole, then wrapped twice and a bit
         engine = SessionEngine(config, {"mwir": (H, W)}, series_length=length)
-        engine.set_roi("mwir", X, Y)
+        engine.camera("mwir").post(SetRoi(X, Y))
         for i in range(130):
             engine.on_frame("mwir", _frame(i), seq=i, counter=i, t_host_ns=T0 + i * FRAME_NS)
         rows[length] = engine.cameras["mwir"].series()
