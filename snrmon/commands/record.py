@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import argparse
 import shutil
-import sys
 import time
 
 from snrmon.cli import UsageError
 from snrmon.inputs import input_file, output_file
-from snrmon.progress import status_progress
+from snrmon.progress import say, status_progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -67,11 +66,17 @@ def run(args: argparse.Namespace) -> int:
     out = output_file(args.out, "--out", suffixes=(".h5",), new=True)
     rois = [_roi(r) for r in args.roi]
     session = Session(load_session_config(input_file(args.config, "--config")))
-    session.start()
+    # The file is created (exclusively) before any device opens: a second writer onto the same
+    # path is refused having opened no port and no camera.
+    session.start_recording(out)
+    summary = None
     try:
+        session.start()
+        # Every device the config names delivers within its start-up timeout, or the command
+        # stops here (DeviceError: exit 1, naming it).
+        session.wait_delivering()
         for cam, x, y in rois:
             session.set_roi(cam, x, y)
-        session.start_recording(out)
         t0 = time.monotonic()
         with status_progress(args.duration, "recording") as show:
             while args.duration is None or time.monotonic() - t0 < args.duration:
@@ -84,13 +89,13 @@ def run(args: argparse.Namespace) -> int:
     finally:
         summary = session.stop_recording()
         session.stop()
-    if summary is not None:
-        print(
-            f"recorded {out}: "
-            + ", ".join(f"{n} {c} frames" for n, c in summary.frames_written.items())
-        )
-        if summary.error:
-            print(f"recording stopped early: {summary.error}", file=sys.stderr)
-            return 1
-    print(f"free disk after: {shutil.disk_usage(out.parent).free / 2**30:.1f} GB", file=sys.stderr)
+    print(
+        f"recorded {out}: "
+        + ", ".join(f"{n} {c} frames" for n, c in summary.frames_written.items())
+    )
+    # One path for every failure (a device lost, the disk full): an OSError, exit 1.
+    session.check_devices()
+    if summary.error:
+        raise OSError(summary.error)
+    say(f"free disk after: {shutil.disk_usage(out.parent).free / 2**30:.1f} GB")
     return 0
