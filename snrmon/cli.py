@@ -178,7 +178,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             previous[sig] = signal.signal(sig, _interrupt)
     try:
         with logs.configured(prog, verbose=args.verbose, quiet=args.quiet, log_file=args.log_file):
-            progress.set_quiet(args.quiet, verbose=args.verbose >= 1)
+            progress.set_quiet(args.quiet, verbose=args.verbose >= 1, prog=prog)
             return _run(args, prog)
     except OSError as exc:  # the --log-file itself cannot be opened
         print(f"{prog}: error: --log-file: {exc}", file=sys.stderr)

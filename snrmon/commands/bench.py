@@ -15,6 +15,7 @@ from snrmon.benchmarks.fresh_process import BenchmarkError, figures_in_fresh_pro
 from snrmon.cli import EXIT_FAILURE, EXIT_OK, UsageError
 from snrmon.extras import MissingExtraError, require
 from snrmon.output import emit_json
+from snrmon.progress import say
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -76,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
                     print(f"{args.prog}: warning: skipped: {exc}", file=sys.stderr)
                     continue
         if not args.json:
-            print(f"running {key} ...", file=sys.stderr, flush=True)
+            say(f"running {key} ...")
         try:
             figures = figures_in_fresh_process(module, args.duration)
         except BenchmarkError as exc:  # the others' figures are still worth their minutes

@@ -9,10 +9,9 @@ docs/report.md.
 from __future__ import annotations
 
 import argparse
-import sys
 
 from snrmon.inputs import output_file, session_file
-from snrmon.progress import frame_progress
+from snrmon.progress import frame_progress, say
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -51,8 +50,8 @@ def run(args: argparse.Namespace) -> int:
     with frame_progress("replay") as progress:  # a bar on a terminal only
         data = report_data(src, target=args.target, progress=progress, noise=args.noise)
     render_report(data, out, paper_curves=not args.no_paper_curves)
-    print(f"report: {out} ({len(data.rows)} stop rows)", file=sys.stderr)
+    say(f"report: {out} ({len(data.rows)} stop rows)")
     if args.csv:
         write_csv(data.csv_rows, args.csv)
-        print(f"table: {args.csv}", file=sys.stderr)
+        say(f"table: {args.csv}")
     return 0
