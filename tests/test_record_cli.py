@@ -49,6 +49,8 @@ def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):
     captured = capsys.readouterr()
     assert code == 0, captured.err
     assert "MB written" in captured.err
+    # every line on stderr (progress, info) carries the command's prefix
+    assert all(line.startswith("snrmon record: ") for line in captured.err.splitlines())
     with open_session(out) as f:
         n = f.cameras["cam"].n_frames
         assert 60 <= n <= 200  # about two seconds at 60 fps
@@ -305,3 +307,29 @@ def test_a_camera_killed_mid_recording_ends_record_with_exit_1(tmp_path):
     # Every frame the camera gave while recording, up to its death, is in the file, no gap.
     assert np.array_equal(counters, np.arange(counters[0], counters[0] + n))
     assert acc["written"] == n and not any(acc["dropped"].values()) and acc["queued"] == 0
+
+
+def test_a_refused_second_writer_opens_no_device(devices, tmp_path, capsys, monkeypatch):
+    """A second ``record`` onto a file another writer creates between the second's input check
+    and its start (two operators starting at once): refused (exit 2, the file named) before it
+    opened any device, so the first recording's GPS and camera lose nothing to it."""
+    import h5py
+
+    from snrmon.commands import record
+    from snrmon.drivers.device import Device
+
+    out = tmp_path / "rec.h5"
+    checked = record.output_file
+
+    def first_writer_wins(*args, **kwargs):
+        path = checked(*args, **kwargs)
+        h5py.File(path, "w-").close()  # the first writer's file, made just after the check
+        return path
+
+    opened = []
+    monkeypatch.setattr(record, "output_file", first_writer_wins)
+    monkeypatch.setattr(Device, "open", lambda self: opened.append(self.name))
+    code = main(["record", "--config", str(devices), "--out", str(out), "--duration", "2"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err == f"snrmon record: error: session file {out} already exists"
+    assert opened == []  # no port, no camera ring

@@ -167,6 +167,8 @@ def utc_of_rows(clock: np.ndarray, t_host_ns: np.ndarray) -> np.ndarray:
     mono = clock["monotonic_ns"][order].astype(np.int64)
     utc = clock["utc_ns"][order].astype(np.int64)
     names = clock.dtype.names or ()
+    if "rate" not in names and "source" in names:
+        utc = _relabelled_host_rows(mono, utc, clock["source"][order])
     rate = clock["rate"][order] if "rate" in names else np.ones(len(mono))
     until = clock["slew_until_ns"][order] if "slew_until_ns" in names else np.full(len(mono), -1)
     i = np.clip(np.searchsorted(mono, t, side="right") - 1, 0, len(mono) - 1)
@@ -175,3 +177,17 @@ def utc_of_rows(clock: np.ndarray, t_host_ns: np.ndarray) -> np.ndarray:
     dt = np.where(slewing, t - m, end - m)
     tail = np.where(slewing, 0, t - end)
     return u + np.rint(r * dt).astype(np.int64) + tail
+
+
+def _relabelled_host_rows(mono: np.ndarray, utc: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """A file before format 2.4 stepped from the host's UTC to the receiver's at the first GPS
+    row: its host rows before it take that row's offset, as :class:`ClockMap` now relabels
+    live, so a stop that began before the first fix does not begin years after it ends."""
+    gps = np.flatnonzero(source == b"gps")
+    if len(gps) == 0 or gps[0] == 0:
+        return utc
+    g = gps[0]
+    offset = utc[g] - (utc[g - 1] + (mono[g] - mono[g - 1]))
+    out = utc.copy()
+    out[:g] += offset
+    return out

@@ -104,3 +104,21 @@ def test_clock_map_slews_a_jumping_gps_time_and_never_steps_back():
     assert np.abs(err).max() < 2e6
     residuals = [r.residual_ns for r in clock.rows()]
     assert max(residuals) > 150e6 and min(residuals) < -250e6  # each jump, as it was seen
+
+
+def test_a_file_before_format_2_4_maps_its_host_rows_onto_the_first_fix():
+    """/clock rows of a 2.3 file: the host's UTC (2026) until the first GPS row (2019). A time
+    before that row maps with its offset, so a stop that began before the first fix and ended
+    after it ends after it began, on the receiver's date."""
+    from snrmon.acquisition.streams.timebase import utc_of_rows
+
+    old = np.array(
+        [
+            (1_000_000_000, 1_796_000_000 * 10**9, b"host"),
+            (5_000_000_000, 1_557_846_000 * 10**9, b"gps"),
+        ],
+        [("monotonic_ns", "<i8"), ("utc_ns", "<i8"), ("source", "S32")],
+    )
+    start, end = utc_of_rows(old, [3_000_000_000, 7_000_000_000])
+    assert end - start == 4_000_000_000  # the session's own 4 s
+    assert datetime.fromtimestamp(start / 1e9, tz=UTC).year == 2019
