@@ -347,8 +347,13 @@ class HilRig:
         if self.opts.fpn:
             for cam in self.cameras:
                 self.session.capture_reference(cam, self.opts.reference_frames)
-        # Every simulated device delivers within its start-up timeout, or the day stops here.
-        self.session.wait_delivering()
+        # Every simulated device delivers within its start-up timeout, or the day stops here
+        # (with everything started so far stopped: __exit__ does not run for a failed enter).
+        try:
+            self.session.wait_delivering()
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
         return self
 
     def flight_record(self) -> dict:

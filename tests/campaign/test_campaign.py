@@ -44,6 +44,22 @@ def table_rows(out: Path, session: str) -> list[dict]:
     return [{c: r[c] for c in SAME.values()} for r in rows if r["session"] == session]
 
 
+def unreplayable_copy(session: Path, folder: Path) -> Path:
+    """A copy of ``session`` that passes the input checks but cannot be replayed: its camera's
+    sensor file (``gone.toml``) does not exist."""
+    import shutil
+
+    import h5py
+
+    broken = folder / "broken.h5"
+    shutil.copyfile(session, broken)
+    with h5py.File(broken, "r+") as f:
+        config = json.loads(f.attrs["config_json"])
+        config["session"]["cameras"]["lwir"]["sensor"] = str(folder / "gone.toml")
+        f.attrs["config_json"] = json.dumps(config)
+    return broken
+
+
 @pytest.fixture(scope="module")
 def reference(hil_sessions) -> dict[str, list[dict]]:
     """Each session's stop rows from `snrmon replay --json`, one after the other."""
@@ -118,16 +134,7 @@ def test_bad_sessions_refuse_the_campaign_before_it_starts(hil_sessions, tmp_pat
 def test_a_session_that_fails_in_its_replay_fails_its_own_task(hil_sessions, tmp_path, capsys):
     """A session that passes the input checks but cannot be replayed (its camera's sensor file
     is gone) fails its own task; the others go into the table."""
-    import shutil
-
-    import h5py
-
-    broken = tmp_path / "broken.h5"
-    shutil.copyfile(hil_sessions[1], broken)
-    with h5py.File(broken, "r+") as f:
-        config = json.loads(f.attrs["config_json"])
-        config["session"]["cameras"]["lwir"]["sensor"] = str(tmp_path / "gone.toml")
-        f.attrs["config_json"] = json.dumps(config)
+    broken = unreplayable_copy(hil_sessions[1], tmp_path)
     out = tmp_path / "out"
     code, result = campaign(
         [str(hil_sessions[0]), str(broken), "--out", str(out), "--workers", "2"], capsys
@@ -235,16 +242,7 @@ def test_no_stop_ends_before_it_starts_in_a_file_that_stepped_its_clock(hil_sess
 def test_every_line_on_stderr_has_the_command_prefix(hil_sessions, tmp_path, capsys):
     """The text output of a campaign with a failing task: every stderr line starts with
     ``snrmon campaign:``, the failure a warning naming the session and why."""
-    import shutil
-
-    import h5py
-
-    broken = tmp_path / "broken.h5"
-    shutil.copyfile(hil_sessions[1], broken)
-    with h5py.File(broken, "r+") as f:
-        config = json.loads(f.attrs["config_json"])
-        config["session"]["cameras"]["lwir"]["sensor"] = str(tmp_path / "gone.toml")
-        f.attrs["config_json"] = json.dumps(config)
+    broken = unreplayable_copy(hil_sessions[1], tmp_path)
     argv = [str(hil_sessions[0]), str(broken), "--out", str(tmp_path / "o"), "--workers", "0"]
     code = main(["campaign", *argv])
     err = capsys.readouterr().err
