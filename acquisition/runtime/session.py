@@ -20,6 +20,7 @@ import shutil
 import threading
 import time
 from collections.abc import Callable
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -102,8 +103,6 @@ class DeviceLoss:
 
 
 def _iso_utc(utc_ns: int) -> str:
-    from datetime import UTC, datetime
-
     return datetime.fromtimestamp(utc_ns / 1e9, tz=UTC).isoformat(timespec="milliseconds")
 
 
@@ -190,6 +189,7 @@ class Session:
         self._interpreter = LiveInterpreter()  # switch interval and BLAS threads, while we run
         # Every device's health, watched from start() to stop(): a lost one is never silent.
         self._watching = False
+        self._delivered = threading.Condition(self._lock)
         self._started_ns = 0
         self._device_states: dict[str, DeviceState] = {}
         self._losses: list[DeviceLoss] = []
@@ -277,22 +277,23 @@ class Session:
             pipe.start()
         self._started = True
 
-    def wait_delivering(self, poll_s: float = 0.02) -> None:
+    def wait_delivering(self) -> None:
         """Return once every device has delivered a reading; raise :class:`DeviceError`
         naming each device that gave none within its start-up timeout (from its opening in
         :meth:`start`, after the pipelines' warm-up),
         with its last error (a ring or port that does not exist, a link that gives nothing)."""
         timeouts = self.start_timeouts_s()
         pending = self.devices()
-        while True:
-            pending = {n: d for n, d in pending.items() if d.status().readings == 0}
-            if not pending:
-                return
-            waited_s = (time.monotonic_ns() - self._started_ns) / 1e9
-            late = [n for n in pending if waited_s > timeouts[n]]
-            if late:
-                raise DeviceError("; ".join(self._silent(n, timeouts[n]) for n in late))
-            time.sleep(poll_s)  # the devices' own threads deliver; this only looks
+        with self._delivered:  # notified when a device starts streaming (its first reading)
+            while True:
+                pending = {n: d for n, d in pending.items() if d.status().readings == 0}
+                if not pending:
+                    return
+                waited_s = (time.monotonic_ns() - self._started_ns) / 1e9
+                late = [n for n in pending if waited_s > timeouts[n]]
+                if late:
+                    raise DeviceError("; ".join(self._silent(n, timeouts[n]) for n in late))
+                self._delivered.wait(min(timeouts[n] for n in pending) - waited_s + 0.001)
 
     def _silent(self, name: str, timeout_s: float) -> str:
         st = self.devices()[name].status()
@@ -318,6 +319,8 @@ class Session:
         with self._lock:
             prev = self._device_states.get(status.name)
             self._device_states[status.name] = status.state
+            if status.state is DeviceState.STREAMING:
+                self._delivered.notify_all()
             if not self._watching:
                 return
             open_loss = next(
