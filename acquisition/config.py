@@ -85,6 +85,7 @@ class CameraConfig:
     height_px: int | None = None
     pointing: Pointing | None = None
     calibration: str | None = None  # calibration file (npz + TOML sidecar)
+    start_timeout_s: float | None = None  # no frame within this long of the start: a failure
 
 
 @dataclass(frozen=True)
@@ -202,6 +203,7 @@ CAMERA_FIELDS = {
         lambda v: isinstance(v, list) and len(v) in (2, 3) and all(_number(x) for x in v),
     ),
     "calibration": Field("a calibration file (.npz from snrmon calibrate)", _text),
+    "start_timeout_s": Field("a positive number of seconds", _positive),
 }
 
 
@@ -237,6 +239,7 @@ def _camera(name: str, table: Any) -> CameraConfig:
         height_px=v.get("height_px"),
         pointing=pointing,
         calibration=v.get("calibration"),
+        start_timeout_s=v.get("start_timeout_s"),
     )
 
 

@@ -167,4 +167,5 @@ class RecordingWriter(Protocol):
         timeout: float = 60.0,
         *,
         accounting: Callable[[], Mapping[str, Mapping]] | None = None,
+        devices_lost: Callable[[], list[dict]] | None = None,
     ) -> RecorderSummary: ...

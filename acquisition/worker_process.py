@@ -27,6 +27,8 @@ from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
+from snrmon.drivers.lifetime import die_with_parent
+
 NICE = 10
 """How much lower the worker's scheduling priority is than the console's (``os.nice``)."""
 
@@ -34,8 +36,10 @@ _lock = threading.Lock()
 _pool: ProcessPoolExecutor | None = None
 
 
-def _lower_priority() -> None:
-    """The worker's initializer: background work yields the CPU to the live path."""
+def _lower_priority(parent_pid: int) -> None:
+    """The worker's initializer: background work yields the CPU to the live path, and the
+    worker ends with the console however it ends (a parent-death signal)."""
+    die_with_parent(parent_pid)
     if hasattr(os, "nice"):
         os.nice(NICE)
 
@@ -50,7 +54,10 @@ def _executor() -> ProcessPoolExecutor:
     with _lock:
         if _pool is None:
             _pool = ProcessPoolExecutor(
-                max_workers=1, mp_context=mp.get_context("spawn"), initializer=_lower_priority
+                max_workers=1,
+                mp_context=mp.get_context("spawn"),
+                initializer=_lower_priority,
+                initargs=(os.getpid(),),
             )
             _pool.submit(_warm)
         return _pool

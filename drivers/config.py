@@ -8,6 +8,7 @@ Example (``devices.toml``)::
     baud = 38400
     allow_no_checksum = ["POLYN"]
     stale_after_s = 1.0
+    start_timeout_s = 10.0     # no reading within this long of the start: the command stops
 
     [lrf]
     protocol = "trupulse"      # trupulse | ldm
@@ -39,6 +40,7 @@ _COMMON = {
     "name": str,
     "stale_after_s": (int, float),
     "reopen_after_s": (int, float),
+    "start_timeout_s": (int, float),
 }
 _EXTRA: dict[str, dict[str, Any]] = {
     "nmea": {"baud": int, "allow_no_checksum": (bool, list), "max_line_bytes": int},
@@ -99,7 +101,7 @@ def check_device_table(table: Any, name: str = "device") -> str:
     baud = table.get("baud")
     if baud is not None and baud not in SERIAL_BAUD_RATES:
         raise ConfigError.expected(name, "baud", baud, f"a standard rate {SERIAL_BAUD_RATES}")
-    for key in ("stale_after_s", "reopen_after_s"):
+    for key in ("stale_after_s", "reopen_after_s", "start_timeout_s"):
         if key in table and not table[key] > 0:
             raise ConfigError.expected(name, key, table[key], "a positive number of seconds")
     return protocol

@@ -290,7 +290,7 @@ def _main(argv: Sequence[str] | None) -> int:
             previous[sig] = signal.signal(sig, _interrupt)
     try:
         with logs.configured(prog, verbose=args.verbose, quiet=args.quiet, log_file=args.log_file):
-            progress.set_quiet(args.quiet, verbose=args.verbose >= 1)
+            progress.set_quiet(args.quiet, verbose=args.verbose >= 1, prog=prog)
             return _run(args, prog)
     except BrokenPipeError:
         raise

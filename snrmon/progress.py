@@ -15,13 +15,25 @@ from contextlib import contextmanager
 log = logging.getLogger(__name__)
 _QUIET = False
 _VERBOSE = False
+_PROG = "snrmon"
 
 
-def set_quiet(quiet: bool, verbose: bool = False) -> None:
-    """``-q``: no bars and no status lines; ``-v``: status lines come through the log (the CLI
-    calls this per command)."""
-    global _QUIET, _VERBOSE
-    _QUIET, _VERBOSE = quiet, verbose
+def set_quiet(quiet: bool, verbose: bool = False, prog: str = "snrmon") -> None:
+    """``-q``: no bars and no status lines; ``-v``: status lines come through the log;
+    ``prog``: the prefix of every line on stderr (the CLI calls this per command)."""
+    global _QUIET, _VERBOSE, _PROG
+    _QUIET, _VERBOSE, _PROG = quiet, verbose, prog
+
+
+def say(text: str, level: str = "info") -> None:
+    """One line for the operator on stderr, with the prefix of every snrmon message
+    (``snrmon COMMAND: info: ...``, or ``warning:``); none under ``-q`` (errors only). Log
+    files (``--log-file``, a recording's log) keep it whatever ``-q`` says."""
+    from snrmon.logs import FILE_ONLY
+
+    log.log(logging.getLevelName(level.upper()), "%s", text, extra={FILE_ONLY: True})
+    if not _QUIET:
+        print(f"{_PROG}: {level}: {text}", file=sys.stderr, flush=True)
 
 
 def on_terminal() -> bool:
@@ -96,7 +108,7 @@ def status_progress(total_s: float | None, desc: str) -> Iterator[Callable[[floa
         last_plain[0] = time.monotonic()
         log.info("%s: %s", desc, line)
         if not (_QUIET or _VERBOSE or on_terminal()):  # with -v the log line is on stderr
-            print(line, file=sys.stderr, flush=True)
+            print(f"{_PROG}: info: {desc}: {line}", file=sys.stderr, flush=True)
 
     try:
         yield show

@@ -122,13 +122,23 @@ def field_devices(
         gps.stop()
 
 
-def field_config(path: Path, ring: str, gps_port: str, lrf_port: str, camera: str) -> Path:
-    """A session config naming the field kit (``camera``: extra lines of [cameras.cam])."""
+def field_config(
+    path: Path,
+    ring: str,
+    gps_port: str,
+    lrf_port: str,
+    camera: str,
+    *,
+    start_timeout_s: float | None = None,
+) -> Path:
+    """A session config naming the field kit (``camera``: extra lines of [cameras.cam]);
+    ``start_timeout_s`` in every device's table when given."""
+    timeout = "" if start_timeout_s is None else f"start_timeout_s = {start_timeout_s}\n"
     path.write_text(
         "[site]\nlat_deg = 32.38\nlon_deg = -106.48\nalt_m = 1200.0\n\n"
-        f'[cameras.cam]\nsource = "shm"\naddress = "{ring}"\n{camera}\n\n'
-        f'[lrf]\nprotocol = "ldm"\nport = "{lrf_port}"\n\n'
-        f'[gps]\nprotocol = "nmea"\nport = "{gps_port}"\nbaud = 38400\n'
+        f'[cameras.cam]\nsource = "shm"\naddress = "{ring}"\n{camera}\n{timeout}\n'
+        f'[lrf]\nprotocol = "ldm"\nport = "{lrf_port}"\n{timeout}\n'
+        f'[gps]\nprotocol = "nmea"\nport = "{gps_port}"\nbaud = 38400\n{timeout}'
     )
     return path
 

@@ -185,7 +185,11 @@ def test_progress_bars_only_on_a_terminal(monkeypatch):
         for t in (0.0, 1.0):
             show(t, f"{t:.0f} s | cam {int(t * 60)} frames")
     lines = sys.stderr.getvalue().splitlines()
-    assert lines == ["0 s | cam 0 frames", "1 s | cam 60 frames"]
+    # the prefix of every line on stderr (the CLI sets the command's; "snrmon" outside it)
+    assert lines == [
+        "snrmon: info: recording: 0 s | cam 0 frames",
+        "snrmon: info: recording: 1 s | cam 60 frames",
+    ]
     assert "\r" not in sys.stderr.getvalue()
 
     terminal = _Terminal()

@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from snrmon.acquisition.record.reader import open_session
@@ -48,6 +49,8 @@ def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):
     captured = capsys.readouterr()
     assert code == 0, captured.err
     assert "MB written" in captured.err
+    # every line on stderr (progress, info) carries the command's prefix
+    assert all(line.startswith("snrmon record: ") for line in captured.err.splitlines())
     with open_session(out) as f:
         n = f.cameras["cam"].n_frames
         assert 60 <= n <= 200  # about two seconds at 60 fps
@@ -210,3 +213,129 @@ def test_a_dropped_frame_is_never_silent(tmp_path, capsys):
         + acc["after_recording"]
         + acc["queued"]
     )
+
+
+@pytest.mark.parametrize("missing", ["camera", "gps", "lrf"])
+def test_a_device_that_does_not_exist_stops_record(tmp_path, capsys, missing):
+    """A camera ring, GPS port or rangefinder port the config names that does not exist: the
+    device delivers nothing within its start-up timeout, and ``record`` stops with exit 1 and
+    one error line naming the device and what it could not open."""
+    ring = f"snrmon-miss-{time.monotonic_ns() % 10**9}"
+    with field_devices(ring) as (_, lrf, gps):
+        ports = {"camera": ring, "gps": gps.path, "lrf": lrf.path}
+        ports[missing] = {
+            "camera": f"{ring}-absent",
+            "gps": str(tmp_path / "no-gps-pty"),
+            "lrf": str(tmp_path / "no-lrf-pty"),
+        }[missing]
+        config = field_config(
+            tmp_path / "session.toml",
+            ports["camera"],
+            ports["gps"],
+            ports["lrf"],
+            f"width_px = {W}\nheight_px = {H}",
+            start_timeout_s=1.5,
+        )
+        out = tmp_path / "rec.h5"
+        code = main(["record", "--config", str(config), "--out", str(out), "--duration", "5"])
+    err = capsys.readouterr().err
+    assert code == 1, err
+    errors = [line for line in err.splitlines() if ": error: " in line]
+    assert len(errors) == 1, err
+    name = {"camera": "cam", "gps": "gps", "lrf": "lrf"}[missing]
+    line = errors[0]
+    assert line.startswith(f"snrmon record: error: {name}: no reading within 1.5 s of the start")
+    assert ports[missing] in line  # the ring or port it could not open
+    with open_session(out) as f:  # created before the devices, closed whole, nothing lost
+        assert f.complete
+        n = f.cameras["cam"].n_frames
+    assert n == 0 if missing == "camera" else n > 0  # what the others gave while it waited
+
+
+def test_a_camera_killed_mid_recording_ends_record_with_exit_1(tmp_path):
+    """The camera's process is killed (SIGKILL) while ``record`` runs: the loss is logged with
+    its time, the file's summary lists it, the command ends with exit 1 and one error line,
+    and the file is closed whole with every frame the camera published before it died."""
+    from snrmon.sim.devices.ldm_sim import LdmSimulator
+    from snrmon.sim.devices.nmea_sim import NmeaSimulator
+    from snrmon.sim.devices.shm_camera import ShmProducer
+    from tests.helpers import SpotOnNoise
+
+    ring = f"snrmon-kill-{time.monotonic_ns() % 10**9}"
+    producer = ShmProducer(ring, W, H, SpotOnNoise(5), fps=60.0, slots=16)
+    lrf = LdmSimulator(lambda t: 200.0, rate_hz=10.0, tracking=True)
+    gps = NmeaSimulator(lambda t: (32.3810, -106.4790, 1250.0), rate_hz=10.0)
+    producer.start()
+    lrf.start()
+    gps.start()
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    out = tmp_path / "killed-camera.h5"
+    config = field_config(
+        tmp_path / "session.toml", ring, gps.path, lrf.path, f"width_px = {W}\nheight_px = {H}"
+    )
+    cmd = [sys.executable, "-m", "snrmon", "record", "--config", str(config), "--out", str(out)]
+    proc = subprocess.Popen(
+        [*cmd, "--duration", "8"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env
+    )
+    seen, counted = b"", 0
+    try:
+        while counted < 60:  # a second of frames recorded, then the camera dies
+            chunk = os.read(proc.stderr.fileno(), 4096)
+            assert chunk, f"snrmon record ended early: {seen.decode(errors='replace')}"
+            seen += chunk
+            counts = re.findall(rb"cam (\d+) frames", seen)
+            counted = int(counts[-1]) if counts else 0
+        producer.kill()
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+        proc.wait(10)
+        producer.close()
+        lrf.stop()
+        gps.stop()
+    err = (seen + stderr).decode(errors="replace")
+    assert proc.returncode == 1, err
+    assert re.search(r"snrmon record: warning: cam lost at \d{4}-\d\d-\d\dT[\d:.]+\+00:00", err)
+    errors = [line for line in err.splitlines() if ": error: " in line]
+    assert len(errors) == 1 and errors[0].startswith("snrmon record: error: cam lost at "), err
+    assert "died" in errors[0]  # why: the camera's writer process is gone
+    assert b"recorded " in stdout
+    with open_session(out) as f:
+        assert f.recovered == "" and f.complete
+        counters = np.asarray(f.cameras["cam"].counter)
+        n = len(counters)
+        lost = f.summary["extra"]["devices_lost"]
+        acc = f.summary["extra"]["accounting"]["cam"]
+        events = [e for e in f.event_list() if e["kind"] == "device_lost"]
+    assert n >= counted
+    assert [x["device"] for x in lost] == ["cam"] and lost[0]["back_utc"] is None
+    assert [e["payload"]["device"] for e in events] == ["cam"]
+    # Every frame the camera gave while recording, up to its death, is in the file, no gap.
+    assert np.array_equal(counters, np.arange(counters[0], counters[0] + n))
+    assert acc["written"] == n and not any(acc["dropped"].values()) and acc["queued"] == 0
+
+
+def test_a_refused_second_writer_opens_no_device(devices, tmp_path, capsys, monkeypatch):
+    """A second ``record`` onto a file another writer creates between the second's input check
+    and its start (two operators starting at once): refused (exit 2, the file named) before it
+    opened any device, so the first recording's GPS and camera lose nothing to it."""
+    import h5py
+
+    from snrmon.commands import record
+    from snrmon.drivers.device import Device
+
+    out = tmp_path / "rec.h5"
+    checked = record.output_file
+
+    def first_writer_wins(*args, **kwargs):
+        path = checked(*args, **kwargs)
+        h5py.File(path, "w-").close()  # the first writer's file, made just after the check
+        return path
+
+    opened = []
+    monkeypatch.setattr(record, "output_file", first_writer_wins)
+    monkeypatch.setattr(Device, "open", lambda self: opened.append(self.name))
+    code = main(["record", "--config", str(devices), "--out", str(out), "--duration", "2"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err == f"snrmon record: error: session file {out} already exists"
+    assert opened == []  # no port, no camera ring

@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from snrmon.acquisition.geo.projection import Site, enu_of
+from snrmon.acquisition.streams.timebase import utc_of_rows
 
 
 def _clock_rows(clock: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -60,10 +61,7 @@ def utc_to_host_ns(utc_ns: np.ndarray, clock: np.ndarray, *, chunk: int = 1024) 
 def host_to_utc_ns(t_host_ns: np.ndarray, clock: np.ndarray) -> np.ndarray:
     """UTC (ns) of host monotonic times through ``/clock``: the latest row at or before each
     time (the first row for a time before it), as ``docs/session-format.md`` states."""
-    t = np.asarray(t_host_ns, dtype=np.int64)
-    mono, utc = _clock_rows(clock)
-    row = np.clip(np.searchsorted(mono, t, side="right") - 1, 0, len(mono) - 1)
-    return utc[row] + (t - mono[row])
+    return utc_of_rows(clock, t_host_ns)
 
 
 def slant_ranges_m(site: Site, lat_deg, lon_deg, alt_m) -> np.ndarray:

@@ -313,11 +313,13 @@ class SessionRecorder:
         timeout: float = 60.0,
         *,
         accounting: Callable[[], Mapping[str, Mapping]] | None = None,
+        devices_lost: Callable[[], list[dict]] | None = None,
     ) -> RecorderSummary:
         """Write what is queued, close the file and return the summary (idempotent).
         ``accounting()``: what became of every frame the source received, per camera (frames
         received before the recording, lost before the recorder: the pipeline's), asked once
-        everything is written and kept in the summary's ``extra`` and so in ``summary_json``."""
+        everything is written and kept in the summary's ``extra`` and so in ``summary_json``;
+        ``devices_lost()``: the devices lost while it ran (with their times), kept likewise."""
         if self._final is not None:
             return self._final
         with self._lock:
@@ -335,6 +337,8 @@ class SessionRecorder:
         summary = self._summary()
         if accounting is not None:
             summary.extra["accounting"] = {k: dict(v) for k, v in accounting().items()}
+        if devices_lost is not None:
+            summary.extra["devices_lost"] = devices_lost()
         if summary.state == "stopped":
             try:  # the SWMR file is closed: a plain r+ open may add the summary attribute
                 with h5py.File(self.path, "r+") as f:

@@ -54,6 +54,7 @@ class RecorderSummary:
             "dropped": {cam: dict(reasons) for cam, reasons in self.dropped.items()},
             "error": self.error,
             "accounting": self.extra.get("accounting"),
+            "devices_lost": self.extra.get("devices_lost"),  # null: not watched
         }
 
 

@@ -12,8 +12,13 @@ import numpy as np
 from snrmon.acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
 
 FORMAT = "snrmon-session"
-FORMAT_VERSION = "2.3"
-"""2.3: the radiometric calibration a camera was measured with is in the file
+FORMAT_VERSION = "2.4"
+"""2.4: UTC comes from one monotone map of the host clock (docs/session-format.md, "Time"):
+``/clock`` rows carry ``rate``, ``slew_until_ns`` and ``residual_ns``; a row is a slew from its
+start, never a step, so ``utc_ns`` and ``time`` increase with ``t_host_ns``. Earlier files' rows
+are references at rate 1 (read as before).
+
+2.3: the radiometric calibration a camera was measured with is in the file
 (/cameras/<name>/calibration: its per-pixel maps and, in the group's ``metadata_json``, the
 calibration file's metadata), so a replay, ``characterize``, ``psf`` and ``noise`` apply the same
 calibration without the file it was loaded from. Earlier files name the calibration file in
@@ -209,11 +214,23 @@ EVENT_UNITS = {
     "payload": "JSON object, UTF-8",
 }
 
-CLOCK_DTYPE = np.dtype([("monotonic_ns", "<i8"), ("utc_ns", "<i8"), ("source", f"S{NAME_BYTES}")])
+CLOCK_DTYPE = np.dtype(
+    [
+        ("monotonic_ns", "<i8"),
+        ("utc_ns", "<i8"),
+        ("source", f"S{NAME_BYTES}"),
+        ("rate", "<f8"),
+        ("slew_until_ns", "<i8"),
+        ("residual_ns", "<i8"),
+    ]
+)
 CLOCK_UNITS = {
-    "monotonic_ns": "ns, host monotonic clock",
+    "monotonic_ns": "ns, host monotonic clock: the row applies from here",
     "utc_ns": "ns since 1970-01-01 UTC at that instant",
     "source": "host | gps",
+    "rate": "UTC ns per host ns from monotonic_ns to slew_until_ns (1 after it)",
+    "slew_until_ns": "ns, host monotonic clock: the slew's end (-1: no slew)",
+    "residual_ns": "ns, the receiver's time minus the map's this row removes (0: none)",
 }
 
 STREAMS = {

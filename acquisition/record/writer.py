@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 
 from snrmon.acquisition.record import schema
-from snrmon.acquisition.streams.timebase import ClockMap
+from snrmon.acquisition.streams.timebase import ClockMap, rows_array, utc_of_rows
 
 COMPRESSIONS = ("gzip", "lz4", "zstd", "bitshuffle-lz4")
 # The NAME netCDF-4 gives a dimension scale that is only a dimension (netCDF's own convention).
@@ -142,13 +142,16 @@ class SessionWriter:
         # chunks of 64 KiB and more start on a page boundary, so a frame is whole pages
         # libver bounded at v110: SWMR needs the 1.10 file format, and nothing newer is used,
         # so readers built on HDF5 1.10 (MATLAB, h5dump 1.10) open the file (docs/session-format).
-        f = h5py.File(
-            self.path,
-            "w",
-            libver=LIBVER,
-            alignment_threshold=65536,
-            alignment_interval=4096,
-        )
+        try:  # "w-": created exclusively, so of two writers racing for one path one is refused
+            f = h5py.File(
+                self.path,
+                "w-",
+                libver=LIBVER,
+                alignment_threshold=65536,
+                alignment_interval=4096,
+            )
+        except FileExistsError:
+            raise FileExistsError(f"session file {self.path} already exists") from None
         try:
             ref = self.clock.reference
             f.attrs.update(
@@ -215,9 +218,9 @@ class SessionWriter:
                 d.attrs["units_json"] = json.dumps(units)
                 _attach(d, self._dimension(f, name, 64))
             _describe_all(f)
-            self._last_ref = ref
-            self._append(f[schema.CLOCK], self._clock_row(ref))
-            self.stream_rows[schema.CLOCK] = 1
+            self._relabelled_ns, self._map = self.clock.snapshot()
+            self._clock_rows = 0
+            self._append_clock_rows(f)
             f.swmr_mode = True
         except BaseException:
             f.close()
@@ -279,6 +282,10 @@ class SessionWriter:
     def flush(self) -> None:
         """Append the held rows, record a changed clock reference, flush HDF5 and fsync."""
         f = self._file
+        # One state of the clock map for this flush: what it moved the file by, and the rows
+        # the held rows are stamped with (a fix between the two would stamp them twice).
+        relabelled_ns, self._map = self.clock.snapshot()
+        self._relabel(f, relabelled_ns)
         for (kind, key), rows in list(self._pending.items()):
             if kind == "frame":
                 cols = np.array(rows, np.int64).reshape(-1, 3)
@@ -299,11 +306,7 @@ class SessionWriter:
                 self._append(f[key], arr)
                 self.stream_rows[key] += len(rows)
             del self._pending[(kind, key)]
-        ref = self.clock.reference
-        if ref != self._last_ref:
-            self._append(f[schema.CLOCK], self._clock_row(ref))
-            self.stream_rows[schema.CLOCK] += 1
-            self._last_ref = ref
+        self._append_clock_rows(f)
         f.flush()
         if self._fd is not None:
             os.fsync(self._fd)
@@ -326,12 +329,39 @@ class SessionWriter:
             os.close(fd)
 
     def _utc_ns(self, t_host_ns: np.ndarray) -> np.ndarray:
-        ref = self.clock.reference
-        return np.asarray(t_host_ns, np.int64) - ref.monotonic_ns + ref.utc_ns
+        return utc_of_rows(rows_array(self._map), np.asarray(t_host_ns, np.int64))
 
-    @staticmethod
-    def _clock_row(ref) -> np.ndarray:
-        return np.array([(ref.monotonic_ns, ref.utc_ns, ref.source.encode())], schema.CLOCK_DTYPE)
+    def _append_clock_rows(self, f: h5py.File) -> None:
+        """The clock map's rows since the last flush into ``/clock``: the map every UTC in the
+        file was stamped with, row for row."""
+        rows = self._map[self._clock_rows :]
+        if not rows:
+            return
+        fields = ("monotonic_ns", "utc_ns", "source", "rate", "slew_until_ns", "residual_ns")
+        arr = np.array([tuple(getattr(r, k) for k in fields) for r in rows], schema.CLOCK_DTYPE)
+        self._append(f[schema.CLOCK], arr)
+        self._clock_rows += len(rows)
+        self.stream_rows[schema.CLOCK] = self._clock_rows
+
+    def _relabel(self, f: h5py.File, relabelled_ns: int) -> None:
+        """The receiver's first time moved the whole clock map (timebase): every UTC already
+        written moves by the same offset, so the file keeps one monotone map."""
+        delta = relabelled_ns - self._relabelled_ns
+        if not delta:
+            return
+        self._relabelled_ns += delta
+        cams = list(self.frames_written)
+        paths = [f"{schema.CAMERAS}/{cam}/{col}" for cam in cams for col in ("utc_ns", schema.TIME)]
+        for ds in (f[p] for p in paths):
+            if ds.shape[0]:
+                ds[:] = ds[()] + delta
+        for name in schema.STREAMS:
+            ds = f[name]
+            if ds.shape[0]:
+                rows = ds[()]
+                live = rows["utc_ns"] >= 0  # -1: an event added afterwards, never stamped
+                rows["utc_ns"][live] += delta
+                ds[:] = rows  # /clock too: its rows are the map's, moved likewise
 
     def _append(self, ds: h5py.Dataset, values: np.ndarray) -> None:
         n = ds.shape[0] + len(values)

@@ -20,6 +20,7 @@ import shutil
 import threading
 import time
 from collections.abc import Callable
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -44,13 +45,59 @@ from snrmon.acquisition.stops.detector import Stop, StopConfig
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.acquisition.streams.timebase import ClockMap
-from snrmon.drivers.device import Device
+from snrmon.drivers.device import Device, DeviceState, DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading
 
 log = logging.getLogger(__name__)
+DEFAULT_START_TIMEOUT_S = 10.0
+"""How long (s) each device the config names has, from :meth:`Session.start`, to deliver its
+first reading (a frame, a sentence, a range); ``start_timeout_s`` in its table overrides it."""
+LOST_STATES = (DeviceState.STALE, DeviceState.DISCONNECTED, DeviceState.FAILED)
+"""A streaming device that goes to one of these while the session runs is lost (the device
+retries by itself; it is lost until it streams again)."""
 DROP_ALARM_S = 5.0
 """How long (s) the banner keeps a camera's drop alarm after its last lost frame."""
+
+
+class DeviceError(OSError):
+    """A device the session needs did not deliver at the start or was lost while it ran: a
+    runtime failure (exit 1 on the command line), never a quiet end."""
+
+
+@dataclasses.dataclass(frozen=True, slots=True)
+class DeviceLoss:
+    """A device that stopped delivering while the session ran: when (host clock and UTC), the
+    state it went to and its last error, and when it streamed again (None: it did not)."""
+
+    device: str
+    t_host_ns: int
+    utc_ns: int
+    state: str
+    error: str
+    back_t_host_ns: int | None = None
+    back_utc_ns: int | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """For a JSON summary: the times as ISO 8601 UTC (null: not back)."""
+        return {
+            "device": self.device,
+            "lost_utc": _iso_utc(self.utc_ns),
+            "lost_t_host_ns": self.t_host_ns,
+            "state": self.state,
+            "error": self.error,
+            "back_utc": None if self.back_utc_ns is None else _iso_utc(self.back_utc_ns),
+        }
+
+    def describe(self) -> str:
+        """One line: the device, the time it was lost and why, and whether it came back."""
+        back = "" if self.back_utc_ns is None else f", back at {_iso_utc(self.back_utc_ns)}"
+        why = f": {self.error}" if self.error else ""
+        return f"{self.device} lost at {_iso_utc(self.utc_ns)} ({self.state}{why}{back})"
+
+
+def _iso_utc(utc_ns: int) -> str:
+    return datetime.fromtimestamp(utc_ns / 1e9, tz=UTC).isoformat(timespec="milliseconds")
 
 
 def stop_payload(stop: Stop) -> dict:
@@ -134,6 +181,14 @@ class Session:
         # per camera, the measured 3D noise the model uses in place of its own (none: its own)
         self.measured_noise: dict[str, MeasuredNoise] = {}
         self._interpreter = LiveInterpreter()  # switch interval and BLAS threads, while we run
+        # Every device's health, watched from start() to stop(): a lost one is never silent.
+        self._watching = False
+        self._delivered = threading.Condition(self._lock)
+        self._started_ns = 0
+        self._device_states: dict[str, DeviceState] = {}
+        self._losses: list[DeviceLoss] = []
+        for dev in self.devices().values():
+            dev.subscribe_status(self._on_device_status)
 
     # ------------------------------------------------------------------ construction helpers
     @staticmethod
@@ -179,12 +234,36 @@ class Session:
     def stop_detector(self):
         return self.engine.stop_detector
 
+    def devices(self) -> dict[str, Device]:
+        """Every device of the session by its name: the cameras, then the GPS and rangefinder."""
+        out: dict[str, Device] = {n: p.device for n, p in self.pipelines.items()}
+        for dev in (self.gps, self.lrf):
+            if dev is not None:
+                out[dev.name] = dev
+        return out
+
+    def start_timeouts_s(self) -> dict[str, float]:
+        """Each device's start-up timeout (s): its table's ``start_timeout_s`` or
+        :data:`DEFAULT_START_TIMEOUT_S`."""
+        out = {
+            c.name: float(c.start_timeout_s or DEFAULT_START_TIMEOUT_S) for c in self.config.cameras
+        }
+        for dev, table in ((self.gps, self.config.gps), (self.lrf, self.config.lrf)):
+            if dev is not None:
+                out[dev.name] = float((table or {}).get("start_timeout_s", DEFAULT_START_TIMEOUT_S))
+        return out
+
     # ------------------------------------------------------------------ control
     def start(self) -> None:
-        """Open every device and start the pipelines; a device that fails is retried. The
-        interpreter runs with the live settings of
-        :mod:`snrmon.acquisition.runtime.interpreter` until :meth:`stop`."""
+        """Open every device and start the pipelines; a device that fails is retried (with
+        back-off, :class:`snrmon.drivers.device.Device`). From here to :meth:`stop` a device
+        that stops delivering is a :class:`DeviceLoss`. The interpreter runs with the live
+        settings of :mod:`snrmon.acquisition.runtime.interpreter` until :meth:`stop`."""
         self._interpreter.apply()
+        for pipe in self.pipelines.values():
+            pipe.warm_up()  # a first run compiles (seconds): before any device's timeout runs
+        self._started_ns = time.monotonic_ns()
+        self._watching = True
         for dev in (self.gps, self.lrf):
             if dev is not None:
                 dev.open()
@@ -192,8 +271,82 @@ class Session:
             pipe.start()
         self._started = True
 
+    def wait_delivering(self) -> None:
+        """Return once every device has delivered a reading; raise :class:`DeviceError`
+        naming each device that gave none within its start-up timeout (from its opening in
+        :meth:`start`, after the pipelines' warm-up),
+        with its last error (a ring or port that does not exist, a link that gives nothing)."""
+        timeouts = self.start_timeouts_s()
+        pending = self.devices()
+        with self._delivered:  # notified when a device starts streaming (its first reading)
+            while True:
+                pending = {n: d for n, d in pending.items() if d.status().readings == 0}
+                if not pending:
+                    return
+                waited_s = (time.monotonic_ns() - self._started_ns) / 1e9
+                late = [n for n in pending if waited_s > timeouts[n]]
+                if late:
+                    raise DeviceError("; ".join(self._silent(n, timeouts[n]) for n in late))
+                self._delivered.wait(min(timeouts[n] for n in pending) - waited_s + 0.001)
+
+    def _silent(self, name: str, timeout_s: float) -> str:
+        st = self.devices()[name].status()
+        why = f" ({st.last_error})" if st.last_error else f" (state {st.state})"
+        return f"{name}: no reading within {timeout_s:g} s of the start{why}"
+
+    def devices_lost(self) -> list[DeviceLoss]:
+        """The devices lost since :meth:`start`, in the order they were lost."""
+        with self._lock:
+            return list(self._losses)
+
+    def check_devices(self) -> None:
+        """Raise :class:`DeviceError` naming every device lost since :meth:`start` (a
+        command that lost one never ends as if all went well)."""
+        lost = self.devices_lost()
+        if lost:
+            raise DeviceError("; ".join(loss.describe() for loss in lost))
+
+    def _on_device_status(self, status: DeviceStatus) -> None:
+        """A device's state changed (on its thread): a streaming device that stops is lost,
+        logged with its time and recorded as a ``device_lost`` event; back: ``device_back``."""
+        now = time.monotonic_ns()
+        with self._lock:
+            prev = self._device_states.get(status.name)
+            self._device_states[status.name] = status.state
+            if status.state is DeviceState.STREAMING:
+                self._delivered.notify_all()
+            if not self._watching:
+                return
+            open_loss = next(
+                (
+                    i
+                    for i, x in enumerate(self._losses)
+                    if x.device == status.name and x.back_t_host_ns is None
+                ),
+                None,
+            )
+            if prev is DeviceState.STREAMING and status.state in LOST_STATES:
+                if open_loss is not None:
+                    return
+                loss = DeviceLoss(
+                    status.name, now, self.clock.utc_ns(now), str(status.state), status.last_error
+                )
+                self._losses.append(loss)
+                kind = "device_lost"
+            elif status.state is DeviceState.STREAMING and open_loss is not None:
+                loss = dataclasses.replace(
+                    self._losses[open_loss], back_t_host_ns=now, back_utc_ns=self.clock.utc_ns(now)
+                )
+                self._losses[open_loss] = loss
+                kind = "device_back"
+            else:
+                return
+        log.warning("%s%s", loss.describe(), "; retrying" if kind == "device_lost" else "")
+        self._event(kind, payload=loss.as_dict(), t_host_ns=now)
+
     def stop(self) -> None:
         """Stop recording (if on), the pipelines and the devices."""
+        self._watching = False  # closing a device is not losing it
         for pipe in self.pipelines.values():
             pipe.stop()
         for dev in (self.gps, self.lrf):
@@ -359,7 +512,8 @@ class Session:
         try:
             # Every frame received accounted for in the file: once everything is written.
             self.last_recording = rec.stop(
-                accounting=lambda: {n: p.accounting(rec) for n, p in self.pipelines.items()}
+                accounting=lambda: {n: p.accounting(rec) for n, p in self.pipelines.items()},
+                devices_lost=lambda: [x.as_dict() for x in self.devices_lost()],
             )
         finally:
             recording_log, self._recording_log = self._recording_log, None

@@ -23,6 +23,7 @@ import _posixshmem
 import multiprocessing as mp
 import os
 import secrets
+import signal
 import struct
 import sys
 import threading
@@ -213,8 +214,14 @@ def _produce(
     done: mp.Event,  # type: ignore[valid-type]
     written: mp.Value,  # type: ignore[valid-type]
     clock: mp.Value | None = None,  # type: ignore[valid-type]
+    initializer: Callable[[], object] | None = None,
 ) -> None:
     """Body of the producer process (top level so that spawn can import it)."""
+    # SIGTERM (a parent-death signal the initializer arms, a kill) ends the loop through its
+    # finally: the ring is marked closed and unlinked, not left in /dev/shm.
+    signal.signal(signal.SIGTERM, _terminated)
+    if initializer is not None:
+        initializer()
     writer = ShmFrameWriter(name, width, height, slots, fps=fps)
     # A killed console (SIGKILL, a test runner's timeout) never sets ``stop``: watch the parent
     # so the camera process does not outlive it, rendering into a ring no one reads.
@@ -268,6 +275,10 @@ def _produce(
         writer.close(unlink=True)
 
 
+def _terminated(signum: int, _frame: object) -> None:
+    raise SystemExit(128 + signum)
+
+
 class ShmProducer:
     """A simulated camera: a separate process writing a frame ring at a paced or free rate.
 
@@ -282,6 +293,8 @@ class ShmProducer:
         max_frames: stop publishing after this many frames (then ``done`` is set).
         clock: a shared ``multiprocessing`` double of camera seconds (the module docstring);
             with it, frame k is published once it reads ``k / fps``.
+        initializer: a picklable callable the process runs first (e.g. one that binds its
+            life to the parent's, ``snrmon.drivers.lifetime.die_with_parent``).
     """
 
     def __init__(
@@ -297,6 +310,7 @@ class ShmProducer:
         drop_counters: Collection[int] = (),
         max_frames: int | None = None,
         clock=None,
+        initializer: Callable[[], object] | None = None,
     ) -> None:
         if fps is not None and fps <= 0:
             raise ValueError(f"fps must be positive or None, got {fps}")
@@ -305,6 +319,7 @@ class ShmProducer:
         self._ctx = mp.get_context("spawn")
         self.name = name
         self._clock = clock
+        self._initializer = initializer
         self._args = (
             name,
             width,
@@ -353,6 +368,7 @@ class ShmProducer:
                 self.done,
                 self._written,
                 self._clock,
+                self._initializer,
             ),
             name=f"shm-camera-{self.name}",
             daemon=True,

@@ -13,6 +13,7 @@ import sys
 from snrmon.cli import EXIT_FAILURE, EXIT_OK, UsageError
 from snrmon.extras import MissingExtraError, require
 from snrmon.output import emit_json
+from snrmon.progress import say
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -77,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
                     print(f"{args.prog}: warning: skipped: {exc}", file=sys.stderr)
                     continue
         if not args.json:
-            print(f"running {key} ...", file=sys.stderr, flush=True)
+            say(f"running {key} ...")
         try:
             figures = figures_in_fresh_process(module, args.duration)
         except BenchmarkError as exc:  # the others' figures are still worth their minutes

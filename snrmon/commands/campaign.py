@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 
 from snrmon.cli import UsageError
 from snrmon.extras import require
 from snrmon.inputs import input_file, output_file, output_folder, session_file
-from snrmon.progress import frame_progress
+from snrmon.progress import frame_progress, say
 
 STOP_TABLE = "stops.parquet"
 FRAMES_DIR = "frames"
@@ -177,5 +176,5 @@ def write_outputs(args, result, settings, out: Path, report: Path | None) -> int
         )
         for f in result.failures:
             cam = f" ({f['camera']})" if f["camera"] else ""
-            print(f"FAILED {f['session']}{cam}: {f['error']}", file=sys.stderr)
+            say(f"FAILED {f['session']}{cam}: {f['error']}", "warning")
     return 1 if result.failures else 0

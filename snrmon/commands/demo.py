@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import threading
 import time
 from pathlib import Path
@@ -24,6 +23,7 @@ from snrmon.commands.hil import add_flight_options
 from snrmon.extras import require
 from snrmon.inputs import duration_s, output_file
 from snrmon.output import emit_json
+from snrmon.progress import say
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -175,12 +175,12 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_result(result))
     if screenshot is not None:
-        print(f"screenshot: {screenshot}", file=sys.stderr)
+        say(f"screenshot: {screenshot}")
     if report is not None:
         from snrmon.acquisition.report.data import report_data
         from snrmon.acquisition.report.plot import render_report
 
         data = live if live is not None else report_data(args.out, target=opts.target)
         render_report(data, report)
-        print(f"report: {report}", file=sys.stderr)
+        say(f"report: {report}")
     return 0

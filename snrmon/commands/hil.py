@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 
 from snrmon.cli import UsageError
 from snrmon.inputs import Number, Size, output_file, seed, stop_ranges
 from snrmon.output import emit_json
+from snrmon.progress import say
 
 
 def _floats(text: str, what: str) -> tuple[float, ...]:
@@ -199,26 +199,26 @@ def run(args: argparse.Namespace) -> int:
     with rig:
         if not args.json:
             pace = f"at most {speed:g}x, as fast as the console takes it" if speed_max else ""
-            print(
+            say(
                 f"simulated flight: {len(opts.stops_m)} stops, "
                 f"{rig.plan.duration_s / speed:.0f} s at speed {speed:g}"
-                + (f" ({pace})" if pace else ""),
-                file=sys.stderr,
+                + (f" ({pace})" if pace else "")
             )
         result = rig.run()
     achieved = result["speed"]["achieved"]
     if not args.json and achieved is not None:
-        print(
+        say(
             f"the day ran at {achieved:.2f}x (held back {result['speed']['held_back_s']:.1f} s "
-            "by the console)",
-            file=sys.stderr,
+            "by the console)"
         )
     if rig.recording is not None:
         result["recording"] = rig.recording
+    result["devices_lost"] = [x.as_dict() for x in rig.session.devices_lost()]
     if not opts.track:
         result["note"] = "tracking off: the simulator re-clicked the drone at every stop"
     if args.json:
-        return emit_json(result)  # a stop without truth or model: null, not NaN
+        emit_json(result)  # a stop without truth or model: null, not NaN
+        return _failed(rig)
     print(format_result(result))
     if rig.recording is not None:
         r = rig.recording
@@ -230,4 +230,14 @@ def run(args: argparse.Namespace) -> int:
                 f"recording {cam}: {acc.get('received', '?')} frames received: {written} written, "
                 f"dropped {lost}, {acc.get('before_recording', 0)} before the recording"
             )
+    return _failed(rig)
+
+
+def _failed(rig) -> int:
+    """0, or the day's failure raised as an OSError (exit 1, one line): a device lost, the
+    recording stopped by its disk."""
+    rig.session.check_devices()
+    error = (rig.recording or {}).get("error")
+    if error:
+        raise OSError(error)
     return 0

@@ -1,20 +1,21 @@
 """``snrmon record``: a headless recording of the devices in a session config.
 
 With ``--json`` the result is one object on stdout: ``{"file", "frames_written": {camera: n},
-"error" (why the recording stopped early, or null), "free_bytes" (the disk's after)}``.
+"error" (why the recording stopped early, or null), "devices_lost" (each device lost with its
+times), "free_bytes" (the disk's after)}``; a lost device or an early stop still ends with
+exit 1 and its one error line.
 """
 
 from __future__ import annotations
 
 import argparse
 import shutil
-import sys
 import time
 
 from snrmon.cli import UsageError
 from snrmon.inputs import duration_s, input_file, output_file
 from snrmon.output import emit_json
-from snrmon.progress import status_progress
+from snrmon.progress import say, status_progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -70,11 +71,17 @@ def run(args: argparse.Namespace) -> int:
     out = output_file(args.out, "--out", suffixes=(".h5",), new=True)
     rois = [_click(r) for r in args.click or ()]
     session = Session(load_session_config(input_file(args.config, "--config")))
-    session.start()
+    # The file is created (exclusively) before any device opens: a second writer onto the same
+    # path is refused having opened no port and no camera.
+    session.start_recording(out)
+    summary = None
     try:
+        session.start()
+        # Every device the config names delivers within its start-up timeout, or the command
+        # stops here (DeviceError: exit 1, naming it).
+        session.wait_delivering()
         for cam, x, y in rois:
             session.set_roi(cam, x, y)
-        session.start_recording(out)
         t0 = time.monotonic()
         with status_progress(args.duration, "recording") as show:
             while args.duration is None or time.monotonic() - t0 < args.duration:
@@ -92,19 +99,21 @@ def run(args: argparse.Namespace) -> int:
         emit_json(
             {
                 "file": str(out),
-                "frames_written": dict(summary.frames_written) if summary is not None else None,
-                "error": summary.error or None if summary is not None else None,
+                "frames_written": dict(summary.frames_written),
+                "error": summary.error or None,
+                "devices_lost": [x.as_dict() for x in session.devices_lost()],
                 "free_bytes": free,
             }
         )
-        return 1 if summary is not None and summary.error else 0
-    if summary is not None:
+    else:
         print(
             f"recorded {out}: "
             + ", ".join(f"{n} {c} frames" for n, c in summary.frames_written.items())
         )
-        if summary.error:
-            print(f"recording stopped early: {summary.error}", file=sys.stderr)
-            return 1
-    print(f"free disk after: {free / 2**30:.1f} GB", file=sys.stderr)
+    # One path for every failure (a device lost, the disk full): an error line, exit 1, after
+    # the file is closed and the result printed.
+    session.check_devices()
+    if summary.error:
+        raise OSError(summary.error)
+    say(f"free disk after: {free / 2**30:.1f} GB")
     return 0

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 
 from snrmon.cli import UsageError
 from snrmon.commands.measure import _point
 from snrmon.inputs import is_hdf5, session_file, stack_file
 from snrmon.output import emit_json
-from snrmon.progress import frame_progress
+from snrmon.progress import frame_progress, say
 
 SESSION_SUFFIXES = (".h5", ".hdf5")
 
@@ -194,5 +193,5 @@ def run(args: argparse.Namespace) -> int:
             f"n {s['n_frames']:4d}  SNR {snr if snr is not None else math.nan:7.2f} "
             f"+/- {std if std is not None else math.nan:5.2f}"
         )
-    print(f"replayed at {result.realtime_factor:.1f}x real time", file=sys.stderr)
+    say(f"replayed at {result.realtime_factor:.1f}x real time")
     return 0

@@ -10,11 +10,10 @@ docs/report.md. With ``--json`` the result is one object on stdout: ``{"report",
 from __future__ import annotations
 
 import argparse
-import sys
 
 from snrmon.inputs import output_file, session_file
 from snrmon.output import emit_json
-from snrmon.progress import frame_progress
+from snrmon.progress import frame_progress, say
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -64,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         write_csv(data.csv_rows, args.csv)
     if args.json:
         return emit_json({"report": str(out), "stop_rows": len(data.rows), "csv": args.csv})
-    print(f"report: {out} ({len(data.rows)} stop rows)", file=sys.stderr)
+    say(f"report: {out} ({len(data.rows)} stop rows)")
     if args.csv:
-        print(f"table: {args.csv}", file=sys.stderr)
+        say(f"table: {args.csv}")
     return 0

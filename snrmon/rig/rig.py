@@ -13,6 +13,7 @@ recorder wait rather than drop): a simulated day never drops a frame, it slows d
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import os
@@ -28,6 +29,7 @@ from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.runtime.session import Session
 from snrmon.acquisition.stops.detector import StopConfig
 from snrmon.acquisition.track.config import TrackState
+from snrmon.drivers.lifetime import die_with_parent
 from snrmon.model.constants import ZERO_C_K
 from snrmon.rig.flight_clock import MAX_SPEED, FlightClock
 from snrmon.rig.twin_day import CropLog, calibrate_cameras, camera_feeds
@@ -108,6 +110,10 @@ SPEAK_FRACTION = 0.8
 its ticks (0.1 s) covers at the current speed: a drone that crawls because the console is slow
 never reads as a hover (three readings span at least 0.24 s of flight at speed 1)."""
 
+HELD_SILENCE_S = 15.0
+"""How long (host s) a simulated device may be silent before it is stale (lost): the day's
+clock, held back by a busy console, holds every simulator with it."""
+
 LOG_S = 120.0
 """Host seconds of measurements the rig keeps per camera for its truth bookkeeping. A stop's
 row is summarised the moment the console freezes it (within a step of the rig), long before its
@@ -185,6 +191,8 @@ class HilRig:
                 # console's newest frame, far fewer frames than the ring holds.
                 slots=max(16, math.ceil(sensor.fps * opts.speed / 2)),
                 clock=self.clock.shared,
+                # the camera process ends with this one, however it ends
+                initializer=functools.partial(die_with_parent, os.getpid()),
             )
             self.cameras[cam] = CameraRig(
                 cam,
@@ -238,6 +246,11 @@ class HilRig:
             stop_config=StopConfig().at_speed(opts.speed),
             lossless=True,
         )
+        for dev in self.session.devices().values():
+            # The simulated devices fall silent while the console holds the day's clock (a busy
+            # machine): that pause is the day slowing down, not a device lost; a dead camera
+            # process or a closed port still is, at once.
+            dev.stale_after_s = HELD_SILENCE_S
         for c, r in self.cameras.items():
             ring = self.session.pipelines[c].ring
             self.clock.watch(c, r.fps, lambda ring=ring: ring.newest_counter)
@@ -325,14 +338,23 @@ class HilRig:
         self.gps_sim.start()
         self.lrf_sim.start()
         self.t0 = time.monotonic()
+        if self.opts.out:
+            # The file is created (exclusively) before any device opens.
+            self.session.start_recording(self.opts.out)
         self.clock.start()
         self.session.start()
+        if self.opts.out:
+            self.session.add_event("hil_flight", payload=self.flight_record())
         if self.opts.fpn:
             for cam in self.cameras:
                 self.session.capture_reference(cam, self.opts.reference_frames)
-        if self.opts.out:
-            self.session.start_recording(self.opts.out)
-            self.session.add_event("hil_flight", payload=self.flight_record())
+        # Every simulated device delivers within its start-up timeout, or the day stops here
+        # (with everything started so far stopped: __exit__ does not run for a failed enter).
+        try:
+            self.session.wait_delivering()
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
         return self
 
     def flight_record(self) -> dict:
@@ -625,6 +647,8 @@ class HilRig:
         from snrmon.acquisition.record.reader import append_event
 
         if not self.opts.out or self._psf_recorded or self.recording is None:
+            return
+        if self.recording.get("error"):  # a disk that filled: the file keeps what it has
             return
         self._psf_recorded = True
         for cam, est in psf.items():

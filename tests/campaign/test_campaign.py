@@ -44,6 +44,22 @@ def table_rows(out: Path, session: str) -> list[dict]:
     return [{c: r[c] for c in SAME.values()} for r in rows if r["session"] == session]
 
 
+def unreplayable_copy(session: Path, folder: Path) -> Path:
+    """A copy of ``session`` that passes the input checks but cannot be replayed: its camera's
+    sensor file (``gone.toml``) does not exist."""
+    import shutil
+
+    import h5py
+
+    broken = folder / "broken.h5"
+    shutil.copyfile(session, broken)
+    with h5py.File(broken, "r+") as f:
+        config = json.loads(f.attrs["config_json"])
+        config["session"]["cameras"]["lwir"]["sensor"] = str(folder / "gone.toml")
+        f.attrs["config_json"] = json.dumps(config)
+    return broken
+
+
 @pytest.fixture(scope="module")
 def reference(hil_sessions) -> dict[str, list[dict]]:
     """Each session's stop rows from `snrmon replay --json`, one after the other."""
@@ -118,16 +134,7 @@ def test_bad_sessions_refuse_the_campaign_before_it_starts(hil_sessions, tmp_pat
 def test_a_session_that_fails_in_its_replay_fails_its_own_task(hil_sessions, tmp_path, capsys):
     """A session that passes the input checks but cannot be replayed (its camera's sensor file
     is gone) fails its own task; the others go into the table."""
-    import shutil
-
-    import h5py
-
-    broken = tmp_path / "broken.h5"
-    shutil.copyfile(hil_sessions[1], broken)
-    with h5py.File(broken, "r+") as f:
-        config = json.loads(f.attrs["config_json"])
-        config["session"]["cameras"]["lwir"]["sensor"] = str(tmp_path / "gone.toml")
-        f.attrs["config_json"] = json.dumps(config)
+    broken = unreplayable_copy(hil_sessions[1], tmp_path)
     out = tmp_path / "out"
     code, result = campaign(
         [str(hil_sessions[0]), str(broken), "--out", str(out), "--workers", "2"], capsys
@@ -193,3 +200,55 @@ def test_existing_scheduler_and_worker_processes(hil_sessions, reference, tmp_pa
             p.terminate()
         for p in procs:
             p.wait(30)
+
+
+def test_no_stop_ends_before_it_starts_in_a_file_that_stepped_its_clock(hil_sessions, tmp_path):
+    """A session recorded before format 2.4 whose clock stepped from the host's date to the
+    receiver's (2019) in the middle of a stop: both ends of every stop come from the session's
+    one clock, so none ends before it starts and each is dated by the receiver."""
+    import shutil
+
+    import h5py
+    import numpy as np
+
+    from snrmon.acquisition.record.reader import open_session
+    from snrmon.campaign.settings import AnalysisSettings
+    from snrmon.campaign.tasks import analyse_camera
+
+    path = tmp_path / "stepped.h5"
+    shutil.copy(hil_sessions[0], path)
+    with open_session(path) as f:
+        stop = next(e["payload"] for e in f.event_list() if e["payload"].get("t_end_ns"))
+        first = int(f.cameras["lwir"].t_host_ns[0])
+        gps = f.clock[-1]
+    t_step = (stop["t_start_ns"] + stop["t_end_ns"]) // 2  # inside the stop
+    host_utc = int(pd.Timestamp("2026-12-01", tz="UTC").value)
+    old = np.array(
+        [(first - 10**9, host_utc, b"host"), (t_step, int(gps["utc_ns"]), b"gps")],
+        [("monotonic_ns", "<i8"), ("utc_ns", "<i8"), ("source", "S32")],
+    )
+    with h5py.File(path, "r+") as h:
+        del h["clock"]
+        h.create_dataset("clock", data=old, maxshape=(None,))
+        h.attrs["format_version"] = "2.3"
+    rows = analyse_camera(str(path), "lwir", AnalysisSettings()).stops
+    assert rows
+    for r in rows:
+        assert r["day"].isoformat() == "2019-05-14", r
+        if r["t_end_utc"] is not None:
+            assert r["t_end_utc"] > r["t_start_utc"], r
+
+
+def test_every_line_on_stderr_has_the_command_prefix(hil_sessions, tmp_path, capsys):
+    """The text output of a campaign with a failing task: every stderr line starts with
+    ``snrmon campaign:``, the failure a warning naming the session and why."""
+    broken = unreplayable_copy(hil_sessions[1], tmp_path)
+    argv = [str(hil_sessions[0]), str(broken), "--out", str(tmp_path / "o"), "--workers", "0"]
+    code = main(["campaign", *argv])
+    err = capsys.readouterr().err
+    assert code == 1
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert lines and all(line.startswith("snrmon campaign: ") for line in lines), err
+    failed = [line for line in lines if "FAILED" in line]
+    assert len(failed) == 1 and failed[0].startswith(f"snrmon campaign: warning: FAILED {broken}")
+    assert "gone.toml" in failed[0]

@@ -23,7 +23,7 @@ from snrmon.acquisition.record.recorder import BACKLOG, STOPPED, SessionRecorder
 from snrmon.acquisition.record.schema import MEASUREMENT_FIELDS_V1
 from snrmon.acquisition.record.writer import SessionWriter
 from snrmon.acquisition.streams.ring import FrameRing
-from snrmon.acquisition.streams.timebase import ClockMap
+from snrmon.acquisition.streams.timebase import ClockMap, utc_of_rows
 from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
@@ -99,7 +99,7 @@ def test_round_trip_is_exact_and_readable_with_plain_h5py(tmp_path: Path) -> Non
     assert summary.dropped == {"mwir": {}, "lwir": {}}
 
     with h5py.File(path, "r") as f:  # plain h5py, no snrmon reader
-        assert f.attrs["format_version"] == "2.3"
+        assert f.attrs["format_version"] == "2.4"
         assert f["cameras/mwir/frames"].dtype == np.uint16
         assert f["cameras/mwir/frames"].chunks == (1, H, W)
         np.testing.assert_array_equal(f["cameras/mwir/frames"][()], [x.pixels for x in mw])
@@ -169,7 +169,8 @@ def test_measurement_index_lookup_peak_snr_and_clock_update(tmp_path: Path) -> N
         assert meas["frame_index"].tolist() == [2, -1]
         assert meas["flags"].tolist() == [0b10001] * 2  # bit 0 saturated, bit 4 lost
         assert s.clock["source"].tolist() == [b"host", b"gps"]
-        assert s.clock["utc_ns"][1] == 1_577_836_800 * 10**9
+        # the fix's receipt maps to the receiver's time through the recorded map
+        assert utc_of_rows(s.clock, [frames[1].t_host_ns])[0] == 1_577_836_800 * 10**9
 
 
 def test_ring_reader_feeds_the_recorder(tmp_path: Path) -> None:

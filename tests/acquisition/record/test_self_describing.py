@@ -55,7 +55,7 @@ def test_every_dataset_has_units_and_a_long_name(recording):
 
     with h5py.File(recording, "r") as f:
         f.visititems(visit)
-        assert f.attrs["format_version"] == "2.3"
+        assert f.attrs["format_version"] == "2.4"
         assert f["cameras/mwir/frames"].attrs["units"] == "DN"
         assert f["cameras/mwir/t_host_ns"].attrs["units"] == "ns"
     assert missing == []
