@@ -19,6 +19,9 @@ The goals, and why:
 - Eq. (4) of one frame <= 20 us (independent of the frame's size);
 - the recorder >= 0.9 of a plain write of the same bytes, two repeats of it (the even and the odd
   pairs, interleaved in time) within 10 % of each other;
+- the recorded frames' default filter keeps a day at most 45 % of its raw size on the twin's
+  frames, and its writer takes at most half of one core for both cameras (a field laptop holds
+  the day, and the writer keeps up);
 - the full console demo beside a busy core: 0 frames dropped and every stop with its 100 frames
   in every run.
 """
@@ -50,6 +53,11 @@ def _ratio(num: str, den: str) -> Callable[[dict], float]:
 
 def _key(name: str) -> Callable[[dict], float]:
     return lambda s: s[name]
+
+
+def _of_default(name: str) -> Callable[[dict], float]:
+    """The default filter's figure ``<filter>_<name>`` (the compression section)."""
+    return lambda s: s[f"{s['default'].replace('-', '_')}_{name}"]
 
 
 def _all_runs(name: str) -> Callable[[dict], float]:
@@ -144,6 +152,22 @@ GOALS: tuple[Goal, ...] = (
         _key("ratio_repeat_spread"),
         "<=",
         0.10,
+        "",
+    ),
+    Goal(
+        "default frame filter, the twin's stored size / raw",
+        "compression",
+        _of_default("twin_size"),
+        "<=",
+        0.45,
+        "",
+    ),
+    Goal(
+        "default frame filter, writer CPU for both cameras / one core",
+        "compression",
+        _of_default("both_cameras_core"),
+        "<=",
+        0.5,
         "",
     ),
     Goal(

@@ -28,9 +28,11 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from snrmon.acquisition.compression import register_filters
 from snrmon.acquisition.record import schema
 from snrmon.acquisition.record.writer import resize_rows
 
+register_filters()  # frames written with any filter read like raw ones
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _M32 = 0xFFFFFFFF
 

@@ -21,32 +21,10 @@ import numpy as np
 from snrmon.acquisition.record import schema
 from snrmon.acquisition.streams.timebase import ClockMap
 
-COMPRESSIONS = ("gzip", "lz4", "zstd", "bitshuffle-lz4")
 # The NAME netCDF-4 gives a dimension scale that is only a dimension (netCDF's own convention).
 NETCDF_PURE_DIMENSION = "This is a netCDF dimension but not a netCDF variable."
 LIBVER = ("v110", "v110")
 _U16 = np.dtype("<u2")
-
-
-def frame_filter(compression: str | None) -> dict:
-    """h5py keyword arguments of the frames' lossless filter (``None``: no filter)."""
-    if compression is None:
-        return {}
-    if compression == "gzip":
-        return {"compression": "gzip", "compression_opts": 1, "shuffle": True}
-    if compression not in COMPRESSIONS:
-        raise ValueError(f"unknown compression {compression!r}; known: {', '.join(COMPRESSIONS)}")
-    try:
-        import hdf5plugin
-    except ImportError as exc:
-        raise ValueError(
-            f"compression {compression!r} needs hdf5plugin (pip install hdf5plugin)"
-        ) from exc
-    return {
-        "lz4": lambda: dict(hdf5plugin.LZ4()),
-        "zstd": lambda: dict(hdf5plugin.Zstd(clevel=1)),
-        "bitshuffle-lz4": lambda: dict(hdf5plugin.Bitshuffle(cname="lz4")),
-    }[compression]()
 
 
 def pure_dimension(
@@ -120,6 +98,8 @@ class SessionWriter:
         self._raw_frames = not filters
         self.frames_written = dict.fromkeys(shapes, 0)
         self.frames_flushed = dict.fromkeys(shapes, 0)
+        self.frame_bytes_flushed = dict.fromkeys(shapes, 0)  # raw pixel bytes, at the last flush
+        self.frame_bytes_stored = dict.fromkeys(shapes, 0)  # what the filter made of them
         self.measurements = dict.fromkeys(shapes, 0)
         self.stream_rows = dict.fromkeys(schema.STREAMS, 0)
         self._pending: dict[tuple[str, str], list] = {}
@@ -308,6 +288,14 @@ class SessionWriter:
         if self._fd is not None:
             os.fsync(self._fd)
         self.frames_flushed = dict(self.frames_written)
+        for camera, ds in self._frames.items():  # the filter's ratio so far, for the status
+            frame_bytes = ds.dtype.itemsize * ds.shape[1] * ds.shape[2]
+            self.frame_bytes_flushed[camera] = self.frames_flushed[camera] * frame_bytes
+            self.frame_bytes_stored[camera] = self.frames_bytes_stored(camera)
+
+    def frames_bytes_stored(self, camera: str) -> int:
+        """Bytes the file gives ``camera``'s frames (after the filter; chunk index aside)."""
+        return int(self._frames[camera].id.get_storage_size())
 
     def close(self) -> None:
         """Close the file and the fsync handle (both attempted; the first error is raised)."""

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from snrmon.cli import UsageError
 from snrmon.commands.gui import add_status_file_option, add_view_options, view_options
+from snrmon.commands.recording_options import add_compression_option
 from snrmon.extras import require
 from snrmon.inputs import output_file
 from snrmon.output import emit_json
@@ -49,6 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="hover ranges in metres (the paper's by default)",
     )
     p.add_argument("--out", type=Path, metavar="FILE.h5", help="record the session")
+    add_compression_option(p)
     p.add_argument(
         "--report",
         type=Path,
@@ -124,6 +126,7 @@ def run(args: argparse.Namespace) -> int:
         stops_m=_floats(args.stops, "--stops"),
         transit_mps=12.0,
         out=str(args.out) if args.out else None,
+        compression=args.compression,
         adopt_psf=True,  # the model takes the PSF measured at each unresolved stop
     )
     rig = HilRig(opts)

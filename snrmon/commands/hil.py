@@ -13,6 +13,7 @@ import math
 import sys
 
 from snrmon.cli import UsageError
+from snrmon.commands.recording_options import add_compression_option
 from snrmon.inputs import output_file
 from snrmon.output import emit_json
 
@@ -122,6 +123,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="keep the search window where clicked (re-clicked at every stop)",
     )
     p.add_argument("--out", metavar="FILE.h5", help="record the run into a session file")
+    add_compression_option(p)
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
 
@@ -160,6 +162,7 @@ def run(args: argparse.Namespace) -> int:
         fpn=args.fpn,
         track=not args.no_track,
         out=args.out,
+        compression=args.compression,
         speed_max=speed_max,
     )
     rig = HilRig(opts)

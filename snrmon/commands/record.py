@@ -8,6 +8,7 @@ import sys
 import time
 
 from snrmon.cli import UsageError
+from snrmon.commands.recording_options import add_compression_option, with_compression
 from snrmon.inputs import input_file, output_file
 from snrmon.progress import status_progress
 
@@ -16,6 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("record", help="record the devices of a session config, headless")
     p.add_argument("--config", required=True, metavar="FILE.toml", help="session config")
     p.add_argument("--out", required=True, metavar="FILE.h5", help="new session file")
+    add_compression_option(p)
     p.add_argument(
         "--duration",
         type=float,
@@ -66,7 +68,9 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--duration must be positive, got {args.duration}")
     out = output_file(args.out, "--out", suffixes=(".h5",), new=True)
     rois = [_roi(r) for r in args.roi]
-    session = Session(load_session_config(input_file(args.config, "--config")))
+    config = load_session_config(input_file(args.config, "--config"))
+    config = with_compression(config, args.compression)
+    session = Session(config)
     session.start()
     try:
         for cam, x, y in rois:
