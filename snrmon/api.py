@@ -174,8 +174,13 @@ class Session:
 
     def __init__(self, path: str | Path) -> None:
         from snrmon.acquisition.record.reader import open_session as read
+        from snrmon.inputs import is_hdf5
 
         self.path = Path(path)
+        if self.path.is_dir():
+            raise IsADirectoryError(f"{self.path} is a folder, not a session file")
+        if self.path.is_file() and not is_hdf5(self.path):
+            raise ValueError(f"{self.path} is not a snrmon session file (not HDF5)")
         with read(self.path) as f:
             self.cameras: tuple[str, ...] = tuple(f.cameras)
             self.config: dict = f.config
@@ -184,7 +189,9 @@ class Session:
             self._frames = {name: cam.n_frames for name, cam in f.cameras.items()}
             self._clock = f.clock
             self._events = f.event_list()
-        self._replay: Any = None
+        self._replay: dict[bool, Any] = {}
+        self._stops: dict[bool, pd.DataFrame] = {}
+        self._open: list[xr.Dataset] = []  # what to_xarray opened: close() closes them
 
     def __repr__(self) -> str:
         frames = ", ".join(f"{c} {self._frames[c]} frames" for c in self.cameras)
@@ -197,8 +204,14 @@ class Session:
         self.close()
 
     def close(self) -> None:
-        """Release what the session holds (the file is opened only while it is read)."""
-        self._replay = None
+        """Release the file at once: the Datasets and DataArrays :meth:`to_xarray` and
+        :meth:`frames` gave are closed (read what you need from them first), and the cached
+        replay is dropped. The file then opens anywhere, in any mode."""
+        for ds in self._open:
+            ds.close()
+        self._open.clear()
+        self._replay.clear()
+        self._stops.clear()
 
     def _camera(self, camera: str) -> str:
         if camera not in self.cameras:
@@ -223,15 +236,13 @@ class Session:
         >>> str(ds["time"].dtype)
         'datetime64[ns]'
         """
+        from snrmon.acquisition.compression import register_filters
+
         self._camera(camera)
-        # Read-only without HDF5 file locking, as every reader of a session opens it: sessions
-        # sit on network storage, and mixed locking flags refuse a second open.
-        ds = xr.open_dataset(
-            self.path,
-            group=f"cameras/{camera}",
-            engine="h5netcdf",
-            driver_kwds={"locking": False},
-        )
+        register_filters()  # compressed frames read like raw ones
+        # h5py's default locking, as the reader's: the file opens again alongside
+        ds = xr.open_dataset(self.path, group=f"cameras/{camera}", engine="h5netcdf")
+        self._open.append(ds)
         if "time" in ds.dims:
             return ds
         return _named_axes(ds)  # a file from before format 2.2
@@ -269,7 +280,9 @@ class Session:
             rows = np.array(
                 [measurement_row(None, m) for m in done], dtype=schema.MEASUREMENT_DTYPE
             )
-        return _measurement_frame(rows, self._clock)
+        frame = _measurement_frame(rows, self._clock)
+        frame.attrs["units"] = _units(frame, MEASUREMENT_UNITS)
+        return frame
 
     def stops(self, *, model: bool = True) -> pd.DataFrame:
         """The SNR-versus-range table: one row per stop and camera, as the live console built
@@ -292,6 +305,8 @@ class Session:
         >>> bool((t["snr_mean"].iloc[0] > t["snr_mean"].iloc[1]))  # farther, fainter
         True
         """
+        if model in self._stops:
+            return self._stops[model].copy()
         result = self.replay(model=model)
         records = []
         for r in result.stops:
@@ -317,9 +332,11 @@ class Session:
                 rec["model_sky_temp_k"] = r.model_sky_temp_k
             records.append(rec)
         frame = pd.DataFrame.from_records(records)
-        if frame.empty:
-            return frame
-        return frame.sort_values(["camera", "stop"], ignore_index=True)
+        if not frame.empty:
+            frame = frame.sort_values(["camera", "stop"], ignore_index=True)
+        frame.attrs["units"] = _units(frame, STOP_UNITS)
+        self._stops[model] = frame
+        return frame.copy()
 
     def replay(self, *, model: bool = True) -> Any:
         """The whole recording through the live engine, once
@@ -327,10 +344,10 @@ class Session:
         measurement reads); with ``model`` the stop table gets the model's curves."""
         from snrmon.acquisition.replay.batch import replay_session
 
-        if self._replay is None or (model and self._replay[0] is False):
+        if model not in self._replay:  # one per argument: a model-free table has no model columns
             predictor = self._predictor() if model else None
-            self._replay = (model, replay_session(self.path, fast=True, predictor=predictor))
-        return self._replay[1]
+            self._replay[model] = replay_session(self.path, fast=True, predictor=predictor)
+        return self._replay[model]
 
     def _predictor(self) -> Any:
         from snrmon.acquisition.prediction import ModelPredictor
@@ -360,8 +377,17 @@ def open_session(path: str | Path) -> Session:
     ------
     FileNotFoundError
         No such file.
+    IsADirectoryError
+        ``path`` is a folder.
     ValueError
-        The file is not a snrmon session.
+        The file is not a snrmon session (not HDF5, or HDF5 without the session's ``format``).
+
+    Notes
+    -----
+    The file is opened read-only with h5py's and xarray's default file locking, so
+    ``h5py.File(path, "r")`` and ``xarray.open_dataset(path, ...)`` open it alongside in the same
+    process; :meth:`Session.close` (or the end of a ``with`` block) closes what the session
+    opened at once.
 
     Examples
     --------
@@ -373,6 +399,50 @@ def open_session(path: str | Path) -> Session:
     ('lwir', 'mwir')
     """
     return Session(path)
+
+
+MEASUREMENT_UNITS = {
+    "t_host_ns": "ns",
+    "peak_x": "px",
+    "peak_y": "px",
+    "peak": "DN",
+    "bg_mean": "DN",
+    "bg_std": "DN",
+    "extent_w_px": "px",
+    "extent_h_px": "px",
+    "window_x": "px",
+    "window_y": "px",
+    "cue_x": "px",
+    "cue_y": "px",
+    "snr_n": "frames",
+    "range_m": "m",
+}
+"""The units of the measurement table's columns (DN: the camera's raw counts); in
+``df.attrs["units"]``."""
+
+STOP_UNITS = {
+    "range_m": "m",
+    "lrf_range_m": "m",
+    "gps_range_m": "m",
+    "n_frames": "frames",
+    "snr_mean": "1",
+    "snr_std": "1",
+    "snr_sem": "1",
+    "model_sky_temp_k": "K",
+}
+"""The units of the stop table's columns (``model_*`` curves: SNR, 1); in ``df.attrs["units"]``."""
+
+
+def _units(frame: pd.DataFrame, known: dict[str, str]) -> dict[str, str]:
+    """``{column: units}`` of the columns that have one: ``known``'s, else SNR (``1``) for a
+    ``model_`` curve and ``snr`` columns."""
+    out = {}
+    for column in frame.columns:
+        if column in known:
+            out[column] = known[column]
+        elif column.startswith("model_") or column.startswith("snr"):
+            out[column] = "1"
+    return out
 
 
 def _named_axes(ds: xr.Dataset) -> xr.Dataset:

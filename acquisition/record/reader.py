@@ -201,21 +201,24 @@ def upgrade_rows(rows: np.ndarray) -> np.ndarray:
 def open_session(path: str | os.PathLike, *, repair: bool = False) -> SessionFile:
     """Open a session file read-only, recovering a crashed one (see the module docstring).
 
-    HDF5's file locking is off: a session is opened read-only, often from network storage where
-    ``flock`` fails or is unsafe, and a crashed writer's lock must not keep it from being read.
+    With the file locking h5py and xarray use by default (HDF5's, "best effort": a file system
+    without ``flock`` is read all the same), so the same file opens again alongside in
+    ``h5py.File(path, "r")`` or ``xarray.open_dataset``: HDF5 refuses a second open in one
+    process whose locking flags differ. A crashed writer holds no lock (``flock`` ends with its
+    process).
     """
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"session file {p} not found")
     try:
-        return SessionFile(h5py.File(p, "r", locking=False), "")
+        return SessionFile(h5py.File(p, "r"), "")
     except OSError as exc:
         if "h5clear" not in str(exc) and "consistency flags" not in str(exc):
             raise OSError(f"cannot open session file {p}: {str(exc).splitlines()[0]}") from exc
     if repair:
         clear_status_flags(p)
-        return SessionFile(h5py.File(p, "r", locking=False), "flags_cleared")
-    return SessionFile(h5py.File(p, "r", swmr=True, locking=False), "swmr_read")
+        return SessionFile(h5py.File(p, "r"), "flags_cleared")
+    return SessionFile(h5py.File(p, "r", swmr=True), "swmr_read")
 
 
 def clear_status_flags(path: str | os.PathLike) -> bool:
