@@ -13,6 +13,7 @@ The goals, and why:
 - the console shows every frame the cameras deliver (shown / delivered >= 0.99) and its event
   loop is late by at most 8 ms at p99 (a click answered within half a frame);
 - ``replay --fast`` of both cameras >= 100x real time (a day's recording in minutes);
+- the API's stop table of a recording within 1 s (a notebook answers at once);
 - the model's four curves, expected Eq. (4) and band over 500 ranges <= 20 ms for new inputs
   after the first call (a new sky: what the console recomputes), the first <= 100 ms (the
   model dialog answers at once);
@@ -106,6 +107,14 @@ GOALS: tuple[Goal, ...] = (
         ">=",
         100.0,
         "x real time",
+    ),
+    Goal(
+        "snrmon.open_session(path).stops(), model included, a fresh Session",
+        "replay",
+        _key("api_stops_s"),
+        "<=",
+        1.0,
+        "s",
     ),
     *(
         Goal(

@@ -14,6 +14,7 @@ Qt or Dask.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Sequence
@@ -189,6 +190,7 @@ class Session:
             self._frames = {name: cam.n_frames for name, cam in f.cameras.items()}
             self._clock = f.clock
             self._events = f.event_list()
+            self._complete = f.complete
         self._replay: dict[bool, Any] = {}
         self._stops: dict[bool, pd.DataFrame] = {}
         self._open: list[xr.Dataset] = []  # what to_xarray opened: close() closes them
@@ -286,9 +288,11 @@ class Session:
 
     def stops(self, *, model: bool = True) -> pd.DataFrame:
         """The SNR-versus-range table: one row per stop and camera, as the live console built
-        it (the recording is replayed through the same engine, which reproduces the live
-        table; with ``model`` the model's curves at each stop's range, for the recorded sensor
-        presets and target).
+        it: the rows the console recorded when the recording stopped (``stop_summary`` events),
+        which a replay through the same engine reproduces; a file without them (a crash, a
+        format 1 file) or, with ``model``, without the model's values (recorded with no model)
+        is replayed (:meth:`replay`), with the model's curves for the recorded sensor presets
+        and target.
 
         Examples
         --------
@@ -307,9 +311,11 @@ class Session:
         """
         if model in self._stops:
             return self._stops[model].copy()
-        result = self.replay(model=model)
+        rows = self._recorded_rows(model)
+        if rows is None:
+            rows = self.replay(model=model).stops
         records = []
-        for r in result.stops:
+        for r in rows:
             rec = {
                 "camera": r.camera,
                 "stop": r.stop,
@@ -327,9 +333,10 @@ class Session:
                 "manual": r.manual,
                 "final": r.final,
             }
-            rec |= {f"model_{k}": v for k, v in r.model_snr.items()}
-            if r.model_sky_temp_k is not None:
-                rec["model_sky_temp_k"] = r.model_sky_temp_k
+            if model:
+                rec |= {f"model_{k}": v for k, v in sorted(r.model_snr.items())}
+                if r.model_sky_temp_k is not None:
+                    rec["model_sky_temp_k"] = r.model_sky_temp_k
             records.append(rec)
         frame = pd.DataFrame.from_records(records)
         if not frame.empty:
@@ -337,6 +344,32 @@ class Session:
         frame.attrs["units"] = _units(frame, STOP_UNITS)
         self._stops[model] = frame
         return frame.copy()
+
+    def _recorded_rows(self, model: bool) -> list | None:
+        """The stop table the live console recorded at the end (the last ``stop_summary`` of
+        each stop and camera), as rows; None when the file was not stopped cleanly, holds no
+        rows, or (with ``model``) holds rows without the model's values."""
+        from snrmon.acquisition.stops.table import StopRow
+
+        if not self._complete:
+            return None
+        last: dict[tuple[int, str], dict] = {}
+        for e in self._events:
+            if e["kind"] == "stop_summary" and "t_start_ns" in e["payload"]:
+                last[(int(e["payload"]["stop"]), e["camera"])] = e["payload"]
+        if not last or (model and not all(p.get("model_snr") for p in last.values())):
+            return None
+        fields = {f.name for f in dataclasses.fields(StopRow)} - {"model_psf"}
+        rows = []
+        for p in last.values():
+            values = {k: p[k] for k in fields if k in p}
+            for k in ("snr_mean", "snr_std", "snr_sem"):  # recorded null: not finite
+                values[k] = math.nan if values.get(k) is None else values[k]
+            values["model_snr"] = {
+                k: (math.nan if v is None else v) for k, v in (p.get("model_snr") or {}).items()
+            }
+            rows.append(StopRow(**values))
+        return rows
 
     def replay(self, *, model: bool = True) -> Any:
         """The whole recording through the live engine, once

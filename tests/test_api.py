@@ -112,6 +112,25 @@ def test_a_live_recording_reads_as_labelled_tables(hil_sessions):
     assert (stops["model_small_corrected"] > 0).all()
 
 
+def test_the_recorded_stop_table_is_the_one_a_replay_builds(hil_sessions, tmp_path):
+    """stops() reads the table the console recorded; the same file without its clean-stop
+    summary (as a crash leaves it) is replayed through the engine with the model: the same
+    table, model columns included."""
+    import shutil
+
+    path = tmp_path / "copy.h5"
+    shutil.copy(hil_sessions[0], path)
+    with snrmon.open_session(path) as s:
+        recorded = s.stops()
+    with h5py.File(path, "r+") as f:
+        del f.attrs["summary_json"]
+    with snrmon.open_session(path) as s:
+        replayed = s.stops()
+        assert s._replay  # it was replayed, not read
+    assert len(recorded) >= 2 and list(recorded.columns) == list(replayed.columns)
+    pd.testing.assert_frame_equal(recorded, replayed, rtol=1e-9)
+
+
 def test_measure_and_track_a_stack_from_a_file(shared_data):
     clip = shared_data / "ir_small_targets" / "videos" / "IR_DRONE_151.mp4"
     stack = snrmon.load_stack(clip)
