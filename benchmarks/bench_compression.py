@@ -1,5 +1,6 @@
-"""The frames' lossless filters: bytes per frame, compression ratio and the writer's CPU per
-frame, on the twin's frames and on real camera frames; and which filter keeps up.
+"""The frames' lossless filters: bytes per frame, compression ratio, the writer's CPU per frame
+and the time ``replay --fast`` takes to get a frame (``replay_read_ms_per_frame``), on
+the twin's frames and on real camera frames; and which filter keeps up.
 
 Each filter (``none`` and every one of ``acquisition/record/writer.COMPRESSIONS``) records the
 same frames through the recorder's own writer (:class:`SessionWriter`, the code the writer thread
@@ -43,6 +44,7 @@ from snrmon.benchmarks.real_clips import data_root
 
 KEY = "compression"
 FRAMES = 24
+CROP_PX = 64  # the square a fast replay reads around the target (the tracker's window)
 TWIN_CAMERAS = (("mwir", 60.0), ("lwir", 30.0))
 MAX_SIZE = 0.45  # the goals (goals.py) hold the default to the same two figures
 """The default filter keeps a day at most this fraction of its raw size."""
@@ -100,6 +102,8 @@ def filter_figures(frames: np.ndarray, compression: str, directory: Path) -> dic
         writer.flush()
         cpu = time.thread_time() - cpu0
         stored_bytes = writer.frames_bytes_stored("cam")
+        writer.close()
+        read_s = _replay_read_seconds(path, len(frames))
     finally:
         writer.close()
         path.unlink(missing_ok=True)
@@ -108,7 +112,29 @@ def filter_figures(frames: np.ndarray, compression: str, directory: Path) -> dic
         "bytes_per_frame": stored_bytes / n,
         "ratio": frames.nbytes / max(1, stored_bytes),
         "cpu_ms_per_frame": 1e3 * cpu / n,
+        "replay_read_ms_per_frame": 1e3 * read_s / n,
     }
+
+
+def _replay_read_seconds(path: Path, n: int) -> float:
+    """Seconds to get each of the ``n`` frames as ``replay --fast`` hands them to the engine
+    and touch a CROP_PX square of it (the track's): a view into a memory map when raw, the
+    frame decompressed whole through h5py when filtered (acquisition/replay/feeder.py)."""
+    import h5py
+
+    from snrmon.acquisition.record.frame_access import FrameCrops
+
+    with h5py.File(path, "r") as f:
+        frames = f["cameras/cam/frames"]
+        h, w = frames.shape[1:]
+        y0, x0 = max(0, h // 2 - CROP_PX // 2), max(0, w // 2 - CROP_PX // 2)
+        crops = FrameCrops(frames)
+        t0 = time.perf_counter()
+        for i in range(n):
+            view = crops.frame_view(i)
+            pixels = frames[i] if view is None else view
+            pixels[y0 : y0 + CROP_PX, x0 : x0 + CROP_PX].sum()
+        return time.perf_counter() - t0
 
 
 def chosen_filter(figures: dict) -> str | None:
