@@ -206,9 +206,12 @@ class Session:
         self.close()
 
     def close(self) -> None:
-        """Release the file at once: the Datasets and DataArrays :meth:`to_xarray` and
-        :meth:`frames` gave are closed (read what you need from them first), and the cached
-        replay is dropped. The file then opens anywhere, in any mode."""
+        """Release the file at once.
+
+        The Datasets and DataArrays :meth:`to_xarray` and :meth:`frames` gave are closed (read
+        what you need from them first), and the cached replay and tables are dropped. The file
+        then opens anywhere, in any mode.
+        """
         for ds in self._open:
             ds.close()
         self._open.clear()
@@ -222,10 +225,26 @@ class Session:
         return camera
 
     def to_xarray(self, camera: str) -> xr.Dataset:
-        """The camera's group as a lazily read Dataset: ``frames (time, row, col)`` in DN with
-        the frames' UTC as the ``time`` coordinate, the per-frame counters and times, the
-        recorded measurements and background references (format 2.2; older files get the
-        same names).
+        """The camera's group as a lazily read Dataset.
+
+        ``frames (time, row, col)`` in DN with the frames' UTC as the ``time`` coordinate, the
+        per-frame counters and times, the recorded measurements and background references
+        (format 2.2; older files get the same names). It stays open until :meth:`close`.
+
+        Parameters
+        ----------
+        camera : str
+            One of :attr:`cameras`.
+
+        Returns
+        -------
+        xarray.Dataset
+            The camera's group, read as it is accessed.
+
+        Raises
+        ------
+        ValueError
+            The file holds no such camera.
 
         Examples
         --------
@@ -250,16 +269,38 @@ class Session:
         return _named_axes(ds)  # a file from before format 2.2
 
     def frames(self, camera: str) -> xr.DataArray:
-        """The camera's frames, lazily read: ``frames (time, row, col)`` in DN (see
-        :meth:`to_xarray`)."""
+        """The camera's frames, lazily read.
+
+        Parameters
+        ----------
+        camera : str
+            One of :attr:`cameras`.
+
+        Returns
+        -------
+        xarray.DataArray
+            ``frames (time, row, col)`` in DN, the frames' UTC as ``time`` (see
+            :meth:`to_xarray`); readable until :meth:`close`.
+        """
         return self.to_xarray(camera)["frames"]
 
     def measurements(self, camera: str) -> pd.DataFrame:
-        """One row per measured frame of ``camera``: paper Eq. (4) as the live console measured
-        it (peak position and value, background mean and std, SNR, its flags as boolean
-        columns, the background rule, the track state, the running statistics, the range),
-        with ``utc`` a timestamp. A file that holds frames but no measurements (recorded without
-        a click) is measured again through the live engine first.
+        """One row per measured frame of ``camera``: paper Eq. (4) as the live console measured it.
+
+        A file that holds frames but no measurements (recorded without a click) is measured
+        again through the live engine first.
+
+        Parameters
+        ----------
+        camera : str
+            One of :attr:`cameras`.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Peak position and value, background mean and std, SNR, its flags as boolean
+            columns, the background rule, the track state, the running statistics, the
+            range; ``utc`` a timestamp; the columns' units in ``attrs["units"]``.
 
         Examples
         --------
@@ -287,12 +328,26 @@ class Session:
         return frame
 
     def stops(self, *, model: bool = True) -> pd.DataFrame:
-        """The SNR-versus-range table: one row per stop and camera, as the live console built
-        it: the rows the console recorded when the recording stopped (``stop_summary`` events),
+        """The SNR-versus-range table: one row per stop and camera, as the live console built it.
+
+        The rows the console recorded when the recording stopped (``stop_summary`` events),
         which a replay through the same engine reproduces; a file without them (a crash, a
         format 1 file) or, with ``model``, without the model's values (recorded with no model)
         is replayed (:meth:`replay`), with the model's curves for the recorded sensor presets
-        and target.
+        and target. Cached per ``model``.
+
+        Parameters
+        ----------
+        model : bool, default True
+            Include the model's values at each stop's range (``model_<curve>`` columns and
+            ``model_sky_temp_k``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``camera``, ``stop``, ``range_m`` (the rangefinder's, else the GPS slant range),
+            the stop's times, ``n_frames``, ``snr_mean``, ``snr_std``, ``snr_sem`` and the
+            model columns; the columns' units in ``attrs["units"]``.
 
         Examples
         --------
@@ -372,9 +427,21 @@ class Session:
         return rows
 
     def replay(self, *, model: bool = True) -> Any:
-        """The whole recording through the live engine, once
-        (:func:`snrmon.acquisition.replay.batch.replay_session`, fast: only the pixels the
-        measurement reads); with ``model`` the stop table gets the model's curves."""
+        """The whole recording through the live engine, once per ``model``.
+
+        :func:`snrmon.acquisition.replay.batch.replay_session`, fast: only the pixels the
+        measurement reads.
+
+        Parameters
+        ----------
+        model : bool, default True
+            Give the stop table the model's curves (the recorded sensor presets and target).
+
+        Returns
+        -------
+        snrmon.acquisition.replay.batch.ReplayResult
+            The replay's stop table (``.stops``), per-camera tallies and timing.
+        """
         from snrmon.acquisition.replay.batch import replay_session
 
         if model not in self._replay:  # one per argument: a model-free table has no model columns
@@ -400,6 +467,7 @@ def open_session(path: str | Path) -> Session:
     Parameters
     ----------
     path : str or os.PathLike
+        The session's HDF5 file (``snrmon record``, the console, ``snrmon hil --out``).
 
     Returns
     -------
@@ -530,8 +598,9 @@ def _add_flag_columns(frame: pd.DataFrame, bits: np.ndarray) -> None:
 
 # ----------------------------------------------------------------------------- stacks
 def load_stack(path: str | Path) -> xr.DataArray:
-    """The frames of a stack file as a DataArray ``(frame, row, col)``, memory-mapped where
-    the format allows.
+    """The frames of a stack file as a DataArray ``(frame, row, col)``.
+
+    Memory-mapped where the format allows.
 
     Parameters
     ----------
@@ -584,8 +653,10 @@ def measure_stack(
     window: int = 100,
     track: bool = False,
 ) -> pd.DataFrame:
-    """Paper Eq. (4) on every frame of a stack, at the operator's point (``track=False``) or
-    following the object clicked there (``track=True``, :func:`track_stack`).
+    """Paper Eq. (4) on every frame of a stack, at a point or following the object there.
+
+    At the operator's point (``track=False``) or following the object clicked there
+    (``track=True``, :func:`track_stack`).
 
     Per frame: the brightest pixel in the ``search_px`` window centred on ``at``; the
     ``box_px`` box centred on it; SNR = (peak - mean(rim)) / std(rim) with the sample std
@@ -594,16 +665,21 @@ def measure_stack(
 
     Parameters
     ----------
-    stack : xarray.DataArray, numpy.ndarray (frames, rows, columns), or a path
+    stack : xarray.DataArray, numpy.ndarray or str or os.PathLike
+        The frames (frames, rows, columns), or a stack file :func:`load_stack` reads.
     at : (float, float)
         Column and row of the operator's point (zero-based).
     search_px, box_px : int
         Odd sizes of the search window and the box (11, 7: the paper's).
     background : (int, int, int, int), optional
+        A clear-sky rectangle (x0, y0, x1, y1), corners included, for the background instead
+        of the box's rim.
     detrend : bool
+        Remove a fitted plane from the background pixels before their mean and std.
     window : int
         Frames in the running statistics (``snr_mean``, ``snr_std``: the paper's 100).
     track : bool
+        Follow the object clicked at ``at`` (:func:`track_stack`) instead of a fixed point.
 
     Returns
     -------
@@ -660,13 +736,30 @@ def track_stack(
     background: tuple[int, int, int, int] | None = None,
     detrend: bool = False,
 ) -> pd.DataFrame:
-    """Follow the object clicked at ``at`` through a stack and measure it every frame (the
-    console's tracker: docs/tracking.md), against the background its extent allows.
+    """Follow the object clicked at ``at`` through a stack and measure it every frame.
 
-    Parameters and the returned columns are those of :func:`measure_stack`, plus
-    ``track_state`` (``tracking``, ``lost``, ``reacquiring`` ...), ``track_reason`` (why the
-    object was not found, empty when it was), ``window_x``, ``window_y`` and the target's
-    segmented extent (``extent_w_px``, ``extent_h_px``).
+    The console's tracker (docs/tracking.md), against the background its extent allows.
+
+    Parameters
+    ----------
+    stack : xarray.DataArray, numpy.ndarray or str or os.PathLike
+        The frames (frames, rows, columns), or a stack file :func:`load_stack` reads.
+    at : (float, float)
+        Column and row of the object at the first frame (zero-based).
+    search_px, box_px : int
+        Odd sizes of the search window and the box (11, 7: the paper's).
+    background : (int, int, int, int), optional
+        A clear-sky rectangle (x0, y0, x1, y1), corners included, for the background.
+    detrend : bool
+        Remove a fitted plane from the background pixels before their mean and std.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The columns of :func:`measure_stack`, plus ``track_state`` (``tracking``, ``lost``,
+        ``reacquiring`` ...), ``track_reason`` (why the object was not found, empty when it
+        was), ``window_x``, ``window_y`` and the target's segmented extent (``extent_w_px``,
+        ``extent_h_px``).
 
     Examples
     --------
