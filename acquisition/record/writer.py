@@ -122,12 +122,17 @@ class SessionWriter:
         # chunks of 64 KiB and more start on a page boundary, so a frame is whole pages
         # libver bounded at v110: SWMR needs the 1.10 file format, and nothing newer is used,
         # so readers built on HDF5 1.10 (MATLAB, h5dump 1.10) open the file (docs/session-format).
+        # With a filter, no chunk cache: a frame goes through the filter and to the file when
+        # written, as a raw one does (write_direct_chunk). Cached, a frame that a full disk
+        # refused stayed in the cache of a file that cannot close, and HDF5 ran the filter on
+        # it again when the process let go of the file: a segmentation fault in the plugin.
         f = h5py.File(
             self.path,
             "w",
             libver=LIBVER,
             alignment_threshold=65536,
             alignment_interval=4096,
+            **({"rdcc_nbytes": 0} if filters else {}),
         )
         try:
             ref = self.clock.reference
