@@ -113,9 +113,14 @@ def predict(
         )
         for name, snr in curves.items()
     }
-    for name in p.lower:
-        data[f"{name}_lower"] = ("range_m", np.asarray(p.lower[name], float), {"units": "1"})
-        data[f"{name}_upper"] = ("range_m", np.asarray(p.upper[name], float), {"units": "1"})
+    for name in p.lower:  # the Monte-Carlo band of the model's uncertain inputs (section 9)
+        for edge, values in (("lower", p.lower[name]), ("upper", p.upper[name])):
+            curve = _CURVE_NAMES.get(name, name)
+            data[f"{name}_{edge}"] = (
+                "range_m",
+                np.asarray(values, float),
+                {"units": "1", "long_name": f"{edge} edge of the model's band: {curve}"},
+            )
     data["transmission"] = (
         "range_m",
         np.asarray(p.transmission, float),

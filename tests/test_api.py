@@ -71,6 +71,17 @@ def test_predict_labels_the_models_own_arrays():
         snrmon.predict("swir", "uav1", ranges)
 
 
+def test_every_curve_of_the_prediction_is_named_with_its_units():
+    ds = snrmon.predict("mwir", "uav1", [37.0, 199.0, 508.0])
+    assert {"small_corrected_lower", "small_corrected_upper"} <= set(ds.data_vars)
+    for name, var in ds.data_vars.items():
+        assert var.attrs.get("long_name"), name
+        assert var.dtype == bool or var.attrs.get("units") == "1", name
+    lower = ds["small_corrected_lower"].attrs["long_name"]
+    assert lower.startswith("lower edge") and "real PSF and finite target" in lower
+    assert bool((ds["small_corrected_lower"] <= ds["small_corrected_upper"]).all())
+
+
 def test_a_live_recording_reads_as_labelled_tables(hil_sessions):
     path = hil_sessions[0]
     with snrmon.open_session(path) as s:

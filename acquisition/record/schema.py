@@ -226,10 +226,12 @@ STREAMS = {
 
 UTC_UNITS = "nanoseconds since 1970-01-01 00:00:00"
 """CF time units of a UTC in ns: netCDF readers decode the column to dates."""
-MIXED_UNITS = "mixed: per field, in units_json"
+CONVENTIONS = "CF-1.10"
+"""The root ``Conventions``: every numeric variable carries CF ``units`` (UDUNITS: a count of DN
+is ``1``, its ``long_name`` says DN) and ``long_name``; time variables ``standard_name`` time."""
 
-ATTRS: dict[str, tuple[str, str]] = {
-    FRAMES: ("DN", "raw pixel values (digital numbers), row-major (row, column)"),
+ATTRS: dict[str, tuple[str | None, str]] = {
+    FRAMES: ("1", "raw pixel values in digital numbers (DN), row-major (row, column)"),
     "counter": ("1", "the camera's own frame counter (gaps: frames lost by the camera or link)"),
     "t_host_ns": ("ns", "host monotonic clock at receipt (arbitrary origin)"),
     "t_device_ns": ("ns", "the camera's own timestamp (-1: none given)"),
@@ -237,23 +239,35 @@ ATTRS: dict[str, tuple[str, str]] = {
     TIME: (UTC_UNITS, "UTC of the frame's receipt"),
     ROW: ("1", "pixel row, zero-based, top to bottom"),
     COL: ("1", "pixel column, zero-based, left to right"),
-    REFERENCES: ("DN", "background reference: the fixed-pattern offset subtracted before Eq. (4)"),
-    "responsivity": (
-        "DN / (photons s-1 m-2 sr-1)",
-        "calibration: DN per in-band, QE-weighted photon radiance",
+    REFERENCES: (
+        "1",
+        "background reference in DN: the fixed-pattern offset subtracted before Eq. (4)",
     ),
-    "offset_dn": ("DN", "calibration: the reading at zero in-band radiance"),
+    "responsivity": (
+        "m2 s sr",
+        "calibration: DN per in-band, QE-weighted photon radiance (photons s-1 m-2 sr-1)",
+    ),
+    "offset_dn": ("1", "calibration: the reading at zero in-band radiance, DN"),
     "bad": ("1", "calibration: bad-pixel bits (dead=1, hot=2, noisy=4)"),
-    "fit_rms_dn": ("DN", "calibration: rms residual of the per-pixel linear fit"),
-    "temporal_noise_dn": ("DN", "calibration: per-pixel temporal std, averaged over the captures"),
-    MEASUREMENTS: (MIXED_UNITS, "per-frame peak-pixel SNR (paper Eq. 4) as measured live"),
-    STATES: (MIXED_UNITS, "the engine's state before a frame after frames the file lacks"),
-    RANGEFINDER: (MIXED_UNITS, "laser rangefinder readings as received"),
-    GPS: (MIXED_UNITS, "GPS fixes as received (or imported from a flight log)"),
-    EVENTS: (MIXED_UNITS, "operator and engine events"),
-    CLOCK: (MIXED_UNITS, "host monotonic clock to UTC references"),
+    "fit_rms_dn": ("1", "calibration: rms residual of the per-pixel linear fit, DN"),
+    "temporal_noise_dn": (
+        "1",
+        "calibration: per-pixel temporal std, averaged over the captures, DN",
+    ),
+    # Compound tables: one unit per field, in their units_json (CF has no units for a compound)
+    MEASUREMENTS: (None, "per-frame peak-pixel SNR (paper Eq. 4) as measured live"),
+    STATES: (None, "the engine's state before a frame after frames the file lacks"),
+    RANGEFINDER: (None, "laser rangefinder readings as received"),
+    GPS: (None, "GPS fixes as received (or imported from a flight log)"),
+    EVENTS: (None, "operator and engine events"),
+    CLOCK: (None, "host monotonic clock to UTC references"),
 }
-"""``name -> (units, long_name)`` of every dataset (CF style attributes)."""
+"""``name -> (units, long_name)`` of every dataset (CF attributes; units None: a compound table,
+its fields' units in ``units_json``)."""
+TIME_VARIABLES = (TIME, "utc_ns")
+"""The datasets of UTC times: CF ``standard_name`` time."""
+BAD_PIXEL_FLAGS = {"flag_masks": [1, 2, 4], "flag_meanings": "dead hot noisy"}
+"""The CF flag attributes of the calibration's ``bad`` map."""
 
 DIMENSIONS: dict[str, str] = {
     MEASUREMENTS: "measurement",

@@ -65,15 +65,27 @@ def _attach(ds: h5py.Dataset, *scales: h5py.Dataset) -> None:
 
 
 def _describe_all(f: h5py.File) -> None:
-    """``units`` and ``long_name`` on every dataset the layout names (schema.ATTRS)."""
+    """The CF attributes of every dataset the layout names (schema.ATTRS): ``units`` (not on a
+    compound table), ``long_name``, ``standard_name`` time on the UTC times, the flag meanings
+    of the bad-pixel map; and the root's ``Conventions``."""
 
     def visit(name: str, obj: object) -> None:
         if isinstance(obj, h5py.Dataset):
             key = name.rsplit("/", 1)[-1]
             if key in schema.ATTRS and "long_name" not in obj.attrs:
                 units, long_name = schema.ATTRS[key]
-                obj.attrs.update(units=units, long_name=long_name)
+                obj.attrs["long_name"] = long_name
+                if units is not None:
+                    obj.attrs["units"] = units
+            if key in schema.TIME_VARIABLES:
+                obj.attrs.update(standard_name="time", calendar="proleptic_gregorian")
+            if key == "bad" and schema.CALIBRATION in name:
+                obj.attrs.update(
+                    flag_masks=np.array(schema.BAD_PIXEL_FLAGS["flag_masks"], np.uint8),
+                    flag_meanings=schema.BAD_PIXEL_FLAGS["flag_meanings"],
+                )
 
+    f.attrs["Conventions"] = schema.CONVENTIONS
     f.visititems(visit)
 
 
