@@ -84,7 +84,7 @@ class SessionFile:
         for name, g in f[schema.CAMERAS].items():
             cols = {c: g[c][()] for c in schema.FRAME_COLUMNS}
             n = min([g[schema.FRAMES].shape[0], *(len(v) for v in cols.values())])
-            meas = upgrade_rows(g[schema.MEASUREMENTS][()])
+            meas = upgrade_rows(measurement_rows(g[schema.MEASUREMENTS]))
             names = g[schema.MEASUREMENTS].attrs.get("flag_names")
             if names is not None:
                 self.flag_names = tuple(x.decode() if isinstance(x, bytes) else x for x in names)
@@ -180,6 +180,20 @@ def append_event(
         n = ds.shape[0]
         resize_rows(ds, n + 1)
         ds[n] = row[0]
+
+
+def measurement_rows(m: h5py.Group | h5py.Dataset) -> np.ndarray:
+    """A camera's measurement rows as one structured array: from the group of named columns
+    (format 2.4 on; as long as the shortest column, after a crash) or the compound dataset of
+    earlier files."""
+    if isinstance(m, h5py.Dataset):
+        return m[()]
+    names = [n for n in schema.MEASUREMENT_DTYPE.names or () if n in m]
+    n = min((m[name].shape[0] for name in names), default=0)
+    rows = np.zeros(n, schema.MEASUREMENT_DTYPE)
+    for name in names:
+        rows[name] = m[name][:n]
+    return rows
 
 
 def upgrade_rows(rows: np.ndarray) -> np.ndarray:

@@ -12,8 +12,14 @@ import numpy as np
 from snrmon.acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
 
 FORMAT = "snrmon-session"
-FORMAT_VERSION = "2.3"
-"""2.3: the radiometric calibration a camera was measured with is in the file
+FORMAT_VERSION = "2.4"
+"""2.4: /cameras/<name>/measurements is a group of one 1-D dataset per field (a table of named
+columns: xarray opens it as such, MATLAB reads a column with h5read), each with CF units and a
+long_name, with its ``measurement`` dimension in the group; the fields and their meanings are
+those of 2.3's compound rows. The root carries ``Conventions = "CF-1.10"``. A 2.3 file (compound
+measurements) is read as before.
+
+2.3: the radiometric calibration a camera was measured with is in the file
 (/cameras/<name>/calibration: its per-pixel maps and, in the group's ``metadata_json``, the
 calibration file's metadata), so a replay, ``characterize``, ``psf`` and ``noise`` apply the same
 calibration without the file it was loaded from. Earlier files name the calibration file in
@@ -130,6 +136,37 @@ MEASUREMENT_UNITS = {
     "range_m": "m, range at the frame's time (interpolated; NaN: none; raw: /rangefinder)",
     "range_source": "lrf | gps | empty",
 }
+
+MEASUREMENT_CF: dict[str, tuple[str | None, str]] = {
+    name: (units, f"{name}: {MEASUREMENT_UNITS[name]}")
+    for name, units in (
+        ("frame_index", "1"),
+        ("counter", "1"),
+        ("t_host_ns", "ns"),
+        ("peak_x", "1"),
+        ("peak_y", "1"),
+        ("peak", "1"),
+        ("bg_mean", "1"),
+        ("bg_std", "1"),
+        ("snr", "1"),
+        ("flags", None),
+        ("background", None),
+        ("extent_w_px", "1"),
+        ("extent_h_px", "1"),
+        ("track_state", None),
+        ("window_x", "1"),
+        ("window_y", "1"),
+        ("cue_x", "1"),
+        ("cue_y", "1"),
+        ("snr_mean", "1"),
+        ("snr_std", "1"),
+        ("snr_n", "1"),
+        ("range_m", "m"),
+        ("range_source", None),
+    )
+}
+"""CF ``units`` (None: a text or a flag field, CF gives it none) and ``long_name`` of each
+measurement column (format 2.4): DN and pixel positions are counts, ``1``."""
 
 STATE_DTYPE = np.dtype([("counter", "<i8"), ("t_host_ns", "<i8"), ("state", f"S{STATE_BYTES}")])
 STATE_UNITS = {

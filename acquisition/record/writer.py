@@ -182,16 +182,7 @@ class SessionWriter:
                 for column in schema.FRAME_COLUMNS:
                     ds = g.create_dataset(column, (0,), np.int64, chunks=(4096,), maxshape=(None,))
                     _attach(ds, time)
-                m = g.create_dataset(
-                    schema.MEASUREMENTS,
-                    (0,),
-                    schema.MEASUREMENT_DTYPE,
-                    chunks=(1024,),
-                    maxshape=(None,),
-                )
-                m.attrs["flag_names"] = np.array([n.encode() for n in schema.FLAG_NAMES])
-                m.attrs["units_json"] = json.dumps(schema.MEASUREMENT_UNITS)
-                _attach(m, self._dimension(g, schema.MEASUREMENTS, 1024))
+                self._measurement_columns(g)
                 st = g.create_dataset(
                     schema.STATES, (0,), schema.STATE_DTYPE, chunks=(1,), maxshape=(None,)
                 )
@@ -285,7 +276,9 @@ class SessionWriter:
                 self._append(f[f"{schema.CAMERAS}/{key}/{schema.TIME}"], utc)
             elif kind == "meas":
                 arr = np.array(rows, schema.MEASUREMENT_DTYPE)
-                self._append(f[f"{schema.CAMERAS}/{key}/{schema.MEASUREMENTS}"], arr)
+                group = f"{schema.CAMERAS}/{key}/{schema.MEASUREMENTS}"
+                for name in schema.MEASUREMENT_DTYPE.names or ():
+                    self._append(f[f"{group}/{name}"], arr[name])
                 self.measurements[key] += len(rows)
             elif kind == "state":
                 arr = np.array(rows, schema.STATE_DTYPE)
@@ -357,6 +350,31 @@ class SessionWriter:
         for axis, name in ((time, schema.TIME), (row, schema.ROW), (col, schema.COL)):
             axis.make_scale(name)
         return time, row, col
+
+    def _measurement_columns(self, g: h5py.Group) -> None:
+        """``measurements``: a group of one 1-D dataset per field of MEASUREMENT_DTYPE (a table
+        of named columns for netCDF readers), with their CF attributes and the ``measurement``
+        dimension inside the group, kept as long as they are."""
+        m = g.create_group(schema.MEASUREMENTS)
+        m.attrs["flag_names"] = np.array([n.encode() for n in schema.FLAG_NAMES])
+        m.attrs["units_json"] = json.dumps(schema.MEASUREMENT_UNITS)
+        m.attrs["long_name"] = schema.ATTRS[schema.MEASUREMENTS][1]
+        scale = pure_dimension(m, schema.DIMENSIONS[schema.MEASUREMENTS], "measurements", 0, 1024)
+        for name in schema.MEASUREMENT_DTYPE.names or ():
+            column = m.create_dataset(
+                name, (0,), schema.MEASUREMENT_DTYPE[name], chunks=(1024,), maxshape=(None,)
+            )
+            units, long_name = schema.MEASUREMENT_CF[name]
+            column.attrs["long_name"] = long_name
+            if units is not None:
+                column.attrs["units"] = units
+            if name == "flags":
+                column.attrs.update(
+                    flag_masks=np.array([1 << i for i in range(len(schema.FLAG_NAMES))], np.uint16),
+                    flag_meanings=" ".join(schema.FLAG_NAMES),
+                )
+            _attach(column, scale)
+            self._dimensions[column.name] = scale
 
     def _dimension(self, parent: h5py.Group, dataset: str, chunk: int) -> h5py.Dataset:
         scale = pure_dimension(parent, schema.DIMENSIONS[dataset], dataset, 0, chunk)

@@ -99,7 +99,7 @@ def test_round_trip_is_exact_and_readable_with_plain_h5py(tmp_path: Path) -> Non
     assert summary.dropped == {"mwir": {}, "lwir": {}}
 
     with h5py.File(path, "r") as f:  # plain h5py, no snrmon reader
-        assert f.attrs["format_version"] == "2.3"
+        assert f.attrs["format_version"] == "2.4"
         assert f["cameras/mwir/frames"].dtype == np.uint16
         assert f["cameras/mwir/frames"].chunks == (1, H, W)
         np.testing.assert_array_equal(f["cameras/mwir/frames"][()], [x.pixels for x in mw])

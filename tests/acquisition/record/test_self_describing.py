@@ -50,7 +50,7 @@ def recording(tmp_path_factory) -> Path:
 
 # A CF check of our own: the units UDUNITS parses that the file may use (a DN count is "1"),
 # and CF's "UNIT since DATE" time units.
-UDUNITS = {"1", "ns", "m2 s sr"}
+UDUNITS = {"1", "ns", "m", "m2 s sr"}
 TIME_UNITS = re.compile(r"^(nanoseconds|seconds) since \d{4}-\d{2}-\d{2}( \d{2}:\d{2}:\d{2})?$")
 
 
@@ -70,6 +70,8 @@ def cf_problems(f: h5py.File) -> list[str]:
             if "units" in attrs or not json.loads(attrs["units_json"]):
                 problems.append(f"{name}: compound with units, or without units_json")
             return
+        if obj.dtype.kind == "S" or "flag_meanings" in attrs:
+            return  # text and flags: CF gives them no units
         units = str(attrs.get("units", ""))
         if units not in UDUNITS and not TIME_UNITS.match(units):
             problems.append(f"{name}: units {units!r}")
@@ -82,7 +84,7 @@ def cf_problems(f: h5py.File) -> list[str]:
 
 def test_every_variable_follows_the_cf_conventions(recording):
     with h5py.File(recording, "r") as f:
-        assert f.attrs["format_version"] == "2.3" and f.attrs["Conventions"] == "CF-1.10"
+        assert f.attrs["format_version"] == "2.4" and f.attrs["Conventions"] == "CF-1.10"
         assert cf_problems(f) == []
         frames = f["cameras/mwir/frames"].attrs
         assert frames["units"] == "1" and "digital numbers (DN)" in frames["long_name"]
@@ -109,7 +111,6 @@ def test_xarray_opens_a_camera_with_named_dimensions_and_coordinates(recording):
             "time": 12,
             "row": CAMS["mwir"][0],
             "col": CAMS["mwir"][1],
-            "measurement": 12,
             "state": 0,
             "reference": 1,
         }
@@ -122,9 +123,19 @@ def test_xarray_opens_a_camera_with_named_dimensions_and_coordinates(recording):
         np.testing.assert_array_equal(ds["row"].values, np.arange(CAMS["mwir"][0]))
         assert ds["counter"].dims == ("time",)
         assert ds["references"].dims == ("reference", "row", "col")
-        assert ds["measurements"].dims == ("measurement",)
         assert ds["frames"].attrs["long_name"].startswith("raw pixel values")
         assert not [d for d in ds.dims if str(d).startswith("phony_dim")]
+    # the measurements: a table of named columns, each with its CF units
+    group = "cameras/mwir/measurements"
+    with xr.open_dataset(recording, group=group, engine="h5netcdf") as m:
+        assert m.sizes == {"measurement": 12}
+        assert m["snr"].dims == ("measurement",) and m["snr"].attrs["units"] == "1"
+        assert m["range_m"].attrs["units"] == "m" and m["t_host_ns"].attrs["units"] == "ns"
+        assert m["flags"].attrs["flag_meanings"].split()[0] == "saturated"
+        with h5py.File(recording, "r") as f:
+            rows = f[group]
+            np.testing.assert_array_equal(m["snr"].values, rows["snr"][()])
+        np.testing.assert_array_equal(m["snr"].values, 20.0 + np.arange(12))
     with xr.open_dataset(recording, engine="h5netcdf") as root:
         assert root["rangefinder"].dims == ("rangefinder_reading",)
         assert root.sizes["event"] >= 3  # recording_started, the note, recording_stopped

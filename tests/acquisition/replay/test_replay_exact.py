@@ -161,7 +161,7 @@ def test_replay_json_reports_the_files_drops(live, capsys):
         {BACKLOG: dropped} if dropped else {}
     )
     assert frames["identical"] == frames["compared"] == frames["in_file"]
-    assert out["format_version"] == "2.3"
+    assert out["format_version"] == "2.4"
 
 
 def _refuse(token: str):
