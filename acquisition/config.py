@@ -3,6 +3,8 @@
 Example (``session.toml``)::
 
     target = "uav1"                 # model preset or a target TOML file
+    compression = "bitshuffle-lz4"  # the frames' lossless filter: none | lz4 | bitshuffle-lz4
+                                    # | zstd | gzip (default: bitshuffle-lz4)
 
     [site]                          # the camera site, for GPS slant range and projection
     lat_deg = 28.5383
@@ -55,6 +57,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from snrmon.acquisition.compression import COMPRESSION_CHOICES, DEFAULT_COMPRESSION
 from snrmon.acquisition.geo.projection import Pointing, Site
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.drivers.config import check_device_table
@@ -100,6 +103,7 @@ class SessionConfig:
     lrf_fresh_s: float = 2.0
     air_temp_k: float | None = None  # [weather] air_temp_c: the model's path temperature
     weather: Weather | None = None  # [weather]: the met readings the model's atmosphere uses
+    compression: str = DEFAULT_COMPRESSION  # the recorded frames' filter (COMPRESSION_CHOICES)
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
@@ -147,6 +151,10 @@ def _table(v: Any) -> bool:
 
 TOP_FIELDS = {
     "target": Field('a target preset ("uav1", "uav2") or a target TOML file', _text),
+    "compression": Field(
+        f"the frames' filter, one of {', '.join(COMPRESSION_CHOICES)}",
+        lambda v: v in COMPRESSION_CHOICES,
+    ),
     "site": Field("a table [site] with lat_deg, lon_deg, alt_m", _table),
     "measurement": Field("a table [measurement]", _table),
     "cameras": Field("tables [cameras.<name>]", _table, required=True),
@@ -282,6 +290,7 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
         lrf_fresh_s=lrf_fresh_s,
         air_temp_k=air_temp_k,
         weather=met if weather else None,
+        compression=top.get("compression", DEFAULT_COMPRESSION),
         raw=data,
     )
 

@@ -130,6 +130,7 @@ def run(duration_s: float) -> dict:
         mwir_runs = [_fast_replay(path, cameras=["mwir"]) for _ in range(REPEATS)]
         mwir = [r for r, _ in mwir_runs]
         mwir_factors = sorted(r.realtime_factor for r in mwir)
+        stops_s = _api_stops_seconds(path)
 
     def fps(r) -> float:
         return sum(c.n_frames for c in r.cameras.values()) / r.seconds if r.seconds else 0.0
@@ -153,8 +154,23 @@ def run(duration_s: float) -> dict:
             # MB read from the disk (not the page cache) and major page faults of the replay
             "fast_runs_in_order": [_run_figures(r, io) for r, io in both_runs],
             "fast_runs_in_order_mwir": [_run_figures(r, io) for r, io in mwir_runs],
+            "api_stops_s": stops_s,
         },
     }
+
+
+def _api_stops_seconds(path: Path) -> float:
+    """Seconds of ``snrmon.open_session(path).stops()`` in a fresh Session, the model's columns
+    included (what a notebook waits for; the slowest of two runs)."""
+    from snrmon.api import open_session
+
+    times = []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        with open_session(path) as s:
+            s.stops()
+        times.append(time.perf_counter() - t0)
+    return max(times)
 
 
 def _fast_replay(path: Path, **kwargs):

@@ -56,12 +56,12 @@ OFFSETS: tuple[tuple[str, tuple[int, int]], ...] = (
 )
 
 
-def data_root() -> Path:
-    """``$SNRMON_TEST_DATA/ir_small_targets``, else the checkout's ``tests/data`` (the real
-    clips with their provenance; an installed package has no checkout: set the variable)."""
+def data_root(folder: str = "ir_small_targets") -> Path:
+    """``$SNRMON_TEST_DATA/<folder>``, else the checkout's ``tests/data/<folder>`` (the real
+    data with its provenance; an installed package has no checkout: set the variable)."""
     base = os.environ.get("SNRMON_TEST_DATA")
     root = Path(base) if base else Path(__file__).resolve().parents[1] / "tests" / "data"
-    return root / "ir_small_targets"
+    return root / folder
 
 
 def clip_names(root: Path | None = None) -> list[str]:

@@ -14,6 +14,7 @@ Qt or Dask.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Sequence
@@ -112,9 +113,14 @@ def predict(
         )
         for name, snr in curves.items()
     }
-    for name in p.lower:
-        data[f"{name}_lower"] = ("range_m", np.asarray(p.lower[name], float), {"units": "1"})
-        data[f"{name}_upper"] = ("range_m", np.asarray(p.upper[name], float), {"units": "1"})
+    for name in p.lower:  # the Monte-Carlo band of the model's uncertain inputs (section 9)
+        for edge, values in (("lower", p.lower[name]), ("upper", p.upper[name])):
+            curve = _CURVE_NAMES.get(name, name)
+            data[f"{name}_{edge}"] = (
+                "range_m",
+                np.asarray(values, float),
+                {"units": "1", "long_name": f"{edge} edge of the model's band: {curve}"},
+            )
     data["transmission"] = (
         "range_m",
         np.asarray(p.transmission, float),
@@ -174,8 +180,13 @@ class Session:
 
     def __init__(self, path: str | Path) -> None:
         from snrmon.acquisition.record.reader import open_session as read
+        from snrmon.inputs import is_hdf5
 
         self.path = Path(path)
+        if self.path.is_dir():
+            raise IsADirectoryError(f"{self.path} is a folder, not a session file")
+        if self.path.is_file() and not is_hdf5(self.path):
+            raise ValueError(f"{self.path} is not a snrmon session file (not HDF5)")
         with read(self.path) as f:
             self.cameras: tuple[str, ...] = tuple(f.cameras)
             self.config: dict = f.config
@@ -184,7 +195,10 @@ class Session:
             self._frames = {name: cam.n_frames for name, cam in f.cameras.items()}
             self._clock = f.clock
             self._events = f.event_list()
-        self._replay: Any = None
+            self._complete = f.complete
+        self._replay: dict[bool, Any] = {}
+        self._stops: dict[bool, pd.DataFrame] = {}
+        self._open: list[xr.Dataset] = []  # what to_xarray opened: close() closes them
 
     def __repr__(self) -> str:
         frames = ", ".join(f"{c} {self._frames[c]} frames" for c in self.cameras)
@@ -197,8 +211,17 @@ class Session:
         self.close()
 
     def close(self) -> None:
-        """Release what the session holds (the file is opened only while it is read)."""
-        self._replay = None
+        """Release the file at once.
+
+        The Datasets and DataArrays :meth:`to_xarray` and :meth:`frames` gave are closed (read
+        what you need from them first), and the cached replay and tables are dropped. The file
+        then opens anywhere, in any mode.
+        """
+        for ds in self._open:
+            ds.close()
+        self._open.clear()
+        self._replay.clear()
+        self._stops.clear()
 
     def _camera(self, camera: str) -> str:
         if camera not in self.cameras:
@@ -207,10 +230,26 @@ class Session:
         return camera
 
     def to_xarray(self, camera: str) -> xr.Dataset:
-        """The camera's group as a lazily read Dataset: ``frames (time, row, col)`` in DN with
-        the frames' UTC as the ``time`` coordinate, the per-frame counters and times, the
-        recorded measurements and background references (format 2.2; older files get the
-        same names).
+        """The camera's group as a lazily read Dataset.
+
+        ``frames (time, row, col)`` in DN with the frames' UTC as the ``time`` coordinate, the
+        per-frame counters and times, the recorded measurements and background references
+        (format 2.2; older files get the same names). It stays open until :meth:`close`.
+
+        Parameters
+        ----------
+        camera : str
+            One of :attr:`cameras`.
+
+        Returns
+        -------
+        xarray.Dataset
+            The camera's group, read as it is accessed.
+
+        Raises
+        ------
+        ValueError
+            The file holds no such camera.
 
         Examples
         --------
@@ -223,30 +262,50 @@ class Session:
         >>> str(ds["time"].dtype)
         'datetime64[ns]'
         """
+        from snrmon.acquisition.compression import register_filters
+
         self._camera(camera)
-        # Read-only without HDF5 file locking, as every reader of a session opens it: sessions
-        # sit on network storage, and mixed locking flags refuse a second open.
-        ds = xr.open_dataset(
-            self.path,
-            group=f"cameras/{camera}",
-            engine="h5netcdf",
-            driver_kwds={"locking": False},
-        )
+        register_filters()  # compressed frames read like raw ones
+        # h5py's default locking, as the reader's: the file opens again alongside
+        ds = xr.open_dataset(self.path, group=f"cameras/{camera}", engine="h5netcdf")
+        self._open.append(ds)
         if "time" in ds.dims:
             return ds
         return _named_axes(ds)  # a file from before format 2.2
 
     def frames(self, camera: str) -> xr.DataArray:
-        """The camera's frames, lazily read: ``frames (time, row, col)`` in DN (see
-        :meth:`to_xarray`)."""
+        """The camera's frames, lazily read.
+
+        Parameters
+        ----------
+        camera : str
+            One of :attr:`cameras`.
+
+        Returns
+        -------
+        xarray.DataArray
+            ``frames (time, row, col)`` in DN, the frames' UTC as ``time`` (see
+            :meth:`to_xarray`); readable until :meth:`close`.
+        """
         return self.to_xarray(camera)["frames"]
 
     def measurements(self, camera: str) -> pd.DataFrame:
-        """One row per measured frame of ``camera``: paper Eq. (4) as the live console measured
-        it (peak position and value, background mean and std, SNR, its flags as boolean
-        columns, the background rule, the track state, the running statistics, the range),
-        with ``utc`` a timestamp. A file that holds frames but no measurements (recorded without
-        a click) is measured again through the live engine first.
+        """One row per measured frame of ``camera``: paper Eq. (4) as the live console measured it.
+
+        A file that holds frames but no measurements (recorded without a click) is measured
+        again through the live engine first.
+
+        Parameters
+        ----------
+        camera : str
+            One of :attr:`cameras`.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Peak position and value, background mean and std, SNR, its flags as boolean
+            columns, the background rule, the track state, the running statistics, the
+            range; ``utc`` a timestamp; the columns' units in ``attrs["units"]``.
 
         Examples
         --------
@@ -269,13 +328,31 @@ class Session:
             rows = np.array(
                 [measurement_row(None, m) for m in done], dtype=schema.MEASUREMENT_DTYPE
             )
-        return _measurement_frame(rows, self._clock)
+        frame = _measurement_frame(rows, self._clock)
+        frame.attrs["units"] = _units(frame, MEASUREMENT_UNITS)
+        return frame
 
     def stops(self, *, model: bool = True) -> pd.DataFrame:
-        """The SNR-versus-range table: one row per stop and camera, as the live console built
-        it (the recording is replayed through the same engine, which reproduces the live
-        table; with ``model`` the model's curves at each stop's range, for the recorded sensor
-        presets and target).
+        """The SNR-versus-range table: one row per stop and camera, as the live console built it.
+
+        The rows the console recorded when the recording stopped (``stop_summary`` events),
+        which a replay through the same engine reproduces; a file without them (a crash, a
+        format 1 file) or, with ``model``, without the model's values (recorded with no model)
+        is replayed (:meth:`replay`), with the model's curves for the recorded sensor presets
+        and target. Cached per ``model``.
+
+        Parameters
+        ----------
+        model : bool, default True
+            Include the model's values at each stop's range (``model_<curve>`` columns and
+            ``model_sky_temp_k``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``camera``, ``stop``, ``range_m`` (the rangefinder's, else the GPS slant range),
+            the stop's times, ``n_frames``, ``snr_mean``, ``snr_std``, ``snr_sem`` and the
+            model columns; the columns' units in ``attrs["units"]``.
 
         Examples
         --------
@@ -292,9 +369,13 @@ class Session:
         >>> bool((t["snr_mean"].iloc[0] > t["snr_mean"].iloc[1]))  # farther, fainter
         True
         """
-        result = self.replay(model=model)
+        if model in self._stops:
+            return self._stops[model].copy()
+        rows = self._recorded_rows(model)
+        if rows is None:
+            rows = self.replay(model=model).stops
         records = []
-        for r in result.stops:
+        for r in rows:
             rec = {
                 "camera": r.camera,
                 "stop": r.stop,
@@ -312,25 +393,66 @@ class Session:
                 "manual": r.manual,
                 "final": r.final,
             }
-            rec |= {f"model_{k}": v for k, v in r.model_snr.items()}
-            if r.model_sky_temp_k is not None:
-                rec["model_sky_temp_k"] = r.model_sky_temp_k
+            if model:
+                rec |= {f"model_{k}": v for k, v in sorted(r.model_snr.items())}
+                if r.model_sky_temp_k is not None:
+                    rec["model_sky_temp_k"] = r.model_sky_temp_k
             records.append(rec)
         frame = pd.DataFrame.from_records(records)
-        if frame.empty:
-            return frame
-        return frame.sort_values(["camera", "stop"], ignore_index=True)
+        if not frame.empty:
+            frame = frame.sort_values(["camera", "stop"], ignore_index=True)
+        frame.attrs["units"] = _units(frame, STOP_UNITS)
+        self._stops[model] = frame
+        return frame.copy()
+
+    def _recorded_rows(self, model: bool) -> list | None:
+        """The stop table the live console recorded at the end (the last ``stop_summary`` of
+        each stop and camera), as rows; None when the file was not stopped cleanly, holds no
+        rows, or (with ``model``) holds rows without the model's values."""
+        from snrmon.acquisition.stops.table import StopRow
+
+        if not self._complete:
+            return None
+        last: dict[tuple[int, str], dict] = {}
+        for e in self._events:
+            if e["kind"] == "stop_summary" and "t_start_ns" in e["payload"]:
+                last[(int(e["payload"]["stop"]), e["camera"])] = e["payload"]
+        if not last or (model and not all(p.get("model_snr") for p in last.values())):
+            return None
+        fields = {f.name for f in dataclasses.fields(StopRow)} - {"model_psf"}
+        rows = []
+        for p in last.values():
+            values = {k: p[k] for k in fields if k in p}
+            for k in ("snr_mean", "snr_std", "snr_sem"):  # recorded null: not finite
+                values[k] = math.nan if values.get(k) is None else values[k]
+            values["model_snr"] = {
+                k: (math.nan if v is None else v) for k, v in (p.get("model_snr") or {}).items()
+            }
+            rows.append(StopRow(**values))
+        return rows
 
     def replay(self, *, model: bool = True) -> Any:
-        """The whole recording through the live engine, once
-        (:func:`snrmon.acquisition.replay.batch.replay_session`, fast: only the pixels the
-        measurement reads); with ``model`` the stop table gets the model's curves."""
+        """The whole recording through the live engine, once per ``model``.
+
+        :func:`snrmon.acquisition.replay.batch.replay_session`, fast: only the pixels the
+        measurement reads.
+
+        Parameters
+        ----------
+        model : bool, default True
+            Give the stop table the model's curves (the recorded sensor presets and target).
+
+        Returns
+        -------
+        snrmon.acquisition.replay.batch.ReplayResult
+            The replay's stop table (``.stops``), per-camera tallies and timing.
+        """
         from snrmon.acquisition.replay.batch import replay_session
 
-        if self._replay is None or (model and self._replay[0] is False):
+        if model not in self._replay:  # one per argument: a model-free table has no model columns
             predictor = self._predictor() if model else None
-            self._replay = (model, replay_session(self.path, fast=True, predictor=predictor))
-        return self._replay[1]
+            self._replay[model] = replay_session(self.path, fast=True, predictor=predictor)
+        return self._replay[model]
 
     def _predictor(self) -> Any:
         from snrmon.acquisition.prediction import ModelPredictor
@@ -350,6 +472,7 @@ def open_session(path: str | Path) -> Session:
     Parameters
     ----------
     path : str or os.PathLike
+        The session's HDF5 file (``snrmon record``, the console, ``snrmon hil --out``).
 
     Returns
     -------
@@ -360,8 +483,17 @@ def open_session(path: str | Path) -> Session:
     ------
     FileNotFoundError
         No such file.
+    IsADirectoryError
+        ``path`` is a folder.
     ValueError
-        The file is not a snrmon session.
+        The file is not a snrmon session (not HDF5, or HDF5 without the session's ``format``).
+
+    Notes
+    -----
+    The file is opened read-only with h5py's and xarray's default file locking, so
+    ``h5py.File(path, "r")`` and ``xarray.open_dataset(path, ...)`` open it alongside in the same
+    process; :meth:`Session.close` (or the end of a ``with`` block) closes what the session
+    opened at once.
 
     Examples
     --------
@@ -373,6 +505,50 @@ def open_session(path: str | Path) -> Session:
     ('lwir', 'mwir')
     """
     return Session(path)
+
+
+MEASUREMENT_UNITS = {
+    "t_host_ns": "ns",
+    "peak_x": "px",
+    "peak_y": "px",
+    "peak": "DN",
+    "bg_mean": "DN",
+    "bg_std": "DN",
+    "extent_w_px": "px",
+    "extent_h_px": "px",
+    "window_x": "px",
+    "window_y": "px",
+    "cue_x": "px",
+    "cue_y": "px",
+    "snr_n": "frames",
+    "range_m": "m",
+}
+"""The units of the measurement table's columns (DN: the camera's raw counts); in
+``df.attrs["units"]``."""
+
+STOP_UNITS = {
+    "range_m": "m",
+    "lrf_range_m": "m",
+    "gps_range_m": "m",
+    "n_frames": "frames",
+    "snr_mean": "1",
+    "snr_std": "1",
+    "snr_sem": "1",
+    "model_sky_temp_k": "K",
+}
+"""The units of the stop table's columns (``model_*`` curves: SNR, 1); in ``df.attrs["units"]``."""
+
+
+def _units(frame: pd.DataFrame, known: dict[str, str]) -> dict[str, str]:
+    """``{column: units}`` of the columns that have one: ``known``'s, else SNR (``1``) for a
+    ``model_`` curve and ``snr`` columns."""
+    out = {}
+    for column in frame.columns:
+        if column in known:
+            out[column] = known[column]
+        elif column.startswith("model_") or column.startswith("snr"):
+            out[column] = "1"
+    return out
 
 
 def _named_axes(ds: xr.Dataset) -> xr.Dataset:
@@ -430,8 +606,9 @@ STACK_UNITS = ("counts", "radiance", "temperature_c")
 
 
 def load_stack(path: str | Path, units: str = "counts") -> xr.DataArray:
-    """The frames of a stack file as a DataArray ``(frame, row, col)``, memory-mapped where
-    the format allows.
+    """The frames of a stack file as a DataArray ``(frame, row, col)``.
+
+    Memory-mapped where the format allows.
 
     Parameters
     ----------
@@ -509,8 +686,10 @@ def measure_stack(
     window: int = 100,
     track: bool = False,
 ) -> pd.DataFrame:
-    """Paper Eq. (4) on every frame of a stack, at the operator's point (``track=False``) or
-    following the object clicked there (``track=True``, :func:`track_stack`).
+    """Paper Eq. (4) on every frame of a stack, at a point or following the object there.
+
+    At the operator's point (``track=False``) or following the object clicked there
+    (``track=True``, :func:`track_stack`).
 
     Per frame: the brightest pixel in the ``search_px`` window centred on ``at``; the
     ``box_px`` box centred on it; SNR = (peak - mean(rim)) / std(rim) with the sample std
@@ -519,16 +698,21 @@ def measure_stack(
 
     Parameters
     ----------
-    stack : xarray.DataArray, numpy.ndarray (frames, rows, columns), or a path
+    stack : xarray.DataArray, numpy.ndarray or str or os.PathLike
+        The frames (frames, rows, columns), or a stack file :func:`load_stack` reads.
     at : (float, float)
         Column and row of the operator's point (zero-based).
     search_px, box_px : int
         Odd sizes of the search window and the box (11, 7: the paper's).
     background : (int, int, int, int), optional
+        A clear-sky rectangle (x0, y0, x1, y1), corners included, for the background instead
+        of the box's rim.
     detrend : bool
+        Remove a fitted plane from the background pixels before their mean and std.
     window : int
         Frames in the running statistics (``snr_mean``, ``snr_std``: the paper's 100).
     track : bool
+        Follow the object clicked at ``at`` (:func:`track_stack`) instead of a fixed point.
 
     Returns
     -------
@@ -585,13 +769,30 @@ def track_stack(
     background: tuple[int, int, int, int] | None = None,
     detrend: bool = False,
 ) -> pd.DataFrame:
-    """Follow the object clicked at ``at`` through a stack and measure it every frame (the
-    console's tracker: docs/tracking.md), against the background its extent allows.
+    """Follow the object clicked at ``at`` through a stack and measure it every frame.
 
-    Parameters and the returned columns are those of :func:`measure_stack`, plus
-    ``track_state`` (``tracking``, ``lost``, ``reacquiring`` ...), ``track_reason`` (why the
-    object was not found, empty when it was), ``window_x``, ``window_y`` and the target's
-    segmented extent (``extent_w_px``, ``extent_h_px``).
+    The console's tracker (docs/tracking.md), against the background its extent allows.
+
+    Parameters
+    ----------
+    stack : xarray.DataArray, numpy.ndarray or str or os.PathLike
+        The frames (frames, rows, columns), or a stack file :func:`load_stack` reads.
+    at : (float, float)
+        Column and row of the object at the first frame (zero-based).
+    search_px, box_px : int
+        Odd sizes of the search window and the box (11, 7: the paper's).
+    background : (int, int, int, int), optional
+        A clear-sky rectangle (x0, y0, x1, y1), corners included, for the background.
+    detrend : bool
+        Remove a fitted plane from the background pixels before their mean and std.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The columns of :func:`measure_stack`, plus ``track_state`` (``tracking``, ``lost``,
+        ``reacquiring`` ...), ``track_reason`` (why the object was not found, empty when it
+        was), ``window_x``, ``window_y`` and the target's segmented extent (``extent_w_px``,
+        ``extent_h_px``).
 
     Examples
     --------

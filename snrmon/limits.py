@@ -1,6 +1,7 @@
-"""The ranges where the work is possible, shared by the command line's checks
-(:mod:`snrmon.inputs`) and the session config's (:mod:`snrmon.acquisition.config`): a value
-beyond one would hang a command or ask for terabytes. Imports nothing."""
+"""The ranges where the work is possible and the choices the command line states, shared by the
+command line's checks (:mod:`snrmon.inputs`) and the session config's
+(:mod:`snrmon.acquisition.config`): a value beyond one would hang a command or ask for
+terabytes. Imports nothing, so that every ``--help`` states them without loading numpy."""
 
 MAX_FRAME_PX = 8192
 """The largest frame side (and window, box or sub-array) in pixels any command takes."""
@@ -15,3 +16,9 @@ MAX_STOP_RANGE_M = 5000.0
 MIN_FRAMES_AT_REST = 25
 """The fewest frames of a drone at rest that ``snrmon characterize`` measures from: the
 standard deviation over the frames is then known to 14 %."""
+COMPRESSION_CHOICES = ("none", "lz4", "bitshuffle-lz4", "zstd", "gzip")
+"""What ``--compression`` and the session config's ``compression`` take (``none``: no filter)."""
+DEFAULT_COMPRESSION = "bitshuffle-lz4"
+"""The frames' filter when none is asked for: of the filters that keep a day within 45 % of its
+raw size, the one with the least writer CPU, and it keeps up with both cameras on a quarter of
+one core (``snrmon bench --only compression``: its ``chosen``; docs/session-format.md)."""

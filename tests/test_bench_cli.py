@@ -180,3 +180,37 @@ def test_cli_benchmark_runs_every_command_help_and_holds_the_slowest_to_its_goal
     (row,) = goal_rows({"cli": figures})
     assert row["value"] == figures["max_cpu_s"] and row["target"] == "<= 0.3 s"
     assert "slowest: snrmon" in bench_cli.format_text(figures)
+
+
+def test_the_compression_figures_are_the_files_own_and_the_rule_picks_the_default(tmp_path):
+    """Bytes per frame through the recorder's writer are what h5py says the filter stored, on
+    the real Cedip frames; the rule picks the fastest filter within the size and CPU bounds."""
+    import h5py
+    import hdf5plugin
+    import numpy as np
+
+    from snrmon.benchmarks.bench_compression import chosen_filter, filter_figures, real_frames
+
+    frames = real_frames()["lwir"]
+    figures = filter_figures(frames, "bitshuffle-lz4", tmp_path)
+    with h5py.File(tmp_path / "ref.h5", "w") as f:  # the plugin's filter, written directly
+        for i, px in enumerate(frames):
+            f.create_dataset(f"f{i}", data=px, chunks=px.shape, **hdf5plugin.Bitshuffle(65536))
+        stored = sum(f[f"f{i}"].id.get_storage_size() for i in range(len(frames)))
+    assert figures["bytes_per_frame"] == stored / len(frames)
+    assert figures["ratio"] == frames.nbytes / stored > 2  # 14 of 16 bits, a quiet sky
+    assert figures["cpu_ms_per_frame"] > 0 and not list(tmp_path.glob("bitshuffle*"))
+    assert filter_figures(frames, "none", tmp_path)["ratio"] == np.float64(1.0)
+    measured = {
+        "none_twin_size": 1.0,
+        "none_both_cameras_core": 0.06,
+        "bitshuffle_lz4_twin_size": 0.44,
+        "bitshuffle_lz4_both_cameras_core": 0.16,
+        "zstd_twin_size": 0.44,
+        "zstd_both_cameras_core": 0.49,
+        "gzip_twin_size": 0.40,
+        "gzip_both_cameras_core": 1.77,
+    }
+    assert chosen_filter(measured) == "bitshuffle-lz4"
+    assert chosen_filter({**measured, "bitshuffle_lz4_twin_size": 0.46}) == "zstd"
+    assert chosen_filter({"gzip_twin_size": 0.4, "gzip_both_cameras_core": 1.8}) is None

@@ -89,6 +89,11 @@ def test_doctor_passes_on_the_simulated_devices(rig, tmp_path, capsys):
     assert checks["disk-speed"]["data"]["needed_mb_s"] == pytest.approx(W * H * 2 * FPS * 2 / 1e6)
     assert checks["qt-display"]["needed"] is False  # --headless
     assert checks["compiled-analysis"]["data"]["seconds"] > 0
+    # the space the cameras' own frames take with the default filter, measured on them
+    space = checks["disk-space"]["data"]
+    assert space["compression"] == "bitshuffle-lz4" and space["compression_ratio"] > 1.0
+    raw_gb = W * H * 2 * FPS * 60 * 1.05 / 1e9
+    assert space["needed_gb"] == pytest.approx(raw_gb / space["compression_ratio"])
 
 
 def test_missing_port_fails_with_its_fix(rig, tmp_path, capsys):
@@ -244,6 +249,16 @@ def test_full_disk_fails_with_its_fix(tmp_path, rig, capsys):
     c = check_free_space(tmp_path, 100e6, 3600, usage=lambda _: usage(500e9, 490e9, 10e9))
     assert c.status == FAIL and "room for only 0.03 h" in c.detail and c.data["needed_gb"] > 360
     assert "--record-dir" in c.fix
+    # frames measured to compress 4x take a quarter of the room: 90 GB of 10 free
+    c = check_free_space(
+        tmp_path,
+        100e6,
+        3600,
+        compression=("zstd", 4.0),
+        usage=lambda _: usage(500e9, 490e9, 10e9),
+    )
+    assert c.data["needed_gb"] == pytest.approx(100e6 * 3600 * 1.05 / 4 / 1e9)
+    assert "zstd 4.00x" in c.detail and "room for only 0.11 h" in c.detail
     # Through the command: a planned duration the real free space cannot hold.
     free_s = shutil.disk_usage(tmp_path).free / (W * H * 2 * FPS)
     code, report = doctor(
@@ -253,7 +268,7 @@ def test_full_disk_fails_with_its_fix(tmp_path, rig, capsys):
         "--record-dir",
         str(tmp_path),
         "--duration",
-        f"{free_s * 2:.0f}",
+        f"{free_s * 40:.0f}",  # frames compress less than 20x
         "--wait",
         "3",
     )

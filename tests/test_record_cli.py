@@ -54,6 +54,8 @@ def test_record_writes_a_session_from_a_config(devices, tmp_path, capsys):
     with open_session(out) as f:
         n = f.cameras["cam"].n_frames
         assert 60 <= n <= 200  # about two seconds at 60 fps
+        assert f.attrs["frames_compression"] == "bitshuffle-lz4"  # the default
+        assert f.cameras["cam"].frames.id.get_create_plist().get_filter(0)[0] == 32008
         assert len(f.rangefinder) >= 10 and len(f.gps) >= 10
         meas = f.cameras["cam"].measurements
         assert (meas["peak_x"] == 64).mean() > 0.95
@@ -339,3 +341,31 @@ def test_a_refused_second_writer_opens_no_device(devices, tmp_path, capsys, monk
     err = capsys.readouterr().err.strip()
     assert code == 2 and err == f"snrmon record: error: session file {out} already exists"
     assert opened == []  # no port, no camera ring
+
+
+def test_compression_option_overrides_the_config(devices, tmp_path, capsys):
+    """``--compression`` wins over the config's key; the frames read back the same through h5py
+    and hdf5plugin, independently of snrmon's reader."""
+    import h5py
+    import hdf5plugin  # noqa: F401
+
+    config = tmp_path / "zstd.toml"
+    config.write_text('compression = "lz4"\n' + devices.read_text())
+    out = tmp_path / "z.h5"
+    argv = ["record", "--config", str(config), "--out", str(out), "--duration", "1"]
+    assert main([*argv, "--compression", "zstd"]) == 0, capsys.readouterr().err
+    with h5py.File(out, "r") as f:
+        frames = f["cameras/cam/frames"]
+        assert f.attrs["frames_compression"] == "zstd"
+        assert frames.id.get_create_plist().get_filter(0)[0] == 32015  # Zstandard's id
+        assert frames.shape[0] > 10 and frames[()].std() > 0
+    out2 = tmp_path / "l.h5"
+    assert main(["record", "--config", str(config), "--out", str(out2), "--duration", "1"]) == 0
+    with h5py.File(out2, "r") as f:
+        assert f.attrs["frames_compression"] == "lz4"  # the config's key
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exit_:
+        main([*argv[:4], str(tmp_path / "x.h5"), "--compression", "snappy"])
+    assert exit_.value.code == 2 and "--compression: invalid choice: 'snappy'" in (
+        capsys.readouterr().err
+    )

@@ -14,6 +14,7 @@ from typing import Any
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.measure.model_agreement import ModelAgreement
 from snrmon.acquisition.measure.track_noise import RegionNoise3d
+from snrmon.acquisition.record.recorder_status import seconds_left
 from snrmon.acquisition.stops.table import StopProgress
 from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.device import DeviceStatus
@@ -114,6 +115,13 @@ class RecordingStatus:
     message: str = ""
     backlog_bytes: int = 0  # frames queued for the disk
     dropped_frames: int = 0  # frames the recording lost (all cameras, all reasons)
+    compression_ratio: float | None = None  # frames' raw / stored bytes so far (RecorderStatus)
+    bytes_per_s: float | None = None  # the file's measured growth (None in its first second)
+
+    @property
+    def seconds_left(self) -> float | None:
+        """Recording time the free space holds at the measured rate (None: not known yet)."""
+        return seconds_left(self.free_bytes, self.bytes_per_s)
 
 
 @dataclass(frozen=True)

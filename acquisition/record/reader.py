@@ -28,9 +28,11 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from snrmon.acquisition.compression import register_filters
 from snrmon.acquisition.record import schema
 from snrmon.acquisition.record.writer import resize_rows
 
+register_filters()  # frames written with any filter read like raw ones
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _M32 = 0xFFFFFFFF
 
@@ -82,7 +84,7 @@ class SessionFile:
         for name, g in f[schema.CAMERAS].items():
             cols = {c: g[c][()] for c in schema.FRAME_COLUMNS}
             n = min([g[schema.FRAMES].shape[0], *(len(v) for v in cols.values())])
-            meas = upgrade_rows(g[schema.MEASUREMENTS][()])
+            meas = upgrade_rows(measurement_rows(g[schema.MEASUREMENTS]))
             names = g[schema.MEASUREMENTS].attrs.get("flag_names")
             if names is not None:
                 self.flag_names = tuple(x.decode() if isinstance(x, bytes) else x for x in names)
@@ -180,6 +182,20 @@ def append_event(
         ds[n] = row[0]
 
 
+def measurement_rows(m: h5py.Group | h5py.Dataset) -> np.ndarray:
+    """A camera's measurement rows as one structured array: from the group of named columns
+    (format 2.4 on; as long as the shortest column, after a crash) or the compound dataset of
+    earlier files."""
+    if isinstance(m, h5py.Dataset):
+        return m[()]
+    names = [n for n in schema.MEASUREMENT_DTYPE.names or () if n in m]
+    n = min((m[name].shape[0] for name in names), default=0)
+    rows = np.zeros(n, schema.MEASUREMENT_DTYPE)
+    for name in names:
+        rows[name] = m[name][:n]
+    return rows
+
+
 def upgrade_rows(rows: np.ndarray) -> np.ndarray:
     """Measurement rows of any format version in the current dtype: fields a 1.x file lacks are
     "not given" (empty track state, the peak as the window, NaN cue, statistics and range)."""
@@ -199,21 +215,24 @@ def upgrade_rows(rows: np.ndarray) -> np.ndarray:
 def open_session(path: str | os.PathLike, *, repair: bool = False) -> SessionFile:
     """Open a session file read-only, recovering a crashed one (see the module docstring).
 
-    HDF5's file locking is off: a session is opened read-only, often from network storage where
-    ``flock`` fails or is unsafe, and a crashed writer's lock must not keep it from being read.
+    With the file locking h5py and xarray use by default (HDF5's, "best effort": a file system
+    without ``flock`` is read all the same), so the same file opens again alongside in
+    ``h5py.File(path, "r")`` or ``xarray.open_dataset``: HDF5 refuses a second open in one
+    process whose locking flags differ. A crashed writer holds no lock (``flock`` ends with its
+    process).
     """
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"session file {p} not found")
     try:
-        return SessionFile(h5py.File(p, "r", locking=False), "")
+        return SessionFile(h5py.File(p, "r"), "")
     except OSError as exc:
         if "h5clear" not in str(exc) and "consistency flags" not in str(exc):
             raise OSError(f"cannot open session file {p}: {str(exc).splitlines()[0]}") from exc
     if repair:
         clear_status_flags(p)
-        return SessionFile(h5py.File(p, "r", locking=False), "flags_cleared")
-    return SessionFile(h5py.File(p, "r", swmr=True, locking=False), "swmr_read")
+        return SessionFile(h5py.File(p, "r"), "flags_cleared")
+    return SessionFile(h5py.File(p, "r", swmr=True), "swmr_read")
 
 
 def clear_status_flags(path: str | os.PathLike) -> bool:

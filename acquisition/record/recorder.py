@@ -34,6 +34,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from snrmon.acquisition.compression import frame_filter
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.record import schema as S  # noqa: N812
 from snrmon.acquisition.record.recorder_status import (
@@ -42,7 +43,7 @@ from snrmon.acquisition.record.recorder_status import (
     describe_failure,
 )
 from snrmon.acquisition.record.stream_rows import gps_row, measurement_row, range_row, values_row
-from snrmon.acquisition.record.writer import SessionWriter, frame_filter
+from snrmon.acquisition.record.writer import SessionWriter
 from snrmon.acquisition.streams.ring import Reader
 from snrmon.acquisition.streams.timebase import ClockMap
 from snrmon.drivers.gps.fix import GpsFix
@@ -294,18 +295,24 @@ class SessionRecorder:
             free = shutil.disk_usage(self.path.parent).free
         except OSError:
             free = None
+        on_disk = self._bytes_on_disk()
+        elapsed = time.monotonic() - self._t0
+        raw = sum(self._w.frame_bytes_flushed.values())
+        stored = sum(self._w.frame_bytes_stored.values())
         with self._lock:
             return RecorderStatus(
                 self._state,
                 str(self.path),
                 dict(self._w.frames_written),
                 dict(self._w.frames_flushed),
-                self._bytes_on_disk(),
+                on_disk,
                 self._backlog_frames,
                 self._backlog_bytes,
                 {k: dict(v) for k, v in self._dropped.items()},
                 free,
                 self._error,
+                compression_ratio=raw / stored if raw and stored else None,
+                bytes_per_s=on_disk / elapsed if elapsed >= 1.0 else None,
             )
 
     def stop(

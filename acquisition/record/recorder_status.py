@@ -22,6 +22,16 @@ class RecorderStatus:
     dropped: dict[str, dict[str, int]]
     free_bytes: int | None
     error: str | None
+    compression_ratio: float | None = None
+    """The frames' raw bytes over what the filter stored, of the frames flushed so far (1 with
+    ``none``; None before the first frame is flushed): the measured ratio, not a guess."""
+    bytes_per_s: float | None = None
+    """The file's growth since the recording began (None in its first second)."""
+
+    @property
+    def seconds_left(self) -> float | None:
+        """Recording time the free space holds at the measured rate (None: not known yet)."""
+        return seconds_left(self.free_bytes, self.bytes_per_s)
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,6 +66,13 @@ class RecorderSummary:
             "accounting": self.extra.get("accounting"),
             "devices_lost": self.extra.get("devices_lost"),  # null: not watched
         }
+
+
+def seconds_left(free_bytes: int | None, bytes_per_s: float | None) -> float | None:
+    """Seconds of recording ``free_bytes`` hold at ``bytes_per_s`` (None: either unknown)."""
+    if free_bytes is None or not bytes_per_s:
+        return None
+    return free_bytes / bytes_per_s
 
 
 def describe_failure(exc: BaseException, path: Path, frames: int) -> str:

@@ -17,6 +17,11 @@ FORMAT_VERSION = "2.4"
 ``/clock`` rows carry ``rate``, ``slew_until_ns`` and ``residual_ns``; a row is a slew from its
 start, never a step, so ``utc_ns`` and ``time`` increase with ``t_host_ns``. Earlier files' rows
 are references at rate 1 (read as before).
+2.4 also: /cameras/<name>/measurements is a group of one 1-D dataset per field (a table of named
+columns: xarray opens it as such, MATLAB reads a column with h5read), each with CF units and a
+long_name, with its ``measurement`` dimension in the group; the fields and their meanings are
+those of 2.3's compound rows. The root carries ``Conventions = "CF-1.10"``. A 2.3 file (compound
+measurements) is read as before.
 
 2.3: the radiometric calibration a camera was measured with is in the file
 (/cameras/<name>/calibration: its per-pixel maps and, in the group's ``metadata_json``, the
@@ -136,6 +141,37 @@ MEASUREMENT_UNITS = {
     "range_source": "lrf | gps | empty",
 }
 
+MEASUREMENT_CF: dict[str, tuple[str | None, str]] = {
+    name: (units, f"{name}: {MEASUREMENT_UNITS[name]}")
+    for name, units in (
+        ("frame_index", "1"),
+        ("counter", "1"),
+        ("t_host_ns", "ns"),
+        ("peak_x", "1"),
+        ("peak_y", "1"),
+        ("peak", "1"),
+        ("bg_mean", "1"),
+        ("bg_std", "1"),
+        ("snr", "1"),
+        ("flags", None),
+        ("background", None),
+        ("extent_w_px", "1"),
+        ("extent_h_px", "1"),
+        ("track_state", None),
+        ("window_x", "1"),
+        ("window_y", "1"),
+        ("cue_x", "1"),
+        ("cue_y", "1"),
+        ("snr_mean", "1"),
+        ("snr_std", "1"),
+        ("snr_n", "1"),
+        ("range_m", "m"),
+        ("range_source", None),
+    )
+}
+"""CF ``units`` (None: a text or a flag field, CF gives it none) and ``long_name`` of each
+measurement column (format 2.4): DN and pixel positions are counts, ``1``."""
+
 STATE_DTYPE = np.dtype([("counter", "<i8"), ("t_host_ns", "<i8"), ("state", f"S{STATE_BYTES}")])
 STATE_UNITS = {
     "counter": "camera frame counter of the first recorded frame after a gap",
@@ -243,10 +279,12 @@ STREAMS = {
 
 UTC_UNITS = "nanoseconds since 1970-01-01 00:00:00"
 """CF time units of a UTC in ns: netCDF readers decode the column to dates."""
-MIXED_UNITS = "mixed: per field, in units_json"
+CONVENTIONS = "CF-1.10"
+"""The root ``Conventions``: every numeric variable carries CF ``units`` (UDUNITS: a count of DN
+is ``1``, its ``long_name`` says DN) and ``long_name``; time variables ``standard_name`` time."""
 
-ATTRS: dict[str, tuple[str, str]] = {
-    FRAMES: ("DN", "raw pixel values (digital numbers), row-major (row, column)"),
+ATTRS: dict[str, tuple[str | None, str]] = {
+    FRAMES: ("1", "raw pixel values in digital numbers (DN), row-major (row, column)"),
     "counter": ("1", "the camera's own frame counter (gaps: frames lost by the camera or link)"),
     "t_host_ns": ("ns", "host monotonic clock at receipt (arbitrary origin)"),
     "t_device_ns": ("ns", "the camera's own timestamp (-1: none given)"),
@@ -254,23 +292,35 @@ ATTRS: dict[str, tuple[str, str]] = {
     TIME: (UTC_UNITS, "UTC of the frame's receipt"),
     ROW: ("1", "pixel row, zero-based, top to bottom"),
     COL: ("1", "pixel column, zero-based, left to right"),
-    REFERENCES: ("DN", "background reference: the fixed-pattern offset subtracted before Eq. (4)"),
-    "responsivity": (
-        "DN / (photons s-1 m-2 sr-1)",
-        "calibration: DN per in-band, QE-weighted photon radiance",
+    REFERENCES: (
+        "1",
+        "background reference in DN: the fixed-pattern offset subtracted before Eq. (4)",
     ),
-    "offset_dn": ("DN", "calibration: the reading at zero in-band radiance"),
+    "responsivity": (
+        "m2 s sr",
+        "calibration: DN per in-band, QE-weighted photon radiance (photons s-1 m-2 sr-1)",
+    ),
+    "offset_dn": ("1", "calibration: the reading at zero in-band radiance, DN"),
     "bad": ("1", "calibration: bad-pixel bits (dead=1, hot=2, noisy=4)"),
-    "fit_rms_dn": ("DN", "calibration: rms residual of the per-pixel linear fit"),
-    "temporal_noise_dn": ("DN", "calibration: per-pixel temporal std, averaged over the captures"),
-    MEASUREMENTS: (MIXED_UNITS, "per-frame peak-pixel SNR (paper Eq. 4) as measured live"),
-    STATES: (MIXED_UNITS, "the engine's state before a frame after frames the file lacks"),
-    RANGEFINDER: (MIXED_UNITS, "laser rangefinder readings as received"),
-    GPS: (MIXED_UNITS, "GPS fixes as received (or imported from a flight log)"),
-    EVENTS: (MIXED_UNITS, "operator and engine events"),
-    CLOCK: (MIXED_UNITS, "host monotonic clock to UTC references"),
+    "fit_rms_dn": ("1", "calibration: rms residual of the per-pixel linear fit, DN"),
+    "temporal_noise_dn": (
+        "1",
+        "calibration: per-pixel temporal std, averaged over the captures, DN",
+    ),
+    # Compound tables: one unit per field, in their units_json (CF has no units for a compound)
+    MEASUREMENTS: (None, "per-frame peak-pixel SNR (paper Eq. 4) as measured live"),
+    STATES: (None, "the engine's state before a frame after frames the file lacks"),
+    RANGEFINDER: (None, "laser rangefinder readings as received"),
+    GPS: (None, "GPS fixes as received (or imported from a flight log)"),
+    EVENTS: (None, "operator and engine events"),
+    CLOCK: (None, "host monotonic clock to UTC references"),
 }
-"""``name -> (units, long_name)`` of every dataset (CF style attributes)."""
+"""``name -> (units, long_name)`` of every dataset (CF attributes; units None: a compound table,
+its fields' units in ``units_json``)."""
+TIME_VARIABLES = (TIME, "utc_ns")
+"""The datasets of UTC times: CF ``standard_name`` time."""
+BAD_PIXEL_FLAGS = {"flag_masks": [1, 2, 4], "flag_meanings": "dead hot noisy"}
+"""The CF flag attributes of the calibration's ``bad`` map."""
 
 DIMENSIONS: dict[str, str] = {
     MEASUREMENTS: "measurement",

@@ -21,32 +21,10 @@ import numpy as np
 from snrmon.acquisition.record import schema
 from snrmon.acquisition.streams.timebase import ClockMap, rows_array, utc_of_rows
 
-COMPRESSIONS = ("gzip", "lz4", "zstd", "bitshuffle-lz4")
 # The NAME netCDF-4 gives a dimension scale that is only a dimension (netCDF's own convention).
 NETCDF_PURE_DIMENSION = "This is a netCDF dimension but not a netCDF variable."
 LIBVER = ("v110", "v110")
 _U16 = np.dtype("<u2")
-
-
-def frame_filter(compression: str | None) -> dict:
-    """h5py keyword arguments of the frames' lossless filter (``None``: no filter)."""
-    if compression is None:
-        return {}
-    if compression == "gzip":
-        return {"compression": "gzip", "compression_opts": 1, "shuffle": True}
-    if compression not in COMPRESSIONS:
-        raise ValueError(f"unknown compression {compression!r}; known: {', '.join(COMPRESSIONS)}")
-    try:
-        import hdf5plugin
-    except ImportError as exc:
-        raise ValueError(
-            f"compression {compression!r} needs hdf5plugin (pip install hdf5plugin)"
-        ) from exc
-    return {
-        "lz4": lambda: dict(hdf5plugin.LZ4()),
-        "zstd": lambda: dict(hdf5plugin.Zstd(clevel=1)),
-        "bitshuffle-lz4": lambda: dict(hdf5plugin.Bitshuffle(cname="lz4")),
-    }[compression]()
 
 
 def pure_dimension(
@@ -87,15 +65,27 @@ def _attach(ds: h5py.Dataset, *scales: h5py.Dataset) -> None:
 
 
 def _describe_all(f: h5py.File) -> None:
-    """``units`` and ``long_name`` on every dataset the layout names (schema.ATTRS)."""
+    """The CF attributes of every dataset the layout names (schema.ATTRS): ``units`` (not on a
+    compound table), ``long_name``, ``standard_name`` time on the UTC times, the flag meanings
+    of the bad-pixel map; and the root's ``Conventions``."""
 
     def visit(name: str, obj: object) -> None:
         if isinstance(obj, h5py.Dataset):
             key = name.rsplit("/", 1)[-1]
             if key in schema.ATTRS and "long_name" not in obj.attrs:
                 units, long_name = schema.ATTRS[key]
-                obj.attrs.update(units=units, long_name=long_name)
+                obj.attrs["long_name"] = long_name
+                if units is not None:
+                    obj.attrs["units"] = units
+            if key in schema.TIME_VARIABLES:
+                obj.attrs.update(standard_name="time", calendar="proleptic_gregorian")
+            if key == "bad" and schema.CALIBRATION in name:
+                obj.attrs.update(
+                    flag_masks=np.array(schema.BAD_PIXEL_FLAGS["flag_masks"], np.uint8),
+                    flag_meanings=schema.BAD_PIXEL_FLAGS["flag_meanings"],
+                )
 
+    f.attrs["Conventions"] = schema.CONVENTIONS
     f.visititems(visit)
 
 
@@ -120,6 +110,8 @@ class SessionWriter:
         self._raw_frames = not filters
         self.frames_written = dict.fromkeys(shapes, 0)
         self.frames_flushed = dict.fromkeys(shapes, 0)
+        self.frame_bytes_flushed = dict.fromkeys(shapes, 0)  # raw pixel bytes, at the last flush
+        self.frame_bytes_stored = dict.fromkeys(shapes, 0)  # what the filter made of them
         self.measurements = dict.fromkeys(shapes, 0)
         self.stream_rows = dict.fromkeys(schema.STREAMS, 0)
         self._pending: dict[tuple[str, str], list] = {}
@@ -142,6 +134,10 @@ class SessionWriter:
         # chunks of 64 KiB and more start on a page boundary, so a frame is whole pages
         # libver bounded at v110: SWMR needs the 1.10 file format, and nothing newer is used,
         # so readers built on HDF5 1.10 (MATLAB, h5dump 1.10) open the file (docs/session-format).
+        # With a filter, no chunk cache: a frame goes through the filter and to the file when
+        # written, as a raw one does (write_direct_chunk). Cached, a frame that a full disk
+        # refused stayed in the cache of a file that cannot close, and HDF5 ran the filter on
+        # it again when the process let go of the file: a segmentation fault in the plugin.
         try:  # "w-": created exclusively, so of two writers racing for one path one is refused
             f = h5py.File(
                 self.path,
@@ -149,6 +145,7 @@ class SessionWriter:
                 libver=LIBVER,
                 alignment_threshold=65536,
                 alignment_interval=4096,
+                **({"rdcc_nbytes": 0} if filters else {}),
             )
         except FileExistsError:
             raise FileExistsError(f"session file {self.path} already exists") from None
@@ -188,16 +185,7 @@ class SessionWriter:
                 for column in schema.FRAME_COLUMNS:
                     ds = g.create_dataset(column, (0,), np.int64, chunks=(4096,), maxshape=(None,))
                     _attach(ds, time)
-                m = g.create_dataset(
-                    schema.MEASUREMENTS,
-                    (0,),
-                    schema.MEASUREMENT_DTYPE,
-                    chunks=(1024,),
-                    maxshape=(None,),
-                )
-                m.attrs["flag_names"] = np.array([n.encode() for n in schema.FLAG_NAMES])
-                m.attrs["units_json"] = json.dumps(schema.MEASUREMENT_UNITS)
-                _attach(m, self._dimension(g, schema.MEASUREMENTS, 1024))
+                self._measurement_columns(g)
                 st = g.create_dataset(
                     schema.STATES, (0,), schema.STATE_DTYPE, chunks=(1,), maxshape=(None,)
                 )
@@ -295,7 +283,9 @@ class SessionWriter:
                 self._append(f[f"{schema.CAMERAS}/{key}/{schema.TIME}"], utc)
             elif kind == "meas":
                 arr = np.array(rows, schema.MEASUREMENT_DTYPE)
-                self._append(f[f"{schema.CAMERAS}/{key}/{schema.MEASUREMENTS}"], arr)
+                group = f"{schema.CAMERAS}/{key}/{schema.MEASUREMENTS}"
+                for name in schema.MEASUREMENT_DTYPE.names or ():
+                    self._append(f[f"{group}/{name}"], arr[name])
                 self.measurements[key] += len(rows)
             elif kind == "state":
                 arr = np.array(rows, schema.STATE_DTYPE)
@@ -311,6 +301,14 @@ class SessionWriter:
         if self._fd is not None:
             os.fsync(self._fd)
         self.frames_flushed = dict(self.frames_written)
+        for camera, ds in self._frames.items():  # the filter's ratio so far, for the status
+            frame_bytes = ds.dtype.itemsize * ds.shape[1] * ds.shape[2]
+            self.frame_bytes_flushed[camera] = self.frames_flushed[camera] * frame_bytes
+            self.frame_bytes_stored[camera] = self.frames_bytes_stored(camera)
+
+    def frames_bytes_stored(self, camera: str) -> int:
+        """Bytes the file gives ``camera``'s frames (after the filter; chunk index aside)."""
+        return int(self._frames[camera].id.get_storage_size())
 
     def close(self) -> None:
         """Close the file and the fsync handle (both attempted; the first error is raised)."""
@@ -382,6 +380,31 @@ class SessionWriter:
         for axis, name in ((time, schema.TIME), (row, schema.ROW), (col, schema.COL)):
             axis.make_scale(name)
         return time, row, col
+
+    def _measurement_columns(self, g: h5py.Group) -> None:
+        """``measurements``: a group of one 1-D dataset per field of MEASUREMENT_DTYPE (a table
+        of named columns for netCDF readers), with their CF attributes and the ``measurement``
+        dimension inside the group, kept as long as they are."""
+        m = g.create_group(schema.MEASUREMENTS)
+        m.attrs["flag_names"] = np.array([n.encode() for n in schema.FLAG_NAMES])
+        m.attrs["units_json"] = json.dumps(schema.MEASUREMENT_UNITS)
+        m.attrs["long_name"] = schema.ATTRS[schema.MEASUREMENTS][1]
+        scale = pure_dimension(m, schema.DIMENSIONS[schema.MEASUREMENTS], "measurements", 0, 1024)
+        for name in schema.MEASUREMENT_DTYPE.names or ():
+            column = m.create_dataset(
+                name, (0,), schema.MEASUREMENT_DTYPE[name], chunks=(1024,), maxshape=(None,)
+            )
+            units, long_name = schema.MEASUREMENT_CF[name]
+            column.attrs["long_name"] = long_name
+            if units is not None:
+                column.attrs["units"] = units
+            if name == "flags":
+                column.attrs.update(
+                    flag_masks=np.array([1 << i for i in range(len(schema.FLAG_NAMES))], np.uint16),
+                    flag_meanings=" ".join(schema.FLAG_NAMES),
+                )
+            _attach(column, scale)
+            self._dimensions[column.name] = scale
 
     def _dimension(self, parent: h5py.Group, dataset: str, chunk: int) -> h5py.Dataset:
         scale = pure_dimension(parent, schema.DIMENSIONS[dataset], dataset, 0, chunk)

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from snrmon.acquisition.compression import stored_compression
 from snrmon.acquisition.config import SessionConfig, camera_device
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.session_engine import SessionEngine
@@ -444,11 +445,13 @@ class Session:
 
     def start_recording(self, path: str | Path, **recorder_options: Any) -> None:
         """Record everything from now on into one HDF5 session file (a new file);
-        ``recorder_options`` go to :class:`SessionRecorder` (compression, backlog limit)."""
+        ``recorder_options`` go to :class:`SessionRecorder` (backlog limit; compression, else the
+        config's ``compression``)."""
         with self._lock:
             if self._recorder is not None and self._recorder.status().state == "recording":
                 raise ValueError(f"already recording to {self._recorder.path}")
         shapes = {n: p.shape for n, p in self.pipelines.items()}
+        recorder_options.setdefault("compression", stored_compression(self.config.compression))
         if self.lossless:
             recorder_options.setdefault("backlog_wait_s", 30.0)
         from snrmon.acquisition.calibrate.calibration_file import calibration_record
@@ -587,6 +590,8 @@ class Session:
                 st.error or "",
                 backlog_bytes=st.backlog_bytes,
                 dropped_frames=sum(sum(d.values()) for d in st.dropped.values()),
+                compression_ratio=st.compression_ratio,
+                bytes_per_s=st.bytes_per_s,
             )
         alarms = []
         for dev in (self.lrf, self.gps, *(p.device for p in self.pipelines.values())):

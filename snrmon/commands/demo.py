@@ -20,6 +20,7 @@ from pathlib import Path
 from snrmon.cli import UsageError
 from snrmon.commands.gui import add_status_file_option, add_view_options, view_options
 from snrmon.commands.hil import add_flight_options
+from snrmon.commands.recording_options import add_compression_option
 from snrmon.extras import require
 from snrmon.inputs import duration_s, output_file
 from snrmon.output import emit_json
@@ -52,6 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "-o", "--out", type=Path, metavar="PATH", help="record the session into this file (.h5)"
     )
+    add_compression_option(p)
     p.add_argument(
         "--report",
         type=Path,
@@ -124,6 +126,7 @@ def run(args: argparse.Namespace) -> int:
         stops_m=args.stops,
         transit_mps=12.0,
         out=str(args.out) if args.out else None,
+        compression=args.compression,
         adopt_psf=True,  # the model takes the PSF measured at each unresolved stop
     )
     rig = HilRig(opts)

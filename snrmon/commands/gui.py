@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from snrmon.cli import UsageError
+from snrmon.commands.recording_options import add_compression_option, with_compression
 from snrmon.extras import require
 from snrmon.inputs import duration_s, input_file, output_file, session_file
 
@@ -33,6 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="X",
         help="with --replay: play at X times real time, 0.01 to 1000 (default: %(default)s)",
     )
+    add_compression_option(p)
     add_status_file_option(p)
     add_view_options(p)
     p.set_defaults(func=run)
@@ -126,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.gui.app import run_console
 
     config = load_session_config(args.config)
+    config = with_compression(config, args.compression)
     # Asynchronous: the measured sky's new curves are computed beside the cameras' measurement
     # threads (0.3 s of model each time), not on them.
     predictor = ModelPredictor(

@@ -12,6 +12,7 @@ import argparse
 import math
 
 from snrmon.cli import UsageError
+from snrmon.commands.recording_options import add_compression_option
 from snrmon.inputs import Number, Size, output_file, seed, stop_ranges
 from snrmon.output import emit_json
 from snrmon.progress import say
@@ -158,6 +159,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "-o", "--out", metavar="PATH", help="record the run into this new session file (.h5)"
     )
+    add_compression_option(p)
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
 
@@ -193,6 +195,7 @@ def run(args: argparse.Namespace) -> int:
         fpn=args.fpn,
         track=not args.no_track,
         out=args.out,
+        compression=args.compression,
         speed_max=speed_max,
     )
     rig = HilRig(opts)

@@ -13,6 +13,7 @@ import shutil
 import time
 
 from snrmon.cli import UsageError
+from snrmon.commands.recording_options import add_compression_option, with_compression
 from snrmon.inputs import duration_s, input_file, output_file
 from snrmon.output import emit_json
 from snrmon.progress import say, status_progress
@@ -22,6 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("record", help="record the devices of a session config, headless")
     p.add_argument("--config", required=True, metavar="FILE.toml", help="session config")
     p.add_argument("-o", "--out", required=True, metavar="PATH", help="new session file (.h5)")
+    add_compression_option(p)
     p.add_argument(
         "--duration",
         type=duration_s(),
@@ -70,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
 
     out = output_file(args.out, "--out", suffixes=(".h5",), new=True)
     rois = [_click(r) for r in args.click or ()]
-    session = Session(load_session_config(input_file(args.config, "--config")))
+    config = load_session_config(input_file(args.config, "--config"))
+    session = Session(with_compression(config, args.compression))
     # The file is created (exclusively) before any device opens: a second writer onto the same
     # path is refused having opened no port and no camera.
     session.start_recording(out)

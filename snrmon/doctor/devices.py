@@ -24,6 +24,7 @@ from typing import Any
 
 from snrmon.doctor import FAIL, PASS, Check
 
+SAMPLE_FRAMES = 4  # each camera's first frames, kept to measure how they compress
 MIN_FPS_FRACTION = 0.95  # a camera below 95 % of its rate is dropping frames somewhere
 MAX_FIX_AGE_S = 2.0  # a 1-10 Hz receiver's last fix is never this old while it works
 CLOCK_TOLERANCE_S = 1.0
@@ -38,9 +39,12 @@ class _Watch:
     first: threading.Event = field(default_factory=threading.Event)
     error: str = ""
     fix: str = ""
+    samples: list = field(default_factory=list)  # a camera's first frames' pixels (copies)
 
     def take(self, reading) -> None:
         item = reading.counter if self.kind == "camera" else reading
+        if self.kind == "camera" and len(self.samples) < SAMPLE_FRAMES:
+            self.samples.append(reading.pixels.copy())  # the ring slot is reused
         self.readings.append((time.monotonic_ns(), item))
         self.first.set()
 
@@ -92,10 +96,12 @@ def _watch(watches: list[_Watch], wait_s: float, window_s: float) -> None:
 
 
 def check_devices(
-    config, *, wait_s: float = 5.0, window_s: float = 2.0
+    config, *, wait_s: float = 5.0, window_s: float = 2.0, samples: dict | None = None
 ) -> tuple[list[Check], dict]:
     """One check per camera and rangefinder, two for the GPS (fix, clock); and the cameras'
-    negotiated formats ({name: CameraFormat}) for the disk checks."""
+    negotiated formats ({name: CameraFormat}) for the disk checks. ``samples``, when given,
+    gets each answering camera's first frames ({name: [pixels, ...]}), for the disk checks'
+    compression ratio."""
     watches = _open(config)
     opened = [w for w in watches if w.device is not None]
     try:
@@ -118,6 +124,8 @@ def check_devices(
             checks.append(_camera(w, cam, wait_s))
             if w.device.format is not None:
                 formats[w.name] = w.device.format
+            if samples is not None and w.samples:
+                samples[w.name] = w.samples
         elif w.kind == "lrf":
             checks.append(_lrf(w, config.lrf, wait_s))
         else:

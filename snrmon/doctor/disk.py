@@ -85,16 +85,31 @@ def check_disk_speed(
     return Check("disk-speed", PASS, f"{shown}: enough for {compare}", data=data)
 
 
+def frames_ratio(config, samples: dict) -> tuple[str, float] | None:
+    """``(filter, ratio)``: how the cameras' own frames (``samples``, from the device checks)
+    compress with the config's filter, measured (raw / stored bytes, all cameras' frames
+    together); None when no camera gave a frame (the space check then counts raw bytes)."""
+    if config is None or not samples:
+        return None
+    from snrmon.acquisition.compression import measured_ratio, stored_compression
+
+    frames = [f for name in sorted(samples) for f in samples[name]]
+    return config.compression, measured_ratio(frames, stored_compression(config.compression))
+
+
 def check_free_space(
     directory: str | Path,
     rate_bytes_per_s: float | None,
     duration_s: float,
     *,
+    compression: tuple[str, float] | None = None,
     usage: Callable[[str | Path], shutil._ntuple_diskusage] = shutil.disk_usage,
 ) -> Check:
-    """Free space in ``directory`` against ``duration_s`` of the cameras' data."""
+    """Free space in ``directory`` against ``duration_s`` of the cameras' data, the frames at
+    their measured ``compression`` = (filter, ratio) (None: not measured, raw bytes)."""
     free = usage(directory).free
     data = {"free_gb": free / 1e9, "needed_gb": None, "duration_s": duration_s}
+    data["compression"], data["compression_ratio"] = compression or (None, None)
     if rate_bytes_per_s is None:
         return Check(
             "disk-space",
@@ -103,12 +118,16 @@ def check_free_space(
             needed=False,
             data=data,
         )
+    how = "raw: compression not measured"
+    if compression is not None:
+        rate_bytes_per_s /= compression[1]
+        how = f"{compression[0]} {compression[1]:.2f}x, measured on the cameras' frames"
     need = rate_bytes_per_s * duration_s * SPACE_MARGIN
     data["needed_gb"] = need / 1e9
     hours = duration_s / 3600
     shown = (
         f"{directory}: {free / 1e9:.1f} GB free; {hours:.2f} h at "
-        f"{rate_bytes_per_s / MB:.1f} MB/s needs {need / 1e9:.1f} GB"
+        f"{rate_bytes_per_s / MB:.1f} MB/s ({how}) needs {need / 1e9:.1f} GB"
     )
     if free < need:
         fits_h = free / SPACE_MARGIN / rate_bytes_per_s / 3600

@@ -9,7 +9,7 @@ from snrmon.doctor import FAIL, PASS, Check
 from snrmon.doctor.backends import check_aravis, check_libusb, check_v4l2
 from snrmon.doctor.compiled import check_compiled_analysis
 from snrmon.doctor.devices import check_devices
-from snrmon.doctor.disk import cameras_rate, check_disk_speed, check_free_space
+from snrmon.doctor.disk import cameras_rate, check_disk_speed, check_free_space, frames_ratio
 from snrmon.doctor.ports import check_port
 from snrmon.doctor.qt import check_qt_display
 
@@ -93,15 +93,19 @@ def run_doctor(config, opts: DoctorOptions) -> list[Check]:
         check_compiled_analysis(),
     ]
     formats: dict = {}
+    samples: dict = {}
     if config is not None:
         checks += check_model(config)
         for kind in ("gps", "lrf"):
             table = getattr(config, kind)
             if table is not None:
                 checks.append(check_port(kind, table))
-        device_checks, formats = check_devices(config, wait_s=opts.wait_s, window_s=opts.window_s)
+        device_checks, formats = check_devices(
+            config, wait_s=opts.wait_s, window_s=opts.window_s, samples=samples
+        )
         checks += device_checks
     rate = cameras_rate(config, formats)
     checks.append(check_disk_speed(opts.record_dir, rate, opts.disk_test_bytes))
-    checks.append(check_free_space(opts.record_dir, rate, opts.duration_s))
+    ratio = frames_ratio(config, samples)
+    checks.append(check_free_space(opts.record_dir, rate, opts.duration_s, compression=ratio))
     return checks

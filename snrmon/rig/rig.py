@@ -61,6 +61,7 @@ class HilOptions:
     fpn: bool = False
     track: bool = True
     out: str | None = None
+    compression: str | None = None  # the recording's frame filter (None: the config's default)
     adopt_psf: bool = False  # hand the PSF measured at each unresolved stop to the model
 
     def __post_init__(self) -> None:
@@ -237,6 +238,7 @@ class HilRig:
                 "simulation": {**opts.scenario.record(tuple(opts.cameras)), "seed": opts.seed},
                 "gps": {"protocol": "nmea", "port": self.gps_sim.path, "baud": 38400},
                 "lrf": {"protocol": "ldm", "port": self.lrf_sim.path, "baud": 9600},
+                **({} if opts.compression is None else {"compression": opts.compression}),
             }
         )
         self.session = Session(

@@ -177,3 +177,10 @@ def test_every_preset_field_names_table_key_value_and_type(table, key, kind, tmp
         _check(tmp_path / "x.toml", table, {key: value}, {key: (kind, True)})
     msg = str(err.value)
     assert f"{table}.{key}" in msg and repr(value) in msg and " must be " in msg, msg
+
+
+def test_the_frames_filter_is_the_default_unless_named():
+    assert session_config_from_dict(BASE).compression == "bitshuffle-lz4"
+    assert session_config_from_dict({**BASE, "compression": "none"}).compression == "none"
+    with pytest.raises(ConfigError, match=r'\[session\] compression = "snappy": expected'):
+        session_config_from_dict({**BASE, "compression": "snappy"})

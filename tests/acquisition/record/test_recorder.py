@@ -404,3 +404,27 @@ def test_lossless_compression_round_trip(tmp_path: Path, compression: str) -> No
     with open_session(tmp_path / "c.h5") as s:
         np.testing.assert_array_equal(s.cameras["mwir"].frames[()], [f.pixels for f in frames])
         assert s.attrs["frames_compression"] == compression
+
+
+def test_status_gives_the_measured_compression_ratio(tmp_path: Path) -> None:
+    """The live status's ratio is the frames' raw bytes over what the filter stored, as the
+    file's own storage size says once closed; ``none`` is 1."""
+    for compression in ("bitshuffle-lz4", None):
+        path = tmp_path / f"{compression}.h5"
+        rec = SessionRecorder(
+            path, config={}, cameras=CAMS, flush_interval_s=0.05, compression=compression
+        )
+        rng = np.random.default_rng(3)  # a sky: 14-bit values, a few DN of noise
+        for i in range(12):
+            sky = rng.normal(2000.0, 8.0, (H, W)).astype(np.uint16)
+            rec.add_frame("mwir", Frame(sky, "mwir", counter=i, t_host_ns=1_000 + i))
+        deadline = time.monotonic() + 10
+        while rec.status().frames_flushed["mwir"] < 12 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        live = rec.status().compression_ratio
+        rec.stop()
+        with h5py.File(path, "r") as f:
+            stored = f["cameras/mwir/frames"].id.get_storage_size()
+        expected = 12 * H * W * 2 / stored
+        assert live == pytest.approx(expected)
+        assert (live > 1.2) if compression else live == pytest.approx(1.0, abs=1e-3)

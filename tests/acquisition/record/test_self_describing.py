@@ -4,6 +4,8 @@ snrmon sees named dimensions and coordinates."""
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import h5py
@@ -46,19 +48,60 @@ def recording(module_tmp) -> Path:
     return path
 
 
-def test_every_dataset_has_units_and_a_long_name(recording):
-    missing = []
+# A CF check of our own: the units UDUNITS parses that the file may use (a DN count is "1"),
+# and CF's "UNIT since DATE" time units.
+UDUNITS = {"1", "ns", "m", "m2 s sr"}
+TIME_UNITS = re.compile(r"^(nanoseconds|seconds) since \d{4}-\d{2}-\d{2}( \d{2}:\d{2}:\d{2})?$")
+
+
+def cf_problems(f: h5py.File) -> list[str]:
+    """What breaks the CF conventions in an open session file: a missing Conventions, a
+    variable without long_name, a numeric variable without units or with units UDUNITS does
+    not know, a time variable without standard_name time."""
+    problems = [] if str(f.attrs.get("Conventions", "")).startswith("CF-") else ["Conventions"]
 
     def visit(name, obj):
-        if isinstance(obj, h5py.Dataset) and not {"units", "long_name"} <= set(obj.attrs):
-            missing.append(name)
+        if not isinstance(obj, h5py.Dataset):
+            return
+        attrs = obj.attrs
+        if not attrs.get("long_name"):
+            problems.append(f"{name}: no long_name")
+        if obj.dtype.names is not None:  # a compound table: its fields' units in units_json
+            if "units" in attrs or not json.loads(attrs["units_json"]):
+                problems.append(f"{name}: compound with units, or without units_json")
+            return
+        if obj.dtype.kind == "S" or "flag_meanings" in attrs:
+            return  # text and flags: CF gives them no units
+        units = str(attrs.get("units", ""))
+        if units not in UDUNITS and not TIME_UNITS.match(units):
+            problems.append(f"{name}: units {units!r}")
+        if TIME_UNITS.match(units) and attrs.get("standard_name") != "time":
+            problems.append(f"{name}: a time without standard_name time")
 
+    f.visititems(visit)
+    return problems
+
+
+def test_every_variable_follows_the_cf_conventions(recording):
     with h5py.File(recording, "r") as f:
-        f.visititems(visit)
-        assert f.attrs["format_version"] == "2.4"
-        assert f["cameras/mwir/frames"].attrs["units"] == "DN"
+        assert f.attrs["format_version"] == "2.4" and f.attrs["Conventions"] == "CF-1.10"
+        assert cf_problems(f) == []
+        frames = f["cameras/mwir/frames"].attrs
+        assert frames["units"] == "1" and "digital numbers (DN)" in frames["long_name"]
         assert f["cameras/mwir/t_host_ns"].attrs["units"] == "ns"
-    assert missing == []
+        assert f["cameras/mwir/utc_ns"].attrs["standard_name"] == "time"
+        # the check can fail: the units of before
+        f2 = h5py.File("mem.h5", "w", driver="core", backing_store=False)
+        f2.attrs["Conventions"] = "CF-1.10"
+        f2.create_dataset("frames", data=np.zeros(3, np.uint16)).attrs.update(
+            units="DN", long_name="raw"
+        )
+        assert cf_problems(f2) == ["frames: units 'DN'"]
+        f2.close()
+    # xarray decodes the CF times of a compound-free group's variables
+    with xr.open_dataset(recording, group="cameras/mwir", engine="h5netcdf") as ds:
+        assert ds["utc_ns"].dtype == np.dtype("datetime64[ns]")
+        assert ds["frames"].attrs["units"] == "1"
 
 
 def test_xarray_opens_a_camera_with_named_dimensions_and_coordinates(recording):
@@ -68,7 +111,6 @@ def test_xarray_opens_a_camera_with_named_dimensions_and_coordinates(recording):
             "time": 12,
             "row": CAMS["mwir"][0],
             "col": CAMS["mwir"][1],
-            "measurement": 12,
             "state": 0,
             "reference": 1,
         }
@@ -81,9 +123,19 @@ def test_xarray_opens_a_camera_with_named_dimensions_and_coordinates(recording):
         np.testing.assert_array_equal(ds["row"].values, np.arange(CAMS["mwir"][0]))
         assert ds["counter"].dims == ("time",)
         assert ds["references"].dims == ("reference", "row", "col")
-        assert ds["measurements"].dims == ("measurement",)
         assert ds["frames"].attrs["long_name"].startswith("raw pixel values")
         assert not [d for d in ds.dims if str(d).startswith("phony_dim")]
+    # the measurements: a table of named columns, each with its CF units
+    group = "cameras/mwir/measurements"
+    with xr.open_dataset(recording, group=group, engine="h5netcdf") as m:
+        assert m.sizes == {"measurement": 12}
+        assert m["snr"].dims == ("measurement",) and m["snr"].attrs["units"] == "1"
+        assert m["range_m"].attrs["units"] == "m" and m["t_host_ns"].attrs["units"] == "ns"
+        assert m["flags"].attrs["flag_meanings"].split()[0] == "saturated"
+        with h5py.File(recording, "r") as f:
+            rows = f[group]
+            np.testing.assert_array_equal(m["snr"].values, rows["snr"][()])
+        np.testing.assert_array_equal(m["snr"].values, 20.0 + np.arange(12))
     with xr.open_dataset(recording, engine="h5netcdf") as root:
         assert root["rangefinder"].dims == ("rangefinder_reading",)
         assert root.sizes["event"] >= 3  # recording_started, the note, recording_stopped
