@@ -57,12 +57,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from snrmon.acquisition.compression import COMPRESSION_CHOICES, DEFAULT_COMPRESSION
 from snrmon.acquisition.geo.projection import Pointing, Site
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.drivers.config import check_device_table
 from snrmon.drivers.errors import ConfigError, toml_repr
-from snrmon.limits import MAX_WINDOW_FRAMES
+from snrmon.limits import COMPRESSION_CHOICES, DEFAULT_COMPRESSION, MAX_WINDOW_FRAMES
 from snrmon.model.atmosphere_table import (
     AEROSOLS,
     AIR_TEMP_RANGE_C,
