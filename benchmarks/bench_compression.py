@@ -32,15 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
-from snrmon.acquisition.compression import (
-    COMPRESSION_CHOICES,
-    DEFAULT_COMPRESSION,
-    frame_filter,
-    stored_compression,
-)
+from snrmon.acquisition.compression import frame_filter, stored_compression
 from snrmon.acquisition.record.writer import SessionWriter
 from snrmon.acquisition.streams.timebase import ClockMap
 from snrmon.benchmarks.real_clips import data_root
+from snrmon.limits import COMPRESSION_CHOICES, DEFAULT_COMPRESSION
 
 KEY = "compression"
 FRAMES = 24

@@ -83,6 +83,9 @@ OPTIONS: dict[str, Word] = {
     "--write": Word(None, "keep the result in the recording itself"),
     "--no-record": Word(None, "keep the result nowhere"),
     "--json": Word(None, "print the result as strict JSON on stdout"),
+    "--compression": Word(
+        "none|lz4|bitshuffle-lz4|zstd|gzip", "the recorded frames' lossless filter"
+    ),
     # time and pace
     "--duration": Word("S", "how long, in seconds"),
     "--speed": Word("X", "the pace, in times real time"),

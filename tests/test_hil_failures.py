@@ -71,7 +71,7 @@ def _hil(out: Path, *, seed: int, speed: str, extra: tuple[str, ...] = ()) -> in
     from snrmon.cli import main
 
     argv = ["hil", "--seed", str(seed), "--stops", "60", "--hover-s", "4", "--speed", speed]
-    return main([*argv, "--camera", "mwir", "--no-calibration", "--out", str(out), *extra])
+    return main([*argv, "--cameras", "mwir", "--no-calibration", "--out", str(out), *extra])
 
 
 @pytest.mark.parametrize("speed", ["1", "max"])
@@ -128,11 +128,11 @@ def _mounted_tmpfs(path: Path, size: str) -> bool:
 
 @pytest.mark.skipif(os.geteuid() != 0, reason="mounting a small tmpfs needs root")
 def test_hil_on_a_full_disk_ends_like_record(tmp_path, capsys):
-    """``snrmon hil --out`` on a disk that fills (a 40 MiB tmpfs: some 400 frames of a 256 x
-    192 window): the
-    day ends with exit 1 and one error line naming the file on that disk and the frames
-    written, the stop table is still printed, and the file opens (no repair asked) holding
-    every frame it says it wrote."""
+    """``snrmon hil --out`` on a disk that fills (a 40 MiB tmpfs: some 400 raw frames of a
+    256 x 192 sub-array, stored uncompressed so that the short flight fills it): the day ends
+    with exit 1 and one error line naming the file on that disk and the frames written, the
+    stop table is still printed, and the file opens (no repair asked) holding every frame it
+    says it wrote."""
     from snrmon.acquisition.record.reader import open_session
 
     disk = tmp_path / "small-disk"
@@ -140,7 +140,7 @@ def test_hil_on_a_full_disk_ends_like_record(tmp_path, capsys):
         pytest.skip("mount -t tmpfs failed (no CAP_SYS_ADMIN in this container)")
     try:
         out = disk / "full.h5"
-        code = _hil(out, seed=0, speed="max", extra=("--window", "256x192"))
+        code = _hil(out, seed=0, speed="max", extra=("--size", "256x192", "--compression", "none"))
         captured = capsys.readouterr()
         assert code == 1, captured.err
         errors = [line for line in captured.err.splitlines() if ": error: " in line]
