@@ -528,17 +528,9 @@ class ConsoleWindow(QMainWindow):
         if self.recording_label.text() != text:
             self.recording_label.setText(text)
 
-    def expected_rule(self) -> str | None:
-        """The expected Eq. (4) reading the session compares against (the status names it)."""
-        st = self.last_status
-        if st is None:
-            return None
-        rules = [cs.agreement.rule for cs in st.cameras.values() if cs.agreement is not None]
-        return rules[0] if rules else None
-
     def refresh_stops(self) -> None:
         rows = self.session.stops()
-        self.stop_table.show_rows(rows, self.expected_rule())
+        self.stop_table.show_rows(rows)
         for plot in self.range_plots.values():
             plot.show_stops(rows)
 

@@ -35,6 +35,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from snrmon.acquisition.measure.model_agreement import ModelAgreement, model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.stops.detector import Stop, is_valid, summarise_stop
@@ -75,6 +76,21 @@ class StopRow:
     # The corrected PSF they were computed with (a ``model.psf`` PSF, e.g. measured from the
     # flight); None: the sensor preset's (or no model).
     model_psf: object | None = field(default=None, compare=False)
+    # The mean against the model's expected reading of the rule this row was measured with
+    # (:attr:`expected_eq4_rule`): ratio, band, verdict. Computed where the row is built (the
+    # processing thread), so a viewer only formats it; None without a model or a rule.
+    agreement: ModelAgreement | None = field(init=False, default=None, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        rule = self.expected_eq4_rule
+        agreement = (
+            None
+            if rule is None
+            else model_agreement(
+                self.snr_mean, self.snr_sem, self.model_snr, f"expected_eq4_{rule}"
+            )
+        )
+        object.__setattr__(self, "agreement", agreement)  # frozen: set once, at construction
 
     @property
     def range_m(self) -> float | None:
