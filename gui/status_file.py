@@ -21,7 +21,9 @@ Content::
                         "screen_first_pixel": [x, y], "screen_last_pixel": [x, y]}},
      "lrf_range_m": float | null, "gps_range_m": float | null,
      "stops": [[cell, ...], ...],
-     "replay": {"index", "length", "playing"} | null,
+     "replay": {"index", "length", "playing", "speed",
+                "slider": {"handle": [x, y], "groove": [x_left, x_right, y]}} | null,
+     "stop_table_screen": [x, y],
      "layout": {...},
      "messages": [str, ...]}
 
@@ -31,7 +33,9 @@ The camera numbers are the status snapshot the header was drawn from (``header``
 
 ``screen_first_pixel`` and ``screen_last_pixel`` are the global screen positions of the centres
 of image pixel (0, 0) and (cols - 1, rows - 1) as shown now (zoom and pan included): where on
-the screen a pixel of the image is.
+the screen a pixel of the image is. ``slider`` and ``stop_table_screen`` are global screen
+positions too: the replay's seek slider (its handle, its groove's ends) and the stop table's
+middle.
 """
 
 from __future__ import annotations
@@ -73,11 +77,23 @@ def _replay(window) -> dict[str, Any] | None:
     if not window.replay:
         return None
     p = window.session.position()
-    return {"index": p.index, "length": p.length, "playing": p.playing}
+    bar = window.replay_bar
+    return {
+        "index": p.index,
+        "length": p.length,
+        "playing": p.playing,
+        "speed": p.speed,
+        "slider": bar.slider_screen() if bar is not None else None,
+    }
 
 
 def _screen(view, x: int, y: int) -> list[int]:
     p = view.graphics.viewport().mapToGlobal(view.viewport_pos_of_pixel(x, y))
+    return [p.x(), p.y()]
+
+
+def _centre(widget) -> list[int]:
+    p = widget.mapToGlobal(widget.rect().center())
     return [p.x(), p.y()]
 
 
@@ -131,6 +147,7 @@ def console_state(window) -> dict[str, Any]:
         "gps_range_m": _num(st.gps_range_m) if st is not None else None,
         "stops": window.stop_table.cells(),
         "replay": _replay(window),
+        "stop_table_screen": _centre(window.stop_table.viewport()),
         "layout": layout_report(window),
         "messages": window.messages[-20:],
     }
