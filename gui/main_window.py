@@ -33,7 +33,6 @@ from PySide6.QtWidgets import (
     QInputDialog,
     QLabel,
     QMainWindow,
-    QMessageBox,
     QScrollArea,
     QSplitter,
     QStackedWidget,
@@ -47,7 +46,7 @@ from snrmon.acquisition.engine.status import SessionStatus
 from snrmon.acquisition.protocols import ConsoleSession, ReplayControls
 from snrmon.gui import model_curves as mc
 from snrmon.gui import theme as th
-from snrmon.gui.actions import install_actions, shortcuts_text
+from snrmon.gui.actions import ShortcutsDialog, install_actions
 from snrmon.gui.alarms import AlarmBanner
 from snrmon.gui.camera_panel import CameraPanel
 from snrmon.gui.frame_feed import DisplayRates, DisplayWorker, FrameFeed, display_message
@@ -184,6 +183,7 @@ class ConsoleWindow(QMainWindow):
         self.shown_counter: dict[str, int] = {}
         self.actions_by_key = install_actions(self, self.menuBar(), replay=self.replay)
         self.replay_bar: ReplayBar | None = None
+        self.shortcuts_dialog: ShortcutsDialog | None = None  # F1, made when first asked for
         if self.replay:
             self.replay_bar = ReplayBar(session, self.actions_by_key, self)
             self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.replay_bar)
@@ -722,11 +722,10 @@ class ConsoleWindow(QMainWindow):
         self.showNormal() if self.isFullScreen() else self.showFullScreen()
 
     def show_shortcuts(self) -> None:
-        box = QMessageBox(
-            QMessageBox.Icon.Information, "Keyboard shortcuts", shortcuts_text(), parent=self
-        )
-        box.setModal(False)
-        box.open()
+        if self.shortcuts_dialog is None:
+            self.shortcuts_dialog = ShortcutsDialog(self)
+        self.shortcuts_dialog.show()
+        self.shortcuts_dialog.raise_()
 
     def save_screenshot(self, path: str | Path | None = None) -> Path | None:
         """Save the whole window as a PNG (asks for a file name when None)."""

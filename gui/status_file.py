@@ -24,6 +24,8 @@ Content::
      "replay": {"index", "length", "playing", "speed",
                 "slider": {"handle": [x, y], "groove": [x_left, x_right, y]}} | null,
      "stop_table_screen": [x, y],
+     "shortcuts": {"rect": [x, y, w, h], "ok": [x, y, w, h], "scroll_max": int} | null,
+     "screen": [x, y, w, h] | null,
      "layout": {...},
      "messages": [str, ...]}
 
@@ -34,8 +36,9 @@ The camera numbers are the status snapshot the header was drawn from (``header``
 ``screen_first_pixel`` and ``screen_last_pixel`` are the global screen positions of the centres
 of image pixel (0, 0) and (cols - 1, rows - 1) as shown now (zoom and pan included): where on
 the screen a pixel of the image is. ``slider`` and ``stop_table_screen`` are global screen
-positions too: the replay's seek slider (its handle, its groove's ends) and the stop table's
-middle.
+positions too: the replay's seek slider (its handle, its groove's ends), the stop table's
+middle, the shortcut list (F1) and its OK button while it is open; ``screen`` is the available
+area of the window's screen.
 """
 
 from __future__ import annotations
@@ -90,6 +93,28 @@ def _replay(window) -> dict[str, Any] | None:
 def _screen(view, x: int, y: int) -> list[int]:
     p = view.graphics.viewport().mapToGlobal(view.viewport_pos_of_pixel(x, y))
     return [p.x(), p.y()]
+
+
+def _global_rect(widget) -> list[int]:
+    p = widget.mapToGlobal(widget.rect().topLeft())
+    return [p.x(), p.y(), widget.width(), widget.height()]
+
+
+def _shortcuts(window) -> dict[str, Any] | None:
+    box = window.shortcuts_dialog
+    if box is None or not box.isVisible():
+        return None
+    ok = box.buttons.buttons()[0]
+    bar = box.text.verticalScrollBar()
+    return {"rect": _global_rect(box), "ok": _global_rect(ok), "scroll_max": bar.maximum()}
+
+
+def _screen_rect(window) -> list[int] | None:
+    screen = window.screen()
+    if screen is None:
+        return None
+    r = screen.availableGeometry()
+    return [r.x(), r.y(), r.width(), r.height()]
 
 
 def _centre(widget) -> list[int]:
@@ -148,6 +173,8 @@ def console_state(window) -> dict[str, Any]:
         "stops": window.stop_table.cells(),
         "replay": _replay(window),
         "stop_table_screen": _centre(window.stop_table.viewport()),
+        "shortcuts": _shortcuts(window),
+        "screen": _screen_rect(window),
         "layout": layout_report(window),
         "messages": window.messages[-20:],
     }
