@@ -17,10 +17,11 @@ Content::
                         "agreement": {"rule", "expected", "lower", "upper", "ratio",
                                       "verdict"} | null,
                         "stop": {"stop", "n_frames", "n_wanted", "open"} | null,
+                        "lost": [{"kind", "name", "state", "for_s"}, ...],
                         "header": str, "frames_shown": int, "shape": [rows, cols],
                         "screen_first_pixel": [x, y], "screen_last_pixel": [x, y]}},
      "lrf_range_m": float | null, "gps_range_m": float | null,
-     "stops": [[cell, ...], ...],
+     "stops": [[cell, ...], ...], "alarms": [str, ...],
      "replay": {"index", "length", "playing", "speed",
                 "slider": {"handle": [x, y], "groove": [x_left, x_right, y]}} | null,
      "stop_table_screen": [x, y],
@@ -68,6 +69,10 @@ def _agreement(a) -> dict[str, Any] | None:
         "ratio": _num(a.ratio),
         "verdict": a.verdict,
     }
+
+
+def _loss(d) -> dict[str, Any]:
+    return {"kind": d.kind, "name": d.name, "state": d.state, "for_s": _num(d.for_s)}
 
 
 def _stop(p) -> dict[str, Any] | None:
@@ -144,6 +149,7 @@ def console_state(window) -> dict[str, Any]:
             "range_source": m.range_source if m is not None else "",
             "agreement": _agreement(cs.agreement) if cs is not None else None,
             "stop": _stop(cs.stop) if cs is not None else None,
+            "lost": [_loss(d) for d in cs.lost] if cs is not None else [],
             "header": panel.header.text(),
             "frames_shown": panel.view.frames_shown,
             "shape": [rows, cols],
@@ -171,6 +177,7 @@ def console_state(window) -> dict[str, Any]:
         "lrf_range_m": _num(st.lrf_range_m) if st is not None else None,
         "gps_range_m": _num(st.gps_range_m) if st is not None else None,
         "stops": window.stop_table.cells(),
+        "alarms": list(st.alarms) if st is not None else [],
         "replay": _replay(window),
         "stop_table_screen": _centre(window.stop_table.viewport()),
         "shortcuts": _shortcuts(window),

@@ -28,7 +28,13 @@ import numpy as np
 from snrmon.acquisition.config import SessionConfig, camera_device
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.session_engine import SessionEngine
-from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
+from snrmon.acquisition.engine.status import (
+    CameraStatus,
+    DeviceLoss,
+    RecordingStatus,
+    SessionStatus,
+    device_loss,
+)
 from snrmon.acquisition.prediction import (
     MeasuredNoise,
     Predictor,
@@ -44,7 +50,7 @@ from snrmon.acquisition.stops.detector import Stop, StopConfig
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.acquisition.streams.timebase import ClockMap
-from snrmon.drivers.device import Device
+from snrmon.drivers.device import Device, DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading
 
@@ -136,6 +142,8 @@ class Session:
         self._started = False
         # camera -> (frames lost, when that count last grew)
         self._drops_seen: dict[str, tuple[int, float]] = {}
+        self._lost: dict[str, DeviceLoss] = {}  # device name -> its loss, as last reported
+        self._lost_lock = threading.Lock()
         self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
         # per camera, the measured 3D noise the model uses in place of its own (none: its own)
         self.measured_noise: dict[str, MeasuredNoise] = {}
@@ -471,17 +479,49 @@ class Session:
                     f"{name} frames: {lost} dropped (camera "
                     f"{f.dropped_by_camera}, ring overrun {f.dropped_by_ring})"
                 )
+        lrf_st = self.lrf.status() if self.lrf else None
+        gps_st = self.gps.status() if self.gps else None
+        if self._started:
+            cams = self._with_losses(cams, lrf_st, gps_st)
         return SessionStatus(
             cameras=cams,
-            lrf=self.lrf.status() if self.lrf else None,
+            lrf=lrf_st,
             lrf_range_m=lrf_last.range_m if lrf_last else None,
             lrf_age_s=lrf_age,
-            gps=self.gps.status() if self.gps else None,
+            gps=gps_st,
             gps_fix=fix,
             gps_range_m=gps_latest[1] if gps_latest else None,
             recording=rec_status,
             alarms=tuple(alarms),
         )
+
+    def _with_losses(
+        self,
+        cams: dict[str, CameraStatus],
+        lrf: DeviceStatus | None,
+        gps: DeviceStatus | None,
+    ) -> dict[str, CameraStatus]:
+        """Each camera's status with the devices its numbers depend on that are lost now (its
+        own camera, the rangefinder, the GPS); a loss starting or ending is an event of the
+        recording (``device_lost`` / ``device_back``), once each way."""
+        shared = [d for d in (device_loss("LRF", lrf), device_loss("GPS", gps)) if d]
+        out = {}
+        now: dict[str, DeviceLoss] = {d.name: d for d in shared}
+        for name, cs in cams.items():
+            own = device_loss("camera", cs.device)
+            lost = ((own,) if own else ()) + tuple(shared)
+            if own:
+                now[own.name] = own
+            out[name] = dataclasses.replace(cs, lost=lost) if lost else cs
+        with self._lost_lock:  # any thread may ask for the status: each change recorded once
+            began = [loss for dev, loss in now.items() if dev not in self._lost]
+            ended = [loss for dev, loss in self._lost.items() if dev not in now]
+            self._lost = now
+        for loss in began:
+            self._event("device_lost", payload=dataclasses.asdict(loss))
+        for loss in ended:
+            self._event("device_back", payload={"kind": loss.kind, "name": loss.name})
+        return out
 
     # ------------------------------------------------------------------ record helpers
     def _event(
