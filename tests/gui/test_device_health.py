@@ -85,7 +85,7 @@ def test_a_lost_rangefinder_and_a_stalled_camera_turn_the_header_red(qtbot, kit,
 
     producer.pause()  # the camera stalls: its header is no longer green "tracking"
     qtbot.waitUntil(lambda: "camera" in state.value.text(), timeout=15_000)
-    assert "camera + LRF LOST" == state.value.text()
+    assert state.value.text() == "camera + LRF LOST"
     assert "camera stale" in state.note.text() and state.verdict == "lost"
     status = console_state(win)
     cam = status["cameras"]["cam"]
