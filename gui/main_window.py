@@ -53,6 +53,7 @@ from snrmon.gui.frame_feed import DisplayRates, DisplayWorker, FrameFeed, displa
 from snrmon.gui.model_dialog import ModelOptionsDialog
 from snrmon.gui.noise_panel import NoisePanel
 from snrmon.gui.range_plot import CurveSource, RangePlot
+from snrmon.gui.recording_indicator import RecordingIndicator
 from snrmon.gui.replay_bar import ReplayBar
 from snrmon.gui.status_panel import StatusPanel
 from snrmon.gui.stop_table_view import StopTableView
@@ -190,8 +191,7 @@ class ConsoleWindow(QMainWindow):
         view_menu = self.menuBar().addMenu("&Panels")
         for dock in self.findChildren(QDockWidget):
             view_menu.addAction(dock.toggleViewAction())
-        self.recording_label = QLabel("not recording")
-        self.recording_label.setToolTip("The recording: state, size written, frames dropped")
+        self.recording_label = RecordingIndicator()
         self.statusBar().addPermanentWidget(self.recording_label)
         self.statusBar().showMessage("ready: click a drone to set its ROI")
         # Frames shown / delivered per camera (refresh_frames, refresh_status).
@@ -516,17 +516,7 @@ class ConsoleWindow(QMainWindow):
         recording = rec.state == "recording"
         self.actions_by_key["record_start"].setEnabled(not recording)
         self.actions_by_key["record_stop"].setEnabled(recording)
-        if recording:
-            text = (
-                f"REC  {rec.bytes_written / 1e6:.0f} MB  {rec.dropped_frames} frames dropped  "
-                f"{Path(rec.path).name}"
-            )
-        elif rec.state == "replay":
-            text = f"replay of {Path(rec.path).name}"
-        else:
-            text = f"recording {rec.state}" + (f": {rec.message}" if rec.message else "")
-        if self.recording_label.text() != text:
-            self.recording_label.setText(text)
+        self.recording_label.show_recording(rec)
 
     def refresh_stops(self) -> None:
         rows = self.session.stops()

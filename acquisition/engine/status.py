@@ -156,6 +156,9 @@ class RecordingStatus:
     message: str = ""
     backlog_bytes: int = 0  # frames queued for the disk
     dropped_frames: int = 0  # frames the recording lost (all cameras, all reasons)
+    elapsed_s: float | None = None  # since the recording began
+    rate_bytes_s: float = math.nan  # written over the last seconds
+    time_left_s: float | None = None  # until the disk is full at that rate (inf: not writing)
 
 
 @dataclass(frozen=True)

@@ -43,6 +43,7 @@ from snrmon.acquisition.prediction import (
 )
 from snrmon.acquisition.protocols import RecordingWriter
 from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.acquisition.record.recorder_status import WriteRate, disk_time_left_s
 from snrmon.acquisition.record.session_log import RecordingLog
 from snrmon.acquisition.runtime.camera_pipeline import CameraPipeline
 from snrmon.acquisition.runtime.interpreter import LiveInterpreter
@@ -144,6 +145,7 @@ class Session:
         self._drops_seen: dict[str, tuple[int, float]] = {}
         self._lost: dict[str, DeviceLoss] = {}  # device name -> its loss, as last reported
         self._lost_lock = threading.Lock()
+        self._rate: tuple[Any, WriteRate] | None = None  # (recorder, its meter)
         self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
         # per camera, the measured 3D noise the model uses in place of its own (none: its own)
         self.measured_noise: dict[str, MeasuredNoise] = {}
@@ -346,6 +348,8 @@ class Session:
             # after them reaches the recorder (none falls between the two).
             with self._lock:
                 self._recorder = rec
+            with self._lost_lock:
+                self._rate = (rec, WriteRate(time.monotonic()))  # the recording's clock
             for stop in self.engine.stop_detector.stops:
                 self.stop_changed("stop_known", stop, rec)
 
@@ -439,6 +443,8 @@ class Session:
         rec_status = RecordingStatus()
         if rec is not None:
             st = rec.status()
+            meter = self._write_rate(rec)
+            rate = meter.add(time.monotonic(), st.bytes_written)
             rec_status = RecordingStatus(
                 st.state,
                 st.path,
@@ -447,6 +453,9 @@ class Session:
                 st.error or "",
                 backlog_bytes=st.backlog_bytes,
                 dropped_frames=sum(sum(d.values()) for d in st.dropped.values()),
+                elapsed_s=time.monotonic() - meter.t0_s,
+                rate_bytes_s=rate,
+                time_left_s=disk_time_left_s(st.free_bytes, rate),
             )
         alarms = []
         for dev in (self.lrf, self.gps, *(p.device for p in self.pipelines.values())):
@@ -494,6 +503,13 @@ class Session:
             recording=rec_status,
             alarms=tuple(alarms),
         )
+
+    def _write_rate(self, rec) -> WriteRate:
+        """The write-rate meter of recording ``rec`` (a new one for each recording)."""
+        with self._lost_lock:
+            if self._rate is None or self._rate[0] is not rec:
+                self._rate = (rec, WriteRate(time.monotonic()))
+            return self._rate[1]
 
     def _with_losses(
         self,
