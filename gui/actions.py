@@ -133,6 +133,14 @@ ACTIONS: tuple[ActionSpec, ...] = (
         "release_track",
     ),
     ActionSpec(
+        "palette",
+        "Next &palette",
+        "G",
+        "The images' palette: grey, white-hot, black-hot, ironbow, in turn",
+        "&View",
+        "next_palette",
+    ),
+    ActionSpec(
         "enlarge_range",
         "&Large SNR-versus-range plot",
         "P",

@@ -7,7 +7,9 @@ image for the screen), and the view skips a frame it has already shown. The view
 how it draws (:meth:`CameraView.display_request`).
 Drawn on the image (paper Fig. 4): the search window centred on the ROI, the box centred on the
 measured peak, and the inner edge of its one-pixel rim (the rim pixels lie between the two); and
-a cyan cross where the drone's GPS position projects into the camera (hidden with no projection).
+a cyan ring around where the drone's GPS position projects into the camera (hidden with no
+projection), and, where the image is drawn so small that the box would be under 8 screen
+pixels, a square of that size at the peak. The palette is grey, white-hot, black-hot or ironbow.
 """
 
 from __future__ import annotations
@@ -29,6 +31,22 @@ from snrmon.gui.frame_feed import DisplayRequest, ShownFrame
 from snrmon.gui.levels import histogram_range
 
 GPS_COLOR = "#00e5ff"  # cyan: distinct from the ROI blue, box yellow and peak red
+GPS_RING_PX = 30  # the GPS cue: a ring this wide on the screen, the drone visible inside it
+MIN_BOX_SCREEN_PX = 8  # the measured box is never drawn smaller on the screen than this
+# The palettes an infrared engineer expects (gradient stops 0..1 over the levels, RGB).
+PALETTES: dict[str, list[tuple[float, tuple[int, int, int, int]]]] = {
+    "grey": [(0.0, (0, 0, 0, 255)), (1.0, (255, 255, 255, 255))],
+    "white-hot": [(0.0, (0, 0, 0, 255)), (1.0, (255, 255, 255, 255))],
+    "black-hot": [(0.0, (255, 255, 255, 255)), (1.0, (0, 0, 0, 255))],
+    "ironbow": [
+        (0.0, (0, 0, 0, 255)),
+        (0.2, (32, 0, 140, 255)),
+        (0.45, (204, 0, 119, 255)),
+        (0.7, (255, 120, 0, 255)),
+        (0.9, (255, 215, 0, 255)),
+        (1.0, (255, 255, 230, 255)),
+    ],
+}
 
 
 def _rect_item(colour: str, width: float = 1.5, style=Qt.PenStyle.SolidLine) -> QGraphicsRectItem:
@@ -185,6 +203,8 @@ class CameraView(QWidget):
     """
 
     roi_clicked = Signal(str, int, int)
+    # the pixel under the pointer and its value (DN of the shown frame): camera, column, row, DN
+    pointed = Signal(str, int, int, float)
 
     def __init__(
         self,
@@ -225,10 +245,29 @@ class CameraView(QWidget):
         self.peak_rect = _rect_item("#ff4040", width=1.0)
         for item in (self.search_rect, self.box_rect, self.rim_inner_rect, self.peak_rect):
             self.view.addItem(item)
+        # a ring around where the GPS puts the drone, not a cross over it: the drone itself
+        # stays in view inside for the click
         self.gps_marker = pg.ScatterPlotItem(
-            symbol="+", size=16, pen=pg.mkPen(GPS_COLOR, width=2), brush=None, pxMode=True
+            symbol="o",
+            size=GPS_RING_PX,
+            pen=pg.mkPen(GPS_COLOR, width=2),
+            brush=pg.mkBrush(0, 0, 0, 0),
+            pxMode=True,
         )
         self.gps_marker.setZValue(11)
+        # the box at the peak where the image is drawn so small that its box would be under
+        # MIN_BOX_SCREEN_PX on the screen (a 1280-px frame 252 px wide: a 7-px box is 1.4 px)
+        self.box_marker = pg.ScatterPlotItem(
+            symbol="s",
+            size=MIN_BOX_SCREEN_PX + 4,
+            pen=pg.mkPen("#ffd34d", width=2),
+            brush=pg.mkBrush(0, 0, 0, 0),
+            pxMode=True,
+        )
+        self.box_marker.setZValue(11)
+        self.box_marker.setVisible(False)
+        self.view.addItem(self.box_marker)
+        self.palette = "grey"
         self.gps_marker.setToolTip("GPS: the drone's GPS position projected into this camera")
         self.gps_marker.setVisible(False)
         self.view.addItem(self.gps_marker)
@@ -236,6 +275,7 @@ class CameraView(QWidget):
         self.image.setImage(np.zeros((h, w), np.uint16), autoLevels=False, levels=(0, 1))
         self.view.setRange(QRectF(0, 0, w, h), padding=0.0)
         self.graphics.scene().sigMouseClicked.connect(self._scene_clicked)
+        self.graphics.scene().sigMouseMoved.connect(self._scene_moved)
         self.setToolTip(
             f"{camera}: click the drone to set the ROI; wheel = zoom, drag = pan. "
             "Levels in DN (drag the histogram handles, or A for auto-levels)."
@@ -330,11 +370,28 @@ class CameraView(QWidget):
         has_peak = roi is not None and last is not None
         for item in (self.box_rect, self.rim_inner_rect, self.peak_rect):
             item.setVisible(has_peak)
+        small = has_peak and self.box_screen_px() < MIN_BOX_SCREEN_PX
+        self.box_marker.setVisible(small)
         if has_peak:
             box = self.config.box_px
             self.box_rect.setRect(square_around(last.peak_x, last.peak_y, box))
             self.rim_inner_rect.setRect(square_around(last.peak_x, last.peak_y, box - 2))
             self.peak_rect.setRect(square_around(last.peak_x, last.peak_y, 1))
+            if small:
+                self.box_marker.setData([last.peak_x + 0.5], [last.peak_y + 0.5])
+
+    def box_screen_px(self) -> float:
+        """How wide the measured box is on the screen now (zoom included), in pixels."""
+        a = self.view.mapViewToScene(QPointF(0.0, 0.0))
+        b = self.view.mapViewToScene(QPointF(float(self.config.box_px), 0.0))
+        return abs(b.x() - a.x())
+
+    def set_palette(self, name: str) -> None:
+        """Draw the image in palette ``name`` (:data:`PALETTES`) over the current levels."""
+        if name not in PALETTES:
+            raise ValueError(f"unknown palette {name!r} (known: {', '.join(PALETTES)})")
+        self.palette = name
+        self.histogram.gradient.restoreState({"mode": "rgb", "ticks": PALETTES[name]})
 
     def show_gps(self, xy: tuple[float, float] | None) -> None:
         """The GPS cross at image coordinates ``xy`` (pixel centres on integers, as
@@ -354,6 +411,20 @@ class CameraView(QWidget):
             return
         self.click_at_scene(pos)
         event.accept()
+
+    def _scene_moved(self, pos: QPointF) -> None:
+        value = self.value_at_scene(pos)
+        if value is not None:
+            self.pointed.emit(self.camera, *value)
+
+    def value_at_scene(self, scene_pos: QPointF) -> tuple[int, int, float] | None:
+        """(column, row, DN) of the shown frame's pixel at a scene position; None off it."""
+        pt = self.view.mapSceneToView(scene_pos)
+        x, y = pixel_at(pt.x(), pt.y())
+        pixels = self.image.image
+        if pixels is None or not (0 <= y < pixels.shape[0] and 0 <= x < pixels.shape[1]):
+            return None
+        return x, y, float(pixels[y, x])
 
     def click_at_scene(self, scene_pos: QPointF) -> tuple[int, int] | None:
         """Map a scene position to a pixel and emit :attr:`roi_clicked` if it is on the image."""

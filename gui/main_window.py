@@ -49,6 +49,7 @@ from snrmon.gui import theme as th
 from snrmon.gui.actions import ShortcutsDialog, install_actions
 from snrmon.gui.alarms import AlarmBanner
 from snrmon.gui.camera_panel import CameraPanel
+from snrmon.gui.camera_view import PALETTES
 from snrmon.gui.frame_feed import DisplayRates, DisplayWorker, FrameFeed, display_message
 from snrmon.gui.model_dialog import ModelOptionsDialog
 from snrmon.gui.noise_panel import NoisePanel
@@ -135,6 +136,7 @@ class ConsoleWindow(QMainWindow):
         for name, pipe in session.pipelines.items():
             panel = CameraPanel(name, pipe.shape, session.config.measurement)
             panel.view.roi_clicked.connect(self.set_roi)
+            panel.view.pointed.connect(self._show_pointed)
             self.panels[name] = panel
             self.camera_splitter.addWidget(panel)
         self.active_camera = next(iter(self.panels), "")
@@ -192,6 +194,11 @@ class ConsoleWindow(QMainWindow):
         for dock in self.findChildren(QDockWidget):
             view_menu.addAction(dock.toggleViewAction())
         self.recording_label = RecordingIndicator()
+        self.pointer_label = QLabel("")
+        self.pointer_label.setToolTip(
+            "The pixel under the pointer and its value in the shown frame"
+        )
+        self.statusBar().addPermanentWidget(self.pointer_label)
         self.statusBar().addPermanentWidget(self.recording_label)
         self.statusBar().showMessage("ready: click a drone to set its ROI")
         # Frames shown / delivered per camera (refresh_frames, refresh_status).
@@ -699,6 +706,18 @@ class ConsoleWindow(QMainWindow):
 
     def replay_slower(self) -> None:
         self.replay_bar.change_speed(up=False)
+
+    def _show_pointed(self, camera: str, x: int, y: int, dn: float) -> None:
+        self.pointer_label.setText(f"{camera} column {x}, row {y}: {dn:.0f} DN")
+
+    def next_palette(self) -> None:
+        """Every camera's image in the next palette (grey, white-hot, black-hot, ironbow)."""
+        names = list(PALETTES)
+        first = next(iter(self.panels.values())).view.palette
+        name = names[(names.index(first) + 1) % len(names)]
+        for panel in self.panels.values():
+            panel.view.set_palette(name)
+        self.report(f"palette: {name}")
 
     def auto_levels(self) -> None:
         for panel in self.panels.values():
