@@ -708,7 +708,11 @@ class ConsoleWindow(QMainWindow):
         self.replay_bar.change_speed(up=False)
 
     def _show_pointed(self, camera: str, x: int, y: int, dn: float) -> None:
-        self.pointer_label.setText(f"{camera} column {x}, row {y}: {dn:.0f} DN")
+        """The pixel under the pointer, its DN and, with a calibration, its apparent
+        temperature (the session's conversion)."""
+        temp_k = self.session.pipelines[camera].apparent_temp_k(x, y, dn)
+        temp = "" if temp_k is None else f", apparent {temp_k:.2f} K ({temp_k - 273.15:.2f} C)"
+        self.pointer_label.setText(f"{camera} column {x}, row {y}: {dn:.0f} DN{temp}")
 
     def next_palette(self) -> None:
         """Every camera's image in the next palette (grey, white-hot, black-hot, ironbow)."""

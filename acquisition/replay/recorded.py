@@ -140,15 +140,16 @@ def recorded_inputs(f: SessionFile) -> RecordedInputs:
             c.commands.append((t, kind, p))
         elif kind in ("model_background", "model_psf", "model_noise"):
             c.model_inputs.append((t, kind, p))
-        elif kind == "psf_measured" and _psf_estimate(p) is not None:
-            measured_psf[cam] = _psf_estimate(p)
+        elif kind == "psf_measured" and (fit := _psf_estimate(p)) is not None:
+            measured_psf[cam] = fit
         elif kind == "calibration" and "path" in p:
             c.calibration = p["path"]
     # Results kept beside the recording (snrmon psf without --write) count as if written in it.
     for r in read_results(f.path, created_utc=str(f.attrs.get("created_utc", ""))):
         p = r.get("payload") or {}
-        if r.get("kind") == "psf_measured" and r.get("camera") in per and _psf_estimate(p):
-            measured_psf[r["camera"]] = _psf_estimate(p)
+        fit = _psf_estimate(p) if r.get("kind") == "psf_measured" else None
+        if fit is not None and r.get("camera") in per:
+            measured_psf[r["camera"]] = fit
     for cam, estimate in measured_psf.items():
         # A PSF fitted after the flight is the camera's from the first frame on; a PSF the live
         # console adopted during the flight still takes over where it did.

@@ -104,3 +104,32 @@ def test_the_value_under_the_pointer_is_the_shown_frame_s_dn(qtbot, view):
         float(frame[700, 12]),
     )
     assert view.value_at_scene(view.view.mapViewToScene(QPointF(-3.0, 5.0))) is None
+
+
+def test_the_apparent_temperature_under_the_pointer_by_the_pixel_s_calibration():
+    """With a calibration, the pointer's pixel reads as an apparent temperature: the raw DN
+    through that pixel's own offset and responsivity, then the band's Planck inversion (a
+    pixel's neighbour, with another offset, would read another temperature)."""
+    from snrmon.acquisition.calibrate.calibration import Calibration, radiance_of
+    from snrmon.acquisition.engine.camera_engine import CameraEngine
+
+    shape = (40, 60)
+    rng = np.random.default_rng(8)
+    cal = Calibration(
+        camera="mwir",
+        band_um=(3.45, 5.25),
+        t_int_s=0.001,
+        temps_k=(283.0, 313.0),
+        responsivity=rng.uniform(0.8, 1.2, shape).astype(np.float32) * 1e3,
+        offset_dn=rng.uniform(900, 1100, shape).astype(np.float32),
+        bad=np.zeros(shape, np.uint8),
+        fit_rms_dn=np.zeros(shape, np.float32),
+        temporal_noise_dn=np.ones(shape, np.float32),
+    )
+    engine = CameraEngine("mwir", shape)
+    assert engine.apparent_temp_k(10, 20, 1500.0) is None  # no calibration: no temperature
+    engine.set_calibration(cal)
+    dn = float(cal.offset_dn[20, 10] + cal.responsivity[20, 10] * radiance_of(cal.band_um, 300.0))
+    assert engine.apparent_temp_k(10, 20, dn) == pytest.approx(300.0, abs=1e-3)
+    assert abs(engine.apparent_temp_k(11, 20, dn) - 300.0) > 0.01  # its neighbour's own map
+    assert engine.apparent_temp_k(60, 20, dn) is None  # off the map
