@@ -133,3 +133,35 @@ def test_the_apparent_temperature_under_the_pointer_by_the_pixel_s_calibration()
     assert engine.apparent_temp_k(10, 20, dn) == pytest.approx(300.0, abs=1e-3)
     assert abs(engine.apparent_temp_k(11, 20, dn) - 300.0) > 0.01  # its neighbour's own map
     assert engine.apparent_temp_k(60, 20, dn) is None  # off the map
+
+
+def test_the_loupe_magnifies_the_pixels_around_the_pointer(qtbot, view):
+    from PySide6.QtCore import QPointF
+
+    from snrmon.gui.camera_view import LOUPE_PX, LOUPE_ZOOM, loupe_rgb
+
+    view.resize(900, 560)
+    view.show()
+    qtbot.waitExposed(view)
+    frame = np.full((H, W), 1000, np.uint16)
+    frame[360, 640] = 1100  # the drone: white at levels (1000, 1100)
+    frame[360, 641] = 1050  # its neighbour: mid grey
+    view.image.setImage(frame, autoLevels=False, levels=(1000, 1100))
+    view._set_levels_quietly(1000, 1100)
+    view.set_palette("grey")
+    view._scene_moved(view.view.mapViewToScene(QPointF(640.5, 360.5)))
+    loupe = view.loupe
+    assert loupe.isVisible() and loupe.centre == (640, 360)
+    side = LOUPE_PX * LOUPE_ZOOM
+    assert (loupe.pixmap().width(), loupe.pixmap().height()) == (side, side)
+    image = loupe.pixmap().toImage()
+    mid = (LOUPE_PX // 2) * LOUPE_ZOOM + LOUPE_ZOOM // 2
+    assert image.pixelColor(mid, mid).name() == "#ffffff"  # the drone, magnified
+    right = image.pixelColor(mid + LOUPE_ZOOM, mid)
+    assert right.red() == right.green() == right.blue() and 120 <= right.red() <= 135
+    assert image.pixelColor(mid + 3 * LOUPE_ZOOM, mid).name() == "#000000"  # sky at the low level
+    # the crop's colours as an independent reading: levels onto 0..255
+    rgb = loupe_rgb(frame, 640, 360, (1000, 1100), None)
+    assert rgb[LOUPE_PX // 2, LOUPE_PX // 2] & 0xFFFFFF == 0xFFFFFF
+    edge = loupe_rgb(frame, 0, 0, (1000, 1100), None)  # beyond the frame's edge: black
+    assert edge[0, 0] & 0xFFFFFF == 0 and edge.shape == (LOUPE_PX, LOUPE_PX)
