@@ -11,7 +11,6 @@ import time
 import pytest
 from PySide6.QtCore import QSettings
 
-from snrmon.acquisition.config import session_config_from_dict
 from snrmon.acquisition.record.reader import open_session
 from snrmon.acquisition.runtime.session import Session
 from snrmon.acquisition.stops.detector import StopConfig
@@ -19,7 +18,7 @@ from snrmon.gui import theme as th
 from snrmon.gui.app import console_application
 from snrmon.gui.main_window import ConsoleWindow
 from snrmon.gui.status_file import console_state
-from tests.helpers import H, W, field_devices
+from tests.helpers import field_devices, field_session_config
 
 RANGE_M = 150.0
 
@@ -28,16 +27,7 @@ RANGE_M = 150.0
 def kit(tmp_path):
     name = f"snrmon-health-{time.monotonic_ns() % 10**9}"
     with field_devices(name, seed=5, range_m=RANGE_M, lrf_hz=20.0) as (producer, lrf, gps):
-        config = session_config_from_dict(
-            {
-                "site": {"lat_deg": 32.38, "lon_deg": -106.48, "alt_m": 1200.0},
-                "cameras": {
-                    "cam": {"source": "shm", "address": name, "width_px": W, "height_px": H}
-                },
-                "lrf": {"protocol": "ldm", "port": lrf.path, "baud": 9600},
-                "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
-            }
-        )
+        config = field_session_config(name, lrf, gps)
         session = Session(config, stop_config=StopConfig(steady_s=1.0, min_readings=3))
         session.pipelines["cam"].device.stale_after_s = 0.5
         try:
