@@ -47,6 +47,11 @@ class CameraView(Protocol):
         """What became of the operator's last click, each message once (none in a replay)."""
         ...
 
+    def apparent_temp_k(self, x: int, y: int, dn: float) -> float | None:
+        """Pixel (x, y)'s raw value ``dn`` as an apparent temperature (K) by the camera's
+        calibration; None without one."""
+        ...
+
 
 class ConsoleSession(Protocol):
     """What the console window needs of a session, live or replayed."""

@@ -7,8 +7,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from PySide6.QtCore import QRect
 from PySide6.QtGui import QAction, QKeySequence
-from PySide6.QtWidgets import QMainWindow, QMenuBar
+from PySide6.QtWidgets import (
+    QApplication,
+    QDialog,
+    QDialogButtonBox,
+    QMainWindow,
+    QMenuBar,
+    QPlainTextEdit,
+    QVBoxLayout,
+    QWidget,
+)
 
 
 @dataclass(frozen=True)
@@ -121,6 +131,14 @@ ACTIONS: tuple[ActionSpec, ...] = (
         "Stop measuring on the active camera (until the next click)",
         "&Track",
         "release_track",
+    ),
+    ActionSpec(
+        "palette",
+        "Next &palette",
+        "G",
+        "The images' palette: grey, white-hot, black-hot, ironbow, in turn",
+        "&View",
+        "next_palette",
     ),
     ActionSpec(
         "enlarge_range",
@@ -311,3 +329,28 @@ def install_actions(
 def shortcuts_text() -> str:
     """Every action and its key, one per line."""
     return "\n".join(f"{s.shortcut:<14} {s.text.replace('&', '')}: {s.tip}" for s in ACTIONS)
+
+
+class ShortcutsDialog(QDialog):
+    """The list of :func:`shortcuts_text` in a scrolling box, never taller than the screen it
+    opens on (its OK button always on it: at 1366 x 768 the list is taller than the screen)."""
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Keyboard shortcuts")
+        self.text = QPlainTextEdit(shortcuts_text())
+        self.text.setReadOnly(True)
+        self.text.setLineWrapMode(QPlainTextEdit.LineWrapMode.NoWrap)
+        self.buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok)
+        self.buttons.accepted.connect(self.accept)
+        lay = QVBoxLayout(self)
+        lay.addWidget(self.text, 1)
+        lay.addWidget(self.buttons)
+        screen = (parent.screen() if parent is not None else None) or QApplication.primaryScreen()
+        room = screen.availableGeometry() if screen is not None else QRect(0, 0, 1366, 768)
+        metrics = self.text.fontMetrics()
+        lines = shortcuts_text().splitlines()
+        want_w = max(metrics.horizontalAdvance(line) for line in lines) + 48
+        want_h = metrics.lineSpacing() * len(lines) + 100
+        self.resize(min(want_w, int(room.width() * 0.9)), min(want_h, int(room.height() * 0.85)))
+        self.move(room.center() - self.rect().center())

@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import threading
 from pathlib import Path
 
 from PySide6.QtCore import QEventLoop, QSettings, QTimer, qInstallMessageHandler
@@ -67,6 +68,7 @@ def run_console(
     theme: str | None = None,
     font_scale: float | None = None,
     size: tuple[int, int] | None = None,
+    until: threading.Event | None = None,
 ) -> int:
     """Show the console on a started ``session`` until the window closes; returns 0.
 
@@ -78,6 +80,8 @@ def run_console(
         headless: run offscreen (no display needed); only effective before the first
             QApplication of the process exists.
         duration_s: close the window after this many seconds (None: until the operator quits).
+        until: close the window once this event is set (by any thread: e.g. the simulated
+            flight's completion); looked at on the GUI thread five times a second.
         screenshot: save the whole window to this PNG just before it closes.
         settings: QSettings to use (default: the user's snrmon/console settings).
         status_file: keep the console's state in this JSON file (:mod:`snrmon.gui.status_file`),
@@ -123,7 +127,10 @@ def run_console(
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
     }
     tick = QTimer()
-    tick.timeout.connect(lambda: None)
+    if until is not None:
+        tick.timeout.connect(lambda: window.close() if until.is_set() else None)
+    else:
+        tick.timeout.connect(lambda: None)
     tick.start(200)
     write_file = None
     if status_file is not None:

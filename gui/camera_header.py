@@ -29,6 +29,7 @@ from snrmon.gui.model_curves import curve_label
 
 VALUE_FACTOR = 1.6  # the values' size over the console's text: readable from arm's length
 NOTE_FACTOR = 0.9
+LOST = "lost"  # the state tile's verdict while a device the camera depends on is lost
 VERDICT_WORDS = {"inside": "inside", "near": "near", "outside": "outside", "": "band"}
 STATE_VERDICT = {
     TrackState.TRACKING: "inside",
@@ -81,6 +82,23 @@ def rule_words(rule: str) -> str:
     return label
 
 
+def _range_sources(st: SessionStatus | None) -> tuple[tuple[str, float | None], ...]:
+    return (
+        ("LRF", st.lrf_range_m if st is not None else None),
+        ("GPS", st.gps_range_m if st is not None else None),
+    )
+
+
+def _source_words(kind: str, value: float | None, cs: CameraStatus) -> str:
+    """A range source's last value, or, while it is lost, that it is lost and for how long
+    (its last value is then old: never shown as if live)."""
+    loss = cs.lost_kind(kind)
+    if loss is not None:
+        age = "" if loss.for_s is None else f" {loss.for_s:.0f} s"
+        return f"{kind} lost{age}"
+    return f"{kind} {_num(value, '.1f')}"
+
+
 def header_fields(name: str, cs: CameraStatus, st: SessionStatus | None) -> dict[str, tuple]:
     """{tile: (caption, value, note, verdict)} of one camera, formatted from its status."""
     m = cs.last
@@ -88,19 +106,24 @@ def header_fields(name: str, cs: CameraStatus, st: SessionStatus | None) -> dict
     fields: dict[str, tuple] = {}
     state = cs.track_state
     why = f" ({cs.track_reason})" if cs.track_reason else ""
-    fields["state"] = (
-        f"{name.upper()}  {cs.fps:.1f} fps",
-        state.value,
-        why.strip(" ()") or ("click the drone" if state is TrackState.IDLE else ""),
-        STATE_VERDICT.get(state, ""),
-    )
-    lrf = st.lrf_range_m if st is not None else None
-    gps = st.gps_range_m if st is not None else None
-    source = (m.range_source or "no range").upper() if m is not None else "none"
+    if cs.lost:  # what is lost and for how long, in place of the track's state
+        fields["state"] = (
+            f"{name.upper()}  {cs.fps:.1f} fps",
+            " + ".join(d.kind for d in cs.lost) + " LOST",
+            ", ".join(d.words() for d in cs.lost),
+            LOST,
+        )
+    else:
+        fields["state"] = (
+            f"{name.upper()}  {cs.fps:.1f} fps",
+            state.value,
+            why.strip(" ()") or ("click the drone" if state is TrackState.IDLE else ""),
+            STATE_VERDICT.get(state, ""),
+        )
     fields["range"] = (
-        f"range ({source})",
+        f"range ({(m.range_source or 'no range').upper() if m is not None else 'none'})",
         _m(m.range_m if m is not None else None),
-        f"LRF {_num(lrf, '.1f')}, GPS {_num(gps, '.1f')}",
+        ", ".join(_source_words(kind, value, cs) for kind, value in _range_sources(st)),
         "",
     )
     if measuring:
@@ -188,7 +211,11 @@ class _Tile(QWidget):
         self.caption.setStyleSheet(muted)
         self.note.setStyleSheet(muted)
         fill, ink = t.verdicts.get(self.verdict, ("", t.text))
-        if self.key == "ratio" and fill:  # the agreement at a glance: a filled badge
+        if self.verdict == LOST:  # a lost device: white on the alarm's red, not to be missed
+            self.value.setStyleSheet(
+                f"background: {th.ALARM}; color: #ffffff; border-radius: 4px; padding: 0px 6px;"
+            )
+        elif self.key == "ratio" and fill:  # the agreement at a glance: a filled badge
             self.value.setStyleSheet(
                 f"background: {fill}; color: {ink}; border-radius: 4px; padding: 0px 6px;"
             )
@@ -208,6 +235,7 @@ class CameraHeader(QFrame):
         super().__init__(parent)
         self.name = name
         self.active = False
+        self.alarm = False
         self.setObjectName("camera_header")
         self.tiles = {key: _Tile(key) for key in TEMPLATES}
         flow = FlowLayout(self, spacing=4)
@@ -237,6 +265,8 @@ class CameraHeader(QFrame):
     def _frame_style(self) -> None:
         t = th.current()
         colour = t.accent if self.active else t.panel
+        if self.alarm:
+            colour = th.ALARM
         self.setStyleSheet(
             f"QFrame#camera_header {{ border: 2px solid {colour}; border-radius: 4px; }}"
         )
@@ -246,6 +276,9 @@ class CameraHeader(QFrame):
         self.fields = header_fields(self.name, cs, st)
         for key, (caption, value, note, verdict) in self.fields.items():
             self.tiles[key].set_texts(caption, value, note, verdict)
+        if bool(cs.lost) != self.alarm:
+            self.alarm = bool(cs.lost)  # the whole header outlined in red while a device is lost
+            self._frame_style()
 
     def text(self) -> str:
         """Everything the header shows, tile by tile (the status file, tests)."""

@@ -7,20 +7,23 @@ image for the screen), and the view skips a frame it has already shown. The view
 how it draws (:meth:`CameraView.display_request`).
 Drawn on the image (paper Fig. 4): the search window centred on the ROI, the box centred on the
 measured peak, and the inner edge of its one-pixel rim (the rim pixels lie between the two); and
-a cyan cross where the drone's GPS position projects into the camera (hidden with no projection).
+a cyan ring around where the drone's GPS position projects into the camera (hidden with no
+projection), and, where the image is drawn so small that the box would be under 8 screen
+pixels, a square of that size at the peak. The palette is grey, white-hot, black-hot or ironbow.
 """
 
 from __future__ import annotations
 
 import math
+import time
 
 import cv2
 import numpy as np
 import pyqtgraph as pg
 from pyqtgraph import functions_qimage
 from PySide6.QtCore import QPoint, QPointF, QRectF, Qt, Signal
-from PySide6.QtGui import QImage
-from PySide6.QtWidgets import QGraphicsItem, QGraphicsRectItem, QVBoxLayout, QWidget
+from PySide6.QtGui import QColor, QImage, QPainter, QPen, QPixmap
+from PySide6.QtWidgets import QGraphicsItem, QGraphicsRectItem, QLabel, QVBoxLayout, QWidget
 
 from snrmon.acquisition.engine.status import CameraStatus
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
@@ -29,6 +32,22 @@ from snrmon.gui.frame_feed import DisplayRequest, ShownFrame
 from snrmon.gui.levels import histogram_range
 
 GPS_COLOR = "#00e5ff"  # cyan: distinct from the ROI blue, box yellow and peak red
+GPS_RING_PX = 30  # the GPS cue: a ring this wide on the screen, the drone visible inside it
+MIN_BOX_SCREEN_PX = 8  # the measured box is never drawn smaller on the screen than this
+# The palettes an infrared engineer expects (gradient stops 0..1 over the levels, RGB).
+PALETTES: dict[str, list[tuple[float, tuple[int, int, int, int]]]] = {
+    "grey": [(0.0, (0, 0, 0, 255)), (1.0, (255, 255, 255, 255))],
+    "white-hot": [(0.0, (0, 0, 0, 255)), (1.0, (255, 255, 255, 255))],
+    "black-hot": [(0.0, (255, 255, 255, 255)), (1.0, (0, 0, 0, 255))],
+    "ironbow": [
+        (0.0, (0, 0, 0, 255)),
+        (0.2, (32, 0, 140, 255)),
+        (0.45, (204, 0, 119, 255)),
+        (0.7, (255, 120, 0, 255)),
+        (0.9, (255, 215, 0, 255)),
+        (1.0, (255, 255, 230, 255)),
+    ],
+}
 
 
 def _rect_item(colour: str, width: float = 1.5, style=Qt.PenStyle.SolidLine) -> QGraphicsRectItem:
@@ -177,6 +196,74 @@ class DisplayImageItem(pg.ImageItem):
         return True
 
 
+LOUPE_PX = 21  # the loupe shows this many image pixels square around its centre
+LOUPE_ZOOM = 6  # each drawn this many screen pixels wide
+LOUPE_FOLLOWS_POINTER_S = 2.0  # after the pointer leaves, the loupe goes back to the track
+LOUPE_ON_TRACK_MIN_PX = 600  # on a narrower image the loupe shows only under the pointer
+
+
+def loupe_rgb(pixels: np.ndarray, cx: int, cy: int, levels, lut: np.ndarray | None) -> np.ndarray:
+    """The :data:`LOUPE_PX`-square crop of ``pixels`` centred on (cx, cy) in the view's colours
+    (0xffRRGGBB, uint32): ``levels`` (lo, hi) onto grey or onto the ``lut``'s colours, as the
+    image is drawn; pixels beyond the frame's edge black."""
+    half = LOUPE_PX // 2
+    out = np.zeros((LOUPE_PX, LOUPE_PX), np.uint32) | np.uint32(0xFF000000)
+    h, w = pixels.shape
+    y0, y1, x0, x1 = (
+        max(cy - half, 0),
+        min(cy + half + 1, h),
+        max(cx - half, 0),
+        min(cx + half + 1, w),
+    )
+    if y0 >= y1 or x0 >= x1:
+        return out
+    lo, hi = float(levels[0]), float(levels[1])
+    span = hi - lo if hi != lo else 1.0
+    crop = (pixels[y0:y1, x0:x1].astype(np.float64) - lo) / span
+    if lut is None:
+        grey = np.clip(crop * 255.0, 0, 255).astype(np.uint32)
+        rgb = grey * 0x010101 | np.uint32(0xFF000000)
+    else:
+        index = np.clip(crop * len(lut), 0, len(lut) - 1).astype(np.intp)
+        c = np.asarray(lut)[index, :3].astype(np.uint32)
+        rgb = (c[..., 0] << 16) | (c[..., 1] << 8) | c[..., 2] | np.uint32(0xFF000000)
+    out[y0 - (cy - half) : y1 - (cy - half), x0 - (cx - half) : x1 - (cx - half)] = rgb
+    return out
+
+
+class Loupe(QLabel):
+    """A magnified inset in the image's corner around the pointer (while it moves over the
+    image) or the track: :data:`LOUPE_PX` pixels square at :data:`LOUPE_ZOOM` x, the centre
+    pixel outlined, so the drone can be told from its neighbours before the click."""
+
+    def __init__(self, parent: QWidget) -> None:
+        super().__init__(parent)
+        side = LOUPE_PX * LOUPE_ZOOM
+        self.setFixedSize(side + 4, side + 4)
+        self.setStyleSheet("QLabel { border: 2px solid #00e5ff; background: black; }")
+        self.setToolTip("Loupe: the pixels around the pointer, or the track, magnified")
+        self.centre: tuple[int, int] | None = None
+        self.setVisible(False)
+
+    def show_around(self, rgb: np.ndarray, centre: tuple[int, int]) -> None:
+        side = LOUPE_PX * LOUPE_ZOOM
+        image = QImage(rgb.data, LOUPE_PX, LOUPE_PX, 4 * LOUPE_PX, QImage.Format.Format_RGB32)
+        big = image.scaled(
+            side,
+            side,
+            Qt.AspectRatioMode.IgnoreAspectRatio,
+            Qt.TransformationMode.FastTransformation,
+        )
+        painter = QPainter(big)
+        painter.setPen(QPen(QColor("#ff4040"), 1))
+        mid = (LOUPE_PX // 2) * LOUPE_ZOOM
+        painter.drawRect(mid, mid, LOUPE_ZOOM - 1, LOUPE_ZOOM - 1)
+        painter.end()
+        self.setPixmap(QPixmap.fromImage(big))
+        self.centre = centre
+        self.setVisible(True)
+
+
 class CameraView(QWidget):
     """Image, histogram/levels control and overlays of one camera.
 
@@ -185,6 +272,8 @@ class CameraView(QWidget):
     """
 
     roi_clicked = Signal(str, int, int)
+    # the pixel under the pointer and its value (DN of the shown frame): camera, column, row, DN
+    pointed = Signal(str, int, int, float)
 
     def __init__(
         self,
@@ -225,10 +314,29 @@ class CameraView(QWidget):
         self.peak_rect = _rect_item("#ff4040", width=1.0)
         for item in (self.search_rect, self.box_rect, self.rim_inner_rect, self.peak_rect):
             self.view.addItem(item)
+        # a ring around where the GPS puts the drone, not a cross over it: the drone itself
+        # stays in view inside for the click
         self.gps_marker = pg.ScatterPlotItem(
-            symbol="+", size=16, pen=pg.mkPen(GPS_COLOR, width=2), brush=None, pxMode=True
+            symbol="o",
+            size=GPS_RING_PX,
+            pen=pg.mkPen(GPS_COLOR, width=2),
+            brush=pg.mkBrush(0, 0, 0, 0),
+            pxMode=True,
         )
         self.gps_marker.setZValue(11)
+        # the box at the peak where the image is drawn so small that its box would be under
+        # MIN_BOX_SCREEN_PX on the screen (a 1280-px frame 252 px wide: a 7-px box is 1.4 px)
+        self.box_marker = pg.ScatterPlotItem(
+            symbol="s",
+            size=MIN_BOX_SCREEN_PX + 4,
+            pen=pg.mkPen("#ffd34d", width=2),
+            brush=pg.mkBrush(0, 0, 0, 0),
+            pxMode=True,
+        )
+        self.box_marker.setZValue(11)
+        self.box_marker.setVisible(False)
+        self.view.addItem(self.box_marker)
+        self.palette = "grey"
         self.gps_marker.setToolTip("GPS: the drone's GPS position projected into this camera")
         self.gps_marker.setVisible(False)
         self.view.addItem(self.gps_marker)
@@ -236,6 +344,7 @@ class CameraView(QWidget):
         self.image.setImage(np.zeros((h, w), np.uint16), autoLevels=False, levels=(0, 1))
         self.view.setRange(QRectF(0, 0, w, h), padding=0.0)
         self.graphics.scene().sigMouseClicked.connect(self._scene_clicked)
+        self.graphics.scene().sigMouseMoved.connect(self._scene_moved)
         self.setToolTip(
             f"{camera}: click the drone to set the ROI; wheel = zoom, drag = pan. "
             "Levels in DN (drag the histogram handles, or A for auto-levels)."
@@ -243,6 +352,8 @@ class CameraView(QWidget):
         lay = QVBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)
         lay.addWidget(self.graphics)
+        self.loupe = Loupe(self.graphics.viewport())
+        self._pointer_s = -math.inf  # when the pointer last moved over the image (monotonic s)
 
     # ------------------------------------------------------------------ frames
     def show_frame(self, shown: ShownFrame | None) -> bool:
@@ -330,11 +441,34 @@ class CameraView(QWidget):
         has_peak = roi is not None and last is not None
         for item in (self.box_rect, self.rim_inner_rect, self.peak_rect):
             item.setVisible(has_peak)
+        small = has_peak and self.box_screen_px() < MIN_BOX_SCREEN_PX
+        self.box_marker.setVisible(small)
         if has_peak:
             box = self.config.box_px
             self.box_rect.setRect(square_around(last.peak_x, last.peak_y, box))
             self.rim_inner_rect.setRect(square_around(last.peak_x, last.peak_y, box - 2))
             self.peak_rect.setRect(square_around(last.peak_x, last.peak_y, 1))
+            if small:
+                self.box_marker.setData([last.peak_x + 0.5], [last.peak_y + 0.5])
+        idle = time.monotonic() - self._pointer_s > LOUPE_FOLLOWS_POINTER_S
+        if idle and roi is not None and self.graphics.viewport().width() >= LOUPE_ON_TRACK_MIN_PX:
+            at = (last.peak_x, last.peak_y) if has_peak else roi
+            self.show_loupe(*at)  # the pointer is elsewhere: the loupe on the track
+        elif idle and self.loupe.isVisible() and roi is None:
+            self.loupe.setVisible(False)
+
+    def box_screen_px(self) -> float:
+        """How wide the measured box is on the screen now (zoom included), in pixels."""
+        a = self.view.mapViewToScene(QPointF(0.0, 0.0))
+        b = self.view.mapViewToScene(QPointF(float(self.config.box_px), 0.0))
+        return abs(b.x() - a.x())
+
+    def set_palette(self, name: str) -> None:
+        """Draw the image in palette ``name`` (:data:`PALETTES`) over the current levels."""
+        if name not in PALETTES:
+            raise ValueError(f"unknown palette {name!r} (known: {', '.join(PALETTES)})")
+        self.palette = name
+        self.histogram.gradient.restoreState({"mode": "rgb", "ticks": PALETTES[name]})
 
     def show_gps(self, xy: tuple[float, float] | None) -> None:
         """The GPS cross at image coordinates ``xy`` (pixel centres on integers, as
@@ -354,6 +488,35 @@ class CameraView(QWidget):
             return
         self.click_at_scene(pos)
         event.accept()
+
+    def _scene_moved(self, pos: QPointF) -> None:
+        value = self.value_at_scene(pos)
+        if value is not None:
+            self._pointer_s = time.monotonic()
+            self.show_loupe(value[0], value[1])
+            self.pointed.emit(self.camera, *value)
+
+    def show_loupe(self, x: int, y: int) -> None:
+        """The loupe around image pixel (x, y) of the shown frame, in its colours."""
+        pixels = self.image.image
+        if pixels is None or pixels.ndim != 2:
+            return
+        lut = self.image.lut(pixels, 256) if callable(self.image.lut) else self.image.lut
+        self.loupe.show_around(loupe_rgb(pixels, x, y, self.histogram.getLevels(), lut), (x, y))
+        # in the corner away from the pixel, so the loupe never covers what it magnifies
+        port = self.graphics.viewport()
+        on_right = self.viewport_pos_of_pixel(x, y).x() > port.width() / 2
+        self.loupe.move(6 if on_right else port.width() - self.loupe.width() - 6, 6)
+        self.loupe.raise_()
+
+    def value_at_scene(self, scene_pos: QPointF) -> tuple[int, int, float] | None:
+        """(column, row, DN) of the shown frame's pixel at a scene position; None off it."""
+        pt = self.view.mapSceneToView(scene_pos)
+        x, y = pixel_at(pt.x(), pt.y())
+        pixels = self.image.image
+        if pixels is None or not (0 <= y < pixels.shape[0] and 0 <= x < pixels.shape[1]):
+            return None
+        return x, y, float(pixels[y, x])
 
     def click_at_scene(self, scene_pos: QPointF) -> tuple[int, int] | None:
         """Map a scene position to a pixel and emit :attr:`roi_clicked` if it is on the image."""

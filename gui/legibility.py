@@ -4,7 +4,7 @@
 or switch narrower than its words, or clipped by what holds it), whether any plot's legend lies
 over its data area, whether any of the console's parts lie over one another, how much of the
 window the SNR-versus-range plot takes, whether every stop row is in view, and whether the plots'
-axis titles fit their axes. The status file
+axis titles fit their axes, and the smallest text of each kind in pixels. The status file
 (``--status-file``) carries it, so a test driving the real window reads it back; the offscreen
 tests call it directly. Nothing here changes the layout.
 """
@@ -15,7 +15,15 @@ from typing import TYPE_CHECKING, Any
 
 import pyqtgraph as pg
 from PySide6.QtCore import QPoint, QRect, Qt
-from PySide6.QtWidgets import QAbstractButton, QAbstractScrollArea, QLabel, QTabBar, QWidget
+from PySide6.QtGui import QFontInfo
+from PySide6.QtWidgets import (
+    QAbstractButton,
+    QAbstractItemView,
+    QAbstractScrollArea,
+    QLabel,
+    QTabBar,
+    QWidget,
+)
 
 if TYPE_CHECKING:
     from snrmon.gui.main_window import ConsoleWindow
@@ -91,6 +99,42 @@ def cut_texts(window: QWidget) -> list[str]:
                 if widget.tabRect(i).width() < widget.tabSizeHint(i).width():
                     out.append(widget.tabText(i))
     return out
+
+
+def text_sizes_px(win: ConsoleWindow) -> dict[str, int]:
+    """The smallest text on the screen in each kind of the console's parts, in pixels (the
+    font's pixel height as this screen renders it): labels and switches, tabs, the stop table
+    and its headers, the plots' tick labels, and the box insets' values where they are drawn."""
+    sizes: dict[str, int] = {}
+
+    def seen(kind: str, font) -> None:
+        px = QFontInfo(font).pixelSize()
+        sizes[kind] = min(sizes.get(kind, px), px)
+
+    for widget in win.findChildren(QWidget):
+        if not widget.isVisible() or widget.visibleRegion().isEmpty():
+            continue
+        if isinstance(widget, QLabel) and widget.text():
+            seen("labels", widget.font())
+        elif isinstance(widget, QAbstractButton) and widget.text():
+            seen("switches", widget.font())
+        elif isinstance(widget, QTabBar):
+            seen("tabs", widget.font())
+        elif isinstance(widget, QAbstractItemView):
+            seen("tables", widget.font())
+    for plot in [p.plot for p in win.range_plots.values()] + [
+        p.chart.plot for p in win.panels.values()
+    ]:
+        if plot.isVisible():
+            for name in ("left", "bottom"):
+                axis = plot.getPlotItem().getAxis(name)
+                seen("plot ticks", axis.style.get("tickFont") or axis.font())
+                seen("plot titles", axis.label.font())
+    for panel in win.panels.values():
+        px = panel.inset.grid.digits_px
+        if panel.inset.isVisible() and px is not None:
+            sizes["inset values"] = min(sizes.get("inset values", px), px)
+    return sizes
 
 
 def _axis_titles_fit(plot: pg.PlotWidget) -> bool:
@@ -179,4 +223,5 @@ def layout_report(win: ConsoleWindow) -> dict[str, Any]:
         "cut_texts": cut_texts(win),
         "overlaps": overlaps(win),
         "images_shown": all(p.view.isVisible() for p in win.panels.values()),
+        "text_px": text_sizes_px(win),
     }

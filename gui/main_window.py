@@ -33,7 +33,6 @@ from PySide6.QtWidgets import (
     QInputDialog,
     QLabel,
     QMainWindow,
-    QMessageBox,
     QScrollArea,
     QSplitter,
     QStackedWidget,
@@ -47,13 +46,15 @@ from snrmon.acquisition.engine.status import SessionStatus
 from snrmon.acquisition.protocols import ConsoleSession, ReplayControls
 from snrmon.gui import model_curves as mc
 from snrmon.gui import theme as th
-from snrmon.gui.actions import install_actions, shortcuts_text
+from snrmon.gui.actions import ShortcutsDialog, install_actions
 from snrmon.gui.alarms import AlarmBanner
 from snrmon.gui.camera_panel import CameraPanel
+from snrmon.gui.camera_view import PALETTES
 from snrmon.gui.frame_feed import DisplayRates, DisplayWorker, FrameFeed, display_message
 from snrmon.gui.model_dialog import ModelOptionsDialog
 from snrmon.gui.noise_panel import NoisePanel
 from snrmon.gui.range_plot import CurveSource, RangePlot
+from snrmon.gui.recording_indicator import RecordingIndicator
 from snrmon.gui.replay_bar import ReplayBar
 from snrmon.gui.status_panel import StatusPanel
 from snrmon.gui.stop_table_view import StopTableView
@@ -135,6 +136,7 @@ class ConsoleWindow(QMainWindow):
         for name, pipe in session.pipelines.items():
             panel = CameraPanel(name, pipe.shape, session.config.measurement)
             panel.view.roi_clicked.connect(self.set_roi)
+            panel.view.pointed.connect(self._show_pointed)
             self.panels[name] = panel
             self.camera_splitter.addWidget(panel)
         self.active_camera = next(iter(self.panels), "")
@@ -184,14 +186,19 @@ class ConsoleWindow(QMainWindow):
         self.shown_counter: dict[str, int] = {}
         self.actions_by_key = install_actions(self, self.menuBar(), replay=self.replay)
         self.replay_bar: ReplayBar | None = None
+        self.shortcuts_dialog: ShortcutsDialog | None = None  # F1, made when first asked for
         if self.replay:
             self.replay_bar = ReplayBar(session, self.actions_by_key, self)
             self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.replay_bar)
         view_menu = self.menuBar().addMenu("&Panels")
         for dock in self.findChildren(QDockWidget):
             view_menu.addAction(dock.toggleViewAction())
-        self.recording_label = QLabel("not recording")
-        self.recording_label.setToolTip("The recording: state, size written, frames dropped")
+        self.recording_label = RecordingIndicator()
+        self.pointer_label = QLabel("")
+        self.pointer_label.setToolTip(
+            "The pixel under the pointer and its value in the shown frame"
+        )
+        self.statusBar().addPermanentWidget(self.pointer_label)
         self.statusBar().addPermanentWidget(self.recording_label)
         self.statusBar().showMessage("ready: click a drone to set its ROI")
         # Frames shown / delivered per camera (refresh_frames, refresh_status).
@@ -516,29 +523,11 @@ class ConsoleWindow(QMainWindow):
         recording = rec.state == "recording"
         self.actions_by_key["record_start"].setEnabled(not recording)
         self.actions_by_key["record_stop"].setEnabled(recording)
-        if recording:
-            text = (
-                f"REC  {rec.bytes_written / 1e6:.0f} MB  {rec.dropped_frames} frames dropped  "
-                f"{Path(rec.path).name}"
-            )
-        elif rec.state == "replay":
-            text = f"replay of {Path(rec.path).name}"
-        else:
-            text = f"recording {rec.state}" + (f": {rec.message}" if rec.message else "")
-        if self.recording_label.text() != text:
-            self.recording_label.setText(text)
-
-    def expected_rule(self) -> str | None:
-        """The expected Eq. (4) reading the session compares against (the status names it)."""
-        st = self.last_status
-        if st is None:
-            return None
-        rules = [cs.agreement.rule for cs in st.cameras.values() if cs.agreement is not None]
-        return rules[0] if rules else None
+        self.recording_label.show_recording(rec)
 
     def refresh_stops(self) -> None:
         rows = self.session.stops()
-        self.stop_table.show_rows(rows, self.expected_rule())
+        self.stop_table.show_rows(rows)
         for plot in self.range_plots.values():
             plot.show_stops(rows)
 
@@ -718,6 +707,22 @@ class ConsoleWindow(QMainWindow):
     def replay_slower(self) -> None:
         self.replay_bar.change_speed(up=False)
 
+    def _show_pointed(self, camera: str, x: int, y: int, dn: float) -> None:
+        """The pixel under the pointer, its DN and, with a calibration, its apparent
+        temperature (the session's conversion)."""
+        temp_k = self.session.pipelines[camera].apparent_temp_k(x, y, dn)
+        temp = "" if temp_k is None else f", apparent {temp_k:.2f} K ({temp_k - 273.15:.2f} C)"
+        self.pointer_label.setText(f"{camera} column {x}, row {y}: {dn:.0f} DN{temp}")
+
+    def next_palette(self) -> None:
+        """Every camera's image in the next palette (grey, white-hot, black-hot, ironbow)."""
+        names = list(PALETTES)
+        first = next(iter(self.panels.values())).view.palette
+        name = names[(names.index(first) + 1) % len(names)]
+        for panel in self.panels.values():
+            panel.view.set_palette(name)
+        self.report(f"palette: {name}")
+
     def auto_levels(self) -> None:
         for panel in self.panels.values():
             panel.view.set_auto_levels(True)
@@ -730,11 +735,10 @@ class ConsoleWindow(QMainWindow):
         self.showNormal() if self.isFullScreen() else self.showFullScreen()
 
     def show_shortcuts(self) -> None:
-        box = QMessageBox(
-            QMessageBox.Icon.Information, "Keyboard shortcuts", shortcuts_text(), parent=self
-        )
-        box.setModal(False)
-        box.open()
+        if self.shortcuts_dialog is None:
+            self.shortcuts_dialog = ShortcutsDialog(self)
+        self.shortcuts_dialog.show()
+        self.shortcuts_dialog.raise_()
 
     def save_screenshot(self, path: str | Path | None = None) -> Path | None:
         """Save the whole window as a PNG (asks for a file name when None)."""

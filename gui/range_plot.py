@@ -357,15 +357,20 @@ class RangePlot(QWidget):
         self._draw_stops()
 
     def _draw_stops(self) -> None:
-        pts = self._stops_shown
-        if not pts:
-            self.stops.setData([], [])
-            self.errors.setData(x=np.array([]), y=np.array([]))
-            return
-        x, y, s = (np.array(v, dtype=float) for v in zip(*pts, strict=True))
-        self.stops.setData(x, y)
-        bars = error_bars(x, y, s, self.log_x.isChecked(), self.log_y.isChecked())
-        self.errors.setData(**bars, beam=0.0)
+        self._draw_points(self.stops, self.errors, self._stops_shown)
+
+    def _draw_points(
+        self, marks: pg.PlotDataItem, bars: pg.ErrorBarItem, pts: Sequence[tuple]
+    ) -> None:
+        """``pts`` (range, SNR, error) as ``marks`` and their error ``bars``, every array of
+        the bars given anew each time: pyqtgraph keeps any it is not given, so clearing x and y
+        alone left the old top/bottom arrays beside empty ones (a shape mismatch it then paints
+        with)."""
+        x, y, s = np.array(pts, dtype=float).reshape(-1, 3).T
+        marks.setData(x, y)
+        bars.setData(
+            **error_bars(x, y, s, self.log_x.isChecked(), self.log_y.isChecked()), beam=0.0
+        )
 
     def show_live(self, range_m: float | None, snr_mean: float, snr_err: float) -> None:
         """The live running mean +/- ``snr_err`` (its error of the mean) at the current range
@@ -383,14 +388,7 @@ class RangePlot(QWidget):
 
     def _draw_live(self) -> None:
         live = self._live_shown
-        if live is None:
-            self.live.setData([], [])
-            self.live_errors.setData(x=np.array([]), y=np.array([]))
-            return
-        x, y, s = (np.array([v], dtype=float) for v in live)
-        self.live.setData(x, y)
-        bars = error_bars(x, y, s, self.log_x.isChecked(), self.log_y.isChecked())
-        self.live_errors.setData(**bars, beam=0.0)
+        self._draw_points(self.live, self.live_errors, [] if live is None else [live])
 
 
 def _band_key(curve: str) -> str:

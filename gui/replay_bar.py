@@ -7,8 +7,15 @@ shortcuts live in :data:`snrmon.gui.actions.ACTIONS` (menu "Replay").
 
 from __future__ import annotations
 
-from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QDoubleSpinBox, QLabel, QSlider, QToolBar
+from PySide6.QtCore import QPoint, Qt
+from PySide6.QtWidgets import (
+    QDoubleSpinBox,
+    QLabel,
+    QSlider,
+    QStyle,
+    QStyleOptionSlider,
+    QToolBar,
+)
 
 SPEEDS = (0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 50.0)
 
@@ -60,3 +67,24 @@ class ReplayBar(QToolBar):
         ladder = [s for s in SPEEDS if (s > now + 1e-9 if up else s < now - 1e-9)]
         if ladder:
             self.speed.setValue(ladder[0] if up else ladder[-1])
+
+    def slider_screen(self) -> dict[str, list[int]]:
+        """Where the seek slider is on the screen (global pixels): its handle's centre and the
+        groove's left and right ends with its middle row (for a hand, or xdotool, to drag)."""
+        opt = QStyleOptionSlider()
+        self.slider.initStyleOption(opt)
+        style = self.slider.style()
+        handle = style.subControlRect(
+            QStyle.ComplexControl.CC_Slider, opt, QStyle.SubControl.SC_SliderHandle, self.slider
+        )
+        groove = style.subControlRect(
+            QStyle.ComplexControl.CC_Slider, opt, QStyle.SubControl.SC_SliderGroove, self.slider
+        )
+        centre = self.slider.mapToGlobal(handle.center())
+        left = self.slider.mapToGlobal(
+            QPoint(groove.left() + handle.width() // 2, groove.center().y())
+        )
+        right = self.slider.mapToGlobal(
+            QPoint(groove.right() - handle.width() // 2, groove.center().y())
+        )
+        return {"handle": [centre.x(), centre.y()], "groove": [left.x(), right.x(), left.y()]}

@@ -14,6 +14,7 @@ from PySide6.QtGui import QColor, QFont, QImage, QPainter, QPalette, QPen
 from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
 from snrmon.acquisition.engine.status import CameraStatus
+from snrmon.gui import theme as th
 
 
 def box_pixels(pixels: np.ndarray, cx: int, cy: int, box_px: int) -> np.ndarray:
@@ -54,6 +55,7 @@ class _BoxGrid(QWidget):
     def __init__(self) -> None:
         super().__init__()
         self.values: np.ndarray | None = None
+        self.digits_px: int | None = None  # the values' text size as last painted (None: none)
         self.setMinimumSize(150, 150)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)
 
@@ -78,8 +80,12 @@ class _BoxGrid(QWidget):
         lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
         span = hi - lo if hi > lo else 1.0
         font = QFont()
-        font.setPixelSize(max(7, int(cell * 0.28)))
+        font.setPixelSize(max(th.MIN_TEXT_PX, int(cell * 0.28)))
         p.setFont(font)
+        # The values only where they fit their cells at a legible size (the shading and the
+        # numbers under the grid say the rest): a wider inset, or I for more room, shows them.
+        widest = p.fontMetrics().horizontalAdvance(f"{hi:.0f}")
+        self.digits_px = font.pixelSize() if widest <= cell - 2 else None
         # The shading as one image scaled up, the numbers a pen at a time: each Qt call lets
         # the busy measuring threads take the interpreter lock, and a cell a call made the
         # paint 0.5 ms alone and 6.5 ms beside a thread running Python.
@@ -91,6 +97,8 @@ class _BoxGrid(QWidget):
         shades = QImage(grey.data, n, n, 4 * n, QImage.Format.Format_RGB32)
         p.drawImage(QRectF(x0, y0, side, side), shades)
         for colour, dark in (("#000000", False), ("#ffffff", True)):
+            if self.digits_px is None:
+                break
             p.setPen(QColor(colour))
             for r, c in zip(*np.nonzero(ok & ((levels <= 140) == dark)), strict=True):
                 rect = QRectF(x0 + c * cell, y0 + r * cell, cell, cell)

@@ -17,11 +17,16 @@ Content::
                         "agreement": {"rule", "expected", "lower", "upper", "ratio",
                                       "verdict"} | null,
                         "stop": {"stop", "n_frames", "n_wanted", "open"} | null,
+                        "lost": [{"kind", "name", "state", "for_s"}, ...],
                         "header": str, "frames_shown": int, "shape": [rows, cols],
                         "screen_first_pixel": [x, y], "screen_last_pixel": [x, y]}},
      "lrf_range_m": float | null, "gps_range_m": float | null,
-     "stops": [[cell, ...], ...],
-     "replay": {"index", "length", "playing"} | null,
+     "stops": [[cell, ...], ...], "alarms": [str, ...],
+     "replay": {"index", "length", "playing", "speed",
+                "slider": {"handle": [x, y], "groove": [x_left, x_right, y]}} | null,
+     "stop_table_screen": [x, y],
+     "shortcuts": {"rect": [x, y, w, h], "ok": [x, y, w, h], "scroll_max": int} | null,
+     "screen": [x, y, w, h] | null,
      "layout": {...},
      "messages": [str, ...]}
 
@@ -31,7 +36,10 @@ The camera numbers are the status snapshot the header was drawn from (``header``
 
 ``screen_first_pixel`` and ``screen_last_pixel`` are the global screen positions of the centres
 of image pixel (0, 0) and (cols - 1, rows - 1) as shown now (zoom and pan included): where on
-the screen a pixel of the image is.
+the screen a pixel of the image is. ``slider`` and ``stop_table_screen`` are global screen
+positions too: the replay's seek slider (its handle, its groove's ends), the stop table's
+middle, the shortcut list (F1) and its OK button while it is open; ``screen`` is the available
+area of the window's screen.
 """
 
 from __future__ import annotations
@@ -63,6 +71,10 @@ def _agreement(a) -> dict[str, Any] | None:
     }
 
 
+def _loss(d) -> dict[str, Any]:
+    return {"kind": d.kind, "name": d.name, "state": d.state, "for_s": _num(d.for_s)}
+
+
 def _stop(p) -> dict[str, Any] | None:
     if p is None:
         return None
@@ -73,11 +85,45 @@ def _replay(window) -> dict[str, Any] | None:
     if not window.replay:
         return None
     p = window.session.position()
-    return {"index": p.index, "length": p.length, "playing": p.playing}
+    bar = window.replay_bar
+    return {
+        "index": p.index,
+        "length": p.length,
+        "playing": p.playing,
+        "speed": p.speed,
+        "slider": bar.slider_screen() if bar is not None else None,
+    }
 
 
 def _screen(view, x: int, y: int) -> list[int]:
     p = view.graphics.viewport().mapToGlobal(view.viewport_pos_of_pixel(x, y))
+    return [p.x(), p.y()]
+
+
+def _global_rect(widget) -> list[int]:
+    p = widget.mapToGlobal(widget.rect().topLeft())
+    return [p.x(), p.y(), widget.width(), widget.height()]
+
+
+def _shortcuts(window) -> dict[str, Any] | None:
+    box = window.shortcuts_dialog
+    if box is None or not box.isVisible():
+        return None
+    ok = box.buttons.buttons()[0]
+    bar = box.text.verticalScrollBar()
+    return {"rect": _global_rect(box), "ok": _global_rect(ok), "scroll_max": bar.maximum()}
+
+
+def _screen_rect(window) -> list[int] | None:
+    screen = window.screen()
+    if screen is None:
+        return None
+    r = screen.availableGeometry()
+    return [r.x(), r.y(), r.width(), r.height()]
+
+
+def _centre(widget) -> list[int]:
+    p = widget.mapToGlobal(widget.rect().center())
     return [p.x(), p.y()]
 
 
@@ -103,6 +149,7 @@ def console_state(window) -> dict[str, Any]:
             "range_source": m.range_source if m is not None else "",
             "agreement": _agreement(cs.agreement) if cs is not None else None,
             "stop": _stop(cs.stop) if cs is not None else None,
+            "lost": [_loss(d) for d in cs.lost] if cs is not None else [],
             "header": panel.header.text(),
             "frames_shown": panel.view.frames_shown,
             "shape": [rows, cols],
@@ -130,7 +177,11 @@ def console_state(window) -> dict[str, Any]:
         "lrf_range_m": _num(st.lrf_range_m) if st is not None else None,
         "gps_range_m": _num(st.gps_range_m) if st is not None else None,
         "stops": window.stop_table.cells(),
+        "alarms": list(st.alarms) if st is not None else [],
         "replay": _replay(window),
+        "stop_table_screen": _centre(window.stop_table.viewport()),
+        "shortcuts": _shortcuts(window),
+        "screen": _screen_rect(window),
         "layout": layout_report(window),
         "messages": window.messages[-20:],
     }

@@ -3,9 +3,11 @@
 Each of the model's SNR values at the stop's range is a column of its own (the paper's four
 curves, then the expected Eq. (4) readings of whatever background rules the rows carry; SNR is
 dimensionless, the headers' tooltips name each in full), then the model's band and measured /
-expected for the rule the session compares against, coloured like the camera header (green
-inside the band, amber near, red outside:
-:func:`snrmon.acquisition.measure.model_agreement.model_agreement`). Ranges in metres, the
+expected, each row's against the expected reading of the rule that row was measured with (its
+background: ``rim`` the paper's 7x7 rim, ``extent_rim`` the rim outside the drone's extent),
+the rule named after the ratio, coloured like the camera header (green inside the band, amber
+near, red outside: :attr:`snrmon.acquisition.stops.table.StopRow.agreement`, computed where the
+row is built). Ranges in metres, the
 model's sky in kelvin. Click a column's header to sort by it; Ctrl+C (or the context menu, or
 Ctrl+Shift+C anywhere in the console) copies the selected rows, or all of them, as the report's
 CSV (:mod:`snrmon.acquisition.report.stop_csv`). Where the table is narrower than its columns,
@@ -23,7 +25,6 @@ from PySide6.QtCore import QAbstractTableModel, QModelIndex, QSortFilterProxyMod
 from PySide6.QtGui import QBrush, QColor, QKeySequence
 from PySide6.QtWidgets import QAbstractItemView, QApplication, QHeaderView, QMenu, QTableView
 
-from snrmon.acquisition.measure.model_agreement import model_agreement
 from snrmon.acquisition.prediction import CURVES, EXPECTED_EXTENT, EXPECTED_RIM
 from snrmon.acquisition.report.stop_csv import csv_rows, csv_text
 from snrmon.acquisition.stops.table import StopRow
@@ -88,12 +89,11 @@ def model_keys(rows: list[StopRow]) -> list[str]:
     )
 
 
-def columns(rows: list[StopRow], rule: str | None) -> list[Column]:
-    """The table's columns for ``rows``; ``rule``: the expected reading the band and the ratio
-    are about (the session's; the first the rows carry when None)."""
+def columns(rows: list[StopRow]) -> list[Column]:
+    """The table's columns for ``rows``. The band and the ratio are each row's own: against the
+    expected reading of the rule that row was measured with (:attr:`StopRow.agreement`), the
+    rule named in the ratio's cell."""
     keys = model_keys(rows)
-    if rule is None or rule not in keys:
-        rule = next((k for k in keys if is_expected(k)), None)
     cols = [
         Column(
             "stop",
@@ -162,22 +162,24 @@ def columns(rows: list[StopRow], rule: str | None) -> list[Column]:
                 lambda r, k=k: _key(r.model_snr.get(k)),
             )
         )
-    if rule is not None:
+    if any(is_expected(k) for k in keys):
         cols += [
             Column(
                 "band",
                 "expected\nband",
-                f"The model's uncertainty band of {curve_label(rule)} at the stop's range",
-                lambda r: _band_text(r, rule),
-                lambda r: _key(r.model_snr.get(f"{rule}_lower")),
+                "The model's uncertainty band of the expected Eq. (4) reading at the stop's "
+                "range, by the background rule the row was measured with (its background)",
+                _band_text,
+                lambda r: _key(r.agreement.lower) if r.agreement else MISSING,
             ),
             Column(
                 "ratio",
                 "measured /\nexpected",
-                f"SNR mean / {curve_label(rule)}: green inside the model's band, amber within "
-                "two errors of the mean of it, red outside",
-                lambda r: _num(_agreement(r, rule).ratio, ".2f") if _agreement(r, rule) else "--",
-                lambda r: _key(_agreement(r, rule).ratio) if _agreement(r, rule) else MISSING,
+                "SNR mean / the expected Eq. (4) reading of the rule the row was measured with "
+                "(rim: the paper's 7x7 rim; extent: the rim outside the drone's extent): green "
+                "inside the model's band, amber within two errors of the mean of it, red outside",
+                _ratio_text,
+                lambda r: _key(r.agreement.ratio) if r.agreement else MISSING,
             ),
         ]
     cols += [
@@ -220,20 +222,39 @@ def _model_title(name: str) -> str:
     return f"model\n{label}"
 
 
-def _agreement(r: StopRow, rule: str):
-    return model_agreement(r.snr_mean, r.snr_sem, r.model_snr, rule)
+RULE_TAGS = {EXPECTED_RIM: "rim", EXPECTED_EXTENT: "extent"}
+"""The rule a row's ratio is against, as the word after the ratio in its cell."""
 
 
-def _band_text(r: StopRow, rule: str) -> str:
-    lo, hi = r.model_snr.get(f"{rule}_lower"), r.model_snr.get(f"{rule}_upper")
-    if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
+def _ratio_text(r: StopRow) -> str:
+    a = r.agreement
+    if a is None or not math.isfinite(a.ratio):
         return "--"
-    return f"{lo:.1f}–{hi:.1f}"
+    return f"{a.ratio:.2f} {RULE_TAGS.get(a.rule, a.rule)}"
 
 
-def row_texts(r: StopRow, rule: str | None = None) -> list[str]:
+def _band_text(r: StopRow) -> str:
+    a = r.agreement
+    if a is None or a.lower == a.upper:  # no band stated (the reading itself)
+        return "--"
+    return f"{a.lower:.1f}–{a.upper:.1f}"
+
+
+def _ratio_tip(r: StopRow) -> str:
+    a = r.agreement
+    if a is None:
+        return (
+            "No expected reading for this row's background (no model, or the clear-sky rectangle)"
+        )
+    return (
+        f"SNR mean {a.measured:.2f} / {curve_label(a.rule)} {a.expected:.2f} (the rule of this "
+        f"row's background, {r.background}): {a.verdict or 'not decided'}"
+    )
+
+
+def row_texts(r: StopRow) -> list[str]:
     """The table cells of one stop row, formatted (the columns of this row alone)."""
-    return [c.text(r) for c in columns([r], rule)]
+    return [c.text(r) for c in columns([r])]
 
 
 class StopTableModel(QAbstractTableModel):
@@ -242,24 +263,23 @@ class StopTableModel(QAbstractTableModel):
     def __init__(self) -> None:
         super().__init__()
         self.rows: list[StopRow] = []
-        self.rule: str | None = None
-        self.cols: list[Column] = columns([], None)
+        self.cols: list[Column] = columns([])
         self.texts: list[list[str]] = []
 
-    def set_rows(self, rows: list[StopRow], rule: str | None) -> bool:
+    def set_rows(self, rows: list[StopRow]) -> bool:
         """Show ``rows``; False when nothing changed."""
-        cols = columns(rows, rule)
+        cols = columns(rows)
         texts = [[c.text(r) for c in cols] for r in rows]
         same_cols = [c.title for c in cols] == [c.title for c in self.cols]
         if same_cols and texts == self.texts:
             return False
         if same_cols and len(rows) == len(self.rows):
-            self.rows, self.rule, self.texts = rows, rule, texts
+            self.rows, self.texts = rows, texts
             last = self.index(len(rows) - 1, len(cols) - 1)
             self.dataChanged.emit(self.index(0, 0), last)
             return True
         self.beginResetModel()
-        self.rows, self.rule, self.cols, self.texts = rows, rule, cols, texts
+        self.rows, self.cols, self.texts = rows, cols, texts
         self.endResetModel()
         return True
 
@@ -289,11 +309,13 @@ class StopTableModel(QAbstractTableModel):
         if role == Qt.ItemDataRole.TextAlignmentRole:
             side = Qt.AlignmentFlag.AlignRight if col.align_right else Qt.AlignmentFlag.AlignLeft
             return int(side | Qt.AlignmentFlag.AlignVCenter)
+        if col.key == "ratio" and role == Qt.ItemDataRole.ToolTipRole:
+            return _ratio_tip(row)
         if col.key == "ratio" and role in (
             Qt.ItemDataRole.BackgroundRole,
             Qt.ItemDataRole.ForegroundRole,
         ):
-            a = _agreement(row, self.rule) if self.rule else None
+            a = row.agreement
             colours = th.current().verdicts.get(a.verdict if a else "")
             if colours is None:
                 return None
@@ -383,11 +405,11 @@ class StopTableView(QTableView):
     def rows(self) -> list[StopRow]:
         return self.table.rows
 
-    def show_rows(self, rows: list[StopRow], rule: str | None = None) -> None:
-        """Show ``rows``; ``rule``: the expected reading the band and ratio columns are about."""
+    def show_rows(self, rows: list[StopRow]) -> None:
+        """Show ``rows`` (each row's band and ratio by its own rule)."""
         bar = self.verticalScrollBar()
         at_bottom = bar.value() == bar.maximum()
-        if self.table.set_rows(list(rows), rule):
+        if self.table.set_rows(list(rows)):
             self.fit_columns()
             if at_bottom:
                 self.scrollToBottom()

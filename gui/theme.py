@@ -17,12 +17,13 @@ from dataclasses import dataclass, field
 
 import pyqtgraph as pg
 from PySide6.QtCore import Qt
-from PySide6.QtGui import QColor, QFont, QPalette
+from PySide6.QtGui import QColor, QFont, QFontInfo, QPalette
 from PySide6.QtWidgets import QApplication
 
 ALARM = "#d9352b"
 RECOVERED = "#2e8b57"
 FONT_SCALES = (0.8, 0.9, 1.0, 1.1, 1.25, 1.4, 1.6, 1.8, 2.0)
+MIN_TEXT_PX = 11  # no text of the console smaller, at any font scale or screen density
 BASE_POINT_SIZE = 10.0  # the console's text at font scale 1 (pt); headers and plots scale with it
 
 
@@ -150,12 +151,21 @@ def check_font_scale(scale: float) -> float:
     return float(scale)
 
 
+def legible(font: QFont) -> QFont:
+    """``font``, at least :data:`MIN_TEXT_PX` pixels high on this screen (a point size is
+    pixels only through the screen's dots per inch: 9 pt is 12 px at 96 dpi, 9 px at 72)."""
+    if QFontInfo(font).pixelSize() < MIN_TEXT_PX:
+        font.setPixelSize(MIN_TEXT_PX)
+    return font
+
+
 def scaled_font(scale: float, factor: float = 1.0, *, bold: bool = False) -> QFont:
-    """The application's font at ``scale`` times ``factor`` (e.g. 1.6 for a header value)."""
+    """The application's font at ``scale`` times ``factor`` (e.g. 1.6 for a header value),
+    never under :data:`MIN_TEXT_PX`."""
     font = QFont(QApplication.font())
     font.setPointSizeF(BASE_POINT_SIZE * scale * factor)
     font.setBold(bold)
-    return font
+    return legible(font)
 
 
 def configure_pyqtgraph() -> None:
@@ -201,7 +211,7 @@ def apply_theme(app: QApplication, theme: Theme, font_scale: float = 1.0) -> Non
     app.setPalette(pal)
     font = QFont(app.font())
     font.setPointSizeF(BASE_POINT_SIZE * font_scale)
-    app.setFont(font)
+    app.setFont(legible(font))
 
 
 def apply_dark_theme(app: QApplication) -> None:

@@ -199,3 +199,18 @@ def replay_rows_text(replay) -> list[str]:
         repr((r.stop, r.camera, r.t_start_ns, r.t_end_ns, r.n_frames, r.snr_mean, r.snr_std))
         for r in replay.stops
     ]
+
+
+def field_session_config(ring: str, lrf, gps):
+    """The session config of :func:`field_devices`' kit: one shared-memory camera ``cam`` on
+    ``ring`` (W x H), the LDM rangefinder and the NMEA GPS at their pty paths, at a site."""
+    from snrmon.acquisition.config import session_config_from_dict
+
+    return session_config_from_dict(
+        {
+            "site": {"lat_deg": 32.38, "lon_deg": -106.48, "alt_m": 1200.0},
+            "cameras": {"cam": {"source": "shm", "address": ring, "width_px": W, "height_px": H}},
+            "lrf": {"protocol": "ldm", "port": lrf.path, "baud": 9600},
+            "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
+        }
+    )

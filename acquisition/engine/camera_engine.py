@@ -198,6 +198,18 @@ class CameraEngine:
         self.corrector.calibration = calibration
         self.sky = SkyTemperature(self.name, calibration, box_px=self.config.box_px, maxlen=600)
 
+    def apparent_temp_k(self, x: int, y: int, dn: float) -> float | None:
+        """The apparent (brightness) temperature of raw value ``dn`` at pixel (x, y) by the
+        camera's radiometric calibration (its two-point map at that pixel, then the band's
+        Planck inversion); None without a calibration."""
+        calibration = self.corrector.calibration
+        if calibration is None:
+            return None
+        rows, cols = calibration.offset_dn.shape
+        if not (0 <= y < rows and 0 <= x < cols):
+            return None
+        return float(calibration.pixels_temperature_k([dn], [y], [x])[0])
+
     # ------------------------------------------------------------------ per frame (owner)
     def process(
         self,

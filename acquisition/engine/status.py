@@ -14,7 +14,6 @@ from typing import Any
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.measure.model_agreement import ModelAgreement
 from snrmon.acquisition.measure.track_noise import RegionNoise3d
-from snrmon.acquisition.record.recorder_status import seconds_left
 from snrmon.acquisition.stops.table import StopProgress
 from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.device import DeviceStatus
@@ -67,6 +66,41 @@ class AnalysisFigures:
 
 
 @dataclass(frozen=True, slots=True)
+class LostDevice:
+    """A device one camera's numbers depend on (the camera itself, or a range source: the
+    rangefinder, the GPS) that has stopped delivering: ``kind`` ("camera", "LRF", "GPS"),
+    the device's ``name`` and ``state``, and ``for_s``: seconds since its last reading (None:
+    it never gave one)."""
+
+    kind: str
+    name: str
+    state: str
+    for_s: float | None
+    error: str = ""
+
+    def words(self) -> str:
+        """``"LRF disconnected 15 s"``: what is lost and for how long."""
+        age = "" if self.for_s is None else f" {self.for_s:.0f} s"
+        return f"{self.kind} {self.state}{age}"
+
+
+LOST_STATES = frozenset({"stale", "disconnected", "failed"})
+
+
+def lost_device(kind: str, status: DeviceStatus | None) -> LostDevice | None:
+    """``status`` as a loss, or None while the device delivers (or was never configured): a
+    device is lost when its watchdog calls it stale, when it is disconnected or failed, or when
+    it is connecting again after it had given readings (unplugged: the driver reconnects). A
+    hand-held rangefinder that is simply not fired stays streaming (it has no watchdog)."""
+    if status is None:
+        return None
+    state = str(status.state)
+    if state in LOST_STATES or (state == "connecting" and status.readings > 0):
+        return LostDevice(kind, status.name, state, status.last_reading_age_s, status.last_error)
+    return None
+
+
+@dataclass(frozen=True, slots=True)
 class CameraStatus:
     """One camera's live state: device health, frame accounting, the track and its last
     measured frame (the engine's own :class:`Measurement`, not a copy of its numbers), the
@@ -94,6 +128,13 @@ class CameraStatus:
     agreement: ModelAgreement | None = None
     # The latest stop's progress for this camera (n of 100 frames); None before the first stop.
     stop: StopProgress | None = None
+    # The devices this camera's numbers depend on that are lost now (itself, the LRF, the
+    # GPS): the header says which and for how long, and shows none of their values as live.
+    lost: tuple[LostDevice, ...] = ()
+
+    def lost_kind(self, kind: str) -> LostDevice | None:
+        """The loss of ``kind`` ("camera", "LRF", "GPS") now, or None."""
+        return next((d for d in self.lost if d.kind == kind), None)
 
     @property
     def track_reason(self) -> str:
@@ -116,12 +157,9 @@ class RecordingStatus:
     backlog_bytes: int = 0  # frames queued for the disk
     dropped_frames: int = 0  # frames the recording lost (all cameras, all reasons)
     compression_ratio: float | None = None  # frames' raw / stored bytes so far (RecorderStatus)
-    bytes_per_s: float | None = None  # the file's measured growth (None in its first second)
-
-    @property
-    def seconds_left(self) -> float | None:
-        """Recording time the free space holds at the measured rate (None: not known yet)."""
-        return seconds_left(self.free_bytes, self.bytes_per_s)
+    elapsed_s: float | None = None  # since the recording began
+    rate_bytes_s: float = math.nan  # written over the last seconds
+    time_left_s: float | None = None  # until the disk is full at that rate (inf: not writing)
 
 
 @dataclass(frozen=True)

@@ -296,7 +296,6 @@ class SessionRecorder:
         except OSError:
             free = None
         on_disk = self._bytes_on_disk()
-        elapsed = time.monotonic() - self._t0
         raw = sum(self._w.frame_bytes_flushed.values())
         stored = sum(self._w.frame_bytes_stored.values())
         with self._lock:
@@ -312,7 +311,6 @@ class SessionRecorder:
                 free,
                 self._error,
                 compression_ratio=raw / stored if raw and stored else None,
-                bytes_per_s=on_disk / elapsed if elapsed >= 1.0 else None,
             )
 
     def stop(

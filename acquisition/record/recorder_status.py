@@ -4,6 +4,8 @@ camera: frames received, written, dropped and why) and the one message a write f
 from __future__ import annotations
 
 import errno
+import math
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,13 +27,6 @@ class RecorderStatus:
     compression_ratio: float | None = None
     """The frames' raw bytes over what the filter stored, of the frames flushed so far (1 with
     ``none``; None before the first frame is flushed): the measured ratio, not a guess."""
-    bytes_per_s: float | None = None
-    """The file's growth since the recording began (None in its first second)."""
-
-    @property
-    def seconds_left(self) -> float | None:
-        """Recording time the free space holds at the measured rate (None: not known yet)."""
-        return seconds_left(self.free_bytes, self.bytes_per_s)
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,13 +63,6 @@ class RecorderSummary:
         }
 
 
-def seconds_left(free_bytes: int | None, bytes_per_s: float | None) -> float | None:
-    """Seconds of recording ``free_bytes`` hold at ``bytes_per_s`` (None: either unknown)."""
-    if free_bytes is None or not bytes_per_s:
-        return None
-    return free_bytes / bytes_per_s
-
-
 def describe_failure(exc: BaseException, path: Path, frames: int) -> str:
     """One line for the operator: disk full, or the first line of the write error."""
     text = str(exc)
@@ -82,3 +70,33 @@ def describe_failure(exc: BaseException, path: Path, frames: int) -> str:
         return f"recording stopped: disk full writing {path} after {frames} frames"
     first = text.splitlines()[0] if text else type(exc).__name__
     return f"recording stopped: write error on {path} after {frames} frames: {first}"
+
+
+RATE_WINDOW_S = 5.0  # the write rate is the bytes written over the last few seconds
+
+
+class WriteRate:
+    """A recording's elapsed time and write rate from its growing byte count (sampled at the
+    status refresh): the rate over the last :data:`RATE_WINDOW_S` seconds, so a change of what
+    is recorded shows within seconds; and the disk's time left at that rate."""
+
+    def __init__(self, t0_s: float) -> None:
+        self.t0_s = t0_s
+        self._points: deque[tuple[float, int]] = deque()
+
+    def add(self, t_s: float, bytes_written: int) -> float:
+        """Take a sample; returns the rate in bytes per second (NaN until two samples half a
+        second apart)."""
+        self._points.append((t_s, bytes_written))
+        while len(self._points) > 2 and t_s - self._points[1][0] >= RATE_WINDOW_S:
+            self._points.popleft()
+        (t_a, b_a), (t_b, b_b) = self._points[0], self._points[-1]
+        return (b_b - b_a) / (t_b - t_a) if t_b - t_a >= 0.5 else math.nan
+
+
+def disk_time_left_s(free_bytes: int | None, rate_bytes_s: float) -> float | None:
+    """Seconds until ``free_bytes`` fill at ``rate_bytes_s``; None when either is unknown,
+    infinity while nothing is being written."""
+    if free_bytes is None or not math.isfinite(rate_bytes_s):
+        return None
+    return math.inf if rate_bytes_s <= 0 else free_bytes / rate_bytes_s

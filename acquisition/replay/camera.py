@@ -37,6 +37,12 @@ class ReplayCamera:
             self._latest = frame
             self._shown += 1
 
+    def apparent_temp_k(self, x: int, y: int, dn: float) -> float | None:
+        """Pixel (x, y)'s raw ``dn`` as an apparent temperature (K); None uncalibrated."""
+        with self._lock:
+            engine = self.engine
+        return engine.apparent_temp_k(x, y, dn)
+
     def click_messages(self) -> list[str]:
         """A replay re-measures a click on the shown frame at once: it has nothing to tell."""
         return []

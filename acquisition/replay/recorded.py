@@ -74,6 +74,19 @@ class RecordedInputs:
 
 
 BEFORE_EVERYTHING_NS = -(2**62)
+PSF_KEYS = ("band_um", "f_number", "pitch_um", "blur_px")  # what the model takes of a fit
+
+
+def _psf_estimate(payload: dict) -> dict | None:
+    """The fit the model takes from a ``psf_measured`` payload: its ``estimate`` (``snrmon
+    psf``), or the payload itself where it is the estimate's own fields (``snrmon hil --out`` and
+    the demo wrote them so before): None when it holds neither."""
+    estimate = payload.get("estimate")
+    if isinstance(estimate, dict):
+        return estimate
+    return payload if all(k in payload for k in PSF_KEYS) else None
+
+
 """The time of a model input that holds from the recording's first frame."""
 
 
@@ -127,15 +140,16 @@ def recorded_inputs(f: SessionFile) -> RecordedInputs:
             c.commands.append((t, kind, p))
         elif kind in ("model_background", "model_psf", "model_noise"):
             c.model_inputs.append((t, kind, p))
-        elif kind == "psf_measured" and "estimate" in p:
-            measured_psf[cam] = p["estimate"]
+        elif kind == "psf_measured" and (fit := _psf_estimate(p)) is not None:
+            measured_psf[cam] = fit
         elif kind == "calibration" and "path" in p:
             c.calibration = p["path"]
     # Results kept beside the recording (snrmon psf without --write) count as if written in it.
     for r in read_results(f.path, created_utc=str(f.attrs.get("created_utc", ""))):
         p = r.get("payload") or {}
-        if r.get("kind") == "psf_measured" and r.get("camera") in per and "estimate" in p:
-            measured_psf[r["camera"]] = p["estimate"]
+        fit = _psf_estimate(p) if r.get("kind") == "psf_measured" else None
+        if fit is not None and r.get("camera") in per:
+            measured_psf[r["camera"]] = fit
     for cam, estimate in measured_psf.items():
         # A PSF fitted after the flight is the camera's from the first frame on; a PSF the live
         # console adopted during the flight still takes over where it did.

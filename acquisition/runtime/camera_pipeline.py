@@ -312,6 +312,10 @@ class CameraPipeline:
         when there is none yet, or when its ``seq`` is ``unless_seq`` (shown already)."""
         return self.ring.peek_last(out, unless_seq=unless_seq)
 
+    def apparent_temp_k(self, x: int, y: int, dn: float) -> float | None:
+        """Pixel (x, y)'s raw ``dn`` as an apparent temperature (K); None uncalibrated."""
+        return self.engine.apparent_temp_k(x, y, dn)
+
     def series(self) -> np.ndarray:
         """The recent per-frame record for charts: rows of (t_host_ns, snr, running mean,
         running std, range_m or NaN)."""

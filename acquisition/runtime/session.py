@@ -30,7 +30,12 @@ from snrmon.acquisition.compression import stored_compression
 from snrmon.acquisition.config import SessionConfig, camera_device
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.session_engine import SessionEngine
-from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
+from snrmon.acquisition.engine.status import (
+    CameraStatus,
+    RecordingStatus,
+    SessionStatus,
+    lost_device,
+)
 from snrmon.acquisition.prediction import (
     MeasuredNoise,
     Predictor,
@@ -39,6 +44,7 @@ from snrmon.acquisition.prediction import (
 )
 from snrmon.acquisition.protocols import RecordingWriter
 from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.acquisition.record.recorder_status import WriteRate, disk_time_left_s
 from snrmon.acquisition.record.session_log import RecordingLog
 from snrmon.acquisition.runtime.camera_pipeline import CameraPipeline
 from snrmon.acquisition.runtime.interpreter import LiveInterpreter
@@ -178,6 +184,8 @@ class Session:
         self._started = False
         # camera -> (frames lost, when that count last grew)
         self._drops_seen: dict[str, tuple[int, float]] = {}
+        self._lost_lock = threading.Lock()  # the write-rate meter's
+        self._rate: tuple[Any, WriteRate] | None = None  # (recorder, its meter)
         self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
         # per camera, the measured 3D noise the model uses in place of its own (none: its own)
         self.measured_noise: dict[str, MeasuredNoise] = {}
@@ -488,6 +496,8 @@ class Session:
             # after them reaches the recorder (none falls between the two).
             with self._lock:
                 self._recorder = rec
+            with self._lost_lock:
+                self._rate = (rec, WriteRate(time.monotonic()))  # the recording's clock
             for stop in self.engine.stop_detector.stops:
                 self.stop_changed("stop_known", stop, rec)
 
@@ -582,6 +592,8 @@ class Session:
         rec_status = RecordingStatus()
         if rec is not None:
             st = rec.status()
+            meter = self._write_rate(rec)
+            rate = meter.add(time.monotonic(), st.bytes_written)
             rec_status = RecordingStatus(
                 st.state,
                 st.path,
@@ -591,7 +603,9 @@ class Session:
                 backlog_bytes=st.backlog_bytes,
                 dropped_frames=sum(sum(d.values()) for d in st.dropped.values()),
                 compression_ratio=st.compression_ratio,
-                bytes_per_s=st.bytes_per_s,
+                elapsed_s=time.monotonic() - meter.t0_s,
+                rate_bytes_s=rate,
+                time_left_s=disk_time_left_s(st.free_bytes, rate),
             )
         alarms = []
         for dev in (self.lrf, self.gps, *(p.device for p in self.pipelines.values())):
@@ -624,17 +638,46 @@ class Session:
                     f"{name} frames: {lost} dropped (camera "
                     f"{f.dropped_by_camera}, ring overrun {f.dropped_by_ring})"
                 )
+        lrf_st = self.lrf.status() if self.lrf else None
+        gps_st = self.gps.status() if self.gps else None
+        if self._started:
+            cams = self._with_losses(cams, lrf_st, gps_st)
         return SessionStatus(
             cameras=cams,
-            lrf=self.lrf.status() if self.lrf else None,
+            lrf=lrf_st,
             lrf_range_m=lrf_last.range_m if lrf_last else None,
             lrf_age_s=lrf_age,
-            gps=self.gps.status() if self.gps else None,
+            gps=gps_st,
             gps_fix=fix,
             gps_range_m=gps_latest[1] if gps_latest else None,
             recording=rec_status,
             alarms=tuple(alarms),
         )
+
+    def _write_rate(self, rec) -> WriteRate:
+        """The write-rate meter of recording ``rec`` (a new one for each recording)."""
+        with self._lost_lock:
+            if self._rate is None or self._rate[0] is not rec:
+                self._rate = (rec, WriteRate(time.monotonic()))
+            return self._rate[1]
+
+    def _with_losses(
+        self,
+        cams: dict[str, CameraStatus],
+        lrf: DeviceStatus | None,
+        gps: DeviceStatus | None,
+    ) -> dict[str, CameraStatus]:
+        """Each camera's status with the devices its numbers depend on that are lost now (its
+        own camera, the rangefinder, the GPS), for its header. The recording's ``device_lost``
+        / ``device_back`` events come from the devices' own state changes
+        (:meth:`_on_device_status`), once each way, not from whoever asks for a status."""
+        shared = tuple(d for d in (lost_device("LRF", lrf), lost_device("GPS", gps)) if d)
+        out = {}
+        for name, cs in cams.items():
+            own = lost_device("camera", cs.device)
+            lost = ((own,) if own else ()) + shared
+            out[name] = dataclasses.replace(cs, lost=lost) if lost else cs
+        return out
 
     # ------------------------------------------------------------------ record helpers
     def _event(

@@ -33,8 +33,9 @@ import threading
 from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import ClassVar, Protocol
 
+from snrmon.acquisition.measure.model_agreement import ModelAgreement, model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.stops.detector import Stop, is_valid, summarise_stop
@@ -75,6 +76,29 @@ class StopRow:
     # The corrected PSF they were computed with (a ``model.psf`` PSF, e.g. measured from the
     # flight); None: the sensor preset's (or no model).
     model_psf: object | None = field(default=None, compare=False)
+
+    _agreement: ClassVar[ModelAgreement | None] = None  # each row's own: set in __post_init__
+
+    def __post_init__(self) -> None:
+        # The mean against the model's expected reading of the row's own rule, computed here,
+        # where the row is built (the processing thread), so a viewer only formats it. Not a
+        # field: the row's payload (its fields) stays what the recording and the CSV hold.
+        rule = self.expected_eq4_rule
+        agreement = (
+            None
+            if rule is None
+            else model_agreement(
+                self.snr_mean, self.snr_sem, self.model_snr, f"expected_eq4_{rule}"
+            )
+        )
+        object.__setattr__(self, "_agreement", agreement)  # frozen: set once, at construction
+
+    @property
+    def agreement(self) -> ModelAgreement | None:
+        """The mean against the model's expected Eq. (4) reading of the rule this row was
+        measured with (:attr:`expected_eq4_rule`): ratio, band, verdict; None without a model
+        or a rule."""
+        return self._agreement
 
     @property
     def range_m(self) -> float | None:

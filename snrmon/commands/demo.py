@@ -83,16 +83,19 @@ def _operate(rig, done: threading.Event, printed: set, verbose: bool) -> None:
     runs each time would take the CPU the cameras need)."""
     from snrmon.rig.table import format_row
 
-    while not done.is_set():
-        if not rig.step():
-            done.set()
-        if verbose:
-            for row in rig.final_stops():
-                key = (row["camera"], row["planned_range_m"], row["lrf_range_m"])
-                if row["n_frames"] >= 100 and key not in printed:
-                    printed.add(key)
-                    print(format_row(row), flush=True)
-        done.wait(0.5)  # the operator's pace
+    try:
+        while not done.is_set():
+            if not rig.step():
+                done.set()  # the flight is over: the console closes (run_console's until)
+            if verbose:
+                for row in rig.final_stops():
+                    key = (row["camera"], row["planned_range_m"], row["lrf_range_m"])
+                    if row["n_frames"] >= 100 and key not in printed:
+                        printed.add(key)
+                        print(format_row(row), flush=True)
+            done.wait(0.5)  # the operator's pace
+    finally:
+        done.set()  # a failed step ends the day too, never leaves the window open forever
 
 
 def run(args: argparse.Namespace) -> int:
@@ -130,11 +133,11 @@ def run(args: argparse.Namespace) -> int:
         adopt_psf=True,  # the model takes the PSF measured at each unresolved stop
     )
     rig = HilRig(opts)
-    duration = args.duration or rig.plan.duration_s / args.speed + 3.0
+    planned_s = rig.plan.duration_s / args.speed  # at the asked speed; a busy machine's is longer
     verbose = headless and not args.json  # --json: stdout holds the JSON object only
     if verbose:
         print(
-            f"snrmon demo: simulated flight of {len(opts.stops_m)} stops, {duration:.0f} s, "
+            f"snrmon demo: simulated flight of {len(opts.stops_m)} stops, {planned_s:.0f} s, "
             "console offscreen; stops as they complete:",
             flush=True,
         )
@@ -151,7 +154,8 @@ def run(args: argparse.Namespace) -> int:
                 rig.session,
                 curves=rig.predictor.curve,
                 headless=headless,
-                duration_s=duration,
+                duration_s=args.duration,  # the flight's end closes it (until=done)
+                until=done,
                 screenshot=screenshot,
                 status_file=args.status_file,
                 **view,

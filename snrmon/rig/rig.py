@@ -655,7 +655,12 @@ class HilRig:
         self._psf_recorded = True
         for cam, est in psf.items():
             if "error" not in est:
-                payload = {**est, "camera": cam, "source": "snrmon hil: the unresolved stops"}
+                payload = {
+                    **est,
+                    "estimate": est,  # the fit as the model takes it, as `snrmon psf` writes it
+                    "camera": cam,
+                    "source": "snrmon hil: the unresolved stops",
+                }
                 append_event(self.opts.out, "psf_measured", camera=cam, payload=payload)
 
     def final_stops(self) -> list[dict]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -188,15 +190,13 @@ def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(q
     assert plot.title.text() == title
     # with a band of +/- 3 the misfit is weighed by sem^2 + 3^2: (16/13 + 961/10) / 2
     banded = [
-        StopRow(
-            **{
-                **vars(x),
-                "model_snr": {
-                    "expected_eq4_extent": 64.0,
-                    "expected_eq4_extent_lower": 61.0,
-                    "expected_eq4_extent_upper": 67.0,
-                },
-            }
+        dataclasses.replace(
+            x,
+            model_snr={
+                "expected_eq4_extent": 64.0,
+                "expected_eq4_extent_lower": 61.0,
+                "expected_eq4_extent_upper": 67.0,
+            },
         )
         for x in rows
     ]

@@ -62,6 +62,18 @@ def screen_point(cam: dict, x: int, y: int) -> tuple[int, int]:
     return round(x0 + x * (x1 - x0) / (cols - 1)), round(y0 + y * (y1 - y0) / (rows - 1))
 
 
+def console_env(display: str, tmp_path: Path) -> dict[str, str]:
+    """The environment of a console in a real window on ``display``: Qt's xcb platform, the
+    checkout importable, and a settings folder of its own (a first start: nothing saved)."""
+    return {
+        **os.environ,
+        "DISPLAY": display,
+        "QT_QPA_PLATFORM": "xcb",
+        "XDG_CONFIG_HOME": str(tmp_path / "config"),
+        "PYTHONPATH": str(REPO),
+    }
+
+
 def click(display: str, x: int, y: int) -> None:
     env = {**os.environ, "DISPLAY": display}
     subprocess.run(
@@ -81,13 +93,7 @@ def test_clicking_the_drone_in_the_real_window(xvfb_display, tmp_path):
     config = tmp_path / "session.toml"
     config.write_text(f'[cameras.cam]\nsource = "shm"\naddress = "{ring}"\nsensor = "{sensor}"\n')
     status = tmp_path / "status.json"
-    env = {
-        **os.environ,
-        "DISPLAY": xvfb_display,
-        "QT_QPA_PLATFORM": "xcb",
-        "XDG_CONFIG_HOME": str(tmp_path / "config"),
-        "PYTHONPATH": str(REPO),
-    }
+    env = console_env(xvfb_display, tmp_path)
     cmd = [
         sys.executable,
         "-m",

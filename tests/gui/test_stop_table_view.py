@@ -15,8 +15,8 @@ from snrmon.acquisition.stops.table import StopRow
 from snrmon.gui.stop_table_view import StopTableView, columns, row_texts
 
 
-def _cells(row: StopRow, rule: str | None = None) -> dict[str, str]:
-    return {c.key: t for c, t in zip(columns([row], rule), row_texts(row, rule), strict=True)}
+def _cells(row: StopRow) -> dict[str, str]:
+    return {c.key: t for c, t in zip(columns([row]), row_texts(row), strict=True)}
 
 
 def _row(camera, stop, range_m, mean, sem, model, **kw) -> StopRow:
@@ -64,30 +64,31 @@ def test_console_stop_table_marks_a_resolved_short_stop():
     assert "band" not in cells and "ratio" not in cells  # no expected reading: nothing to compare
 
 
-def test_model_values_each_in_a_column_with_the_band_and_the_ratio_of_the_session_rule():
+def test_model_values_each_in_a_column_with_the_band_and_the_ratio_of_the_row_s_rule():
     model = {
         "small": 136.1,
         "large": 254.6,
         "small_corrected": 40.0,
         "large_corrected": 80.0,
-        "expected_eq4": 42.0,
-        "expected_eq4_lower": 38.0,
-        "expected_eq4_upper": 46.0,
-        "expected_eq4_rim": 45.0,  # a rule the console does not know yet gets its own column
+        "expected_eq4_extent": 42.0,
+        "expected_eq4_extent_lower": 38.0,
+        "expected_eq4_extent_upper": 46.0,
+        "expected_eq4_rim": 45.0,
     }
-    row = _row("lwir", 3, 336.0, 47.5, 0.5, model, model_sky_temp_k=271.25)
-    cells = _cells(row, "expected_eq4")
+    row = _row("lwir", 3, 336.0, 47.5, 0.5, model, model_sky_temp_k=271.25, background="extent_rim")
+    cells = _cells(row)
     assert [cells[f"model:{k}"] for k in ("small", "large", "small_corrected")] == [
         "136.1",
         "254.6",
         "40.0",
     ]
-    assert cells["model:expected_eq4"] == "42.0" and cells["model:expected_eq4_rim"] == "45.0"
+    assert cells["model:expected_eq4_extent"] == "42.0"
+    assert cells["model:expected_eq4_rim"] == "45.0"
     assert not any(k.endswith(("_lower", "_upper")) for k in cells)  # the band is one column
-    assert cells["band"] == "38.0–46.0"
-    assert cells["ratio"] == f"{47.5 / 42.0:.2f}"
+    assert cells["band"] == "38.0–46.0"  # the extent rule's (the row's background)
+    assert cells["ratio"] == f"{47.5 / 42.0:.2f} extent"
     assert cells["sky"] == "271.2" or cells["sky"] == "271.3"
-    titles = {c.key: c.title for c in columns([row], "expected_eq4")}
+    titles = {c.key: c.title for c in columns([row])}
     assert titles["lrf"] == "LRF\n(m)" and titles["sky"] == "sky\n(K)"  # units in the headers
     assert titles["model:expected_eq4_rim"] == "expected\n7x7 rim"
 
@@ -97,13 +98,14 @@ def table(qtbot):
     view = StopTableView()
     qtbot.addWidget(view)
     view.resize(1600, 400)
+    rim = {"background": "rim"}
     rows = [
-        _row("mwir", 0, 126.0, 380.0, 4.0, {"small": 400.0, "expected_eq4": 390.0}),
-        _row("lwir", 0, 126.0, 150.0, 2.0, {"small": 160.0, "expected_eq4": 140.0}),
-        _row("mwir", 1, 508.0, 57.3, 1.0, {"small": 51.5, "expected_eq4": 20.4}),
-        _row("lwir", 1, 508.0, 21.5, 0.4, {"small": 17.6, "expected_eq4": 23.3}),
+        _row("mwir", 0, 126.0, 380.0, 4.0, {"small": 400.0, "expected_eq4_rim": 390.0}, **rim),
+        _row("lwir", 0, 126.0, 150.0, 2.0, {"small": 160.0, "expected_eq4_rim": 140.0}, **rim),
+        _row("mwir", 1, 508.0, 57.3, 1.0, {"small": 51.5, "expected_eq4_rim": 20.4}, **rim),
+        _row("lwir", 1, 508.0, 21.5, 0.4, {"small": 17.6, "expected_eq4_rim": 23.3}, **rim),
     ]
-    view.show_rows(rows, "expected_eq4")
+    view.show_rows(rows)
     view.show()
     return view, rows
 
@@ -116,8 +118,8 @@ def test_the_table_sorts_by_a_column_s_number_not_its_text(table):
     # by the number: 380 > 150 > 57.3 > 21.5 (as text "57.3" would sort above "380")
     assert [r.snr_mean for r in view.shown_rows()] == [380.0, 150.0, 57.3, 21.5]
     view.sortByColumn(keys.index("ratio"), Qt.SortOrder.AscendingOrder)
-    assert [r.snr_mean / r.model_snr["expected_eq4"] for r in view.shown_rows()] == sorted(
-        r.snr_mean / r.model_snr["expected_eq4"] for r in rows
+    assert [r.snr_mean / r.model_snr["expected_eq4_rim"] for r in view.shown_rows()] == sorted(
+        r.snr_mean / r.model_snr["expected_eq4_rim"] for r in rows
     )
 
 
@@ -140,3 +142,58 @@ def test_copy_puts_the_report_csv_of_the_rows_shown_on_the_clipboard(table):
     assert view.copy_csv() == 1
     one = list(csv.DictReader(io.StringIO(QApplication.clipboard().text())))
     assert [(p["camera"], p["stop"]) for p in one] == [(parsed[0]["camera"], parsed[0]["stop"])]
+
+
+def _verdict(mean: float, sem: float, lower: float, upper: float) -> str:
+    """The band's verdict written out here (inside; near: within 2 errors of the mean of the
+    nearer edge; outside), independent of the console's."""
+    if lower <= mean <= upper:
+        return "inside"
+    return "near" if min(abs(mean - lower), abs(mean - upper)) <= 2 * sem else "outside"
+
+
+def test_each_row_s_ratio_is_against_the_expected_reading_of_its_own_rule(qtbot):
+    """Rows measured against the 7x7 rim and against the extent rim side by side (the two
+    cameras, both rules at one range): each ratio cell is the row's mean over the expected
+    reading of the row's own background's rule, named in the cell, coloured by its own band."""
+    from snrmon.gui import theme as th
+
+    def model(rim: float, extent: float) -> dict[str, float]:
+        out = {"small": 2 * rim}
+        for key, v in (("expected_eq4_rim", rim), ("expected_eq4_extent", extent)):
+            out |= {key: v, f"{key}_lower": 0.9 * v, f"{key}_upper": 1.1 * v}
+        return out
+
+    rows = [  # (the paper's ranges; the extent rim's reading far below the rim's at 37 m)
+        _row("mwir", 0, 37.0, 245.0, 3.0, model(16.0, 245.0), background="extent_rim+rim"),
+        _row("lwir", 0, 37.0, 15.3, 0.5, model(15.5, 3.0), background="rim"),
+        _row("mwir", 1, 126.0, 56.0, 1.0, model(3.6, 48.3), background="extent_rim"),
+        _row("lwir", 1, 126.0, 9.0, 0.2, model(10.4, 9.9), background="rim"),
+        _row("mwir", 2, 199.0, 8.0, 0.4, model(5.9, 5.9), background="rect"),  # no model of it
+    ]
+    view = StopTableView()
+    qtbot.addWidget(view)
+    view.resize(1600, 400)
+    view.show_rows(rows)
+    view.show()
+    keys = [c.key for c in view.table.cols]
+    ratio = keys.index("ratio")
+    verdicts = th.current().verdicts
+    seen = set()
+    for i, row in enumerate(view.shown_rows()):
+        index = view.proxy.index(i, ratio)
+        if row.background == "rect":
+            assert index.data() == "--" and index.data(Qt.ItemDataRole.BackgroundRole) is None
+            continue
+        rule = "extent" if "extent_rim" in row.background.split("+") else "rim"
+        expected = row.model_snr[f"expected_eq4_{rule}"]
+        assert index.data() == f"{row.snr_mean / expected:.2f} {rule}", row
+        verdict = _verdict(row.snr_mean, row.snr_sem, 0.9 * expected, 1.1 * expected)
+        fill, ink = verdicts[verdict]
+        assert index.data(Qt.ItemDataRole.BackgroundRole).color().name() == fill, row
+        assert index.data(Qt.ItemDataRole.ForegroundRole).color().name() == ink, row
+        assert "expected Eq. (4)" in index.data(Qt.ItemDataRole.ToolTipRole)
+        seen.add((rule, verdict))
+    # both rules, and verdicts that the other rule would have turned around
+    assert {r for r, _ in seen} == {"rim", "extent"}
+    assert ("inside", "extent") in {(v, r) for r, v in seen}

@@ -82,3 +82,33 @@ def test_a_replay_applies_the_recorded_psf(tmp_path):
         want = live("mwir", row.range_m)
         for name in ("small_corrected", "expected_eq4_rim", "expected_eq4_extent"):
             assert row.model_snr[name] == pytest.approx(want[name], rel=1e-9), name
+
+
+@pytest.mark.parametrize("written_by", ["snrmon hil before", "snrmon hil now", "snrmon psf"])
+def test_the_console_s_replay_applies_the_flight_s_psf_fit(tmp_path, written_by):
+    """The PSF fitted from the flight's unresolved stops (a ``psf_measured`` event written once
+    the flight is over) is the camera's from the first frame on in the console's replay too:
+    as the demo and ``snrmon hil --out`` wrote it until now (the fit's own fields, no
+    ``estimate``), as they write it now and as ``snrmon psf`` writes it (with ``estimate``).
+    Without it the MWIR read 1.4-1.9x the model at every unresolved stop."""
+    from snrmon.acquisition.replay.player import ReplayPlayer
+
+    sim = write_session(tmp_path / "s.h5", ranges_m=(393.0, 508.0), cameras=("mwir",))
+    payload = {**ESTIMATE, "camera": "mwir", "source": "snrmon hil: the unresolved stops"}
+    if written_by != "snrmon hil before":
+        payload["estimate"] = ESTIMATE
+    append_event(sim.path, "psf_measured", camera="mwir", payload=payload)
+    want = ModelPredictor({"mwir": "mwir"}, "uav1")
+    want.set_psf("mwir", psf_from_record(ESTIMATE), wait=True)
+    # as `snrmon gui --replay` builds it: the player first, its model from the file's config
+    with ReplayPlayer(sim.path, speed=1000.0) as player:
+        player.set_predictor(ModelPredictor({"mwir": "mwir"}, "uav1"))
+        player.play()
+        assert player.wait_end(120)
+        rows = [r for r in player.stop_table.rows() if r.camera == "mwir"]
+    assert [round(r.range_m) for r in rows] == [393, 508]
+    for row in rows:
+        assert row.model_psf is not None and row.model_psf.sigma_px == 0.57
+        at = want("mwir", row.range_m)
+        for name in ("small_corrected", "expected_eq4_rim", "expected_eq4_extent"):
+            assert row.model_snr[name] == pytest.approx(at[name], rel=1e-9), name

@@ -29,6 +29,7 @@ from tests.helpers import (
     SpotOnNoise,
     W,
     field_devices,
+    field_session_config,
     running_n,
     wait_until,
 )
@@ -38,16 +39,7 @@ from tests.helpers import (
 def rig(tmp_path):
     name = f"snrmon-test-{time.monotonic_ns() % 10**9}"
     with field_devices(name, seed=7, range_m=150.0, lrf_hz=20.0) as (producer, lrf, gps):
-        config = session_config_from_dict(
-            {
-                "site": {"lat_deg": 32.38, "lon_deg": -106.48, "alt_m": 1200.0},
-                "cameras": {
-                    "cam": {"source": "shm", "address": name, "width_px": W, "height_px": H}
-                },
-                "lrf": {"protocol": "ldm", "port": lrf.path, "baud": 9600},
-                "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
-            }
-        )
+        config = field_session_config(name, lrf, gps)
         session = Session(config, stop_config=StopConfig(steady_s=1.0, min_readings=3))
         try:
             yield session, producer, tmp_path
