@@ -14,7 +14,7 @@ Example (``session.toml``)::
     [measurement]                   # paper Eq. (4) settings
     search_px = 11
     box_px = 7
-    window = 100
+    window_frames = 100             # the running SNR's frames (the old key `window` still works)
 
     [cameras.mwir]
     source = "shm"                  # shm | v4l2 | aravis
@@ -50,6 +50,7 @@ in degrees, -90 to 90``.
 
 from __future__ import annotations
 
+import logging
 import math
 import tomllib
 from collections.abc import Callable
@@ -71,6 +72,8 @@ from snrmon.model.atmosphere_table import (
     Weather,
 )
 from snrmon.model.constants import ZERO_C_K
+
+log = logging.getLogger(__name__)
 
 CAMERA_SOURCES = ("shm", "v4l2", "aravis")
 
@@ -98,7 +101,7 @@ class SessionConfig:
     gps: dict[str, Any] | None = None
     lrf: dict[str, Any] | None = None
     measurement: PeakSnrConfig = field(default_factory=PeakSnrConfig)
-    window: int = 100
+    window_frames: int = 100  # the running SNR's window (paper Eq. 4's 100-frame average)
     lrf_fresh_s: float = 2.0
     air_temp_k: float | None = None  # [weather] air_temp_c: the model's path temperature
     weather: Weather | None = None  # [weather]: the met readings the model's atmosphere uses
@@ -190,7 +193,11 @@ MEASUREMENT_FIELDS = {
     "contamination_gradient_factor": Field("a positive number", _positive),
     "reference_frames": Field("an integer >= 1", _int_at_least(1)),
     "reference_min_frames": Field("an integer >= 1", _int_at_least(1)),
-    "window": Field(
+    "window_frames": Field(
+        f"an integer from 1 to {MAX_WINDOW_FRAMES} (frames of the running SNR)",
+        lambda v: _integer(v) and 1 <= v <= MAX_WINDOW_FRAMES,
+    ),
+    "window": Field(  # the old spelling of window_frames (recorded sessions carry it)
         f"an integer from 1 to {MAX_WINDOW_FRAMES} (frames of the running SNR)",
         lambda v: _integer(v) and 1 <= v <= MAX_WINDOW_FRAMES,
     ),
@@ -250,8 +257,11 @@ def _camera(name: str, table: Any) -> CameraConfig:
     )
 
 
-def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
-    """Validate a parsed TOML document into a :class:`SessionConfig`."""
+def session_config_from_dict(
+    data: dict[str, Any], warn: Callable[[str], None] | None = None
+) -> SessionConfig:
+    """Validate a parsed TOML document into a :class:`SessionConfig`; ``warn`` is told of each
+    deprecated key (None: a recorded session's config, which its operator cannot change)."""
     top = checked(data, TOP_FIELDS, "session")
     cams = top["cameras"]
     site = None
@@ -267,7 +277,13 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
     except ValueError as exc:
         raise ConfigError(f"[weather]: {exc}") from None
     meas = checked(top.get("measurement", {}), MEASUREMENT_FIELDS, "measurement")
-    window = meas.pop("window", 100)
+    if "window" in meas:
+        if "window_frames" in meas:
+            raise ConfigError("[measurement]: give window_frames, not also its old name window")
+        if warn is not None:
+            warn("[measurement] window is deprecated, use window_frames")
+        meas["window_frames"] = meas.pop("window")
+    window_frames = meas.pop("window_frames", 100)
     lrf_fresh_s = float(meas.pop("lrf_fresh_s", 2.0))
     if "background" in meas:
         meas["background"] = tuple(meas["background"])
@@ -285,7 +301,7 @@ def session_config_from_dict(data: dict[str, Any]) -> SessionConfig:
         gps=top.get("gps"),
         lrf=top.get("lrf"),
         measurement=mcfg,
-        window=window,
+        window_frames=window_frames,
         lrf_fresh_s=lrf_fresh_s,
         air_temp_k=air_temp_k,
         weather=met if weather else None,
@@ -309,7 +325,7 @@ def load_session_config(path: str | Path) -> SessionConfig:
     """Read and validate a session TOML file."""
     data = read_toml(path, "session config")
     try:
-        return session_config_from_dict(data)
+        return session_config_from_dict(data, warn=lambda text: log.warning("%s: %s", path, text))
     except ConfigError as exc:
         raise ConfigError(f"{Path(path)}: {exc}") from None
 

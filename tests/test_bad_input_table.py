@@ -96,7 +96,7 @@ CASES = [
     (
         ["record", "--config", "{window_config}", "--out", "{out}"],
         2,
-        "[measurement] window = 1000000000000: expected an integer from 1 to 100000",
+        "[measurement] window_frames = 1000000000000: expected an integer from 1 to 100000",
     ),
     (
         [*LISTEN, "--timeout", "nan"],
@@ -114,7 +114,7 @@ def paths(tmp_path_factory) -> dict[str, str]:
     np.save(stack, np.random.default_rng(5).normal(100.0, 2.0, (3, 16, 16)).astype(np.float32))
     camera = '[cameras.mwir]\nsource = "shm"\naddress = "nowhere"\nsensor = "mwir"\n'
     (d / "session.toml").write_text(camera)
-    (d / "window.toml").write_text(camera + "[measurement]\nwindow = 1000000000000\n")
+    (d / "window.toml").write_text(camera + "[measurement]\nwindow_frames = 1000000000000\n")
     return {
         "stack": str(stack),
         "config": str(d / "session.toml"),

@@ -111,7 +111,7 @@ class SessionEngine:
                 name,
                 shape,
                 config.measurement,
-                window=config.window,
+                window=config.window_frames,
                 track=track,
                 series_length=series_length,
             )

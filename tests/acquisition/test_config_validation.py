@@ -77,12 +77,13 @@ def test_the_schema_covers_every_field_of_the_config_dataclasses():
     camera_keys = {f.name for f in dataclasses.fields(CameraConfig)} - {"name", "pointing"}
     assert camera_keys | {"pointing_deg"} == set(CAMERA_FIELDS)
     peak = {f.name for f in dataclasses.fields(PeakSnrConfig)}
-    assert peak | {"window", "lrf_fresh_s"} == set(MEASUREMENT_FIELDS)
+    assert peak | {"window_frames", "window", "lrf_fresh_s"} == set(MEASUREMENT_FIELDS)
     session = {f.name for f in dataclasses.fields(SessionConfig)}
     # [weather] air_temp_c becomes air_temp_k; [simulation] is kept in raw (the scenario)
-    assert session - {"raw", "window", "lrf_fresh_s", "air_temp_k"} | {"weather", "simulation"} == (
-        set(TOP_FIELDS)
-    )
+    assert session - {"raw", "window_frames", "lrf_fresh_s", "air_temp_k"} | {
+        "weather",
+        "simulation",
+    } == (set(TOP_FIELDS))
     # [weather] is the model's met readings: every field of Weather
     from snrmon.model.atmosphere_table import Weather
 
@@ -116,7 +117,7 @@ def test_a_valid_config_keeps_its_values():
         {
             "target": "uav2",
             "site": {"lat_deg": 32, "lon_deg": -106.5, "alt_m": 1200},
-            "measurement": {"search_px": 15, "window": 50, "background": [0, 0, 9, 9]},
+            "measurement": {"search_px": 15, "window_frames": 50, "background": [0, 0, 9, 9]},
             "cameras": {
                 "m": {
                     "source": "v4l2",
@@ -129,7 +130,7 @@ def test_a_valid_config_keeps_its_values():
             "gps": {"protocol": "nmea", "port": "/dev/ttyUSB0", "baud": 38400},
         }
     )
-    assert cfg.site.lat_deg == 32.0 and cfg.window == 50 and cfg.measurement.search_px == 15
+    assert cfg.site.lat_deg == 32.0 and cfg.window_frames == 50 and cfg.measurement.search_px == 15
     assert cfg.measurement.background == (0, 0, 9, 9)
     cam = cfg.cameras[0]
     assert (cam.address, cam.width_px, cam.pointing.el_deg) == ("0", 640, 8.0)
@@ -184,3 +185,29 @@ def test_the_frames_filter_is_the_default_unless_named():
     assert session_config_from_dict({**BASE, "compression": "none"}).compression == "none"
     with pytest.raises(ConfigError, match=r'\[session\] compression = "snappy": expected'):
         session_config_from_dict({**BASE, "compression": "snappy"})
+
+
+def test_the_old_window_key_still_works_and_warns_once(tmp_path, caplog):
+    """``[measurement] window`` (the running SNR's frames) is now ``window_frames``, the name the
+    command line uses (``--window-frames``); a session TOML with the old key still loads, with one
+    warning naming the file; a recorded session's config loads without one."""
+    import logging
+
+    from snrmon.acquisition.config import load_session_config, session_config_from_dict
+
+    doc = '[cameras.cam]\naddress = "x"\n[measurement]\nwindow = 50\n'
+    path = tmp_path / "old.toml"
+    path.write_text(doc)
+    with caplog.at_level(logging.WARNING):
+        cfg = load_session_config(path)
+    assert cfg.window_frames == 50
+    warned = [r.getMessage() for r in caplog.records if "deprecated" in r.getMessage()]
+    assert warned == [f"{path}: [measurement] window is deprecated, use window_frames"]
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        raw = {"cameras": {"cam": {"address": "x"}}, "measurement": {"window": 50}}
+        assert session_config_from_dict(raw).window_frames == 50
+    assert not [r for r in caplog.records if "deprecated" in r.getMessage()]
+    path.write_text(doc + "window_frames = 50\n")
+    with pytest.raises(ValueError, match="not also its old name window"):
+        load_session_config(path)

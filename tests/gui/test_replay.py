@@ -96,7 +96,7 @@ def test_click_remeasures_the_shown_frame_and_recording_is_refused(
     window.set_roi("mwir", 48, 34)
     assert player.wait_idle()
     # the same frame measured by the same class at that click, outside the console
-    expected = FrameMeasurer(player.config.measurement, window=player.config.window)
+    expected = FrameMeasurer(player.config.measurement, window=player.config.window_frames)
     expected.set_roi(48, 34)
     want = expected.measure(recording.frames["mwir"][4], FrameContext("mwir", 4, 4, 0)).result
     assert player.status().cameras["mwir"].last.result == want
