@@ -156,6 +156,14 @@ def psf_source(sensor, psf) -> str:
     return f"fitted: sigma {float(sigma):.2f} px from this flight's stops"
 
 
+def psf_label(source: str | None) -> str | None:
+    """:func:`psf_source`'s words as a display's short mark: "preset PSF" or "fitted PSF" (the
+    word before its colon); None without a source (no model)."""
+    if not source:
+        return None
+    return f"{source.split(':', 1)[0]} PSF"
+
+
 class ModelPredictor:
     """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
     "large_corrected", "expected_eq4_rim", "expected_eq4_extent", "resolved_small"}`` (and the

@@ -414,6 +414,10 @@ class CameraEngine:
         if frames is None:
             frames = FrameAccounting(received=measured, measured=measured)
         model = self._model_at(last)
+        predictor = self.predictor
+        psf_source = (
+            predictor.curves_psf_source.get(self.name) if predictor is not None and model else None
+        )
         # The error of the mean of the window the running mean was taken over (a few times a
         # second, on the reader's thread: not per frame).
         sem = mean_error(window) if window is not None else NAN
@@ -438,6 +442,7 @@ class CameraEngine:
             latency_ms_p99=float(latency_ms[1]),
             snr_sem=sem,
             agreement=agreement,
+            model_psf_source=psf_source,
             stop=self.stop_progress() if self.stop_progress is not None else None,
         )
 

@@ -126,6 +126,10 @@ class CameraStatus:
     # ``last``'s running mean against the model's expected Eq. (4) reading at its range (the
     # rule the predictor names, its band, the ratio and the verdict); None without either.
     agreement: ModelAgreement | None = None
+    # Which PSF ``model``'s corrected curves and expected readings were computed with, in words
+    # (the predictor's ``curves_psf_source``: "preset: PVF 0.082 (sensor mwir)", "fitted: sigma
+    # 0.57 px from this flight's stops"); None without a model.
+    model_psf_source: str | None = None
     # The latest stop's progress for this camera (n of 100 frames); None before the first stop.
     stop: StopProgress | None = None
     # The devices this camera's numbers depend on that are lost now (itself, the LRF, the

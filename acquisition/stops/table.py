@@ -32,12 +32,12 @@ import math
 import threading
 from collections import Counter, deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 from typing import ClassVar, Protocol
 
 from snrmon.acquisition.measure.model_agreement import ModelAgreement, model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnr
-from snrmon.acquisition.prediction import Predictor
+from snrmon.acquisition.prediction import Predictor, psf_label
 from snrmon.acquisition.stops.detector import Stop, is_valid, summarise_stop
 
 Entry = tuple[int, PeakSnr]
@@ -76,10 +76,17 @@ class StopRow:
     # The corrected PSF they were computed with (a ``model.psf`` PSF, e.g. measured from the
     # flight); None: the sensor preset's (or no model).
     model_psf: object | None = field(default=None, compare=False)
+    # Which PSF that is, in words (the predictor's ``curves_psf_source``: "preset: PVF 0.082
+    # (sensor mwir)", "fitted: sigma 0.57 px from this flight's stops"); None: no model. Not a
+    # field (read as :attr:`model_psf_source`): the recorded payload, the CSV and the campaign's
+    # Parquet, all made of the fields, stay as they were.
+    psf_source: InitVar[str | None] = None
 
     _agreement: ClassVar[ModelAgreement | None] = None  # each row's own: set in __post_init__
+    _psf_source: ClassVar[str | None] = None  # each row's own: set in __post_init__
 
-    def __post_init__(self) -> None:
+    def __post_init__(self, psf_source: str | None) -> None:
+        object.__setattr__(self, "_psf_source", psf_source)
         # The mean against the model's expected reading of the row's own rule, computed here,
         # where the row is built (the processing thread), so a viewer only formats it. Not a
         # field: the row's payload (its fields) stays what the recording and the CSV hold.
@@ -99,6 +106,17 @@ class StopRow:
         measured with (:attr:`expected_eq4_rule`): ratio, band, verdict; None without a model
         or a rule."""
         return self._agreement
+
+    @property
+    def model_psf_source(self) -> str | None:
+        """Which PSF the row's model values were computed with, in words
+        (:func:`snrmon.acquisition.prediction.psf_source`); None without a model."""
+        return self._psf_source
+
+    @property
+    def model_psf_label(self) -> str | None:
+        """:attr:`model_psf_source` as a short mark: "preset PSF" or "fitted PSF"."""
+        return psf_label(self._psf_source)
 
     @property
     def range_m(self) -> float | None:
@@ -385,6 +403,7 @@ class StopTable:
         resolved = model.pop("resolved_small", None)
         sky = self.predictor.curves_background_k.get(camera) if self.predictor and model else None
         psf = self.predictor.curves_psf.get(camera) if self.predictor and model else None
+        source = self.predictor.curves_psf_source.get(camera) if self.predictor and model else None
         return StopRow(
             camera=camera,
             stop=stop.index,
@@ -404,6 +423,7 @@ class StopTable:
             background=backgrounds_of(r for _, r in run),
             model_sky_temp_k=sky,
             model_psf=psf,
+            psf_source=source,
         )
 
 

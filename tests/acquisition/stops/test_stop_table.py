@@ -10,6 +10,7 @@ from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.prediction import ModelPredictor
 from snrmon.acquisition.report.data import live_report_data
 from snrmon.acquisition.report.plot import render_report
+from snrmon.acquisition.runtime.session import row_payload
 from snrmon.acquisition.stops.detector import StopDetector
 from snrmon.acquisition.stops.table import StopTable
 
@@ -146,6 +147,8 @@ def test_the_reports_curves_are_drawn_at_the_sky_the_rows_were_compared_with():
     predictor.set_background("mwir", 280.0, wait=True)
     table, row = _one_stop(predictor, 336.0, 40.0, seed=5)
     assert own == pytest.approx(288.15) and row.model_sky_temp_k == pytest.approx(280.0)
+    assert row.model_psf_source == "preset: PVF 0.082 (sensor mwir)"  # no PSF fitted yet
+    assert row.model_psf_label == "preset PSF"
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
     curves = data.models["mwir"]
     assert curves.background_temp_k == pytest.approx(280.0)
@@ -169,6 +172,11 @@ def test_the_reports_corrected_curves_use_the_psf_the_rows_were_compared_with():
     predictor.set_psf("mwir", measured, wait=True)
     table, row = _one_stop(predictor, 393.0, 60.0, seed=6)
     assert row.model_psf is measured
+    # which PSF, in words, kept by the row but not recorded: the stop_summary payload (and so
+    # the recording, the CSV and the campaign's Parquet) holds the fields it held before
+    assert row.model_psf_source == "fitted: sigma 0.57 px from this flight's stops"
+    assert row.model_psf_label == "fitted PSF"
+    assert not any("source" in k or "label" in k for k in row_payload(row))
     assert row.model_snr["small_corrected"] > 1.4 * preset
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
     curves = data.models["mwir"]
