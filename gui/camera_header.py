@@ -3,14 +3,15 @@
 Six tiles, each a small caption over a large value and a note, wrapped onto as many lines as the
 panel's width needs (never cut): the camera and its track state; the range the measurement is
 at (its source, and the rangefinder's and the GPS's own); SNR(100) with its error of the mean;
-the model's expected Eq. (4) reading at that range (which background rule, and its uncertainty
-band); measured / expected, filled green inside the band, amber near it, red outside; the
-stop's progress (n of 100 frames).
+the model's expected Eq. (4) reading at that range (which background rule and which PSF,
+"preset PSF" or "fitted PSF", in full in the tile's tooltip; its uncertainty band); measured /
+expected, filled green inside the band, amber near it, red outside; the stop's progress (n of
+100 frames).
 
 Every number is a field of the session's status
 (:class:`snrmon.acquisition.engine.status.CameraStatus`: ``last``, ``snr_sem``, ``agreement``,
-``stop``; :class:`~snrmon.acquisition.engine.status.SessionStatus` for the rangefinder and GPS);
-the header only formats them.
+``stop``, ``model_psf_source``; :class:`~snrmon.acquisition.engine.status.SessionStatus` for the
+rangefinder and GPS); the header only formats them.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from PySide6.QtGui import QFont
 from PySide6.QtWidgets import QFrame, QLabel, QVBoxLayout, QWidget
 
 from snrmon.acquisition.engine.status import CameraStatus, SessionStatus
+from snrmon.acquisition.prediction import psf_label
 from snrmon.acquisition.track.config import TrackState
 from snrmon.gui import theme as th
 from snrmon.gui.flow_layout import FlowLayout
@@ -55,7 +57,8 @@ TIPS = {
     "snr": "SNR(100): the mean of the peak SNR (Eq. 4) over the last 100 valid frames +/- its "
     "error of the mean (the frames' autocorrelation counted); the note: frames and std",
     "expected": "What the model expects Eq. (4) to read at this range, under the background "
-    "rule named in the note (its uncertainty band: the ratio's note, the plot, the stop table)",
+    "rule named in the note (its uncertainty band: the ratio's note, the plot, the stop table), "
+    "and the PSF it used (preset: the sensor's; fitted: from this flight's stops)",
     "ratio": "Measured SNR(100) / expected: green inside the model's uncertainty band, amber "
     "within two errors of the mean of it (near), red outside; the note: the verdict and the "
     "band as a ratio of the expected reading",
@@ -133,8 +136,10 @@ def header_fields(name: str, cs: CameraStatus, st: SessionStatus | None) -> dict
         snr, note = "--", "no frames measured"
     fields["snr"] = ("SNR(100) ± error", snr, note, "")
     a = cs.agreement
+    psf = psf_label(cs.model_psf_source)  # which PSF the expected reading was computed with
     if a is not None:
-        fields["expected"] = ("expected Eq. (4)", f"{a.expected:.1f}", rule_words(a.rule), "")
+        note = rule_words(a.rule) + (f", {psf}" if psf else "")
+        fields["expected"] = ("expected Eq. (4)", f"{a.expected:.1f}", note, "")
         band = f"{a.ratio_lower:.2f}–{a.ratio_upper:.2f}" if a.lower != a.upper else "none"
         fields["ratio"] = (
             "measured / expected",
@@ -144,7 +149,7 @@ def header_fields(name: str, cs: CameraStatus, st: SessionStatus | None) -> dict
         )
     else:
         why = "no model" if not cs.model else "no measurement"
-        fields["expected"] = ("expected Eq. (4)", "--", why, "")
+        fields["expected"] = ("expected Eq. (4)", "--", why + (f", {psf}" if psf else ""), "")
         fields["ratio"] = ("measured / expected", "--", why, "")
     p = cs.stop
     if p is None:
@@ -276,6 +281,10 @@ class CameraHeader(QFrame):
         self.fields = header_fields(self.name, cs, st)
         for key, (caption, value, note, verdict) in self.fields.items():
             self.tiles[key].set_texts(caption, value, note, verdict)
+        psf = f"\nThe model's PSF: {cs.model_psf_source}" if cs.model_psf_source else ""
+        tip = TIPS["expected"] + psf  # the PSF in full where the note names it short
+        if self.tiles["expected"].toolTip() != tip:
+            self.tiles["expected"].setToolTip(tip)
         if bool(cs.lost) != self.alarm:
             self.alarm = bool(cs.lost)  # the whole header outlined in red while a device is lost
             self._frame_style()

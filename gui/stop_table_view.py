@@ -7,12 +7,14 @@ expected, each row's against the expected reading of the rule that row was measu
 background: ``rim`` the paper's 7x7 rim, ``extent_rim`` the rim outside the drone's extent),
 the rule named after the ratio, coloured like the camera header (green inside the band, amber
 near, red outside: :attr:`snrmon.acquisition.stops.table.StopRow.agreement`, computed where the
-row is built). Ranges in metres, the
-model's sky in kelvin. Click a column's header to sort by it; Ctrl+C (or the context menu, or
-Ctrl+Shift+C anywhere in the console) copies the selected rows, or all of them, as the report's
-CSV (:mod:`snrmon.acquisition.report.stop_csv`). Where the table is narrower than its columns,
-the model's sky, the background, the SNR's std and the GPS range give way, in that order
-(:data:`YIELDING`), and come back when it is wide enough.
+row is built), then the PSF the model values were computed with ("preset PSF", "fitted PSF":
+:attr:`~snrmon.acquisition.stops.table.StopRow.model_psf_label`; the ratio's tooltip gives it
+in full). Ranges in metres, the model's sky in kelvin. Click a column's header to sort by it;
+Ctrl+C (or the context menu, or Ctrl+Shift+C anywhere in the console) copies the selected rows,
+or all of them, as the report's CSV (:mod:`snrmon.acquisition.report.stop_csv`). Where the
+table is narrower than its columns, the model's sky, the background, the SNR's std, the GPS
+range and the model's PSF give way, in that order (:data:`YIELDING`), and come back when it is
+wide enough.
 """
 
 from __future__ import annotations
@@ -52,7 +54,7 @@ class Column:
 
 # Where the table is narrower than its columns, these give way first (in this order), so the
 # measurement and the model stay in view; they come back when the table is wide enough.
-YIELDING = ("sky", "background", "snr_std", "gps")
+YIELDING = ("sky", "background", "snr_std", "gps", "psf")
 CELL_PAD_PX = 14
 SORT_ARROW_PX = 24  # the sorted column's header draws an arrow beside its words
 
@@ -177,11 +179,25 @@ def columns(rows: list[StopRow]) -> list[Column]:
                 "measured /\nexpected",
                 "SNR mean / the expected Eq. (4) reading of the rule the row was measured with "
                 "(rim: the paper's 7x7 rim; extent: the rim outside the drone's extent): green "
-                "inside the model's band, amber within two errors of the mean of it, red outside",
+                "inside the model's band, amber within two errors of the mean of it, red "
+                "outside; the cell's tooltip names the PSF the model used",
                 _ratio_text,
                 lambda r: _key(r.agreement.ratio) if r.agreement else MISSING,
             ),
         ]
+    if any(r.model_psf_source for r in rows):
+        cols.append(
+            Column(
+                "psf",
+                "model\nPSF",
+                "The PSF the row's corrected and expected values were computed with: preset "
+                "(the sensor's, e.g. solved for the paper's average PVF 0.082) or fitted (from "
+                "this flight's unresolved stops); the ratio's tooltip gives it in full",
+                lambda r: r.model_psf_label or "--",
+                lambda r: r.model_psf_label or "",
+                False,
+            )
+        )
     cols += [
         Column(
             "sky",
@@ -246,9 +262,10 @@ def _ratio_tip(r: StopRow) -> str:
         return (
             "No expected reading for this row's background (no model, or the clear-sky rectangle)"
         )
+    psf = f"; the model's PSF: {r.model_psf_source}" if r.model_psf_source else ""
     return (
         f"SNR mean {a.measured:.2f} / {curve_label(a.rule)} {a.expected:.2f} (the rule of this "
-        f"row's background, {r.background}): {a.verdict or 'not decided'}"
+        f"row's background, {r.background}): {a.verdict or 'not decided'}{psf}"
     )
 
 

@@ -197,3 +197,89 @@ def test_each_row_s_ratio_is_against_the_expected_reading_of_its_own_rule(qtbot)
     # both rules, and verdicts that the other rule would have turned around
     assert {r for r, _ in seen} == {"rim", "extent"}
     assert ("inside", "extent") in {(v, r) for r, v in seen}
+
+
+def test_rows_and_the_header_say_which_psf_the_model_used(qtbot):
+    """The MWIR's first prediction uses the preset's PSF (solved for the paper's average PVF
+    0.082); once a PSF is fitted from the flight's stops the model uses that. A stop row keeps
+    the PSF its model values were computed with ("preset PSF" on the stop that ended before
+    the fit, "fitted PSF" after it, in its own column and in full in the ratio's tooltip), and
+    the camera header
+    names the PSF of the current prediction, from the session's status."""
+    import numpy as np
+
+    from snrmon.acquisition.config import session_config_from_dict
+    from snrmon.acquisition.engine.inputs import SetRoi
+    from snrmon.acquisition.engine.session_engine import SessionEngine
+    from snrmon.acquisition.prediction import ModelPredictor
+    from snrmon.drivers.rangefinder.reading import RangeReading
+    from snrmon.gui.camera_header import CameraHeader
+    from tests.acquisition.replay.test_replay_model_psf import ESTIMATE
+
+    h, w, x, y, frame_ns = 48, 64, 30, 20, 16_666_667
+
+    def frame(i: int) -> np.ndarray:
+        rng = np.random.default_rng([5, i])
+        yy, xx = np.mgrid[0:h, 0:w]
+        spot = 60.0 * np.exp(-((xx - x) ** 2 + (yy - y) ** 2) / (2 * 0.8**2))
+        return np.rint(1000.0 + spot + rng.normal(0.0, 5.0, (h, w))).astype(np.uint16)
+
+    config = session_config_from_dict({"cameras": {"mwir": {"source": "shm", "address": "x"}}})
+    predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
+    engine = SessionEngine(config, {"mwir": (h, w)}, predictor=predictor)
+    engine.camera("mwir").post(SetRoi(x, y))
+
+    def hover(first: int, range_m: float) -> int:
+        t0 = 10**12 + first * frame_ns
+        engine.mark_stop(t0)  # ends the stop before, if any
+        for i in range(first, first + 130):
+            t = 10**12 + i * frame_ns
+            if i % 6 == 0:  # the rangefinder at 10 Hz
+                engine.on_range(RangeReading(t, range_m, raw=f"{range_m:.1f}"))
+            engine.on_frame("mwir", frame(i), seq=i, counter=i, t_host_ns=t)
+        return first + 130
+
+    header = CameraHeader("mwir")
+    qtbot.addWidget(header)
+    view = StopTableView()
+    qtbot.addWidget(view)
+    view.resize(1600, 400)
+
+    def psf_cells() -> list[tuple[str, str]]:
+        """Each row's PSF cell and its ratio's tooltip, as shown."""
+        view.show_rows(engine.stops())
+        keys = [c.key for c in view.table.cols]
+        psf, ratio = keys.index("psf"), keys.index("ratio")
+        assert "psf" not in view.hidden_columns  # 1600 px: room for it
+        return [
+            (
+                view.proxy.index(i, psf).data(),
+                view.proxy.index(i, ratio).data(Qt.ItemDataRole.ToolTipRole),
+            )
+            for i in range(view.proxy.rowCount())
+        ]
+
+    n = hover(0, 336.0)
+    header.show_status(engine.cameras["mwir"].status(), None)
+    before = header.text()
+    (cell,) = psf_cells()
+    assert cell[0] == "preset PSF"
+    assert cell[1].endswith("the model's PSF: preset: PVF 0.082 (sensor mwir)")
+    assert "expected Eq. (4)" in before and "7x7 rim, preset PSF" in before
+    assert header.tiles["expected"].toolTip().endswith("preset: PVF 0.082 (sensor mwir)")
+
+    n = hover(n, 393.0)  # the first frame of this stop passes the first's end: final, preset
+    engine.adopt_psf("mwir", ESTIMATE, 10**12 + n * frame_ns)
+    # a third stop: the second ends now, after the fit, so its row freezes with the model in
+    # force at its end (the fitted PSF), as the third's does
+    hover(n, 393.0)
+    header.show_status(engine.cameras["mwir"].status(), None)
+    after = header.text()
+    cells = psf_cells()
+    rows = view.shown_rows()
+    assert [r.final for r in rows] == [True, True, False]
+    assert [c for c, _ in cells] == ["preset PSF", "fitted PSF", "fitted PSF"]
+    assert cells[2][1].endswith("the model's PSF: fitted: sigma 0.57 px from this flight's stops")
+    assert "7x7 rim, fitted PSF" in after and "preset PSF" not in after
+    tip = header.tiles["expected"].toolTip()
+    assert tip.endswith("fitted: sigma 0.57 px from this flight's stops")
