@@ -62,6 +62,7 @@ from snrmon.acquisition.geo.projection import Pointing, Site
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.drivers.config import check_device_table
 from snrmon.drivers.errors import ConfigError, toml_repr
+from snrmon.inputs import utf8_text
 from snrmon.limits import COMPRESSION_CHOICES, DEFAULT_COMPRESSION, MAX_WINDOW_FRAMES
 from snrmon.model.atmosphere_table import (
     AEROSOLS,
@@ -72,6 +73,7 @@ from snrmon.model.atmosphere_table import (
     Weather,
 )
 from snrmon.model.constants import ZERO_C_K
+from snrmon.model.presets import load_target
 
 log = logging.getLogger(__name__)
 
@@ -314,7 +316,7 @@ def read_toml(path: str | Path, what: str) -> dict[str, Any]:
     """A TOML file's document; a missing or malformed file is one error naming ``what``."""
     p = Path(path)
     try:
-        return tomllib.loads(p.read_text())
+        return tomllib.loads(utf8_text(p, what))
     except FileNotFoundError:
         raise FileNotFoundError(f"{what} {p} does not exist") from None
     except tomllib.TOMLDecodeError as exc:
@@ -322,12 +324,22 @@ def read_toml(path: str | Path, what: str) -> dict[str, Any]:
 
 
 def load_session_config(path: str | Path) -> SessionConfig:
-    """Read and validate a session TOML file."""
+    """Read and validate a session TOML file, its target resolved too (a preset or a target
+    TOML file that reads): an operator's typo is refused here, before any device opens. A
+    recorded session's config (:func:`session_config_from_dict`) is not resolved: its target
+    file may be on another machine."""
     data = read_toml(path, "session config")
     try:
-        return session_config_from_dict(data, warn=lambda text: log.warning("%s: %s", path, text))
+        config = session_config_from_dict(
+            data, warn=lambda text: log.warning("%s: %s", path, text)
+        )
+        try:
+            load_target(config.target)
+        except ValueError as exc:
+            raise ConfigError(f"target = {toml_repr(config.target)}: {exc}") from None
     except ConfigError as exc:
         raise ConfigError(f"{Path(path)}: {exc}") from None
+    return config
 
 
 def camera_device(cfg: CameraConfig):

@@ -17,12 +17,13 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from snrmon.cli import UsageError
-from snrmon.inputs import input_file
+from snrmon.inputs import input_file, utf8_text
 from snrmon.output import emit_json
 
 if TYPE_CHECKING:  # imported when a subcommand runs: `--help` starts at once
@@ -142,7 +143,7 @@ def run_pixel(args: argparse.Namespace) -> int:
 def read_pairs(path: Path) -> list[tuple[float, float, float, float, float]]:
     """Rows of a pairs CSV (header :data:`PAIR_COLUMNS`) as floats; bad rows are a ValueError
     naming the file and line."""
-    with path.open(newline="") as fh:
+    with io.StringIO(utf8_text(path, "--pairs"), newline="") as fh:
         reader = csv.DictReader(fh)
         missing = [c for c in PAIR_COLUMNS if c not in (reader.fieldnames or [])]
         if missing:
