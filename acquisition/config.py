@@ -330,9 +330,7 @@ def load_session_config(path: str | Path) -> SessionConfig:
     file may be on another machine."""
     data = read_toml(path, "session config")
     try:
-        config = session_config_from_dict(
-            data, warn=lambda text: log.warning("%s: %s", path, text)
-        )
+        config = session_config_from_dict(data, warn=lambda text: log.warning("%s: %s", path, text))
         try:
             load_target(config.target)
         except ValueError as exc:

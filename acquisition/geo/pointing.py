@@ -90,8 +90,8 @@ def calibrate_pointing(
 
     ``initial``: a starting pointing (degrees); None starts from the mean line of sight to the
     pairs with four roll quadrants. Fewer than three distinct pairs, non-finite values, a pair at
-    the site itself, or pairs all on one line of sight (within a pixel) are a ValueError. Azimuth is returned in
-    [0, 360), roll in (-180, 180].
+    the site itself, or pairs all on one line of sight (within a pixel) are a ValueError.
+    Azimuth is returned in [0, 360), roll in (-180, 180].
     """
     rows = [tuple(p) for p in pairs]
     if len(rows) < 3:
