@@ -62,7 +62,6 @@ from snrmon.acquisition.geo.projection import Pointing, Site
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.drivers.config import check_device_table
 from snrmon.drivers.errors import ConfigError, toml_repr
-from snrmon.inputs import utf8_text
 from snrmon.limits import COMPRESSION_CHOICES, DEFAULT_COMPRESSION, MAX_WINDOW_FRAMES
 from snrmon.model.atmosphere_table import (
     AEROSOLS,
@@ -310,6 +309,20 @@ def session_config_from_dict(
         compression=top.get("compression", DEFAULT_COMPRESSION),
         raw=data,
     )
+
+
+def utf8_text(path: str | Path, what: str) -> str:
+    """The text of the file at ``path``, which must be UTF-8 (TOML, JSON and our CSVs are): a
+    file that is not is one ValueError naming ``what``, the path and the first bad byte, not
+    the codec's bare message."""
+    p = Path(path)
+    data = p.read_bytes()
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{what} {p}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})"
+        ) from None
 
 
 def read_toml(path: str | Path, what: str) -> dict[str, Any]:

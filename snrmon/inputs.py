@@ -8,7 +8,7 @@ minutes later, never the HDF5 library's text or a Python error number.
 What is checked, in order (each a ``ValueError`` or an ``OSError`` subclass that names a path):
 
 * any input (:func:`input_file`): it exists, it is a file and not a folder, it is not empty;
-  a text one (:func:`utf8_text`) is UTF-8;
+  a text one (:func:`snrmon.acquisition.config.utf8_text`) is UTF-8;
 * a session (:func:`session_file`): an HDF5 file (its signature), one the HDF5 library can open
   (a truncated or damaged one is named as such), a snrmon session (its ``format`` attribute) whose
   streams all read, when a camera is asked for one that holds that camera, and for
@@ -79,20 +79,6 @@ def input_file(path: str | Path, what: str) -> Path:
     if p.stat().st_size == 0:
         raise ValueError(f"{what} {p}: is empty (0 bytes)")
     return p
-
-
-def utf8_text(path: str | Path, what: str) -> str:
-    """The text of the file at ``path``, which must be UTF-8 (TOML, JSON and our CSVs are): a
-    file that is not is one ValueError naming ``what``, the path and the first bad byte, not
-    the codec's bare message."""
-    p = Path(path)
-    data = p.read_bytes()
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ValueError(
-            f"{what} {p}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})"
-        ) from None
 
 
 def starts_with(path: str | Path, signatures: Iterable[bytes]) -> bool:

@@ -43,9 +43,9 @@ from typing import Any, Protocol
 import cv2
 import numpy as np
 
+from snrmon.acquisition.config import utf8_text
 from snrmon.acquisition.replay.flir import FLIR_SUFFIXES, load_flir
 from snrmon.acquisition.replay.ptw import load_ptw
-from snrmon.inputs import utf8_text
 
 VIDEO_SUFFIXES = frozenset({".mp4", ".avi", ".mkv", ".mov", ".mpg", ".mpeg", ".wmv", ".m4v"})
 RAW_DTYPES = frozenset({"uint8", "uint16", "int16", "uint32", "int32", "float32", "float64"})

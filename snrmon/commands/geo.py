@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from snrmon.cli import UsageError
-from snrmon.inputs import input_file, utf8_text
+from snrmon.inputs import input_file
 from snrmon.output import emit_json
 
 if TYPE_CHECKING:  # imported when a subcommand runs: `--help` starts at once
@@ -143,6 +143,8 @@ def run_pixel(args: argparse.Namespace) -> int:
 def read_pairs(path: Path) -> list[tuple[float, float, float, float, float]]:
     """Rows of a pairs CSV (header :data:`PAIR_COLUMNS`) as floats; bad rows are a ValueError
     naming the file and line."""
+    from snrmon.acquisition.config import utf8_text
+
     with io.StringIO(utf8_text(path, "--pairs"), newline="") as fh:
         reader = csv.DictReader(fh)
         missing = [c for c in PAIR_COLUMNS if c not in (reader.fieldnames or [])]
