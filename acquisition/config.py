@@ -72,6 +72,7 @@ from snrmon.model.atmosphere_table import (
     Weather,
 )
 from snrmon.model.constants import ZERO_C_K
+from snrmon.model.presets import load_target
 
 log = logging.getLogger(__name__)
 
@@ -310,11 +311,25 @@ def session_config_from_dict(
     )
 
 
+def utf8_text(path: str | Path, what: str) -> str:
+    """The text of the file at ``path``, which must be UTF-8 (TOML, JSON and our CSVs are): a
+    file that is not is one ValueError naming ``what``, the path and the first bad byte, not
+    the codec's bare message."""
+    p = Path(path)
+    data = p.read_bytes()
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{what} {p}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})"
+        ) from None
+
+
 def read_toml(path: str | Path, what: str) -> dict[str, Any]:
     """A TOML file's document; a missing or malformed file is one error naming ``what``."""
     p = Path(path)
     try:
-        return tomllib.loads(p.read_text())
+        return tomllib.loads(utf8_text(p, what))
     except FileNotFoundError:
         raise FileNotFoundError(f"{what} {p} does not exist") from None
     except tomllib.TOMLDecodeError as exc:
@@ -322,12 +337,20 @@ def read_toml(path: str | Path, what: str) -> dict[str, Any]:
 
 
 def load_session_config(path: str | Path) -> SessionConfig:
-    """Read and validate a session TOML file."""
+    """Read and validate a session TOML file, its target resolved too (a preset or a target
+    TOML file that reads): an operator's typo is refused here, before any device opens. A
+    recorded session's config (:func:`session_config_from_dict`) is not resolved: its target
+    file may be on another machine."""
     data = read_toml(path, "session config")
     try:
-        return session_config_from_dict(data, warn=lambda text: log.warning("%s: %s", path, text))
+        config = session_config_from_dict(data, warn=lambda text: log.warning("%s: %s", path, text))
+        try:
+            load_target(config.target)
+        except ValueError as exc:
+            raise ConfigError(f"target = {toml_repr(config.target)}: {exc}") from None
     except ConfigError as exc:
         raise ConfigError(f"{Path(path)}: {exc}") from None
+    return config
 
 
 def camera_device(cfg: CameraConfig):

@@ -8,9 +8,11 @@ minutes later, never the HDF5 library's text or a Python error number.
 What is checked, in order (each a ``ValueError`` or an ``OSError`` subclass that names a path):
 
 * any input (:func:`input_file`): it exists, it is a file and not a folder, it is not empty;
+  a text one (:func:`snrmon.acquisition.config.utf8_text`) is UTF-8;
 * a session (:func:`session_file`): an HDF5 file (its signature), one the HDF5 library can open
   (a truncated or damaged one is named as such), a snrmon session (its ``format`` attribute) whose
-  streams all read, and, when a camera is asked for, one that holds that camera;
+  streams all read, when a camera is asked for one that holds that camera, and for
+  a command that measures frames one with a frame;
 * a frame stack of another tool (:func:`stack_file`): what its name's ending says it is (an
   ``.h5`` that is not HDF5, a ``.tif`` that is not a TIFF, an ``.npy`` that is not an array);
 * where output goes (:func:`output_file`, :func:`output_folder`): its folder exists, a file is
@@ -93,33 +95,43 @@ def is_hdf5(path: str | Path) -> bool:
 
 
 def session_file(
-    path: str | Path, what: str = "session file", *, camera: str | None = None
+    path: str | Path,
+    what: str = "session file",
+    *,
+    camera: str | None = None,
+    with_frames: bool = False,
 ) -> Path:
     """An existing snrmon session file (HDF5) whose streams read, holding ``camera`` when one is
-    asked for; anything else is one message naming the file and what is wrong."""
+    asked for and, with ``with_frames``, a frame of some camera (a command that measures frames
+    has nothing to do without one); anything else is one message naming the file and what is
+    wrong."""
     p = input_file(path, what)
     if not is_hdf5(p):
         raise ValueError(f"{what} {p}: not an HDF5 file (a snrmon session is an HDF5 .h5 file)")
-    cameras = session_cameras(p, what)
+    cameras = session_frame_counts(p, what)
+    if with_frames and not any(cameras.values()):
+        have = ", ".join(f"{name} {n}" for name, n in cameras.items()) or "no camera"
+        raise ValueError(f"{what} {p}: no frames in it (frames per camera: {have})")
     if camera is not None and camera not in cameras:
         have = ", ".join(cameras) or "none"
         raise ValueError(f"{what} {p}: no camera {camera!r} in it (cameras: {have})")
     return p
 
 
-def session_cameras(path: Path, what: str = "session file") -> list[str]:
-    """The cameras of the session at ``path``, read through the session reader (every stream
-    but the pixels is read: a damaged file fails here, not minutes into a replay)."""
+def session_frame_counts(path: Path, what: str = "session file") -> dict[str, int]:
+    """The frame count of each camera of the session at ``path``, read through the session
+    reader (every stream but the pixels is read: a damaged file fails here, not minutes into a
+    replay)."""
     from snrmon.acquisition.record.reader import open_session
 
     try:
         with open_session(path) as f:
-            names = list(f.cameras)
+            counts = {name: int(cam.n_frames) for name, cam in f.cameras.items()}
             for cam in f.cameras.values():
                 if cam.n_frames:  # the pixels' index: the first and the last frame read
                     cam.frame(0)
                     cam.frame(cam.n_frames - 1)
-            return names
+            return counts
     except ValueError as exc:
         if "not a snrmon session" in str(exc):
             raise ValueError(

@@ -7,26 +7,41 @@ Each of these used to hang, ask for terabytes or fail without naming the option:
 ``record --duration inf`` and ``listen --timeout nan`` never ended; a config ``window =
 1000000000000`` was a MemoryError; ``hil --seed -1`` did not name the option. The ranges are
 ``snrmon.inputs``'s shared argparse types.
+
+And damaged or wrong files, each refused by the input check naming the file: a session with 0
+frames was an internal TypeError in ``replay``; a truncated session was exit 1 with the HDF5
+library's text in ``noise``; a non-video ``.mp4`` printed FFmpeg's ``moov atom not found`` before
+the error; ``record`` took ``target = "uav9"`` or a missing target file and opened its devices;
+three identical pairs gave ``geo calibrate`` a pointing with zero residual; a non-UTF-8 session
+TOML, pairs CSV or raw-stack descriptor was the codec's bare message. An all-NaN stack gave noise
+0.0 within [0, 0]: it is null now.
 """
 
 from __future__ import annotations
 
 import contextlib
 import io
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+import tifffile
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.cli import build_parser, main
+from snrmon.examples import example_session
 
 MODEL_SNR = ["model", "snr", "--sensor", "mwir", "--target", "uav1"]
 RECORD = ["record", "--config", "{config}", "--out", "{out}"]
 LISTEN = ["listen", "gps", "--port", "/dev/null"]
 MEASURE = ["measure", "{stack}", "--at", "5,5"]
 MONTH_S = "2678400 s"
+GEO = ["geo", "calibrate", "--site", "32.38,-106.48,1200", "--sensor", "mwir", "--pairs"]
+PAIRS_HEADER = "x_px,y_px,lat_deg,lon_deg,alt_m\n"
 
 # (argv, exit code, a fragment of the one line on stderr)
 CASES = [
@@ -104,6 +119,39 @@ CASES = [
         f"argument --timeout: must be a number above 0 and up to {MONTH_S}, got 'nan'",
     ),
     ([*LISTEN, "--count", "0"], 2, "argument --count: must be an integer from 1 to 1000000000"),
+    (["replay", "{zero}"], 2, "session file {zero}: no frames in it (frames per camera: mwir 0)"),
+    (["report", "{zero}", "-o", "{dir}/r.pdf"], 2, "{zero}: no frames in it"),
+    (["noise", "{truncated}"], 2, "STACK {truncated}: truncated HDF5 file (Unable to"),
+    (["noise", "{mp4}"], 2, "{mp4}: OpenCV cannot open this video"),
+    (["measure", "{mp4}", "--at", "5,5"], 2, "{mp4}: OpenCV cannot open this video"),
+    (
+        ["record", "--config", "{uav9}", "--out", "{out}"],
+        2,
+        "{uav9}: target = \"uav9\": unknown target 'uav9'; known: uav1, uav2",
+    ),
+    (
+        ["record", "--config", "{no_target}", "--out", "{out}"],
+        2,
+        '{no_target}: target = "gone.toml": target file not found: gone.toml',
+    ),
+    (
+        [*GEO, "{same_pairs}"],
+        2,
+        "needs at least 3 distinct (pixel, GPS) pairs for azimuth, elevation and roll, got 1 "
+        "distinct of 3",
+    ),
+    ([*GEO, "{line_pairs}"], 2, "the 3 distinct pairs' GPS positions lie on one line of sight"),
+    (
+        ["record", "--config", "{latin1_config}", "--out", "{out}"],
+        2,
+        "session config {latin1_config}: not UTF-8 text (byte 0xe9 at offset",
+    ),
+    ([*GEO, "{latin1_pairs}"], 2, "--pairs {latin1_pairs}: not UTF-8 text (byte 0xe9 at offset"),
+    (
+        ["noise", "{raw}"],
+        2,
+        "descriptor {raw}.json: not UTF-8 text (byte 0xe9 at offset",
+    ),
 ]
 
 
@@ -115,29 +163,84 @@ def paths(tmp_path_factory) -> dict[str, str]:
     camera = '[cameras.mwir]\nsource = "shm"\naddress = "nowhere"\nsensor = "mwir"\n'
     (d / "session.toml").write_text(camera)
     (d / "window.toml").write_text(camera + "[measurement]\nwindow_frames = 1000000000000\n")
+    (d / "uav9.toml").write_text('target = "uav9"\n' + camera)
+    (d / "no_target.toml").write_text('target = "gone.toml"\n' + camera)
+    (d / "latin1.toml").write_bytes('target = "uav1" # café\n'.encode("latin-1") + camera.encode())
+    # the same pair three times; three positions on one line of sight from the site
+    (d / "same.csv").write_text(PAIRS_HEADER + "640,360,32.381,-106.48,1250\n" * 3)
+    on_line = [f"640,360,{32.38 + 0.001 * k},-106.48,{1200 + 50 * k}\n" for k in (1, 2, 3)]
+    (d / "line.csv").write_text(PAIRS_HEADER + "".join(on_line))
+    (d / "latin1.csv").write_bytes(
+        PAIRS_HEADER.encode() + "640,360,32.381,-106.48,1250 é\n".encode("latin-1")
+    )
+    (d / "raw.bin").write_bytes(bytes(64))
+    (d / "raw.bin.json").write_bytes(
+        '{"shape": [2, 4, 4], "dtype": "uint16", "by": "é"}'.encode("latin-1")
+    )
+    # an ISO-BMFF header and no movie box: what a copy cut before its end looks like to FFmpeg
+    (d / "cut.mp4").write_bytes(b"\x00\x00\x00\x18ftypmp42" + bytes(200))
+    session = example_session(d / "s.h5", ranges_m=(120.0,), hover_s=2.0, cameras=("mwir",)).path
+    data = session.read_bytes()
+    (d / "truncated.h5").write_bytes(data[: len(data) // 2])
+    SessionRecorder(
+        d / "zero.h5",
+        config={"session": {"cameras": {"mwir": {"source": "shm", "sensor": "mwir"}}}},
+        cameras={"mwir": (40, 56)},
+        fsync=False,
+    ).stop()
     return {
         "stack": str(stack),
         "config": str(d / "session.toml"),
         "window_config": str(d / "window.toml"),
         "out": str(d / "new.h5"),
+        "dir": str(d),
+        "zero": str(d / "zero.h5"),
+        "truncated": str(d / "truncated.h5"),
+        "mp4": str(d / "cut.mp4"),
+        "uav9": str(d / "uav9.toml"),
+        "no_target": str(d / "no_target.toml"),
+        "latin1_config": str(d / "latin1.toml"),
+        "same_pairs": str(d / "same.csv"),
+        "line_pairs": str(d / "line.csv"),
+        "latin1_pairs": str(d / "latin1.csv"),
+        "raw": str(d / "raw.bin"),
     }
 
 
 @pytest.mark.parametrize(
     ("argv", "code", "says"), CASES, ids=lambda v: " ".join(v)[:60] if isinstance(v, list) else None
 )
-def test_refused_with_one_line_naming_the_option_and_value(argv, code, says, paths, capsys):
+def test_refused_with_one_line_naming_the_option_and_value(argv, code, says, paths, capfd):
+    # capfd, not capsys: a C library's own line (FFmpeg's, HDF5's) goes to file descriptor 2
     argv = [a.format(**paths) for a in argv]
+    says = says.format(**paths)
     try:
         got = main(argv)
     except SystemExit as exc:  # argparse's own refusal
         got = exc.code
-    out, err = capsys.readouterr()
+    out, err = capfd.readouterr()
     lines = err.strip().splitlines()
     assert got == code, err
     assert len(lines) == 1 and lines[0].startswith(f"snrmon {argv[0]}"), err
     assert ": error: " in lines[0] and says in lines[0], lines[0]
     assert out == ""
+    assert not Path(paths["out"]).exists() and not Path(paths["dir"], "r.pdf").exists()
+
+
+def test_an_all_nan_stack_has_no_noise_figure_not_zero(tmp_path, capsys):
+    stack = tmp_path / "nan.tif"
+    tifffile.imwrite(stack, np.full((4, 8, 8), np.nan, np.float32), photometric="minisblack")
+    assert main(["noise", str(stack), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["frames"] == 4 and got["mean_dn"] is None
+    for key in ("sigma_dn", "sigma_corrected_dn"):
+        assert set(got[key].values()) == {None}, got[key]
+    assert all(pair == [None, None] for pair in got["ci95_dn"].values()), got["ci95_dn"]
+    assert main(["noise", str(stack)]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert "mean n/a DN" in rows[0]
+    tvh = next(r for r in rows if r.split()[0] == "tvh").split()
+    assert tvh[1:6] == ["n/a", "n/a", "n/a", "-", "n/a"], tvh
 
 
 # The numeric options and their documented ranges, independent of the types that check them:

@@ -89,8 +89,9 @@ def calibrate_pointing(
     """Fit (az, el, roll) to pairs ``(x_px, y_px, lat_deg, lon_deg, alt_m)`` by least squares.
 
     ``initial``: a starting pointing (degrees); None starts from the mean line of sight to the
-    pairs with four roll quadrants. Fewer than three pairs, non-finite values, or a pair at the
-    site itself are a ValueError. Azimuth is returned in [0, 360), roll in (-180, 180].
+    pairs with four roll quadrants. Fewer than three distinct pairs, non-finite values, a pair at
+    the site itself, or pairs all on one line of sight (within a pixel) are a ValueError.
+    Azimuth is returned in [0, 360), roll in (-180, 180].
     """
     rows = [tuple(p) for p in pairs]
     if len(rows) < 3:
@@ -108,6 +109,25 @@ def calibrate_pointing(
     dist = np.linalg.norm(enu, axis=1)
     if (dist < 1e-3).any():
         raise ValueError(f"pair {int(np.argmin(dist))} is at the camera site; it has no direction")
+    # Three unknowns (az, el, roll): a repeated pair adds no equation, and lines of sight that
+    # are all one (within a pixel) leave the roll about it free, so either fit has a residual
+    # of zero that says nothing.
+    distinct = len(np.unique(arr, axis=0))
+    if distinct < 3:
+        raise ValueError(
+            f"pointing calibration needs at least 3 distinct (pixel, GPS) pairs for azimuth, "
+            f"elevation and roll, got {distinct} distinct of {len(rows)}"
+        )
+    unit = enu / dist[:, None]
+    spread_px = float(np.arccos(np.clip(unit @ unit[0], -1.0, 1.0)).max()) / (
+        intrinsics.pitch_m / intrinsics.focal_length_m
+    )
+    if spread_px < 1.0:
+        raise ValueError(
+            f"the {distinct} distinct pairs' GPS positions lie on one line of sight (within "
+            f"{spread_px:.2g} px of each other): they cannot fix the roll; spread them over the "
+            "field of view"
+        )
 
     best = None
     for x0 in _initial_guesses(enu, initial):

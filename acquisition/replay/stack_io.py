@@ -34,6 +34,7 @@ with one message naming the file and the value.
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,6 +43,7 @@ from typing import Any, Protocol
 import cv2
 import numpy as np
 
+from snrmon.acquisition.config import utf8_text
 from snrmon.acquisition.replay.flir import FLIR_SUFFIXES, load_flir
 from snrmon.acquisition.replay.ptw import load_ptw
 
@@ -76,7 +78,7 @@ def _raw_paths(path: Path) -> tuple[Path, Path]:
 def _raw_descriptor(path: Path) -> tuple[Path, tuple[int, int, int], np.dtype]:
     data, desc_path = _raw_paths(path)
     try:
-        desc = json.loads(desc_path.read_text())
+        desc = json.loads(utf8_text(desc_path, "descriptor"))
     except json.JSONDecodeError as exc:
         raise ValueError(f"{desc_path}: not valid JSON ({exc.msg})") from None
     if not isinstance(desc, dict):
@@ -117,6 +119,11 @@ def _is_raw(path: Path) -> bool:
 
 
 def _open_video(path: Path) -> cv2.VideoCapture:
+    # FFmpeg prints its own reason ("moov atom not found") on stderr while OpenCV probes the
+    # container, and a file that is not a video must be the one line below. OpenCV reads this
+    # level once, when FFmpeg first starts (cv2.utils.logging does not reach FFmpeg): quiet
+    # ("-8") unless the user set one.
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
         raise ValueError(f"{path}: OpenCV cannot open this video")

@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     for s in args.sessions:
         if args.scheduler and not Path(s).exists():
             continue  # a remote cluster's workers may see paths this machine does not
-        session_file(s, "session file")
+        session_file(s, "session file", with_frames=True)
     settings = load_settings(args.settings)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -142,7 +143,9 @@ def run_pixel(args: argparse.Namespace) -> int:
 def read_pairs(path: Path) -> list[tuple[float, float, float, float, float]]:
     """Rows of a pairs CSV (header :data:`PAIR_COLUMNS`) as floats; bad rows are a ValueError
     naming the file and line."""
-    with path.open(newline="") as fh:
+    from snrmon.acquisition.config import utf8_text
+
+    with io.StringIO(utf8_text(path, "--pairs"), newline="") as fh:
         reader = csv.DictReader(fh)
         missing = [c for c in PAIR_COLUMNS if c not in (reader.fieldnames or [])]
         if missing:

@@ -30,15 +30,19 @@ and, with a calibration, ``"scene_temp_k"``, ``"sitf_dn_per_k"``, ``"netd_mk"``,
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from snrmon.cli import UsageError
-from snrmon.inputs import input_file, is_hdf5
+from snrmon.inputs import input_file, is_hdf5, session_file
 from snrmon.output import emit_json
 
 if TYPE_CHECKING:  # imported when the work runs: `--help` starts at once
     import numpy as np
+
+    from snrmon.acquisition.measure.noise3d import Noise3d
 
 FIGURE_NOTES = {
     "t": "frame-to-frame flicker",
@@ -240,6 +244,26 @@ def _session_noise(args: argparse.Namespace):
         return source, region, region_sums(cam, range(lo, hi), region), calibration
 
 
+def _defined(noise: Noise3d) -> Noise3d:
+    """``noise``, or with every figure NaN (JSON null, "n/a" in text) when a pixel of the frames
+    is not a number: the sums are then NaN and the rounding floor would turn each figure into a
+    0.0, which reads as a noiseless camera (all-NaN frames gave 0.0 within [0, 0])."""
+    if math.isfinite(noise.mean):
+        return noise
+    nan = math.nan
+    return dataclasses.replace(
+        noise,
+        sigma=dict.fromkeys(noise.sigma, nan),
+        sigma_corrected=dict.fromkeys(noise.sigma_corrected, nan),
+        ci95=dict.fromkeys(noise.ci95, (nan, nan)),
+    )
+
+
+def _number(value: float, width: int, digits: int) -> str:
+    """``value`` in ``width`` characters, "n/a" when it is not a number."""
+    return f"{value:{width}.{digits}f}" if math.isfinite(value) else f"{'n/a':>{width}}"
+
+
 def _kelvin(calibration: tuple, region, mean_image: np.ndarray, noise) -> dict:
     """The kelvin figures and NETD from ``calibration``, (a calibration, its source) (module
     docstring)."""
@@ -269,12 +293,13 @@ def run(args: argparse.Namespace) -> int:
 
     input_file(args.stack, "STACK")
     if is_hdf5(args.stack):
+        session_file(args.stack, "STACK")  # a truncated or damaged one named, not an HDF5 error
         source, region, sums, calibration = _session_noise(args)
     else:
         source, region, sums, calibration = _stack_noise(args)
     if sums.frames < 2:
         raise UsageError(f"{source}: 3D noise needs at least 2 frames")
-    noise = sums.result()
+    noise = _defined(sums.result())
     out: dict = {
         "frames": noise.frames,
         "rows": noise.rows,
@@ -289,7 +314,7 @@ def run(args: argparse.Namespace) -> int:
     x0, y0, x1, y1 = region
     print(
         f"{source}; region x {x0}-{x1}, y {y0}-{y1}: {noise.frames} frames x {noise.rows} rows x "
-        f"{noise.cols} columns, mean {noise.mean:.2f} DN"
+        f"{noise.cols} columns, mean {_number(noise.mean, 0, 2)} DN"
     )
     kelvin = "sigma_k" in out
     head = f"{'':>6} {'sigma':>10} {'corrected':>10} {'95 % interval':>21}"
@@ -299,7 +324,8 @@ def run(args: argparse.Namespace) -> int:
     for k in FIGURES:
         lo, hi = noise.ci95[k]
         line = (
-            f"{k:>6} {noise.sigma[k]:10.4f} {noise.sigma_corrected[k]:10.4f} {lo:10.4f} - {hi:8.4f}"
+            f"{k:>6} {_number(noise.sigma[k], 10, 4)} {_number(noise.sigma_corrected[k], 10, 4)} "
+            f"{_number(lo, 10, 4)} - {_number(hi, 8, 4)}"
         )
         if kelvin:
             line += f"  {1e3 * out['sigma_corrected_k'][k]:10.2f}"

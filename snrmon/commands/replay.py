@@ -58,7 +58,7 @@ def _is_session(path: str) -> bool:
 
     p = Path(path)
     if p.suffix.lower() in SESSION_SUFFIXES or (p.is_file() and p.stat().st_size and is_hdf5(p)):
-        session_file(p)
+        session_file(p, with_frames=True)
         return True
     stack_file(p, "recording")
     return False

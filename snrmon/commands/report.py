@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from snrmon.acquisition.report.stop_csv import write_csv
 
     out = output_file(args.out, "-o/--out", suffixes=tuple(FORMATS))
-    src = session_file(args.session)
+    src = session_file(args.session, with_frames=True)
     if args.csv:
         output_file(args.csv, "--csv", suffixes=(".csv",))
     with frame_progress("replay") as progress:  # a bar on a terminal only
