@@ -45,6 +45,22 @@ def module_tmp(tmp_path_factory, request) -> Iterator[Callable[[str], Path]]:
             shutil.rmtree(folder, ignore_errors=True)
 
 
+@pytest.fixture(scope="session")
+def flir_files(shared_data, tmp_path_factory) -> Path:
+    """A folder with the real FLIR files of ``tests/data/field-formats/flir`` as the camera
+    wrote them: the ``.gz`` ones (kept gzipped in git, over 2 MB raw) decompressed under their
+    own names, the others linked."""
+    import gzip
+
+    folder = tmp_path_factory.mktemp("flir")
+    for path in (shared_data / "field-formats" / "flir").iterdir():
+        if path.suffix == ".gz":
+            (folder / path.stem).write_bytes(gzip.decompress(path.read_bytes()))
+        else:
+            (folder / path.name).symlink_to(path.resolve())
+    return folder
+
+
 HIL_SEEDS = (0, 1)
 
 

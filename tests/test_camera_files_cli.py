@@ -16,14 +16,19 @@ from tests.acquisition.replay.test_flir import reference_frames
 from tests.helpers import strict_json
 
 DATA = Path(__file__).parent / "data" / "field-formats" / "flir"
-SEQ = DATA / "flirpy-test.seq"
 FFF = DATA / "flirpy-frame_000000.fff"
 PEAK = (363, 92)  # the brightest pixel of frame 0 (x column, y row)
 
 
+@pytest.fixture(scope="session")
+def seq(flir_files) -> Path:
+    """The real FLIR Duo Pro R recording (7 frames 640x512)."""
+    return flir_files / "flirpy-test.seq"
+
+
 @pytest.fixture(scope="module")
-def counts() -> np.ndarray:
-    return np.stack([f.pixels for f in reference_frames(SEQ.read_bytes())]).astype(float)
+def counts(seq) -> np.ndarray:
+    return np.stack([f.pixels for f in reference_frames(seq.read_bytes())]).astype(float)
 
 
 def eq4(frame: np.ndarray, x: int, y: int) -> float:
@@ -34,8 +39,8 @@ def eq4(frame: np.ndarray, x: int, y: int) -> float:
     return (frame[y, x] - rim.mean()) / rim.std(ddof=1)
 
 
-def test_noise_of_the_seq_is_the_reference_3d_noise(counts, capsys):
-    assert main(["noise", str(SEQ), "--json"]) == 0
+def test_noise_of_the_seq_is_the_reference_3d_noise(seq, counts, capsys):
+    assert main(["noise", str(seq), "--json"]) == 0
     out = strict_json(capsys.readouterr().out)
     assert (out["frames"], out["rows"], out["cols"]) == (7, 512, 640)
     sigma, corrected = reference_figures(counts)
@@ -46,7 +51,7 @@ def test_noise_of_the_seq_is_the_reference_3d_noise(counts, capsys):
     total = out["sigma_dn"]["total"]
     assert math.isfinite(total) and total > 0  # 14.41 DN: the scene's spread
     assert 0 < out["sigma_corrected_dn"]["tvh"] < out["sigma_corrected_dn"]["vh"]
-    assert main(["noise", str(SEQ)]) == 0
+    assert main(["noise", str(seq)]) == 0
     assert "flirpy-test.seq: frames 0-6, camera Duo Pro R;" in capsys.readouterr().out
 
 
@@ -59,9 +64,9 @@ def test_noise_of_one_fff_frame_is_one_line_exit_2(capsys):
     ]
 
 
-def test_measure_at_a_real_point_is_eq4_on_the_counts(counts, capsys):
+def test_measure_at_a_real_point_is_eq4_on_the_counts(seq, counts, capsys):
     x, y = PEAK
-    assert main(["measure", str(SEQ), "--at", f"{x},{y}", "--json"]) == 0
+    assert main(["measure", str(seq), "--at", f"{x},{y}", "--json"]) == 0
     out = strict_json(capsys.readouterr().out)
     assert out["n"] == 7
     for i, frame in enumerate(out["frames"]):
@@ -76,9 +81,9 @@ def test_measure_at_a_real_point_is_eq4_on_the_counts(counts, capsys):
     assert one["n"] == 1 and one["frames"][0]["snr"] == out["frames"][0]["snr"]
 
 
-def test_replay_of_the_seq_tracks_from_the_point(counts, capsys):
+def test_replay_of_the_seq_tracks_from_the_point(seq, counts, capsys):
     x, y = PEAK
-    assert main(["replay", str(SEQ), "--at", f"{x},{y}", "--json"]) == 0
+    assert main(["replay", str(seq), "--at", f"{x},{y}", "--json"]) == 0
     out = strict_json(capsys.readouterr().out)
     assert out["n"] == 7
     assert [f["track_state"] for f in out["frames"]] == ["tracking"] * 7
@@ -87,9 +92,9 @@ def test_replay_of_the_seq_tracks_from_the_point(counts, capsys):
     assert first["snr"] == pytest.approx(eq4(counts[0], x, y), rel=1e-12)
 
 
-def test_a_recording_cut_in_half_is_measured_to_its_last_whole_frame(tmp_path, capsys):
+def test_a_recording_cut_in_half_is_measured_to_its_last_whole_frame(seq, tmp_path, capsys):
     cut = tmp_path / "cut.seq"
-    data = SEQ.read_bytes()
+    data = seq.read_bytes()
     cut.write_bytes(data[: len(data) // 2])
     assert main(["noise", str(cut), "--json"]) == 0
     captured = capsys.readouterr()

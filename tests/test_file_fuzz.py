@@ -148,7 +148,13 @@ def _read_gps(kind: str) -> Callable[[Path], None]:
 
 def _flir(name: str) -> Callable[[Path, Path], Path]:
     def make(data: Path, folder: Path) -> Path:
-        return Path(shutil.copy(data / "field-formats" / "flir" / name, folder / name))
+        source = data / "field-formats" / "flir" / name
+        if not source.exists():  # kept gzipped in git (over 2 MB raw)
+            (folder / name).write_bytes(
+                gzip.decompress(source.with_name(name + ".gz").read_bytes())
+            )
+            return folder / name
+        return Path(shutil.copy(source, folder / name))
 
     return make
 

@@ -26,8 +26,8 @@ FFF_LE = "flirpy-frame_000000_le.fff"
 
 
 @pytest.fixture
-def flir(shared_data) -> Path:
-    return shared_data / "field-formats" / "flir"
+def flir(flir_files) -> Path:
+    return flir_files
 
 
 # ----------------------------------------------------------------------------- references
