@@ -48,6 +48,11 @@ class DeviceState(StrEnum):
     FAILED = "failed"
 
 
+LOST_STATES = frozenset({DeviceState.STALE, DeviceState.DISCONNECTED, DeviceState.FAILED})
+"""The states of a device that has stopped delivering (a session records it lost; the console's
+header shows it red)."""
+
+
 @dataclass(frozen=True, slots=True)
 class DeviceStatus:
     """A snapshot of a device's health, safe to hand to any thread.

@@ -16,7 +16,7 @@ from snrmon.acquisition.measure.model_agreement import ModelAgreement
 from snrmon.acquisition.measure.track_noise import RegionNoise3d
 from snrmon.acquisition.stops.table import StopProgress
 from snrmon.acquisition.track.config import TrackState
-from snrmon.drivers.device import DeviceStatus
+from snrmon.drivers.device import LOST_STATES, DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
 
 
@@ -82,9 +82,6 @@ class LostDevice:
         """``"LRF disconnected 15 s"``: what is lost and for how long."""
         age = "" if self.for_s is None else f" {self.for_s:.0f} s"
         return f"{self.kind} {self.state}{age}"
-
-
-LOST_STATES = frozenset({"stale", "disconnected", "failed"})
 
 
 def lost_device(kind: str, status: DeviceStatus | None) -> LostDevice | None:

@@ -52,7 +52,7 @@ from snrmon.acquisition.stops.detector import Stop, StopConfig
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.acquisition.streams.timebase import ClockMap
-from snrmon.drivers.device import Device, DeviceState, DeviceStatus
+from snrmon.drivers.device import LOST_STATES, Device, DeviceState, DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading
 
@@ -60,7 +60,6 @@ log = logging.getLogger(__name__)
 DEFAULT_START_TIMEOUT_S = 10.0
 """How long (s) each device the config names has, from :meth:`Session.start`, to deliver its
 first reading (a frame, a sentence, a range); ``start_timeout_s`` in its table overrides it."""
-LOST_STATES = (DeviceState.STALE, DeviceState.DISCONNECTED, DeviceState.FAILED)
 """A streaming device that goes to one of these while the session runs is lost (the device
 retries by itself; it is lost until it streams again)."""
 DROP_ALARM_S = 5.0
