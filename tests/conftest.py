@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 import shutil
 from collections.abc import Callable, Iterator
@@ -24,6 +25,17 @@ def shared_data() -> Path:
     if not TEST_DATA.is_dir():
         pytest.fail(f"test data not found at {TEST_DATA}")
     return TEST_DATA
+
+
+@pytest.fixture(autouse=True)
+def _collect_cycles_on_the_main_thread():
+    """After each test, collect its reference cycles here, on the main thread. A Qt widget a
+    test left in a cycle was otherwise destroyed by a later collection on whatever thread ran it:
+    once a measurement thread of a later test's live session, whose PySide destructor then waited
+    for the GIL while holding the thread (the test run hung; py-spy: QObject::~QObject on
+    measure-mwir)."""
+    yield
+    gc.collect()
 
 
 @pytest.fixture(scope="module")
