@@ -51,7 +51,8 @@ TEMPLATES = {
     "stop": "100 / 100",
 }
 TIPS = {
-    "state": "The camera, its frame rate and what its track is doing (docs/tracking.md)",
+    "state": "The camera, the frames per second it delivered to the console over the last 2 s "
+    "(not the rate it was asked for) and what its track is doing (docs/tracking.md)",
     "range": "The range of the last measured frame (m) and where it came from: the rangefinder "
     "(LRF) while its reading is fresh, else the GPS slant range; the note gives both (m)",
     "snr": "SNR(100): the mean of the peak SNR (Eq. 4) over the last 100 valid frames +/- its "

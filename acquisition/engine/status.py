@@ -106,6 +106,8 @@ class CameraStatus:
     name: str
     device: DeviceStatus
     frames: FrameAccounting
+    # frames the camera delivered per second, as they were processed (the last 2 s:
+    # :mod:`snrmon.acquisition.streams.delivered_rate`), not the rate it was asked for
     fps: float = 0.0
     roi_xy: tuple[int, int] | None = None
     gps_xy: tuple[float, float] | None = None  # the drone's GPS position projected (px)

@@ -10,6 +10,7 @@ import numpy as np
 
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
+from snrmon.acquisition.streams.delivered_rate import DeliveredRate
 from snrmon.acquisition.streams.ring import RingFrame
 
 
@@ -19,7 +20,9 @@ class ReplayCamera:
     def __init__(self, name: str, engine: CameraEngine, fps: float) -> None:
         self.name = name
         self.shape = engine.shape
-        self.fps = fps
+        self.fps = fps  # the recording's frame rate
+        # the frames the replay delivers per second (its speed, its pauses): the status's fps
+        self.delivered = DeliveredRate()
         self.engine = engine
         self._lock = threading.Lock()
         self._latest: RingFrame | None = None
@@ -33,6 +36,8 @@ class ReplayCamera:
             self._shown = 0
 
     def show(self, frame: RingFrame) -> None:
+        """The replay worker's frame (its thread): the one the console shows next."""
+        self.delivered.frame(frame.seq)
         with self._lock:
             self._latest = frame
             self._shown += 1
@@ -65,4 +70,6 @@ class ReplayCamera:
     def status(self) -> CameraStatus:
         with self._lock:
             engine, shown = self.engine, self._shown
-        return engine.status(frames=FrameAccounting(received=shown, measured=shown), fps=self.fps)
+        return engine.status(
+            frames=FrameAccounting(received=shown, measured=shown), fps=self.delivered.per_s()
+        )

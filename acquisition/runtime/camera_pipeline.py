@@ -52,6 +52,7 @@ from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
 from snrmon.acquisition.engine.warm_up import warm_up
 from snrmon.acquisition.runtime.click_news import ClickNews
 from snrmon.acquisition.stage_clock import HANDOVER, RECORDING, UNKNOWN, StageClock
+from snrmon.acquisition.streams.delivered_rate import DeliveredRate
 from snrmon.acquisition.streams.ring import RING_OVERRUN, FrameRing, OverflowPolicy, RingFrame
 from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.device import Device
@@ -118,6 +119,9 @@ class CameraPipeline:
         self.stages = StageClock()
         self._grab_ns = np.full(ring_capacity, UNKNOWN, np.int64)
         self.click_news = ClickNews()  # what became of the operator's click, for the console
+        # The frames the camera delivered per second, as this pipeline takes them (the status's
+        # fps: not the rate the driver was asked for).
+        self.delivered = DeliveredRate()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._unsubscribe: Callable[[], None] | None = None
@@ -350,11 +354,12 @@ class CameraPipeline:
             dropped_by_recorder=dropped_rec,
             before_recording=unrecorded,
         )
-        fps = getattr(self.device, "measured_fps", None)
-        fps = fps() if callable(fps) else 0.0
         p50, p99 = (np.percentile(lat, [50, 99]) / 1e6) if lat.size else (np.nan, np.nan)
         return self.engine.status(
-            device=dev, frames=frames, fps=float(fps or 0.0), latency_ms=(float(p50), float(p99))
+            device=dev,
+            frames=frames,
+            fps=self.delivered.per_s(),
+            latency_ms=(float(p50), float(p99)),
         )
 
     # ------------------------------------------------------------------ threads
@@ -402,6 +407,7 @@ class CameraPipeline:
         clock = self.stages
         grab = int(self._grab_ns[item.seq % len(self._grab_ns)])
         clock.begin(item.t_host_ns, item.t_ring_ns, grab)
+        self.delivered.frame(item.seq)
         clock.enter(RECORDING)
         with self._lock:
             rec, history, self._history_due = self._recorder, self._history_due, False

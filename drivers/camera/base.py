@@ -1,11 +1,9 @@
 """What every camera driver shares on top of :class:`snrmon.drivers.device.Device`: the negotiated
-format, drop counting from the camera's own counter, and the measured frame rate."""
+format and drop counting from the camera's own counter."""
 
 from __future__ import annotations
 
 import logging
-import time
-from collections import deque
 
 from snrmon.drivers.camera.counter import FrameCounterGaps
 from snrmon.drivers.camera.format import CameraFormat
@@ -29,7 +27,6 @@ class CameraDevice(Device[Frame]):
         super().__init__(name, **kw)
         self.format: CameraFormat | None = None
         self._gaps = FrameCounterGaps(counter_modulus, zero_skipped=zero_skipped)
-        self._arrivals: deque[int] = deque(maxlen=121)
 
     def _negotiated(self, fmt: CameraFormat) -> None:
         """Record and report the format the camera agreed to at start-up."""
@@ -37,21 +34,12 @@ class CameraDevice(Device[Frame]):
             log.info("camera %s negotiated %s", self.name, fmt)
         self.format = fmt
         self._gaps.reset()
-        self._arrivals.clear()
 
     def _account(self, counter: int) -> None:
         """Count the frames missing before ``counter`` (camera or link drops)."""
-        self._arrivals.append(time.monotonic_ns())
         missing = self._gaps.update(counter)
         if missing:
             self._set(
                 dropped=self.status().dropped + missing,
                 last_error=f"{missing} frame(s) missing before counter {counter}",
             )
-
-    def measured_fps(self) -> float | None:
-        """Frame rate over the last (up to) 120 frames received, ``None`` before two frames."""
-        arrivals = list(self._arrivals)
-        if len(arrivals) < 2 or arrivals[-1] == arrivals[0]:
-            return None
-        return (len(arrivals) - 1) / ((arrivals[-1] - arrivals[0]) / 1e9)
