@@ -22,8 +22,15 @@ import numpy as np
 import pyqtgraph as pg
 from pyqtgraph import functions_qimage
 from PySide6.QtCore import QPoint, QPointF, QRectF, Qt, Signal
-from PySide6.QtGui import QColor, QImage, QPainter, QPen, QPixmap
-from PySide6.QtWidgets import QGraphicsItem, QGraphicsRectItem, QLabel, QVBoxLayout, QWidget
+from PySide6.QtGui import QColor, QImage, QPainter, QPainterPath, QPen, QPixmap
+from PySide6.QtWidgets import (
+    QGraphicsItem,
+    QGraphicsPathItem,
+    QGraphicsRectItem,
+    QLabel,
+    QVBoxLayout,
+    QWidget,
+)
 
 from snrmon.acquisition.engine.status import CameraStatus
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
@@ -90,6 +97,42 @@ def block_mean(pixels: np.ndarray, x_factor: int, y_factor: int) -> np.ndarray:
     return cv2.resize(whole, (cols, rows), interpolation=cv2.INTER_AREA)
 
 
+class ScreenMarker(QGraphicsPathItem):
+    """A hollow ring ("o") or square ("s") of a fixed size on the screen, centred on an image
+    point: a Qt item drawn and bounded in C++ (pyqtgraph's ScatterPlotItem computed its bounds
+    and drew its symbol in Python on every paint of the image, 60 times a second: a third of
+    the camera view's paint)."""
+
+    def __init__(self, symbol: str, size_px: float, colour: str) -> None:
+        super().__init__()
+        self.symbol = symbol
+        self.size_px = float(size_px)
+        path = QPainterPath()
+        box = QRectF(-size_px / 2, -size_px / 2, size_px, size_px)
+        if symbol == "o":
+            path.addEllipse(box)
+        elif symbol == "s":
+            path.addRect(box)
+        else:
+            raise ValueError(f"unknown marker symbol {symbol!r} (o, s)")
+        self.setPath(path)
+        pen = pg.mkPen(colour, width=2)
+        pen.setCosmetic(True)
+        self.setPen(pen)
+        self.setBrush(QColor(0, 0, 0, 0))  # hollow: what it marks stays in view inside
+        self.setFlag(QGraphicsItem.GraphicsItemFlag.ItemIgnoresTransformations)
+        self.setZValue(11)
+        self.setVisible(False)
+
+    def centre_on(self, x: float, y: float) -> None:
+        """Centre the marker on image point (x, y)."""
+        self.setPos(float(x), float(y))
+
+    def centre(self) -> tuple[float, float]:
+        """The image point the marker is centred on."""
+        return self.pos().x(), self.pos().y()
+
+
 class DisplayImageItem(pg.ImageItem):
     """A row-major ImageItem whose auto-downsampling of integer frames is :func:`block_mean`.
 
@@ -119,6 +162,18 @@ class DisplayImageItem(pg.ImageItem):
         self.render_key: tuple | None = None  # (x, y factors, levels, lut bytes, n values)
         self.render_lut: np.ndarray | None = None  # the colours of the last render
         self.images_made_here = 0  # renders that could not use a prepared image
+        self._factors: tuple[int, int] | None = None  # the reduction at the current transform
+
+    def viewTransformChanged(self) -> None:  # noqa: N802 (pyqtgraph's name)
+        # The only time the reduction can change: found here once, not on every frame (its
+        # mapping through the device transform is pyqtgraph's Python, ~0.2 ms a render).
+        self._factors = None
+        super().viewTransformChanged()
+
+    def _computeDownsampleFactors(self) -> tuple[int, int]:  # noqa: N802 (pyqtgraph's name)
+        if self._factors is None:
+            self._factors = super()._computeDownsampleFactors()
+        return self._factors
 
     def paint(self, painter, *args) -> None:
         super().paint(painter, *args)
@@ -313,33 +368,17 @@ class CameraView(QWidget):
         self.rim_inner_rect = _rect_item("#ffd34d", width=1.0, style=Qt.PenStyle.DotLine)
         self.peak_rect = _rect_item("#ff4040", width=1.0)
         for item in (self.search_rect, self.box_rect, self.rim_inner_rect, self.peak_rect):
-            self.view.addItem(item)
+            self.view.addItem(item, ignoreBounds=True)
         # a ring around where the GPS puts the drone, not a cross over it: the drone itself
         # stays in view inside for the click
-        self.gps_marker = pg.ScatterPlotItem(
-            symbol="o",
-            size=GPS_RING_PX,
-            pen=pg.mkPen(GPS_COLOR, width=2),
-            brush=pg.mkBrush(0, 0, 0, 0),
-            pxMode=True,
-        )
-        self.gps_marker.setZValue(11)
+        self.gps_marker = ScreenMarker("o", GPS_RING_PX, GPS_COLOR)
         # the box at the peak where the image is drawn so small that its box would be under
         # MIN_BOX_SCREEN_PX on the screen (a 1280-px frame 252 px wide: a 7-px box is 1.4 px)
-        self.box_marker = pg.ScatterPlotItem(
-            symbol="s",
-            size=MIN_BOX_SCREEN_PX + 4,
-            pen=pg.mkPen("#ffd34d", width=2),
-            brush=pg.mkBrush(0, 0, 0, 0),
-            pxMode=True,
-        )
-        self.box_marker.setZValue(11)
-        self.box_marker.setVisible(False)
-        self.view.addItem(self.box_marker)
+        self.box_marker = ScreenMarker("s", MIN_BOX_SCREEN_PX + 4, "#ffd34d")
+        self.view.addItem(self.box_marker, ignoreBounds=True)
         self.palette = "grey"
         self.gps_marker.setToolTip("GPS: the drone's GPS position projected into this camera")
-        self.gps_marker.setVisible(False)
-        self.view.addItem(self.gps_marker)
+        self.view.addItem(self.gps_marker, ignoreBounds=True)
         h, w = shape
         self.image.setImage(np.zeros((h, w), np.uint16), autoLevels=False, levels=(0, 1))
         self.view.setRange(QRectF(0, 0, w, h), padding=0.0)
@@ -449,7 +488,7 @@ class CameraView(QWidget):
             self.rim_inner_rect.setRect(square_around(last.peak_x, last.peak_y, box - 2))
             self.peak_rect.setRect(square_around(last.peak_x, last.peak_y, 1))
             if small:
-                self.box_marker.setData([last.peak_x + 0.5], [last.peak_y + 0.5])
+                self.box_marker.centre_on(last.peak_x + 0.5, last.peak_y + 0.5)
         idle = time.monotonic() - self._pointer_s > LOUPE_FOLLOWS_POINTER_S
         if idle and roi is not None and self.graphics.viewport().width() >= LOUPE_ON_TRACK_MIN_PX:
             at = (last.peak_x, last.peak_y) if has_peak else roi
@@ -477,7 +516,7 @@ class CameraView(QWidget):
         ok = xy is not None and all(math.isfinite(v) for v in xy)
         self.gps_marker.setVisible(ok)
         if ok:
-            self.gps_marker.setData([xy[0] + 0.5], [xy[1] + 0.5])  # pixel c spans [c, c+1)
+            self.gps_marker.centre_on(xy[0] + 0.5, xy[1] + 0.5)  # pixel c spans [c, c+1)
 
     # ------------------------------------------------------------------ clicks
     def _scene_clicked(self, event) -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from PySide6.QtWidgets import QGraphicsItem
 
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
@@ -51,9 +52,11 @@ def test_the_box_is_marked_at_8_screen_px_where_the_frame_is_drawn_small(qtbot, 
     assert box_px < MIN_BOX_SCREEN_PX  # the 7-px box is under 2 screen px here
     view.show_status(status(640, 360))
     assert view.box_marker.isVisible()
-    assert view.box_marker.opts["pxMode"] and view.box_marker.opts["size"] >= MIN_BOX_SCREEN_PX
-    xs, ys = view.box_marker.getData()
-    assert (xs[0], ys[0]) == (640.5, 360.5)  # at the peak pixel's centre
+    marker = view.box_marker
+    assert marker.symbol == "s" and marker.size_px >= MIN_BOX_SCREEN_PX
+    # its size on the screen whatever the zoom
+    assert marker.flags() & QGraphicsItem.GraphicsItemFlag.ItemIgnoresTransformations
+    assert marker.centre() == (640.5, 360.5)  # at the peak pixel's centre
     # zoomed in, the box itself is large enough: no marker over it
     view.view.setRange(xRange=(600, 680), yRange=(330, 390), padding=0.0)
     assert view.box_screen_px() >= MIN_BOX_SCREEN_PX
@@ -64,8 +67,9 @@ def test_the_box_is_marked_at_8_screen_px_where_the_frame_is_drawn_small(qtbot, 
 def test_the_gps_cue_is_a_ring_the_drone_visible_inside(view):
     view.show_status(status(640, 360, gps_xy=(641.0, 359.0)))
     assert view.gps_marker.isVisible()
-    assert view.gps_marker.opts["symbol"] == "o" and view.gps_marker.opts["size"] >= 24
-    assert view.gps_marker.opts["brush"].color().alpha() == 0  # hollow: the drone shows
+    assert view.gps_marker.symbol == "o" and view.gps_marker.size_px >= 24
+    assert view.gps_marker.brush().color().alpha() == 0  # hollow: the drone shows
+    assert view.gps_marker.centre() == (641.5, 359.5)
 
 
 @pytest.mark.parametrize("name", list(PALETTES))

@@ -121,8 +121,10 @@ def test_gps_cross_is_drawn_at_the_projection_and_hidden_without_one(qtbot, wind
     cs = CameraStatus("mwir", DeviceStatus("mwir"), FrameAccounting(), gps_xy=(12.0, 7.5))
     view.show_status(cs)
     assert view.gps_marker.isVisible()
-    xs, ys = view.gps_marker.getData()
-    assert (xs[0], ys[0]) == (12.5, 8.0)  # the centre of pixel (12, 7.5) in image coordinates
+    assert view.gps_marker.centre() == (
+        12.5,
+        8.0,
+    )  # the centre of pixel (12, 7.5) in image coordinates
     view.show_status(CameraStatus("mwir", DeviceStatus("mwir"), FrameAccounting()))
     assert not view.gps_marker.isVisible()
 
