@@ -128,7 +128,35 @@ class ConsoleWindow(QMainWindow):
         self.large: str | None = None  # the panel in the images' place: "range", "stops"
         self.insets_shown = True
         self.setWindowTitle("snrmon console")
+        self._build_cameras(session)
+        self._build_docks(session)
+        self.replay = isinstance(session, ReplayControls)
+        self.shown_counter: dict[str, int] = {}
+        self.actions_by_key = install_actions(self, self.menuBar(), replay=self.replay)
+        self.replay_bar: ReplayBar | None = None
+        self.shortcuts_dialog: ShortcutsDialog | None = None  # F1, made when first asked for
+        if self.replay:
+            self.replay_bar = ReplayBar(session, self.actions_by_key, self)
+            self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.replay_bar)
+        view_menu = self.menuBar().addMenu("&Panels")
+        for dock in self.findChildren(QDockWidget):
+            view_menu.addAction(dock.toggleViewAction())
+        self._build_status_bar(session)
 
+        self.reload_curves()
+        self._layout_pending = restore_window(self)  # True: a first start, fit the docks
+        self.layout_fitted = not self._layout_pending
+        self.set_view(
+            theme if theme is not None else self.theme_name,
+            font_scale if font_scale is not None else self.font_scale,
+            save=False,
+        )
+        self._mark_active()
+        self._timers = self._started_timers()
+        self.frame_timer = self._timers[0]  # offscreen, run_console slows it
+
+    def _build_cameras(self, session: ConsoleSession) -> None:
+        """The alarm banner over the camera panels, side by side (the central widget)."""
         self.banner = AlarmBanner()
         self.panels: dict[str, CameraPanel] = {}
         self.camera_splitter = QSplitter(Qt.Orientation.Horizontal)
@@ -149,8 +177,9 @@ class ConsoleWindow(QMainWindow):
         lay.addWidget(self.central_stack, 1)
         self.setCentralWidget(central)
 
-        # The range plot takes the window's whole height on the right; the stop table lies
-        # under the cameras.
+    def _build_docks(self, session: ConsoleSession) -> None:
+        """The range plots on the right, the window's whole height; the stop table, status and
+        noise tabbed under the cameras."""
         self.setCorner(Qt.Corner.TopRightCorner, Qt.DockWidgetArea.RightDockWidgetArea)
         self.setCorner(Qt.Corner.BottomRightCorner, Qt.DockWidgetArea.RightDockWidgetArea)
         self.setCorner(Qt.Corner.BottomLeftCorner, Qt.DockWidgetArea.BottomDockWidgetArea)
@@ -182,17 +211,9 @@ class ConsoleWindow(QMainWindow):
             dock.setTitleBarWidget(QWidget())
         self.toggle_noise_panel = self.noise_dock.toggleViewAction().trigger  # Ctrl+Shift+N
 
-        self.replay = isinstance(session, ReplayControls)
-        self.shown_counter: dict[str, int] = {}
-        self.actions_by_key = install_actions(self, self.menuBar(), replay=self.replay)
-        self.replay_bar: ReplayBar | None = None
-        self.shortcuts_dialog: ShortcutsDialog | None = None  # F1, made when first asked for
-        if self.replay:
-            self.replay_bar = ReplayBar(session, self.actions_by_key, self)
-            self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.replay_bar)
-        view_menu = self.menuBar().addMenu("&Panels")
-        for dock in self.findChildren(QDockWidget):
-            view_menu.addAction(dock.toggleViewAction())
+    def _build_status_bar(self, session: ConsoleSession) -> None:
+        """The pointer's pixel, the recording indicator and the frames shown / delivered (the
+        frame feeds and the display worker that fills them start here)."""
         self.recording_label = RecordingIndicator()
         self.pointer_label = QLabel("")
         self.pointer_label.setToolTip(
@@ -209,16 +230,10 @@ class ConsoleWindow(QMainWindow):
         self.display_label = QLabel()
         self.statusBar().addPermanentWidget(self.display_label)
 
-        self.reload_curves()
-        self._layout_pending = restore_window(self)  # True: a first start, fit the docks
-        self.layout_fitted = not self._layout_pending
-        self.set_view(
-            theme if theme is not None else self.theme_name,
-            font_scale if font_scale is not None else self.font_scale,
-            save=False,
-        )
-        self._mark_active()
-        self._timers = []
+    def _started_timers(self) -> list[QTimer]:
+        """The frame, status-step and table timers, started (precise: a coarse timer may fire
+        up to 5 % of its interval late)."""
+        timers = []
         status_step_ms = max(STATUS_INTERVAL_MS // len(self._status_steps()), 1)
         for interval, slot in (
             (FRAME_INTERVAL_MS, self.refresh_frames),
@@ -229,8 +244,8 @@ class ConsoleWindow(QMainWindow):
             timer.setTimerType(Qt.TimerType.PreciseTimer)
             timer.timeout.connect(slot)
             timer.start(interval)
-            self._timers.append(timer)
-        self.frame_timer = self._timers[0]  # offscreen, run_console slows it
+            timers.append(timer)
+        return timers
 
     def _dock(self, key: str, title: str, widget: QWidget, area) -> QDockWidget:
         dock = QDockWidget(title, self)
@@ -465,7 +480,8 @@ class ConsoleWindow(QMainWindow):
 
     def _status_steps(self) -> list[Callable[[], None]]:
         """The status refresh in steps: the session's status and the shared panels, then for
-        each camera its panels and range plot, and its strip chart."""
+        each camera its panels, and its strip chart (the range plots follow the stop table,
+        once a second: :meth:`refresh_stops`)."""
         steps: list[Callable[[], None]] = [self._show_session_status]
         for name in self.panels:
             steps += [partial(self._show_camera_status, name), partial(self._show_chart, name)]
@@ -502,11 +518,7 @@ class ConsoleWindow(QMainWindow):
         a = cs.agreement
         panel.header.show_status(cs, st)
         panel.place()  # the header's height may follow its new words
-        m = cs.last
-        plot = self.range_plots[name]
-        plot.set_rule(a.rule if a else None)
-        if m is not None:
-            plot.show_live(m.range_m, m.snr_mean, cs.snr_sem)
+        self.range_plots[name].set_rule(a.rule if a else None)
 
     def _show_chart(self, name: str) -> None:
         """``name``'s strip chart: its series up to now, the model's reading at its range."""
@@ -526,10 +538,18 @@ class ConsoleWindow(QMainWindow):
         self.recording_label.show_recording(rec)
 
     def refresh_stops(self) -> None:
+        """The stop table and each range plot's stops, and its live point (once a second: a
+        range plot's repaint, its y range fitted again, takes 14-50 ms of the GUI thread in a
+        real window, the longest paint of the console; at the status's 5 a second it was the
+        event loop's longest wait)."""
         rows = self.session.stops()
         self.stop_table.show_rows(rows)
-        for plot in self.range_plots.values():
+        st = self.last_status
+        for name, plot in self.range_plots.items():
             plot.show_stops(rows)
+            cs = st.cameras.get(name) if st is not None else None
+            if cs is not None and cs.last is not None:
+                plot.show_live(cs.last.range_m, cs.last.snr_mean, cs.snr_sem)
 
     def reload_curves(self) -> None:
         """Ask the model (or the injected source) for each camera's curves (not per frame)."""
