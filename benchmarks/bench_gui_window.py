@@ -19,6 +19,10 @@ Per screen size, over ``duration_s`` after a warm-up of :data:`WARM_UP_S`:
 - ``<size>_<camera>_header_fps``: the rate the camera's header showed at the end;
 - ``<size>_event_loop_late_ms_p50/p99/max``: how late a 10 ms precise timer's ticks were (the
   wait any click or key would have);
+- ``<size>_gui_thread_cpu_ms_per_s``: the GUI thread's CPU time per second (what the window
+  costs, whatever the machine's load lets it have), ``<size>_process_cpu_cores`` the console
+  process's (its threads, the simulated rangefinder's and GPS's included; the cameras are
+  processes of their own);
 - ``<size>_load_at_start``: the machine's 1-minute load average as the run began (other
   processes; the figures of a loaded machine are not those of a field laptop).
 
@@ -120,11 +124,13 @@ def measure_window(duration_s: float) -> dict:
             late_ms: list[float] = []
             probe, last = _late_probe(late_ms)
             before = _counts(window, rig.session)
+            cpu0 = (time.thread_time(), time.process_time())
             t0 = last[0] = time.perf_counter()
             probe.start(PROBE_MS)
             _wait(duration_s)
             probe.stop()
             elapsed = time.perf_counter() - t0
+            cpu = (time.thread_time() - cpu0[0], time.process_time() - cpu0[1])
             after = _counts(window, rig.session)
             headers = {c: rig.session.status().cameras[c].fps for c in CAMERAS}
             size = (window.width(), window.height())
@@ -132,7 +138,10 @@ def measure_window(duration_s: float) -> dict:
             done.set()
             window.close()
             operator.join(5.0)
-    return _figures(before, after, elapsed, late_ms[1:], headers, size, load)
+    figures = _figures(before, after, elapsed, late_ms[1:], headers, size, load)
+    figures["gui_thread_cpu_ms_per_s"] = round(1e3 * cpu[0] / elapsed, 1)
+    figures["process_cpu_cores"] = round(cpu[1] / elapsed, 2)
+    return figures
 
 
 def _figures(before, after, elapsed, late_ms, headers, size, load) -> dict:

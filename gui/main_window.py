@@ -446,7 +446,11 @@ class ConsoleWindow(QMainWindow):
             if shown is not None and panel.view.show_frame(shown):
                 self._pixels[name] = shown.frame.pixels
                 self.shown_counter[name] = shown.frame.counter
-            feed.request = panel.view.display_request()
+                # how the view drew it, for the worker's next (a tick without a new frame, 4
+                # in 5 of them, asks nothing: it costs a lock and a comparison)
+                feed.request = panel.view.display_request()
+            elif feed.request is None:
+                feed.request = panel.view.display_request()
         if self.replay_bar is not None:
             self.replay_bar.show_position()
 
