@@ -71,6 +71,10 @@ from snrmon.gui.window_settings import (
 # and MWIR showed 54-57 of its 60 frames a second.
 FRAME_INTERVAL_MS = 4
 STATUS_INTERVAL_MS = 200  # every panel's status refresh, its steps spread over it
+# The strip charts every this many status refreshes (400 ms): a chart's repaint, 1800 dots of
+# 30 s at 60 frames/s, its band and its y range fitted again, took 5.6-9 ms of the GUI thread in
+# a real window, the console's costliest paint after the images.
+CHART_EVERY = 2
 TABLE_INTERVAL_MS = 1000
 DEFAULT_STOP_ROWS = 14  # the paper's seven stops, both cameras: in view at 1920 x 1080
 CAMERAS_MIN_PX = 520  # the camera panels' height the stop table leaves them at the least
@@ -79,6 +83,10 @@ RANGE_PLOT_FRACTION = 0.345  # of the window's area: at least a third, with a ma
 INSETS_MIN_PANEL_PX = 420  # a camera panel narrower than this shows no box inset at first
 
 log = logging.getLogger(__name__)
+
+
+def _no_step() -> None:
+    """A status step that shows nothing (a strip chart's, between its refreshes)."""
 
 
 class ConsoleWindow(QMainWindow):
@@ -120,6 +128,7 @@ class ConsoleWindow(QMainWindow):
         self.last_status: SessionStatus | None = None
         self._curves_due = False  # the model's curves changed since they were drawn
         self._status_steps_left: list[Callable[[], None]] = []  # of the refresh under way
+        self._status_refreshes = 0  # begun by the status timer
         self.messages: list[str] = []
         self._curves: dict[str, dict] = {}
         self._pixels: dict[str, np.ndarray] = {}
@@ -477,18 +486,22 @@ class ConsoleWindow(QMainWindow):
         event loop for 20-30 ms of the GUI thread's CPU every 200 ms: the late ticks of a
         10 ms timer were all in such bursts."""
         if not self._status_steps_left:
-            self._status_steps_left = self._status_steps()
+            self._status_refreshes += 1
+            charts = self._status_refreshes % CHART_EVERY == 0
+            self._status_steps_left = self._status_steps(charts=charts)
         self._status_steps_left.pop(0)()
         if not self._status_steps_left:
             self.status_refreshed.emit()
 
-    def _status_steps(self) -> list[Callable[[], None]]:
+    def _status_steps(self, *, charts: bool = True) -> list[Callable[[], None]]:
         """The status refresh in steps: the session's status and the shared panels, then for
-        each camera its panels, and its strip chart (the range plots follow the stop table,
-        once a second: :meth:`refresh_stops`)."""
+        each camera its panels, and its strip chart unless not ``charts`` (its step then
+        passes: the steps keep their spacing). The range plots follow the stop table, once a
+        second (:meth:`refresh_stops`)."""
         steps: list[Callable[[], None]] = [self._show_session_status]
         for name in self.panels:
-            steps += [partial(self._show_camera_status, name), partial(self._show_chart, name)]
+            chart = partial(self._show_chart, name) if charts else _no_step
+            steps += [partial(self._show_camera_status, name), chart]
         return steps
 
     def _now_ns(self) -> int:
