@@ -11,7 +11,8 @@ plot shows it.
 
 Threading (the lessons of acq4#595, PyMoDAQ#79, bluesky#1222): no frames or measurements through
 signals; its timers, on the GUI thread, peek each camera's newest frame (60 Hz) and read the
-session's status, series and stop table (5 Hz / 1 Hz). Qt objects are touched only here.
+session's status and series (5 Hz; the strip charts 2.5 Hz) and the stop table and range
+plots' live points (1 Hz). Qt objects are touched only here.
 """
 
 from __future__ import annotations

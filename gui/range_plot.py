@@ -16,9 +16,9 @@ SNR axes are linear or logarithmic as the operator chooses. The title states chi
 unresolved stops against the expected Eq. (4) reading, as the stop rows carry it
 (:func:`snrmon.acquisition.report.comparison.stop_rows_fit`).
 
-The status timer calls :meth:`RangePlot.show_live` 5 times a second; an unchanged live point or
-stop list is not set again (each ``setData`` repaints the whole plot, ~7 ms with its axes), and
-the axes are cached as pixmaps (:func:`snrmon.gui.strip_chart.cache_axes`).
+The console calls :meth:`RangePlot.show_live` once a second, with the stop table; an unchanged
+live point or stop list is not set again (each ``setData`` repaints the whole plot, ~7 ms with
+its axes), and the axes are cached as pixmaps (:func:`snrmon.gui.strip_chart.cache_axes`).
 """
 
 from __future__ import annotations

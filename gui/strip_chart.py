@@ -6,7 +6,7 @@ Every number is the session's
 t_host_ns, snr, running mean, running std, range_m); the chart only converts times to seconds
 before now and adds mean +/- std for the band's edges.
 
-Drawing cost (the status timer redraws both charts 5 times a second while the cameras run): the
+Drawing cost (the status timer redraws both charts every 400 ms while the cameras run): the
 per-frame points are one :class:`DotsItem` (one ``drawPoints`` call; pyqtgraph's scatter item
 spends ~5 ms of Python per 1800 points on per-point bookkeeping), square (a 3-px round dot is
 stroked as a circle: 0.7 of a chart's 3.7 ms paint); the band is one closed polygon (pyqtgraph's
