@@ -61,7 +61,9 @@ OPTIONS: dict[str, Word] = {
     "--blackbody": Word("STACK:TEMP_C", "a stack of a blackbody and its temperature in C"),
     "--pairs": Word("FILE.csv", "(pixel, GPS position) pairs"),
     "--settings": Word("FILE.toml", "re-analysis settings"),
-    "--replay": Word("SESSION.h5", "a recorded session to play in the console"),
+    "--replay": Word(
+        "RECORDING", "a recording to play in the console: a session, or another tool's"
+    ),
     "--format": Word(
         "dji_csv|dji_srt|nmea|tlog|dataflash|ulog|ubx",
         "a flight log's kind, instead of the one found from its content",
