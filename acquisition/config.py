@@ -5,6 +5,9 @@ Example (``session.toml``)::
     target = "uav1"                 # model preset or a target TOML file
     compression = "bitshuffle-lz4"  # the frames' lossless filter: none | lz4 | bitshuffle-lz4
                                     # | zstd | gzip (default: bitshuffle-lz4)
+    model_psf = "fitted"            # the model's corrected PSF: fitted from the flight's
+                                    # unresolved stops as each completes | preset (default:
+                                    # fitted)
 
     [site]                          # the camera site, for GPS slant range and projection
     lat_deg = 28.5383
@@ -27,8 +30,9 @@ Example (``session.toml``)::
     air_temp_c = 21.5
     rh_percent = 60.0               # or dew_point_c
     pressure_hpa = 1008.0
-    visibility_km = 20.0            # none: no aerosol
-    aerosol = "rural"               # rural | maritime | urban
+    visibility_km = 20.0            # default: 23 (LOWTRAN7's clear day)
+    aerosol = "rural"               # rural | maritime | urban | none (no aerosol); default:
+                                    # rural (no [weather] at all: rural at 23 km too)
     season = "midlat_summer"        # standard atmosphere for readings not given
 
     [gps]                           # drivers.config table (nmea | gpsd | mavlink)
@@ -62,7 +66,12 @@ from snrmon.acquisition.geo.projection import Pointing, Site
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.drivers.config import check_device_table
 from snrmon.drivers.errors import ConfigError, toml_repr
-from snrmon.limits import COMPRESSION_CHOICES, DEFAULT_COMPRESSION, MAX_WINDOW_FRAMES
+from snrmon.limits import (
+    COMPRESSION_CHOICES,
+    DEFAULT_COMPRESSION,
+    MAX_WINDOW_FRAMES,
+    PSF_CHOICES,
+)
 from snrmon.model.atmosphere_table import (
     AEROSOLS,
     AIR_TEMP_RANGE_C,
@@ -107,6 +116,7 @@ class SessionConfig:
     air_temp_k: float | None = None  # [weather] air_temp_c: the model's path temperature
     weather: Weather | None = None  # [weather]: the met readings the model's atmosphere uses
     compression: str = DEFAULT_COMPRESSION  # the recorded frames' filter (COMPRESSION_CHOICES)
+    model_psf: str = "fitted"  # the model's corrected PSF: fitted from the flight, or "preset"
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
@@ -157,6 +167,10 @@ TOP_FIELDS = {
     "compression": Field(
         f"the frames' filter, one of {', '.join(COMPRESSION_CHOICES)}",
         lambda v: v in COMPRESSION_CHOICES,
+    ),
+    "model_psf": Field(
+        "the model's corrected PSF, one of " + ", ".join(PSF_CHOICES),
+        lambda v: v in PSF_CHOICES,
     ),
     "site": Field("a table [site] with lat_deg, lon_deg, alt_m", _table),
     "measurement": Field("a table [measurement]", _table),
@@ -307,6 +321,7 @@ def session_config_from_dict(
         air_temp_k=air_temp_k,
         weather=met if weather else None,
         compression=top.get("compression", DEFAULT_COMPRESSION),
+        model_psf=top.get("model_psf", "fitted"),
         raw=data,
     )
 
