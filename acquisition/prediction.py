@@ -35,11 +35,12 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from snrmon.model.atmosphere_table import AEROSOLS, SEASONS, Weather
+from snrmon.model.atmosphere_table import AEROSOLS, DEFAULT_VISIBILITY_KM, SEASONS, Weather
 from snrmon.model.noise import MeasuredNoise
 
 __all__ = [
     "AEROSOLS",
+    "DEFAULT_VISIBILITY_KM",
     "NOISE_SOURCES",
     "SEASONS",
     "MeasuredNoise",

@@ -14,8 +14,8 @@ depends on the geometry:
   pixel-filling radiance A_opt t_int FF IFOV^2 dLq exactly; in between it has no jump.
 * ``geometry="paper"``: the paper's switched curves: resolved (D >= 1) pixel-filling radiance,
   unresolved point source x average PVF, the finite size (corrected curves) as a Gaussian of
-  sigma_t = ``target_sigma_per_size`` x D. Its jump at D = 1 (MWIR UAV1 small, 314 m: 433 ->
-  144 uncorrected) is the paper's, not physics; these curves are always in ``paper`` too.
+  sigma_t = ``target_sigma_per_size`` x D. Its jump at D = 1 (MWIR UAV1 small, 314 m: 389 -> 117
+  uncorrected) is the paper's, not physics; these curves are always in ``paper`` too.
 
 Curves: small/large characteristic dimension x uncorrected (diffraction-limited Airy averaged
 over the band) / corrected (the sensor's real PSF, or one measured from flight data).

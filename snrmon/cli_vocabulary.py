@@ -106,7 +106,7 @@ OPTIONS: dict[str, Word] = {
     "--dew-point-c": Word("TD", "dew point, C"),
     "--pressure-hpa": Word("P", "air pressure, hPa"),
     "--visibility-km": Word("V", "meteorological visibility, km"),
-    "--aerosol": Word("rural|maritime|urban", "the LOWTRAN7 aerosol model"),
+    "--aerosol": Word("rural|maritime|urban|none", "the LOWTRAN7 aerosol model (none: no aerosol)"),
     "--season": Word(
         "us_std_1976|tropical|midlat_summer|midlat_winter|subarctic_summer|subarctic_winter",
         "the standard atmosphere for readings not given",

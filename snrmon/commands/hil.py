@@ -12,6 +12,7 @@ import argparse
 import math
 
 from snrmon.cli import UsageError
+from snrmon.commands.model import AEROSOL_CHOICES
 from snrmon.commands.recording_options import add_compression_option
 from snrmon.inputs import Number, Size, output_file, seed, stop_ranges
 from snrmon.output import emit_json
@@ -135,9 +136,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--visibility-km",
         type=float,
-        default=None,
+        default=23.0,
         metavar="V",
-        help="the scenario's visibility (rural aerosol), km (default: no aerosol)",
+        help="the scenario's visibility, km (default: %(default)s, LOWTRAN7's clear day)",
+    )
+    p.add_argument(
+        "--aerosol",
+        default="rural",
+        choices=AEROSOL_CHOICES,
+        metavar="|".join(AEROSOL_CHOICES),
+        help="the scenario's LOWTRAN7 aerosol model, none: no aerosol (default: %(default)s)",
     )
     p.add_argument(
         "--size",
@@ -190,6 +198,7 @@ def run(args: argparse.Namespace) -> int:
         rh_percent=args.rh,
         pressure_hpa=args.pressure_hpa,
         visibility_km=args.visibility_km,
+        aerosol=args.aerosol,
         window_px=args.size,
         calibrate=not args.no_calibration,
         fpn=args.fpn,

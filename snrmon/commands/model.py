@@ -4,7 +4,7 @@ Subcommands and their ``--json`` contracts (stdout):
 
 * ``snr --sensor S --target T --ranges R1,R2,... [--atmosphere default|none|TAU|FILE]
   [--air-temp-c T] [--rh RH | --dew-point-c TD] [--pressure-hpa P] [--visibility-km V]
-  [--aerosol rural|maritime|urban] [--season NAME] [--sky-temp-c T]
+  [--aerosol rural|maritime|urban|none] [--season NAME] [--sky-temp-c T]
   [--spatial-noise E|Kx|none|low|medium|high]`` -> a list, one object per range: ``{"range_m",
   "resolved_small", "resolved_large", "snr_small", "snr_large", "snr_small_corrected",
   "snr_large_corrected", "signal_e": {curve: e}, "noise_e": {"background", "lens", "dark",
@@ -43,7 +43,7 @@ SEASON_CHOICES = (
     "subarctic_summer",
     "subarctic_winter",
 )
-AEROSOL_CHOICES = ("rural", "maritime", "urban")
+AEROSOL_CHOICES = ("rural", "maritime", "urban", "none")
 
 
 def _floats(text: str, what: str) -> list[float]:
@@ -169,14 +169,14 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
             type=float,
             default=None,
             metavar="V",
-            help="meteorological visibility, km (default: no aerosol)",
+            help="meteorological visibility, km (default: 23, LOWTRAN7's clear rural day)",
         )
         p.add_argument(
             "--aerosol",
             default=None,
             choices=AEROSOL_CHOICES,
             metavar="|".join(AEROSOL_CHOICES),
-            help="LOWTRAN7 aerosol model with --visibility-km (rural)",
+            help="LOWTRAN7 aerosol model at the visibility, or none: no aerosol (rural)",
         )
         p.add_argument(
             "--season",
