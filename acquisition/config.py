@@ -8,6 +8,9 @@ Example (``session.toml``)::
     model_psf = "fitted"            # the model's corrected PSF: fitted from the flight's
                                     # unresolved stops as each completes | preset (default:
                                     # fitted)
+    target_footprint = "square"     # the model's small target: the paper's square | outline
+                                    # (the target file's, from snrmon characterize
+                                    # --target-out; default: square)
 
     [site]                          # the camera site, for GPS slant range and projection
     lat_deg = 28.5383
@@ -69,6 +72,7 @@ from snrmon.drivers.errors import ConfigError, toml_repr
 from snrmon.limits import (
     COMPRESSION_CHOICES,
     DEFAULT_COMPRESSION,
+    FOOTPRINT_CHOICES,
     MAX_WINDOW_FRAMES,
     PSF_CHOICES,
 )
@@ -117,6 +121,7 @@ class SessionConfig:
     weather: Weather | None = None  # [weather]: the met readings the model's atmosphere uses
     compression: str = DEFAULT_COMPRESSION  # the recorded frames' filter (COMPRESSION_CHOICES)
     model_psf: str = "fitted"  # the model's corrected PSF: fitted from the flight, or "preset"
+    target_footprint: str = "square"  # the model's small target: square, or the target's outline
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
@@ -171,6 +176,10 @@ TOP_FIELDS = {
     "model_psf": Field(
         "the model's corrected PSF, one of " + ", ".join(PSF_CHOICES),
         lambda v: v in PSF_CHOICES,
+    ),
+    "target_footprint": Field(
+        "the model's small target, one of " + ", ".join(FOOTPRINT_CHOICES),
+        lambda v: v in FOOTPRINT_CHOICES,
     ),
     "site": Field("a table [site] with lat_deg, lon_deg, alt_m", _table),
     "measurement": Field("a table [measurement]", _table),
@@ -322,6 +331,7 @@ def session_config_from_dict(
         weather=met if weather else None,
         compression=top.get("compression", DEFAULT_COMPRESSION),
         model_psf=top.get("model_psf", "fitted"),
+        target_footprint=top.get("target_footprint", "square"),
         raw=data,
     )
 
@@ -360,9 +370,14 @@ def load_session_config(path: str | Path) -> SessionConfig:
     try:
         config = session_config_from_dict(data, warn=lambda text: log.warning("%s: %s", path, text))
         try:
-            load_target(config.target)
+            target = load_target(config.target)
         except ValueError as exc:
             raise ConfigError(f"target = {toml_repr(config.target)}: {exc}") from None
+        if config.target_footprint == "outline" and target.outline is None:
+            raise ConfigError(
+                f'target_footprint = "outline": target = {toml_repr(config.target)} has no '
+                "outline (snrmon characterize --target-out writes one from a close stop)"
+            )
     except ConfigError as exc:
         raise ConfigError(f"{Path(path)}: {exc}") from None
     return config

@@ -106,6 +106,9 @@ OPTIONS: dict[str, Word] = {
     "--dew-point-c": Word("TD", "dew point, C"),
     "--pressure-hpa": Word("P", "air pressure, hPa"),
     "--visibility-km": Word("V", "meteorological visibility, km"),
+    "--footprint": Word(
+        "square|outline", "the model's small target: the paper's square or the measured outline"
+    ),
     "--aerosol": Word("rural|maritime|urban|none", "the LOWTRAN7 aerosol model (none: no aerosol)"),
     "--season": Word(
         "us_std_1976|tropical|midlat_summer|midlat_winter|subarctic_summer|subarctic_winter",

@@ -12,7 +12,7 @@ import argparse
 import math
 
 from snrmon.cli import UsageError
-from snrmon.commands.model import AEROSOL_CHOICES
+from snrmon.commands.model import AEROSOL_CHOICES, add_footprint_option, check_footprint
 from snrmon.commands.recording_options import add_compression_option
 from snrmon.inputs import Number, Size, output_file, seed, stop_ranges
 from snrmon.output import emit_json
@@ -91,6 +91,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="uav1|uav2|FILE",
         help="target preset or TOML file (default: %(default)s)",
     )
+    add_footprint_option(p)
     p.add_argument(
         "--hover-s",
         type=Number(0.0, 3600.0, above=True, unit="s"),
@@ -185,8 +186,12 @@ def run(args: argparse.Namespace) -> int:
     unknown = [c for c in cameras if c not in ("mwir", "lwir")]
     if unknown or not cameras:
         raise UsageError(f"--cameras must name mwir and/or lwir, got {args.cameras!r}")
+    from snrmon.model.presets import load_target
+
+    check_footprint(args.footprint, load_target(args.target))
     opts = HilOptions(
         seed=args.seed,
+        footprint=args.footprint,
         speed=speed,
         stops_m=args.stops,
         cameras=cameras,

@@ -64,6 +64,7 @@ class HilOptions:
     out: str | None = None
     compression: str | None = None  # the recording's frame filter (None: the config's default)
     adopt_psf: bool = True  # the model takes the PSF fitted as each unresolved stop is final
+    footprint: str = "square"  # the model's small target: the paper's square, or "outline"
 
     def __post_init__(self) -> None:
         self.weather  # a bad met reading is refused here, before any device starts  # noqa: B018
@@ -157,6 +158,7 @@ class HilRig:
                 opts.target,
                 atmosphere=opts.weather,
                 asynchronous=True,
+                **({} if opts.footprint == "square" else {"footprint": opts.footprint}),
             )
         self.predictor = predictor
         self.flight_config = opts.flight_config()
@@ -242,6 +244,7 @@ class HilRig:
                 "lrf": {"protocol": "ldm", "port": self.lrf_sim.path, "baud": 9600},
                 **({} if opts.compression is None else {"compression": opts.compression}),
                 "model_psf": "fitted" if opts.adopt_psf else "preset",
+                "target_footprint": opts.footprint,
             }
         )
         self.session = Session(
