@@ -458,8 +458,8 @@ def predict(
     target's outline (the expected readings and the band keep the square).
     """
     ranges = _check_ranges(ranges_m)
-    _check_geometry(geometry, target_sigma_per_size)
-    _check_footprint(footprint, target, geometry)
+    shape = (geometry, target_sigma_per_size, footprint)  # how the target lies on the pixels
+    _check_shape(target, *shape)
     c = contrast(
         sensor,
         target,
@@ -470,9 +470,7 @@ def predict(
     )
     noise = noise_breakdown(sensor, c.sky_temp_k, spatial_noise, measured_noise)
     real = corrected_psf if corrected_psf is not None else sensor.corrected_psf()
-    curves = _size_curves(
-        sensor, target, c, noise.total, real, geometry, target_sigma_per_size, footprint
-    )
+    curves = _size_curves(sensor, target, c, noise.total, real, *shape)
     rel = _relative_uncertainties(c, uncertainty or UncertaintyBudget(), curves.resolved)
     expected_curves: dict[str, np.ndarray] = {}
     if expected:
@@ -596,7 +594,7 @@ def outline_pvf(psf: Psf, fill_factor: float, target: Target, *, footprint_m) ->
     from snrmon.model.footprint import average_pvf_outline
 
     outline = target.outline
-    assert outline is not None  # _check_footprint
+    assert outline is not None  # _check_shape
     f_m = np.asarray(footprint_m, float)
     side_m = math.sqrt(outline.area_m2)
     if f_m.size <= _OUTLINE_NODES:
@@ -612,7 +610,8 @@ def outline_pvf(psf: Psf, fill_factor: float, target: Target, *, footprint_m) ->
     )
 
 
-def _check_footprint(footprint: str, target: Target, geometry: str) -> None:
+def _check_shape(target: Target, geometry: str, sigma_per_size: float, footprint: str) -> None:
+    _check_geometry(geometry, sigma_per_size)
     if footprint not in FOOTPRINTS:
         raise ValueError(f"footprint must be one of {', '.join(FOOTPRINTS)}, got {footprint!r}")
     if footprint == "outline" and target.outline is None:
