@@ -8,7 +8,7 @@ Example (``session.toml``)::
     model_psf = "fitted"            # the model's corrected PSF: fitted from the flight's
                                     # unresolved stops as each completes | preset (default:
                                     # fitted)
-    target_footprint = "square"     # the model's small target: the paper's square | outline
+    footprint = "square"            # the model's small target: the paper's square | outline
                                     # (the target file's, from snrmon characterize
                                     # --target-out; default: square)
 
@@ -121,7 +121,7 @@ class SessionConfig:
     weather: Weather | None = None  # [weather]: the met readings the model's atmosphere uses
     compression: str = DEFAULT_COMPRESSION  # the recorded frames' filter (COMPRESSION_CHOICES)
     model_psf: str = "fitted"  # the model's corrected PSF: fitted from the flight, or "preset"
-    target_footprint: str = "square"  # the model's small target: square, or the target's outline
+    footprint: str = "square"  # the model's small target: square, or the target's outline
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
@@ -177,7 +177,7 @@ TOP_FIELDS = {
         "the model's corrected PSF, one of " + ", ".join(PSF_CHOICES),
         lambda v: v in PSF_CHOICES,
     ),
-    "target_footprint": Field(
+    "footprint": Field(
         "the model's small target, one of " + ", ".join(FOOTPRINT_CHOICES),
         lambda v: v in FOOTPRINT_CHOICES,
     ),
@@ -331,7 +331,7 @@ def session_config_from_dict(
         weather=met if weather else None,
         compression=top.get("compression", DEFAULT_COMPRESSION),
         model_psf=top.get("model_psf", "fitted"),
-        target_footprint=top.get("target_footprint", "square"),
+        footprint=top.get("footprint", "square"),
         raw=data,
     )
 
@@ -373,9 +373,9 @@ def load_session_config(path: str | Path) -> SessionConfig:
             target = load_target(config.target)
         except ValueError as exc:
             raise ConfigError(f"target = {toml_repr(config.target)}: {exc}") from None
-        if config.target_footprint == "outline" and target.outline is None:
+        if config.footprint == "outline" and target.outline is None:
             raise ConfigError(
-                f'target_footprint = "outline": target = {toml_repr(config.target)} has no '
+                f'footprint = "outline": target = {toml_repr(config.target)} has no '
                 "outline (snrmon characterize --target-out writes one from a close stop)"
             )
     except ConfigError as exc:

@@ -64,10 +64,10 @@ NOISE_SOURCES = ("model", "measured")
 def session_model_options(config) -> dict:
     """The :func:`snrmon.model.snr.predict` options a session's configuration (or its
     :class:`Weather` itself) sets: the ``[weather]`` met readings as the atmosphere (nothing
-    without them) and its ``target_footprint`` (nothing for the paper's square)."""
+    without them) and its ``footprint`` (nothing for the paper's square)."""
     weather = config if isinstance(config, Weather) else getattr(config, "weather", None)
     out: dict = {} if weather is None else {"atmosphere": weather}
-    footprint = getattr(config, "target_footprint", "square")
+    footprint = getattr(config, "footprint", "square")
     if footprint != "square":
         out["footprint"] = footprint
     return out

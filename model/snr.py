@@ -587,21 +587,24 @@ def _size_curves(
 def outline_pvf(psf: Psf, fill_factor: float, target: Target, *, footprint_m) -> np.ndarray:
     """The average PVF of ``target``'s outline (:func:`snrmon.model.footprint.
     average_pvf_outline`) at each range's pixel footprint ``footprint_m`` (range x IFOV, m):
-    each outline pixel a square of its ``pixel_m`` / footprint. Over more than
-    :data:`_OUTLINE_NODES` ranges, at that many log-spaced footprints and interpolated (PCHIP
-    in ln footprint of PVF (1 + D^2) / FF, D the equal-area square's side, smooth and O(1) as
-    the square's table)."""
+    the outline's shape at the small dimension's area (the paper's small dimension is the
+    square root of the outlined area, section 3: an outline segmented wider, by the PSF's blur
+    at its edges, is scaled to the target's area), each of its pixels a square of its scaled
+    ``pixel_m`` over the footprint. Over more than :data:`_OUTLINE_NODES` ranges, at that many
+    log-spaced footprints and interpolated (PCHIP in ln footprint of PVF (1 + D^2) / FF, D the
+    small dimension in pixels, smooth and O(1) as the square's table)."""
     from snrmon.model.footprint import average_pvf_outline
 
     outline = target.outline
     assert outline is not None  # _check_shape
     f_m = np.asarray(footprint_m, float)
-    side_m = math.sqrt(outline.area_m2)
+    side_m = float(target.small_m)
+    cell_m = outline.pixel_m * side_m / math.sqrt(outline.area_m2)
     if f_m.size <= _OUTLINE_NODES:
-        return np.asarray(average_pvf_outline(psf, fill_factor, outline, outline.pixel_m / f_m))
+        return np.asarray(average_pvf_outline(psf, fill_factor, outline, cell_m / f_m))
     nodes = np.geomspace(f_m.min(), f_m.max(), _OUTLINE_NODES)
     d = side_m / nodes
-    h = average_pvf_outline(psf, fill_factor, outline, outline.pixel_m / nodes) * (1 + d * d)
+    h = average_pvf_outline(psf, fill_factor, outline, cell_m / nodes) * (1 + d * d)
     d_all = side_m / f_m
     return (
         fill_factor

@@ -27,6 +27,6 @@ PSF_CHOICES = ("fitted", "preset")
 flight's unresolved stops as each is final ("fitted", the default), or the sensor preset's
 throughout ("preset") (:mod:`snrmon.acquisition.calibrate.flight_psf`)."""
 FOOTPRINT_CHOICES = ("square", "outline")
-"""What ``--footprint`` and the session config's ``target_footprint`` take: the model's target
+"""What ``--footprint`` and the session config's ``footprint`` take: the model's target
 as the paper's square of its small dimension ("square", the default), or the outline the close
 stop measured, scaled by range ("outline") (:mod:`snrmon.model.footprint`)."""

@@ -244,7 +244,7 @@ class HilRig:
                 "lrf": {"protocol": "ldm", "port": self.lrf_sim.path, "baud": 9600},
                 **({} if opts.compression is None else {"compression": opts.compression}),
                 "model_psf": "fitted" if opts.adopt_psf else "preset",
-                "target_footprint": opts.footprint,
+                "footprint": opts.footprint,
             }
         )
         self.session = Session(
