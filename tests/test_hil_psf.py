@@ -15,7 +15,10 @@ def test_rows_after_the_first_unresolved_stop_use_the_fitted_psf():
     """Three unresolved stops (MWIR small dimension 0.93, 0.80, 0.70 px; LWIR 0.46-0.34 px), a
     256 x 192 sub-array: the first row of each camera was computed with the preset PSF, which
     under-predicts the twin's MWIR by the paper's two PVFs (0.082 against its Gaussian fit's
-    ~0.14); every later row with the PSF its camera's stops gave, within 10 %."""
+    ~0.14); every later row with the PSF its camera's stops gave: the MWIR's within 10 %; the
+    LWIR's near-diffraction-limited PSF makes a 100-frame stop's reading depend on the sub-pixel
+    phases it sampled (on the full seed-5 day the twin's own truth read 1.11 of the cell-averaged
+    model at 393 m), so its rows are held within 10 % at those phases and 15 % over the cell."""
     opts = HilOptions(
         seed=5,
         speed=1.5,
@@ -38,7 +41,9 @@ def test_rows_after_the_first_unresolved_stop_use_the_fitted_psf():
         assert [s["model_psf"] for s in rows] == ["preset PSF", "fitted PSF", "fitted PSF"]
         for s in rows[1:]:
             where = f"{cam} at {s['planned_range_m']:.0f} m"
-            assert s["live_over_model"] == pytest.approx(1.0, abs=0.10), where
+            cell = 0.10 if cam == "mwir" else 0.15
+            assert s["live_over_model"] == pytest.approx(1.0, abs=cell), where
+            assert s["measured_over_model"] == pytest.approx(1.0, abs=0.10), where
     first_mwir = next(s for s in result["stops"] if s["camera"] == "mwir")
     assert first_mwir["live_over_model"] > 1.3  # the preset's PVF 0.082 against the twin's
 
