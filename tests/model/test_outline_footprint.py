@@ -75,3 +75,33 @@ def test_bad_outlines_are_one_clear_error():
         Outline(("000",), 0.01)
     with pytest.raises(ValueError, match="pixel_m must be > 0"):
         Outline(("1",), 0.0)
+
+
+def test_the_command_line_spreads_a_target_files_outline_and_refuses_a_preset(capsys, tmp_path):
+    """``snrmon model snr --footprint outline`` with a target file holding an outline (as
+    ``snrmon characterize --target-out`` writes it) lowers the small curves where the drone
+    spans pixels; with a preset, which has none, it exits 2 naming the target (and ``hil``
+    the same, before any device starts)."""
+    from snrmon.cli import main
+    from tests.helpers import strict_json
+
+    path = tmp_path / "cross.toml"
+    rows = ", ".join(f'"{r}"' for r in CROSS.rows)
+    path.write_text(
+        '[target]\nname = "cross"\nsmall_m = 0.157\nlarge_m = 0.238\n'
+        f"temp_c = {{ mwir = 36.7 }}\noutline = [{rows}]\noutline_pixel_m = {0.157 / 3}\n"
+    )
+    base = ["model", "snr", "--sensor", "mwir", "--target", str(path), "--ranges", "126", "--json"]
+    assert main(base) == 0
+    (square,) = strict_json(capsys.readouterr().out)
+    assert main([*base, "--footprint", "outline"]) == 0
+    (outline,) = strict_json(capsys.readouterr().out)
+    assert outline["snr_small_corrected"] < 0.95 * square["snr_small_corrected"]
+    assert outline["snr_large_corrected"] == square["snr_large_corrected"]
+    for argv in (
+        ["model", "snr", "--sensor", "mwir", "--target", "uav1", "--footprint", "outline"],
+        ["hil", "--footprint", "outline"],
+    ):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "--footprint outline needs a target with an outline; 'uav1' has none" in err
