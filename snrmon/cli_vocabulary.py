@@ -99,6 +99,9 @@ OPTIONS: dict[str, Word] = {
     # the simulated day and the model's inputs
     "--seed": Word("N", "the seed of every simulated device"),
     "--headless": Word(None, "no window"),
+    "--template": Word(
+        None, "print a session config with every key, its default and what it expects"
+    ),
     "--fpn": Word(None, "add fixed-pattern noise to the simulated frames"),
     "--sky-temp-c": Word("T", "the sky's (background's) temperature, C"),
     "--air-temp-c": Word("T", "the air temperature along the path, C"),
