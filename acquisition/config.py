@@ -5,6 +5,12 @@ Example (``session.toml``)::
     target = "uav1"                 # model preset or a target TOML file
     compression = "bitshuffle-lz4"  # the frames' lossless filter: none | lz4 | bitshuffle-lz4
                                     # | zstd | gzip (default: bitshuffle-lz4)
+    model_psf = "fitted"            # the model's corrected PSF: fitted from the flight's
+                                    # unresolved stops as each completes | preset (default:
+                                    # fitted)
+    footprint = "square"            # the model's small target: the paper's square | outline
+                                    # (the target file's, from snrmon characterize
+                                    # --target-out; default: square)
 
     [site]                          # the camera site, for GPS slant range and projection
     lat_deg = 28.5383
@@ -27,8 +33,9 @@ Example (``session.toml``)::
     air_temp_c = 21.5
     rh_percent = 60.0               # or dew_point_c
     pressure_hpa = 1008.0
-    visibility_km = 20.0            # none: no aerosol
-    aerosol = "rural"               # rural | maritime | urban
+    visibility_km = 20.0            # default: 23 (LOWTRAN7's clear day)
+    aerosol = "rural"               # rural | maritime | urban | none (no aerosol); default:
+                                    # rural (no [weather] at all: rural at 23 km too)
     season = "midlat_summer"        # standard atmosphere for readings not given
 
     [gps]                           # drivers.config table (nmea | gpsd | mavlink)
@@ -78,7 +85,13 @@ from snrmon.config_schema import (
 )
 from snrmon.drivers.config import check_device_table, device_template
 from snrmon.drivers.errors import ConfigError, toml_repr
-from snrmon.limits import COMPRESSION_CHOICES, DEFAULT_COMPRESSION, MAX_WINDOW_FRAMES
+from snrmon.limits import (
+    COMPRESSION_CHOICES,
+    DEFAULT_COMPRESSION,
+    FOOTPRINT_CHOICES,
+    MAX_WINDOW_FRAMES,
+    PSF_CHOICES,
+)
 from snrmon.model.atmosphere_table import (
     AEROSOLS,
     AIR_TEMP_RANGE_C,
@@ -123,6 +136,8 @@ class SessionConfig:
     air_temp_k: float | None = None  # [weather] air_temp_c: the model's path temperature
     weather: Weather | None = None  # [weather]: the met readings the model's atmosphere uses
     compression: str = DEFAULT_COMPRESSION  # the recorded frames' filter (COMPRESSION_CHOICES)
+    model_psf: str = "fitted"  # the model's corrected PSF: fitted from the flight, or "preset"
+    footprint: str = "square"  # the model's small target: square, or the target's outline
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
@@ -148,6 +163,16 @@ TOP_FIELDS: dict[str, Key] = {
         f"the frames' filter, one of {', '.join(COMPRESSION_CHOICES)}",
         one_of(COMPRESSION_CHOICES),
         default=_session("compression"),
+    ),
+    "model_psf": Key(
+        "the model's corrected PSF, one of " + ", ".join(PSF_CHOICES),
+        one_of(PSF_CHOICES),
+        default=_session("model_psf"),
+    ),
+    "footprint": Key(
+        "the model's small target, one of " + ", ".join(FOOTPRINT_CHOICES),
+        one_of(FOOTPRINT_CHOICES),
+        default=_session("footprint"),
     ),
     "site": Key("a table [site] with lat_deg, lon_deg, alt_m", is_table),
     "measurement": Key("a table [measurement]", is_table),
@@ -339,7 +364,11 @@ def session_config_from_dict(
     for kind in ("gps", "lrf"):
         if kind in top:
             check_device_table(top[kind], kind)
-    given = {k: top[k] for k in ("target", "compression", "gps", "lrf") if k in top}
+    given = {
+        k: top[k]
+        for k in ("target", "compression", "model_psf", "footprint", "gps", "lrf")
+        if k in top
+    }
     return SessionConfig(
         cameras=tuple(_camera(n, t) for n, t in cams.items()),
         site=site,
@@ -386,9 +415,14 @@ def load_session_config(path: str | Path) -> SessionConfig:
     try:
         config = session_config_from_dict(data, warn=lambda text: log.warning("%s: %s", path, text))
         try:
-            load_target(config.target)
+            target = load_target(config.target)
         except ValueError as exc:
             raise ConfigError(f"target = {toml_repr(config.target)}: {exc}") from None
+        if config.footprint == "outline" and target.outline is None:
+            raise ConfigError(
+                f'footprint = "outline": target = {toml_repr(config.target)} has no '
+                "outline (snrmon characterize --target-out writes one from a close stop)"
+            )
     except ConfigError as exc:
         raise ConfigError(f"{Path(path)}: {exc}") from None
     return config

@@ -35,11 +35,12 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from snrmon.model.atmosphere_table import AEROSOLS, SEASONS, Weather
+from snrmon.model.atmosphere_table import AEROSOLS, DEFAULT_VISIBILITY_KM, SEASONS, Weather
 from snrmon.model.noise import MeasuredNoise
 
 __all__ = [
     "AEROSOLS",
+    "DEFAULT_VISIBILITY_KM",
     "NOISE_SOURCES",
     "SEASONS",
     "MeasuredNoise",
@@ -63,9 +64,13 @@ NOISE_SOURCES = ("model", "measured")
 def session_model_options(config) -> dict:
     """The :func:`snrmon.model.snr.predict` options a session's configuration (or its
     :class:`Weather` itself) sets: the ``[weather]`` met readings as the atmosphere (nothing
-    without them)."""
+    without them) and its ``footprint`` (nothing for the paper's square)."""
     weather = config if isinstance(config, Weather) else getattr(config, "weather", None)
-    return {} if weather is None else {"atmosphere": weather}
+    out: dict = {} if weather is None else {"atmosphere": weather}
+    footprint = getattr(config, "footprint", "square")
+    if footprint != "square":
+        out["footprint"] = footprint
+    return out
 
 
 def weather_from_record(payload: dict) -> Weather:

@@ -28,7 +28,12 @@ from PySide6.QtWidgets import (
 )
 
 from snrmon.acquisition.measure.track_noise import FRAMES_3D
-from snrmon.acquisition.prediction import AEROSOLS, NOISE_SOURCES, SEASONS
+from snrmon.acquisition.prediction import (
+    AEROSOLS,
+    DEFAULT_VISIBILITY_KM,
+    NOISE_SOURCES,
+    SEASONS,
+)
 from snrmon.gui.model_curves import (
     ALL_CURVES,
     CURVE_LABELS,
@@ -88,17 +93,22 @@ class ModelOptionsDialog(QDialog):
         for key, what, unit in MET_FIELDS:
             value = None if weather is None else getattr(weather, key)
             edit = QLineEdit("" if value is None else f"{value:g}")
-            edit.setPlaceholderText("the season's" if key != "visibility_km" else "no aerosol")
+            vis = key == "visibility_km"
+            edit.setPlaceholderText(f"{DEFAULT_VISIBILITY_KM:g} km" if vis else "the season's")
             edit.setToolTip(
-                f"Today's {what} in {unit}, as read at the site; empty: the season's standard "
-                "atmosphere at sea level" + (" (no aerosol)" if key == "visibility_km" else "")
+                f"Today's {what} in {unit}, as read at the site; empty: "
+                + (
+                    f"{DEFAULT_VISIBILITY_KM:g} km (aerosol none: no aerosol)"
+                    if vis
+                    else "the season's standard atmosphere at sea level"
+                )
             )
             self.met[key] = edit
             form.addRow(f"{what} ({unit})", edit)
         self.aerosol = QComboBox()
         self.aerosol.addItems(list(AEROSOLS))
         self.aerosol.setCurrentText(weather.aerosol if weather else "rural")
-        self.aerosol.setToolTip("LOWTRAN7 aerosol model (used with a visibility)")
+        self.aerosol.setToolTip("LOWTRAN7 aerosol model at the visibility (none: no aerosol)")
         form.addRow("aerosol", self.aerosol)
         self.season = QComboBox()
         self.season.addItems(list(SEASONS))

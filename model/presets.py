@@ -3,7 +3,9 @@
 Built-in names are the files in ``model/presets/`` (sensors "mwir", "lwir"; targets "uav1",
 "uav2"); anything else is read as a path. Sensor TOML: a ``[sensor]`` table with the fields of
 :class:`snrmon.model.sensor.Sensor`; target TOML: ``[target]`` with those of
-:class:`snrmon.model.target.Target` (``temp_c`` a table by band or one number for all bands);
+:class:`snrmon.model.target.Target` (``temp_c`` a table by band or one number for all
+bands; ``outline``, rows of "0"/"1", with ``outline_pixel_m``: the segmented outline of a close
+stop, as ``snrmon characterize --target-out`` writes it, :class:`snrmon.model.target.Outline`);
 atmosphere TOML: ``[atmosphere]`` with ``model`` (the season's standard atmosphere of the
 built-in LOWTRAN7 table), the met readings ``air_temp_c``, ``rh_percent`` or ``dew_point_c``,
 ``pressure_hpa``, ``visibility_km``, ``aerosol`` (:class:`snrmon.model.atmosphere_table.Weather`),
@@ -37,7 +39,7 @@ from snrmon.config_schema import (
 )
 from snrmon.model.constants import ZERO_C_K
 from snrmon.model.sensor import DETECTOR_KINDS, REAL_PSF_KINDS, Sensor
-from snrmon.model.target import Target
+from snrmon.model.target import Outline, Target
 
 PRESET_DIR = Path(__file__).with_name("presets")
 SENSOR_PRESETS = ("mwir", "lwir")
@@ -129,6 +131,8 @@ _TARGET_FIELDS: dict[str, Key] = {
     "temp_c": _required(_BANDMAP),
     "rss_delta_t_k": _BANDMAP,
     "description": _STR,
+    "outline": _STRLIST,
+    "outline_pixel_m": _POS,
 }
 _ATM_FIELDS: dict[str, Key] = {
     "name": _STR,
@@ -212,6 +216,14 @@ def target_from_dict(data: dict[str, Any], path: Path | str = "<target>") -> Tar
     for band, t in v["temp_c"].items():
         if t <= -ZERO_C_K:
             raise ValueError(f"{p}: target.temp_c.{band} must be above absolute zero, got {t}")
+    rows, pixel_m = v.pop("outline", None), v.pop("outline_pixel_m", None)
+    if (rows is None) != (pixel_m is None):
+        raise ValueError(f"{p}: target.outline and target.outline_pixel_m go together")
+    if rows is not None:
+        try:
+            v["outline"] = Outline(tuple(rows), float(pixel_m))
+        except ValueError as exc:
+            raise ValueError(f"{p}: target.outline: {exc}") from None
     return Target(**v)
 
 

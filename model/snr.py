@@ -14,8 +14,8 @@ depends on the geometry:
   pixel-filling radiance A_opt t_int FF IFOV^2 dLq exactly; in between it has no jump.
 * ``geometry="paper"``: the paper's switched curves: resolved (D >= 1) pixel-filling radiance,
   unresolved point source x average PVF, the finite size (corrected curves) as a Gaussian of
-  sigma_t = ``target_sigma_per_size`` x D. Its jump at D = 1 (MWIR UAV1 small, 314 m: 433 ->
-  144 uncorrected) is the paper's, not physics; these curves are always in ``paper`` too.
+  sigma_t = ``target_sigma_per_size`` x D. Its jump at D = 1 (MWIR UAV1 small, 314 m: 389 -> 117
+  uncorrected) is the paper's, not physics; these curves are always in ``paper`` too.
 
 Curves: small/large characteristic dimension x uncorrected (diffraction-limited Airy averaged
 over the band) / corrected (the sensor's real PSF, or one measured from flight data).
@@ -58,6 +58,12 @@ EXPECTED_CURVES = {"expected_eq4_rim": "rim", "expected_eq4_extent": "target"}
 """The expected Eq. (4) readings and the background rule of :func:`snrmon.model.eq4.expected_eq4`
 each follows: the paper's 7x7 rim, and the console's target-aware rule (module docstring)."""
 GEOMETRIES = ("square", "paper")
+FOOTPRINTS = ("square", "outline")
+"""The small target's footprint with ``geometry="square"``: the paper's square of the small
+dimension, or the target's :class:`snrmon.model.target.Outline` (the segmented pixels of a
+close stop, scaled by range): the same light (the small dimension's area) spread over the
+drone's shape (paper sections 3 and 10)."""
+_OUTLINE_NODES = 64  # more ranges than this: the outline's PVF at as many log-spaced sizes
 DEFAULT_TARGET_SIGMA_PER_SIZE = 0.5
 """The paper geometry's sigma_t = D / 2 (with the paper's sigma = 0.8 px this
 reproduces its relative PVF drop with target size)."""
@@ -432,6 +438,7 @@ def predict(
     expected: bool = True,
     band: bool = True,
     phases_xy=None,
+    footprint: str = "square",
 ) -> SnrPrediction:
     """The four SNR curves of Figs. 7-10 at ``ranges_m`` (metres, > 0); see the module
     docstring.
@@ -447,9 +454,12 @@ def predict(
     phases ``phases_xy`` (N, 2) that a stop's frames sampled if given
     (:func:`snrmon.model.eq4.expected_eq4`), else over the whole cell; ``band``:
     the Monte-Carlo band (``inputs``, default :class:`snrmon.model.montecarlo.InputUncertainty`).
+    ``footprint`` (:data:`FOOTPRINTS`): the small curves' target, the paper's square or the
+    target's outline (the expected readings and the band keep the square).
     """
     ranges = _check_ranges(ranges_m)
-    _check_geometry(geometry, target_sigma_per_size)
+    shape = (geometry, target_sigma_per_size, footprint)  # how the target lies on the pixels
+    _check_shape(target, *shape)
     c = contrast(
         sensor,
         target,
@@ -460,7 +470,7 @@ def predict(
     )
     noise = noise_breakdown(sensor, c.sky_temp_k, spatial_noise, measured_noise)
     real = corrected_psf if corrected_psf is not None else sensor.corrected_psf()
-    curves = _size_curves(sensor, target, c, noise.total, real, geometry, target_sigma_per_size)
+    curves = _size_curves(sensor, target, c, noise.total, real, *shape)
     rel = _relative_uncertainties(c, uncertainty or UncertaintyBudget(), curves.resolved)
     expected_curves: dict[str, np.ndarray] = {}
     if expected:
@@ -528,19 +538,27 @@ class _SizeCurves:
 
 
 def _size_curves(
-    sensor: Sensor, target: Target, c, denom: float, real: Psf, geometry: str, sigma_per_size: float
+    sensor: Sensor,
+    target: Target,
+    c,
+    denom: float,
+    real: Psf,
+    geometry: str,
+    sigma_per_size: float,
+    footprint: str = "square",
 ) -> _SizeCurves:
     """The four curves of Figs. 7-10 (each size with the diffraction PSF and with ``real``)
-    over the contrast ``c``'s ranges, against the total noise ``denom`` [e-] (Eq. 3)."""
+    over the contrast ``c``'s ranges, against the total noise ``denom`` [e-] (Eq. 3); the
+    small ones over the target's outline with ``footprint="outline"``."""
     ranges = c.ranges_m
     intensity = c.intensity_e()
     ff = sensor.fill_factor
     ext = intensity * ff * sensor.ifov_rad**2
     diffraction = sensor.diffraction_psf()
-    footprint = ranges * sensor.ifov_rad
+    footprint_m = ranges * sensor.ifov_rad
     out = _SizeCurves({}, {}, {}, {}, {}, {}, {}, ranges, denom)
     for size in ("small", "large"):
-        d_px = target.size_m(size) / footprint
+        d_px = target.size_m(size) / footprint_m
         res = d_px >= 1.0
         out.resolved[size], out.d_px[size] = res, d_px
         out.point[size] = intensity * target.area_m2(size) / ranges**2
@@ -553,7 +571,10 @@ def _size_curves(
             paper_pvf = _paper_pvf(psf, ff, d_px, res, sigma_per_size, not corrected)
             paper_sig = np.where(res, ext, out.point[size] * paper_pvf)
             out.paper[curve] = paper_sig / denom
-            if geometry == "square":
+            if geometry == "square" and size == "small" and footprint == "outline":
+                pvf = outline_pvf(psf, ff, target, footprint_m=footprint_m)
+                sig = out.point[size] * pvf
+            elif geometry == "square":
                 pvf = np.asarray(average_pvf_square(psf, ff, d_px), float)
                 sig = out.point[size] * pvf
             else:
@@ -561,6 +582,48 @@ def _size_curves(
             out.signal_e[curve], out.pvf[curve] = sig, pvf
             out.snr[curve] = sig / denom
     return out
+
+
+def outline_pvf(psf: Psf, fill_factor: float, target: Target, *, footprint_m) -> np.ndarray:
+    """The average PVF of ``target``'s outline (:func:`snrmon.model.footprint.
+    average_pvf_outline`) at each range's pixel footprint ``footprint_m`` (range x IFOV, m):
+    the outline's shape at the small dimension's area (the paper's small dimension is the
+    square root of the outlined area, section 3: an outline segmented wider, by the PSF's blur
+    at its edges, is scaled to the target's area), each of its pixels a square of its scaled
+    ``pixel_m`` over the footprint. Over more than :data:`_OUTLINE_NODES` ranges, at that many
+    log-spaced footprints and interpolated (PCHIP in ln footprint of PVF (1 + D^2) / FF, D the
+    small dimension in pixels, smooth and O(1) as the square's table)."""
+    from snrmon.model.footprint import average_pvf_outline
+
+    outline = target.outline
+    assert outline is not None  # _check_shape
+    f_m = np.asarray(footprint_m, float)
+    side_m = float(target.small_m)
+    cell_m = outline.pixel_m * side_m / math.sqrt(outline.area_m2)
+    if f_m.size <= _OUTLINE_NODES:
+        return np.asarray(average_pvf_outline(psf, fill_factor, outline, cell_m / f_m))
+    nodes = np.geomspace(f_m.min(), f_m.max(), _OUTLINE_NODES)
+    d = side_m / nodes
+    h = average_pvf_outline(psf, fill_factor, outline, cell_m / nodes) * (1 + d * d)
+    d_all = side_m / f_m
+    return (
+        fill_factor
+        * PchipInterpolator(np.log(nodes), h / fill_factor)(np.log(f_m))
+        / (1 + d_all * d_all)
+    )
+
+
+def _check_shape(target: Target, geometry: str, sigma_per_size: float, footprint: str) -> None:
+    _check_geometry(geometry, sigma_per_size)
+    if footprint not in FOOTPRINTS:
+        raise ValueError(f"footprint must be one of {', '.join(FOOTPRINTS)}, got {footprint!r}")
+    if footprint == "outline" and target.outline is None:
+        raise ValueError(
+            f"target {target.name!r} has no outline for footprint outline: characterize a "
+            "close stop (snrmon characterize --target-out) and use that target file"
+        )
+    if footprint == "outline" and geometry != "square":
+        raise ValueError("footprint outline is a continuous geometry: use geometry square")
 
 
 def _check_geometry(geometry: str, target_sigma_per_size: float) -> None:

@@ -111,7 +111,10 @@ OPTIONS: dict[str, Word] = {
     "--dew-point-c": Word("TD", "dew point, C"),
     "--pressure-hpa": Word("P", "air pressure, hPa"),
     "--visibility-km": Word("V", "meteorological visibility, km"),
-    "--aerosol": Word("rural|maritime|urban", "the LOWTRAN7 aerosol model"),
+    "--footprint": Word(
+        "square|outline", "the model's small target: the paper's square or the measured outline"
+    ),
+    "--aerosol": Word("rural|maritime|urban|none", "the LOWTRAN7 aerosol model (none: no aerosol)"),
     "--season": Word(
         "us_std_1976|tropical|midlat_summer|midlat_winter|subarctic_summer|subarctic_winter",
         "the standard atmosphere for readings not given",

@@ -256,6 +256,20 @@ def test_the_old_window_key_still_works_and_warns_once(tmp_path, caplog):
         load_session_config(path)
 
 
+def test_the_models_psf_and_footprint_are_the_fitted_and_the_square_unless_named(tmp_path):
+    """``model_psf`` (fitted from the flight, or the preset's) and ``footprint`` (the
+    paper's square, or the target file's outline): an outline asked of a target without one is
+    refused at load, naming both."""
+    config = session_config_from_dict(BASE)
+    assert (config.model_psf, config.footprint) == ("fitted", "square")
+    named = session_config_from_dict({**BASE, "model_psf": "preset"})
+    assert named.model_psf == "preset"
+    path = tmp_path / "session.toml"
+    path.write_text('footprint = "outline"\n[cameras.cam]\nsource = "shm"\n')
+    with pytest.raises(ConfigError, match=r'footprint = "outline": target = "uav1" has no'):
+        load_session_config(path)
+
+
 def test_the_operator_guide_lists_every_key_as_the_schema_declares_it():
     """docs/operator-guide.md's key tables are the schema's own text (regenerate them with
     ``snrmon.acquisition.config.key_tables_markdown()``)."""
