@@ -65,15 +65,15 @@ def wait_until(predicate, timeout_s: float, what: str) -> None:
             cond.wait(0.02)
 
 
-def sensor_toml(path: Path, fps: float = 60.0) -> Path:
-    """The LWIR preset, resized to the test cameras' format (W x H) at ``fps``: a sensor the
-    model accepts for a simulated camera of this size."""
+def sensor_toml(path: Path, fps: float = 60.0, *, width_px: int = W, height_px: int = H) -> Path:
+    """The LWIR preset, resized to the test cameras' format (W x H unless given) at ``fps``: a
+    sensor the model accepts for a simulated camera of this size."""
     from snrmon.model.presets import PRESET_DIR
 
     lines = []
     for line in (PRESET_DIR / "lwir.toml").read_text().splitlines():
         key = line.split("=")[0].strip()
-        value = {"width_px": W, "height_px": H, "fps": fps}.get(key)
+        value = {"width_px": width_px, "height_px": height_px, "fps": fps}.get(key)
         lines.append(f"{key} = {value}" if value is not None else line)
     path.write_text("\n".join(lines) + "\n")
     return path
