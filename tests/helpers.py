@@ -214,3 +214,22 @@ def field_session_config(ring: str, lrf, gps):
             "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
         }
     )
+
+
+class SpotOnSky:
+    """Picklable render callable of a camera's full frame: ``width`` x ``height`` pixels of
+    1000 DN sky with white noise (:data:`NOISE_DN`) and the drone, a Gaussian spot (sigma
+    0.8 px, ``amplitude_dn``) centred on pixel (``x``, ``y``)."""
+
+    def __init__(
+        self, width: int, height: int, x: int, y: int, seed: int, amplitude_dn: float = 240.0
+    ) -> None:
+        self.width, self.height, self.x, self.y, self.seed = width, height, x, y, seed
+        yy, xx = np.mgrid[-7:8, -7:8]
+        self.spot = amplitude_dn * np.exp(-(xx**2 + yy**2) / (2 * 0.8**2))
+
+    def __call__(self, counter: int) -> np.ndarray:
+        rng = np.random.default_rng([self.seed, counter])
+        frame = rng.normal(1000.0, NOISE_DN, (self.height, self.width)).astype(np.float32)
+        frame[self.y - 7 : self.y + 8, self.x - 7 : self.x + 8] += self.spot
+        return np.rint(frame).astype(np.uint16)
