@@ -19,7 +19,7 @@ Content::
                         "stop": {"stop", "n_frames", "n_wanted", "open"} | null,
                         "lost": [{"kind", "name", "state", "for_s"}, ...],
                         "header": str, "header_alarm": bool, "header_rect": [x, y, w, h],
-                        "state_rect": [x, y, w, h],
+                        "state_rect": [x, y, w, h], "verdicts": {tile: str},
                         "frames_shown": int, "shape": [rows, cols],
                         "screen_first_pixel": [x, y], "screen_last_pixel": [x, y],
                         "gps_xy": [x, y] | null, "palette": str, "box_screen_px": float,
@@ -51,9 +51,11 @@ bar's readout of the pixel under the pointer; ``layout`` is
 :func:`snrmon.gui.legibility.layout_report`.
 
 ``header_rect`` and ``state_rect`` are where a camera's header and its state tile's value (the
-word turned red while a device is lost) are on the screen; ``gps_marker`` and ``box_marker`` the
-GPS cue and the small-box marker as drawn (``at``: the global screen position of their centre,
-``size_px`` their width on the screen, ``hollow`` when the drone shows through them).
+word turned red while a device is lost) are on the screen, ``verdicts`` the verdict each header
+tile is coloured by (``inside``, ``near``, ``outside``, ``lost`` or ``""``); ``gps_marker`` and
+``box_marker`` the GPS cue and the small-box marker as drawn (``at``: the global screen position
+of their centre, ``size_px`` their width on the screen, ``hollow`` when the drone shows through
+them).
 
 ``screen_first_pixel`` and ``screen_last_pixel`` are the global screen positions of the centres
 of image pixel (0, 0) and (cols - 1, rows - 1) as shown now (zoom and pan included): where on
@@ -241,6 +243,7 @@ def console_state(window) -> dict[str, Any]:
             "header_alarm": panel.header.alarm,
             "header_rect": _global_rect(panel.header),
             "state_rect": _global_rect(panel.header.tiles["state"].value),
+            "verdicts": {k: tile.verdict for k, tile in panel.header.tiles.items()},
             "frames_shown": panel.view.frames_shown,
             "shape": [rows, cols],
             "screen_first_pixel": _screen(panel.view, 0, 0),

@@ -173,7 +173,13 @@ def test_a_killed_gps_then_camera_join_the_losses(kit):
     assert "camera + " in state and " LOST" in state, state
     assert "tracking" not in state and "idle" not in state, state
     painted_red(kit, dead)
-    # a camera that stopped is not shown at its old frame rate
+    # a camera that stopped is not shown at its old frame rate, nor its last numbers as live
     still = kit.poll(lambda s: header(s).startswith("CAM  0.0 fps"), "the camera's rate at 0")
-    assert "camera + " in header(still).split(" | ")[0], header(still)
+    tiles = header(still).split(" | ")
+    assert "camera + " in tiles[0], tiles[0]
+    (snr,) = [t for t in tiles if t.startswith("SNR(100)")]
+    assert re.search(r"last frame \d+ s ago$", snr), snr
+    (ratio,) = [t for t in tiles if t.startswith("measured / expected")]
+    assert re.search(r", last frame \d+ s ago$", ratio), ratio
+    assert still["cameras"]["cam"]["verdicts"]["ratio"] == "", still["cameras"]["cam"]["verdicts"]
     assert any(a.startswith("cam: ") for a in dead["alarms"]), dead["alarms"]
