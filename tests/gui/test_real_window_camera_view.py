@@ -126,7 +126,7 @@ def pixels_of(image, colour: str, centre: list[int], half: int) -> list[tuple[in
     ]
 
 
-def test_the_frame_is_drawn_small_and_the_gps_cue_is_a_ring_beside_the_drone(console):
+def test_the_frame_is_drawn_small_and_the_gps_cue_is_a_ring_beside_the_drone(console, artifacts):
     st = console.poll(lambda s: cam(s)["gps_xy"] is not None, "the fix projected")
     c = cam(st)
     (x0, _), (x1, _) = c["screen_first_pixel"], c["screen_last_pixel"]
@@ -139,6 +139,7 @@ def test_the_frame_is_drawn_small_and_the_gps_cue_is_a_ring_beside_the_drone(con
     assert max(abs(ring["at"][0] - at[0]), abs(ring["at"][1] - at[1])) <= 1, (ring, at)
     drone = screen_point(c, *console.drone)
     image = console.screen.grab()
+    image.save(str(artifacts / "real-window-camera-view-1366x768.png"))  # for a person to see
     cyan = pixels_of(image, GPS_COLOR, ring["at"], int(ring["size_px"]))
     assert cyan, "no ring painted"
     xs, ys = [p[0] for p in cyan], [p[1] for p in cyan]

@@ -122,8 +122,9 @@ def test_each_row_s_ratio_is_against_its_own_rule_s_expected_reading(table):
     assert st["stops"][0][keys.index("camera")] == "lwir"  # the LWIR first, as in the issue
 
 
-def test_each_row_s_colour_is_its_own_rule_s_verdict_held_and_painted(table):
+def test_each_row_s_colour_is_its_own_rule_s_verdict_held_and_painted(table, artifacts):
     _, st, screen = table
+    screen.save(str(artifacts / "real-window-stop-table-1920x1080.png"))  # for a person to see
     keys = st["stop_table"]["columns"]
     colours = th.theme_named(THEME).verdicts
     seen = set()
