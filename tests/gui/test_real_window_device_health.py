@@ -104,7 +104,11 @@ def kit(xvfb_screens, module_tmp):
             for proc in (lrf, gps):
                 proc.kill()
                 proc.wait(30)
-    assert console.returncode == 0, err
+    # the console closes cleanly, then says what it lost and exits 1 (as `snrmon record` does)
+    assert console.returncode == 1, err
+    assert re.search(
+        r"^snrmon gui: error: lrf lost at .*; gps lost at .*; cam lost at ", err, re.M
+    ), err
 
 
 def header(st: dict) -> str:
