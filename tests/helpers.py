@@ -219,7 +219,11 @@ def field_session_config(ring: str, lrf, gps):
 class SpotOnSky:
     """Picklable render callable of a camera's full frame: ``width`` x ``height`` pixels of
     1000 DN sky with white noise (:data:`NOISE_DN`) and the drone, a Gaussian spot (sigma
-    0.8 px, ``amplitude_dn``) centred on pixel (``x``, ``y``)."""
+    0.8 px, ``amplitude_dn``) centred on pixel (``x``, ``y``). The noise of :data:`FRAMES`
+    frames is drawn once (seeded) and taken in turn: a 1280 x 720 frame drawn afresh each time
+    took a loaded machine longer than the frame's interval (the camera then dropped frames)."""
+
+    FRAMES = 8
 
     def __init__(
         self, width: int, height: int, x: int, y: int, seed: int, amplitude_dn: float = 240.0
@@ -227,9 +231,13 @@ class SpotOnSky:
         self.width, self.height, self.x, self.y, self.seed = width, height, x, y, seed
         yy, xx = np.mgrid[-7:8, -7:8]
         self.spot = amplitude_dn * np.exp(-(xx**2 + yy**2) / (2 * 0.8**2))
+        self._frames: list[np.ndarray] = []
 
     def __call__(self, counter: int) -> np.ndarray:
-        rng = np.random.default_rng([self.seed, counter])
-        frame = rng.normal(1000.0, NOISE_DN, (self.height, self.width)).astype(np.float32)
-        frame[self.y - 7 : self.y + 8, self.x - 7 : self.x + 8] += self.spot
-        return np.rint(frame).astype(np.uint16)
+        if not self._frames:  # in the camera's process (the callable is pickled before)
+            for i in range(self.FRAMES):
+                rng = np.random.default_rng([self.seed, i])
+                frame = rng.normal(1000.0, NOISE_DN, (self.height, self.width))
+                frame[self.y - 7 : self.y + 8, self.x - 7 : self.x + 8] += self.spot
+                self._frames.append(np.rint(frame).astype(np.uint16))
+        return self._frames[counter % self.FRAMES]
