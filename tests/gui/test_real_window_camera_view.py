@@ -192,27 +192,33 @@ def test_the_drone_s_box_is_marked_at_least_8_screen_px_wide(console):
     assert max(xs) - min(xs) + 1 >= MIN_BOX_SCREEN_PX and max(ys) - min(ys) + 1 >= MIN_BOX_SCREEN_PX
 
 
+def image_point(c: dict, sx: int, sy: int) -> tuple[float, float]:
+    """The image position (column, row, pixel centres on integers) under screen point
+    (sx, sy), from where the console says its first and last pixels are."""
+    (x0, y0), (x1, y1) = c["screen_first_pixel"], c["screen_last_pixel"]
+    rows, cols = c["shape"]
+    return (sx - x0) * (cols - 1) / (x1 - x0), (sy - y0) * (rows - 1) / (y1 - y0)
+
+
 def test_the_status_bar_reads_the_pixel_under_the_pointer(console):
     st = console.poll(lambda s: True, "a status")
-    x, y = 900, 150
-    sx, sy = screen_point(cam(st), x, y)
+    c = cam(st)
+    sx, sy = screen_point(c, 900, 150)
+    (x0, _), (x1, _) = c["screen_first_pixel"], c["screen_last_pixel"]
+    per_px = (c["shape"][1] - 1) / (x1 - x0)  # image pixels per screen pixel (about 4 here)
     env = {**os.environ, "DISPLAY": console.display}
+    readout = re.compile(r"mwir column (\d+), row (\d+): (\d+) DN$")
     for dx in (0, 3):  # two places: the readout follows the pointer
         subprocess.run(
             ["xdotool", "mousemove", "--sync", str(sx + dx), str(sy)], env=env, check=True
         )
+        x, y = image_point(c, sx + dx, sy)
         read = console.poll(
-            lambda s, dx=dx: (
-                re.match(r"mwir column (\d+), row (\d+): (\d+) DN", s["pointer"])
-                and abs(int(re.match(r"mwir column (\d+)", s["pointer"])[1]) - x - 5 * dx) <= 5
-            ),
+            lambda s, x=x: (m := readout.match(s["pointer"])) and abs(int(m[1]) - x) <= per_px,
             f"the pointer's readout {dx} px on",
         )
-        _, row, dn = (
-            int(v)
-            for v in re.match(r"mwir column (\d+), row (\d+): (\d+) DN", read["pointer"]).groups()
-        )
-        assert abs(row - y) <= 5, read["pointer"]
+        _, row, dn = (int(v) for v in readout.match(read["pointer"]).groups())
+        assert abs(row - y) <= per_px, (read["pointer"], x, y)
         assert 1000 - 8 * 6 <= dn <= 1000 + 8 * 6, read["pointer"]  # sky: 1000 DN, noise 6 DN
 
 
