@@ -58,6 +58,30 @@ class ModelOptionsDialog(QDialog):
         super().__init__(parent)
         self.setWindowTitle("Model options")
         self._apply = apply
+        form = QFormLayout()
+        self._add_target_and_curves(form, options)
+        self._add_background(form, options)
+        self._add_weather(form, options)
+        self._add_noise(form, options)
+        self.error = QLabel("")
+        self.error.setStyleSheet("color: #ff6060;")
+        self.error.setWordWrap(True)
+        buttons = QDialogButtonBox(
+            QDialogButtonBox.StandardButton.Ok
+            | QDialogButtonBox.StandardButton.Apply
+            | QDialogButtonBox.StandardButton.Cancel
+        )
+        self.apply_button = buttons.button(QDialogButtonBox.StandardButton.Apply)
+        self.apply_button.clicked.connect(self.apply)
+        buttons.accepted.connect(self._ok)
+        buttons.rejected.connect(self.reject)
+        lay = QVBoxLayout(self)
+        lay.addLayout(form)
+        lay.addWidget(self.error)
+        lay.addWidget(buttons)
+
+    def _add_target_and_curves(self, form: QFormLayout, options: ModelOptions) -> None:
+        """The target's row and one check box per curve (the first row captioned "curves")."""
         self.target = QComboBox()
         self.target.setEditable(True)
         self.target.addItems(list(TARGET_CHOICES))
@@ -67,7 +91,6 @@ class ModelOptionsDialog(QDialog):
             "or the path of a target TOML file"
         )
         self.shown: dict[str, QCheckBox] = {}
-        form = QFormLayout()
         form.addRow("target", self.target)
         for name in ALL_CURVES:
             box = QCheckBox(CURVE_LABELS[name])
@@ -79,6 +102,8 @@ class ModelOptionsDialog(QDialog):
             )
             self.shown[name] = box
             form.addRow("" if len(self.shown) > 1 else "curves", box)
+
+    def _add_background(self, form: QFormLayout, options: ModelOptions) -> None:
         self.background = QLineEdit(
             "" if options.background_temp_k is None else f"{options.background_temp_k:g}"
         )
@@ -88,6 +113,9 @@ class ModelOptionsDialog(QDialog):
             "calibration the curves at the measured sky are drawn as well."
         )
         form.addRow("background (K)", self.background)
+
+    def _add_weather(self, form: QFormLayout, options: ModelOptions) -> None:
+        """The day's met readings, the aerosol model and the season."""
         weather = options.weather
         self.met: dict[str, QLineEdit] = {}
         for key, what, unit in MET_FIELDS:
@@ -117,6 +145,8 @@ class ModelOptionsDialog(QDialog):
             "Standard atmosphere whose sea-level air stands in for readings not given"
         )
         form.addRow("season", self.season)
+
+    def _add_noise(self, form: QFormLayout, options: ModelOptions) -> None:
         self.noise = QComboBox()
         self.noise.addItems(list(NOISE_SOURCES))
         self.noise.setCurrentText(options.noise)
@@ -130,22 +160,6 @@ class ModelOptionsDialog(QDialog):
             "model's."
         )
         form.addRow("noise", self.noise)
-        self.error = QLabel("")
-        self.error.setStyleSheet("color: #ff6060;")
-        self.error.setWordWrap(True)
-        buttons = QDialogButtonBox(
-            QDialogButtonBox.StandardButton.Ok
-            | QDialogButtonBox.StandardButton.Apply
-            | QDialogButtonBox.StandardButton.Cancel
-        )
-        self.apply_button = buttons.button(QDialogButtonBox.StandardButton.Apply)
-        self.apply_button.clicked.connect(self.apply)
-        buttons.accepted.connect(self._ok)
-        buttons.rejected.connect(self.reject)
-        lay = QVBoxLayout(self)
-        lay.addLayout(form)
-        lay.addWidget(self.error)
-        lay.addWidget(buttons)
 
     def options(self) -> ModelOptions:
         """The choices as entered (ValueError for a bad background temperature or reading)."""

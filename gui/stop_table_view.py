@@ -96,7 +96,17 @@ def columns(rows: list[StopRow]) -> list[Column]:
     expected reading of the rule that row was measured with (:attr:`StopRow.agreement`), the
     rule named in the ratio's cell."""
     keys = model_keys(rows)
-    cols = [
+    cols = measurement_columns() + [model_column(k) for k in keys]
+    if any(is_expected(k) for k in keys):
+        cols += agreement_columns()
+    if any(r.model_psf_source for r in rows):
+        cols.append(PSF_COLUMN)
+    return cols + closing_columns()
+
+
+def measurement_columns() -> list[Column]:
+    """The stop, its camera and ranges, and what was measured at it (first in the table)."""
+    return [
         Column(
             "stop",
             "stop",
@@ -153,52 +163,59 @@ def columns(rows: list[StopRow]) -> list[Column]:
             False,
         ),
     ]
-    for k in keys:
-        title = SHORT.get(k) or _model_title(k)
-        cols.append(
-            Column(
-                f"model:{k}",
-                title,
-                f"The model's SNR at the stop's range: {curve_label(k)} (dimensionless)",
-                lambda r, k=k: _num(r.model_snr.get(k), ".1f"),
-                lambda r, k=k: _key(r.model_snr.get(k)),
-            )
-        )
-    if any(is_expected(k) for k in keys):
-        cols += [
-            Column(
-                "band",
-                "expected\nband",
-                "The model's uncertainty band of the expected Eq. (4) reading at the stop's "
-                "range, by the background rule the row was measured with (its background)",
-                _band_text,
-                lambda r: _key(r.agreement.lower) if r.agreement else MISSING,
-            ),
-            Column(
-                "ratio",
-                "measured /\nexpected",
-                "SNR mean / the expected Eq. (4) reading of the rule the row was measured with "
-                "(rim: the paper's 7x7 rim; extent: the rim outside the drone's extent): green "
-                "inside the model's band, amber within two errors of the mean of it, red "
-                "outside; the cell's tooltip names the PSF the model used",
-                _ratio_text,
-                lambda r: _key(r.agreement.ratio) if r.agreement else MISSING,
-            ),
-        ]
-    if any(r.model_psf_source for r in rows):
-        cols.append(
-            Column(
-                "psf",
-                "model\nPSF",
-                "The PSF the row's corrected and expected values were computed with: preset "
-                "(the sensor's, e.g. solved for the paper's average PVF 0.082) or fitted (from "
-                "this flight's unresolved stops); the ratio's tooltip gives it in full",
-                lambda r: r.model_psf_label or "--",
-                lambda r: r.model_psf_label or "",
-                False,
-            )
-        )
-    cols += [
+
+
+def model_column(key: str) -> Column:
+    """The model's SNR ``key`` (a curve or an expected reading) at each row's range."""
+    return Column(
+        f"model:{key}",
+        SHORT.get(key) or _model_title(key),
+        f"The model's SNR at the stop's range: {curve_label(key)} (dimensionless)",
+        lambda r: _num(r.model_snr.get(key), ".1f"),
+        lambda r: _key(r.model_snr.get(key)),
+    )
+
+
+def agreement_columns() -> list[Column]:
+    """Each row's band and measured / expected, by the rule of the row's own background."""
+    return [
+        Column(
+            "band",
+            "expected\nband",
+            "The model's uncertainty band of the expected Eq. (4) reading at the stop's "
+            "range, by the background rule the row was measured with (its background)",
+            _band_text,
+            lambda r: _key(r.agreement.lower) if r.agreement else MISSING,
+        ),
+        Column(
+            "ratio",
+            "measured /\nexpected",
+            "SNR mean / the expected Eq. (4) reading of the rule the row was measured with "
+            "(rim: the paper's 7x7 rim; extent: the rim outside the drone's extent): green "
+            "inside the model's band, amber within two errors of the mean of it, red "
+            "outside; the cell's tooltip names the PSF the model used",
+            _ratio_text,
+            lambda r: _key(r.agreement.ratio) if r.agreement else MISSING,
+        ),
+    ]
+
+
+PSF_COLUMN = Column(
+    "psf",
+    "model\nPSF",
+    "The PSF the row's corrected and expected values were computed with: preset "
+    "(the sensor's, e.g. solved for the paper's average PVF 0.082) or fitted (from "
+    "this flight's unresolved stops); the ratio's tooltip gives it in full",
+    lambda r: r.model_psf_label or "--",
+    lambda r: r.model_psf_label or "",
+    False,
+)
+"""The PSF each row's model values were computed with (shown when any row names one)."""
+
+
+def closing_columns() -> list[Column]:
+    """The model's sky and the row's state (last in the table)."""
+    return [
         Column(
             "sky",
             "sky\n(K)",
@@ -216,7 +233,6 @@ def columns(rows: list[StopRow]) -> list[Column]:
             False,
         ),
     ]
-    return cols
 
 
 SHORT_TITLES = {

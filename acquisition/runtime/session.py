@@ -622,7 +622,9 @@ class Session:
             if dev is None:
                 continue
             s = dev.status()
-            if s.state in ("stale", "disconnected", "failed") and self._started:
+            # lost as the headers say it (connecting again after readings included): the
+            # driver's reconnecting is no recovery, the banner must not turn "BACK"
+            if self._started and lost_device("", s) is not None:
                 alarms.append(
                     f"{s.name}: {s.state}" + (f" ({s.last_error})" if s.last_error else "")
                 )

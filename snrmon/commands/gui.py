@@ -156,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
         **session_model_options(config),  # the day's [weather]
     )
     with Session(config, predictor=predictor) as session:
-        return run_console(
+        code = run_console(
             session,
             curves=predictor.curve,
             headless=args.headless,
@@ -165,6 +165,10 @@ def run(args: argparse.Namespace) -> int:
             status_file=args.status_file,
             **view_options(args),
         )
+        # a device lost during the session (even one that came back): the error line and
+        # exit 1 once the window has closed, as `record` ends
+        session.check_devices()
+        return code
 
 
 def _replay_camera_file(args: argparse.Namespace) -> int:
