@@ -29,6 +29,7 @@ from PySide6.QtWidgets import QAbstractItemView, QApplication, QHeaderView, QMen
 
 from snrmon.acquisition.prediction import CURVES, EXPECTED_EXTENT, EXPECTED_RIM
 from snrmon.acquisition.report.stop_csv import csv_rows, csv_text
+from snrmon.acquisition.stops.columns import frame_mean_columns as stop_frame_means
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.gui import theme as th
 from snrmon.gui.model_curves import curve_label, is_expected
@@ -54,7 +55,7 @@ class Column:
 
 # Where the table is narrower than its columns, these give way first (in this order), so the
 # measurement and the model stay in view; they come back when the table is wide enough.
-YIELDING = ("sky", "background", "snr_std", "gps", "psf")
+YIELDING = ("model_sky_temp_k", "background", "snr_std", "gps_range_m", "psf")
 CELL_PAD_PX = 14
 SORT_ARROW_PX = 24  # the sorted column's header draws an arrow beside its words
 
@@ -107,21 +108,21 @@ def columns(rows: list[StopRow]) -> list[Column]:
         ),
         Column("camera", "cam.", "Camera", lambda r: r.camera, lambda r: r.camera, False),
         Column(
-            "lrf",
+            "lrf_range_m",
             "LRF\n(m)",
             "Rangefinder range at the stop (m)",
             lambda r: _num(r.lrf_range_m, ".1f"),
             lambda r: _key(r.lrf_range_m),
         ),
         Column(
-            "gps",
+            "gps_range_m",
             "GPS\n(m)",
             "GPS slant range at the stop (m)",
             lambda r: _num(r.gps_range_m, ".1f"),
             lambda r: _key(r.gps_range_m),
         ),
         Column(
-            "frames",
+            "n_frames",
             "frames",
             "Valid consecutive frames summarised (the paper uses the first 100)",
             lambda r: str(r.n_frames),
@@ -142,6 +143,7 @@ def columns(rows: list[StopRow]) -> list[Column]:
             lambda r: _num(r.snr_std, ".2f"),
             lambda r: _key(r.snr_std),
         ),
+        *frame_mean_columns(),
         Column(
             "background",
             "background",
@@ -157,7 +159,7 @@ def columns(rows: list[StopRow]) -> list[Column]:
         title = SHORT.get(k) or _model_title(k)
         cols.append(
             Column(
-                f"model:{k}",
+                f"model_{k}",
                 title,
                 f"The model's SNR at the stop's range: {curve_label(k)} (dimensionless)",
                 lambda r, k=k: _num(r.model_snr.get(k), ".1f"),
@@ -200,7 +202,7 @@ def columns(rows: list[StopRow]) -> list[Column]:
         )
     cols += [
         Column(
-            "sky",
+            "model_sky_temp_k",
             "sky\n(K)",
             "The background (sky) temperature the model values were computed at (K)",
             lambda r: _num(r.model_sky_temp_k, ".1f"),
@@ -217,6 +219,25 @@ def columns(rows: list[StopRow]) -> list[Column]:
         ),
     ]
     return cols
+
+
+def frame_mean_columns() -> list[Column]:
+    """A column for each per-frame value the stop table carries the mean of (declared on the
+    Eq. (4) result: :func:`snrmon.acquisition.stops.columns.frame_mean_columns`), titled by its
+    name and unit."""
+    out = []
+    for c in stop_frame_means():
+        unit = f"\n({c.units})" if c.units and c.units != "1" else ""
+        out.append(
+            Column(
+                c.name,
+                c.name.replace("_", " ") + unit,
+                c.meaning,
+                lambda r, k=c.name: _num(r.frame_means.get(k), ".2f"),
+                lambda r, k=c.name: _key(r.frame_means.get(k)),
+            )
+        )
+    return out
 
 
 SHORT_TITLES = {
