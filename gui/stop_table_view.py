@@ -9,7 +9,10 @@ the rule named after the ratio, coloured like the camera header (green inside th
 near, red outside: :attr:`snrmon.acquisition.stops.table.StopRow.agreement`, computed where the
 row is built), then the PSF the model values were computed with ("preset PSF", "fitted PSF":
 :attr:`~snrmon.acquisition.stops.table.StopRow.model_psf_label`; the ratio's tooltip gives it
-in full). Ranges in metres, the model's sky in kelvin. Click a column's header to sort by it;
+in full). Ranges in metres, the model's sky in kelvin. Each column's key is the stop table's name
+for it, the one ``Session.stops()``, the CSV and the campaign's Parquet use
+(:mod:`snrmon.acquisition.stops.columns`); a per-frame value declared for the stop table adds a
+column of its mean after the SNR std (:func:`frame_mean_columns`). Click a column's header to sort by it;
 Ctrl+C (or the context menu, or Ctrl+Shift+C anywhere in the console) copies the selected rows,
 or all of them, as the report's CSV (:mod:`snrmon.acquisition.report.stop_csv`). Where the
 table is narrower than its columns, the model's sky, the background, the SNR's std, the GPS

@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -659,12 +659,11 @@ def measure_stack(
     Returns
     -------
     pandas.DataFrame
-        One row per frame: the columns of the session file's Eq. (4) result (``peak_x``,
+        One row per frame, by the session file's names for the Eq. (4) result: ``peak_x``,
         ``peak_y``, ``peak`` (DN), ``bg_mean``, ``bg_std`` (DN), ``snr``, ``background``
-        (which pixels: ``rim``, ``extent_rim``, ``rect``), the segmented extent
-        ``extent_w_px``, ``extent_h_px``, 0 without tracking), one boolean column per flag
-        (``flag_saturated`` ...), and with ``track`` those of :func:`track_stack`; the
-        columns' units in ``attrs["units"]``.
+        (which pixels: ``rim``, ``extent_rim``, ``rect``), one boolean column per flag
+        (``flag_saturated`` ...); with ``track`` those of :func:`track_stack`; the columns'
+        units in ``attrs["units"]``.
 
     Examples
     --------
@@ -688,7 +687,9 @@ def measure_stack(
     if track:
         return track_stack(pixels, at, **config)
     result = measure(pixels, at, window=window, **config)
-    return _peak_snr_frame(result.to_list())
+    # the declared columns the vectorised path holds, as it holds them (an array per column)
+    arrays = {f.name: getattr(result, f.name) for f in dataclasses.fields(result)}
+    return _peak_snr_frame(None, len(result), arrays, result.flag_bits)
 
 
 def track_stack(
@@ -744,7 +745,7 @@ def track_stack(
         search_px=search_px, box_px=box_px, background=background, detrend=detrend
     )
     steps = track(pixels, at, measurement=config)
-    frame = _peak_snr_frame([s.peak_snr for s in steps])
+    frame = _peak_snr_frame(lambda: [s.peak_snr for s in steps], len(steps))
     frame["track_state"] = [s.state.value for s in steps]
     frame["track_reason"] = [s.reason for s in steps]
     frame["window_x"] = np.array([s.window_x for s in steps], np.int32)
@@ -753,24 +754,42 @@ def track_stack(
     return frame
 
 
-def _peak_snr_frame(results: Sequence[Any]) -> pd.DataFrame:
-    """Eq. (4) results as a DataFrame, one row per frame: a column per field the result
+def _peak_snr_frame(
+    results: Callable[[], Sequence[Any]] | None,
+    n: int,
+    arrays: dict[str, Any] | None = None,
+    flag_bits: np.ndarray | None = None,
+) -> pd.DataFrame:
+    """``n`` Eq. (4) results as a DataFrame, one row per frame: a column per field the result
     declares (as the session file holds them), its flags as boolean columns (``flag_<name>``),
-    the columns' units in ``attrs["units"]``."""
+    the columns' units in ``attrs["units"]``. ``arrays``: columns already at hand by field
+    (an array, or one value for every frame), ``flag_bits`` the flags' bit masks; the rest
+    from ``results()``, the per-frame results (None: only the columns at hand)."""
     from snrmon.acquisition.columns import units_of
     from snrmon.acquisition.measure.peak_snr import flags_to_bits
     from snrmon.acquisition.record.schema import PEAK_SNR_COLUMNS
 
+    arrays = arrays or {}
+    records: Sequence[Any] | None = None
     data: dict[str, Any] = {}
     for c in PEAK_SNR_COLUMNS:
         if c.name == "flags":
             continue  # as one boolean column per flag
-        values = [getattr(r, c.field) for r in results]
-        data[c.name] = values if c.dtype.startswith("S") else np.array(values, c.dtype)
-    frame = pd.DataFrame(data)
-    _add_flag_columns(frame, np.array([flags_to_bits(r.flags) for r in results], np.int64))
-    frame.index.name = "frame"
-    frame.attrs["units"] = units_of(PEAK_SNR_COLUMNS)
+        if c.field in arrays:
+            values = arrays[c.field]
+            values = values if isinstance(values, np.ndarray) else [values] * n
+        elif results is None:
+            continue
+        else:
+            records = results() if records is None else records
+            values = [getattr(r, c.field) for r in records]
+        data[c.name] = values if c.dtype.startswith("S") else np.asarray(values, c.dtype)
+    frame = pd.DataFrame(data, index=pd.RangeIndex(n, name="frame"))
+    if flag_bits is None:
+        records = (results() if results else []) if records is None else records
+        flag_bits = np.array([flags_to_bits(r.flags) for r in records], np.int64)
+    _add_flag_columns(frame, flag_bits)
+    frame.attrs["units"] = {k: v for k, v in units_of(PEAK_SNR_COLUMNS).items() if k in frame}
     return frame
 
 
