@@ -12,12 +12,12 @@ row is built), then the PSF the model values were computed with ("preset PSF", "
 in full). Ranges in metres, the model's sky in kelvin. Each column's key is the stop table's name
 for it, the one ``Session.stops()``, the CSV and the campaign's Parquet use
 (:mod:`snrmon.acquisition.stops.columns`); a per-frame value declared for the stop table adds a
-column of its mean after the SNR std (:func:`frame_mean_columns`). Click a column's header to sort by it;
-Ctrl+C (or the context menu, or Ctrl+Shift+C anywhere in the console) copies the selected rows,
-or all of them, as the report's CSV (:mod:`snrmon.acquisition.report.stop_csv`). Where the
-table is narrower than its columns, the model's sky, the background, the SNR's std, the GPS
-range and the model's PSF give way, in that order (:data:`YIELDING`), and come back when it is
-wide enough.
+column of its mean after the SNR std (:func:`frame_mean_columns`). Click a column's header to
+sort by it; Ctrl+C (or the context menu, or Ctrl+Shift+C anywhere in the console) copies the
+selected rows, or all of them, as the report's CSV (:mod:`snrmon.acquisition.report.stop_csv`).
+Where the table is narrower than its columns, the model's sky, the background, the SNR's std,
+the GPS range and the model's PSF give way, in that order (:data:`YIELDING`), and come back when
+it is wide enough.
 """
 
 from __future__ import annotations

@@ -143,3 +143,27 @@ def test_a_field_added_to_peak_snr_reaches_every_table(tmp_path):
     assert console["title"] == ["contrast dn mean\n(DN)"]
     assert console["cells"] == [f"{v:.2f}" for v in console["means"]]
     assert console["means"] == pytest.approx(recorded)
+
+
+def test_a_column_a_file_lacks_reads_as_its_fields_default(tmp_path):
+    """A measurements group written before some of the declared columns existed (here only the
+    1.x columns): the Eq. (4) columns it lacks read as their fields' defaults."""
+    import h5py
+    import numpy as np
+
+    from snrmon.acquisition.measure.peak_snr import PeakSnr
+    from snrmon.acquisition.record import schema
+    from snrmon.acquisition.record.reader import measurement_rows
+    from snrmon.acquisition.record.stream_rows import peak_snr_from_row
+
+    with h5py.File(tmp_path / "old.h5", "w") as f:
+        g = f.create_group(schema.MEASUREMENTS)
+        for name in schema.MEASUREMENT_FIELDS_V1:
+            values = np.arange(3).astype(schema.MEASUREMENT_DTYPE[name])
+            g.create_dataset(name, data=values)
+        rows = measurement_rows(g)
+    assert rows["background"].tolist() == [b"rim"] * 3
+    assert rows["extent_w_px"].tolist() == rows["extent_h_px"].tolist() == [0, 0, 0]
+    read = peak_snr_from_row(rows[2])
+    assert read == PeakSnr(2, 2, 2.0, 2.0, 2.0, 2.0, frozenset({"edge"}))  # bits 0b10
+    assert (read.background, read.extent_w_px, read.extent_h_px) == ("rim", 0, 0)
