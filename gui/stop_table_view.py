@@ -9,12 +9,15 @@ the rule named after the ratio, coloured like the camera header (green inside th
 near, red outside: :attr:`snrmon.acquisition.stops.table.StopRow.agreement`, computed where the
 row is built), then the PSF the model values were computed with ("preset PSF", "fitted PSF":
 :attr:`~snrmon.acquisition.stops.table.StopRow.model_psf_label`; the ratio's tooltip gives it
-in full). Ranges in metres, the model's sky in kelvin. Click a column's header to sort by it;
-Ctrl+C (or the context menu, or Ctrl+Shift+C anywhere in the console) copies the selected rows,
-or all of them, as the report's CSV (:mod:`snrmon.acquisition.report.stop_csv`). Where the
-table is narrower than its columns, the model's sky, the background, the SNR's std, the GPS
-range and the model's PSF give way, in that order (:data:`YIELDING`), and come back when it is
-wide enough.
+in full). Ranges in metres, the model's sky in kelvin. Each column's key is the stop table's name
+for it, the one ``Session.stops()``, the CSV and the campaign's Parquet use
+(:mod:`snrmon.acquisition.stops.columns`); a per-frame value declared for the stop table adds a
+column of its mean after the SNR std (:func:`frame_mean_columns`). Click a column's header to
+sort by it; Ctrl+C (or the context menu, or Ctrl+Shift+C anywhere in the console) copies the
+selected rows, or all of them, as the report's CSV (:mod:`snrmon.acquisition.report.stop_csv`).
+Where the table is narrower than its columns, the model's sky, the background, the SNR's std,
+the GPS range and the model's PSF give way, in that order (:data:`YIELDING`), and come back when
+it is wide enough.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from PySide6.QtWidgets import QAbstractItemView, QApplication, QHeaderView, QMen
 
 from snrmon.acquisition.prediction import CURVES, EXPECTED_EXTENT, EXPECTED_RIM
 from snrmon.acquisition.report.stop_csv import csv_rows, csv_text
+from snrmon.acquisition.stops.columns import frame_mean_columns as stop_frame_means
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.gui import theme as th
 from snrmon.gui.model_curves import curve_label, is_expected
@@ -54,7 +58,7 @@ class Column:
 
 # Where the table is narrower than its columns, these give way first (in this order), so the
 # measurement and the model stay in view; they come back when the table is wide enough.
-YIELDING = ("sky", "background", "snr_std", "gps", "psf")
+YIELDING = ("model_sky_temp_k", "background", "snr_std", "gps_range_m", "psf")
 CELL_PAD_PX = 14
 SORT_ARROW_PX = 24  # the sorted column's header draws an arrow beside its words
 
@@ -117,21 +121,21 @@ def measurement_columns() -> list[Column]:
         ),
         Column("camera", "cam.", "Camera", lambda r: r.camera, lambda r: r.camera, False),
         Column(
-            "lrf",
+            "lrf_range_m",
             "LRF\n(m)",
             "Rangefinder range at the stop (m)",
             lambda r: _num(r.lrf_range_m, ".1f"),
             lambda r: _key(r.lrf_range_m),
         ),
         Column(
-            "gps",
+            "gps_range_m",
             "GPS\n(m)",
             "GPS slant range at the stop (m)",
             lambda r: _num(r.gps_range_m, ".1f"),
             lambda r: _key(r.gps_range_m),
         ),
         Column(
-            "frames",
+            "n_frames",
             "frames",
             "Valid consecutive frames summarised (the paper uses the first 100)",
             lambda r: str(r.n_frames),
@@ -152,6 +156,7 @@ def measurement_columns() -> list[Column]:
             lambda r: _num(r.snr_std, ".2f"),
             lambda r: _key(r.snr_std),
         ),
+        *frame_mean_columns(),
         Column(
             "background",
             "background",
@@ -168,7 +173,7 @@ def measurement_columns() -> list[Column]:
 def model_column(key: str) -> Column:
     """The model's SNR ``key`` (a curve or an expected reading) at each row's range."""
     return Column(
-        f"model:{key}",
+        f"model_{key}",
         SHORT.get(key) or _model_title(key),
         f"The model's SNR at the stop's range: {curve_label(key)} (dimensionless)",
         lambda r: _num(r.model_snr.get(key), ".1f"),
@@ -217,7 +222,7 @@ def closing_columns() -> list[Column]:
     """The model's sky and the row's state (last in the table)."""
     return [
         Column(
-            "sky",
+            "model_sky_temp_k",
             "sky\n(K)",
             "The background (sky) temperature the model values were computed at (K)",
             lambda r: _num(r.model_sky_temp_k, ".1f"),
@@ -233,6 +238,25 @@ def closing_columns() -> list[Column]:
             False,
         ),
     ]
+
+
+def frame_mean_columns() -> list[Column]:
+    """A column for each per-frame value the stop table carries the mean of (declared on the
+    Eq. (4) result: :func:`snrmon.acquisition.stops.columns.frame_mean_columns`), titled by its
+    name and unit."""
+    out = []
+    for c in stop_frame_means():
+        unit = f"\n({c.units})" if c.units and c.units != "1" else ""
+        out.append(
+            Column(
+                c.name,
+                c.name.replace("_", " ") + unit,
+                c.meaning,
+                lambda r, k=c.name: _num(r.frame_means.get(k), ".2f"),
+                lambda r, k=c.name: _key(r.frame_means.get(k)),
+            )
+        )
+    return out
 
 
 SHORT_TITLES = {

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from scipy.interpolate import CubicSpline, PchipInterpolator
@@ -57,6 +57,8 @@ CURVES = ("small", "large", "small_corrected", "large_corrected")
 EXPECTED_CURVES = {"expected_eq4_rim": "rim", "expected_eq4_extent": "target"}
 """The expected Eq. (4) readings and the background rule of :func:`snrmon.model.eq4.expected_eq4`
 each follows: the paper's 7x7 rim, and the console's target-aware rule (module docstring)."""
+CURVE = "curve"
+"""The metadata key naming the curve an :class:`SnrPrediction` field holds."""
 GEOMETRIES = ("square", "paper")
 FOOTPRINTS = ("square", "outline")
 """The small target's footprint with ``geometry="square"``: the paper's square of the small
@@ -106,10 +108,11 @@ class SnrPrediction:
     air_temp_k: float
     geometry: str
     ranges_m: np.ndarray
-    snr_small: np.ndarray
-    snr_large: np.ndarray
-    snr_small_corrected: np.ndarray
-    snr_large_corrected: np.ndarray
+    # The curves by name (:data:`CURVES`; :meth:`curves` gives them all).
+    snr_small: np.ndarray = field(metadata={CURVE: "small"})
+    snr_large: np.ndarray = field(metadata={CURVE: "large"})
+    snr_small_corrected: np.ndarray = field(metadata={CURVE: "small_corrected"})
+    snr_large_corrected: np.ndarray = field(metadata={CURVE: "large_corrected"})
     resolved_small: np.ndarray
     resolved_large: np.ndarray
     signal_e: dict[str, np.ndarray]
@@ -124,21 +127,38 @@ class SnrPrediction:
     transition_range_large_m: float
     point_contrast_e: dict[str, np.ndarray] = field(default_factory=dict)
     paper: dict[str, np.ndarray] = field(default_factory=dict)
-    expected_eq4_rim: np.ndarray | None = None  # the paper's 7x7 rim
-    expected_eq4_extent: np.ndarray | None = None  # the console's target-aware rule
+    # the paper's 7x7 rim; the console's target-aware rule (None: not computed)
+    expected_eq4_rim: np.ndarray | None = field(default=None, metadata={CURVE: "expected_eq4_rim"})
+    expected_eq4_extent: np.ndarray | None = field(
+        default=None, metadata={CURVE: "expected_eq4_extent"}
+    )
     draws: McDraws | None = None  # the Monte-Carlo draws behind the band
     sky_assumed: bool = False  # no sky temperature given: assumed the air's, the band widened
 
+    def curves(self) -> dict[str, np.ndarray]:
+        """Every curve over ``ranges_m`` by name: the four (:data:`CURVES`), the expected Eq. (4)
+        readings the prediction has (:data:`EXPECTED_CURVES`), the paper's switched curves
+        (``paper_<curve>``) and the band's edges (``<curve>_lower``, ``<curve>_upper``)."""
+        out = {
+            f.metadata[CURVE]: getattr(self, f.name)
+            for f in fields(self)
+            if CURVE in f.metadata and getattr(self, f.name) is not None
+        }
+        out |= {f"paper_{name}": snr for name, snr in self.paper.items()}
+        for name in self.lower:  # the Monte-Carlo band of the model's uncertain inputs
+            if name in self.upper:
+                out[f"{name}_lower"], out[f"{name}_upper"] = self.lower[name], self.upper[name]
+        return out
+
     def snr(self, curve: str) -> np.ndarray:
-        if curve in EXPECTED_CURVES:
-            value = getattr(self, curve)
-            if value is None:
-                raise ValueError("this prediction was made without the expected Eq. (4) curves")
-            return value
-        if curve not in CURVES:
+        """One curve of :data:`CURVES` or :data:`EXPECTED_CURVES` by name."""
+        if curve not in CURVES and curve not in EXPECTED_CURVES:
             known = ", ".join((*CURVES, *EXPECTED_CURVES))
             raise ValueError(f"unknown curve {curve!r}; known: {known}")
-        return getattr(self, f"snr_{curve}")
+        value = self.curves().get(curve)
+        if value is None:
+            raise ValueError("this prediction was made without the expected Eq. (4) curves")
+        return value
 
     @property
     def noise_e(self) -> dict[str, float]:
@@ -147,17 +167,15 @@ class SnrPrediction:
     def to_records(self) -> list[dict]:
         """One JSON-ready object per range (the ``snrmon model snr --json`` contract)."""
         out = []
+        curves = self.curves()
         for i, r in enumerate(self.ranges_m):
             rec = {
                 "range_m": float(r),
                 "resolved_small": bool(self.resolved_small[i]),
                 "resolved_large": bool(self.resolved_large[i]),
-                "snr_small": float(self.snr_small[i]),
-                "snr_large": float(self.snr_large[i]),
-                "snr_small_corrected": float(self.snr_small_corrected[i]),
-                "snr_large_corrected": float(self.snr_large_corrected[i]),
+                **{f"snr_{name}": float(curves[name][i]) for name in CURVES},
                 **{
-                    name: None if getattr(self, name) is None else float(getattr(self, name)[i])
+                    name: float(curves[name][i]) if name in curves else None
                     for name in EXPECTED_CURVES
                 },
                 "snr_paper": {c: float(self.paper[c][i]) for c in self.paper},

@@ -127,6 +127,12 @@ def row_payload(row: StopRow) -> dict:
         if isinstance(v, float) and not math.isfinite(v):
             payload[k] = None
     payload["model_snr"] = {k: (v if math.isfinite(v) else None) for k, v in row.model_snr.items()}
+    if row.frame_means:  # the declared per-frame means (none declared: the payload as before)
+        payload["frame_means"] = {
+            k: (v if math.isfinite(v) else None) for k, v in row.frame_means.items()
+        }
+    else:
+        del payload["frame_means"]
     payload["expected_eq4_rule"] = row.expected_eq4_rule  # which model_snr reading applies
     return payload
 

@@ -109,8 +109,8 @@ def test_each_row_s_ratio_is_against_its_own_rule_s_expected_reading(table):
         assert rule is not None, where
         rules.add(rule)
         mean = number(row["snr_mean"])
-        own = float(row[f"model:expected_eq4_{rule}"])
-        other = float(row[f"model:expected_eq4_{'rim' if rule == 'extent' else 'extent'}"])
+        own = float(row[f"model_expected_eq4_{rule}"])
+        other = float(row[f"model_expected_eq4_{'rim' if rule == 'extent' else 'extent'}"])
         value, tag = row["ratio"].split()
         assert tag == TAGS[rule], where
         # the cells' rounding: the mean to 0.01, the expected reading to 0.1
