@@ -225,6 +225,7 @@ def run(args: argparse.Namespace) -> int:
         CharacterizeConfig,
         at_rest_frames,
         characterize_frame,
+        median_outline,
         summarise_frames,
         target_toml,
         unmeasurable,
@@ -359,7 +360,9 @@ def run(args: argparse.Namespace) -> int:
     if path is not None and cal is not None:
         out["transmission"], out["air_temp_c"] = path.transmission, path.air_temp_k - ZERO_C_K
     if args.target_out:
-        Path(args.target_out).write_text(target_toml(result, args.target_name))
+        # the drone's segmented outline at this stop, for the model's "outline" footprint
+        outline = median_outline(used, float(range_m) * sensor.ifov_rad)
+        Path(args.target_out).write_text(target_toml(result, args.target_name, outline=outline))
         out["target_file"] = args.target_out
     # The characterization belongs to the session it was measured from: beside it, or in it
     # with --write.
