@@ -52,7 +52,6 @@ from snrmon.acquisition.engine.inputs import (
     ClearRoi,
     Command,
     Cue,
-    FrameContext,
     FrameOutput,
     Measurement,
     ReferenceDone,
@@ -67,6 +66,7 @@ from snrmon.acquisition.measure.track_noise import TrackNoise
 from snrmon.acquisition.stage_clock import CORRECTION, HANDOVER, STATISTICS, TRACKING, enter
 from snrmon.acquisition.stops.detector import mean_error
 from snrmon.acquisition.stops.table import StopProgress, expected_eq4_rule
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.acquisition.track.config import TrackState
 from snrmon.acquisition.track.tracker import TrackerConfig
 
@@ -211,55 +211,37 @@ class CameraEngine:
         return float(calibration.pixels_temperature_k([dn], [y], [x])[0])
 
     # ------------------------------------------------------------------ per frame (owner)
-    def process(
-        self,
-        pixels: np.ndarray,
-        *,
-        seq: int,
-        counter: int,
-        t_host_ns: int,
-        range_at: RangeLookup | None = None,
-    ) -> FrameOutput:
-        """Apply the pending commands, then analyse one raw frame (rows, columns)."""
+    def process(self, frame: RingFrame, range_at: RangeLookup | None = None) -> FrameOutput:
+        """Apply the pending commands, then analyse one raw frame of this camera as the ring
+        gave it (``range_at``: the range at its time; None: no range)."""
+        if frame.camera != self.name:
+            raise ValueError(f"a frame of camera {frame.camera!r} given to {self.name!r}'s engine")
         enter(TRACKING)  # the stages of a live frame (snrmon.acquisition.stage_clock)
+        pixels, counter, t_host_ns = frame.pixels, frame.counter, frame.t_host_ns
         applied = self._apply_commands()  # a Restore sets _last_counter as it was live
         last, self._last_counter = self._last_counter, int(counter)
         if self.tell_gaps and last is not None and counter > last + 1:  # frames dropped between
             self.measurer.skip(counter - last - 1)
             if self._raw_track:  # the raw track runs only while a correction is on
                 self.raw_measurer.skip(counter - last - 1)
-        cue = None
-        for c in applied:
-            if isinstance(c, Cue):
-                cue = c
-                break
-        corrector = self.corrector
-        done = None
-        if corrector.capturing:
-            enter(CORRECTION)
-            summary = corrector.feed(pixels, counter)
-            if summary is not None and corrector.reference_offset is not None:
-                done = ReferenceDone(corrector.reference_offset, summary)
-                self._raw_track_from_here()
-        measuring = self.measurer.roi is not None
+        cue = next((c for c in applied if isinstance(c, Cue)), None)
+        done = self._feed_reference(pixels, counter)
         range_m, source = (None, "")
-        if measuring and range_at is not None:
+        if self.measurer.roi is not None and range_at is not None:
             range_m, source = range_at(t_host_ns)
-        frame = FrameContext(
-            self.name,
-            seq,
-            counter,
-            t_host_ns,
-            range_m,
-            source,
-            None if cue is None else (cue.x, cue.y),
-        )
         enter(TRACKING)
         raw = self.raw_measurer.running_figures(pixels) if self._raw_track else None
         enter(CORRECTION)
-        corrected = corrector.apply(pixels, self.measurer.read_xy)
+        corrected = self.corrector.apply(pixels, self.measurer.read_xy)
         enter(TRACKING)
-        m = self.measurer.measure(corrected, frame, raw=raw)
+        m = self.measurer.measure(
+            corrected,
+            frame,
+            range_m=range_m,
+            range_source=source,
+            cue_xy=None if cue is None else (cue.x, cue.y),
+            raw=raw,
+        )
         enter(STATISTICS)
         peak_xy = None if m is None else (m.result.peak_x, m.result.peak_y)
         if self.display_figures:
@@ -271,10 +253,23 @@ class CameraEngine:
             with self._lock:
                 self._measured += 1
                 self._roi, self._state = None, TrackState.IDLE
-            return FrameOutput(None, applied, done)
+            return FrameOutput(frame, None, applied, done)
         window = self.measurer.meter.running.values() if self.display_figures else None
         self._publish(m, window)
-        return FrameOutput(m, applied, done)
+        return FrameOutput(frame, m, applied, done)
+
+    def _feed_reference(self, pixels: np.ndarray, counter: int) -> ReferenceDone | None:
+        """A background reference capture in progress takes the frame; the reference when it
+        completes on it (the raw track starts there), else None."""
+        corrector = self.corrector
+        if not corrector.capturing:
+            return None
+        enter(CORRECTION)
+        summary = corrector.feed(pixels, counter)
+        if summary is None or corrector.reference_offset is None:
+            return None
+        self._raw_track_from_here()
+        return ReferenceDone(corrector.reference_offset, summary)
 
     def publish_recorded(self, m: Measurement) -> None:
         """A frame measured live but missing from the recording: its recorded measurement is
@@ -390,16 +385,12 @@ class CameraEngine:
             self.noise.cube.latest,
         )
 
-    def status(
-        self,
-        *,
-        device: DeviceStatus | None = None,
-        frames: FrameAccounting | None = None,
-        fps: float = 0.0,
-        latency_ms: tuple[float, float] = (NAN, NAN),
-    ) -> CameraStatus:
-        """The camera's status as the console shows it; the caller adds what only it knows (the
-        device's health, the frame accounting, the frame rate, the latency)."""
+    def status(self) -> CameraStatus:
+        """The camera's status as the engine knows it: the track, its last measured frame, the
+        model there and the figures. What only the frames' mover knows (the device's health,
+        the frame accounting, the frame rate, the latency) it puts in
+        (:meth:`CameraStatus.with_frames`); until then the device is streaming and every frame
+        measured is one received while not recording."""
         with self._lock:
             last, roi, state, gps_xy, measured, window = (
                 self._last,
@@ -409,10 +400,8 @@ class CameraEngine:
                 self._measured,
                 self._window,
             )
-        if device is None:
-            device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)
-        if frames is None:
-            frames = FrameAccounting(received=measured, measured=measured)
+        device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)
+        frames = FrameAccounting(received=measured, before_recording=measured)
         model = self._model_at(last)
         predictor = self.predictor
         psf_source = (
@@ -431,15 +420,12 @@ class CameraEngine:
             name=self.name,
             device=device,
             frames=frames,
-            fps=float(fps),
             roi_xy=roi,
             gps_xy=gps_xy,
             track_state=state,
             last=last,
             model=model,
             figures=self.figures(),
-            latency_ms_p50=float(latency_ms[0]),
-            latency_ms_p99=float(latency_ms[1]),
             snr_sem=sem,
             agreement=agreement,
             model_psf_source=psf_source,

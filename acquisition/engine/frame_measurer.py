@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from snrmon.acquisition.engine.inputs import FrameContext, Measurement, RunningFigures
+from snrmon.acquisition.engine.inputs import Measurement, RunningFigures
 from snrmon.acquisition.measure.peak_snr import (
     RUNNING_EXCLUDED,
     PeakSnr,
@@ -18,6 +18,7 @@ from snrmon.acquisition.measure.peak_snr import (
     PeakSnrMeter,
 )
 from snrmon.acquisition.stage_clock import EQ4, enter
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.acquisition.track.config import TrackState
 from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, reach_px
 
@@ -110,13 +111,18 @@ class FrameMeasurer:
     def measure(
         self,
         pixels: np.ndarray,
-        frame: FrameContext,
+        frame: RingFrame,
         *,
+        range_m: float | None = None,
+        range_source: str = "",
+        cue_xy: tuple[float, float] | None = None,
         raw: RunningFigures | None = None,
     ) -> Measurement | None:
-        """Eq. (4) on ``pixels`` (with the track), and the running statistics after it, as the
-        one :class:`Measurement` of this frame; None while no ROI is set. ``raw``: the running
-        statistics of the same track on the raw frame, while a correction is on."""
+        """Eq. (4) on ``pixels`` (``frame``'s, corrected), with the track, and the running
+        statistics after it, as the one :class:`Measurement` of ``frame``; None while no ROI is
+        set. ``range_m`` (from ``range_source``) is the range at the frame's time, ``cue_xy`` the
+        GPS cue applied just before it (None: none); ``raw``: the running statistics of the same
+        track on the raw frame, while a correction is on."""
         step = self._step(pixels)
         if step is None:
             return None
@@ -133,9 +139,9 @@ class FrameMeasurer:
             snr_mean=r.mean,
             snr_std=r.std,
             snr_n=r.count,
-            range_m=frame.range_m,
-            range_source=frame.range_source,
-            cue_xy=frame.cue_xy,
+            range_m=range_m,
+            range_source=range_source,
+            cue_xy=cue_xy,
             snr_mean_raw=raw.mean if raw is not None else math.nan,
             snr_std_raw=raw.std if raw is not None else math.nan,
             track_reason=reason,

@@ -10,7 +10,8 @@ Inputs (any thread; each camera's frames from one thread, in order):
   reading is fresh, else the GPS slant range from the site; docs/architecture.md, "Time"), and into
   the stop detector; a fix is projected into every pointed camera and cues its tracker (paper
   section 4);
-- :meth:`on_frame`: one frame of one camera through its engine, then into the stop table;
+- :meth:`on_frame`: one frame of one camera (the ring's record as it is) through its engine,
+  then into the stop table;
 - :meth:`on_recorded`: a frame measured live but missing from a recording (replay only);
 - :meth:`mark_stop`: the operator's stop mark.
 
@@ -40,6 +41,7 @@ from snrmon.acquisition.stage_clock import HANDOVER, STATISTICS, enter
 from snrmon.acquisition.stops.detector import Stop, StopConfig, StopDetector
 from snrmon.acquisition.stops.table import StopRow, StopSource, StopTable
 from snrmon.acquisition.streams.history import ScalarHistory
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
@@ -304,14 +306,11 @@ class SessionEngine:
         return (g, "gps") if g is not None else (None, "")
 
     # ------------------------------------------------------------------ frames
-    def on_frame(
-        self, camera: str, pixels: np.ndarray, *, seq: int, counter: int, t_host_ns: int
-    ) -> FrameOutput:
-        """One frame of ``camera`` through its engine, then the stop table and the listeners."""
-        out = self.cameras[camera].process(
-            pixels, seq=seq, counter=counter, t_host_ns=t_host_ns, range_at=self.range_at
-        )
-        self._after_frame(camera, t_host_ns, out.measurement, pixels)
+    def on_frame(self, frame: RingFrame) -> FrameOutput:
+        """One frame of camera ``frame.camera``, as the ring gave it, through that camera's
+        engine, then the stop table and the listeners."""
+        out = self.cameras[frame.camera].process(frame, self.range_at)
+        self._after_frame(frame.camera, frame.t_host_ns, out.measurement, frame.pixels)
         return out
 
     def on_recorded(self, m: Measurement) -> None:

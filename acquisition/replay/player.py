@@ -364,9 +364,7 @@ class ReplayPlayer:
         engine.cameras[name].post(ClearRoi() if x is None or y is None else SetRoi(x, y))
         frame = self.pipelines[name].latest_frame()
         if frame is not None:
-            engine.on_frame(
-                name, frame.pixels, seq=frame.seq, counter=frame.counter, t_host_ns=frame.t_host_ns
-            )
+            engine.on_frame(frame)
 
     def _next_job(self) -> tuple[str, Any] | None:
         """Wait for something to do; returns the job (under the condition's lock)."""

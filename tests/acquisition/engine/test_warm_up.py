@@ -18,6 +18,7 @@ from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import SetRoi
 from snrmon.acquisition.engine.warm_up import warm_up
+from snrmon.acquisition.streams.ring import RingFrame
 from tests.acquisition.calibration_scene import camera
 
 KERNEL_MODULES = (
@@ -75,7 +76,7 @@ def _first_frames_load(calibrated: bool, warm: bool, resolved: bool) -> dict[str
     for f in frames[4:]:
         f.flags.writeable = False
     for i, f in enumerate(frames):
-        assert engine.process(f, seq=i, counter=i, t_host_ns=i).measurement is not None
+        assert engine.process(RingFrame(f, i, i, i, None, engine.name)).measurement is not None
     after = _signatures()
     return {k: after[k] - before[k] for k in after if after[k] != before[k]}
 

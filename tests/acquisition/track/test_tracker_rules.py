@@ -137,14 +137,15 @@ def test_bad_input_is_one_clear_message_and_the_state_says_why():
 
 def test_the_console_status_says_why_the_track_is_not_tracking():
     from snrmon.acquisition.engine.frame_measurer import FrameMeasurer
-    from snrmon.acquisition.engine.inputs import FrameContext
+    from snrmon.acquisition.streams.ring import RingFrame
     from snrmon.acquisition.track.config import TrackState
 
     sat = _sky(1, 16)[0]
     sat[40:, :] = 65535.0
     measurer = FrameMeasurer()
     measurer.set_roi(60, 70)
-    m = measurer.measure(_u16(sat), FrameContext("cam", 0, 0, 0))
+    pixels = _u16(sat)
+    m = measurer.measure(pixels, RingFrame(pixels, 0, 0, 0, None, "cam"))
     assert (m.track_state, m.track_reason) == (TrackState.LOST, "no_object")
 
 
