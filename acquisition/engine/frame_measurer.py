@@ -12,7 +12,6 @@ import numpy as np
 
 from snrmon.acquisition.engine.inputs import Measurement, RunningFigures
 from snrmon.acquisition.measure.peak_snr import (
-    RUNNING_EXCLUDED,
     PeakSnr,
     PeakSnrConfig,
     PeakSnrMeter,
@@ -59,7 +58,7 @@ class FrameMeasurer:
         self.roi = (int(x), int(y))
         self.tracker = None
         if self.track:
-            self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
+            self.tracker = self._tracker(self.roi)
 
     @property
     def read_xy(self) -> tuple[int, int] | None:
@@ -67,6 +66,17 @@ class FrameMeasurer:
         if self.tracker is not None:
             return self.tracker.read_centre
         return self.roi
+
+    def _tracker(self, at: tuple[int, int]) -> Tracker:
+        """A track from ``at`` that feeds this measurer's own noise reference and running
+        statistics (one memory, whoever measures: the track or Eq. 4 alone)."""
+        meter = self.meter
+        return Tracker(
+            at,
+            self.tracker_config,
+            measurement=meter.config,
+            memory=(meter.reference, meter.running),
+        )
 
     def clear_roi(self) -> None:
         self.roi = None
@@ -93,7 +103,7 @@ class FrameMeasurer:
         if state["tracker"] is not None:
             if not self.track:
                 raise ValueError("a tracked state restored into a measurer with tracking off")
-            self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
+            self.tracker = self._tracker(self.roi)
             self.tracker.restore(state["tracker"])
 
     def skip(self, frames: int) -> None:
@@ -164,9 +174,7 @@ class FrameMeasurer:
         if self.tracker is not None:
             step = self.tracker.update(pixels)
             result, state, reason = step.peak_snr, step.state, step.reason
-            centre = (step.window_x, step.window_y)
-            if not (result.flags & RUNNING_EXCLUDED):
-                self.meter.running.push(result.snr)
+            centre = (step.window_x, step.window_y)  # the track fed the running statistics
         else:
             running = enter(EQ4)  # the stages of a live frame (snrmon.acquisition.stage_clock)
             result, state, centre = self.meter.measure(pixels, self.roi), TrackState.FIXED, self.roi

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import functools
 import logging
-import math
 import threading
 from collections import deque
 from collections.abc import Callable, Mapping
@@ -34,6 +33,7 @@ import numpy as np
 from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import Cue, FrameOutput, Measurement
+from snrmon.acquisition.engine.sky_following import SkyFollower
 from snrmon.acquisition.geo.gps_cue import GpsProjector
 from snrmon.acquisition.geo.projection import gps_slant_range_m
 from snrmon.acquisition.prediction import Predictor
@@ -47,8 +47,6 @@ from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
 log = logging.getLogger(__name__)
 
-SKY_CHECK_NS = 2_000_000_000  # the model's background is re-evaluated at most every 2 s
-SKY_CHANGE_K = 0.5  # ... and follows the sky only on a change larger than this
 HISTORY_FRAMES = 4000  # measurements kept per camera to seed a backdated stop (live and replay)
 
 
@@ -140,7 +138,7 @@ class SessionEngine:
         for name, camera in self.cameras.items():
             camera.predictor = predictor
             camera.stop_progress = functools.partial(self.stop_table.progress, name)
-        self._sky_checked: dict[str, int] = {}
+        self.sky_follower = SkyFollower()  # the one owner of the sky the model's background follows
         # per camera, the host time of the last frame the stop table has seen (model_input_ns)
         self._table_frame_ns: dict[str, int] = {}
         self._listeners: list[Callable[[Measurement, np.ndarray | None], None]] = []
@@ -152,6 +150,8 @@ class SessionEngine:
 
     @predictor.setter
     def predictor(self, predictor: Predictor | None) -> None:
+        """A new model (the console's options): it takes over the sky followed so far."""
+        self.sky_follower.apply_to(predictor)
         self.stop_table.predictor = predictor
         for camera in self.cameras.values():
             camera.predictor = predictor
@@ -159,8 +159,12 @@ class SessionEngine:
     def set_background(self, camera: str, temp_k: float | None) -> None:
         """The model's background temperature for ``camera`` (the measured sky; None: the
         model's own): the paper's path-radiance correction (sections 8-9)."""
-        if self.predictor is not None:
-            self.predictor.set_background(camera, temp_k)
+        self.sky_follower.set(camera, temp_k, self.predictor)
+
+    def model_sky_temp_k(self, camera: str) -> float | None:
+        """The measured sky temperature ``camera``'s model background follows (None: the
+        model's own); a display reads it, only the engine sets it."""
+        return self.sky_follower.temp_k(camera)
 
     def adopt_psf(self, camera: str, estimate: dict, t_host_ns: int) -> None:
         """The corrected curves and the expected Eq. (4) use the PSF measured from the flight
@@ -341,22 +345,15 @@ class SessionEngine:
 
     def _follow_sky(self, camera: str, t_ns: int) -> None:
         """With a calibration, the model's background input follows the measured sky
-        temperature (paper sections 8-9), re-evaluated at most every 2 s, on a 0.5 K change."""
+        temperature (:class:`~snrmon.acquisition.engine.sky_following.SkyFollower`); a change is
+        recorded at this frame."""
         sky = self.cameras[camera].sky
         predictor = self.predictor
         if sky is None or predictor is None:
             return
-        if t_ns - self._sky_checked.get(camera, 0) < SKY_CHECK_NS:
-            return
-        temp = sky.mean_temp_k(last=100)
-        if not math.isfinite(temp):
-            return  # not measured yet: look again next frame, not in 2 s
-        self._sky_checked[camera] = t_ns
-        current = predictor.background_temp_k.get(camera)
-        if current is None or abs(temp - current) > SKY_CHANGE_K:
-            predictor.set_background(camera, temp)
-            if self.sink is not None:
-                self.sink.model_changed(camera, "model_background", {"temp_k": temp}, t_ns)
+        temp = self.sky_follower.follow(camera, t_ns, sky, predictor)
+        if temp is not None and self.sink is not None:
+            self.sink.model_changed(camera, "model_background", {"temp_k": temp}, t_ns)
 
     # ------------------------------------------------------------------ the table
     def stops(self) -> list[StopRow]:

@@ -215,6 +215,11 @@ class ReplayPlayer:
     def predictor(self, predictor: Predictor | None) -> None:
         self.set_predictor(predictor)
 
+    def model_sky_temp_k(self, camera: str) -> float | None:
+        """The sky temperature (K) ``camera``'s model background follows in the replay (the
+        recorded changes applied so far; None: the model's own)."""
+        return self._engine.model_sky_temp_k(camera)
+
     def set_predictor(self, predictor: Predictor | None) -> None:
         """The model for the stop table's model column (from the next row computed)."""
         self._predictor = predictor

@@ -238,6 +238,11 @@ class Session:
     def stop_table(self):
         return self.engine.stop_table
 
+    def model_sky_temp_k(self, camera: str) -> float | None:
+        """The measured sky temperature (K) ``camera``'s model background follows (None: the
+        model's own), as the engine follows it."""
+        return self.engine.model_sky_temp_k(camera)
+
     @property
     def stop_detector(self):
         return self.engine.stop_detector
