@@ -36,6 +36,7 @@ import numpy as np
 
 from snrmon.acquisition.compression import frame_filter
 from snrmon.acquisition.engine.inputs import Measurement
+from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.record import schema as S  # noqa: N812
 from snrmon.acquisition.record.recorder_status import (
     RecorderStatus,
@@ -173,22 +174,48 @@ class SessionRecorder:
             )
         return index
 
-    def add_measurement(self, camera: str, index: int | None, **values: Any) -> None:
-        """Queue one frame's Eq. (4) result from its values (:func:`snrmon.acquisition.record.
-        stream_rows.values_row`: counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr,
-        flags). ``index``: the frame's index from ``add_frame``, or ``None`` to look it up by
-        ``t_host_ns`` (-1 in the file when the frame is not recorded)."""
+    def add_measurement(
+        self,
+        camera: str,
+        index: int | None,
+        m: Measurement | PeakSnr,
+        *,
+        counter: int = -1,
+        t_host_ns: int | None = None,
+    ) -> None:
+        """Queue one frame's measurement (the one entry point): the engine's
+        :class:`Measurement`, or an Eq. (4) result alone (:class:`PeakSnr`: a frame measured
+        without the engine's context, such as the stop table's kept rows; the track fields are
+        then "not given") with its frame's ``counter`` and ``t_host_ns``. ``index``: the frame's
+        index from ``add_frame``, or None to look it up by the frame's ``t_host_ns`` (-1 in the
+        file when the frame is not recorded: a dropped frame's measurement is kept all the
+        same)."""
         self._check_camera(camera)
+        t = m.t_host_ns if isinstance(m, Measurement) else t_host_ns
+        if t is None:
+            raise ValueError(f"{camera}: an Eq. (4) result alone needs its frame's t_host_ns")
         if index is None:
             with self._lock:
-                index = self._index_of[camera].get(int(values["t_host_ns"]), -1)
-        self._put(("meas", camera, values_row(index, **values)))
-
-    def add_measured(self, camera: str, index: int | None, m: Measurement) -> None:
-        """Queue one frame's :class:`Measurement` (``index``: the frame's index from
-        ``add_frame``, None when it was dropped: the measurement is kept all the same)."""
-        self._check_camera(camera)
-        self._put(("meas", camera, measurement_row(index, m)))
+                index = self._index_of[camera].get(int(t), -1)
+        if isinstance(m, Measurement):
+            row = measurement_row(index, m)
+        else:
+            row = values_row(
+                index,
+                counter=counter,
+                t_host_ns=int(t),
+                peak_x=m.peak_x,
+                peak_y=m.peak_y,
+                peak=m.peak,
+                bg_mean=m.bg_mean,
+                bg_std=m.bg_std,
+                snr=m.snr,
+                flags=m.flags,
+                background=m.background,
+                extent_w_px=m.extent_w_px,
+                extent_h_px=m.extent_h_px,
+            )
+        self._put(("meas", camera, row))
 
     def add_state(self, camera: str, counter: int, t_host_ns: int, state: Mapping) -> None:
         """Queue the engine's state before frame ``counter``: the first recorded frame after

@@ -105,7 +105,7 @@ class RecordingTap:
         if done is not None:
             rec.add_reference(self.name, done.offset, done.summary, t_host_ns=frame.t_host_ns)
         if out.measurement is not None:
-            rec.add_measured(self.name, index, out.measurement)
+            rec.add_measurement(self.name, index, out.measurement)
 
     def frame_done(self) -> None:
         with self._lock:
@@ -117,22 +117,7 @@ class RecordingTap:
         without frames, so a replay builds the same stop table. Taken on the measurement thread
         (or once it has stopped), so exactly the frames measured before the first recorded one."""
         for t, r in self.history():
-            rec.add_measurement(
-                self.name,
-                -1,
-                counter=-1,
-                t_host_ns=t,
-                peak_x=r.peak_x,
-                peak_y=r.peak_y,
-                peak=r.peak,
-                bg_mean=r.bg_mean,
-                bg_std=r.bg_std,
-                snr=r.snr,
-                flags=r.flags,
-                background=r.background,
-                extent_w_px=r.extent_w_px,
-                extent_h_px=r.extent_h_px,
-            )
+            rec.add_measurement(self.name, -1, r, t_host_ns=t)
 
     def _record_resume(self, rec: RecordingWriter, frame: RingFrame) -> None:
         """The first recorded frame after frames the file does not hold: the engine's state and
