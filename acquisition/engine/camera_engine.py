@@ -133,7 +133,7 @@ class CameraEngine:
         self._last: Measurement | None = None
         self._window: np.ndarray | None = None  # the running window's values after _last
         self._state = TrackState.IDLE
-        self._roi: tuple[int, int] | None = None
+        self._roi_centre: tuple[int, int] | None = None
         self._measured = 0
         self._last_counter: int | None = None  # of the last frame process() was given
         # Tell the tracker about frames dropped before measurement (off to replay a session
@@ -227,7 +227,7 @@ class CameraEngine:
         cue = next((c for c in applied if isinstance(c, Cue)), None)
         done = self._feed_reference(pixels, counter)
         range_m, source = (None, "")
-        if self.measurer.roi is not None and range_at is not None:
+        if self.measurer.roi_centre is not None and range_at is not None:
             range_m, source = range_at(t_host_ns)
         enter(TRACKING)
         raw = self.raw_measurer.running_figures(pixels) if self._raw_track else None
@@ -252,7 +252,7 @@ class CameraEngine:
         if m is None:
             with self._lock:
                 self._measured += 1
-                self._roi, self._state = None, TrackState.IDLE
+                self._roi_centre, self._state = None, TrackState.IDLE
             return FrameOutput(frame, None, applied, done)
         window = self.measurer.meter.running.values() if self.display_figures else None
         self._publish(m, window)
@@ -285,7 +285,7 @@ class CameraEngine:
             self._last = m
             self._window = window
             self._state = m.track_state
-            self._roi = m.window_xy
+            self._roi_centre = m.window_xy
             row = self._series[self._series_rows % len(self._series)]
             row[:] = (m.t_host_ns, m.result.snr, m.snr_mean, m.snr_std, rng)
             self._series_rows += 1
@@ -321,8 +321,8 @@ class CameraEngine:
 
     def _raw_track_from_here(self) -> None:
         # The raw track starts where the corrected track is when the correction begins.
-        if self.measurer.roi is not None:
-            self.raw_measurer.set_roi(*self.measurer.roi)
+        if self.measurer.roi_centre is not None:
+            self.raw_measurer.set_roi(*self.measurer.roi_centre)
 
     # ------------------------------------------------------------------ state (owner)
     @property
@@ -351,10 +351,10 @@ class CameraEngine:
 
     # ------------------------------------------------------------------ reading (any thread)
     @property
-    def roi(self) -> tuple[int, int] | None:
+    def roi_centre(self) -> tuple[int, int] | None:
         """The search window's centre after the last frame (None: not measuring)."""
         with self._lock:
-            return self._roi
+            return self._roi_centre
 
     @property
     def track_state(self) -> TrackState:
@@ -394,7 +394,7 @@ class CameraEngine:
         with self._lock:
             last, roi, state, gps_xy, measured, window = (
                 self._last,
-                self._roi,
+                self._roi_centre,
                 self._state,
                 self._gps_xy,
                 self._measured,

@@ -43,29 +43,30 @@ class FrameMeasurer:
         self.meter = PeakSnrMeter(config, window=window)
         self.track = track
         self.tracker_config = tracker_config or TrackerConfig()
-        self.roi: tuple[int, int] | None = None
+        # the search window's centre: the click, then where the track has it (None: no ROI)
+        self.roi_centre: tuple[int, int] | None = None
         self.tracker: Tracker | None = None
 
     @property
     def state(self) -> TrackState:
-        if self.roi is None:
+        if self.roi_centre is None:
             return TrackState.IDLE
         return self.tracker.track_state if self.tracker is not None else TrackState.FIXED
 
     def set_roi(self, x: int, y: int) -> None:
         """The operator's click: a fresh track (and fresh statistics) from this point."""
         self.meter.reset()
-        self.roi = (int(x), int(y))
+        self.roi_centre = (int(x), int(y))
         self.tracker = None
         if self.track:
-            self.tracker = self._tracker(self.roi)
+            self.tracker = self._tracker(self.roi_centre)
 
     @property
     def read_xy(self) -> tuple[int, int] | None:
         """Centre of the square (:func:`crop_half_px`) the next :meth:`measure` reads in."""
         if self.tracker is not None:
             return self.tracker.read_centre
-        return self.roi
+        return self.roi_centre
 
     def _tracker(self, at: tuple[int, int]) -> Tracker:
         """A track from ``at`` that feeds this measurer's own noise reference and running
@@ -79,7 +80,7 @@ class FrameMeasurer:
         )
 
     def clear_roi(self) -> None:
-        self.roi = None
+        self.roi_centre = None
         self.tracker = None
 
     def snapshot(self) -> dict:
@@ -87,7 +88,7 @@ class FrameMeasurer:
         noise reference), exactly and JSON-able: :meth:`restore` on a measurer of the same
         settings continues bit-identically."""
         return {
-            "roi": None if self.roi is None else list(self.roi),
+            "roi": None if self.roi_centre is None else list(self.roi_centre),
             "meter": self.meter.snapshot(),
             "tracker": None if self.tracker is None else self.tracker.snapshot(),
         }
@@ -96,14 +97,14 @@ class FrameMeasurer:
         roi = state["roi"]
         self.meter.restore(state["meter"])
         if roi is None:
-            self.roi, self.tracker = None, None
+            self.roi_centre, self.tracker = None, None
             return
-        self.roi = (int(roi[0]), int(roi[1]))
+        self.roi_centre = (int(roi[0]), int(roi[1]))
         self.tracker = None
         if state["tracker"] is not None:
             if not self.track:
                 raise ValueError("a tracked state restored into a measurer with tracking off")
-            self.tracker = self._tracker(self.roi)
+            self.tracker = self._tracker(self.roi_centre)
             self.tracker.restore(state["tracker"])
 
     def skip(self, frames: int) -> None:
@@ -168,7 +169,7 @@ class FrameMeasurer:
     def _step(self, pixels: np.ndarray) -> tuple[PeakSnr, TrackState, tuple[int, int], str] | None:
         """One frame: (Eq. 4 result, track state, the window's centre after it, why the drone
         was not found or "")."""
-        if self.roi is None:
+        if self.roi_centre is None:
             return None
         reason = ""
         if self.tracker is not None:
@@ -177,8 +178,9 @@ class FrameMeasurer:
             centre = (step.window_x, step.window_y)  # the track fed the running statistics
         else:
             running = enter(EQ4)  # the stages of a live frame (snrmon.acquisition.stage_clock)
-            result, state, centre = self.meter.measure(pixels, self.roi), TrackState.FIXED, self.roi
+            centre = self.roi_centre
+            result, state = self.meter.measure(pixels, centre), TrackState.FIXED
             enter(running)
         window = (int(centre[0]), int(centre[1]))
-        self.roi = window
+        self.roi_centre = window
         return result, state, window, reason

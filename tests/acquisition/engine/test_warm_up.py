@@ -69,7 +69,8 @@ def _first_frames_load(calibrated: bool, warm: bool, resolved: bool) -> dict[str
         engine.set_calibration(calibrate_sensor(caps, cam.sensor))
     if warm:
         warm_up(engine)
-        assert engine.roi is None and engine.measurer.tracker is None  # the live engine untouched
+        # the live engine untouched
+        assert engine.roi_centre is None and engine.measurer.tracker is None
     before = _signatures()
     engine.post(SetRoi(64, 48))
     frames = _frames(cam.shape, 8, seed=8, resolved=resolved)
