@@ -117,8 +117,7 @@ class CameraEngine:
         self.raw_measurer = FrameMeasurer(
             config, window=window, track=track, tracker_config=tracker_config
         )
-        cfg = self.measurer.meter.config
-        self.config = cfg
+        cfg = self.config
         half = crop_half_px(cfg, self.measurer.tracker_config)  # lazy: frame_correction.py
         self.corrector = FrameCorrector(self.shape, half, lazy=cfg.background is None)
         self.noise = self._track_noise(cfg)
@@ -127,14 +126,9 @@ class CameraEngine:
         self.predictor: Predictor | None = None
         # The latest stop's progress for this camera, for the status (the session's stop table).
         self.stop_progress: Callable[[], StopProgress | None] | None = None
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # the inbox's
         self._inbox: list[Command] = []
-        self._gps_xy: tuple[float, float] | None = None
-        self._last: Measurement | None = None
-        self._window: np.ndarray | None = None  # the running window's values after _last
-        self._state = TrackState.IDLE
-        self._roi_centre: tuple[int, int] | None = None
-        self._measured = 0
+        self._shown = Published(series_length)  # what readers on other threads see
         self._last_counter: int | None = None  # of the last frame process() was given
         # Tell the tracker about frames dropped before measurement (off to replay a session
         # recorded before it was told: format 2.0).
@@ -143,11 +137,6 @@ class CameraEngine:
         # corrected one (the console, the HIL's FPN check; half a frame's work), the noise, the
         # running window's values the status takes the error of the mean from.
         self.display_figures = True
-        # The strip chart's rows in a ring of preallocated rows: a row written per frame here,
-        # two slices copied when the console asks (a list of tuples made into an array cost
-        # the GUI thread ~0.5 ms at each status refresh).
-        self._series = np.empty((series_length, 5))
-        self._series_rows = 0  # rows ever written
 
     def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
         try:
@@ -179,14 +168,14 @@ class CameraEngine:
             if isinstance(command, Cue):
                 # Only the newest position matters: one cue per frame at most.
                 self._inbox = [c for c in self._inbox if not isinstance(c, Cue)]
-                self._gps_xy = (command.x, command.y)
             self._inbox.append(command)
+        if isinstance(command, Cue):
+            self._shown.show_gps(command.x, command.y)
 
     def show_gps(self, x: float, y: float) -> None:
         """Where the drone's GPS position falls in this camera, for the display only (a replay
         that applies the recorded cues still shows every fix)."""
-        with self._lock:
-            self._gps_xy = (float(x), float(y))
+        self._shown.show_gps(float(x), float(y))
 
     def set_calibration(self, calibration) -> None:
         """Correct the measured window with a radiometric calibration and follow the apparent
@@ -250,12 +239,10 @@ class CameraEngine:
             self.sky.add(t_host_ns, pixels, m.result)
         enter(HANDOVER)
         if m is None:
-            with self._lock:
-                self._measured += 1
-                self._roi_centre, self._state = None, TrackState.IDLE
+            self._shown.unmeasured()
             return FrameOutput(frame, None, applied, done)
         window = self.measurer.meter.running.values() if self.display_figures else None
-        self._publish(m, window)
+        self._shown.publish(m, window)
         return FrameOutput(frame, m, applied, done)
 
     def _feed_reference(self, pixels: np.ndarray, counter: int) -> ReferenceDone | None:
@@ -276,19 +263,7 @@ class CameraEngine:
         shown (status, series) as it was; nothing is re-measured. The last counter stays that
         of the last frame this engine's trackers saw: an exact replay restores the live one (the
         state recorded before the next recorded frame holds it)."""
-        self._publish(m, None)  # its running window's values are not recorded
-
-    def _publish(self, m: Measurement, window: np.ndarray | None) -> None:
-        rng = NAN if m.range_m is None else m.range_m
-        with self._lock:
-            self._measured += 1
-            self._last = m
-            self._window = window
-            self._state = m.track_state
-            self._roi_centre = m.window_xy
-            row = self._series[self._series_rows % len(self._series)]
-            row[:] = (m.t_host_ns, m.result.snr, m.snr_mean, m.snr_std, rng)
-            self._series_rows += 1
+        self._shown.publish(m, None)  # its running window's values are not recorded
 
     def _apply_commands(self) -> tuple[Command, ...]:
         with self._lock:
@@ -351,25 +326,23 @@ class CameraEngine:
 
     # ------------------------------------------------------------------ reading (any thread)
     @property
+    def config(self) -> PeakSnrConfig:
+        """The Eq. (4) settings (the measurer's)."""
+        return self.measurer.meter.config
+
+    @property
     def roi_centre(self) -> tuple[int, int] | None:
         """The search window's centre after the last frame (None: not measuring)."""
-        with self._lock:
-            return self._roi_centre
+        return self._shown.roi_centre
 
     @property
     def track_state(self) -> TrackState:
-        with self._lock:
-            return self._state
+        return self._shown.track_state
 
     def series(self) -> np.ndarray:
         """The recent per-frame record for charts: rows of (t_host_ns, snr, running mean,
         running std, range_m or NaN)."""
-        with self._lock:
-            n, ring = self._series_rows, self._series
-            if n <= len(ring):
-                return ring[:n].copy()
-            k = n % len(ring)  # the oldest row kept
-            return np.concatenate([ring[k:], ring[:k]])
+        return self._shown.series()
 
     def figures(self) -> AnalysisFigures:
         total, temporal, spatial = self.noise.figures()
@@ -391,15 +364,7 @@ class CameraEngine:
         the frame accounting, the frame rate, the latency) it puts in
         (:meth:`CameraStatus.with_frames`); until then the device is streaming and every frame
         measured is one received while not recording."""
-        with self._lock:
-            last, roi, state, gps_xy, measured, window = (
-                self._last,
-                self._roi_centre,
-                self._state,
-                self._gps_xy,
-                self._measured,
-                self._window,
-            )
+        last, roi, state, gps_xy, measured, window = self._shown.now()
         device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)
         frames = FrameAccounting(received=measured, before_recording=measured)
         model = self._model_at(last)
@@ -437,3 +402,85 @@ class CameraEngine:
         if predictor is None or last is None or last.range_m is None:
             return {}
         return predictor(self.name, last.range_m)
+
+
+class Published:
+    """What a camera's engine publishes after each frame, for readers on any thread (the
+    status, the charts): the last measurement and its running window's values, the track's
+    state and window centre, the GPS position shown, the frames processed, and the strip
+    chart's rows in a ring of preallocated rows (a row written per frame, two slices copied when
+    the console asks: a list of tuples made into an array cost the GUI thread ~0.5 ms at each
+    status refresh). Written by the engine's owner, read whole under one lock."""
+
+    def __init__(self, series_length: int) -> None:
+        self._lock = threading.Lock()
+        self._last: Measurement | None = None
+        self._window: np.ndarray | None = None  # the running window's values after _last
+        self._state = TrackState.IDLE
+        self._roi_centre: tuple[int, int] | None = None
+        self._gps_xy: tuple[float, float] | None = None
+        self._measured = 0  # frames processed (measured or not)
+        self._series = np.empty((series_length, 5))
+        self._series_rows = 0  # rows ever written
+
+    def show_gps(self, x: float, y: float) -> None:
+        with self._lock:
+            self._gps_xy = (x, y)
+
+    def unmeasured(self) -> None:
+        """A frame processed without an ROI: not measuring."""
+        with self._lock:
+            self._measured += 1
+            self._roi_centre, self._state = None, TrackState.IDLE
+
+    def publish(self, m: Measurement, window: np.ndarray | None) -> None:
+        rng = NAN if m.range_m is None else m.range_m
+        with self._lock:
+            self._measured += 1
+            self._last = m
+            self._window = window
+            self._state = m.track_state
+            self._roi_centre = m.window_xy
+            row = self._series[self._series_rows % len(self._series)]
+            row[:] = (m.t_host_ns, m.result.snr, m.snr_mean, m.snr_std, rng)
+            self._series_rows += 1
+
+    def now(
+        self,
+    ) -> tuple[
+        Measurement | None,
+        tuple[int, int] | None,
+        TrackState,
+        tuple[float, float] | None,
+        int,
+        np.ndarray | None,
+    ]:
+        """(last measurement, window centre, track state, GPS position, frames processed, the
+        running window's values), as one."""
+        with self._lock:
+            return (
+                self._last,
+                self._roi_centre,
+                self._state,
+                self._gps_xy,
+                self._measured,
+                self._window,
+            )
+
+    @property
+    def roi_centre(self) -> tuple[int, int] | None:
+        with self._lock:
+            return self._roi_centre
+
+    @property
+    def track_state(self) -> TrackState:
+        with self._lock:
+            return self._state
+
+    def series(self) -> np.ndarray:
+        with self._lock:
+            n, ring = self._series_rows, self._series
+            if n <= len(ring):
+                return ring[:n].copy()
+            k = n % len(ring)  # the oldest row kept
+            return np.concatenate([ring[k:], ring[:k]])
