@@ -26,8 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.runtime.camera_pipeline import CAMERA_GAP
 from snrmon.acquisition.runtime.session import Session
 from snrmon.acquisition.stops.detector import StopConfig
+from snrmon.acquisition.streams.ring import RING_OVERRUN
 from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.lifetime import die_with_parent
 from snrmon.model.constants import ZERO_C_K
@@ -657,12 +659,12 @@ class HilRig:
         frames = defaultdict(dict)
         accounting = (self.recording or {}).get("accounting") or {}
         for name, pipe in self.session.pipelines.items():
-            acc = pipe.status().frames
+            drops = pipe.drops()  # since the start, by reason
             frames[name] = {
-                "received": acc.received,
-                "dropped": acc.dropped_by_camera + acc.dropped_by_ring,
-                "dropped_by_camera": acc.dropped_by_camera,
-                "dropped_by_ring": acc.dropped_by_ring,
+                "received": pipe.accounting().received,
+                "dropped": drops[CAMERA_GAP] + drops[RING_OVERRUN],
+                "dropped_by_camera": drops[CAMERA_GAP],
+                "dropped_by_ring": drops[RING_OVERRUN],
                 # With a recording: every frame received in the file, dropped with a reason, or
                 # received before it began (received = written + dropped + before_recording).
                 **({"recording": accounting[name]} if name in accounting else {}),
