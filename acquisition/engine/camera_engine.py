@@ -59,6 +59,7 @@ from snrmon.acquisition.engine.inputs import (
     SetRoi,
     StartReference,
 )
+from snrmon.acquisition.engine.lazy_frame import LazyFrame, plain
 from snrmon.acquisition.engine.status import AnalysisFigures, CameraStatus, FrameAccounting
 from snrmon.acquisition.measure.model_agreement import model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
@@ -233,9 +234,11 @@ class CameraEngine:
         )
         enter(STATISTICS)
         peak_xy = None if m is None else (m.result.peak_x, m.result.peak_y)
-        if self.display_figures:
-            self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
+        if self.display_figures:  # raw pixels (the camera's own FPN), a band of the frame
+            self.noise.update(plain(pixels), t_host_ns, peak_xy)
         if m is not None and self.sky is not None:
+            if type(pixels) is LazyFrame:  # compiled code reads the region: made first
+                pixels = plain(pixels, self.sky.box(m.result))
             self.sky.add(t_host_ns, pixels, m.result)
         enter(HANDOVER)
         if m is None:

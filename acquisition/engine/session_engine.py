@@ -33,6 +33,7 @@ import numpy as np
 from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import Cue, FrameOutput, Measurement
+from snrmon.acquisition.engine.lazy_frame import plain
 from snrmon.acquisition.engine.sky_following import SkyFollower
 from snrmon.acquisition.geo.gps_cue import GpsProjector
 from snrmon.acquisition.geo.projection import gps_slant_range_m
@@ -337,6 +338,8 @@ class SessionEngine:
         enter(HANDOVER)
         with self._lock:
             listeners = list(self._listeners)
+        if listeners and pixels is not None:
+            pixels = plain(pixels)  # a listener may read any pixel (a recording keeps them all)
         for cb in listeners:
             try:
                 cb(m, pixels)
