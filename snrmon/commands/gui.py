@@ -1,4 +1,8 @@
-"""``snrmon gui``: the operator console on the devices of a session TOML file."""
+"""``snrmon gui``: the operator console on the devices of a session TOML file.
+
+Exit 0 when the window closes; 1 when a device was lost while it ran (a camera's process gone,
+a port closed, a receiver silent), with one line naming each device and the time it was lost.
+"""
 
 from __future__ import annotations
 
@@ -138,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
         **session_model_options(config),  # the day's [weather]
     )
     with Session(config, predictor=predictor) as session:
-        return run_console(
+        code = run_console(
             session,
             curves=predictor.curve,
             headless=args.headless,
@@ -147,6 +151,11 @@ def run(args: argparse.Namespace) -> int:
             status_file=args.status_file,
             **view_options(args),
         )
+    # A device lost while the console ran ends it as it ends record and hil: exit 1 and one
+    # line naming each device and when it was lost, once the window is closed and the session
+    # stopped (a recording it made is closed, its summary listing the loss).
+    session.check_devices()
+    return code
 
 
 def _run_replay(args: argparse.Namespace) -> int:
