@@ -264,7 +264,9 @@ def paths(tmp_path_factory) -> dict[str, str]:
 @pytest.mark.parametrize(
     ("argv", "code", "says"), CASES, ids=lambda v: " ".join(v)[:60] if isinstance(v, list) else None
 )
-def test_refused_with_one_line_naming_the_option_and_value(argv, code, says, paths, capfd):
+def test_refused_with_one_line_naming_the_option_and_value(
+    argv, code, says, paths, capfd, record_property
+):
     # capfd, not capsys: a C library's own line (FFmpeg's, HDF5's) goes to file descriptor 2
     argv = [a.format(**paths) for a in argv]
     says = says.format(**paths)
@@ -274,6 +276,8 @@ def test_refused_with_one_line_naming_the_option_and_value(argv, code, says, pat
         got = exc.code
     out, err = capfd.readouterr()
     lines = err.strip().splitlines()
+    # the whole answer, for comparing two runs (--junitxml): idle and under load
+    record_property("answer", f"exit {got}: {err.strip()}")
     assert got == code, err
     assert len(lines) == 1 and lines[0].startswith(f"snrmon {argv[0]}"), err
     assert ": error: " in lines[0] and says in lines[0], lines[0]
@@ -291,12 +295,13 @@ def test_a_3d_tiff_reads_as_its_frames_in_every_layout(layout, paths, capfd):
 
 @pytest.mark.parametrize(("layout", "frames", "why"), CUT_TIFFS)
 def test_a_cut_tiff_reads_to_the_frame_it_breaks_at_with_one_warning(
-    layout, frames, why, paths, capfd
+    layout, frames, why, paths, capfd, record_property
 ):
     path = paths[f"tif_{layout}_cut"]
     why = why.format(size=Path(path).stat().st_size)
     assert main(["noise", path, "--json"]) == 0
     out, err = capfd.readouterr()
+    record_property("answer", f"exit 0: {err.strip()} {json.loads(out)['frames']} frames")
     assert json.loads(out)["frames"] == frames
     lines = err.splitlines()
     start = f"snrmon noise: warning: {path}: the file is cut short in frame {frames} ({why}"
