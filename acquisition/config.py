@@ -5,6 +5,12 @@ Example (``session.toml``)::
     target = "uav1"                 # model preset or a target TOML file
     compression = "bitshuffle-lz4"  # the frames' lossless filter: none | lz4 | bitshuffle-lz4
                                     # | zstd | gzip (default: bitshuffle-lz4)
+    model_psf = "fitted"            # the model's corrected PSF: fitted from the flight's
+                                    # unresolved stops as each completes | preset (default:
+                                    # fitted)
+    footprint = "square"            # the model's small target: the paper's square | outline
+                                    # (the target file's, from snrmon characterize
+                                    # --target-out; default: square)
 
     [site]                          # the camera site, for GPS slant range and projection
     lat_deg = 28.5383
@@ -27,8 +33,9 @@ Example (``session.toml``)::
     air_temp_c = 21.5
     rh_percent = 60.0               # or dew_point_c
     pressure_hpa = 1008.0
-    visibility_km = 20.0            # none: no aerosol
-    aerosol = "rural"               # rural | maritime | urban
+    visibility_km = 20.0            # default: 23 (LOWTRAN7's clear day)
+    aerosol = "rural"               # rural | maritime | urban | none (no aerosol); default:
+                                    # rural (no [weather] at all: rural at 23 km too)
     season = "midlat_summer"        # standard atmosphere for readings not given
 
     [gps]                           # drivers.config table (nmea | gpsd | mavlink)
@@ -51,18 +58,40 @@ in degrees, -90 to 90``.
 from __future__ import annotations
 
 import logging
-import math
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from snrmon import config_schema
 from snrmon.acquisition.geo.projection import Pointing, Site
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
-from snrmon.drivers.config import check_device_table
+from snrmon.config_schema import (
+    Key,
+    above,
+    any_of,
+    between,
+    dataclass_default,
+    int_at_least,
+    is_bool,
+    is_integer,
+    is_number,
+    is_table,
+    is_text,
+    list_of,
+    odd_int,
+    one_of,
+)
+from snrmon.drivers.config import check_device_table, device_template
 from snrmon.drivers.errors import ConfigError, toml_repr
-from snrmon.limits import COMPRESSION_CHOICES, DEFAULT_COMPRESSION, MAX_WINDOW_FRAMES
+from snrmon.limits import (
+    COMPRESSION_CHOICES,
+    DEFAULT_COMPRESSION,
+    FOOTPRINT_CHOICES,
+    MAX_WINDOW_FRAMES,
+    PSF_CHOICES,
+)
 from snrmon.model.atmosphere_table import (
     AEROSOLS,
     AIR_TEMP_RANGE_C,
@@ -84,9 +113,9 @@ class CameraConfig:
     """One camera: where its frames come from and which sensor model describes it."""
 
     name: str
-    source: str
     address: str
     sensor: str
+    source: str = "shm"
     width_px: int | None = None
     height_px: int | None = None
     pointing: Pointing | None = None
@@ -107,155 +136,198 @@ class SessionConfig:
     air_temp_k: float | None = None  # [weather] air_temp_c: the model's path temperature
     weather: Weather | None = None  # [weather]: the met readings the model's atmosphere uses
     compression: str = DEFAULT_COMPRESSION  # the recorded frames' filter (COMPRESSION_CHOICES)
+    model_psf: str = "fitted"  # the model's corrected PSF: fitted from the flight, or "preset"
+    footprint: str = "square"  # the model's small target: square, or the target's outline
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
 # --------------------------------------------------------------------------- the schema
-@dataclass(frozen=True)
-class Field:
-    """One key of a table: what a valid value is (``check``), said in words (``expected``)."""
-
-    expected: str
-    check: Callable[[Any], bool]
-    required: bool = False
+# Each key once (snrmon.config_schema): its check, its words, its default read from the
+# dataclass that holds the setting. The template (`snrmon doctor --template`) and the docs'
+# key tables (docs/operator-guide.md) come from these declarations.
+def _peak(name: str) -> Any:
+    return dataclass_default(PeakSnrConfig, name)
 
 
-def _number(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+def _session(name: str) -> Any:
+    return dataclass_default(SessionConfig, name)
 
 
-def _integer(v: Any) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
-
-
-def _between(lo: float, hi: float) -> Callable[[Any], bool]:
-    return lambda v: _number(v) and lo <= v <= hi
-
-
-def _odd_int(minimum: int) -> Callable[[Any], bool]:
-    return lambda v: _integer(v) and v >= minimum and v % 2 == 1
-
-
-def _int_at_least(minimum: int) -> Callable[[Any], bool]:
-    return lambda v: _integer(v) and v >= minimum
-
-
-def _positive(v: Any) -> bool:
-    return _number(v) and v > 0
-
-
-def _text(v: Any) -> bool:
-    return isinstance(v, str) and v != ""
-
-
-def _table(v: Any) -> bool:
-    return isinstance(v, dict)
-
-
-TOP_FIELDS = {
-    "target": Field('a target preset ("uav1", "uav2") or a target TOML file', _text),
-    "compression": Field(
+TOP_FIELDS: dict[str, Key] = {
+    "target": Key(
+        'a target preset ("uav1", "uav2") or a target TOML file',
+        is_text,
+        default=_session("target"),
+    ),
+    "compression": Key(
         f"the frames' filter, one of {', '.join(COMPRESSION_CHOICES)}",
-        lambda v: v in COMPRESSION_CHOICES,
+        one_of(COMPRESSION_CHOICES),
+        default=_session("compression"),
     ),
-    "site": Field("a table [site] with lat_deg, lon_deg, alt_m", _table),
-    "measurement": Field("a table [measurement]", _table),
-    "cameras": Field("tables [cameras.<name>]", _table, required=True),
-    "gps": Field("a table [gps] (drivers.config)", _table),
-    "lrf": Field("a table [lrf] (drivers.config)", _table),
-    "weather": Field("a table [weather] with the met readings (air_temp_c, rh_percent...)", _table),
-    "simulation": Field("a table [simulation] (the simulated scenario, recorded with it)", _table),
+    "model_psf": Key(
+        "the model's corrected PSF, one of " + ", ".join(PSF_CHOICES),
+        one_of(PSF_CHOICES),
+        default=_session("model_psf"),
+    ),
+    "footprint": Key(
+        "the model's small target, one of " + ", ".join(FOOTPRINT_CHOICES),
+        one_of(FOOTPRINT_CHOICES),
+        default=_session("footprint"),
+    ),
+    "site": Key("a table [site] with lat_deg, lon_deg, alt_m", is_table),
+    "measurement": Key("a table [measurement]", is_table),
+    "cameras": Key("tables [cameras.<name>]", is_table, required=True),
+    "gps": Key("a table [gps] (drivers.config)", is_table),
+    "lrf": Key("a table [lrf] (drivers.config)", is_table),
+    "weather": Key("a table [weather] with the met readings (air_temp_c, rh_percent...)", is_table),
+    "simulation": Key("a table [simulation] (the simulated scenario, recorded with it)", is_table),
 }
-WEATHER_FIELDS = {
-    "air_temp_c": Field("an air temperature in C, -30 to 45", _between(*AIR_TEMP_RANGE_C)),
-    "rh_percent": Field("a relative humidity in %, 0 to 100", _between(0, 100)),
-    "dew_point_c": Field("a dew point in C, -80 to 45", _between(-80, AIR_TEMP_RANGE_C[1])),
-    "pressure_hpa": Field("an air pressure in hPa, 700 to 1060", _between(*PRESSURE_RANGE_HPA)),
-    "visibility_km": Field("a visibility in km, 0.5 to 300", _between(*VISIBILITY_RANGE_KM)),
-    "aerosol": Field(f"one of {', '.join(AEROSOLS)}", lambda v: v in AEROSOLS),
-    "season": Field(f"a standard atmosphere: {', '.join(SEASONS)}", lambda v: v in SEASONS),
+WEATHER_FIELDS: dict[str, Key] = {
+    "air_temp_c": Key(
+        "an air temperature in C, -30 to 45", between(*AIR_TEMP_RANGE_C), example=21.5
+    ),
+    "rh_percent": Key("a relative humidity in %, 0 to 100", between(0, 100), example=60.0),
+    "dew_point_c": Key("a dew point in C, -80 to 45", between(-80, AIR_TEMP_RANGE_C[1])),
+    "pressure_hpa": Key(
+        "an air pressure in hPa, 700 to 1060", between(*PRESSURE_RANGE_HPA), example=1013.25
+    ),
+    "visibility_km": Key(
+        "a visibility in km, 0.5 to 300",
+        between(*VISIBILITY_RANGE_KM),
+        default=dataclass_default(Weather, "visibility_km"),
+    ),
+    "aerosol": Key(
+        f"one of {', '.join(AEROSOLS)}",
+        one_of(AEROSOLS),
+        default=dataclass_default(Weather, "aerosol"),
+    ),
+    "season": Key(
+        f"a standard atmosphere: {', '.join(SEASONS)}",
+        one_of(SEASONS),
+        default=dataclass_default(Weather, "season"),
+    ),
 }
-SITE_FIELDS = {
-    "lat_deg": Field("a latitude in degrees, -90 to 90", _between(-90, 90), required=True),
-    "lon_deg": Field("a longitude in degrees, -180 to 180", _between(-180, 180), required=True),
-    "alt_m": Field("an altitude in metres (a number)", _number, required=True),
+SITE_FIELDS: dict[str, Key] = {
+    "lat_deg": Key(
+        "a latitude in degrees, -90 to 90", between(-90, 90), required=True, example=28.5383
+    ),
+    "lon_deg": Key(
+        "a longitude in degrees, -180 to 180", between(-180, 180), required=True, example=-81.3792
+    ),
+    "alt_m": Key(
+        "an altitude in metres above mean sea level", is_number, required=True, example=30.0
+    ),
 }
-MEASUREMENT_FIELDS = {
-    "search_px": Field("an odd integer >= 1 (pixels)", _odd_int(1)),
-    "box_px": Field("an odd integer >= 3 (pixels)", _odd_int(3)),
-    "background": Field(
+_WINDOW_FRAMES = f"an integer from 1 to {MAX_WINDOW_FRAMES} (frames of the running SNR)"
+MEASUREMENT_FIELDS: dict[str, Key] = {
+    "search_px": Key("an odd integer >= 1 (pixels)", odd_int(1), default=_peak("search_px")),
+    "box_px": Key("an odd integer >= 3 (pixels)", odd_int(3), default=_peak("box_px")),
+    "background": Key(
         "a clear-sky rectangle [x0, y0, x1, y1] of integer pixels, corners included",
-        lambda v: isinstance(v, list) and len(v) == 4 and all(_integer(x) for x in v),
+        list_of(is_integer, lengths=(4,)),
+        default=_peak("background"),
+        convert=tuple,
     ),
-    "detrend": Field("true or false", lambda v: isinstance(v, bool)),
-    "saturation_dn": Field("a number (DN)", _number),
-    "ddof": Field("0 or 1", lambda v: _integer(v) and v in (0, 1)),
-    "contamination_std_factor": Field("a positive number", _positive),
-    "contamination_gradient_factor": Field("a positive number", _positive),
-    "reference_frames": Field("an integer >= 1", _int_at_least(1)),
-    "reference_min_frames": Field("an integer >= 1", _int_at_least(1)),
-    "window_frames": Field(
-        f"an integer from 1 to {MAX_WINDOW_FRAMES} (frames of the running SNR)",
-        lambda v: _integer(v) and 1 <= v <= MAX_WINDOW_FRAMES,
+    "detrend": Key("true or false", is_bool, default=_peak("detrend")),
+    "saturation_dn": Key("a number (DN)", is_number, default=_peak("saturation_dn")),
+    "ddof": Key("0 or 1", one_of((0, 1)), default=_peak("ddof")),
+    "contamination_std_factor": Key(
+        "a positive number", above(0), default=_peak("contamination_std_factor")
     ),
-    "window": Field(  # the old spelling of window_frames (recorded sessions carry it)
-        f"an integer from 1 to {MAX_WINDOW_FRAMES} (frames of the running SNR)",
-        lambda v: _integer(v) and 1 <= v <= MAX_WINDOW_FRAMES,
+    "contamination_gradient_factor": Key(
+        "a positive number", above(0), default=_peak("contamination_gradient_factor")
     ),
-    "lrf_fresh_s": Field("a positive number of seconds", _positive),
+    "reference_frames": Key("an integer >= 1", int_at_least(1), default=_peak("reference_frames")),
+    "reference_min_frames": Key(
+        "an integer >= 1", int_at_least(1), default=_peak("reference_min_frames")
+    ),
+    "window_frames": Key(
+        _WINDOW_FRAMES,
+        lambda v: is_integer(v) and 1 <= v <= MAX_WINDOW_FRAMES,
+        default=_session("window_frames"),
+    ),
+    # the old spelling of window_frames (recorded sessions carry it)
+    "window": Key(_WINDOW_FRAMES, lambda v: is_integer(v) and 1 <= v <= MAX_WINDOW_FRAMES),
+    "lrf_fresh_s": Key("a positive number of seconds", above(0), default=_session("lrf_fresh_s")),
 }
-CAMERA_FIELDS = {
-    "source": Field(f"one of {', '.join(CAMERA_SOURCES)}", lambda v: v in CAMERA_SOURCES),
-    "address": Field(
-        "a string (shm ring name, V4L2 path, Aravis id) or a V4L2 index",
-        lambda v: _text(v) or (_integer(v) and v >= 0),
+CAMERA_FIELDS: dict[str, Key] = {
+    "source": Key(
+        f"one of {', '.join(CAMERA_SOURCES)}",
+        one_of(CAMERA_SOURCES),
+        default=dataclass_default(CameraConfig, "source"),
     ),
-    "sensor": Field('a sensor preset ("mwir", "lwir") or a sensor TOML file', _text),
-    "width_px": Field("a positive integer (pixels)", _int_at_least(1)),
-    "height_px": Field("a positive integer (pixels)", _int_at_least(1)),
-    "pointing_deg": Field(
+    "address": Key(
+        'a string (shm ring name, V4L2 path, Aravis id) or a V4L2 index (default "snrmon-<name>")',
+        any_of(is_text, lambda v: is_integer(v) and v >= 0),
+        example="snrmon-mwir",
+    ),
+    "sensor": Key(
+        'a sensor preset ("mwir", "lwir") or a sensor TOML file (default: the camera\'s name)',
+        is_text,
+        example="mwir",
+    ),
+    "width_px": Key("a positive integer (pixels)", int_at_least(1)),
+    "height_px": Key("a positive integer (pixels)", int_at_least(1)),
+    "pointing_deg": Key(
         "[azimuth, elevation] or [azimuth, elevation, roll] in degrees",
-        lambda v: isinstance(v, list) and len(v) in (2, 3) and all(_number(x) for x in v),
+        list_of(is_number, lengths=(2, 3)),
     ),
-    "calibration": Field("a calibration file (.npz from snrmon calibrate)", _text),
-    "start_timeout_s": Field("a positive number of seconds", _positive),
+    "calibration": Key("a calibration file (.npz from snrmon calibrate)", is_text),
+    "start_timeout_s": Key("a positive number of seconds", above(0)),
 }
+SCHEMA: dict[str, dict[str, Key]] = {
+    "": TOP_FIELDS,
+    "site": SITE_FIELDS,
+    "measurement": MEASUREMENT_FIELDS,
+    "weather": WEATHER_FIELDS,
+    "cameras.<name>": CAMERA_FIELDS,
+}
+"""Every table of a session config, as :func:`snrmon.config_schema.template` writes them."""
 
 
-def checked(table: Any, fields: dict[str, Field], name: str) -> dict[str, Any]:
-    """``table``'s values after checking every key against ``fields``: an unknown key, a missing
-    required one or a value of the wrong type or range is one ConfigError naming the table
-    (``name``), the key, the value and what was expected."""
-    if not isinstance(table, dict):
-        raise ConfigError(f"[{name}] = {toml_repr(table)}: expected a table")
-    unknown = sorted(set(table) - set(fields))
-    if unknown:
-        raise ConfigError(
-            f"[{name}]: unknown key {unknown[0]!r} (known: {', '.join(sorted(fields))})"
-        )
-    for key, spec in fields.items():
-        if key not in table:
-            if spec.required:
-                raise ConfigError(f"[{name}] is missing {key!r}: expected {spec.expected}")
-        elif not spec.check(table[key]):
-            raise ConfigError.expected(name, key, table[key], spec.expected)
-    return dict(table)
+def checked(table: Any, fields: dict[str, Key], name: str) -> dict[str, Any]:
+    """``table``'s values after checking every key against ``fields``
+    (:func:`snrmon.config_schema.checked`, raising :class:`ConfigError`)."""
+    return config_schema.checked(table, fields, name, error=ConfigError)
+
+
+def session_template() -> str:
+    """A session TOML with every key, its default or an example, and what it expects: the
+    session's tables (:data:`SCHEMA`, the old spelling ``window`` left out), one camera
+    ``[cameras.mwir]`` set, the others and the device tables
+    (:func:`snrmon.drivers.config.device_template`) commented out to be filled in. As written
+    it loads as the defaults with one shared-memory camera."""
+    scalars = {k: v for k, v in TOP_FIELDS.items() if v.check is not is_table}
+    tables = {name: keys for name, keys in SCHEMA.items() if name}
+    text = config_schema.template(
+        {"": scalars, **tables}, active=("", "cameras.<name>"), skip=("measurement.window",)
+    )
+    return text.replace("[cameras.<name>]", "[cameras.mwir]") + "\n" + device_template()
+
+
+def key_tables_markdown() -> str:
+    """The docs' tables of every key of a session config (docs/operator-guide.md holds this
+    text; a test compares them): one per session table and one per device protocol."""
+    from snrmon.drivers.config import GPS_PROTOCOLS, PROTOCOLS, device_fields
+
+    parts = []
+    for name, keys in SCHEMA.items():
+        title = "the top level" if name == "" else f"`[{name}]`"
+        parts.append(f"Keys of {title}:\n\n{config_schema.markdown_table(keys)}")
+    for protocol in PROTOCOLS:
+        table = "gps" if protocol in GPS_PROTOCOLS else "lrf"
+        keys = device_fields(protocol)
+        title = f'`[{table}]` with `protocol = "{protocol}"`'
+        parts.append(f"Keys of {title}:\n\n{config_schema.markdown_table(keys)}")
+    return "\n\n".join(parts) + "\n"
 
 
 def _camera(name: str, table: Any) -> CameraConfig:
     v = checked(table, CAMERA_FIELDS, f"cameras.{name}")
-    pointing = Pointing(*(float(x) for x in v["pointing_deg"])) if "pointing_deg" in v else None
-    return CameraConfig(
-        name=name,
-        source=v.get("source", "shm"),
-        address=str(v.get("address", f"snrmon-{name}")),
-        sensor=v.get("sensor", name),
-        width_px=v.get("width_px"),
-        height_px=v.get("height_px"),
-        pointing=pointing,
-        calibration=v.get("calibration"),
-        start_timeout_s=v.get("start_timeout_s"),
-    )
+    pointing = Pointing(*(float(x) for x in v.pop("pointing_deg"))) if "pointing_deg" in v else None
+    v["address"] = str(v.get("address", f"snrmon-{name}"))
+    v.setdefault("sensor", name)
+    return CameraConfig(name=name, pointing=pointing, **v)
 
 
 def session_config_from_dict(
@@ -284,10 +356,7 @@ def session_config_from_dict(
         if warn is not None:
             warn("[measurement] window is deprecated, use window_frames")
         meas["window_frames"] = meas.pop("window")
-    window_frames = meas.pop("window_frames", 100)
-    lrf_fresh_s = float(meas.pop("lrf_fresh_s", 2.0))
-    if "background" in meas:
-        meas["background"] = tuple(meas["background"])
+    settings = {k: meas.pop(k) for k in ("window_frames", "lrf_fresh_s") if k in meas}
     try:
         mcfg = PeakSnrConfig(**meas)
     except ValueError as exc:  # the combination (e.g. a rectangle too small for ddof)
@@ -295,19 +364,20 @@ def session_config_from_dict(
     for kind in ("gps", "lrf"):
         if kind in top:
             check_device_table(top[kind], kind)
+    given = {
+        k: top[k]
+        for k in ("target", "compression", "model_psf", "footprint", "gps", "lrf")
+        if k in top
+    }
     return SessionConfig(
         cameras=tuple(_camera(n, t) for n, t in cams.items()),
-        target=top.get("target", "uav1"),
         site=site,
-        gps=top.get("gps"),
-        lrf=top.get("lrf"),
         measurement=mcfg,
-        window_frames=window_frames,
-        lrf_fresh_s=lrf_fresh_s,
         air_temp_k=air_temp_k,
         weather=met if weather else None,
-        compression=top.get("compression", DEFAULT_COMPRESSION),
         raw=data,
+        **given,
+        **settings,
     )
 
 
@@ -345,9 +415,14 @@ def load_session_config(path: str | Path) -> SessionConfig:
     try:
         config = session_config_from_dict(data, warn=lambda text: log.warning("%s: %s", path, text))
         try:
-            load_target(config.target)
+            target = load_target(config.target)
         except ValueError as exc:
             raise ConfigError(f"target = {toml_repr(config.target)}: {exc}") from None
+        if config.footprint == "outline" and target.outline is None:
+            raise ConfigError(
+                f'footprint = "outline": target = {toml_repr(config.target)} has no '
+                "outline (snrmon characterize --target-out writes one from a close stop)"
+            )
     except ConfigError as exc:
         raise ConfigError(f"{Path(path)}: {exc}") from None
     return config

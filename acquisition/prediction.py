@@ -35,11 +35,12 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from snrmon.model.atmosphere_table import AEROSOLS, SEASONS, Weather
+from snrmon.model.atmosphere_table import AEROSOLS, DEFAULT_VISIBILITY_KM, SEASONS, Weather
 from snrmon.model.noise import MeasuredNoise
 
 __all__ = [
     "AEROSOLS",
+    "DEFAULT_VISIBILITY_KM",
     "NOISE_SOURCES",
     "SEASONS",
     "MeasuredNoise",
@@ -56,6 +57,14 @@ EXPECTED_EXTENT = "expected_eq4_extent"
 EXPECTED_CURVES = (EXPECTED_RIM, EXPECTED_EXTENT)
 """The expected Eq. (4) readings by background rule (``model.snr.EXPECTED_CURVES``)."""
 PAPER_CURVES = tuple(f"paper_{c}" for c in CURVES)
+BANDED_CURVES = ("small_corrected", "large_corrected", *EXPECTED_CURVES)
+"""The curves the model gives a band of (paper section 9: the corrected ones and the readings)."""
+STOP_MODEL_KEYS: tuple[str, ...] = (
+    *CURVES,
+    *EXPECTED_CURVES,
+    *(f"{name}_{edge}" for name in BANDED_CURVES for edge in ("lower", "upper")),
+)
+"""The model's values a stop row can carry (:meth:`ModelPredictor.__call__`), in table order."""
 NOISE_SOURCES = ("model", "measured")
 """The model's noise: its own (Eq. 1 and the spatial term), or the camera's measured 3D noise."""
 
@@ -63,9 +72,13 @@ NOISE_SOURCES = ("model", "measured")
 def session_model_options(config) -> dict:
     """The :func:`snrmon.model.snr.predict` options a session's configuration (or its
     :class:`Weather` itself) sets: the ``[weather]`` met readings as the atmosphere (nothing
-    without them)."""
+    without them) and its ``footprint`` (nothing for the paper's square)."""
     weather = config if isinstance(config, Weather) else getattr(config, "weather", None)
-    return {} if weather is None else {"atmosphere": weather}
+    out: dict = {} if weather is None else {"atmosphere": weather}
+    footprint = getattr(config, "footprint", "square")
+    if footprint != "square":
+        out["footprint"] = footprint
+    return out
 
 
 def weather_from_record(payload: dict) -> Weather:
@@ -366,7 +379,7 @@ class ModelPredictor:
         c = self.curves.get(camera, {})
         names = (*CURVES, *EXPECTED_CURVES, *PAPER_CURVES)
         out: dict[str, tuple] = {name: (self.ranges_m, c[name]) for name in names if name in c}
-        for name in ("small_corrected", "large_corrected", *EXPECTED_CURVES):
+        for name in BANDED_CURVES:
             if f"{name}_lower" in c:
                 out[f"{name} band"] = (self.ranges_m, c[f"{name}_lower"], c[f"{name}_upper"])
         return out
@@ -374,22 +387,8 @@ class ModelPredictor:
 
 def curves_of(p) -> dict[str, np.ndarray]:
     """The curves a :class:`ModelPredictor` keeps of a ``snrmon.model.snr.predict`` result."""
-    curves = {
-        "small": np.asarray(p.snr_small, float),
-        "large": np.asarray(p.snr_large, float),
-        "small_corrected": np.asarray(p.snr_small_corrected, float),
-        "large_corrected": np.asarray(p.snr_large_corrected, float),
-        "resolved_small": np.asarray(p.resolved_small, float),
-    }
-    for name in EXPECTED_CURVES:
-        if getattr(p, name) is not None:
-            curves[name] = np.asarray(getattr(p, name), float)
-    for name, snr in p.paper.items():
-        curves[f"paper_{name}"] = np.asarray(snr, float)
-    for name in ("small_corrected", "large_corrected", *EXPECTED_CURVES):  # the band
-        if name in p.lower and name in p.upper:
-            curves[f"{name}_lower"] = np.asarray(p.lower[name], float)
-            curves[f"{name}_upper"] = np.asarray(p.upper[name], float)
+    curves = {name: np.asarray(snr, float) for name, snr in p.curves().items()}
+    curves["resolved_small"] = np.asarray(p.resolved_small, float)
     return curves
 
 

@@ -23,9 +23,22 @@ Every key is checked: an unknown key, a wrong type or a bad value raises one
 from __future__ import annotations
 
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from snrmon.config_schema import (
+    Key,
+    above,
+    any_of,
+    checked,
+    int_at_least,
+    is_bool,
+    is_string,
+    is_text,
+    one_of,
+    template,
+)
 from snrmon.drivers.device import Device
 from snrmon.drivers.errors import ConfigError
 from snrmon.drivers.serialport import SERIAL_BAUD_RATES
@@ -34,21 +47,44 @@ GPS_PROTOCOLS = ("nmea", "gpsd", "mavlink")
 LRF_PROTOCOLS = ("trupulse", "ldm")
 PROTOCOLS = GPS_PROTOCOLS + LRF_PROTOCOLS
 
-_COMMON = {
-    "protocol": str,
-    "port": str,
-    "name": str,
-    "stale_after_s": (int, float),
-    "reopen_after_s": (int, float),
-    "start_timeout_s": (int, float),
+_SECONDS = "a positive number of seconds (default: the device's own)"
+_BAUD = Key(f"a standard rate {SERIAL_BAUD_RATES}", one_of(SERIAL_BAUD_RATES))
+_COMMON: dict[str, Key] = {
+    "protocol": Key(f"one of {', '.join(PROTOCOLS)}", one_of(PROTOCOLS), required=True),
+    "port": Key(
+        'a pyserial path or URL such as "/dev/ttyUSB0" (gpsd: "host:port"; mavlink: '
+        '"udpin:0.0.0.0:14550")',
+        is_string,
+    ),
+    "name": Key("a string, the device's name in logs and the recording", is_text),
+    "stale_after_s": Key(_SECONDS, above(0)),
+    "reopen_after_s": Key(_SECONDS, above(0)),
+    "start_timeout_s": Key(_SECONDS, above(0)),
 }
-_EXTRA: dict[str, dict[str, Any]] = {
-    "nmea": {"baud": int, "allow_no_checksum": (bool, list), "max_line_bytes": int},
-    "gpsd": {"device_path": str},
-    "mavlink": {"baud": int},
-    "trupulse": {"baud": int, "remote": bool},
-    "ldm": {"baud": int, "output_format": str, "averaging": int, "track": bool},
+_EXTRA: dict[str, dict[str, Key]] = {
+    "nmea": {
+        "baud": _BAUD,
+        "allow_no_checksum": Key(
+            "true, false or a list of addresses",
+            any_of(is_bool, lambda v: isinstance(v, list) and all(is_text(a) for a in v)),
+        ),
+        "max_line_bytes": Key("a positive integer (bytes)", int_at_least(1)),
+    },
+    "gpsd": {"device_path": Key("a string, the receiver's path in gpsd", is_text)},
+    "mavlink": {"baud": _BAUD},
+    "trupulse": {"baud": _BAUD, "remote": Key("true or false", is_bool)},
+    "ldm": {
+        "baud": _BAUD,
+        "output_format": Key("a string, the LDM's output format", is_text),
+        "averaging": Key("a positive integer (readings averaged)", int_at_least(1)),
+        "track": Key("true or false", is_bool),
+    },
 }
+EXAMPLES: dict[str, dict[str, Any]] = {
+    "gps": {"protocol": "nmea", "port": "/dev/ttyUSB0", "baud": 38400},
+    "lrf": {"protocol": "trupulse", "port": "/dev/ttyUSB1", "baud": 4800},
+}
+"""The template's device tables (:func:`device_template`)."""
 
 
 def split_host_port(text: str, default_port: int, what: str) -> tuple[str, int]:
@@ -62,17 +98,8 @@ def split_host_port(text: str, default_port: int, what: str) -> tuple[str, int]:
     return host or "127.0.0.1", int(port)
 
 
-_TYPE_NAMES = {
-    str: "a string",
-    int: "an integer",
-    bool: "true or false",
-    (int, float): "a number",
-    (bool, list): "true, false or a list of addresses",
-}
-
-
-def device_fields(protocol: str) -> dict[str, Any]:
-    """{key: type} of a protocol's table (the tests walk every field)."""
+def device_fields(protocol: str) -> dict[str, Key]:
+    """The keys of a protocol's table (snrmon.config_schema; the tests walk every one)."""
     return {**_COMMON, **_EXTRA[protocol]}
 
 
@@ -84,27 +111,25 @@ def check_device_table(table: Any, name: str = "device") -> str:
         raise ConfigError(f"{where}: expected a table, got {type(table).__name__}")
     protocol = table.get("protocol")
     if protocol not in PROTOCOLS:
-        raise ConfigError.expected(name, "protocol", protocol, f"one of {', '.join(PROTOCOLS)}")
-    allowed = device_fields(protocol)
-    for key, value in table.items():
-        if key not in allowed:
-            raise ConfigError(
-                f"{where}: unknown key {key!r} for protocol {protocol!r} "
-                f"(known: {', '.join(sorted(allowed))})"
-            )
-        types = allowed[key]
-        if not isinstance(value, types) or (types is int and isinstance(value, bool)):
-            raise ConfigError.expected(name, key, value, _TYPE_NAMES[types])
-    port = table.get("port")
-    if not port and protocol != "gpsd":
+        raise ConfigError.expected(name, "protocol", protocol, _COMMON["protocol"].expected)
+    checked(table, device_fields(protocol), name, error=ConfigError)
+    if not table.get("port") and protocol != "gpsd":
         raise ConfigError(f"{where} port: missing (a path or URL such as /dev/ttyUSB0)")
-    baud = table.get("baud")
-    if baud is not None and baud not in SERIAL_BAUD_RATES:
-        raise ConfigError.expected(name, "baud", baud, f"a standard rate {SERIAL_BAUD_RATES}")
-    for key in ("stale_after_s", "reopen_after_s", "start_timeout_s"):
-        if key in table and not table[key] > 0:
-            raise ConfigError.expected(name, key, table[key], "a positive number of seconds")
     return protocol
+
+
+def device_template() -> str:
+    """The ``[gps]`` and ``[lrf]`` tables of a session template: the example's keys set, every
+    other key of its protocol commented out, each with what it expects."""
+    parts = []
+    for table, example in EXAMPLES.items():
+        keys = device_fields(example["protocol"])
+        shown = {
+            k: replace(spec, example=example[k]) if k in example else spec
+            for k, spec in keys.items()
+        }
+        parts.append(template({table: shown}, active=()))
+    return "\n".join(parts)
 
 
 def device_from_config(table: dict[str, Any], name: str = "device") -> Device:
@@ -133,8 +158,6 @@ def _build(protocol: str, port: str, table: dict, kw: dict, where: str) -> Devic
         from snrmon.drivers.gps.nmea_device import NmeaGpsDevice
 
         allow = table.get("allow_no_checksum", False)
-        if isinstance(allow, list) and not all(isinstance(a, str) for a in allow):
-            raise ConfigError(f"{where} allow_no_checksum: {allow!r} must be addresses")
         if "max_line_bytes" in table:
             kw["max_line_bytes"] = table["max_line_bytes"]
         return NmeaGpsDevice(port, allow_no_checksum=allow, **kw)

@@ -92,6 +92,10 @@ def _range_sources(st: SessionStatus | None) -> tuple[tuple[str, float | None], 
     )
 
 
+def _ago(age_s: float | None) -> str:
+    return "" if age_s is None else f" {age_s:.0f} s ago"
+
+
 def _source_words(kind: str, value: float | None, cs: CameraStatus) -> str:
     """A range source's last value, or, while it is lost, that it is lost and for how long
     (its last value is then old: never shown as if live)."""
@@ -129,9 +133,12 @@ def header_fields(name: str, cs: CameraStatus, st: SessionStatus | None) -> dict
         ", ".join(_source_words(kind, value, cs) for kind, value in _range_sources(st)),
         "",
     )
+    # the camera itself lost: no frame since, its numbers are its last ones, said so
+    stale = cs.lost_kind("camera")
+    last = None if stale is None else "last frame" + _ago(stale.for_s)
     if measuring:
         snr = f"{m.snr_mean:.2f} ± {_num(cs.snr_sem, '.2f')}"
-        note = f"n {m.snr_n}, std {_num(m.snr_std, '.2f')}"
+        note = last or f"n {m.snr_n}, std {_num(m.snr_std, '.2f')}"
     else:
         snr, note = "--", "no frames measured"
     fields["snr"] = ("SNR(100) ± error", snr, note, "")
@@ -144,8 +151,8 @@ def header_fields(name: str, cs: CameraStatus, st: SessionStatus | None) -> dict
         fields["ratio"] = (
             "measured / expected",
             _num(a.ratio, ".2f"),
-            f"{VERDICT_WORDS.get(a.verdict, a.verdict)}: {band}",
-            a.verdict,
+            f"{VERDICT_WORDS.get(a.verdict, a.verdict)}: {band}" + (f", {last}" if last else ""),
+            a.verdict if last is None else "",  # a dead camera's agreement is not lit as live
         )
     else:
         why = "no model" if not cs.model else "no measurement"

@@ -119,7 +119,7 @@ def parse_met_readings(texts: dict[str, str], aerosol: str, season: str) -> Weat
             raise ValueError(
                 f"{what} must be a number of {unit} (or empty), got {text!r}"
             ) from None
-    if not values and season == "us_std_1976":
+    if not values and season == "us_std_1976" and aerosol == Weather().aerosol:
         return None
     return Weather(aerosol=aerosol, season=season, **values)
 

@@ -105,6 +105,20 @@ class RangePlot(QWidget):
         super().__init__(parent)
         self.camera = camera
         self.rule: str | None = None  # the expected reading the title's fit is against
+        self._make_plot()
+        self._make_switches()
+        self.setToolTip(
+            f"{camera}: peak SNR (dimensionless) versus range (m). Lines: the model's curves "
+            "(dashed uncorrected: diffraction-limited PSF, point target; solid corrected: real "
+            "PSF, finite target size); shaded: the model's uncertainty; squares: measured stops, "
+            "mean +/- the error of the mean of their 100 frames; star: the live 100-frame mean "
+            "+/- its error at the current range."
+        )
+        self._lay_out()
+        self.apply_theme(th.scaled_font(1.0))
+
+    def _make_plot(self) -> None:
+        """The plot, its stops' and the live mean's markers and error bars, its range."""
         self.plot = pg.PlotWidget()
         self.plot.setLabel("left", "peak SNR (Eq. 4)")
         self.plot.setLabel("bottom", "range (m)")
@@ -136,6 +150,8 @@ class RangePlot(QWidget):
         self._rows: list[StopRow] = []
         self._live_shown: tuple[float, float, float] | None = None
 
+    def _make_switches(self) -> None:
+        """The title, what the curves are computed at, the axis and legend switches."""
         self.title = caption("", "chi^2 per degree of freedom of the unresolved stops")
         self.basis = caption("", "The background the model's curves are computed at")
         self.log_x = QCheckBox("log range")
@@ -158,13 +174,8 @@ class RangePlot(QWidget):
         self.legend = PlotLegend()
         self.legend.toggled.connect(self._legend_toggled)
         self.legend_switch.toggled.connect(self.legend.setVisible)
-        self.setToolTip(
-            f"{camera}: peak SNR (dimensionless) versus range (m). Lines: the model's curves "
-            "(dashed uncorrected: diffraction-limited PSF, point target; solid corrected: real "
-            "PSF, finite target size); shaded: the model's uncertainty; squares: measured stops, "
-            "mean +/- the error of the mean of their 100 frames; star: the live 100-frame mean "
-            "+/- its error at the current range."
-        )
+
+    def _lay_out(self) -> None:
         # The title, what the curves are computed at and the switches, wrapped by width.
         self.bar = FlowBox(spacing=12)
         bar = self.bar.flow
@@ -178,7 +189,6 @@ class RangePlot(QWidget):
         lay.addWidget(self.bar)
         lay.addWidget(self.plot, 1)
         lay.addWidget(self.legend)
-        self.apply_theme(th.scaled_font(1.0))
 
     # ------------------------------------------------------------------ theme
     def apply_theme(self, font: QFont) -> None:

@@ -18,10 +18,20 @@ Content::
                                       "verdict"} | null,
                         "stop": {"stop", "n_frames", "n_wanted", "open"} | null,
                         "lost": [{"kind", "name", "state", "for_s"}, ...],
-                        "header": str, "frames_shown": int, "shape": [rows, cols],
-                        "screen_first_pixel": [x, y], "screen_last_pixel": [x, y]}},
+                        "header": str, "header_alarm": bool, "header_rect": [x, y, w, h],
+                        "state_rect": [x, y, w, h], "verdicts": {tile: str},
+                        "frames_shown": int, "shape": [rows, cols],
+                        "screen_first_pixel": [x, y], "screen_last_pixel": [x, y],
+                        "gps_xy": [x, y] | null, "palette": str, "box_screen_px": float,
+                        "gps_marker": {"visible", "symbol", "size_px", "hollow", "at"},
+                        "box_marker": {"visible", "symbol", "size_px", "hollow", "at"}}},
      "lrf_range_m": float | null, "gps_range_m": float | null,
      "stops": [[cell, ...], ...], "alarms": [str, ...],
+     "banner": {"text": str, "visible": bool},
+     "stop_table": {"columns": [key, ...], "hidden": [key, ...],
+                    "colours": [{key: [fill, ink]}, ...], "ratio_rects": [[x, y, w, h] | null]},
+     "recording": {"text": str, "level": str, "fill": str, "ink": str, "rect": [x, y, w, h]},
+     "pointer": str,
      "replay": {"index", "length", "playing", "speed",
                 "slider": {"handle": [x, y], "groove": [x_left, x_right, y]}} | null,
      "stop_table_screen": [x, y],
@@ -31,8 +41,21 @@ Content::
      "messages": [str, ...]}
 
 The camera numbers are the status snapshot the header was drawn from (``header`` is its text);
-``stops`` the stop table's cells as shown; ``layout`` is
+``stops`` the stop table's cells as shown (every column, hidden ones included), ``stop_table``
+its columns' keys in the same order, the ones hidden for want of room, each row's coloured
+cells (background and text colour, ``#rrggbb``) and where each row's measured / expected cell is
+on the screen (null while scrolled out of view); ``recording`` the recording indicator's words,
+level (``""``, ``"amber"``, ``"red"``) and colours; ``banner`` the alarm banner's words
+(``ALARM ...`` while a device is lost, ``BACK ...`` for a while after); ``pointer`` the status
+bar's readout of the pixel under the pointer; ``layout`` is
 :func:`snrmon.gui.legibility.layout_report`.
+
+``header_rect`` and ``state_rect`` are where a camera's header and its state tile's value (the
+word turned red while a device is lost) are on the screen, ``verdicts`` the verdict each header
+tile is coloured by (``inside``, ``near``, ``outside``, ``lost`` or ``""``); ``gps_marker`` and
+``box_marker`` the GPS cue and the small-box marker as drawn (``at``: the global screen position
+of their centre, ``size_px`` their width on the screen, ``hollow`` when the drone shows through
+them).
 
 ``screen_first_pixel`` and ``screen_last_pixel`` are the global screen positions of the centres
 of image pixel (0, 0) and (cols - 1, rows - 1) as shown now (zoom and pan included): where on
@@ -50,6 +73,8 @@ import os
 import time
 from pathlib import Path
 from typing import Any
+
+from PySide6.QtCore import QPointF, Qt
 
 from snrmon.gui.legibility import layout_report
 
@@ -122,6 +147,70 @@ def _screen_rect(window) -> list[int] | None:
     return [r.x(), r.y(), r.width(), r.height()]
 
 
+def _marker(view, item) -> dict[str, Any]:
+    """A pxMode scatter marker of a camera view: shown or not, its shape and screen size, and
+    where its (single) point is on the screen."""
+    xs, ys = item.getData()
+    at = None
+    if len(xs):
+        scene = view.view.mapViewToScene(QPointF(float(xs[0]), float(ys[0])))
+        p = view.graphics.viewport().mapToGlobal(view.graphics.mapFromScene(scene))
+        at = [p.x(), p.y()]
+    return {
+        "visible": item.isVisible(),
+        "symbol": item.opts["symbol"],
+        "size_px": float(item.opts["size"]),
+        "hollow": item.opts["brush"].color().alpha() == 0,
+        "at": at,
+    }
+
+
+def _stop_table(table) -> dict[str, Any]:
+    """The stop table's column keys, the hidden ones, each row's coloured cells and where each
+    row's measured / expected cell is on the screen."""
+    keys = [c.key for c in table.table.cols]
+    colours: list[dict[str, list[str]]] = []
+    rects: list[list[int] | None] = []
+    ratio = keys.index("ratio") if "ratio" in keys else None
+    area = table.viewport().rect()
+    for i in range(table.proxy.rowCount()):
+        row: dict[str, list[str]] = {}
+        for j, key in enumerate(keys):
+            index = table.proxy.index(i, j)
+            fill = index.data(Qt.ItemDataRole.BackgroundRole)
+            ink = index.data(Qt.ItemDataRole.ForegroundRole)
+            if fill is not None or ink is not None:
+                row[key] = [
+                    fill.color().name() if fill is not None else "",
+                    ink.color().name() if ink is not None else "",
+                ]
+        colours.append(row)
+        rect = None
+        if ratio is not None and not table.isColumnHidden(ratio):
+            r = table.visualRect(table.proxy.index(i, ratio))
+            if area.contains(r):
+                p = table.viewport().mapToGlobal(r.topLeft())
+                rect = [p.x(), p.y(), r.width(), r.height()]
+        rects.append(rect)
+    return {
+        "columns": keys,
+        "hidden": list(table.hidden_columns),
+        "colours": colours,
+        "ratio_rects": rects,
+    }
+
+
+def _recording(label) -> dict[str, Any]:
+    fill, ink = label.colours()
+    return {
+        "text": label.text(),
+        "level": label.level,
+        "fill": fill,
+        "ink": ink,
+        "rect": _global_rect(label),
+    }
+
+
 def _centre(widget) -> list[int]:
     p = widget.mapToGlobal(widget.rect().center())
     return [p.x(), p.y()]
@@ -151,10 +240,19 @@ def console_state(window) -> dict[str, Any]:
             "stop": _stop(cs.stop) if cs is not None else None,
             "lost": [_loss(d) for d in cs.lost] if cs is not None else [],
             "header": panel.header.text(),
+            "header_alarm": panel.header.alarm,
+            "header_rect": _global_rect(panel.header),
+            "state_rect": _global_rect(panel.header.tiles["state"].value),
+            "verdicts": {k: tile.verdict for k, tile in panel.header.tiles.items()},
             "frames_shown": panel.view.frames_shown,
             "shape": [rows, cols],
             "screen_first_pixel": _screen(panel.view, 0, 0),
             "screen_last_pixel": _screen(panel.view, cols - 1, rows - 1),
+            "gps_xy": [_num(v) for v in cs.gps_xy] if cs is not None and cs.gps_xy else None,
+            "palette": panel.view.palette,
+            "box_screen_px": panel.view.box_screen_px(),
+            "gps_marker": _marker(panel.view, panel.view.gps_marker),
+            "box_marker": _marker(panel.view, panel.view.box_marker),
         }
     return {
         "t_unix": time.time(),
@@ -177,7 +275,11 @@ def console_state(window) -> dict[str, Any]:
         "lrf_range_m": _num(st.lrf_range_m) if st is not None else None,
         "gps_range_m": _num(st.gps_range_m) if st is not None else None,
         "stops": window.stop_table.cells(),
+        "stop_table": _stop_table(window.stop_table),
         "alarms": list(st.alarms) if st is not None else [],
+        "banner": {"text": window.banner.text(), "visible": window.banner.isVisible()},
+        "recording": _recording(window.recording_label),
+        "pointer": window.pointer_label.text(),
         "replay": _replay(window),
         "stop_table_screen": _centre(window.stop_table.viewport()),
         "shortcuts": _shortcuts(window),

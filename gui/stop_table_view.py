@@ -9,12 +9,15 @@ the rule named after the ratio, coloured like the camera header (green inside th
 near, red outside: :attr:`snrmon.acquisition.stops.table.StopRow.agreement`, computed where the
 row is built), then the PSF the model values were computed with ("preset PSF", "fitted PSF":
 :attr:`~snrmon.acquisition.stops.table.StopRow.model_psf_label`; the ratio's tooltip gives it
-in full). Ranges in metres, the model's sky in kelvin. Click a column's header to sort by it;
-Ctrl+C (or the context menu, or Ctrl+Shift+C anywhere in the console) copies the selected rows,
-or all of them, as the report's CSV (:mod:`snrmon.acquisition.report.stop_csv`). Where the
-table is narrower than its columns, the model's sky, the background, the SNR's std, the GPS
-range and the model's PSF give way, in that order (:data:`YIELDING`), and come back when it is
-wide enough.
+in full). Ranges in metres, the model's sky in kelvin. Each column's key is the stop table's name
+for it, the one ``Session.stops()``, the CSV and the campaign's Parquet use
+(:mod:`snrmon.acquisition.stops.columns`); a per-frame value declared for the stop table adds a
+column of its mean after the SNR std (:func:`frame_mean_columns`). Click a column's header to
+sort by it; Ctrl+C (or the context menu, or Ctrl+Shift+C anywhere in the console) copies the
+selected rows, or all of them, as the report's CSV (:mod:`snrmon.acquisition.report.stop_csv`).
+Where the table is narrower than its columns, the model's sky, the background, the SNR's std,
+the GPS range and the model's PSF give way, in that order (:data:`YIELDING`), and come back when
+it is wide enough.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from PySide6.QtWidgets import QAbstractItemView, QApplication, QHeaderView, QMen
 
 from snrmon.acquisition.prediction import CURVES, EXPECTED_EXTENT, EXPECTED_RIM
 from snrmon.acquisition.report.stop_csv import csv_rows, csv_text
+from snrmon.acquisition.stops.columns import frame_mean_columns as stop_frame_means
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.gui import theme as th
 from snrmon.gui.model_curves import curve_label, is_expected
@@ -54,7 +58,7 @@ class Column:
 
 # Where the table is narrower than its columns, these give way first (in this order), so the
 # measurement and the model stay in view; they come back when the table is wide enough.
-YIELDING = ("sky", "background", "snr_std", "gps", "psf")
+YIELDING = ("model_sky_temp_k", "background", "snr_std", "gps_range_m", "psf")
 CELL_PAD_PX = 14
 SORT_ARROW_PX = 24  # the sorted column's header draws an arrow beside its words
 
@@ -96,7 +100,17 @@ def columns(rows: list[StopRow]) -> list[Column]:
     expected reading of the rule that row was measured with (:attr:`StopRow.agreement`), the
     rule named in the ratio's cell."""
     keys = model_keys(rows)
-    cols = [
+    cols = measurement_columns() + [model_column(k) for k in keys]
+    if any(is_expected(k) for k in keys):
+        cols += agreement_columns()
+    if any(r.model_psf_source for r in rows):
+        cols.append(PSF_COLUMN)
+    return cols + closing_columns()
+
+
+def measurement_columns() -> list[Column]:
+    """The stop, its camera and ranges, and what was measured at it (first in the table)."""
+    return [
         Column(
             "stop",
             "stop",
@@ -107,21 +121,21 @@ def columns(rows: list[StopRow]) -> list[Column]:
         ),
         Column("camera", "cam.", "Camera", lambda r: r.camera, lambda r: r.camera, False),
         Column(
-            "lrf",
+            "lrf_range_m",
             "LRF\n(m)",
             "Rangefinder range at the stop (m)",
             lambda r: _num(r.lrf_range_m, ".1f"),
             lambda r: _key(r.lrf_range_m),
         ),
         Column(
-            "gps",
+            "gps_range_m",
             "GPS\n(m)",
             "GPS slant range at the stop (m)",
             lambda r: _num(r.gps_range_m, ".1f"),
             lambda r: _key(r.gps_range_m),
         ),
         Column(
-            "frames",
+            "n_frames",
             "frames",
             "Valid consecutive frames summarised (the paper uses the first 100)",
             lambda r: str(r.n_frames),
@@ -142,6 +156,7 @@ def columns(rows: list[StopRow]) -> list[Column]:
             lambda r: _num(r.snr_std, ".2f"),
             lambda r: _key(r.snr_std),
         ),
+        *frame_mean_columns(),
         Column(
             "background",
             "background",
@@ -153,54 +168,61 @@ def columns(rows: list[StopRow]) -> list[Column]:
             False,
         ),
     ]
-    for k in keys:
-        title = SHORT.get(k) or _model_title(k)
-        cols.append(
-            Column(
-                f"model:{k}",
-                title,
-                f"The model's SNR at the stop's range: {curve_label(k)} (dimensionless)",
-                lambda r, k=k: _num(r.model_snr.get(k), ".1f"),
-                lambda r, k=k: _key(r.model_snr.get(k)),
-            )
-        )
-    if any(is_expected(k) for k in keys):
-        cols += [
-            Column(
-                "band",
-                "expected\nband",
-                "The model's uncertainty band of the expected Eq. (4) reading at the stop's "
-                "range, by the background rule the row was measured with (its background)",
-                _band_text,
-                lambda r: _key(r.agreement.lower) if r.agreement else MISSING,
-            ),
-            Column(
-                "ratio",
-                "measured /\nexpected",
-                "SNR mean / the expected Eq. (4) reading of the rule the row was measured with "
-                "(rim: the paper's 7x7 rim; extent: the rim outside the drone's extent): green "
-                "inside the model's band, amber within two errors of the mean of it, red "
-                "outside; the cell's tooltip names the PSF the model used",
-                _ratio_text,
-                lambda r: _key(r.agreement.ratio) if r.agreement else MISSING,
-            ),
-        ]
-    if any(r.model_psf_source for r in rows):
-        cols.append(
-            Column(
-                "psf",
-                "model\nPSF",
-                "The PSF the row's corrected and expected values were computed with: preset "
-                "(the sensor's, e.g. solved for the paper's average PVF 0.082) or fitted (from "
-                "this flight's unresolved stops); the ratio's tooltip gives it in full",
-                lambda r: r.model_psf_label or "--",
-                lambda r: r.model_psf_label or "",
-                False,
-            )
-        )
-    cols += [
+
+
+def model_column(key: str) -> Column:
+    """The model's SNR ``key`` (a curve or an expected reading) at each row's range."""
+    return Column(
+        f"model_{key}",
+        SHORT.get(key) or _model_title(key),
+        f"The model's SNR at the stop's range: {curve_label(key)} (dimensionless)",
+        lambda r: _num(r.model_snr.get(key), ".1f"),
+        lambda r: _key(r.model_snr.get(key)),
+    )
+
+
+def agreement_columns() -> list[Column]:
+    """Each row's band and measured / expected, by the rule of the row's own background."""
+    return [
         Column(
-            "sky",
+            "band",
+            "expected\nband",
+            "The model's uncertainty band of the expected Eq. (4) reading at the stop's "
+            "range, by the background rule the row was measured with (its background)",
+            _band_text,
+            lambda r: _key(r.agreement.lower) if r.agreement else MISSING,
+        ),
+        Column(
+            "ratio",
+            "measured /\nexpected",
+            "SNR mean / the expected Eq. (4) reading of the rule the row was measured with "
+            "(rim: the paper's 7x7 rim; extent: the rim outside the drone's extent): green "
+            "inside the model's band, amber within two errors of the mean of it, red "
+            "outside; the cell's tooltip names the PSF the model used",
+            _ratio_text,
+            lambda r: _key(r.agreement.ratio) if r.agreement else MISSING,
+        ),
+    ]
+
+
+PSF_COLUMN = Column(
+    "psf",
+    "model\nPSF",
+    "The PSF the row's corrected and expected values were computed with: preset "
+    "(the sensor's, e.g. solved for the paper's average PVF 0.082) or fitted (from "
+    "this flight's unresolved stops); the ratio's tooltip gives it in full",
+    lambda r: r.model_psf_label or "--",
+    lambda r: r.model_psf_label or "",
+    False,
+)
+"""The PSF each row's model values were computed with (shown when any row names one)."""
+
+
+def closing_columns() -> list[Column]:
+    """The model's sky and the row's state (last in the table)."""
+    return [
+        Column(
+            "model_sky_temp_k",
             "sky\n(K)",
             "The background (sky) temperature the model values were computed at (K)",
             lambda r: _num(r.model_sky_temp_k, ".1f"),
@@ -216,7 +238,25 @@ def columns(rows: list[StopRow]) -> list[Column]:
             False,
         ),
     ]
-    return cols
+
+
+def frame_mean_columns() -> list[Column]:
+    """A column for each per-frame value the stop table carries the mean of (declared on the
+    Eq. (4) result: :func:`snrmon.acquisition.stops.columns.frame_mean_columns`), titled by its
+    name and unit."""
+    out = []
+    for c in stop_frame_means():
+        unit = f"\n({c.units})" if c.units and c.units != "1" else ""
+        out.append(
+            Column(
+                c.name,
+                c.name.replace("_", " ") + unit,
+                c.meaning,
+                lambda r, k=c.name: _num(r.frame_means.get(k), ".2f"),
+                lambda r, k=c.name: _key(r.frame_means.get(k)),
+            )
+        )
+    return out
 
 
 SHORT_TITLES = {

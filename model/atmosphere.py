@@ -4,8 +4,8 @@ An :class:`Atmosphere` is spectral, one of
 
 * the built-in LOWTRAN7 table for the day's weather (:mod:`snrmon.model.atmosphere_table`: air
   temperature, humidity, pressure, visibility and aerosol, the season's standard atmosphere for
-  the readings not given; by default the US Standard 1976 atmosphere's sea-level air and no
-  aerosol), at any path length;
+  the readings not given; by default the US Standard 1976 atmosphere's sea-level air and
+  LOWTRAN7's rural aerosol at 23 km), at any path length;
 * a file's spectrum (MODTRAN tape7 or CSV, :mod:`snrmon.model.modtran`) of one path length
   L0, moved to other ranges per spectral sample along the LOWTRAN7 table's curve of growth
   (up to 300 x L0), or one tape7 per range, interpolated per sample between them;
@@ -241,7 +241,8 @@ def weather_atmosphere(band_um: tuple[float, float], weather: Weather) -> Atmosp
 
 def default_atmosphere(band_um: tuple[float, float], model: str = "us_std_1976") -> Atmosphere:
     """The built-in default: the LOWTRAN7 table at the standard atmosphere's sea-level air
-    (``model``, a season: :data:`snrmon.model.atmosphere_table.SEASONS`), no aerosol."""
+    (``model``, a season: :data:`snrmon.model.atmosphere_table.SEASONS`) with LOWTRAN7's rural
+    aerosol at 23 km visibility (:data:`snrmon.model.atmosphere_table.DEFAULT_VISIBILITY_KM`)."""
     if model not in SEASONS:
         raise ValueError(f"unknown standard atmosphere {model!r}; known: {', '.join(SEASONS)}")
     return weather_atmosphere(band_um, Weather(season=model))

@@ -49,7 +49,13 @@ SEASONS = (
     "subarctic_winter",
     "us_std_1976",
 )
-AEROSOLS = ("rural", "maritime", "urban")
+NO_AEROSOL = "none"
+AEROSOLS = ("rural", "maritime", "urban", NO_AEROSOL)
+"""The aerosol models a :class:`Weather` takes: LOWTRAN7's rural, maritime and urban, or
+``none`` (a clear path: no aerosol extinction whatever the visibility)."""
+DEFAULT_VISIBILITY_KM = 23.0
+"""The visibility when none is read: LOWTRAN7's rural 23 km ("clear"), with the rural aerosol
+the default atmosphere has a haze, not a path with no aerosol at all (docs/model.md)."""
 # What the table covers (checked against it on load): air temperature, pressure
 AIR_TEMP_RANGE_C = (-30.0, 45.0)
 PRESSURE_RANGE_HPA = (700.0, 1060.0)
@@ -78,14 +84,17 @@ def _in(name: str, value, lo: float, hi: float, unit: str) -> float:
 
 @dataclass(frozen=True)
 class Weather:
-    """The day's met readings; None = not read (the season's sea-level value stands in;
-    ``visibility_km`` None = no aerosol). ``rh_percent`` and ``dew_point_c`` are exclusive."""
+    """The day's met readings; None = not read (the season's sea-level value stands in).
+    The aerosol is the rural one at :data:`DEFAULT_VISIBILITY_KM` unless given; ``aerosol``
+    "none" is a path without one (as is ``visibility_km`` None, which met readings recorded
+    before the default had an aerosol hold). ``rh_percent`` and ``dew_point_c`` are
+    exclusive."""
 
     air_temp_c: float | None = None
     rh_percent: float | None = None
     dew_point_c: float | None = None
     pressure_hpa: float | None = None
-    visibility_km: float | None = None
+    visibility_km: float | None = DEFAULT_VISIBILITY_KM
     aerosol: str = "rural"
     season: str = "us_std_1976"
 
@@ -119,7 +128,7 @@ class Weather:
 
     def state(self) -> tuple[float, float, float, float | None, str]:
         """(air K, RH %, pressure hPa, visibility km or None, aerosol): the readings, the
-        season's values where none was given."""
+        season's values where none was given; visibility None for a path without aerosol."""
         d = season_defaults(self.season)
         t_k = self.resolved_air_temp_c() + ZERO_C_K
         if self.rh_percent is not None:
@@ -135,7 +144,8 @@ class Weather:
             # thermometer reading alone keeps the season's relative humidity
             rh = d["rh_percent"]
         p = float(self.pressure_hpa) if self.pressure_hpa is not None else d["pressure_hpa"]
-        return t_k, min(rh, 100.0), p, self.visibility_km, self.aerosol
+        vis = None if self.aerosol == NO_AEROSOL else self.visibility_km
+        return t_k, min(rh, 100.0), p, vis, self.aerosol
 
     @property
     def water_g_m3(self) -> float:

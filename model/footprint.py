@@ -10,6 +10,8 @@ normalised to the same total flux, phases uniform over one pixel cell.
   of :func:`snrmon.model.pvf.average_pvf`; for a target that covers the pixel and the PSF's core it
   tends to FF / D^2, so that ``point signal x PVF`` becomes the resolved, pixel-filling radiance
   formula of the paper (section 2) exactly. This replaces the paper's switch between the two.
+* :func:`average_pvf_outline`: the same for a target given as its outline (the segmented pixels
+  of a close stop, each a square of ``cell_px`` at this range), the "outline" footprint.
 * :func:`pixel_patterns`: the fraction of the energy on every pixel of a (2h+1)^2 window for a
   grid of sub-pixel phases at once (square or Gaussian target), used by the expected Eq. (4)
   reading (:mod:`snrmon.model.eq4`) and the PSF estimate from flight data.
@@ -186,6 +188,37 @@ def average_pvf_square(psf: Psf, fill_factor: float, d_px) -> np.ndarray | float
         h = np.where(far, 1.0 - deficit * _D_TABLE_MAX_PX / np.where(far, d, 1.0), h)
     out = ff * h / (1.0 + d * d)
     return float(out) if out.ndim == 0 else out
+
+
+def average_pvf_outline(psf: Psf, fill_factor: float, outline, cell_px) -> np.ndarray | float:
+    """Phase-averaged energy on the pixel that holds the area centroid of a target made of the
+    cells of ``outline`` (a :class:`snrmon.model.target.Outline`), each a square of side
+    ``cell_px`` (scalar or array: the outline's pixel at the drone over this range's pixel
+    footprint), convolved with ``psf``: :func:`average_pvf_square` with the segmented shape in
+    place of the square of the same area (paper sections 3 and 10: the UAV's shape puts
+    background and target in one rectangle).
+
+    The target's transform is the sum over its cells of sinc(s fx) sinc(s fy) exp(-2 pi i f.x_k)
+    over their number; against an OTF even in fx and in fy only its cos(2 pi fx x) cos(2 pi fy
+    y) part integrates to non-zero, so with the cells on a lattice (columns i, rows j) the PVF
+    is the mean over the outline's cells of (X^T M Y)[i, j], X and Y the lattice's columns' and
+    rows' cosines times the pixel kernel and the cell's sinc: two small matrix products a size.
+    Exact up to aliasing at the grid's 256-px period, as the square's table."""
+    ff = _check_ff(fill_factor)
+    s = _check_sizes(cell_px, "outline cell")
+    x_m, y_m, mask = outline.offsets_m()
+    unit = 1.0 / float(outline.pixel_m)  # positions in cells: x_px = (x_m / pixel_m) s
+    f, m = otf_grid(psf, _TABLE_PERIOD_PX)
+    k = _pixel_kernel(f, ff)
+    cells = float(mask.sum())
+    out = np.empty(s.size)
+    for n, size in enumerate(np.atleast_1d(s)):
+        w = k * np.sinc(size * f)
+        xc = w[:, None] * np.cos(2.0 * math.pi * np.outer(f, x_m * unit * size))
+        yc = w[:, None] * np.cos(2.0 * math.pi * np.outer(f, y_m * unit * size))
+        g = matmul(xc.T, matmul(m, yc))  # (columns, rows)
+        out[n] = float(np.sum(g.T[mask])) / cells
+    return float(out[0]) if s.ndim == 0 else out.reshape(s.shape)
 
 
 @functools.lru_cache(maxsize=64)

@@ -3,7 +3,9 @@
 Built-in names are the files in ``model/presets/`` (sensors "mwir", "lwir"; targets "uav1",
 "uav2"); anything else is read as a path. Sensor TOML: a ``[sensor]`` table with the fields of
 :class:`snrmon.model.sensor.Sensor`; target TOML: ``[target]`` with those of
-:class:`snrmon.model.target.Target` (``temp_c`` a table by band or one number for all bands);
+:class:`snrmon.model.target.Target` (``temp_c`` a table by band or one number for all
+bands; ``outline``, rows of "0"/"1", with ``outline_pixel_m``: the segmented outline of a close
+stop, as ``snrmon characterize --target-out`` writes it, :class:`snrmon.model.target.Outline`);
 atmosphere TOML: ``[atmosphere]`` with ``model`` (the season's standard atmosphere of the
 built-in LOWTRAN7 table), the met readings ``air_temp_c``, ``rh_percent`` or ``dew_point_c``,
 ``pressure_hpa``, ``visibility_km``, ``aerosol`` (:class:`snrmon.model.atmosphere_table.Weather`),
@@ -17,80 +19,139 @@ the air whose curve of growth moves a file's spectrum to other ranges.
 from __future__ import annotations
 
 import dataclasses
-import math
 import tomllib
 from pathlib import Path
 from typing import Any
 
+from snrmon.config_schema import (
+    Key,
+    SchemaError,
+    above,
+    any_of,
+    at_least,
+    between,
+    checked,
+    fraction,
+    int_at_least,
+    is_number,
+    is_string,
+    list_of,
+)
 from snrmon.model.constants import ZERO_C_K
 from snrmon.model.sensor import DETECTOR_KINDS, REAL_PSF_KINDS, Sensor
-from snrmon.model.target import Target
+from snrmon.model.target import Outline, Target
 
 PRESET_DIR = Path(__file__).with_name("presets")
 SENSOR_PRESETS = ("mwir", "lwir")
 TARGET_PRESETS = ("uav1", "uav2")
 
-_POS, _NONNEG, _FRAC, _STR, _INT, _PAIR = "pos", "nonneg", "frac", "str", "int", "pair"
-_SENSOR_FIELDS: dict[str, tuple[str, bool]] = {
-    # name: (kind, required)
-    "name": (_STR, True),
-    "band_um": (_PAIR, True),
-    "pitch_um": (_POS, True),
-    "fill_factor": (_FRAC, True),
-    "focal_length_m": (_POS, True),
-    "f_number": (_POS, True),
-    "width_px": (_INT, True),
-    "height_px": (_INT, True),
-    "fps": (_POS, True),
-    "netd_mk": (_POS, True),
-    "t_int_s": (_POS, True),
-    "gain_e_per_dn": (_POS, True),
-    "dn_offset": (_NONNEG, False),
-    "bit_depth": (_INT, False),
-    "detector": (_STR, False),
-    "qe": (_FRAC, False),
-    "qe_curve": ("curve", False),
-    "tau_optics": (_FRAC, False),
-    "tau_cold_filter": (_FRAC, False),
-    "read_noise_e": (_NONNEG, False),
-    "dark_current_a_per_cm2": (_NONNEG, False),
-    "well_capacity_e": (_POS, False),
-    "lens_temp_k": (_POS, False),
-    "lens_emissivity": ("frac0", False),
-    "cold_shield_temp_k": (_NONNEG, False),
-    "netd_reference_temp_k": (_POS, False),
-    "real_psf": (_STR, False),
-    "real_psf_sigma_px": (_POS, False),
-    "real_psf_average_pvf": (_FRAC, False),
-    "fov_deg": (_PAIR, False),
-    "description": (_STR, False),
+
+def _qe_row(v: Any) -> bool:
+    return isinstance(v, list) and len(v) == 2 and above(0)(v[0]) and between(0, 1)(v[1])
+
+
+def _band_map(v: Any) -> dict[str, float]:
+    if isinstance(v, dict):
+        return {str(k): float(x) for k, x in v.items()}
+    return {"mwir": float(v), "lwir": float(v)}
+
+
+# The kinds of value a preset's key takes (snrmon.config_schema: one check, one message form).
+_POS = Key("a number > 0", above(0), convert=float)
+_NONNEG = Key("a number >= 0", at_least(0), convert=float)
+_FRAC = Key("a number in (0, 1]", fraction, convert=float)
+_FRAC0 = Key("a number in [0, 1]", between(0, 1), convert=float)
+_NUM = Key("a number", is_number, convert=float)
+_STR = Key("a string", is_string)
+_INT = Key("a positive integer", int_at_least(1))
+_PAIR = Key(
+    "two positive numbers [lo, hi]",
+    list_of(above(0), lengths=(2,)),
+    convert=lambda v: (float(v[0]), float(v[1])),
+)
+_CURVE = Key(
+    "a list of at least two [wavelength_um, qe] rows, wavelength > 0 and 0 <= qe <= 1",
+    lambda v: list_of(_qe_row)(v) and len(v) >= 2,
+    convert=lambda v: tuple((float(w), float(q)) for w, q in v),
+)
+_STRLIST = Key("a non-empty list of strings", list_of(is_string), convert=list)
+_POSLIST = Key(
+    "a non-empty list of numbers > 0", list_of(above(0)), convert=lambda v: [float(x) for x in v]
+)
+_BANDMAP = Key(
+    "a temperature in C, or a table of them by band ({ mwir = 30.0, lwir = 31.0 })",
+    any_of(
+        is_number, lambda v: isinstance(v, dict) and bool(v) and all(map(is_number, v.values()))
+    ),
+    convert=_band_map,
+)
+
+
+def _required(key: Key) -> Key:
+    return dataclasses.replace(key, required=True)
+
+
+_SENSOR_FIELDS: dict[str, Key] = {
+    "name": _required(_STR),
+    "band_um": _required(_PAIR),
+    "pitch_um": _required(_POS),
+    "fill_factor": _required(_FRAC),
+    "focal_length_m": _required(_POS),
+    "f_number": _required(_POS),
+    "width_px": _required(_INT),
+    "height_px": _required(_INT),
+    "fps": _required(_POS),
+    "netd_mk": _required(_POS),
+    "t_int_s": _required(_POS),
+    "gain_e_per_dn": _required(_POS),
+    "dn_offset": _NONNEG,
+    "bit_depth": _INT,
+    "detector": _STR,
+    "qe": _FRAC,
+    "qe_curve": _CURVE,
+    "tau_optics": _FRAC,
+    "tau_cold_filter": _FRAC,
+    "read_noise_e": _NONNEG,
+    "dark_current_a_per_cm2": _NONNEG,
+    "well_capacity_e": _POS,
+    "lens_temp_k": _POS,
+    "lens_emissivity": _FRAC0,
+    "cold_shield_temp_k": _NONNEG,
+    "netd_reference_temp_k": _POS,
+    "real_psf": _STR,
+    "real_psf_sigma_px": _POS,
+    "real_psf_average_pvf": _FRAC,
+    "fov_deg": _PAIR,
+    "description": _STR,
 }
-_TARGET_FIELDS = {
-    "name": (_STR, True),
-    "small_m": (_POS, True),
-    "large_m": (_POS, True),
-    "temp_c": ("bandmap", True),
-    "rss_delta_t_k": ("bandmap", False),
-    "description": (_STR, False),
+_TARGET_FIELDS: dict[str, Key] = {
+    "name": _required(_STR),
+    "small_m": _required(_POS),
+    "large_m": _required(_POS),
+    "temp_c": _required(_BANDMAP),
+    "rss_delta_t_k": _BANDMAP,
+    "description": _STR,
+    "outline": _STRLIST,
+    "outline_pixel_m": _POS,
 }
-_ATM_FIELDS = {
-    "name": (_STR, False),
-    "model": (_STR, False),
-    "transmission": ("frac0", False),
-    "aerosol_beta_per_km": (_NONNEG, False),
-    "air_temp_k": (_POS, False),
-    "air_temp_c": ("num", False),
-    "rh_percent": ("num", False),
-    "dew_point_c": ("num", False),
-    "pressure_hpa": ("num", False),
-    "visibility_km": ("num", False),
-    "aerosol": (_STR, False),
-    "modtran_file": (_STR, False),
-    "csv_file": (_STR, False),
-    "path_length_m": (_POS, False),
-    "modtran_files": ("strlist", False),
-    "path_lengths_m": ("poslist", False),
-    "source": (_STR, False),
+_ATM_FIELDS: dict[str, Key] = {
+    "name": _STR,
+    "model": _STR,
+    "transmission": _FRAC0,
+    "aerosol_beta_per_km": _NONNEG,
+    "air_temp_k": _POS,
+    "air_temp_c": _NUM,
+    "rh_percent": _NUM,
+    "dew_point_c": _NUM,
+    "pressure_hpa": _NUM,
+    "visibility_km": _NUM,
+    "aerosol": _STR,
+    "modtran_file": _STR,
+    "csv_file": _STR,
+    "path_length_m": _POS,
+    "modtran_files": _STRLIST,
+    "path_lengths_m": _POSLIST,
+    "source": _STR,
 }
 
 
@@ -105,79 +166,13 @@ def _read_toml(path: Path, table: str) -> dict[str, Any]:
     return doc[table]
 
 
-def _check(path: Path, table: str, data: dict, fields: dict) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for key in data:
-        if key not in fields:
-            raise ValueError(
-                f"{path}: unknown key {key!r} in [{table}]; known: {', '.join(fields)}"
-            )
-    for key, (kind, required) in fields.items():
-        if key not in data:
-            if required:
-                raise ValueError(f"{path}: [{table}] is missing {key!r}")
-            continue
-        out[key] = _value(path, f"{table}.{key}", kind, data[key])
-    return out
-
-
-def _number(path: Path, where: str, v: Any) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-        raise ValueError(f"{path}: {where} must be a number, got {v!r}")
-    return float(v)
-
-
-def _value(path: Path, where: str, kind: str, v: Any) -> Any:
-    if kind == _STR:
-        if not isinstance(v, str):
-            raise ValueError(f"{path}: {where} must be a string, got {v!r}")
-        return v
-    if kind == _INT:
-        if isinstance(v, bool) or not isinstance(v, int) or v <= 0:
-            raise ValueError(f"{path}: {where} must be a positive integer, got {v!r}")
-        return v
-    if kind == _PAIR:
-        if not isinstance(v, list) or len(v) != 2:
-            raise ValueError(f"{path}: {where} must be a pair [a, b], got {v!r}")
-        a, b = (_number(path, where, x) for x in v)
-        if not (a > 0 and b > 0):
-            raise ValueError(f"{path}: {where} must be two positive numbers, got {v!r}")
-        return (a, b)
-    if kind == "curve":
-        if not isinstance(v, list) or len(v) < 2:
-            raise ValueError(
-                f"{path}: {where} must be a list of [wavelength_um, qe] pairs, got {v!r}"
-            )
-        return tuple(tuple(_value(path, where, "pairqe", x)) for x in v)
-    if kind == "pairqe":
-        if not isinstance(v, list) or len(v) != 2:
-            raise ValueError(f"{path}: {where} rows must be [wavelength_um, qe], got {v!r}")
-        wl, q = (_number(path, where, x) for x in v)
-        if wl <= 0 or not 0 <= q <= 1:
-            raise ValueError(f"{path}: {where} row {v!r} needs wavelength > 0 and 0 <= qe <= 1")
-        return (wl, q)
-    if kind in ("strlist", "poslist"):
-        one = _STR if kind == "strlist" else _POS
-        if not isinstance(v, list) or not v:
-            raise ValueError(f"{path}: {where} must be a non-empty list, got {v!r}")
-        return [_value(path, f"{where}[{i}]", one, x) for i, x in enumerate(v)]
-    if kind == "bandmap":
-        if isinstance(v, dict):
-            return {str(k): _number(path, f"{where}.{k}", x) for k, x in v.items()}
-        return {"mwir": _number(path, where, v), "lwir": _number(path, where, v)}
-    x = _number(path, where, v)
-    if kind == "num":
-        return x
-    ok = {
-        _POS: x > 0,
-        _NONNEG: x >= 0,
-        _FRAC: 0 < x <= 1,
-        "frac0": 0 <= x <= 1,
-    }[kind]
-    if not ok:
-        rule = {_POS: "> 0", _NONNEG: ">= 0", _FRAC: "in (0, 1]", "frac0": "in [0, 1]"}[kind]
-        raise ValueError(f"{path}: {where} must be {rule}, got {v!r}")
-    return x
+def _check(path: Path, table: str, data: dict, fields: dict[str, Key]) -> dict[str, Any]:
+    """``data`` checked against ``fields`` (:func:`snrmon.config_schema.checked`), the one
+    error naming the file too."""
+    try:
+        return checked(data, fields, table)
+    except SchemaError as exc:
+        raise SchemaError(f"{path}: {exc}") from None
 
 
 def _resolve(name_or_path: str, known: tuple[str, ...], what: str) -> Path:
@@ -221,6 +216,14 @@ def target_from_dict(data: dict[str, Any], path: Path | str = "<target>") -> Tar
     for band, t in v["temp_c"].items():
         if t <= -ZERO_C_K:
             raise ValueError(f"{p}: target.temp_c.{band} must be above absolute zero, got {t}")
+    rows, pixel_m = v.pop("outline", None), v.pop("outline_pixel_m", None)
+    if (rows is None) != (pixel_m is None):
+        raise ValueError(f"{p}: target.outline and target.outline_pixel_m go together")
+    if rows is not None:
+        try:
+            v["outline"] = Outline(tuple(rows), float(pixel_m))
+        except ValueError as exc:
+            raise ValueError(f"{p}: target.outline: {exc}") from None
     return Target(**v)
 
 

@@ -14,8 +14,8 @@ depends on the geometry:
   pixel-filling radiance A_opt t_int FF IFOV^2 dLq exactly; in between it has no jump.
 * ``geometry="paper"``: the paper's switched curves: resolved (D >= 1) pixel-filling radiance,
   unresolved point source x average PVF, the finite size (corrected curves) as a Gaussian of
-  sigma_t = ``target_sigma_per_size`` x D. Its jump at D = 1 (MWIR UAV1 small, 314 m: 433 ->
-  144 uncorrected) is the paper's, not physics; these curves are always in ``paper`` too.
+  sigma_t = ``target_sigma_per_size`` x D. Its jump at D = 1 (MWIR UAV1 small, 314 m: 389 -> 117
+  uncorrected) is the paper's, not physics; these curves are always in ``paper`` too.
 
 Curves: small/large characteristic dimension x uncorrected (diffraction-limited Airy averaged
 over the band) / corrected (the sensor's real PSF, or one measured from flight data).
@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from scipy.interpolate import CubicSpline, PchipInterpolator
@@ -57,7 +57,15 @@ CURVES = ("small", "large", "small_corrected", "large_corrected")
 EXPECTED_CURVES = {"expected_eq4_rim": "rim", "expected_eq4_extent": "target"}
 """The expected Eq. (4) readings and the background rule of :func:`snrmon.model.eq4.expected_eq4`
 each follows: the paper's 7x7 rim, and the console's target-aware rule (module docstring)."""
+CURVE = "curve"
+"""The metadata key naming the curve an :class:`SnrPrediction` field holds."""
 GEOMETRIES = ("square", "paper")
+FOOTPRINTS = ("square", "outline")
+"""The small target's footprint with ``geometry="square"``: the paper's square of the small
+dimension, or the target's :class:`snrmon.model.target.Outline` (the segmented pixels of a
+close stop, scaled by range): the same light (the small dimension's area) spread over the
+drone's shape (paper sections 3 and 10)."""
+_OUTLINE_NODES = 64  # more ranges than this: the outline's PVF at as many log-spaced sizes
 DEFAULT_TARGET_SIGMA_PER_SIZE = 0.5
 """The paper geometry's sigma_t = D / 2 (with the paper's sigma = 0.8 px this
 reproduces its relative PVF drop with target size)."""
@@ -100,10 +108,11 @@ class SnrPrediction:
     air_temp_k: float
     geometry: str
     ranges_m: np.ndarray
-    snr_small: np.ndarray
-    snr_large: np.ndarray
-    snr_small_corrected: np.ndarray
-    snr_large_corrected: np.ndarray
+    # The curves by name (:data:`CURVES`; :meth:`curves` gives them all).
+    snr_small: np.ndarray = field(metadata={CURVE: "small"})
+    snr_large: np.ndarray = field(metadata={CURVE: "large"})
+    snr_small_corrected: np.ndarray = field(metadata={CURVE: "small_corrected"})
+    snr_large_corrected: np.ndarray = field(metadata={CURVE: "large_corrected"})
     resolved_small: np.ndarray
     resolved_large: np.ndarray
     signal_e: dict[str, np.ndarray]
@@ -118,21 +127,38 @@ class SnrPrediction:
     transition_range_large_m: float
     point_contrast_e: dict[str, np.ndarray] = field(default_factory=dict)
     paper: dict[str, np.ndarray] = field(default_factory=dict)
-    expected_eq4_rim: np.ndarray | None = None  # the paper's 7x7 rim
-    expected_eq4_extent: np.ndarray | None = None  # the console's target-aware rule
+    # the paper's 7x7 rim; the console's target-aware rule (None: not computed)
+    expected_eq4_rim: np.ndarray | None = field(default=None, metadata={CURVE: "expected_eq4_rim"})
+    expected_eq4_extent: np.ndarray | None = field(
+        default=None, metadata={CURVE: "expected_eq4_extent"}
+    )
     draws: McDraws | None = None  # the Monte-Carlo draws behind the band
     sky_assumed: bool = False  # no sky temperature given: assumed the air's, the band widened
 
+    def curves(self) -> dict[str, np.ndarray]:
+        """Every curve over ``ranges_m`` by name: the four (:data:`CURVES`), the expected Eq. (4)
+        readings the prediction has (:data:`EXPECTED_CURVES`), the paper's switched curves
+        (``paper_<curve>``) and the band's edges (``<curve>_lower``, ``<curve>_upper``)."""
+        out = {
+            f.metadata[CURVE]: getattr(self, f.name)
+            for f in fields(self)
+            if CURVE in f.metadata and getattr(self, f.name) is not None
+        }
+        out |= {f"paper_{name}": snr for name, snr in self.paper.items()}
+        for name in self.lower:  # the Monte-Carlo band of the model's uncertain inputs
+            if name in self.upper:
+                out[f"{name}_lower"], out[f"{name}_upper"] = self.lower[name], self.upper[name]
+        return out
+
     def snr(self, curve: str) -> np.ndarray:
-        if curve in EXPECTED_CURVES:
-            value = getattr(self, curve)
-            if value is None:
-                raise ValueError("this prediction was made without the expected Eq. (4) curves")
-            return value
-        if curve not in CURVES:
+        """One curve of :data:`CURVES` or :data:`EXPECTED_CURVES` by name."""
+        if curve not in CURVES and curve not in EXPECTED_CURVES:
             known = ", ".join((*CURVES, *EXPECTED_CURVES))
             raise ValueError(f"unknown curve {curve!r}; known: {known}")
-        return getattr(self, f"snr_{curve}")
+        value = self.curves().get(curve)
+        if value is None:
+            raise ValueError("this prediction was made without the expected Eq. (4) curves")
+        return value
 
     @property
     def noise_e(self) -> dict[str, float]:
@@ -141,17 +167,15 @@ class SnrPrediction:
     def to_records(self) -> list[dict]:
         """One JSON-ready object per range (the ``snrmon model snr --json`` contract)."""
         out = []
+        curves = self.curves()
         for i, r in enumerate(self.ranges_m):
             rec = {
                 "range_m": float(r),
                 "resolved_small": bool(self.resolved_small[i]),
                 "resolved_large": bool(self.resolved_large[i]),
-                "snr_small": float(self.snr_small[i]),
-                "snr_large": float(self.snr_large[i]),
-                "snr_small_corrected": float(self.snr_small_corrected[i]),
-                "snr_large_corrected": float(self.snr_large_corrected[i]),
+                **{f"snr_{name}": float(curves[name][i]) for name in CURVES},
                 **{
-                    name: None if getattr(self, name) is None else float(getattr(self, name)[i])
+                    name: float(curves[name][i]) if name in curves else None
                     for name in EXPECTED_CURVES
                 },
                 "snr_paper": {c: float(self.paper[c][i]) for c in self.paper},
@@ -432,6 +456,7 @@ def predict(
     expected: bool = True,
     band: bool = True,
     phases_xy=None,
+    footprint: str = "square",
 ) -> SnrPrediction:
     """The four SNR curves of Figs. 7-10 at ``ranges_m`` (metres, > 0); see the module
     docstring.
@@ -447,9 +472,12 @@ def predict(
     phases ``phases_xy`` (N, 2) that a stop's frames sampled if given
     (:func:`snrmon.model.eq4.expected_eq4`), else over the whole cell; ``band``:
     the Monte-Carlo band (``inputs``, default :class:`snrmon.model.montecarlo.InputUncertainty`).
+    ``footprint`` (:data:`FOOTPRINTS`): the small curves' target, the paper's square or the
+    target's outline (the expected readings and the band keep the square).
     """
     ranges = _check_ranges(ranges_m)
-    _check_geometry(geometry, target_sigma_per_size)
+    shape = (geometry, target_sigma_per_size, footprint)  # how the target lies on the pixels
+    _check_shape(target, *shape)
     c = contrast(
         sensor,
         target,
@@ -460,7 +488,7 @@ def predict(
     )
     noise = noise_breakdown(sensor, c.sky_temp_k, spatial_noise, measured_noise)
     real = corrected_psf if corrected_psf is not None else sensor.corrected_psf()
-    curves = _size_curves(sensor, target, c, noise.total, real, geometry, target_sigma_per_size)
+    curves = _size_curves(sensor, target, c, noise.total, real, *shape)
     rel = _relative_uncertainties(c, uncertainty or UncertaintyBudget(), curves.resolved)
     expected_curves: dict[str, np.ndarray] = {}
     if expected:
@@ -528,19 +556,27 @@ class _SizeCurves:
 
 
 def _size_curves(
-    sensor: Sensor, target: Target, c, denom: float, real: Psf, geometry: str, sigma_per_size: float
+    sensor: Sensor,
+    target: Target,
+    c,
+    denom: float,
+    real: Psf,
+    geometry: str,
+    sigma_per_size: float,
+    footprint: str = "square",
 ) -> _SizeCurves:
     """The four curves of Figs. 7-10 (each size with the diffraction PSF and with ``real``)
-    over the contrast ``c``'s ranges, against the total noise ``denom`` [e-] (Eq. 3)."""
+    over the contrast ``c``'s ranges, against the total noise ``denom`` [e-] (Eq. 3); the
+    small ones over the target's outline with ``footprint="outline"``."""
     ranges = c.ranges_m
     intensity = c.intensity_e()
     ff = sensor.fill_factor
     ext = intensity * ff * sensor.ifov_rad**2
     diffraction = sensor.diffraction_psf()
-    footprint = ranges * sensor.ifov_rad
+    footprint_m = ranges * sensor.ifov_rad
     out = _SizeCurves({}, {}, {}, {}, {}, {}, {}, ranges, denom)
     for size in ("small", "large"):
-        d_px = target.size_m(size) / footprint
+        d_px = target.size_m(size) / footprint_m
         res = d_px >= 1.0
         out.resolved[size], out.d_px[size] = res, d_px
         out.point[size] = intensity * target.area_m2(size) / ranges**2
@@ -553,7 +589,10 @@ def _size_curves(
             paper_pvf = _paper_pvf(psf, ff, d_px, res, sigma_per_size, not corrected)
             paper_sig = np.where(res, ext, out.point[size] * paper_pvf)
             out.paper[curve] = paper_sig / denom
-            if geometry == "square":
+            if geometry == "square" and size == "small" and footprint == "outline":
+                pvf = outline_pvf(psf, ff, target, footprint_m=footprint_m)
+                sig = out.point[size] * pvf
+            elif geometry == "square":
                 pvf = np.asarray(average_pvf_square(psf, ff, d_px), float)
                 sig = out.point[size] * pvf
             else:
@@ -561,6 +600,48 @@ def _size_curves(
             out.signal_e[curve], out.pvf[curve] = sig, pvf
             out.snr[curve] = sig / denom
     return out
+
+
+def outline_pvf(psf: Psf, fill_factor: float, target: Target, *, footprint_m) -> np.ndarray:
+    """The average PVF of ``target``'s outline (:func:`snrmon.model.footprint.
+    average_pvf_outline`) at each range's pixel footprint ``footprint_m`` (range x IFOV, m):
+    the outline's shape at the small dimension's area (the paper's small dimension is the
+    square root of the outlined area, section 3: an outline segmented wider, by the PSF's blur
+    at its edges, is scaled to the target's area), each of its pixels a square of its scaled
+    ``pixel_m`` over the footprint. Over more than :data:`_OUTLINE_NODES` ranges, at that many
+    log-spaced footprints and interpolated (PCHIP in ln footprint of PVF (1 + D^2) / FF, D the
+    small dimension in pixels, smooth and O(1) as the square's table)."""
+    from snrmon.model.footprint import average_pvf_outline
+
+    outline = target.outline
+    assert outline is not None  # _check_shape
+    f_m = np.asarray(footprint_m, float)
+    side_m = float(target.small_m)
+    cell_m = outline.pixel_m * side_m / math.sqrt(outline.area_m2)
+    if f_m.size <= _OUTLINE_NODES:
+        return np.asarray(average_pvf_outline(psf, fill_factor, outline, cell_m / f_m))
+    nodes = np.geomspace(f_m.min(), f_m.max(), _OUTLINE_NODES)
+    d = side_m / nodes
+    h = average_pvf_outline(psf, fill_factor, outline, cell_m / nodes) * (1 + d * d)
+    d_all = side_m / f_m
+    return (
+        fill_factor
+        * PchipInterpolator(np.log(nodes), h / fill_factor)(np.log(f_m))
+        / (1 + d_all * d_all)
+    )
+
+
+def _check_shape(target: Target, geometry: str, sigma_per_size: float, footprint: str) -> None:
+    _check_geometry(geometry, sigma_per_size)
+    if footprint not in FOOTPRINTS:
+        raise ValueError(f"footprint must be one of {', '.join(FOOTPRINTS)}, got {footprint!r}")
+    if footprint == "outline" and target.outline is None:
+        raise ValueError(
+            f"target {target.name!r} has no outline for footprint outline: characterize a "
+            "close stop (snrmon characterize --target-out) and use that target file"
+        )
+    if footprint == "outline" and geometry != "square":
+        raise ValueError("footprint outline is a continuous geometry: use geometry square")
 
 
 def _check_geometry(geometry: str, target_sigma_per_size: float) -> None:

@@ -4,11 +4,13 @@ log and a MAVLink ``.tlog``, each in its real format, for testing ``snrmon gps-i
 Each writer takes :class:`LogEpoch` rows (UTC and position, from :func:`flight_epochs`) and writes
 what the real logger would, at the resolution it would:
 
-- AirData CSV: ``time(millisecond)`` from the log's start, ``datetime(utc)`` the whole second
-  of the row's UTC + 0.6 s (as AirData writes it: at every second tick of the real export its
-  GPX of the same flight, in tenths, is 0.6 s before the new second), latitude/longitude
-  with 8 decimals, ``altitude_above_seaLevel(feet)`` with 1 decimal (3 cm), ``satellites``;
-  rows with 0,0 before the first fix, as DJI writes them;
+- AirData CSV: ``time(millisecond)`` from the log's start; AirData's time base, which puts the
+  first row with a position on the whole second written in it (the simulated receiver's first
+  fix is its first epoch of a second, on the ground before take-off, so the export's time is
+  up to one 0.1 s step before the epoch's UTC, as AirData's would be); ``datetime(utc)`` the
+  whole second of that time + 0.6 s (the real Air 2S export's seconds lead its GPX by 0.6 s);
+  latitude/longitude with 8 decimals, ``altitude_above_seaLevel(feet)`` with 1 decimal
+  (3 cm), ``satellites``; rows with 0,0 before the first fix, as DJI writes them;
 - NMEA: GGA + RMC per epoch (the simulated receiver's own sentences: centisecond UTC,
   minutes with 7 decimals, altitude in mm);
 - tlog: per epoch ``GPS_RAW_INT`` and ``GLOBAL_POSITION_INT`` (degE7, mm) on the autopilot's
@@ -57,17 +59,27 @@ def flight_epochs(
 def write_airdata_csv(
     path: str | Path, epochs: Sequence[LogEpoch], *, sats: int = 14, no_fix_rows: int = 3
 ) -> Path:
-    """An AirData export of the flight (see the module docstring)."""
+    """An AirData export of the flight (see the module docstring): ``no_fix_rows`` rows without
+    a position, then the drone on the ground at its first epoch's position from the receiver's
+    first epoch of a second (up to nine 0.1 s rows before the flight's first epoch, as a DJI
+    drone waits for its fix before it takes off), then the flight."""
     out = Path(path)
-    t0 = epochs[0].utc - timedelta(seconds=0.1 * no_fix_rows)
-    home_ft = epochs[0].alt_m / FEET
+    start = epochs[0]
+    lead = next(m for m in range(10) if (start.utc - timedelta(seconds=0.1 * m)).microsecond < 1e5)
+    ground = [(start.utc - timedelta(seconds=0.1 * m), start) for m in range(lead, 0, -1)]
+    first_fix = start.utc - timedelta(seconds=0.1 * lead)
+    base = timedelta(microseconds=first_fix.microsecond)  # AirData's: the first fix on its second
+    t0 = first_fix - timedelta(seconds=0.1 * no_fix_rows)
+    home_ft = start.alt_m / FEET
     lines = [AIRDATA_HEADER]
-    rows = [(t0 + timedelta(seconds=0.1 * k), None) for k in range(no_fix_rows)]
-    rows += [(e.utc, e) for e in epochs]
+    rows: list[tuple[datetime, LogEpoch | None]] = [
+        (t0 + timedelta(seconds=0.1 * k), None) for k in range(no_fix_rows)
+    ]
+    rows += ground + [(e.utc, e) for e in epochs]
     for u, e in rows:
         ms = round((u - t0).total_seconds() * 1000)
-        # whole seconds, 0.6 s ahead of the row's UTC (AirData's own tick)
-        stamp = (u + timedelta(microseconds=600_000)).strftime("%Y-%m-%d %H:%M:%S")
+        # whole seconds, 0.6 s ahead of the row's time on AirData's time base
+        stamp = (u - base + timedelta(microseconds=600_000)).strftime("%Y-%m-%d %H:%M:%S")
         if e is None:
             lines.append(f"{ms},{stamp},0.0,0.0,0.0,0.0,0,0,0.0,0.0,0,")
             continue

@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -94,33 +94,14 @@ def predict(
 
     ranges = np.geomspace(20.0, 5000.0, 500) if ranges_m is None else np.asarray(ranges_m, float)
     p = model_predict(load_sensor(sensor), load_target(target), ranges, **conditions)
-    curves = {
-        "small": p.snr_small,
-        "large": p.snr_large,
-        "small_corrected": p.snr_small_corrected,
-        "large_corrected": p.snr_large_corrected,
-    }
-    for rule in ("rim", "extent"):
-        reading = getattr(p, f"expected_eq4_{rule}")
-        if reading is not None:
-            curves[f"expected_eq4_{rule}"] = reading
-    curves |= {f"paper_{name}": snr for name, snr in p.paper.items()}
-    data: dict[str, Any] = {
-        name: (
-            "range_m",
-            np.asarray(snr, float),
-            {"units": "1", "long_name": _CURVE_NAMES.get(name, name)},
-        )
-        for name, snr in curves.items()
-    }
-    for name in p.lower:  # the Monte-Carlo band of the model's uncertain inputs (section 9)
-        for edge, values in (("lower", p.lower[name]), ("upper", p.upper[name])):
-            curve = _CURVE_NAMES.get(name, name)
-            data[f"{name}_{edge}"] = (
-                "range_m",
-                np.asarray(values, float),
-                {"units": "1", "long_name": f"{edge} edge of the model's band: {curve}"},
-            )
+    data: dict[str, Any] = {}
+    for name, snr in p.curves().items():
+        base, _, edge = name.rpartition("_")
+        if edge in ("lower", "upper"):  # the Monte-Carlo band of the uncertain inputs (sec. 9)
+            long_name = f"{edge} edge of the model's band: {_CURVE_NAMES.get(base, base)}"
+        else:
+            long_name = _CURVE_NAMES.get(name, name)
+        data[name] = ("range_m", np.asarray(snr, float), {"units": "1", "long_name": long_name})
     data["transmission"] = (
         "range_m",
         np.asarray(p.transmission, float),
@@ -329,7 +310,7 @@ class Session:
                 [measurement_row(None, m) for m in done], dtype=schema.MEASUREMENT_DTYPE
             )
         frame = _measurement_frame(rows, self._clock)
-        frame.attrs["units"] = _units(frame, MEASUREMENT_UNITS)
+        frame.attrs["units"] = _measurement_units(frame)
         return frame
 
     def stops(self, *, model: bool = True) -> pd.DataFrame:
@@ -350,9 +331,15 @@ class Session:
         Returns
         -------
         pandas.DataFrame
-            ``camera``, ``stop``, ``range_m`` (the rangefinder's, else the GPS slant range),
-            the stop's times, ``n_frames``, ``snr_mean``, ``snr_std``, ``snr_sem`` and the
-            model columns; the columns' units in ``attrs["units"]``.
+            The columns of every stop table (the report's CSV, the campaign's Parquet, the
+            console: :func:`snrmon.acquisition.stops.columns.stop_columns`): ``camera``,
+            ``stop``, ``manual``, the stop's times (``t_start_utc``, ``t_end_utc``),
+            ``range_m`` (the rangefinder's, else the GPS slant range), ``lrf_range_m``,
+            ``gps_range_m``, ``n_frames``, ``complete``, ``snr_mean``, ``snr_std``,
+            ``snr_sem``, ``background``, ``final``, and with ``model`` the model's values
+            (``model_<curve>``, their band ``model_<curve>_lower`` / ``_upper``,
+            ``model_resolved_small``, ``model_sky_temp_k``); the columns' units in
+            ``attrs["units"]``.
 
         Examples
         --------
@@ -374,34 +361,24 @@ class Session:
         rows = self._recorded_rows(model)
         if rows is None:
             rows = self.replay(model=model).stops
+        from snrmon.acquisition.stops.columns import stop_record, stop_units
+
+        def utc(t_host_ns: int) -> pd.Timestamp | None:
+            return _utc(t_host_ns, self._clock)
+
         records = []
         for r in rows:
-            rec = {
-                "camera": r.camera,
-                "stop": r.stop,
-                "range_m": _round_range(r.range_m),
-                "lrf_range_m": r.lrf_range_m,
-                "gps_range_m": r.gps_range_m,
-                "t_start_utc": _utc(r.t_start_ns, self._clock),
-                "t_end_utc": _utc(r.t_end_ns, self._clock),
-                "n_frames": r.n_frames,
-                "complete": r.complete,
-                "snr_mean": r.snr_mean,
-                "snr_std": r.snr_std,
-                "snr_sem": r.snr_sem,
-                "background": r.background,
-                "manual": r.manual,
-                "final": r.final,
-            }
-            if model:
-                rec |= {f"model_{k}": v for k, v in sorted(r.model_snr.items())}
-                if r.model_sky_temp_k is not None:
-                    rec["model_sky_temp_k"] = r.model_sky_temp_k
+            rec = stop_record(r, utc=utc, keys=None if model else {"model_snr": ()})
+            rec["range_m"] = _round_range(r.range_m)
+            if not model:
+                del rec["model_sky_temp_k"], rec["model_resolved_small"]
+            elif rec["model_sky_temp_k"] is None:
+                del rec["model_sky_temp_k"]
             records.append(rec)
         frame = pd.DataFrame.from_records(records)
         if not frame.empty:
             frame = frame.sort_values(["camera", "stop"], ignore_index=True)
-        frame.attrs["units"] = _units(frame, STOP_UNITS)
+        frame.attrs["units"] = stop_units(frame.columns)
         self._stops[model] = frame
         return frame.copy()
 
@@ -425,9 +402,8 @@ class Session:
             values = {k: p[k] for k in fields if k in p}
             for k in ("snr_mean", "snr_std", "snr_sem"):  # recorded null: not finite
                 values[k] = math.nan if values.get(k) is None else values[k]
-            values["model_snr"] = {
-                k: (math.nan if v is None else v) for k, v in (p.get("model_snr") or {}).items()
-            }
+            for k in ("model_snr", "frame_means"):  # recorded null: not finite
+                values[k] = {n: (math.nan if v is None else v) for n, v in (p.get(k) or {}).items()}
             rows.append(StopRow(**values))
         return rows
 
@@ -507,48 +483,14 @@ def open_session(path: str | Path) -> Session:
     return Session(path)
 
 
-MEASUREMENT_UNITS = {
-    "t_host_ns": "ns",
-    "peak_x": "px",
-    "peak_y": "px",
-    "peak": "DN",
-    "bg_mean": "DN",
-    "bg_std": "DN",
-    "extent_w_px": "px",
-    "extent_h_px": "px",
-    "window_x": "px",
-    "window_y": "px",
-    "cue_x": "px",
-    "cue_y": "px",
-    "snr_n": "frames",
-    "range_m": "m",
-}
-"""The units of the measurement table's columns (DN: the camera's raw counts); in
-``df.attrs["units"]``."""
+def _measurement_units(frame: pd.DataFrame) -> dict[str, str]:
+    """``{column: units}`` of a measurement table's columns that have one (DN: the camera's raw
+    counts), as the session file's columns declare them; in ``df.attrs["units"]``."""
+    from snrmon.acquisition.columns import units_of
+    from snrmon.acquisition.record.schema import MEASUREMENT_COLUMNS
 
-STOP_UNITS = {
-    "range_m": "m",
-    "lrf_range_m": "m",
-    "gps_range_m": "m",
-    "n_frames": "frames",
-    "snr_mean": "1",
-    "snr_std": "1",
-    "snr_sem": "1",
-    "model_sky_temp_k": "K",
-}
-"""The units of the stop table's columns (``model_*`` curves: SNR, 1); in ``df.attrs["units"]``."""
-
-
-def _units(frame: pd.DataFrame, known: dict[str, str]) -> dict[str, str]:
-    """``{column: units}`` of the columns that have one: ``known``'s, else SNR (``1``) for a
-    ``model_`` curve and ``snr`` columns."""
-    out = {}
-    for column in frame.columns:
-        if column in known:
-            out[column] = known[column]
-        elif column.startswith("model_") or column.startswith("snr"):
-            out[column] = "1"
-    return out
+    units = units_of(MEASUREMENT_COLUMNS)
+    return {c: units[c] for c in frame.columns if c in units}
 
 
 def _named_axes(ds: xr.Dataset) -> xr.Dataset:
@@ -717,10 +659,11 @@ def measure_stack(
     Returns
     -------
     pandas.DataFrame
-        One row per frame: ``peak_x``, ``peak_y``, ``peak`` (DN), ``bg_mean``, ``bg_std``
-        (DN), ``snr``, ``background`` (which pixels: ``rim``, ``extent_rim``, ``rect``), one
-        boolean column per flag (``flag_saturated`` ...), and with ``track`` the
-        ``track_state`` and ``track_reason``.
+        One row per frame, by the session file's names for the Eq. (4) result: ``peak_x``,
+        ``peak_y``, ``peak`` (DN), ``bg_mean``, ``bg_std`` (DN), ``snr``, ``background``
+        (which pixels: ``rim``, ``extent_rim``, ``rect``), one boolean column per flag
+        (``flag_saturated`` ...); with ``track`` those of :func:`track_stack`; the columns'
+        units in ``attrs["units"]``.
 
     Examples
     --------
@@ -744,20 +687,9 @@ def measure_stack(
     if track:
         return track_stack(pixels, at, **config)
     result = measure(pixels, at, window=window, **config)
-    frame = pd.DataFrame(
-        {
-            "peak_x": result.peak_x,
-            "peak_y": result.peak_y,
-            "peak": result.peak,
-            "bg_mean": result.bg_mean,
-            "bg_std": result.bg_std,
-            "snr": result.snr,
-            "background": result.background,
-        }
-    )
-    _add_flag_columns(frame, result.flag_bits)
-    frame.index.name = "frame"
-    return frame
+    # the declared columns the vectorised path holds, as it holds them (an array per column)
+    arrays = {f.name: getattr(result, f.name) for f in dataclasses.fields(result)}
+    return _peak_snr_frame(None, len(result), arrays, result.flag_bits)
 
 
 def track_stack(
@@ -789,10 +721,10 @@ def track_stack(
     Returns
     -------
     pandas.DataFrame
-        The columns of :func:`measure_stack`, plus ``track_state`` (``tracking``, ``lost``,
+        The columns of :func:`measure_stack` (with the target's segmented extent,
+        ``extent_w_px``, ``extent_h_px``), plus ``track_state`` (``tracking``, ``lost``,
         ``reacquiring`` ...), ``track_reason`` (why the object was not found, empty when it
-        was), ``window_x``, ``window_y`` and the target's segmented extent (``extent_w_px``,
-        ``extent_h_px``).
+        was), ``window_x`` and ``window_y``; the columns' units in ``attrs["units"]``.
 
     Examples
     --------
@@ -805,7 +737,7 @@ def track_stack(
     >>> t["peak_x"].tolist()[-1], t["track_state"].iloc[-1]
     (39, 'tracking')
     """
-    from snrmon.acquisition.measure.peak_snr import FLAG_NAMES, PeakSnrConfig
+    from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
     from snrmon.acquisition.track.tracker import track_stack as track
 
     pixels = _pixels(stack)
@@ -813,28 +745,51 @@ def track_stack(
         search_px=search_px, box_px=box_px, background=background, detrend=detrend
     )
     steps = track(pixels, at, measurement=config)
-    frame = pd.DataFrame.from_records(
-        [
-            {
-                "peak_x": s.peak_snr.peak_x,
-                "peak_y": s.peak_snr.peak_y,
-                "peak": s.peak_snr.peak,
-                "bg_mean": s.peak_snr.bg_mean,
-                "bg_std": s.peak_snr.bg_std,
-                "snr": s.peak_snr.snr,
-                "background": s.peak_snr.background,
-                "extent_w_px": s.peak_snr.extent_w_px,
-                "extent_h_px": s.peak_snr.extent_h_px,
-                "track_state": s.state.value,
-                "track_reason": s.reason,
-                "window_x": s.window_x,
-                "window_y": s.window_y,
-                **{f"flag_{f}": f in s.peak_snr.flags for f in FLAG_NAMES},
-            }
-            for s in steps
-        ]
-    )
-    frame.index.name = "frame"
+    frame = _peak_snr_frame(lambda: [s.peak_snr for s in steps], len(steps))
+    frame["track_state"] = [s.state.value for s in steps]
+    frame["track_reason"] = [s.reason for s in steps]
+    frame["window_x"] = np.array([s.window_x for s in steps], np.int32)
+    frame["window_y"] = np.array([s.window_y for s in steps], np.int32)
+    frame.attrs["units"] |= {"window_x": "px", "window_y": "px"}
+    return frame
+
+
+def _peak_snr_frame(
+    results: Callable[[], Sequence[Any]] | None,
+    n: int,
+    arrays: dict[str, Any] | None = None,
+    flag_bits: np.ndarray | None = None,
+) -> pd.DataFrame:
+    """``n`` Eq. (4) results as a DataFrame, one row per frame: a column per field the result
+    declares (as the session file holds them), its flags as boolean columns (``flag_<name>``),
+    the columns' units in ``attrs["units"]``. ``arrays``: columns already at hand by field
+    (an array, or one value for every frame), ``flag_bits`` the flags' bit masks; the rest
+    from ``results()``, the per-frame results (None: only the columns at hand)."""
+    from snrmon.acquisition.columns import units_of
+    from snrmon.acquisition.measure.peak_snr import flags_to_bits
+    from snrmon.acquisition.record.schema import PEAK_SNR_COLUMNS
+
+    arrays = arrays or {}
+    records: Sequence[Any] | None = None
+    data: dict[str, Any] = {}
+    for c in PEAK_SNR_COLUMNS:
+        if c.name == "flags":
+            continue  # as one boolean column per flag
+        if c.field in arrays:
+            values = arrays[c.field]
+            values = values if isinstance(values, np.ndarray) else [values] * n
+        elif results is None:
+            continue
+        else:
+            records = results() if records is None else records
+            values = [getattr(r, c.field) for r in records]
+        data[c.name] = values if c.dtype.startswith("S") else np.asarray(values, c.dtype)
+    frame = pd.DataFrame(data, index=pd.RangeIndex(n, name="frame"))
+    if flag_bits is None:
+        records = (results() if results else []) if records is None else records
+        flag_bits = np.array([flags_to_bits(r.flags) for r in records], np.int64)
+    _add_flag_columns(frame, flag_bits)
+    frame.attrs["units"] = {k: v for k, v in units_of(PEAK_SNR_COLUMNS).items() if k in frame}
     return frame
 
 

@@ -61,7 +61,9 @@ OPTIONS: dict[str, Word] = {
     "--blackbody": Word("STACK:TEMP_C", "a stack of a blackbody and its temperature in C"),
     "--pairs": Word("FILE.csv", "(pixel, GPS position) pairs"),
     "--settings": Word("FILE.toml", "re-analysis settings"),
-    "--replay": Word("SESSION.h5", "a recorded session to play in the console"),
+    "--replay": Word(
+        "RECORDING", "a recording to play in the console: a session, or another tool's"
+    ),
     "--format": Word(
         "dji_csv|dji_srt|nmea|tlog|dataflash|ulog|ubx",
         "a flight log's kind, instead of the one found from its content",
@@ -99,6 +101,9 @@ OPTIONS: dict[str, Word] = {
     # the simulated day and the model's inputs
     "--seed": Word("N", "the seed of every simulated device"),
     "--headless": Word(None, "no window"),
+    "--template": Word(
+        None, "print a session config with every key, its default and what it expects"
+    ),
     "--fpn": Word(None, "add fixed-pattern noise to the simulated frames"),
     "--sky-temp-c": Word("T", "the sky's (background's) temperature, C"),
     "--air-temp-c": Word("T", "the air temperature along the path, C"),
@@ -106,7 +111,10 @@ OPTIONS: dict[str, Word] = {
     "--dew-point-c": Word("TD", "dew point, C"),
     "--pressure-hpa": Word("P", "air pressure, hPa"),
     "--visibility-km": Word("V", "meteorological visibility, km"),
-    "--aerosol": Word("rural|maritime|urban", "the LOWTRAN7 aerosol model"),
+    "--footprint": Word(
+        "square|outline", "the model's small target: the paper's square or the measured outline"
+    ),
+    "--aerosol": Word("rural|maritime|urban|none", "the LOWTRAN7 aerosol model (none: no aerosol)"),
     "--season": Word(
         "us_std_1976|tropical|midlat_summer|midlat_winter|subarctic_summer|subarctic_winter",
         "the standard atmosphere for readings not given",

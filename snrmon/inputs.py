@@ -174,6 +174,21 @@ def stack_file(path: str | Path, what: str = "stack") -> Path:
     return p
 
 
+SESSION_SUFFIXES = (".h5", ".hdf5")
+
+
+def is_session_recording(path: str | Path, what: str = "recording") -> bool:
+    """True for a snrmon session with frames (checked whole: :func:`session_file`), False for
+    another tool's recording (checked as its ending says: :func:`stack_file`). A file named
+    ``.h5`` or starting as HDF5 is a session or nothing."""
+    p = Path(path)
+    if p.suffix.lower() in SESSION_SUFFIXES or (p.is_file() and p.stat().st_size and is_hdf5(p)):
+        session_file(p, with_frames=True)
+        return True
+    stack_file(p, what)
+    return False
+
+
 def output_file(
     path: str | Path,
     what: str,

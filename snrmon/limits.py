@@ -22,3 +22,11 @@ DEFAULT_COMPRESSION = "bitshuffle-lz4"
 """The frames' filter when none is asked for: of the filters that keep a day within 45 % of its
 raw size, the one with the least writer CPU, and it keeps up with both cameras on a quarter of
 one core (``snrmon bench --only compression``: its ``chosen``; docs/session-format.md)."""
+PSF_CHOICES = ("fitted", "preset")
+"""What the session config's ``model_psf`` takes: the model's corrected PSF fitted from the
+flight's unresolved stops as each is final ("fitted", the default), or the sensor preset's
+throughout ("preset") (:mod:`snrmon.acquisition.calibrate.flight_psf`)."""
+FOOTPRINT_CHOICES = ("square", "outline")
+"""What ``--footprint`` and the session config's ``footprint`` take: the model's target
+as the paper's square of its small dimension ("square", the default), or the outline the close
+stop measured, scaled by range ("outline") (:mod:`snrmon.model.footprint`)."""

@@ -65,15 +65,15 @@ def wait_until(predicate, timeout_s: float, what: str) -> None:
             cond.wait(0.02)
 
 
-def sensor_toml(path: Path, fps: float = 60.0) -> Path:
-    """The LWIR preset, resized to the test cameras' format (W x H) at ``fps``: a sensor the
-    model accepts for a simulated camera of this size."""
+def sensor_toml(path: Path, fps: float = 60.0, *, width_px: int = W, height_px: int = H) -> Path:
+    """The LWIR preset, resized to the test cameras' format (W x H unless given) at ``fps``: a
+    sensor the model accepts for a simulated camera of this size."""
     from snrmon.model.presets import PRESET_DIR
 
     lines = []
     for line in (PRESET_DIR / "lwir.toml").read_text().splitlines():
         key = line.split("=")[0].strip()
-        value = {"width_px": W, "height_px": H, "fps": fps}.get(key)
+        value = {"width_px": width_px, "height_px": height_px, "fps": fps}.get(key)
         lines.append(f"{key} = {value}" if value is not None else line)
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -214,3 +214,30 @@ def field_session_config(ring: str, lrf, gps):
             "gps": {"protocol": "nmea", "port": gps.path, "baud": 38400},
         }
     )
+
+
+class SpotOnSky:
+    """Picklable render callable of a camera's full frame: ``width`` x ``height`` pixels of
+    1000 DN sky with white noise (:data:`NOISE_DN`) and the drone, a Gaussian spot (sigma
+    0.8 px, ``amplitude_dn``) centred on pixel (``x``, ``y``). The noise of :data:`FRAMES`
+    frames is drawn once (seeded) and taken in turn: a 1280 x 720 frame drawn afresh each time
+    took a loaded machine longer than the frame's interval (the camera then dropped frames)."""
+
+    FRAMES = 8
+
+    def __init__(
+        self, width: int, height: int, x: int, y: int, seed: int, amplitude_dn: float = 240.0
+    ) -> None:
+        self.width, self.height, self.x, self.y, self.seed = width, height, x, y, seed
+        yy, xx = np.mgrid[-7:8, -7:8]
+        self.spot = amplitude_dn * np.exp(-(xx**2 + yy**2) / (2 * 0.8**2))
+        self._frames: list[np.ndarray] = []
+
+    def __call__(self, counter: int) -> np.ndarray:
+        if not self._frames:  # in the camera's process (the callable is pickled before)
+            for i in range(self.FRAMES):
+                rng = np.random.default_rng([self.seed, i])
+                frame = rng.normal(1000.0, NOISE_DN, (self.height, self.width))
+                frame[self.y - 7 : self.y + 8, self.x - 7 : self.x + 8] += self.spot
+                self._frames.append(np.rint(frame).astype(np.uint16))
+        return self._frames[counter % self.FRAMES]

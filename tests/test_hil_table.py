@@ -27,6 +27,8 @@ def _stop(**kw) -> dict:
         "expected_eq4_rule": "rim",
         "measured_over_model": 1.02,
         "truth_over_model": 0.99,
+        "live_over_model": 1.01,
+        "model_psf": "fitted PSF",
     }
     row.update(kw)
     return row
@@ -38,6 +40,7 @@ def test_unresolved_complete_row_is_a_point():
     assert "102.74" in line and "124.51" in line
     assert "-" not in line.split()[:-2]  # every number of this row was measured or modelled
     assert len(line.split()) == len(TABLE_HEADER.split())
+    assert line.split()[-4:-2] == ["1.010", "fitted"]  # the console's ratio and its PSF
 
 
 def test_resolved_short_row_is_marked_both():

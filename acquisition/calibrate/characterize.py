@@ -59,7 +59,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import cv2
 import numpy as np
@@ -68,6 +68,7 @@ import tomli_w
 from snrmon.acquisition.calibrate.calibration import Calibration, temperature_of
 from snrmon.limits import MIN_FRAMES_AT_REST
 from snrmon.model.constants import ZERO_C_K
+from snrmon.model.target import Outline
 
 METHODS = ("otsu", "ksigma")
 BOXES = ("upright", "rotated")
@@ -153,6 +154,8 @@ class FrameTarget:
     core_seen_temp_k: float | None = None  # the core before the PSF correction
     core_psf_share: float | None = None  # share of a uniform drone's contrast the core keeps
     apparent_temp_k: float | None = None  # the (PSF-corrected) core through the air
+    # the segmented pixels, cropped to their box (1 inside): the outline a target file keeps
+    mask: np.ndarray | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -346,7 +349,26 @@ def characterize_frame(
         seen,
         share,
         apparent,
+        _cropped(mask),
     )
+
+
+def _cropped(mask: np.ndarray) -> np.ndarray:
+    ys, xs = np.nonzero(mask)
+    return mask[ys.min() : ys.max() + 1, xs.min() : xs.max() + 1].copy()
+
+
+def median_outline(rows: Sequence[FrameTarget], pixel_m: float) -> Outline:
+    """The outline of the frame whose segmented area is the median of ``rows`` (the first of
+    two at the median): one frame's pixels at the stop's ``pixel_m`` (range x IFOV), the
+    segmentation the small dimension is the square root of the area of (paper section 3)."""
+    kept = [r for r in rows if r.mask is not None]
+    if not kept:
+        raise ValueError("no segmented frame to take an outline from")
+    order = sorted(range(len(kept)), key=lambda k: kept[k].area_px)
+    mask = kept[order[(len(order) - 1) // 2]].mask
+    assert mask is not None  # kept
+    return Outline(tuple("".join("1" if v else "0" for v in row) for row in mask), pixel_m)
 
 
 def at_rest_frames(
@@ -503,10 +525,15 @@ def characterize_frames(
 
 
 def target_toml(
-    result: Characterization, name: str, description: str = "", band: str | None = None
+    result: Characterization,
+    name: str,
+    description: str = "",
+    band: str | None = None,
+    outline: Outline | None = None,
 ) -> str:
     """A ``[target]`` TOML for ``model.presets.load_target`` with this band's temperature and
-    RSS delta-T (``band`` defaults to the camera name: "mwir"/"lwir")."""
+    RSS delta-T (``band`` defaults to the camera name: "mwir"/"lwir") and, if given, the
+    segmented ``outline`` (the model's "outline" footprint, :func:`median_outline`)."""
     if result.mean_temp_c is None:
         raise ValueError("a target file needs a temperature: characterize with a calibration")
     key = band or result.camera
@@ -532,4 +559,7 @@ def target_toml(
         "temp_c": {key: round(finite["temp_c"], 3)},
         "rss_delta_t_k": {key: round(finite["rss_delta_t_k"], 3)},
     }
+    if outline is not None:
+        table["outline"] = list(outline.rows)
+        table["outline_pixel_m"] = round(float(outline.pixel_m), 6)
     return tomli_w.dumps({"target": table})

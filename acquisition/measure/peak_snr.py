@@ -27,10 +27,11 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from snrmon.acquisition.columns import column
 from snrmon.acquisition.measure.background import Rect, background_stats, rect_offsets, rim_offsets
 from snrmon.acquisition.measure.contamination import NoiseReference, is_contaminated
 from snrmon.acquisition.measure.rim_kernel import brightest, rim_background
@@ -98,16 +99,40 @@ class PeakSnr:
             not compared by ``==``, which compares the Eq. 4 measurement.
     """
 
-    peak_x: int
-    peak_y: int
-    peak: float
-    bg_mean: float
-    bg_std: float
-    snr: float
-    flags: frozenset[str]
-    background: str = "rim"
-    extent_w_px: int = field(default=0, compare=False)
-    extent_h_px: int = field(default=0, compare=False)
+    # Each field's column in every table (session file, API, campaign, CSV, stop table).
+    peak_x: int = column("px, column, zero-based", units="px", cf_units="1", dtype="<i4")
+    peak_y: int = column("px, row, zero-based", units="px", cf_units="1", dtype="<i4")
+    peak: float = column("DN", units="DN", cf_units="1", dtype="<f8")
+    bg_mean: float = column("DN", units="DN", cf_units="1", dtype="<f8")
+    bg_std: float = column("DN", units="DN", cf_units="1", dtype="<f8")
+    snr: float = column("1 (paper Eq. 4; NaN when undefined)", units="1", cf_units="1", dtype="<f8")
+    flags: frozenset[str] = column(
+        "bit i = flag_names[i]",
+        dtype="<u2",
+        encode=flags_to_bits,
+        decode=lambda bits: flags_from_bits(int(bits)),
+    )
+    background: str = column(
+        "rim | extent_rim | rect: the background bg_mean/bg_std are of",
+        default="rim",
+        dtype="S32",
+    )
+    extent_w_px: int = column(
+        "px, segmented target's box width (0: not segmented)",
+        default=0,
+        compare=False,
+        units="px",
+        cf_units="1",
+        dtype="<i2",
+    )
+    extent_h_px: int = column(
+        "px, segmented target's box height (0: not segmented)",
+        default=0,
+        compare=False,
+        units="px",
+        cf_units="1",
+        dtype="<i2",
+    )
 
 
 def result_with(

@@ -42,7 +42,7 @@ from snrmon.acquisition.record.reader import append_event, clear_status_flags
 from snrmon.acquisition.record.stream_rows import gps_row
 from snrmon.acquisition.record.writer import copy_rows, resize_rows
 from snrmon.drivers.gps.fix import GpsFix
-from snrmon.drivers.gps.flight_log import FORMATS, read_flight_log
+from snrmon.drivers.gps.flight_log import FORMATS, FlightLog, read_flight_log
 from snrmon.drivers.gps.log_clock import ClockReport
 
 LIVE_COPY = "gps_live"
@@ -161,77 +161,33 @@ def import_gps_log(
     if not log.is_file():
         raise FileNotFoundError(f"flight log {log} not found")
     flight = read_flight_log(kind, log)
-    utc_source, clock = flight.utc_source, flight.clock
     fixes = [f for f in flight.fixes if f.utc is not None and f.has_fix]
     if not fixes:
         raise ValueError(f"{log}: no fix in the log ({flight.dropped} positions without a fix)")
-    off_clock = flight.off_clock
-    in_log = len(fixes) + off_clock
     f, flags_cleared = _open_rw(session)
     try:
-        if f.attrs.get("format") != S.FORMAT:
-            raise ValueError(f"{session} is not a snrmon session file (format attribute missing)")
-        gps = f[S.GPS]
-        live = gps.attrs.get(SOURCE_ATTR, "live") != IMPORTED and gps.shape[0] > 0
-        if live and not replace:
-            raise ValueError(
-                f"{session} already holds {gps.shape[0]} live GPS rows; give --replace to "
-                f"import the log anyway (the live rows are kept in /{LIVE_COPY})"
-            )
-        span = _span_ns(f)
-        margin = round(margin_s * 1e9)
-        local_offset = None
-        if flight.local_time:
-            local_offset, how = _local_time_offset(
-                log, fixes, utc_offset_s, f[S.CLOCK][()], span, margin
-            )
-            shift_local = timedelta(seconds=local_offset)
-            fixes = [dc_replace(x, utc=x.utc - shift_local) for x in fixes if x.utc is not None]
-            utc_source = f"{utc_source} - {_hhmm(local_offset)} ({how})"
-        fixes.sort(key=_utc_ns)
-        utc = np.array([_utc_ns(x) for x in fixes], np.int64)
-        t_host = utc_to_host_ns(utc, f[S.CLOCK][()])
-        search = _offset(f, fixes, t_host, offset_s, max_offset_s)
-        shift = round(search.offset_s * 1e9)
-        keep = np.ones(len(fixes), bool)
-        if span is not None:
-            keep = (t_host + shift >= span[0] - margin) & (t_host + shift <= span[1] + margin)
-        if keep.sum() < MIN_WRITTEN * in_log:
-            raise ValueError(
-                _why_refused(log, int(keep.sum()), in_log, off_clock, clock, t_host + shift, span)
-            )
-        rows = []
-        for fix, t, u, k in zip(fixes, t_host, utc, keep, strict=True):
-            if k:
-                row = list(gps_row(fix))
-                row[0], row[1] = int(t + shift), int(u + shift)
-                rows.append(tuple(row))
-        kept = 0
-        if live:
-            kept = gps.shape[0]
-            if LIVE_COPY not in f:
-                copy_rows(f, gps, LIVE_COPY)
-                f[LIVE_COPY].attrs[SOURCE_ATTR] = "live"
-        resize_rows(gps, len(rows))
-        if rows:
-            gps[:] = np.array(rows, dtype=S.GPS_DTYPE)
+        gps, live = _gps_to_write(f, session, replace)
+        placed = _placed_on_session(
+            f, log, flight, fixes, offset_s, max_offset_s, margin_s, utc_offset_s
+        )
+        kept = _write_rows(f, gps, live, placed.rows)
         result = GpsImport(
             session=str(session),
             log=str(log),
             kind=kind,
             log_sha256=_sha256(log),
-            utc_source=utc_source,
-            fixes_in_log=in_log,
-            fixes_written=len(rows),
-            fixes_outside=int((~keep).sum()),
-            first_utc_ns=int(utc[0]),
-            last_utc_ns=int(utc[-1]),
-            offset=search,
+            utc_source=placed.utc_source,
+            fixes_in_log=placed.in_log,
+            fixes_written=len(placed.rows),
+            fixes_outside=placed.outside,
+            first_utc_ns=placed.first_utc_ns,
+            last_utc_ns=placed.last_utc_ns,
+            offset=placed.search,
             live_rows_kept=kept,
             flags_cleared=flags_cleared,
-            clock=None if clock is None else clock.as_dict(),
+            clock=None if flight.clock is None else flight.clock.as_dict(),
             dropped_no_fix=flight.dropped,
-            utc_offset_s=local_offset,
+            utc_offset_s=placed.local_offset_s,
             details=flight.details,
             notes=tuple(flight.notes),
         )
@@ -239,13 +195,118 @@ def import_gps_log(
         gps.attrs["import_json"] = json.dumps(result.as_dict())
     finally:
         f.close()
+    append_event(session, "gps_imported", payload=_event_payload(result))
+    return result
+
+
+def _gps_to_write(f: h5py.File, session: Path, replace: bool) -> tuple[h5py.Dataset, bool]:
+    """The session's ``/gps`` and whether it holds live rows (refused unless ``replace``)."""
+    if f.attrs.get("format") != S.FORMAT:
+        raise ValueError(f"{session} is not a snrmon session file (format attribute missing)")
+    gps = f[S.GPS]
+    live = gps.attrs.get(SOURCE_ATTR, "live") != IMPORTED and gps.shape[0] > 0
+    if live and not replace:
+        raise ValueError(
+            f"{session} already holds {gps.shape[0]} live GPS rows; give --replace to "
+            f"import the log anyway (the live rows are kept in /{LIVE_COPY})"
+        )
+    return gps, live
+
+
+@dataclass(frozen=True)
+class _Placed:
+    """A log's fixes placed on a session's host clock: the ``/gps`` rows to write and how."""
+
+    rows: list[tuple]
+    in_log: int
+    outside: int
+    first_utc_ns: int
+    last_utc_ns: int
+    search: OffsetSearch
+    utc_source: str
+    local_offset_s: float | None
+
+
+def _placed_on_session(
+    f: h5py.File,
+    log: Path,
+    flight: FlightLog,
+    fixes: list[GpsFix],
+    offset_s: float | None,
+    max_offset_s: float,
+    margin_s: float,
+    utc_offset_s: float | None,
+) -> _Placed:
+    """The fixes on the session's clock (local time resolved, the offset searched), those more
+    than ``margin_s`` outside the session's span left out; refused (ValueError) when fewer than
+    ``MIN_WRITTEN`` of the log's fixes would be written."""
+    utc_source = flight.utc_source
+    in_log = len(fixes) + flight.off_clock
+    span = _span_ns(f)
+    margin = round(margin_s * 1e9)
+    local_offset = None
+    if flight.local_time:
+        local_offset, how = _local_time_offset(
+            log, fixes, utc_offset_s, f[S.CLOCK][()], span, margin
+        )
+        shift_local = timedelta(seconds=local_offset)
+        fixes = [dc_replace(x, utc=x.utc - shift_local) for x in fixes if x.utc is not None]
+        utc_source = f"{utc_source} - {_hhmm(local_offset)} ({how})"
+    fixes.sort(key=_utc_ns)
+    utc = np.array([_utc_ns(x) for x in fixes], np.int64)
+    t_host = utc_to_host_ns(utc, f[S.CLOCK][()])
+    search = _offset(f, fixes, t_host, offset_s, max_offset_s)
+    shift = round(search.offset_s * 1e9)
+    keep = np.ones(len(fixes), bool)
+    if span is not None:
+        keep = (t_host + shift >= span[0] - margin) & (t_host + shift <= span[1] + margin)
+    if keep.sum() < MIN_WRITTEN * in_log:
+        raise ValueError(
+            _why_refused(
+                log, int(keep.sum()), in_log, flight.off_clock, flight.clock, t_host + shift, span
+            )
+        )
+    rows = []
+    for fix, t, u, k in zip(fixes, t_host, utc, keep, strict=True):
+        if k:
+            row = list(gps_row(fix))
+            row[0], row[1] = int(t + shift), int(u + shift)
+            rows.append(tuple(row))
+    return _Placed(
+        rows=rows,
+        in_log=in_log,
+        outside=int((~keep).sum()),
+        first_utc_ns=int(utc[0]),
+        last_utc_ns=int(utc[-1]),
+        search=search,
+        utc_source=utc_source,
+        local_offset_s=local_offset,
+    )
+
+
+def _write_rows(f: h5py.File, gps: h5py.Dataset, live: bool, rows: list[tuple]) -> int:
+    """Write ``rows`` as ``/gps``; live rows are first copied to ``/LIVE_COPY`` (once). Returns
+    the number of live rows kept there."""
+    kept = 0
+    if live:
+        kept = gps.shape[0]
+        if LIVE_COPY not in f:
+            copy_rows(f, gps, LIVE_COPY)
+            f[LIVE_COPY].attrs[SOURCE_ATTR] = "live"
+    resize_rows(gps, len(rows))
+    if rows:
+        gps[:] = np.array(rows, dtype=S.GPS_DTYPE)
+    return kept
+
+
+def _event_payload(result: GpsImport) -> dict:
+    """The ``gps_imported`` event's payload: the import's summary, bounded for the event row."""
     payload = result.as_dict()
     payload["log"] = Path(payload["log"]).name[:200]  # the event's payload field is bounded
     if payload["clock"] is not None:  # the counts; the named rows are in /gps's import_json
         payload["clock"] = {k: v for k, v in payload["clock"].items() if k != "examples"}
     payload.pop("session")
-    append_event(session, "gps_imported", payload=payload)
-    return result
+    return payload
 
 
 def _hhmm(offset_s: float) -> str:

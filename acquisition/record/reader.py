@@ -190,9 +190,18 @@ def measurement_rows(m: h5py.Group | h5py.Dataset) -> np.ndarray:
         return m[()]
     names = [n for n in schema.MEASUREMENT_DTYPE.names or () if n in m]
     n = min((m[name].shape[0] for name in names), default=0)
-    rows = np.zeros(n, schema.MEASUREMENT_DTYPE)
+    rows = empty_rows(n)
     for name in names:
         rows[name] = m[name][:n]
+    return rows
+
+
+def empty_rows(n: int) -> np.ndarray:
+    """``n`` measurement rows of the current dtype, each Eq. (4) column a file may lack (one
+    declared after the file was written) at its field's default, the others zero."""
+    rows = np.zeros(n, schema.MEASUREMENT_DTYPE)
+    for name, value in schema.MEASUREMENT_DEFAULTS.items():
+        rows[name] = value
     return rows
 
 
@@ -201,7 +210,7 @@ def upgrade_rows(rows: np.ndarray) -> np.ndarray:
     "not given" (empty track state, the peak as the window, NaN cue, statistics and range)."""
     if rows.dtype == schema.MEASUREMENT_DTYPE:
         return rows
-    out = np.zeros(len(rows), schema.MEASUREMENT_DTYPE)
+    out = empty_rows(len(rows))
     for name in ("cue_x", "cue_y", "snr_mean", "snr_std", "range_m"):
         out[name] = np.nan
     out["window_x"], out["window_y"] = rows["peak_x"], rows["peak_y"]

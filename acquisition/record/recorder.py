@@ -175,8 +175,9 @@ class SessionRecorder:
 
     def add_measurement(self, camera: str, index: int | None, **values: Any) -> None:
         """Queue one frame's Eq. (4) result from its values (:func:`snrmon.acquisition.record.
-        stream_rows.values_row`: counter, t_host_ns, peak_x, peak_y, peak, bg_mean, bg_std, snr,
-        flags). ``index``: the frame's index from ``add_frame``, or ``None`` to look it up by
+        stream_rows.values_row`: counter, t_host_ns and the fields of :class:`PeakSnr` by name,
+        as :func:`snrmon.acquisition.columns.values_of` gives them). ``index``: the frame's
+        index from ``add_frame``, or ``None`` to look it up by
         ``t_host_ns`` (-1 in the file when the frame is not recorded)."""
         self._check_camera(camera)
         if index is None:

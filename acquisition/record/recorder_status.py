@@ -73,6 +73,7 @@ def describe_failure(exc: BaseException, path: Path, frames: int) -> str:
 
 
 RATE_WINDOW_S = 5.0  # the write rate is the bytes written over the last few seconds
+RATE_WARM_UP_S = 2.0  # the file's creation and first chunks: not the recording's rate
 
 
 class WriteRate:
@@ -86,7 +87,11 @@ class WriteRate:
 
     def add(self, t_s: float, bytes_written: int) -> float:
         """Take a sample; returns the rate in bytes per second (NaN until two samples half a
-        second apart)."""
+        second apart). Samples of the first :data:`RATE_WARM_UP_S` are left out: the file's
+        layout and first chunks, written at once, read 4x the steady rate of a slow recording
+        (and its time left amber) for its first seconds."""
+        if t_s - self.t0_s < RATE_WARM_UP_S:
+            return math.nan
         self._points.append((t_s, bytes_written))
         while len(self._points) > 2 and t_s - self._points[1][0] >= RATE_WINDOW_S:
             self._points.popleft()

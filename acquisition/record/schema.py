@@ -9,7 +9,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from snrmon.acquisition.measure.peak_snr import FLAG_NAMES  # noqa: F401  (the bit order of "flags")
+# text_field, text_value: the file's text encoding, used through this module
+from snrmon.acquisition.columns import (  # noqa: F401
+    Column,
+    columns_of,
+    defaults_of,
+    text_field,
+    text_value,
+)
+from snrmon.acquisition.measure.peak_snr import (  # noqa: F401  (FLAG_NAMES: the bits of "flags")
+    FLAG_NAMES,
+    PeakSnr,
+)
 
 FORMAT = "snrmon-session"
 FORMAT_VERSION = "2.4"
@@ -76,33 +87,86 @@ NAME_BYTES = 32
 STATE_BYTES = 65536
 STATE_TEXT_BYTES = 16
 
-MEASUREMENT_DTYPE = np.dtype(
-    [
-        ("frame_index", "<i8"),
-        ("counter", "<i8"),
-        ("t_host_ns", "<i8"),
-        ("peak_x", "<i4"),
-        ("peak_y", "<i4"),
-        ("peak", "<f8"),
-        ("bg_mean", "<f8"),
-        ("bg_std", "<f8"),
-        ("snr", "<f8"),
-        ("flags", "<u2"),
-        ("background", f"S{NAME_BYTES}"),
-        ("extent_w_px", "<i2"),
-        ("extent_h_px", "<i2"),
-        ("track_state", f"S{STATE_TEXT_BYTES}"),
-        ("window_x", "<i4"),
-        ("window_y", "<i4"),
-        ("cue_x", "<f8"),
-        ("cue_y", "<f8"),
-        ("snr_mean", "<f8"),
-        ("snr_std", "<f8"),
-        ("snr_n", "<i4"),
-        ("range_m", "<f8"),
-        ("range_source", "S8"),
-    ]
+MEASUREMENT_BEFORE: tuple[Column, ...] = (
+    Column(
+        "index into frames (-1: frame not in the file)",
+        cf_units="1",
+        dtype="<i8",
+        name="frame_index",
+    ),
+    Column("camera frame counter", cf_units="1", dtype="<i8", name="counter"),
+    Column("ns, host monotonic clock", units="ns", cf_units="ns", dtype="<i8", name="t_host_ns"),
 )
+"""The frame's columns of a measurement row, before its Eq. (4) result."""
+MEASUREMENT_AFTER: tuple[Column, ...] = (
+    Column(
+        "fixed | tracking | lost | gps_cued | ... (the tracker's state after the frame)",
+        dtype=f"S{STATE_TEXT_BYTES}",
+        name="track_state",
+    ),
+    Column(
+        "px, column of the search window's centre after the frame",
+        units="px",
+        cf_units="1",
+        dtype="<i4",
+        name="window_x",
+    ),
+    Column(
+        "px, row of the search window's centre after the frame",
+        units="px",
+        cf_units="1",
+        dtype="<i4",
+        name="window_y",
+    ),
+    Column(
+        "px, column of the GPS cue applied before this frame (NaN: none)",
+        units="px",
+        cf_units="1",
+        dtype="<f8",
+        name="cue_x",
+    ),
+    Column(
+        "px, row of the GPS cue applied before this frame (NaN: none)",
+        units="px",
+        cf_units="1",
+        dtype="<f8",
+        name="cue_y",
+    ),
+    Column(
+        "1, running mean of the last (100) valid per-frame SNRs after this frame",
+        units="1",
+        cf_units="1",
+        dtype="<f8",
+        name="snr_mean",
+    ),
+    Column(
+        "1, their sample std (ddof=1; NaN with fewer than 2)",
+        units="1",
+        cf_units="1",
+        dtype="<f8",
+        name="snr_std",
+    ),
+    Column("values in the running window", units="frames", cf_units="1", dtype="<i4", name="snr_n"),
+    Column(
+        "m, range at the frame's time (interpolated; NaN: none; raw: /rangefinder)",
+        units="m",
+        cf_units="m",
+        dtype="<f8",
+        name="range_m",
+    ),
+    Column("lrf | gps | empty", dtype="S8", name="range_source"),
+)
+"""The engine's columns of a measurement row after its Eq. (4) result: the track, the running
+statistics and the range."""
+PEAK_SNR_COLUMNS: tuple[Column, ...] = columns_of(PeakSnr)
+"""The Eq. (4) result's columns: the fields :class:`PeakSnr` declares."""
+MEASUREMENT_COLUMNS: tuple[Column, ...] = (
+    *MEASUREMENT_BEFORE,
+    *PEAK_SNR_COLUMNS,
+    *MEASUREMENT_AFTER,
+)
+"""Every column of /cameras/<name>/measurements, in their order."""
+MEASUREMENT_DTYPE = np.dtype([(c.name, c.dtype) for c in MEASUREMENT_COLUMNS])
 MEASUREMENT_FIELDS_V1 = (
     "frame_index",
     "counter",
@@ -115,62 +179,19 @@ MEASUREMENT_FIELDS_V1 = (
     "snr",
     "flags",
 )
-MEASUREMENT_UNITS = {
-    "frame_index": "index into frames (-1: frame not in the file)",
-    "counter": "camera frame counter",
-    "t_host_ns": "ns, host monotonic clock",
-    "peak_x": "px, column, zero-based",
-    "peak_y": "px, row, zero-based",
-    "peak": "DN",
-    "bg_mean": "DN",
-    "bg_std": "DN",
-    "snr": "1 (paper Eq. 4; NaN when undefined)",
-    "flags": "bit i = flag_names[i]",
-    "background": "rim | extent_rim | rect: the background bg_mean/bg_std are of",
-    "extent_w_px": "px, segmented target's box width (0: not segmented)",
-    "extent_h_px": "px, segmented target's box height (0: not segmented)",
-    "track_state": "fixed | tracking | lost | gps_cued | ... (the tracker's state after the frame)",
-    "window_x": "px, column of the search window's centre after the frame",
-    "window_y": "px, row of the search window's centre after the frame",
-    "cue_x": "px, column of the GPS cue applied before this frame (NaN: none)",
-    "cue_y": "px, row of the GPS cue applied before this frame (NaN: none)",
-    "snr_mean": "1, running mean of the last (100) valid per-frame SNRs after this frame",
-    "snr_std": "1, their sample std (ddof=1; NaN with fewer than 2)",
-    "snr_n": "values in the running window",
-    "range_m": "m, range at the frame's time (interpolated; NaN: none; raw: /rangefinder)",
-    "range_source": "lrf | gps | empty",
-}
-
+MEASUREMENT_UNITS = {c.name: c.meaning for c in MEASUREMENT_COLUMNS}
 MEASUREMENT_CF: dict[str, tuple[str | None, str]] = {
-    name: (units, f"{name}: {MEASUREMENT_UNITS[name]}")
-    for name, units in (
-        ("frame_index", "1"),
-        ("counter", "1"),
-        ("t_host_ns", "ns"),
-        ("peak_x", "1"),
-        ("peak_y", "1"),
-        ("peak", "1"),
-        ("bg_mean", "1"),
-        ("bg_std", "1"),
-        ("snr", "1"),
-        ("flags", None),
-        ("background", None),
-        ("extent_w_px", "1"),
-        ("extent_h_px", "1"),
-        ("track_state", None),
-        ("window_x", "1"),
-        ("window_y", "1"),
-        ("cue_x", "1"),
-        ("cue_y", "1"),
-        ("snr_mean", "1"),
-        ("snr_std", "1"),
-        ("snr_n", "1"),
-        ("range_m", "m"),
-        ("range_source", None),
-    )
+    c.name: (c.cf_units, f"{c.name}: {c.meaning}") for c in MEASUREMENT_COLUMNS
 }
 """CF ``units`` (None: a text or a flag field, CF gives it none) and ``long_name`` of each
 measurement column (format 2.4): DN and pixel positions are counts, ``1``."""
+MEASUREMENT_DEFAULTS: dict[str, object] = {
+    c.name: c.file_value(defaults_of(PeakSnr)[c.name])
+    for c in PEAK_SNR_COLUMNS
+    if c.name in defaults_of(PeakSnr)
+}
+"""What a column a file lacks (written before the column existed) reads as: the field's
+default, as the file holds it."""
 
 STATE_DTYPE = np.dtype([("counter", "<i8"), ("t_host_ns", "<i8"), ("state", f"S{STATE_BYTES}")])
 STATE_UNITS = {
@@ -333,16 +354,3 @@ DIMENSIONS: dict[str, str] = {
 }
 """The growing datasets without a coordinate: the name of their first dimension (a netCDF
 "dimension without a variable" scale beside them, kept as long as they are)."""
-
-
-def text_field(value: str, size: int) -> bytes:
-    """UTF-8 bytes for a fixed-length field, cut at ``size`` bytes on a character boundary."""
-    raw = value.encode("utf-8")
-    if len(raw) <= size:
-        return raw
-    return raw[:size].decode("utf-8", errors="ignore").encode("utf-8")
-
-
-def text_value(raw: bytes) -> str:
-    """The str of a fixed-length field as read back (NUL padding already stripped by numpy)."""
-    return raw.decode("utf-8", errors="replace")

@@ -9,13 +9,13 @@ NaN (floats) or -1 (integers) in the file and None in the data types.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from datetime import UTC, datetime, timedelta
+from typing import Any
 
 import numpy as np
 
 from snrmon.acquisition.engine.inputs import Measurement
-from snrmon.acquisition.measure.peak_snr import PeakSnr, flags_from_bits, flags_to_bits
+from snrmon.acquisition.measure.peak_snr import PeakSnr, flags_from_bits
 from snrmon.acquisition.record import schema as S  # noqa: N812
 from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.gps.fix import GpsFix
@@ -106,25 +106,21 @@ def reading_from_row(row: np.void) -> RangeReading:
     )
 
 
+def peak_snr_cells(r: PeakSnr) -> tuple:
+    """The Eq. (4) result's cells of a measurement row, in the order of its declared columns
+    (:data:`snrmon.acquisition.record.schema.PEAK_SNR_COLUMNS`)."""
+    return tuple(c.file_value(getattr(r, c.field)) for c in S.PEAK_SNR_COLUMNS)
+
+
 def measurement_row(index: int | None, m: Measurement) -> tuple:
     """A /cameras/<name>/measurements row (``index``: the frame's index in the file, None when
     the recorder dropped it)."""
-    r = m.result
     cue = m.cue_xy if m.cue_xy is not None else (math.nan, math.nan)
     return (
         -1 if index is None else int(index),
         m.counter,
         m.t_host_ns,
-        r.peak_x,
-        r.peak_y,
-        r.peak,
-        r.bg_mean,
-        r.bg_std,
-        r.snr,
-        flags_to_bits(r.flags),
-        S.text_field(r.background, S.NAME_BYTES),
-        r.extent_w_px,
-        r.extent_h_px,
+        *peak_snr_cells(m.result),
         S.text_field(m.track_state.value, S.STATE_TEXT_BYTES),
         m.window_xy[0],
         m.window_xy[1],
@@ -138,43 +134,24 @@ def measurement_row(index: int | None, m: Measurement) -> tuple:
     )
 
 
-def values_row(
-    index: int,
-    *,
-    counter: int,
-    t_host_ns: int,
-    peak_x: int,
-    peak_y: int,
-    peak: float,
-    bg_mean: float,
-    bg_std: float,
-    snr: float,
-    flags: int | Iterable[str] = 0,
-    background: str = "rim",
-    extent_w_px: int = 0,
-    extent_h_px: int = 0,
-) -> tuple:
+def values_row(index: int, *, counter: int, t_host_ns: int, **values: Any) -> tuple:
     """A measurement row from Eq. (4)'s values alone (a frame measured without the engine's
-    context: the track state is empty, the window is the peak, the rest is "not given")."""
-    bits = int(flags) if isinstance(flags, (int, np.integer)) else flags_to_bits(flags)
+    context: the track state is empty, the window is the peak, the rest is "not given").
+    ``values``: the fields of :class:`PeakSnr` by name (``flags`` as names or bits, none by
+    default; a field left out takes its default)."""
+    flags = values.pop("flags", 0)
+    if isinstance(flags, (int, np.integer)):
+        flags = flags_from_bits(int(flags))
+    r = PeakSnr(flags=frozenset(flags), **values)
     nan = math.nan
     return (
         index,
         counter,
         t_host_ns,
-        peak_x,
-        peak_y,
-        peak,
-        bg_mean,
-        bg_std,
-        snr,
-        bits,
-        background.encode(),
-        extent_w_px,
-        extent_h_px,
+        *peak_snr_cells(r),
         b"",
-        peak_x,
-        peak_y,
+        r.peak_x,
+        r.peak_y,
         nan,
         nan,
         nan,
@@ -187,18 +164,7 @@ def values_row(
 
 def peak_snr_from_row(row: np.void) -> PeakSnr:
     """The Eq. (4) result a measurement row holds."""
-    return PeakSnr(
-        int(row["peak_x"]),
-        int(row["peak_y"]),
-        float(row["peak"]),
-        float(row["bg_mean"]),
-        float(row["bg_std"]),
-        float(row["snr"]),
-        flags_from_bits(int(row["flags"])),
-        S.text_value(row["background"]),
-        int(row["extent_w_px"]),
-        int(row["extent_h_px"]),
-    )
+    return PeakSnr(**{c.field: c.record_value(row[c.name]) for c in S.PEAK_SNR_COLUMNS})
 
 
 def track_state_of(row: np.void) -> TrackState:

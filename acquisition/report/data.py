@@ -436,6 +436,8 @@ def report_data(
         predictor = ModelPredictor(sensors, target_name, measured_noise=measured)
         replay = replay_session(path, predictor=predictor, progress=progress)
     rows = replay.stops
+    with open_session(path) as f:
+        clock = f.clock
     return assemble_report(
         path,
         sensors,
@@ -447,7 +449,20 @@ def report_data(
         weather=last,
         noise_3d=table,
         measured_noise=measured,
+        clock=clock,
     )
+
+
+def utc_text(clock: np.ndarray) -> Callable[[int], str]:
+    """A host monotonic time (ns) -> its UTC through the session's ``clock`` rows, as ISO 8601
+    text to the nanosecond (the CSV's stop times)."""
+    from snrmon.acquisition.record.gps_align import host_to_utc_ns
+
+    def text(t_host_ns: int) -> str:
+        utc_ns = int(host_to_utc_ns(np.array([t_host_ns], np.int64), clock)[0])
+        return f"{np.datetime64(utc_ns, 'ns')}Z"
+
+    return text
 
 
 def live_report_data(
@@ -486,11 +501,13 @@ def assemble_report(
     weather: Weather | None = None,
     noise_3d: list[StopNoise] | None = None,
     measured_noise: dict | None = None,
+    clock: np.ndarray | None = None,
 ) -> ReportData:
     """Figs. 7-10 and 12 and the CSV for measured stop rows: the model at the sensors' presets
     and the target, through the session's met readings ``weather`` (None: the model's default
     atmosphere) and with each camera's ``measured_noise`` where given, over a range grid that
-    holds every stop."""
+    holds every stop; the CSV's stop times in UTC through the session's ``clock`` rows (None:
+    a session in memory, the times left empty)."""
     measured = dict(measured_noise or {})
     stop_ranges = [r.range_m for r in rows if r.range_m is not None]
     grid = model_range_grid(stop_ranges)
@@ -532,7 +549,7 @@ def assemble_report(
         measured={c: measured_points(rows, c) for c in cameras},
         models=models,
         budgets=budgets,
-        csv_rows=csv_rows(rows),
+        csv_rows=csv_rows(rows, None if clock is None else utc_text(clock)),
         replay_seconds=replay_seconds,
         recording_seconds=seconds,
         fits=fit_statistics(rows, models),

@@ -1,33 +1,30 @@
 """The report's CSV: one row per stop and camera, every value at full precision, an empty cell
-where a value is missing or undefined (never a made-up number); ``ratio_<curve>`` is the measured
-SNR mean over the model's SNR for that curve at the stop's range. Both expected Eq. (4) readings
-are given (``model_expected_eq4_rim``: the paper's 7x7 rim; ``model_expected_eq4_extent``: the
+where a value is missing or undefined (never a made-up number). Its columns are the stop table's
+(:func:`snrmon.acquisition.stops.columns.stop_columns`: the names of ``Session.stops()`` and the
+campaign's Parquet, every model value a row can carry), then ``ratio_<curve>``, the measured SNR
+mean over the model's SNR for that curve at the stop's range. Both expected Eq. (4) readings are
+given (``model_expected_eq4_rim``: the paper's 7x7 rim; ``model_expected_eq4_extent``: the
 console's target-aware rule); ``expected_eq4_rule`` names the one the stop's background makes
 applicable (``rim``, ``extent``; empty for a clear-sky rectangle) and ``ratio_expected_eq4``
-is the measured mean over it."""
+is the measured mean over it. The stop's times are UTC (ISO 8601) where the session's clock is
+given, else empty."""
 
 from __future__ import annotations
 
 import csv
 import io
 import math
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-from snrmon.acquisition.prediction import CURVES, EXPECTED_CURVES
+from snrmon.acquisition.prediction import CURVES
+from snrmon.acquisition.stops.columns import default_keys, stop_columns, stop_record
 from snrmon.acquisition.stops.table import StopRow
 
 CSV_COLUMNS: tuple[str, ...] = (
-    "camera",
-    "stop",
-    "lrf_range_m",
-    "gps_range_m",
-    "n_frames",
-    "snr_mean",
-    "snr_std",
-    "background",
-    *(f"model_{c}" for c in CURVES),
+    *(c.name for c in stop_columns()),
     *(f"ratio_{c}" for c in CURVES),
-    *(f"model_{c}" for c in EXPECTED_CURVES),
     "expected_eq4_rule",
     "ratio_expected_eq4",
 )
@@ -40,26 +37,18 @@ def ratio(measured: float, model: float | None) -> float:
     return measured / model
 
 
-def csv_rows(rows: list[StopRow]) -> list[dict[str, object]]:
-    """One dict per stop row with exactly :data:`CSV_COLUMNS` (None for a missing value)."""
+def csv_rows(
+    rows: list[StopRow], utc: Callable[[int], Any] | None = None
+) -> list[dict[str, object]]:
+    """One dict per stop row with exactly :data:`CSV_COLUMNS` (None for a missing value);
+    ``utc`` maps a host time to UTC (None: the times are missing)."""
+    keys = default_keys()
     out = []
     for r in rows:
-        row: dict[str, object] = {
-            "camera": r.camera,
-            "stop": r.stop,
-            "lrf_range_m": r.lrf_range_m,
-            "gps_range_m": r.gps_range_m,
-            "n_frames": r.n_frames,
-            "snr_mean": r.snr_mean,
-            "snr_std": r.snr_std,
-            "background": r.background or None,
-        }
-        for c in CURVES:
-            row[f"model_{c}"] = r.model_snr.get(c)
+        row: dict[str, object] = stop_record(r, utc=utc, keys=keys)
+        row["background"] = r.background or None
         for c in CURVES:
             row[f"ratio_{c}"] = ratio(r.snr_mean, r.model_snr.get(c))
-        for c in EXPECTED_CURVES:
-            row[f"model_{c}"] = r.model_snr.get(c)
         row["expected_eq4_rule"] = r.expected_eq4_rule
         row["ratio_expected_eq4"] = ratio(r.snr_mean, r.expected_eq4)
         out.append(row)

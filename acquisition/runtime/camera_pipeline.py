@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from snrmon.acquisition.columns import values_of
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import (
     ClearReference,
@@ -439,22 +440,7 @@ class CameraPipeline:
         without frames, so a replay builds the same stop table. Taken on the measurement thread
         (or once it has stopped), so exactly the frames measured before the first recorded one."""
         for t, r in self.session_engine.stop_table.history(self.name):
-            rec.add_measurement(
-                self.name,
-                -1,
-                counter=-1,
-                t_host_ns=t,
-                peak_x=r.peak_x,
-                peak_y=r.peak_y,
-                peak=r.peak,
-                bg_mean=r.bg_mean,
-                bg_std=r.bg_std,
-                snr=r.snr,
-                flags=r.flags,
-                background=r.background,
-                extent_w_px=r.extent_w_px,
-                extent_h_px=r.extent_h_px,
-            )
+            rec.add_measurement(self.name, -1, counter=-1, t_host_ns=t, **values_of(r))
 
     def _record_resume(self, rec: RecordingWriter, item: RingFrame) -> None:
         """The first recorded frame after frames the file does not hold: the engine's state and

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from snrmon.acquisition.calibrate.flight_psf import FlightPsf
 from snrmon.acquisition.compression import stored_compression
 from snrmon.acquisition.config import SessionConfig, camera_device
 from snrmon.acquisition.engine.inputs import Measurement
@@ -126,6 +127,12 @@ def row_payload(row: StopRow) -> dict:
         if isinstance(v, float) and not math.isfinite(v):
             payload[k] = None
     payload["model_snr"] = {k: (v if math.isfinite(v) else None) for k, v in row.model_snr.items()}
+    if row.frame_means:  # the declared per-frame means (none declared: the payload as before)
+        payload["frame_means"] = {
+            k: (v if math.isfinite(v) else None) for k, v in row.frame_means.items()
+        }
+    else:
+        del payload["frame_means"]
     payload["expected_eq4_rule"] = row.expected_eq4_rule  # which model_snr reading applies
     return payload
 
@@ -174,6 +181,15 @@ class Session:
             if cam.calibration:
                 pipe.set_calibration(self._calibration(cam, all_shapes[cam.name]))
             self.pipelines[cam.name] = pipe
+        # The PSF fitted from the flight's unresolved stops as each is final (the model's
+        # corrected PSF from then on, unless the config keeps the preset's: model_psf).
+        self.flight_psf = FlightPsf(
+            self.engine,
+            self.pipelines,
+            calibration_of=lambda name: self.pipelines[name].corrector.calibration,
+            adopt=config.model_psf == "fitted",
+        )
+        self.engine.add_listener(self.flight_psf.on_measurement)
         self.gps = gps if gps is not None else self._serial_device(config.gps, "gps")
         self.lrf = lrf if lrf is not None else self._serial_device(config.lrf, "lrf")
         if self.gps is not None:
@@ -540,10 +556,11 @@ class Session:
             rec.add_event(kind, payload=stop_payload(stop))
 
     def row_final(self, row: StopRow) -> None:
-        """A final stop-table row goes into the recording."""
+        """A final stop-table row goes into the recording (before the PSF its frames may give)."""
         rec = self._current_recorder()
         if rec is not None:
             rec.add_event("stop_summary", camera=row.camera, payload=row_payload(row))
+        self.flight_psf.on_row_final(row)
 
     def model_changed(self, camera: str, kind: str, payload: dict, t_host_ns: int) -> None:
         rec = self._current_recorder()
@@ -611,7 +628,9 @@ class Session:
             if dev is None:
                 continue
             s = dev.status()
-            if s.state in ("stale", "disconnected", "failed") and self._started:
+            # lost as the headers say it (connecting again after readings included): the
+            # driver's reconnecting is no recovery, the banner must not turn "BACK"
+            if self._started and lost_device("", s) is not None:
                 alarms.append(
                     f"{s.name}: {s.state}" + (f" ({s.last_error})" if s.last_error else "")
                 )

@@ -31,10 +31,11 @@ from __future__ import annotations
 import math
 import threading
 from collections import Counter, deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import InitVar, dataclass, field
 from typing import ClassVar, Protocol
 
+from snrmon.acquisition.columns import MEAN, column, columns_of
 from snrmon.acquisition.measure.model_agreement import ModelAgreement, model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.prediction import Predictor, psf_label
@@ -53,29 +54,91 @@ class StopSource(Protocol):
 
 @dataclass(frozen=True)
 class StopRow:
-    camera: str
-    stop: int
-    manual: bool
-    t_start_ns: int
-    t_end_ns: int | None
-    lrf_range_m: float | None
-    gps_range_m: float | None
-    n_frames: int
-    complete: bool
-    snr_mean: float
-    snr_std: float
-    model_snr: dict[str, float] = field(default_factory=dict)
-    resolved: bool | None = None  # the model's verdict for the small dimension at this range
-    final: bool = False  # the stop ended and the camera passed its end: the row will not change
-    snr_sem: float = float("nan")  # error of the mean, frames' autocorrelation counted
+    """One stop and one camera of the SNR-versus-range table. Each field declares the column it
+    is in every stop table (``Session.stops()``, the report's CSV, the campaign's Parquet, the
+    console): :mod:`snrmon.acquisition.stops.columns` builds them from these declarations."""
+
+    camera: str = column("camera name in the session", dtype="U")
+    stop: int = column("stop index in the session (range-stop detector order)", dtype="<i4")
+    manual: bool = column(
+        "marked by the operator (the M key), not found by the detector", dtype="?"
+    )
+    # Host monotonic clock here; a table with the session's clock gives the UTC.
+    t_start_ns: int = column("stop start, UTC (session clock)", dtype="M8[ns]", name="t_start_utc")
+    t_end_ns: int | None = column(
+        "stop end, UTC (null: open when the file ends)", dtype="M8[ns]", name="t_end_utc"
+    )
+    lrf_range_m: float | None = column(
+        "m, median rangefinder slant range during the stop", units="m", dtype="<f8"
+    )
+    gps_range_m: float | None = column(
+        "m, median GPS slant range during the stop", units="m", dtype="<f8"
+    )
+    n_frames: int = column(
+        "frames in the stop's summary run (first 100 consecutive valid)",
+        units="frames",
+        dtype="<i4",
+    )
+    complete: bool = column("the run has its 100 frames", dtype="?")
+    snr_mean: float = column(
+        "mean of the per-frame peak SNR (Eq. 4) over the run", units="1", dtype="<f8"
+    )
+    snr_std: float = column(
+        "sample std (ddof=1) of the per-frame SNR over the run", units="1", dtype="<f8"
+    )
+    model_snr: dict[str, float] = column(
+        "model SNR at range_m (paper Figs. 7-10), one column per curve and band edge",
+        default_factory=dict,
+        units="1",
+        dtype="<f8",
+        keyed="model_",
+    )
+    # The model's verdict for the small dimension at this range (None: no model).
+    resolved: bool | None = column(
+        "the model's verdict for the small dimension at range_m: it spans a pixel or more",
+        default=None,
+        dtype="?",
+        name="model_resolved_small",
+    )
+    # The stop ended and the camera passed its end: the row will not change.
+    final: bool = column(
+        "the stop ended and the camera passed its end: the row will not change",
+        default=False,
+        dtype="?",
+    )
+    snr_sem: float = column(
+        "snr_std / sqrt(N_eff): error of the mean, N_eff from the frames' autocorrelation "
+        "(acquisition.stops.detector.mean_error)",
+        default=float("nan"),
+        units="1",
+        dtype="<f8",
+    )
     # The background(s) the summarised frames were measured against (rim, extent_rim, rect),
     # most used first, joined by "+"; "" without frames.
-    background: str = ""
+    background: str = column(
+        "what the run's frames were measured against: rim (Eq. 4's 7x7 rim), extent_rim "
+        "(outside a drone wider than the box's guard) or rect, most used first, joined by +",
+        default="",
+        dtype="U",
+    )
     # The background (sky) temperature the model values were computed for (None: no model).
-    model_sky_temp_k: float | None = None
-    # The corrected PSF they were computed with (a ``model.psf`` PSF, e.g. measured from the
-    # flight); None: the sensor preset's (or no model).
+    model_sky_temp_k: float | None = column(
+        "K, background (sky) temperature of the row's model curves",
+        default=None,
+        units="K",
+        dtype="<f8",
+    )
+    # The corrected PSF the model values were computed with (a ``model.psf`` PSF, e.g. measured
+    # from the flight); None: the sensor preset's (or no model).
     model_psf: object | None = field(default=None, compare=False)
+    # The mean over the run of each per-frame value declared for the stop table
+    # (:data:`snrmon.acquisition.columns.MEAN`), as ``<column>_mean``.
+    frame_means: dict[str, float] = column(
+        "the mean over the stop's run of a per-frame value (<column>_mean)",
+        default_factory=dict,
+        dtype="<f8",
+        keyed="",
+    )
     # Which PSF that is, in words (the predictor's ``curves_psf_source``: "preset: PVF 0.082
     # (sensor mwir)", "fitted: sigma 0.57 px from this flight's stops"); None: no model. Not a
     # field (read as :attr:`model_psf_source`): the recorded payload, the CSV and the campaign's
@@ -170,6 +233,19 @@ def backgrounds_of(results) -> str:
     """The background methods of some measurements, most used first, joined by "+"."""
     counts = Counter(r.background for r in results)
     return "+".join(name for name, _ in counts.most_common())
+
+
+def frame_means(run: Sequence[Entry]) -> dict[str, float]:
+    """``{<column>_mean: mean}`` over a row's run of the per-frame values declared for the stop
+    table (empty without frames)."""
+    if not run:
+        return {}
+    record = type(run[0][1])
+    return {
+        f"{c.name}_mean": sum(float(getattr(r, c.field)) for _, r in run) / len(run)
+        for c in columns_of(record)
+        if c.stop == MEAN
+    }
 
 
 class RowBuilder:
@@ -423,6 +499,7 @@ class StopTable:
             background=backgrounds_of(r for _, r in run),
             model_sky_temp_k=sky,
             model_psf=psf,
+            frame_means=frame_means(run),
             psf_source=source,
         )
 

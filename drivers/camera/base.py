@@ -13,6 +13,8 @@ from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.device import Device
 
 log = logging.getLogger(__name__)
+STALLED_INTERVALS = 5  # frames missed in a row before the measured rate reads 0
+STALLED_MIN_S = 1.0
 
 
 class CameraDevice(Device[Frame]):
@@ -50,8 +52,14 @@ class CameraDevice(Device[Frame]):
             )
 
     def measured_fps(self) -> float | None:
-        """Frame rate over the last (up to) 120 frames received, ``None`` before two frames."""
+        """Frame rate over the last (up to) 120 frames received, ``None`` before two frames;
+        0 once no frame has come for :data:`STALLED_INTERVALS` of their mean interval (and at
+        least :data:`STALLED_MIN_S`): a camera that stopped is not shown at its old rate."""
         arrivals = list(self._arrivals)
         if len(arrivals) < 2 or arrivals[-1] == arrivals[0]:
             return None
-        return (len(arrivals) - 1) / ((arrivals[-1] - arrivals[0]) / 1e9)
+        span_ns = arrivals[-1] - arrivals[0]
+        silent_ns = time.monotonic_ns() - arrivals[-1]
+        if silent_ns > max(STALLED_INTERVALS * span_ns / (len(arrivals) - 1), STALLED_MIN_S * 1e9):
+            return 0.0
+        return (len(arrivals) - 1) / (span_ns / 1e9)

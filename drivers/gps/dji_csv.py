@@ -14,11 +14,16 @@ track can be re-timed onto a session clock.
 
 Sub-second UTC: AirData's ``datetime(utc)`` holds whole seconds, while ``time(millisecond)``
 counts the log's own clock in 0.1 s steps; every row's UTC is ``anchor + time(millisecond)``.
-The anchor's whole seconds come from the rows (below); its fraction from the file's own second
-ticks: within one file the written second changes at one phase of ``time(millisecond)`` mod 1000
-(:func:`tick_phase`, the most common over all ticks: 0 in the real Air 2S export, 900 in
-another drone's), and at a tick the row's UTC is ``TICK_UTC_S`` before the new second
-(:func:`on_the_ticks`). Real logs have gaps in ``time(millisecond)`` (the recorder paused)
+The anchor's whole seconds come from the rows (below); its fraction from the file's first fix:
+AirData's own time base puts the first row with a position on the whole second written in that
+row, and runs the log's clock from there (:func:`on_the_first_fix`). Measured on two real
+exports with AirData's GPX of the same flight (tenths of a second): an Air 2S whose first fix
+comes 11.6 s into its log and a Mini 2 with a fix from its first row, the GPX is that time at
+every point, to the millisecond. The written second's own phase in the log's clock differs from
+file to file (:func:`tick_phase`, where ``datetime(utc)`` changes: 0 mod 1000 in the Air 2S,
+900 in the Mini 2; its seconds lead that time base by 0.6 s in one and 0.1 s in the other), so
+the ticks bound the anchor and are reported, but do not set it. Real logs have gaps in
+``time(millisecond)`` (the recorder paused)
 and rows around a gap whose ``datetime(utc)`` is seconds off their neighbours', so the anchor is
 never taken from one row: :func:`snrmon.drivers.gps.log_clock.anchored_utc` cuts the log at its
 gaps, estimates each anchor from the whole-second bounds its rows agree on, and leaves the rows
@@ -45,12 +50,6 @@ from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.gps.log_clock import ClockReport, anchored_utc
 
 MIN_TICKS = 1  # the phase is the most common over all ticks: one tick already pins it
-TICK_UTC_S = -0.6
-"""The UTC of the row where AirData's ``datetime(utc)`` becomes ``u``, relative to ``u``: AirData
-writes each row's second 0.6 s ahead of the row's own UTC (measured on the real Air 2S export
-against AirData's GPX of the flight, which carries tenths of a second: at 1060 of its 1131
-ticks the GPX's time is ``u - 0.6 s``, at the other 71 one 0.1 s row earlier). The file's
-phase says where in ``time(millisecond)`` the ticks fall; this says where UTC is at a tick."""
 _UNIT_TO_M = {"feet": 0.3048, "ft": 0.3048, "meters": 1.0, "metres": 1.0, "m": 1.0}
 _UNIT = re.compile(r"^(?P<name>.+?)\s*[\(\[](?P<unit>[A-Za-z]+)[\)\]]$")
 
@@ -127,8 +126,10 @@ def read_dji_log(path: str | Path) -> DjiLog:
     )
     utc_s = timed.utc_s
     phase = None if read.fractional else tick_phase(read.clock_t, read.clock_u)
-    if phase is not None:
-        utc_s = on_the_ticks(np.asarray(read.clock_t, float), utc_s, phase[0])
+    first_fix = next((i for i in read.fix_row if i is not None), None)
+    if not read.fractional and first_fix is not None:
+        t_log = np.asarray(read.clock_t, float)
+        utc_s = on_the_first_fix(t_log, utc_s, first_fix, read.clock_u[first_fix])
     out = [
         f if i is None or not math.isfinite(utc_s[i]) else replace(f, utc=_utc_of(utc_s[i]))
         for f, i in zip(read.fixes, read.fix_row, strict=True)
@@ -138,7 +139,7 @@ def read_dji_log(path: str | Path) -> DjiLog:
     return DjiLog(
         out,
         timed.report,
-        "datetime(utc) second ticks + time(millisecond)",
+        "datetime(utc) whole seconds, the first fix on its second + time(millisecond)",
         phase[0],
         phase[1],
         {"tick_phase_ms": phase[0], "ticks": phase[1], "ticks_at_phase": phase[2]},
@@ -280,13 +281,25 @@ def tick_phase(t_log_s: list[float], utc_whole_s: list[float]) -> tuple[int, int
     return int(values[best]), int(tick.sum()), int(counts[best])
 
 
-def on_the_ticks(t_log_s: np.ndarray, utc_s: np.ndarray, phase_ms: int) -> np.ndarray:
-    """Each row's UTC (``anchor + t_log``, from :func:`anchored_utc`) with its anchor's
-    fraction of a second set by the file's tick phase: at a row where the written second
-    becomes ``u`` the UTC is ``u + TICK_UTC_S``. The anchor moves by less than half a second
-    (its whole seconds are the rows' own)."""
+def on_the_first_fix(
+    t_log_s: np.ndarray, utc_s: np.ndarray, first_fix: int, written_s: float
+) -> np.ndarray:
+    """Each row's UTC (``anchor + t_log``, from :func:`anchored_utc`) on AirData's time base:
+    the first row with a position (row ``first_fix`` of the clock, its ``datetime(utc)``
+    ``written_s``) on the whole second written in it, the log's clock running from there.
+
+    The rows' whole-second bounds place an anchor to within a second whatever the file's phase,
+    not to the right second (a file whose seconds lead its time base by 0.1 s reads 0.35 s early
+    on them alone), so the first fix's anchor is its own row's second, checked against them
+    (within a second of theirs); another anchor (a log whose clock stopped over a gap) keeps
+    its rows' whole seconds and takes the same fraction, moved by less than half a second."""
     anchor = utc_s - t_log_s
-    target = (TICK_UTC_S - phase_ms / 1000.0) % 1.0
+    ours = anchor[first_fix]
+    own = written_s - t_log_s[first_fix]
+    target = own % 1.0
     move = (target - anchor) % 1.0
     move = np.where(move >= 0.5, move - 1.0, move)
+    same = np.abs(anchor - ours) < 1e-6
+    if math.isfinite(own) and abs(own - ours) < 1.0:
+        move = np.where(same, own - anchor, move)
     return anchor + move + t_log_s

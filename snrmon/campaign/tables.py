@@ -18,78 +18,72 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from snrmon.acquisition.prediction import CURVES
+from snrmon.acquisition.columns import Column
+from snrmon.acquisition.record.schema import PEAK_SNR_COLUMNS
+from snrmon.acquisition.stops.columns import stop_columns
 
 _F = pa.float64()
 _UTC = pa.timestamp("ns", tz="UTC")  # a timestamp column: readers get dates, not integers
+_ARROW: dict[str, pa.DataType] = {
+    "<i2": pa.int16(),
+    "<i4": pa.int32(),
+    "<i8": pa.int64(),
+    "<u2": pa.uint16(),
+    "<f8": _F,
+    "?": pa.bool_(),
+    "U": pa.string(),
+    "M8[ns]": _UTC,
+}
+
+
+def arrow_type(c: Column) -> pa.DataType:
+    """The Arrow type of a declared column (text of any length: a string)."""
+    return pa.string() if c.dtype.startswith("S") else _ARROW[c.dtype]
+
+
+def _declared(columns) -> dict[str, tuple[pa.DataType, str]]:
+    return {c.name: (arrow_type(c), c.meaning) for c in columns}
+
+
 STOP_COLUMNS: dict[str, tuple[pa.DataType, str]] = {
     "session": (
         pa.string(),
         "session name (file stem; the path relative to the common folder when two stems are equal)",
     ),
     "session_path": (pa.string(), "absolute path of the session file"),
-    "camera": (pa.string(), "camera name in the session"),
-    "stop": (pa.int32(), "stop index in the session (range-stop detector order)"),
     "target": (pa.string(), "target preset or TOML of the model curves"),
     "sensor": (pa.string(), "sensor preset of the model curves"),
     "day": (pa.date32(), "UTC date of the stop's start"),
-    "t_start_utc": (_UTC, "stop start, UTC (session clock)"),
-    "t_end_utc": (_UTC, "stop end, UTC (null: open when the file ends)"),
-    "lrf_range_m": (_F, "m, median rangefinder slant range during the stop"),
-    "gps_range_m": (_F, "m, median GPS slant range during the stop"),
-    "range_m": (_F, "m, the rangefinder's range, else the GPS range"),
     "gps_source": (pa.string(), "live | imported (snrmon gps-import) | null (no GPS)"),
     "stops_source": (
         pa.string(),
         "recorded (the live detector's stops) | redetected (found again from the range streams)",
     ),
-    "n_frames": (pa.int32(), "frames in the stop's summary run (first 100 consecutive valid)"),
-    "complete": (pa.bool_(), "the run has its 100 frames"),
-    "snr_mean": (_F, "mean of the per-frame peak SNR (Eq. 4) over the run"),
-    "snr_std": (_F, "sample std (ddof=1) of the per-frame SNR over the run"),
-    "snr_sem": (
-        _F,
-        "snr_std / sqrt(N_eff): error of the mean, N_eff from the frames' autocorrelation "
-        "(acquisition.stops.detector.mean_error)",
-    ),
     "n_frames_in_stop": (pa.int32(), "frames measured while the stop was open"),
     "n_frames_flagged": (pa.int32(), "of those, frames with a flag that keeps them out of runs"),
     "background_method": (pa.string(), "rim | rect x0,y0,x1,y1, +detrend when detrended"),
-    "background_used": (
-        pa.string(),
-        "what the run's frames were measured against: rim (Eq. 4's 7x7 rim), extent_rim (outside "
-        "a drone wider than the box's guard) or rect, most used first, joined by +",
-    ),
     "box_px": (pa.int32(), "px, Eq. (4) box side"),
     "search_px": (pa.int32(), "px, search window side"),
     "calibration": (pa.string(), "calibration file the analysis applied (null: as recorded)"),
-    "sky_temp_k": (
-        _F,
-        "K, background (sky) temperature of the row's model curves: the sky measured through the "
-        "session's calibration when the live model followed it, else the analysis's or the "
-        "model's own",
-    ),
-    **{f"model_{c}": (_F, f"model SNR, curve {c}, at range_m (paper Figs. 7-10)") for c in CURVES},
-    "resolved_small": (pa.bool_(), "the model's verdict for the small dimension at range_m"),
+    # The stop table's own columns, with the names of Session.stops() and the report's CSV.
+    **_declared(stop_columns()),
     "flags": (
         pa.list_(pa.string()),
         "incomplete, manual, stop_open_at_end, no_range, gps_imported",
     ),
 }
+"""The stop table: the campaign's columns (which session, how it was analysed), then the
+columns of every stop table (:func:`snrmon.acquisition.stops.columns.stop_columns`)."""
 FRAME_COLUMNS: dict[str, tuple[pa.DataType, str]] = {
     "session": (pa.string(), "session name"),
     "camera": (pa.string(), "camera name"),
     "t_host_ns": (pa.int64(), "ns, host monotonic clock at receipt"),
     "utc": (_UTC, "the frame's receipt, UTC (session clock)"),
     "stop": (pa.int32(), "stop index while a stop was open, else null"),
-    "peak_x": (pa.int32(), "px, column, zero-based"),
-    "peak_y": (pa.int32(), "px, row, zero-based"),
-    "peak": (_F, "DN"),
-    "bg_mean": (_F, "DN"),
-    "bg_std": (_F, "DN"),
-    "snr": (_F, "Eq. (4) peak SNR (null when undefined)"),
-    "flags": (pa.uint16(), "bit i = acquisition.measure.peak_snr.FLAG_NAMES[i]"),
+    **_declared(PEAK_SNR_COLUMNS),
 }
+"""The per-frame table: which frame, then the Eq. (4) result's declared columns (as in the
+session file; ``flags`` bit i is ``acquisition.measure.peak_snr.FLAG_NAMES[i]``)."""
 STOP_SCHEMA = pa.schema([(k, t) for k, (t, _) in STOP_COLUMNS.items()])
 FRAME_SCHEMA = pa.schema([(k, t) for k, (t, _) in FRAME_COLUMNS.items()])
 

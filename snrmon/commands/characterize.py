@@ -350,8 +350,8 @@ def _segmented(args, sensor, range_m: float, picks, psf, path) -> _Segmented:
 
 
 def _summary_at_rest(args, sensor, row, range_m: float, seg: _Segmented, convention: str):
-    """(the summary of the frames where the drone is at rest, their indexes in ``seg.held``);
-    a stop that cannot be measured is refused (exit 2, nothing kept)."""
+    """(the summary of the frames where the drone is at rest, their indexes in ``seg.held``,
+    those frames segmented); a stop that cannot be measured is refused (exit 2, nothing kept)."""
     import numpy as np
 
     from snrmon.acquisition.calibrate.characterize import (
@@ -385,11 +385,11 @@ def _summary_at_rest(args, sensor, row, range_m: float, seg: _Segmented, convent
     )
     if why is not None:  # nothing is kept: a figure that is not measured is not a result
         raise UsageError(f"stop {args.stop}: {why}")
-    return result, rest
+    return result, rest, used
 
 
 def run(args: argparse.Namespace) -> int:
-    from snrmon.acquisition.calibrate.characterize import target_toml
+    from snrmon.acquisition.calibrate.characterize import median_outline, target_toml
     from snrmon.acquisition.replay.batch import replay_session
     from snrmon.model.constants import ZERO_C_K
     from snrmon.model.presets import load_sensor
@@ -409,7 +409,7 @@ def run(args: argparse.Namespace) -> int:
     seg = _segmented(args, sensor, range_m, picks, psf, path)
     cal = seg.calibration
     convention = "path_corrected" if path is not None and cal is not None else "apparent"
-    result, rest = _summary_at_rest(args, sensor, row, range_m, seg, convention)
+    result, rest, used = _summary_at_rest(args, sensor, row, range_m, seg, convention)
     out = {"stop": args.stop, **result.as_dict(), "calibration": seg.calibration_source}
     out["at_rest_s"] = [(seg.held[k][1] - row.t_start_ns) / 1e9 for k in (rest[0], rest[-1])]
     corrected = cal is not None and psf is not None  # a PSF corrects a temperature
@@ -417,7 +417,9 @@ def run(args: argparse.Namespace) -> int:
     if path is not None and cal is not None:
         out["transmission"], out["air_temp_c"] = path.transmission, path.air_temp_k - ZERO_C_K
     if args.target_out:
-        Path(args.target_out).write_text(target_toml(result, args.target_name))
+        # the drone's segmented outline at this stop, for the model's "outline" footprint
+        outline = median_outline(used, range_m * sensor.ifov_rad)
+        Path(args.target_out).write_text(target_toml(result, args.target_name, outline=outline))
         out["target_file"] = args.target_out
     # The characterization belongs to the session it was measured from: beside it, or in it
     # with --write.

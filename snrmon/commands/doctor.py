@@ -1,6 +1,8 @@
 """``snrmon doctor``: is this machine, with this session config, ready to fly? (the go/no-go)
 
     snrmon doctor [--config session.toml] [--record-dir DIR] [--duration S] [--json]
+    snrmon doctor --template > session.toml
+
 
 One line per check, PASS / FAIL / WARN / SKIP, and under each failure the fix. Exit 0 only when
 every check the session needs passes (1 otherwise; 2 for a bad config or option). The checks
@@ -67,11 +69,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="the session runs without a window (snrmon record): the display is not needed",
     )
+    p.add_argument(
+        "--template",
+        action="store_true",
+        help="print a session config with every key, its default and what it expects, and exit",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.template:
+        from snrmon.acquisition.config import session_template
+
+        print(session_template(), end="")
+        return EXIT_OK
     from snrmon.doctor import all_needed_pass
     from snrmon.doctor.runner import DoctorOptions, run_doctor
 

@@ -12,7 +12,7 @@ from pathlib import Path
 from snrmon.cli import UsageError
 from snrmon.commands.recording_options import add_compression_option, with_compression
 from snrmon.extras import require
-from snrmon.inputs import duration_s, input_file, output_file, session_file
+from snrmon.inputs import duration_s, input_file, is_session_recording, output_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,7 +24,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="session config (cameras, lrf, gps, site)",
     )
     p.add_argument(
-        "--replay", type=Path, metavar="SESSION.h5", help="replay a recorded session in the console"
+        "--replay",
+        type=Path,
+        metavar="RECORDING",
+        help="replay a recorded session in the console, or another tool's recording (FLIR "
+        ".seq/.csq/.fff/.jpg, .ptw, TIFF, ...), written as a session beside it first",
+    )
+    p.add_argument(
+        "--sensor",
+        metavar="mwir|lwir|FILE",
+        help="with --replay of another tool's recording: its camera's sensor model (default: "
+        "lwir for a FLIR file, mwir for a .ptw; needed for any other)",
     )
     p.add_argument("--headless", action="store_true", help="run offscreen (no display needed)")
     p.add_argument("--duration", type=duration_s(), metavar="S", help="close after S seconds")
@@ -119,10 +129,18 @@ def run(args: argparse.Namespace) -> int:
     if args.replay is not None:
         if args.config is not None:
             raise UsageError("give --config FILE.toml or --replay FILE.h5, not both")
-        session_file(args.replay, "--replay")
         if not 0.01 <= args.speed <= 1000.0:
             raise UsageError(f"--speed must be 0.01 to 1000 x real time, got {args.speed}")
-        return _run_replay(args)
+        if is_session_recording(args.replay, "--replay"):
+            if args.sensor is not None:
+                raise UsageError(
+                    f"--sensor is for another tool's recording; {args.replay} is a "
+                    "session (it names its own sensors)"
+                )
+            return _run_replay(args, args.replay)
+        return _replay_camera_file(args)
+    if args.sensor is not None:
+        raise UsageError("--sensor goes with --replay of another tool's recording")
     if args.config is None:
         raise UsageError("needs --config FILE.toml (or --replay FILE.h5)")
     input_file(args.config, "--config")
@@ -151,19 +169,44 @@ def run(args: argparse.Namespace) -> int:
             status_file=args.status_file,
             **view_options(args),
         )
-    # A device lost while the console ran ends it as it ends record and hil: exit 1 and one
-    # line naming each device and when it was lost, once the window is closed and the session
-    # stopped (a recording it made is closed, its summary listing the loss).
-    session.check_devices()
-    return code
+        # a device lost during the session (even one that came back): the error line and
+        # exit 1 once the window has closed, as `record` ends
+        session.check_devices()
+        return code
 
 
-def _run_replay(args: argparse.Namespace) -> int:
+def _replay_camera_file(args: argparse.Namespace) -> int:
+    """Another tool's recording, written as a session in a temporary folder (removed when the
+    console closes) and replayed like one (:mod:`snrmon.acquisition.replay.stack_session`)."""
+    import tempfile
+
+    from snrmon.acquisition.replay.flir import FLIR_SUFFIXES
+    from snrmon.acquisition.replay.stack_session import session_from_stack
+    from snrmon.progress import say
+
+    suffix = args.replay.suffix.lower()
+    default = "lwir" if suffix in FLIR_SUFFIXES else "mwir" if suffix == ".ptw" else None
+    sensor = args.sensor or default
+    if sensor is None:
+        raise UsageError(
+            f"--replay {args.replay}: give --sensor (mwir, lwir or a sensor TOML): the file "
+            "does not say which camera made it"
+        )
+    camera = sensor if sensor in ("mwir", "lwir") else "camera"
+    with tempfile.TemporaryDirectory(prefix="snrmon-replay-") as folder:
+        session = session_from_stack(
+            args.replay, Path(folder) / "recording.h5", sensor=sensor, camera=camera
+        )
+        say(f"{args.replay}: replayed as camera {camera!r} with the {sensor} sensor model")
+        return _run_replay(args, session)
+
+
+def _run_replay(args: argparse.Namespace, path: Path) -> int:
     from snrmon.acquisition.prediction import ModelPredictor, session_model_options
     from snrmon.acquisition.replay.player import ReplayPlayer
     from snrmon.gui.app import run_console
 
-    player = ReplayPlayer(args.replay, speed=args.speed)
+    player = ReplayPlayer(path, speed=args.speed)
     cfg = player.config
     predictor = None
     if cfg.cameras:  # the recording names its sensors and target: the model can run

@@ -12,6 +12,7 @@ import argparse
 import math
 
 from snrmon.cli import UsageError
+from snrmon.commands.model import AEROSOL_CHOICES, add_footprint_option, check_footprint
 from snrmon.commands.recording_options import add_compression_option
 from snrmon.inputs import Number, Size, output_file, seed, stop_ranges
 from snrmon.output import emit_json
@@ -103,6 +104,7 @@ def _add_day_options(p: argparse.ArgumentParser) -> None:
         metavar="uav1|uav2|FILE",
         help="target preset or TOML file (default: %(default)s)",
     )
+    add_footprint_option(p)
     p.add_argument(
         "--hover-s",
         type=Number(0.0, 3600.0, above=True, unit="s"),
@@ -152,9 +154,16 @@ def _add_weather_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--visibility-km",
         type=float,
-        default=None,
+        default=23.0,
         metavar="V",
-        help="the scenario's visibility (rural aerosol), km (default: no aerosol)",
+        help="the scenario's visibility, km (default: %(default)s, LOWTRAN7's clear day)",
+    )
+    p.add_argument(
+        "--aerosol",
+        default="rural",
+        choices=AEROSOL_CHOICES,
+        metavar="|".join(AEROSOL_CHOICES),
+        help="the scenario's LOWTRAN7 aerosol model, none: no aerosol (default: %(default)s)",
     )
 
 
@@ -192,8 +201,12 @@ def run(args: argparse.Namespace) -> int:
     unknown = [c for c in cameras if c not in ("mwir", "lwir")]
     if unknown or not cameras:
         raise UsageError(f"--cameras must name mwir and/or lwir, got {args.cameras!r}")
+    from snrmon.model.presets import load_target
+
+    check_footprint(args.footprint, load_target(args.target))
     opts = HilOptions(
         seed=args.seed,
+        footprint=args.footprint,
         speed=speed,
         stops_m=args.stops,
         cameras=cameras,
@@ -205,6 +218,7 @@ def run(args: argparse.Namespace) -> int:
         rh_percent=args.rh,
         pressure_hpa=args.pressure_hpa,
         visibility_km=args.visibility_km,
+        aerosol=args.aerosol,
         window_px=args.size,
         calibrate=not args.no_calibration,
         fpn=args.fpn,

@@ -4,7 +4,7 @@ Subcommands and their ``--json`` contracts (stdout):
 
 * ``snr --sensor S --target T --ranges R1,R2,... [--atmosphere default|none|TAU|FILE]
   [--air-temp-c T] [--rh RH | --dew-point-c TD] [--pressure-hpa P] [--visibility-km V]
-  [--aerosol rural|maritime|urban] [--season NAME] [--sky-temp-c T]
+  [--aerosol rural|maritime|urban|none] [--season NAME] [--sky-temp-c T]
   [--spatial-noise E|Kx|none|low|medium|high]`` -> a list, one object per range: ``{"range_m",
   "resolved_small", "resolved_large", "snr_small", "snr_large", "snr_small_corrected",
   "snr_large_corrected", "signal_e": {curve: e}, "noise_e": {"background", "lens", "dark",
@@ -31,6 +31,7 @@ import math
 
 from snrmon.cli import UsageError
 from snrmon.inputs import Number, NumberList, output_file
+from snrmon.limits import FOOTPRINT_CHOICES
 from snrmon.output import emit_json
 
 NOISE_REFERENCE_SKY_K = 290.0
@@ -43,7 +44,7 @@ SEASON_CHOICES = (
     "subarctic_summer",
     "subarctic_winter",
 )
-AEROSOL_CHOICES = ("rural", "maritime", "urban")
+AEROSOL_CHOICES = ("rural", "maritime", "urban", "none")
 
 
 def _floats(text: str, what: str) -> list[float]:
@@ -144,6 +145,7 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
     p.add_argument("--sensor", required=True, metavar="mwir|lwir|FILE", help="sensor preset")
     if target:
         p.add_argument("--target", required=True, metavar="uav1|uav2|FILE", help="target preset")
+        add_footprint_option(p)
         p.add_argument(
             "--atmosphere",
             default="default",
@@ -169,14 +171,14 @@ def _add_common(p: argparse.ArgumentParser, target: bool = True) -> None:
             type=float,
             default=None,
             metavar="V",
-            help="meteorological visibility, km (default: no aerosol)",
+            help="meteorological visibility, km (default: 23, LOWTRAN7's clear rural day)",
         )
         p.add_argument(
             "--aerosol",
             default=None,
             choices=AEROSOL_CHOICES,
             metavar="|".join(AEROSOL_CHOICES),
-            help="LOWTRAN7 aerosol model with --visibility-km (rural)",
+            help="LOWTRAN7 aerosol model at the visibility, or none: no aerosol (rural)",
         )
         p.add_argument(
             "--season",
@@ -332,11 +334,36 @@ def _register_plot(msub: argparse._SubParsersAction) -> None:
     pl.set_defaults(func=run_plot)
 
 
+def add_footprint_option(p: argparse.ArgumentParser) -> None:
+    """``--footprint``: the model's small target, the paper's square or the target file's
+    outline (shared with ``snrmon hil``)."""
+    p.add_argument(
+        "--footprint",
+        default="square",
+        choices=FOOTPRINT_CHOICES,
+        metavar="|".join(FOOTPRINT_CHOICES),
+        help="the small target's footprint: the paper's square of the small dimension, or the "
+        "outline a close stop measured (a target file from snrmon characterize --target-out), "
+        "scaled by range (default: %(default)s)",
+    )
+
+
+def check_footprint(footprint: str, target) -> None:
+    """A usage error when ``--footprint outline`` is asked of a target without an outline."""
+    if footprint == "outline" and target.outline is None:
+        raise UsageError(
+            f"--footprint outline needs a target with an outline; {target.name!r} has none "
+            "(snrmon characterize --target-out writes one from a close stop)"
+        )
+
+
 def _load(args):
     from snrmon.model.presets import load_sensor, load_target
 
     sensor = load_sensor(args.sensor)
     target = load_target(args.target) if getattr(args, "target", None) else None
+    if target is not None:
+        check_footprint(args.footprint, target)
     return sensor, target
 
 
@@ -352,6 +379,7 @@ def run_snr(args) -> int:
         background_temp_k=_bg_k(args),
         air_temp_k=_air_k(args),
         spatial_noise=args.spatial_noise,
+        footprint=args.footprint,
     )
     records = pred.to_records()
     head = f"{'range_m':>8} {'res_s':>5} {'res_l':>5} {'small':>9} {'large':>9} {'small_c':>9} "
@@ -456,6 +484,7 @@ def run_plot(args) -> int:
         background_temp_k=_bg_k(args),
         air_temp_k=_air_k(args),
         spatial_noise=args.spatial_noise,
+        footprint=args.footprint,
     )
     path = plot_prediction(pred, args.out)
     return _emit(args, {"file": str(path)}, str(path))

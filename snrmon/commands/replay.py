@@ -7,11 +7,9 @@ import math
 
 from snrmon.cli import UsageError
 from snrmon.commands.measure import _point
-from snrmon.inputs import is_hdf5, session_file, stack_file
+from snrmon.inputs import is_session_recording
 from snrmon.output import emit_json
 from snrmon.progress import frame_progress, say
-
-SESSION_SUFFIXES = (".h5", ".hdf5")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -48,20 +46,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=run)
-
-
-def _is_session(path: str) -> bool:
-    """True for a snrmon session (checked whole: :func:`snrmon.inputs.session_file`), False for
-    another tool's recording (checked as its ending says: :func:`snrmon.inputs.stack_file`). A
-    file named ``.h5`` or starting as HDF5 is a session or nothing."""
-    from pathlib import Path
-
-    p = Path(path)
-    if p.suffix.lower() in SESSION_SUFFIXES or (p.is_file() and p.stat().st_size and is_hdf5(p)):
-        session_file(p, with_frames=True)
-        return True
-    stack_file(p, "recording")
-    return False
 
 
 def _replay_foreign(args: argparse.Namespace) -> int:
@@ -150,7 +134,7 @@ def result_json(result) -> dict:
 def run(args: argparse.Namespace) -> int:
     from snrmon.acquisition.replay.batch import replay_session
 
-    if not _is_session(args.recording):
+    if not is_session_recording(args.recording):
         return _replay_foreign(args)
     if args.at is not None:
         raise UsageError(

@@ -32,7 +32,7 @@ from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.lifetime import die_with_parent
 from snrmon.model.constants import ZERO_C_K
 from snrmon.rig.flight_clock import MAX_SPEED, FlightClock
-from snrmon.rig.twin_day import CropLog, calibrate_cameras, camera_feeds
+from snrmon.rig.twin_day import calibrate_cameras, camera_feeds
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +54,8 @@ class HilOptions:
     air_temp_k: float = 288.15  # the scenario's air along the path
     rh_percent: float | None = None  # the scenario's met readings (None: the season's)
     pressure_hpa: float | None = None
-    visibility_km: float | None = None  # None: no aerosol
+    visibility_km: float | None = 23.0  # the rural aerosol's (None: no aerosol)
+    aerosol: str = "rural"  # "none": no aerosol
     calibrate: bool = True  # blackbody frames and a calibration before the flight
     speed_max: bool = False  # --speed max: ``speed`` is the cap, the console's pace the rest
     window_px: tuple[int, int] | None = None  # a sub-array (width, height) around the sight line
@@ -62,7 +63,8 @@ class HilOptions:
     track: bool = True
     out: str | None = None
     compression: str | None = None  # the recording's frame filter (None: the config's default)
-    adopt_psf: bool = False  # hand the PSF measured at each unresolved stop to the model
+    adopt_psf: bool = True  # the model takes the PSF fitted as each unresolved stop is final
+    footprint: str = "square"  # the model's small target: the paper's square, or "outline"
 
     def __post_init__(self) -> None:
         self.weather  # a bad met reading is refused here, before any device starts  # noqa: B018
@@ -78,6 +80,7 @@ class HilOptions:
             rh_percent=self.rh_percent,
             pressure_hpa=self.pressure_hpa,
             visibility_km=self.visibility_km,
+            aerosol=self.aerosol,
         )
 
     def flight_config(self):
@@ -196,7 +199,11 @@ def day_predictor(opts: HilOptions):
     from snrmon.acquisition.prediction import ModelPredictor
 
     return ModelPredictor(
-        {c: c for c in opts.cameras}, opts.target, atmosphere=opts.weather, asynchronous=True
+        {c: c for c in opts.cameras},
+        opts.target,
+        atmosphere=opts.weather,
+        asynchronous=True,
+        **({} if opts.footprint == "square" else {"footprint": opts.footprint}),
     )
 
 
@@ -269,6 +276,8 @@ def _session_config(opts: HilOptions, flight, cameras: dict, calibrations: dict,
             "simulation": {**opts.scenario.record(tuple(opts.cameras)), "seed": opts.seed},
             **serial.session_tables(),
             **({} if opts.compression is None else {"compression": opts.compression}),
+            "model_psf": "fitted" if opts.adopt_psf else "preset",
+            "footprint": opts.footprint,
         }
     )
 
@@ -321,10 +330,6 @@ class HilRig:
         self.session = _day_session(opts, self.predictor, config)
         for c, r in self.cameras.items():
             self.clock.watch(c, r.fps, functools.partial(self._newest_delivered, c))
-        self.crop_logs = {
-            c: CropLog(r.fps * opts.speed, LOG_S, self.session.pipelines[c].corrector.calibration)
-            for c, r in self.cameras.items()
-        }
         self.session.add_measurement_listener(self._on_measurement)
         self._clicked: set[tuple[str, int]] = set()
         self._final: dict[tuple[str, int], dict] = {}  # (camera, stop) -> its result entry
@@ -381,8 +386,6 @@ class HilRig:
     def _on_measurement(self, m, pixels) -> None:
         rig = self.cameras[m.camera]
         rig.log.append((m.t_host_ns, m.counter, m.snr_mean_raw, m.snr_std_raw))
-        if pixels is not None:
-            self.crop_logs[m.camera].add(m.t_host_ns, pixels, m.result)
 
     # ------------------------------------------------------------------ run
     def __enter__(self) -> HilRig:
@@ -558,8 +561,6 @@ class HilRig:
             key = (row.camera, row.stop)
             if row.final and key not in self._final:
                 self._final[key] = self._stop_result(row)
-                if self.opts.adopt_psf:
-                    self.adopt_measured_psf(row.camera, self._final)
 
     def _stop_result(self, row) -> dict:
         """One stop row with the simulator's truth over exactly the frames the console
@@ -592,9 +593,12 @@ class HilRig:
             "truth_snr": truth,
             "model_snr": row.model_snr,
             "resolved": bool(row.resolved),
-            "_crops": self.crop_logs[row.camera].between([t for t, _ in run]),
+            "_crops": self.session.flight_psf.crops_of(row),
             "background": row.background,
             "expected_eq4_rule": row.expected_eq4_rule,  # which model_snr reading applies
+            # the console's own ratio for the row and the PSF its model values used
+            "live_over_model": row.agreement.ratio if row.agreement is not None else None,
+            "model_psf": row.model_psf_label,
         }
 
     # ------------------------------------------------------------------ the flight's PSF
@@ -611,34 +615,6 @@ class HilRig:
             if d < 1.0 and len(crops) >= 50:
                 stops.append(StopCrops(_label(stop, cam), crops, d))
         return stops
-
-    def adopt_measured_psf(self, cam: str, finals: dict) -> None:
-        """Fit the PSF to ``cam``'s unresolved stops so far and hand it to the model (its
-        corrected curves and expected Eq. (4) reading), in the background: what an operator does
-        once the first unresolved stop is in. The fit (about a second of NumPy) runs in the worker
-        process (:mod:`snrmon.acquisition.worker_process`), away from the measurement threads."""
-        import time
-
-        from snrmon.acquisition import worker_process
-        from snrmon.acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
-
-        stops = self._unresolved_stops(cam, finals)
-        if not stops:
-            return
-
-        def adopt(job) -> None:  # on the worker pool's thread
-            try:
-                est = job.result()
-            except PsfEstimateError:
-                return
-            except Exception:
-                log.exception("%s: the PSF fit failed", cam)
-                return
-            self.session.engine.adopt_psf(cam, est.as_dict(), time.monotonic_ns())
-
-        worker_process.submit(estimate_psf, stops, self.cameras[cam].sensor).add_done_callback(
-            adopt
-        )
 
     def measured_psf(self, finals: dict) -> dict:
         """Per camera, the PSF fitted to the crops of its unresolved stops, pooled, and every

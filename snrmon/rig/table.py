@@ -22,9 +22,16 @@ def format_row(s: dict) -> str:
         f"{_f(s['truth_snr'], 7, 2)} {_f(m.get('small'), 8, 2)} "
         f"{_f(m.get('small_corrected'), 8, 2)} {_f(m.get('expected_eq4_rim'), 8, 2)} "
         f"{_f(m.get('expected_eq4_extent'), 8, 2)} {s.get('expected_eq4_rule') or '-':6s} "
-        f"{_f(s.get('measured_over_model'), 6, 3)} {_f(s.get('truth_over_model'), 6, 3)}  "
+        f"{_f(s.get('measured_over_model'), 6, 3)} {_f(s.get('truth_over_model'), 6, 3)} "
+        f"{_f(s.get('live_over_model'), 6, 3)} {_psf_word(s):6s}  "
         f"{s.get('background') or '-':15s} {_target_note(s)}"
     )
+
+
+def _psf_word(s: dict) -> str:
+    """The PSF the row's live model values used, one word: "fitted", "preset" or "-"."""
+    label = s.get("model_psf")
+    return label.split()[0] if label else "-"
 
 
 FRAMES_PER_STOP = 100  # the paper's consecutive frames per stop (the session's default)
@@ -42,7 +49,8 @@ def _target_note(s: dict) -> str:
 TABLE_HEADER = (
     f"{'camera':6s} {'plan_m':>7s} {'lrf_m':>7s} {'gps_m':>7s} {'n':>4s} "
     f"{'SNR':>7s} {'std':>6s} {'raw':>7s} {'truth':>7s} {'model_s':>8s} {'model_sc':>8s} "
-    f"{'exp_rim':>8s} {'exp_ext':>8s} {'rule':6s} {'m/mod':>6s} {'t/mod':>6s}  "
+    f"{'exp_rim':>8s} {'exp_ext':>8s} {'rule':6s} {'m/mod':>6s} {'t/mod':>6s} {'live':>6s} "
+    f"{'psf':6s}  "
     f"{'background':15s} target"
 )
 
@@ -54,7 +62,9 @@ TABLE_FOOTNOTE = (
     "extent once it is wider than the box's 5x5 guard); rule: the one the stop's background\n"
     "makes applicable. m/mod: measured / that expected reading, t/mod: truth / the noise-free\n"
     "peak SNR, both with the PSF fitted to the flight's frames and over the sub-pixel phases\n"
-    "the stop's frames sampled (unresolved stops only).\n"
+    "the stop's frames sampled (unresolved stops only). live: measured / the expected reading\n"
+    "the console showed for the row, psf: the PSF it was computed with ('preset': the sensor\n"
+    "preset's, before the first unresolved stop's fit; 'fitted': from this flight's stops).\n"
     "background: what Eq. (4)'s mean and std were taken over ('rim': the 7x7 box's rim;\n"
     "'extent_rim': outside the segmented drone and a 2 px guard, for a drone wider than the\n"
     "box's 5x5 guard; 'rect': the clear-sky rectangle), most used first. target: the model's\n"

@@ -10,15 +10,13 @@ measured_psf`).
   temporal std, and ``acquisition.calibrate.calibration.calibrate_means`` makes the two-point
   calibration, saved as a file the session configuration names (so the session applies it,
   follows the sky temperature with it and records it).
-* :class:`CropLog`: while flying, the 13 x 13 pixels around every valid measured peak
-  (non-uniformity corrected), so that a stop's frames can give the PSF
-  (``acquisition.calibrate.psf_estimate``) without a recording.
+
+The crops a stop's frames give the PSF from are the session's own
+(:mod:`snrmon.acquisition.calibrate.flight_psf`).
 """
 
 from __future__ import annotations
 
-import math
-from collections import deque
 from dataclasses import replace
 from pathlib import Path
 
@@ -102,27 +100,3 @@ def calibrate_cameras(feeds: dict, seeds: dict, directory: Path, stem: str) -> d
         save_calibration(cal, path)
         paths[cam] = str(path)
     return paths
-
-
-class CropLog:
-    """The last ``seconds`` of 13 x 13 crops around each valid measured peak of one camera:
-    (t_host_ns, crop) with the crop non-uniformity corrected by ``calibration`` if given."""
-
-    def __init__(self, fps: float, seconds: float, calibration=None) -> None:
-        self.crops: deque[tuple[int, np.ndarray]] = deque(maxlen=math.ceil(fps * seconds))
-        self.calibration = calibration
-
-    def add(self, t_host_ns: int, pixels: np.ndarray, result) -> None:
-        from snrmon.acquisition.calibrate.psf_estimate import crop_frames
-
-        if result is None or result.flags or not math.isfinite(result.snr):
-            return
-        crop = crop_frames([pixels], [(result.peak_x, result.peak_y)], self.calibration)
-        if len(crop):
-            self.crops.append((int(t_host_ns), crop[0]))
-
-    def between(self, times_ns) -> np.ndarray:
-        """The crops at exactly these frame times (a stop row's run), in order."""
-        wanted = set(int(t) for t in times_ns)
-        got = [c for t, c in list(self.crops) if t in wanted]
-        return np.asarray(got).reshape(-1, 13, 13)

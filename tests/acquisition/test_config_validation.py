@@ -5,7 +5,6 @@ expected. The tests walk the schemas, so a field added later is tested too."""
 from __future__ import annotations
 
 import dataclasses
-import re
 
 import pytest
 
@@ -137,47 +136,91 @@ def test_a_valid_config_keeps_its_values():
 
 
 DEVICE_CASES = [
-    (protocol, key, types)
+    (protocol, key, spec)
     for protocol in PROTOCOLS
-    for key, types in device_fields(protocol).items()
+    for key, spec in device_fields(protocol).items()
     if key != "protocol"
 ]
 
 
 @pytest.mark.parametrize(
-    ("protocol", "key", "types"), DEVICE_CASES, ids=[f"{p}.{k}" for p, k, _ in DEVICE_CASES]
+    ("protocol", "key", "spec"), DEVICE_CASES, ids=[f"{p}.{k}" for p, k, _ in DEVICE_CASES]
 )
-def test_every_device_field_names_table_key_value_and_type(protocol, key, types):
-    value = 1.5 if types != (int, float) else "fast"
-    table = {"protocol": protocol, "port": "/dev/ttyUSB0", key: value}
-    with pytest.raises(ConfigError) as err:
-        device_from_config(table, "gps")
-    assert re.search(rf"\[gps\] {key} = {re.escape(toml_repr(value))}: expected \w", str(err.value))
-    # ... and the same check runs when a session config is loaded, before any device opens.
-    with pytest.raises(ConfigError, match=rf"\[gps\] {key} = "):
-        session_config_from_dict({**BASE, "gps": table})
+def test_every_device_field_names_table_key_value_and_type(protocol, key, spec):
+    rejected = [v for v in WRONG if not spec.check(v)]
+    assert rejected, f"[gps] {key} accepts values of every type"
+    for value in rejected:
+        table = {"protocol": protocol, "port": "/dev/ttyUSB0", key: value}
+        with pytest.raises(ConfigError) as err:
+            device_from_config(table, "gps")
+        assert f"[gps] {key} = {toml_repr(value)}: expected {spec.expected}" in str(err.value)
+        # ... and the same check runs when a session config is loaded, before any device opens.
+        with pytest.raises(ConfigError, match=rf"\[gps\] {key} = "):
+            session_config_from_dict({**BASE, "gps": table})
 
 
 PRESET_CASES = [
-    (table, key, kind)
+    (table, key, spec)
     for table, fields in (
         ("sensor", _SENSOR_FIELDS),
         ("target", _TARGET_FIELDS),
         ("atmosphere", _ATM_FIELDS),
     )
-    for key, (kind, _) in fields.items()
+    for key, spec in fields.items()
 ]
 
 
 @pytest.mark.parametrize(
-    ("table", "key", "kind"), PRESET_CASES, ids=[f"{t}.{k}" for t, k, _ in PRESET_CASES]
+    ("table", "key", "spec"), PRESET_CASES, ids=[f"{t}.{k}" for t, k, _ in PRESET_CASES]
 )
-def test_every_preset_field_names_table_key_value_and_type(table, key, kind, tmp_path):
-    value = 7 if kind == "str" else "north"
-    with pytest.raises(ValueError) as err:
-        _check(tmp_path / "x.toml", table, {key: value}, {key: (kind, True)})
-    msg = str(err.value)
-    assert f"{table}.{key}" in msg and repr(value) in msg and " must be " in msg, msg
+def test_every_preset_field_names_file_table_key_value_and_type(table, key, spec, tmp_path):
+    rejected = [v for v in WRONG if not spec.check(v)]
+    assert rejected, f"[{table}] {key} accepts values of every type"
+    path = tmp_path / "x.toml"
+    for value in rejected:
+        with pytest.raises(ValueError) as err:
+            _check(path, table, {key: value}, {key: spec})
+        expected = f"{path}: [{table}] {key} = {toml_repr(value)}: expected {spec.expected}"
+        assert str(err.value) == expected
+
+
+def test_one_schema_mechanism_for_the_session_the_devices_and_the_presets():
+    """The three layers declare their tables with snrmon.config_schema's Key, so one check and
+    one message form serve them all."""
+    from snrmon.config_schema import Key
+
+    tables = [TOP_FIELDS, SITE_FIELDS, MEASUREMENT_FIELDS, WEATHER_FIELDS, CAMERA_FIELDS]
+    tables += [device_fields(p) for p in PROTOCOLS]
+    tables += [_SENSOR_FIELDS, _TARGET_FIELDS, _ATM_FIELDS]
+    assert all(isinstance(spec, Key) for t in tables for spec in t.values())
+
+
+def test_the_template_loads_as_a_valid_config_and_names_every_key(tmp_path):
+    """`snrmon doctor --template` writes every key of every session table with what it expects,
+    its default or an example; as written it loads as the declared defaults with one camera."""
+    import tomllib
+
+    from snrmon.acquisition.config import SCHEMA, session_template
+
+    text = session_template()
+    doc = tomllib.loads(text)
+    for name, keys in SCHEMA.items():
+        for key in keys:
+            if key == "window" or (name == "" and key not in ("target", "compression")):
+                continue
+            assert f"{key} = " in text or f"# {key} =" in text, (name, key)
+    for protocol in ("nmea", "trupulse"):
+        for key in device_fields(protocol):
+            assert f"{key} = " in text or f"# {key} =" in text, (protocol, key)
+    path = tmp_path / "session.toml"
+    path.write_text(text)
+    cfg = load_session_config(path)
+    assert cfg.target == "uav1" and cfg.compression == "bitshuffle-lz4"
+    assert cfg.window_frames == 100 and cfg.measurement == PeakSnrConfig()
+    assert [c.name for c in cfg.cameras] == ["mwir"] and cfg.gps is None and cfg.weather is None
+    assert doc == {"cameras": {"mwir": {"address": "snrmon-mwir", "sensor": "mwir"}}}
+    assert '# aerosol = "rural"   # one of rural, maritime, urban' in text
+    assert '# port = "/dev/ttyUSB0"' in text and "# [gps]" in text and "# [lrf]" in text
 
 
 def test_the_frames_filter_is_the_default_unless_named():
@@ -211,3 +254,29 @@ def test_the_old_window_key_still_works_and_warns_once(tmp_path, caplog):
     path.write_text(doc + "window_frames = 50\n")
     with pytest.raises(ValueError, match="not also its old name window"):
         load_session_config(path)
+
+
+def test_the_models_psf_and_footprint_are_the_fitted_and_the_square_unless_named(tmp_path):
+    """``model_psf`` (fitted from the flight, or the preset's) and ``footprint`` (the
+    paper's square, or the target file's outline): an outline asked of a target without one is
+    refused at load, naming both."""
+    config = session_config_from_dict(BASE)
+    assert (config.model_psf, config.footprint) == ("fitted", "square")
+    named = session_config_from_dict({**BASE, "model_psf": "preset"})
+    assert named.model_psf == "preset"
+    path = tmp_path / "session.toml"
+    path.write_text('footprint = "outline"\n[cameras.cam]\nsource = "shm"\n')
+    with pytest.raises(ConfigError, match=r'footprint = "outline": target = "uav1" has no'):
+        load_session_config(path)
+
+
+def test_the_operator_guide_lists_every_key_as_the_schema_declares_it():
+    """docs/operator-guide.md's key tables are the schema's own text (regenerate them with
+    ``snrmon.acquisition.config.key_tables_markdown()``)."""
+    from pathlib import Path
+
+    from snrmon.acquisition.config import key_tables_markdown
+
+    doc = (Path(__file__).parents[2] / "docs" / "operator-guide.md").read_text()
+    begin, end = "<!-- session keys: begin -->\n", "<!-- session keys: end -->"
+    assert doc[doc.index(begin) + len(begin) : doc.index(end)] == key_tables_markdown()

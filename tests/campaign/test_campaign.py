@@ -26,7 +26,7 @@ SAME = {
     "measured_snr_mean": "snr_mean",
     "measured_snr_std": "snr_std",
     "measured_snr_sem": "snr_sem",
-    "background": "background_used",
+    "background": "background",
 }
 
 
@@ -96,7 +96,7 @@ def test_local_cluster_table_equals_serial_replay(hil_sessions, reference, tmp_p
         if r["range_m"] is not None:
             assert r["model_small_corrected"] > 0
             # the twin calibrated itself: the model's sky is the measured one (rendered 280 K)
-            assert r["sky_temp_k"] == pytest.approx(280.0, abs=0.5)
+            assert r["model_sky_temp_k"] == pytest.approx(280.0, abs=0.5)
     # Per-frame tables: one per session, every measured frame, stops marked.
     for t in result["tasks"]:
         frames = pq.read_table(out / "frames" / f"{t['session']}.parquet")

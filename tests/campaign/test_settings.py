@@ -98,7 +98,7 @@ def test_settings_change_the_measurement_and_are_recorded(small_sessions, tmp_pa
         )
         assert (ra["box_px"], ra["background_method"], ra["target"]) == (7, "rim", "uav1")
         assert (rb["box_px"], rb["background_method"], rb["target"]) == (5, "rim+detrend", "uav2")
-        assert rb["sky_temp_k"] == 250.0 and ra["sky_temp_k"] != 250.0
+        assert rb["model_sky_temp_k"] == 250.0 and ra["model_sky_temp_k"] != 250.0
         if ra["n_frames"]:
             assert rb["snr_mean"] != ra["snr_mean"]  # a 5x5 box's 16-pixel rim, detrended
             assert rb["model_small"] != ra["model_small"]

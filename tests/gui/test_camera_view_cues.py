@@ -1,6 +1,8 @@
-"""The camera view's help for the click: the GPS cue a ring around the drone (not a cross
-over it), the measured box never under 8 screen pixels, and the palettes (grey, white-hot,
-black-hot, ironbow) as the image's colours."""
+"""The camera view's help for the click, offscreen, where a real window cannot reach: the
+measured box's marker gone once zoomed in, the palettes' colour tables end to end, the exact DN
+and the apparent temperature under the pointer, the loupe's pixels. The GPS ring beside the
+drone, the box's marker, the palettes and the readout as painted in a real window:
+tests/gui/test_real_window_camera_view.py."""
 
 from __future__ import annotations
 
@@ -59,13 +61,6 @@ def test_the_box_is_marked_at_8_screen_px_where_the_frame_is_drawn_small(qtbot, 
     assert view.box_screen_px() >= MIN_BOX_SCREEN_PX
     view.show_status(status(640, 360))
     assert not view.box_marker.isVisible() and view.box_rect.isVisible()
-
-
-def test_the_gps_cue_is_a_ring_the_drone_visible_inside(view):
-    view.show_status(status(640, 360, gps_xy=(641.0, 359.0)))
-    assert view.gps_marker.isVisible()
-    assert view.gps_marker.opts["symbol"] == "o" and view.gps_marker.opts["size"] >= 24
-    assert view.gps_marker.opts["brush"].color().alpha() == 0  # hollow: the drone shows
 
 
 @pytest.mark.parametrize("name", list(PALETTES))

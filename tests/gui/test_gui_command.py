@@ -139,3 +139,43 @@ def test_gui_replay_opens_at_the_size_and_theme_asked(tmp_path):
     assert (img.width(), img.height()) == (1366, 768)
     # daylight: the window's panels light grey (the status bar's), not the dark theme's
     assert img.pixelColor(img.width() // 2, img.height() - 4).name() == "#eeeeee"
+
+
+def test_a_flir_sequence_replays_in_the_console_as_a_session(flir_files, tmp_path, capsys):
+    """``snrmon gui --replay FILE.seq``: the real FLIR Duo Pro R sequence (7 frames 640x512)
+    written as a session (every frame, bit for bit, at the file's own times) and played in the
+    console: its one camera, named for the default LWIR sensor, plays to its 7th frame."""
+    import json
+
+    import numpy as np
+
+    from snrmon.acquisition.record.reader import open_session
+    from snrmon.acquisition.replay.stack_io import read_stack
+    from snrmon.acquisition.replay.stack_session import session_from_stack
+
+    seq = flir_files / "flirpy-test.seq"
+    status = tmp_path / "status.json"
+    argv = ["gui", "--replay", str(seq), "--headless", "--duration", "8", "--status-file"]
+    assert main([*argv, str(status)]) == 0
+    assert "replayed as camera 'lwir' with the lwir sensor model" in capsys.readouterr().err
+    shown = json.loads(status.read_text())
+    assert list(shown["cameras"]) == ["lwir"] and shown["cameras"]["lwir"]["shape"] == [512, 640]
+    assert (shown["replay"]["length"], shown["replay"]["index"]) == (7, 6)
+    # The session it played: the file's frames and times.
+    stack = read_stack(seq)
+    with open_session(
+        session_from_stack(seq, tmp_path / "s.h5", sensor="lwir", camera="lwir")
+    ) as f:
+        cam = f.cameras["lwir"]
+        assert np.array_equal(np.stack([cam.frame(k) for k in range(7)]), stack.frames)
+        assert np.array_equal(cam.utc_ns, stack.utc.astype("datetime64[ns]").astype(np.int64))
+
+
+def test_a_camera_file_that_does_not_say_its_camera_needs_a_sensor(tmp_path, capsys):
+    import numpy as np
+
+    stack = tmp_path / "frames.npy"
+    np.save(stack, np.zeros((3, 8, 8), np.uint16))
+    assert main(["gui", "--replay", str(stack), "--headless", "--duration", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "give --sensor (mwir, lwir or a sensor TOML)" in err and str(stack) in err

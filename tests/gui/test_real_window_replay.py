@@ -81,11 +81,13 @@ def answered(path: Path, proc, what: str) -> dict:
     return poll(path, lambda s: s["t_unix"] > sent, 30, f"the console after {what}", proc)
 
 
-def console(display: str, flight: Path, tmp_path: Path, speed: str):
+def console(display: str, flight: Path, tmp_path: Path, speed: str, *more: str):
+    """``snrmon gui --replay flight`` at ``speed`` on ``display`` (``more``: further options),
+    its status file in ``tmp_path``; (process, status file)."""
     status = tmp_path / "status.json"
     env = console_env(display, tmp_path)
     cmd = [sys.executable, "-m", "snrmon", "gui", "--replay", str(flight), "--speed", speed]
-    cmd += ["--status-file", str(status), "--duration", "600"]
+    cmd += ["--status-file", str(status), "--duration", "600", *more]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     return proc, status
 

@@ -74,9 +74,11 @@ def test_after_the_recording_the_indicator_is_plain_again(qtbot):
 
 def test_the_write_rate_is_the_last_seconds_of_bytes():
     meter = WriteRate(t0_s=100.0)
-    assert math.isnan(meter.add(100.0, 0))  # one sample: no rate yet
-    for i in range(1, 21):  # 20 MB/s for 10 s, sampled five times a second
-        rate = meter.add(100.0 + i * 0.5, int(i * 0.5 * 20 * MB))
+    # The first 2 s: no rate (the file's layout written at once: 5 MB at its start)
+    assert all(math.isnan(meter.add(100.0 + i * 0.5, 5 * MB + i * 10 * MB)) for i in range(4))
+    assert math.isnan(meter.add(102.0, 5 * MB + 40 * MB))  # one sample: no rate yet
+    for i in range(5, 21):  # 20 MB/s for 10 s, sampled twice a second
+        rate = meter.add(100.0 + i * 0.5, 5 * MB + int(i * 0.5 * 20 * MB))
     assert rate == pytest.approx(20 * MB)
     t, b = 110.0, 200 * MB
     for _ in range(12):  # then 100 MB/s: within the window the rate follows

@@ -58,8 +58,8 @@ def test_console_stop_table_marks_a_resolved_short_stop():
     )
     cells = _cells(row)
     assert cells["state"] == "ended short, resolved"
-    assert cells["frames"] == "20" and cells["snr_mean"] == "2.47 ± --"  # no error of the mean
-    assert cells["model:small"] == "520.3"  # the model's value in its own column
+    assert cells["n_frames"] == "20" and cells["snr_mean"] == "2.47 ± --"  # no error of the mean
+    assert cells["model_small"] == "520.3"  # the model's value in its own column
     assert cells["background"] == "extent_rim+rim"  # the background the stop was measured against
     assert "band" not in cells and "ratio" not in cells  # no expected reading: nothing to compare
 
@@ -77,20 +77,21 @@ def test_model_values_each_in_a_column_with_the_band_and_the_ratio_of_the_row_s_
     }
     row = _row("lwir", 3, 336.0, 47.5, 0.5, model, model_sky_temp_k=271.25, background="extent_rim")
     cells = _cells(row)
-    assert [cells[f"model:{k}"] for k in ("small", "large", "small_corrected")] == [
+    assert [cells[f"model_{k}"] for k in ("small", "large", "small_corrected")] == [
         "136.1",
         "254.6",
         "40.0",
     ]
-    assert cells["model:expected_eq4_extent"] == "42.0"
-    assert cells["model:expected_eq4_rim"] == "45.0"
+    assert cells["model_expected_eq4_extent"] == "42.0"
+    assert cells["model_expected_eq4_rim"] == "45.0"
     assert not any(k.endswith(("_lower", "_upper")) for k in cells)  # the band is one column
     assert cells["band"] == "38.0–46.0"  # the extent rule's (the row's background)
     assert cells["ratio"] == f"{47.5 / 42.0:.2f} extent"
-    assert cells["sky"] == "271.2" or cells["sky"] == "271.3"
+    assert cells["model_sky_temp_k"] == "271.2" or cells["model_sky_temp_k"] == "271.3"
     titles = {c.key: c.title for c in columns([row])}
-    assert titles["lrf"] == "LRF\n(m)" and titles["sky"] == "sky\n(K)"  # units in the headers
-    assert titles["model:expected_eq4_rim"] == "expected\n7x7 rim"
+    # units in the headers
+    assert titles["lrf_range_m"] == "LRF\n(m)" and titles["model_sky_temp_k"] == "sky\n(K)"
+    assert titles["model_expected_eq4_rim"] == "expected\n7x7 rim"
 
 
 @pytest.fixture
@@ -126,7 +127,7 @@ def test_the_table_sorts_by_a_column_s_number_not_its_text(table):
 def test_copy_puts_the_report_csv_of_the_rows_shown_on_the_clipboard(table):
     view, rows = table
     keys = [c.key for c in view.table.cols]
-    view.sortByColumn(keys.index("lrf"), Qt.SortOrder.DescendingOrder)
+    view.sortByColumn(keys.index("lrf_range_m"), Qt.SortOrder.DescendingOrder)
     assert view.copy_csv() == 4
     parsed = list(csv.DictReader(io.StringIO(QApplication.clipboard().text())))
     assert tuple(parsed[0]) == CSV_COLUMNS  # the report's columns

@@ -49,9 +49,10 @@ def test_humidity_lowers_both_bands_and_the_season_fills_what_is_not_read():
         t_dry = resolve_atmosphere(dry, band).transmission(500.0)
         t_humid = resolve_atmosphere(humid, band).transmission(500.0)
         assert t_humid < t_dry - 0.05
-    # the season's sea-level air where nothing is read: US Standard 15 C, 1013.25 hPa
-    t_k, rh, p, vis, _ = Weather().state()
-    assert (t_k, p, vis) == (288.15, 1013.25, None) and 40.0 < rh < 50.0
+    # the season's sea-level air where nothing is read: US Standard 15 C, 1013.25 hPa, with
+    # LOWTRAN7's rural aerosol at 23 km
+    t_k, rh, p, vis, aerosol = Weather().state()
+    assert (t_k, p, vis, aerosol) == (288.15, 1013.25, 23.0, "rural") and 40.0 < rh < 50.0
     summer = Weather(season="tropical").state()
     assert summer[0] == pytest.approx(299.7) and summer[1] > 70.0
     # a dew point means the same vapour as the relative humidity it makes at that air
@@ -62,7 +63,7 @@ def test_humidity_lowers_both_bands_and_the_season_fills_what_is_not_read():
 
 
 def test_aerosol_is_beer_lambert_and_scales_with_visibility():
-    clear = Weather(air_temp_c=15.0, rh_percent=50.0)
+    clear = Weather(air_temp_c=15.0, rh_percent=50.0, aerosol="none")
     hazy = Weather(air_temp_c=15.0, rh_percent=50.0, visibility_km=5.0)
     t = load_table()
     extra = t.optical_depth(hazy, [1000.0, 2000.0]) - t.optical_depth(clear, [1000.0, 2000.0])
@@ -197,3 +198,21 @@ def test_bad_files_give_one_clear_error(tmp_path):
     bad_toml.write_text("[atmosphere]\nrh_percent = 150\n")
     with pytest.raises(ValueError, match=r"a.toml: \[atmosphere\] relative humidity"):
         load_atmosphere(bad_toml, MW)
+
+
+def test_the_default_air_has_a_rural_haze_unless_told_there_is_none():
+    """The default atmosphere (no readings) is LOWTRAN7's rural aerosol at 23 km: its
+    contrast-weighted transmission 0.7 % below a path without aerosol at 500 m and 2.1-2.2 %
+    at 1.5 km in both bands; ``aerosol="none"`` (or a recorded visibility of None) is the clear
+    path."""
+    for band, at_500, at_1500 in ((MW, 0.9928, 0.9784), (LW, 0.9930, 0.9791)):
+        hazy = resolve_atmosphere(None, band)
+        clear = resolve_atmosphere(Weather(aerosol="none"), band)
+        assert resolve_atmosphere(Weather(visibility_km=None), band).transmission(500.0) == (
+            clear.transmission(500.0)
+        )
+        ranges = [500.0, 1500.0]
+        ratio = hazy.contrast_transmission(ranges) / clear.contrast_transmission(ranges)
+        assert ratio == pytest.approx([at_500, at_1500], abs=5e-4)
+    assert "rural aerosol, visibility 23 km" in Weather().describe()
+    assert "no aerosol" in Weather(aerosol="none").describe()

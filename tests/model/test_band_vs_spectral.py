@@ -20,7 +20,7 @@ RANGES = [100.0, 500.0, 2000.0]
 
 def effective_transmissions(sensor_name: str, rh: float) -> dict[str, np.ndarray]:
     sensor = load_sensor(sensor_name)
-    weather = Weather(air_temp_c=20.0, rh_percent=rh)
+    weather = Weather(air_temp_c=20.0, rh_percent=rh, aerosol="none")  # as docs/model.md says
     band = tuple(sensor.band_um)
     c = contrast(sensor, UAV1, RANGES, atmosphere=weather)
     # truth: the table's spectrum, linear between its samples, on a fine wavelength grid

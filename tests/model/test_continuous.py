@@ -147,11 +147,11 @@ def test_air_and_sky_are_separate_and_the_air_adds_contrast():
 
 
 def test_contrast_weighted_transmission_of_the_mwir_default():
-    # LOWTRAN7 US Standard 1976 sea level (CO2 420 ppmv), no aerosol: the flat band average
-    # and the one weighted by dLq/dT at the air, 7 % lower at 199 m and 13 % at 508 m
+    # LOWTRAN7 US Standard 1976 sea level (CO2 420 ppmv), rural aerosol at 23 km: the flat band
+    # average and the one weighted by dLq/dT at the air, 7 % lower at 199 m and 13 % at 508 m
     atm = default_atmosphere((3.45, 5.25))
-    assert atm.transmission([199.0, 508.0]) == pytest.approx([0.742, 0.659], abs=0.002)
-    assert atm.contrast_transmission([199.0, 508.0]) == pytest.approx([0.688, 0.571], abs=0.002)
+    assert atm.transmission([199.0, 508.0]) == pytest.approx([0.740, 0.654], abs=0.002)
+    assert atm.contrast_transmission([199.0, 508.0]) == pytest.approx([0.686, 0.567], abs=0.002)
     p = predict(MW, UAV1, [199.0], expected=False, band=False)
     assert p.transmission_contrast[0] == pytest.approx(atm.contrast_transmission(199.0), abs=1e-3)
     assert p.transmission[0] == pytest.approx(atm.transmission(199.0), abs=1e-9)

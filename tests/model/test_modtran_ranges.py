@@ -24,8 +24,8 @@ from tests.model.test_atmosphere_lowtran import LW, MW, band_mean, lowtran  # no
 
 RANGES_M = (10.0, 200.0, 500.0, 1500.0)
 WINDOWS = {MW: (1665.0, 3335.0), LW: (800.0, 1335.0)}
-# The air of the runs: the model's default (US Standard 1976 sea level, RH 46 %, no aerosol)
-AIR = Weather()
+# The air of the runs: US Standard 1976 sea level, RH 46 %, no aerosol (LOWTRAN7 IHAZE 0)
+AIR = Weather(aerosol="none")
 # The stated error of a move (docs/model.md): with the spectrum's own air, 0.2 % of the band
 # transmission to 300 x its path; with the air 10 K and 34 % RH off (25 C, 80 %), up to 2 %
 # (LWIR; MWIR 0.4 %) within 10 x and 5.2 % (LWIR) beyond; a shorter path, 0.5 %.

@@ -84,7 +84,9 @@ def test_unknown_presets_and_bad_toml(tmp_path):
         load_sensor(str(bad))
     text = (load_sensor.__globals__["PRESET_DIR"] / "mwir.toml").read_text()
     bad.write_text(text.replace("fill_factor = 0.8 ", "fill_factor = 80 "))
-    with pytest.raises(ValueError, match="fill_factor must be in"):
+    with pytest.raises(
+        ValueError, match=r"\[sensor\] fill_factor = 80: expected a number in \(0, 1\]"
+    ):
         load_sensor(str(bad))
     bad.write_text(text.replace("pitch_um = 8.0", "pitch_mm = 8.0"))
     with pytest.raises(ValueError, match="unknown key 'pitch_mm'"):

@@ -470,3 +470,31 @@ def test_at_rest_frames_are_where_range_and_size_are_steady():
     assert picked[0] > 120 and picked[-1] < 230
     # fewer than n steady frames: the longest run of them (range within 1 m: to frame 314)
     assert at_rest_frames(sizes, ranges, 1000, stop_range_m=37.0) == list(range(121, 315))
+
+
+def test_the_target_file_keeps_the_segmented_outline_for_the_outline_footprint(cam, cal, tmp_path):
+    """The outline a target file keeps is one frame's segmentation at the stop's pixel: the
+    cross of the scene (a 30 cm span, 10 cm arms), its area the small dimension's square, and
+    the model's outline footprint reads it."""
+    from snrmon.acquisition.calibrate.characterize import characterize_frame, median_outline
+
+    e, small, _ = drone_scene(cam, blades=False)
+    px_m = RANGE_M * cam.sensor.ifov_rad
+    rows = [
+        characterize_frame(
+            f, (XC, YC), range_m=RANGE_M, ifov_rad=cam.sensor.ifov_rad, calibration=cal
+        )
+        for f in cam.frames(e, 5, seed=3)
+    ]
+    outline = median_outline(rows, px_m)
+    assert outline.pixel_m == px_m
+    assert math.sqrt(outline.area_m2) == pytest.approx(small, rel=0.10)
+    mask = outline.mask
+    span_px = SPAN_M / px_m
+    assert mask.shape[1] == pytest.approx(span_px, abs=2)  # the bar across
+    assert mask[0].sum() < 0.5 * mask.shape[1]  # a cross, not a box: its top row is the arm
+    res = summarise_frames(rows, camera="mwir", range_m=RANGE_M, method="otsu")
+    path = tmp_path / "uav_outline.toml"
+    path.write_text(target_toml(res, "uav_outline", outline=outline))
+    t = load_target(str(path))
+    assert t.outline == outline

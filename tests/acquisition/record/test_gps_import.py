@@ -135,22 +135,26 @@ def test_import_refuses_a_live_stream_and_missing_files(tmp_path, capsys):
 
 
 def test_dji_csv_sub_second_utc_and_satellites(tmp_path):
+    """A simulated AirData export whose receiver's epochs sit 0.04 s after the tenths and whose
+    flight starts 0.34 s into a second: its first fix is the receiver's first epoch of that
+    second, on the ground (15:00:00.040, three rows before the flight), which AirData's time
+    base puts on 15:00:00. Every fix reads 0.04 s before its epoch's UTC."""
     from snrmon.drivers.gps.dji_csv import read_dji_csv
     from snrmon.sim.flight import FlightPlan
     from snrmon.sim.flight_logs import flight_epochs, write_airdata_csv
 
-    u0 = datetime(2019, 5, 14, 15, 0, 0, 300000, tzinfo=UTC)  # the log starts at .3 s
+    u0 = datetime(2019, 5, 14, 15, 0, 0, 340000, tzinfo=UTC)  # the log starts at .34 s
     times = [0.1 * k for k in range(25)]
     epochs = flight_epochs(FlightPlan(), times, [u0 + timedelta(seconds=t) for t in times])
     path = write_airdata_csv(tmp_path / "f.csv", epochs, sats=13)
-    assert "15:00:00," in path.read_text()  # AirData's own column: whole seconds only (rounded)
+    assert "15:00:00," in path.read_text()  # AirData's own column: whole seconds only
     fixes = read_dji_csv(path)
-    # Whole seconds beside the log's 0.1 s clock pin each fix's UTC to half a step.
-    assert len(fixes) == len(epochs)
-    assert all(
-        abs((f.utc - e.utc).total_seconds()) <= 0.05 + 1e-6
-        for f, e in zip(fixes, epochs, strict=True)
-    )
+    assert len(fixes) == 3 + len(epochs)  # on the ground at .04, .14 and .24, then the flight
+    assert fixes[0].utc == datetime(2019, 5, 14, 15, 0, 0, tzinfo=UTC)
+    offsets = {
+        round((f.utc - e.utc).total_seconds(), 6) for f, e in zip(fixes[3:], epochs, strict=True)
+    }
+    assert offsets == {-0.04}
     assert {f.sats for f in fixes} == {13}
 
 

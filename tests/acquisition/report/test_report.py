@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 import pytest
 
-from snrmon.acquisition.prediction import CURVES, ModelPredictor
+from snrmon.acquisition.prediction import BANDED_CURVES, CURVES, ModelPredictor
 from snrmon.acquisition.report.data import BUDGET_TERMS, report_data, rows_sky_k
 from snrmon.acquisition.report.plot import PAGE_IN, PNG_DPI
 from snrmon.acquisition.report.stop_csv import CSV_COLUMNS
@@ -64,24 +64,36 @@ def _eq4(frame: np.ndarray) -> tuple[float, float, float, float]:
 def test_csv_has_exactly_the_columns(outputs):
     _, _, rows = outputs
     assert tuple(rows[0]) == CSV_COLUMNS
-    assert CSV_COLUMNS[:7] == (
+    # the stop table's columns, by the names of Session.stops() and the campaign's Parquet
+    assert CSV_COLUMNS[:12] == (
         "camera",
         "stop",
+        "manual",
+        "t_start_utc",
+        "t_end_utc",
+        "range_m",
         "lrf_range_m",
         "gps_range_m",
         "n_frames",
+        "complete",
         "snr_mean",
         "snr_std",
     )
+    bands = [f"model_{c}_{e}" for c in BANDED_CURVES for e in ("lower", "upper")]
     assert [c for c in CSV_COLUMNS if c.startswith("model_")] == [
+        "model_resolved_small",
+        "model_sky_temp_k",
         *(f"model_{c}" for c in CURVES),
         "model_expected_eq4_rim",
         "model_expected_eq4_extent",
+        *bands,
     ]
     assert [c for c in CSV_COLUMNS if c.startswith("ratio_")] == [
         *(f"ratio_{c}" for c in CURVES),
         "ratio_expected_eq4",
     ]
+    # the stop's times in UTC (ISO 8601) from the session's clock
+    assert all(r[3].startswith("20") and r[3].endswith("Z") for r in rows[1:])
     # Two planned stops x two cameras.
     assert sorted((r[0], r[1]) for r in rows[1:]) == [
         ("lwir", "0"),
@@ -118,7 +130,8 @@ def test_csv_values_match_an_independent_computation(session, data, outputs):
         rim = model["expected_eq4_rim"]
         assert float(row["ratio_expected_eq4"]) == pytest.approx(snr.mean() / rim, rel=1e-12)
     # The synthetic spot falls as 1/R^2: 4x the contrast at half the range.
-    means = {(r[0], r[1]): float(r[5]) for r in rows[1:]}
+    snr_mean = CSV_COLUMNS.index("snr_mean")
+    means = {(r[0], r[1]): float(r[snr_mean]) for r in rows[1:]}
     assert 3.0 < means[("mwir", "0")] / means[("mwir", "1")] < 5.0
 
 
@@ -179,8 +192,9 @@ def test_measured_noise_replaces_the_models_noise(data, measured):
 
 def test_csv_gps_range_is_the_planned_range(outputs):
     _, _, rows = outputs
+    gps = CSV_COLUMNS.index("gps_range_m")
     for values in rows[1:]:
-        assert values[3] != "" and float(values[3]) == pytest.approx(
+        assert values[gps] != "" and float(values[gps]) == pytest.approx(
             RANGES_M[int(values[1])], abs=0.5
         )
 

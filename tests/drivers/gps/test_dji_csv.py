@@ -118,10 +118,10 @@ def test_real_export_every_gpx_point_is_a_fix_with_its_position_and_altitude(air
 def test_real_export_one_clock_across_its_gaps_no_row_moves_the_rest(air2s) -> None:
     """The log has 24 gaps in time(millisecond) and rows beside them up to 12.3 s off (the
     reader before this took the latest row's anchor: every fix 12.3 s late on the GPX). Every
-    fix is on one anchor whose sub-second comes from the file's own second ticks (the reader
-    before this put it in the middle of the rounded seconds: 0.15 s late), and within 0.1 s of
-    AirData's own GPX of the flight (an independent rendering with tenths of a second) at all
-    10,817 points."""
+    fix is on one anchor whose sub-second comes from AirData's time base, the first fix on its
+    written second (the reader before this put it in the middle of the rounded seconds: 0.15 s
+    late), and within 0.1 s of AirData's own GPX of the flight (an independent rendering with
+    tenths of a second) at all 10,817 points (measured: 0.000 s)."""
     from snrmon.drivers.gps.dji_csv import read_dji_log
 
     path, _rows, gpx = air2s
@@ -134,17 +134,36 @@ def test_real_export_one_clock_across_its_gaps_no_row_moves_the_rest(air2s) -> N
     assert (log.tick_phase_ms, log.ticks, log.details["ticks_at_phase"]) == (0, 1165, 1071)
     fixes = {(f.lat_deg, f.lon_deg): f for f in log.fixes}
     offsets = [(fixes[(lat, lon)].utc - t).total_seconds() for lat, lon, _, t in gpx]
-    assert max(abs(o) for o in offsets) <= 0.1
+    assert max(abs(o) for o in offsets) <= 1e-3
     assert max(offsets) - min(offsets) < 1e-6  # one anchor: the GPX's own is one too
     assert "off the log's clock" in log.clock.describe()
 
 
-def test_the_phase_is_the_files_own_not_a_constant(air2s, tmp_path) -> None:
-    """The real export re-written with its seconds changing 0.3 s later in its rows (each row's
-    datetime(utc) the second of its UTC + 0.3 s instead of + 0.6 s): the ticks move to 300 mod
-    1000 and every fix's UTC moves with them, 0.3 s earlier: the reader follows the file's
-    ticks, not a fixed phase."""
+def _rewritten(rows, path, datetime_of=None, position_from_ms=None):
+    """The real export's rows written again, each row's ``datetime(utc)`` from
+    ``datetime_of(row)`` and positions blanked (0, 0) before ``position_from_ms``."""
     import csv
+
+    with path.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, list(rows[0]))
+        w.writeheader()
+        for r in rows:
+            r = dict(r)
+            if datetime_of is not None:
+                r["datetime(utc)"] = datetime_of(r)
+            if position_from_ms is not None and int(r["time(millisecond)"]) < position_from_ms:
+                r["latitude"] = r["longitude"] = "0"
+            w.writerow(r)
+    return path
+
+
+def test_the_time_base_is_the_files_own_first_fix_not_a_constant(air2s, tmp_path) -> None:
+    """AirData's time base puts the first row with a position on the second written in it:
+    the real export with its positions blanked for its first 20 s more (its first fix 8.4 s
+    later, at another phase of its second) moves every fix so that that row is on its second;
+    the same export with its seconds written 0.1 s ahead of its GPX instead of 0.6 s (as the
+    Mini 2 export writes them: the ticks move from 0 to 500 mod 1000) leaves every fix where it
+    was: the ticks bound the anchor, they do not set it."""
     import math
 
     from snrmon.drivers.gps.dji_csv import read_dji_log
@@ -154,20 +173,21 @@ def test_the_phase_is_the_files_own_not_a_constant(air2s, tmp_path) -> None:
     before = {(f.lat_deg, f.lon_deg): f.utc for f in log.fixes}
     first = log.fixes[0]
     anchor = first.utc.timestamp() - first.t_host_ns / 1e9  # one anchor (the test above)
-    moved = tmp_path / "moved.csv"
-    with moved.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, list(rows[0]))
-        w.writeheader()
-        for r in rows:
-            u = math.floor(anchor + int(r["time(millisecond)"]) / 1000 + 0.3 + 1e-6)
-            w.writerow(
-                {**r, "datetime(utc)": f"{datetime.fromtimestamp(u, UTC):%Y-%m-%d %H:%M:%S}"}
-            )
-    log = read_dji_log(moved)
-    assert log.tick_phase_ms == 300
-    after = {(f.lat_deg, f.lon_deg): f.utc for f in log.fixes}
-    diffs = {round((after[k] - before[k]).total_seconds(), 6) for k in before}
-    assert diffs == {-0.3}
+
+    late = read_dji_log(_rewritten(rows, tmp_path / "late.csv", position_from_ms=20_000))
+    ff = next(r for r in rows if int(r["time(millisecond)"]) >= 20_000)
+    second = datetime.strptime(ff["datetime(utc)"], "%Y-%m-%d %H:%M:%S").replace(tzinfo=UTC)
+    assert late.fixes[0].utc == second  # the new first fix on its own second
+    moved = {round((f.utc - before[(f.lat_deg, f.lon_deg)]).total_seconds(), 6) for f in late.fixes}
+    assert moved == {round((second.timestamp() - anchor - 20.0) % 1.0, 6)}
+
+    def ahead_by_0_1(r):
+        u = math.floor(anchor + int(r["time(millisecond)"]) / 1000 + 0.1 + 1e-6)
+        return f"{datetime.fromtimestamp(u, UTC):%Y-%m-%d %H:%M:%S}"
+
+    lead = read_dji_log(_rewritten(rows, tmp_path / "lead.csv", datetime_of=ahead_by_0_1))
+    assert lead.tick_phase_ms == 500
+    assert {(f.lat_deg, f.lon_deg): f.utc for f in lead.fixes} == before
 
 
 def test_a_clock_that_stopped_gets_a_new_anchor_after_its_gap(air2s, tmp_path) -> None:
@@ -199,3 +219,27 @@ def test_a_clock_that_stopped_gets_a_new_anchor_after_its_gap(air2s, tmp_path) -
             continue
         late = 30.0 if int(r["time(millisecond)"]) >= 920900 else 0.0
         assert (after[key] - before[key]).total_seconds() == pytest.approx(late, abs=1e-6)
+
+
+def test_a_second_drone_every_gpx_point_on_the_first_fix_time_base(shared_data) -> None:
+    """The head of a DJI Mini 2 export (tests/data/dji-airdata): a fix from its first row and
+    its seconds changing at 900 mod 1000 (the Air 2S export's at 0). Every point of AirData's
+    GPX of the same flight is the reader's fix with the same position at the same UTC, to the
+    millisecond. (A constant read off the Air 2S's ticks, 0.6 s before the new second, put this
+    export 0.5 s early; the middle of the rounded seconds, 0.35 s early.)"""
+    import xml.etree.ElementTree as ET
+
+    from snrmon.drivers.gps.dji_csv import read_dji_log
+
+    folder = shared_data / "dji-airdata"
+    log = read_dji_log(folder / "mini-2-head.csv")
+    assert (log.tick_phase_ms, log.ticks) == (900, 3)
+    ns = {"g": "http://www.topografix.com/GPX/1/1"}
+    gpx = ET.fromstring((folder / "mini-2-head.gpx").read_text() + "</trkseg></trk></gpx>")
+    fixes = {(f.lat_deg, f.lon_deg): f.utc for f in log.fixes}
+    points = list(gpx.iterfind(".//g:trkpt", ns))
+    assert len(points) == 28 and len(fixes) == 30
+    for pt in points:
+        when = datetime.strptime(pt.find("g:time", ns).text, "%Y-%m-%dT%H:%M:%S.%fZ")
+        utc = fixes[(float(pt.get("lat")), float(pt.get("lon")))]
+        assert abs((utc - when.replace(tzinfo=UTC)).total_seconds()) < 1e-3, when
