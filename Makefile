@@ -23,7 +23,8 @@ $(shell mkdir -p $(VENV) && find $(PACKAGE_DIRS) -name '*.py' -o -name '*.toml' 
 	| sort > $(MODULES).new && (cmp -s $(MODULES).new $(MODULES) || mv $(MODULES).new $(MODULES)); \
 	rm -f $(MODULES).new)
 
-.PHONY: demo test setup lint clean constraints constraints-check dist-check table-check
+.PHONY: demo test setup lint clean constraints constraints-check dist-check table-check \
+	bad-input-under-load
 
 $(STAMP): pyproject.toml setup.py $(CONSTRAINTS) $(MODULES)
 	$(PYTHON) -m venv $(VENV)
@@ -51,6 +52,19 @@ test: $(STAMP)
 	$(BIN)/mypy
 	$(BIN)/python .ci/freeze_constraints.py --check $(CONSTRAINTS)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -n 2 --dist loadfile
+
+# The bad-input table (tests/test_bad_input_table.py) run as it is, then with two busy loops on
+# the machine (tools/under_load.py starts and stops them): the same answers both times (each
+# case's exit code and lines, recorded in the junit files; tools/same_answers.py compares them),
+# since none of its cases waits on a timeout that assumes an idle machine.
+BAD_INPUT_RUN := $(BIN)/python -m pytest -q -p no:cacheprovider -o junit_family=xunit1 \
+	tests/test_bad_input_table.py
+bad-input-under-load: $(STAMP)
+	mkdir -p out
+	$(BAD_INPUT_RUN) --junitxml=out/bad-input-idle.xml
+	$(BIN)/python tools/under_load.py --loops 2 -- $(BAD_INPUT_RUN) \
+		--junitxml=out/bad-input-under-load.xml
+	$(BIN)/python tools/same_answers.py out/bad-input-idle.xml out/bad-input-under-load.xml
 
 # The atmosphere table rebuilt from LOWTRAN7 and compared by value with the shipped one (per
 # array, in ulp: tools/make_atmosphere_table.py). Needs gfortran and cmake (the `tables` extra

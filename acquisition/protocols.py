@@ -18,6 +18,7 @@ import numpy as np
 from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.status import CameraStatus, SessionStatus
+from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.prediction import MeasuredNoise, Predictor, Weather
 from snrmon.acquisition.record.recorder_status import RecorderStatus, RecorderSummary
 from snrmon.acquisition.stops.table import StopRow
@@ -68,6 +69,11 @@ class ConsoleSession(Protocol):
     def predictor(self, predictor: Predictor | None) -> None: ...
 
     def status(self) -> SessionStatus: ...
+
+    def model_sky_temp_k(self, camera: str) -> float | None:
+        """The measured sky temperature (K) ``camera``'s model background follows (None: the
+        model's own); the session's engine alone sets it."""
+        ...
 
     def stops(self) -> list[StopRow]: ...
 
@@ -131,9 +137,15 @@ class RecordingWriter(Protocol):
 
     def add_frame(self, camera: str, frame: Any) -> int | None: ...
 
-    def add_measured(self, camera: str, index: int | None, m: Measurement) -> None: ...
-
-    def add_measurement(self, camera: str, index: int | None, **values: Any) -> None: ...
+    def add_measurement(
+        self,
+        camera: str,
+        index: int | None,
+        m: Measurement | PeakSnr,
+        *,
+        counter: int = -1,
+        t_host_ns: int | None = None,
+    ) -> None: ...
 
     def add_state(
         self, camera: str, counter: int, t_host_ns: int, state: Mapping[str, Any]

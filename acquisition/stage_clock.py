@@ -198,6 +198,19 @@ class StageClock:
         with self._lock:
             return self._n
 
+    def latency_ms(self, last: int = 1000) -> tuple[float, float]:
+        """The median and 99th percentile of the last ``last`` frames' latency (ms; NaN before
+        the first frame): the figures the console's status reports."""
+        with self._lock:
+            n, size = self._n, len(self._rows)
+            k = min(n, size, int(last))
+            idx = np.arange(n - k, n) % size
+            latency = self._rows[idx, _LATENCY].astype(float)
+        if not latency.size:
+            return (math.nan, math.nan)
+        p50, p99 = np.percentile(latency, [50, 99]) / 1e6
+        return (float(p50), float(p99))
+
     def rows(self) -> np.ndarray:
         """The kept frames' figures (ns; ``UNKNOWN`` where not measured), oldest first:
         columns :data:`COLUMNS`."""

@@ -46,6 +46,8 @@ def _rss_mb(proc: psutil.Process) -> float:
 
 def run(duration_s: float) -> dict:
     from snrmon.acquisition.replay.batch import replay_session
+    from snrmon.acquisition.runtime.camera_pipeline import CAMERA_GAP, WRONG_SHAPE
+    from snrmon.acquisition.streams.ring import RING_OVERRUN
     from snrmon.rig.rig import HilOptions, HilRig
 
     proc = psutil.Process()
@@ -66,7 +68,7 @@ def run(duration_s: float) -> dict:
             rss_start = _rss_mb(proc)
             proc.cpu_percent(None)
             t0 = time.monotonic()
-            counts0 = {n: p.status().frames.received for n, p in rig.session.pipelines.items()}
+            counts0 = {n: p.accounting().received for n, p in rig.session.pipelines.items()}
             for p in rig.session.pipelines.values():
                 p.stages.reset()  # the stage table covers this run, not the start-up
             deadline = t0 + duration_s
@@ -87,16 +89,20 @@ def run(duration_s: float) -> dict:
             elapsed = time.monotonic() - t0
             cpu = proc.cpu_percent(None)
             status = {n: p.status() for n, p in rig.session.pipelines.items()}
+            drops = {n: p.drops() for n, p in rig.session.pipelines.items()}
             stages = {n: p.stage_times() for n, p in rig.session.pipelines.items()}
             rss_end = _rss_mb(proc)
         acquisition: dict = {}
         p50, p99 = [], []
         for name, st in status.items():
-            f = st.frames
+            f, d = st.frames, drops[name]
             acquisition[name] = {
                 "fps": (f.received - counts0[name]) / elapsed,
-                "dropped": f.dropped_by_camera + f.dropped_by_ring,
-                "dropped_by_recorder": f.dropped_by_recorder,
+                "dropped": d[CAMERA_GAP] + d[RING_OVERRUN] + d[WRONG_SHAPE],
+                "dropped_by_recorder": sum(d.values())
+                - d[CAMERA_GAP]
+                - d[RING_OVERRUN]
+                - d[WRONG_SHAPE],
                 "latency_ms_p50": st.latency_ms_p50,
                 "latency_ms_p99": st.latency_ms_p99,
             }

@@ -134,11 +134,7 @@ def run(duration_s: float) -> dict:
             (window.feeds[c].delivered - delivered0[c]) / elapsed, 1
         )
         figures[f"{c}_camera_fps"] = round((fa.received - fb.received) / elapsed, 1)
-        figures[f"{c}_dropped"] = (
-            (fa.dropped_by_camera - fb.dropped_by_camera)
-            + (fa.dropped_by_ring - fb.dropped_by_ring)
-            + (fa.dropped_by_recorder - fb.dropped_by_recorder)
-        )
+        figures[f"{c}_dropped"] = fa.lost - fb.lost
     lat = np.array(late_ms[1:] or [np.nan])
     figures["event_loop_late_ms_p50"] = round(float(np.percentile(lat, 50)), 2)
     figures["event_loop_late_ms_p99"] = round(float(np.percentile(lat, 99)), 2)

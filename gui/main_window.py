@@ -526,7 +526,9 @@ class ConsoleWindow(QMainWindow):
         if st is None or name not in st.cameras:
             return
         panel, cs = self.panels[name], st.cameras[name]
-        followed = self.model is not None and self.model.follow_sky(name, cs.figures.sky_temp_k)
+        followed = self.model is not None and self.model.sky_changed(
+            name, self.session.model_sky_temp_k(name)
+        )
         if followed or self._curves_due:  # a new sky, or curves computed in the background
             self._draw_curves(name)
         panel.view.show_status(cs)

@@ -4,10 +4,11 @@ Two :class:`snrmon.acquisition.prediction.ModelPredictor` on the same sensors, t
 
 * ``own``: the model's own background temperature (or the operator's, from the model options);
   the session never touches it;
-* ``sky``: handed to the session (its stop table's model values) and set to each camera's
-  measured sky temperature (``CameraStatus.figures.sky_temp_k``, with a calibration): the paper's
-  path-radiance correction (sections 8-9). The session follows the sky on it too; both apply
-  the same value.
+* ``sky``: handed to the session (its stop table's model values), whose engine alone makes its
+  background follow each camera's measured sky temperature (with a calibration): the paper's
+  path-radiance correction (sections 8-9). The console reads the temperature followed
+  (``ConsoleSession.model_sky_temp_k``) to label the curves; it never sets one, and a new
+  ``sky`` it hands over takes the followed sky over from the engine.
 
 :meth:`ModelCurves.curves` returns what :class:`snrmon.gui.range_plot.RangePlot` draws: the chosen
 curves of ``own`` under their model names, and, where the sky is known, the same curves of
@@ -189,8 +190,6 @@ class ModelCurves:
         the model leaves the current ones in place)."""
         noise = dict(measured_noise or {})
         own, sky = self._build(options, noise), self._build(options, noise)
-        for camera, temp in self.sky_temp_k.items():
-            sky.set_background(camera, temp)
         self.own, self.sky, self.options, self.measured_noise = own, sky, options, noise
 
     @property
@@ -199,15 +198,16 @@ class ModelCurves:
         the background: a new sky, a PSF measured from the flight)."""
         return (self.own.version, self.sky.version)
 
-    def follow_sky(self, camera: str, temp_k: float) -> bool:
-        """Set ``camera``'s measured sky temperature; True when its curves changed."""
-        if not math.isfinite(temp_k):
+    def sky_changed(self, camera: str, temp_k: float | None) -> bool:
+        """``temp_k``: the sky temperature ``camera``'s model follows now (the session's,
+        ``ConsoleSession.model_sky_temp_k``; None: not following). True when the curves drawn
+        for it are out of date (a change over :data:`SKY_STEP_K`)."""
+        if temp_k is None or not math.isfinite(temp_k):
             return False
         last = self.sky_temp_k.get(camera)
         if last is not None and abs(temp_k - last) <= SKY_STEP_K:
             return False
         self.sky_temp_k[camera] = temp_k
-        self.sky.set_background(camera, temp_k)
         return True
 
     def curves(self, camera: str) -> dict[str, tuple]:
@@ -250,7 +250,8 @@ def model_for_session(
 
 
 def hand_to_session(session: ConsoleSession, predictor: Predictor) -> None:
-    """Make ``predictor`` the session's (its stop table's model values, its sky following)."""
+    """Make ``predictor`` the session's (its stop table's model values; the session's engine
+    carries the sky it follows over to it)."""
     session.predictor = predictor
 
 

@@ -12,6 +12,7 @@ import math
 from PySide6.QtWidgets import QFormLayout, QGroupBox, QLabel, QVBoxLayout, QWidget
 
 from snrmon.acquisition.engine.status import SessionStatus
+from snrmon.acquisition.streams.ring import RING_OVERRUN
 
 
 def _fmt(value: float | None, fmt: str, unit: str) -> str:
@@ -63,12 +64,17 @@ class StatusPanel(QWidget):
                     [
                         (f"{cam}_state", "state", f"{cam} link state"),
                         (f"{cam}_fps", "rate", f"{cam} measured frame rate (frames/s)"),
-                        (f"{cam}_frames", "frames", f"{cam} frames received / measured"),
+                        (
+                            f"{cam}_frames",
+                            "frames",
+                            f"{cam} frames received: in the recording, received while not "
+                            "recording, waiting for the measurement or the disk",
+                        ),
                         (
                             f"{cam}_dropped",
                             "dropped",
                             f"{cam} frames dropped: by the camera (counter gaps), by the console "
-                            "(ring overrun), by the recorder (backlog)",
+                            "(ring overrun, wrong frame size), by the recorder (backlog)",
                         ),
                         (f"{cam}_track", "track", f"{cam} track state and ROI (column, row)"),
                         (f"{cam}_snr", "SNR", f"{cam} 100-frame mean +/- std (n frames)"),
@@ -135,15 +141,16 @@ class StatusPanel(QWidget):
             self._set(f"{cam}_fps", _fmt(cs.fps, ".1f", "fps"))
             self._set(
                 f"{cam}_frames",
-                f"{f.received} / {f.measured} ({f.recorded} recorded, "
-                f"{f.before_recording} while not recording)",
+                f"{f.received} ({f.written} recorded, "
+                f"{f.before_recording + f.after_recording} while not recording, "
+                f"{f.queued} queued)",
             )
-            lost = f.dropped_by_camera + f.dropped_by_ring + f.dropped_by_recorder
+            ring = f.dropped.get(RING_OVERRUN, 0)
+            by_recorder = sum(f.dropped.values()) - ring
             self._set(
                 f"{cam}_dropped",
-                ("DROPPED " if lost else "")
-                + f"cam {f.dropped_by_camera}, ring {f.dropped_by_ring}, "
-                f"rec {f.dropped_by_recorder}",
+                ("DROPPED " if f.lost else "")
+                + f"cam {f.camera_gap}, ring {ring}, shape {f.wrong_shape}, rec {by_recorder}",
             )
             roi = "--" if cs.roi_xy is None else f"({cs.roi_xy[0]}, {cs.roi_xy[1]})"
             why = f" ({cs.track_reason})" if cs.track_reason else ""

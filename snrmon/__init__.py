@@ -1,10 +1,10 @@
 """snrmon: the peak-pixel SNR of unresolved drones in infrared video, beside the sensor model.
 
 The public API (:mod:`snrmon.api`, docs/api.md) is at the top: :func:`predict` (the model's
-curves as an xarray Dataset), :func:`open_session` (a recording: frames, measurements, the
-stop table), :func:`load_stack`, :func:`measure_stack`, :func:`track_stack` (paper Eq. 4 on a
-stack). They are imported when first used, so ``import snrmon`` stays cheap for the command
-line.
+curves as an xarray Dataset), :func:`open_session` (a recording, a :class:`RecordedSession`:
+frames, measurements, the stop table), :func:`load_stack`, :func:`measure_stack`,
+:func:`track_stack` (paper Eq. 4 on a stack). They are imported when first used, so
+``import snrmon`` stays cheap for the command line.
 
 One installed namespace. Its subpackages each own one job (docs/architecture.md):
 :mod:`snrmon.model` (the physics), :mod:`snrmon.drivers` (devices), :mod:`snrmon.acquisition`
@@ -16,11 +16,19 @@ One installed namespace. Its subpackages each own one job (docs/architecture.md)
 from __future__ import annotations
 
 __version__ = "0.1.0"
-__all__ = ["Session", "load_stack", "measure_stack", "open_session", "predict", "track_stack"]
+__all__ = [
+    "RecordedSession",
+    "load_stack",
+    "measure_stack",
+    "open_session",
+    "predict",
+    "track_stack",
+]
+DEPRECATED = ("Session",)  # the old name of RecordedSession: still there, with a warning
 
 
 def __getattr__(name: str):
-    if name in __all__:
+    if name in __all__ or name in DEPRECATED:
         from snrmon import api
 
         return getattr(api, name)

@@ -6,7 +6,7 @@ number the console shows. ``import snrmon`` then ``snrmon.predict(...)``; nothin
 Qt or Dask.
 
 - :func:`predict`: the sensor model (paper Eqs. 1-3, Figs. 7-10) over range, as a Dataset;
-- :func:`open_session`: a recorded session (:class:`Session`): frames, per-frame
+- :func:`open_session`: a recorded session (:class:`RecordedSession`): frames, per-frame
   measurements, the SNR-versus-range table;
 - :func:`load_stack`, :func:`measure_stack`, :func:`track_stack`: paper Eq. (4) on a stack of
   frames from a file (TIFF, raw with a JSON descriptor, video, ``.npy``) or an array.
@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -26,7 +27,7 @@ import pandas as pd
 import xarray as xr
 
 __all__ = [
-    "Session",
+    "RecordedSession",
     "load_stack",
     "measure_stack",
     "open_session",
@@ -140,9 +141,25 @@ def _jsonable(value: Any) -> Any:
     return value if isinstance(value, (str, int, float, bool, type(None))) else repr(value)
 
 
+def __getattr__(name: str) -> Any:
+    """``Session``: the old name of :class:`RecordedSession`, kept for scripts that use it (a
+    DeprecationWarning; the live session is ``snrmon.acquisition.runtime.session.Session``)."""
+    if name == "Session":
+        warnings.warn(
+            "snrmon.Session is now snrmon.RecordedSession (a recorded file); the old name goes "
+            "in a later release",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return RecordedSession
+    raise AttributeError(f"module 'snrmon.api' has no attribute {name!r}")
+
+
 # ----------------------------------------------------------------------------- sessions
-class Session:
+class RecordedSession:
     """A recorded session file, opened read-only (:func:`open_session`).
+
+    Named ``Session`` before: that name still works, with a DeprecationWarning.
 
     Parameters
     ----------
@@ -183,9 +200,9 @@ class Session:
 
     def __repr__(self) -> str:
         frames = ", ".join(f"{c} {self._frames[c]} frames" for c in self.cameras)
-        return f"<snrmon.Session {self.path.name}: {frames}; format {self.format_version}>"
+        return f"<snrmon.RecordedSession {self.path.name}: {frames}; format {self.format_version}>"
 
-    def __enter__(self) -> Session:
+    def __enter__(self) -> RecordedSession:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -442,7 +459,7 @@ class Session:
             return None
 
 
-def open_session(path: str | Path) -> Session:
+def open_session(path: str | Path) -> RecordedSession:
     """Open a recorded session (HDF5, any format version) for reading.
 
     Parameters
@@ -452,7 +469,7 @@ def open_session(path: str | Path) -> Session:
 
     Returns
     -------
-    Session
+    RecordedSession
         ``.frames(camera)``, ``.measurements(camera)``, ``.stops()``, ``.to_xarray(camera)``.
 
     Raises
@@ -468,7 +485,7 @@ def open_session(path: str | Path) -> Session:
     -----
     The file is opened read-only with h5py's and xarray's default file locking, so
     ``h5py.File(path, "r")`` and ``xarray.open_dataset(path, ...)`` open it alongside in the same
-    process; :meth:`Session.close` (or the end of a ``with`` block) closes what the session
+    process; :meth:`RecordedSession.close` (or the end of a ``with`` block) closes what the session
     opened at once.
 
     Examples
@@ -480,7 +497,7 @@ def open_session(path: str | Path) -> Session:
     >>> s.cameras
     ('lwir', 'mwir')
     """
-    return Session(path)
+    return RecordedSession(path)
 
 
 def _measurement_units(frame: pd.DataFrame) -> dict[str, str]:

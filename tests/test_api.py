@@ -215,3 +215,10 @@ def test_what_is_not_a_session_is_named(tmp_path):
         snrmon.open_session(tmp_path)
     with pytest.raises(FileNotFoundError):
         snrmon.open_session(tmp_path / "missing.h5")
+
+
+def test_the_old_name_of_a_recorded_session_still_works_with_a_warning():
+    with pytest.warns(DeprecationWarning, match="snrmon.RecordedSession"):
+        old = snrmon.Session
+    assert old is snrmon.RecordedSession is api.RecordedSession
+    assert "Session" not in snrmon.__all__ and "RecordedSession" in snrmon.__all__

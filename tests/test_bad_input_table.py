@@ -15,6 +15,12 @@ the error; ``record`` took ``target = "uav9"`` or a missing target file and open
 three identical pairs gave ``geo calibrate`` a pointing with zero residual; a non-UTF-8 session
 TOML, pairs CSV or raw-stack descriptor was the codec's bare message. An all-NaN stack gave noise
 0.0 within [0, 0]: it is null now.
+
+And damaged 3-D TIFFs: a stack written as one page of several planes (separate samples, or an
+ImageDepth volume) read as 1 frame, and a TIFF cut in half gave ``n = 1`` with exit 0 (or, cut
+inside compressed data, an internal DeflateError). Each is now read as its frames, read to the
+frame it breaks at with one warning naming that frame and the count, or, with no whole frame to
+read, refused naming the frame.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ import tifffile
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import snrmon
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.cli import build_parser, main
 from snrmon.examples import example_session
@@ -152,7 +159,53 @@ CASES = [
         2,
         "descriptor {raw}.json: not UTF-8 text (byte 0xe9 at offset",
     ),
+    (
+        ["noise", "{tif_volume_cut}"],
+        2,
+        "{tif_volume_cut}: the file is cut short in frame 2 (page 0: TiffFileError: corrupted tile",
+    ),
+    (
+        ["measure", "{tif_volume_cut}", "--at", "5,5"],
+        2,
+        "frames 0-1 share its page, decoded whole or not at all: no frame read",
+    ),
+    (["noise", "{tif_first_cut}"], 2, "{tif_first_cut}: the file is cut short in frame 0 ("),
 ]
+
+# Six frames of 16 x 20 px written by tifffile in each layout a 3-D TIFF comes in (the keyword
+# arguments of tifffile.imwrite), each also cut in half as an interrupted copy leaves it.
+TIFF_FRAMES = np.random.default_rng(6).integers(0, 4000, (6, 16, 20)).astype(np.uint16)
+TIFF_LAYOUTS = {
+    "pages": {},
+    "planes": {"planarconfig": "separate"},
+    "volume": {"volumetric": True, "tile": (16, 16)},
+    "zlib": {"compression": "zlib"},
+    "imagej": {"imagej": True},
+}
+# (layout of the cut file, frames read, the warning's reason; {size} the cut file's bytes)
+CUT_TIFFS = [
+    ("pages", 3, "it declares 6 frames, its {size} bytes hold 3"),
+    ("planes", 2, "it declares 6 frames, its {size} bytes hold 2"),
+    ("imagej", 3, "it declares 6 frames, its {size} bytes hold 3"),
+    ("zlib", 2, "page 2: DeflateError:"),
+]
+
+
+def _write_tiffs(folder: Path) -> dict[str, str]:
+    """Each layout whole (``tif_NAME``) and cut in half (``tif_NAME_cut``); ``tif_first_cut``
+    ends inside the first frame's pixels."""
+    names = {}
+    for layout, options in TIFF_LAYOUTS.items():
+        whole = folder / f"{layout}.tif"
+        tifffile.imwrite(whole, TIFF_FRAMES, photometric="minisblack", **options)
+        data = whole.read_bytes()
+        (folder / f"{layout}_cut.tif").write_bytes(data[: len(data) // 2])
+        names[f"tif_{layout}"] = str(whole)
+        names[f"tif_{layout}_cut"] = str(folder / f"{layout}_cut.tif")
+    first = folder / "first_cut.tif"
+    first.write_bytes((folder / "pages.tif").read_bytes()[:400])
+    names["tif_first_cut"] = str(first)
+    return names
 
 
 @pytest.fixture(scope="module")
@@ -189,6 +242,7 @@ def paths(tmp_path_factory) -> dict[str, str]:
         fsync=False,
     ).stop()
     return {
+        **_write_tiffs(d),
         "stack": str(stack),
         "config": str(d / "session.toml"),
         "window_config": str(d / "window.toml"),
@@ -210,7 +264,9 @@ def paths(tmp_path_factory) -> dict[str, str]:
 @pytest.mark.parametrize(
     ("argv", "code", "says"), CASES, ids=lambda v: " ".join(v)[:60] if isinstance(v, list) else None
 )
-def test_refused_with_one_line_naming_the_option_and_value(argv, code, says, paths, capfd):
+def test_refused_with_one_line_naming_the_option_and_value(
+    argv, code, says, paths, capfd, record_property
+):
     # capfd, not capsys: a C library's own line (FFmpeg's, HDF5's) goes to file descriptor 2
     argv = [a.format(**paths) for a in argv]
     says = says.format(**paths)
@@ -220,11 +276,38 @@ def test_refused_with_one_line_naming_the_option_and_value(argv, code, says, pat
         got = exc.code
     out, err = capfd.readouterr()
     lines = err.strip().splitlines()
+    # the whole answer, for comparing two runs (--junitxml): idle and under load
+    record_property("answer", f"exit {got}: {err.strip()}")
     assert got == code, err
     assert len(lines) == 1 and lines[0].startswith(f"snrmon {argv[0]}"), err
     assert ": error: " in lines[0] and says in lines[0], lines[0]
     assert out == ""
     assert not Path(paths["out"]).exists() and not Path(paths["dir"], "r.pdf").exists()
+
+
+@pytest.mark.parametrize("layout", TIFF_LAYOUTS)
+def test_a_3d_tiff_reads_as_its_frames_in_every_layout(layout, paths, capfd):
+    assert main(["noise", paths[f"tif_{layout}"], "--json"]) == 0
+    out, err = capfd.readouterr()
+    assert json.loads(out)["frames"] == 6 and err == ""
+    np.testing.assert_array_equal(snrmon.load_stack(paths[f"tif_{layout}"]).values, TIFF_FRAMES)
+
+
+@pytest.mark.parametrize(("layout", "frames", "why"), CUT_TIFFS)
+def test_a_cut_tiff_reads_to_the_frame_it_breaks_at_with_one_warning(
+    layout, frames, why, paths, capfd, record_property
+):
+    path = paths[f"tif_{layout}_cut"]
+    why = why.format(size=Path(path).stat().st_size)
+    assert main(["noise", path, "--json"]) == 0
+    out, err = capfd.readouterr()
+    record_property("answer", f"exit 0: {err.strip()} {json.loads(out)['frames']} frames")
+    assert json.loads(out)["frames"] == frames
+    lines = err.splitlines()
+    start = f"snrmon noise: warning: {path}: the file is cut short in frame {frames} ({why}"
+    assert len(lines) == 1 and lines[0].startswith(start), err
+    assert lines[0].endswith(f"): read its {frames} whole frames"), err
+    np.testing.assert_array_equal(snrmon.load_stack(path).values, TIFF_FRAMES[:frames])
 
 
 def test_an_all_nan_stack_has_no_noise_figure_not_zero(tmp_path, capsys):

@@ -154,3 +154,36 @@ def test_hil_on_a_full_disk_ends_like_record(tmp_path, capsys):
             assert f.cameras["mwir"].n_frames == written > 0
     finally:
         subprocess.run(["umount", "-l", str(disk)])
+
+
+def test_a_camera_lost_mid_day_holds_the_day_no_more_and_fails_it(capsys):
+    """The MWIR camera's process is killed after its first frames: the loss is seen at once
+    (the ended process, though its parent has not reaped it yet), the day's clock stops waiting
+    for that camera, so the LWIR camera, GPS and rangefinder fly the day to its end (before, the
+    clock held at the dead camera's last frame, every other device fell silent with it and the
+    day never ended); the result lists the loss and the day ends as a failure naming it."""
+    from snrmon.acquisition.runtime.session import DeviceError
+    from snrmon.rig.rig import HilOptions, HilRig
+
+    opts = HilOptions(seed=2, speed=2.0, stops_m=(60.0,), hover_s=3.0, calibrate=False)
+    rig = HilRig(opts)
+    never_s = 900.0  # a guard, not a speed: the day that never ends fails here, not hangs
+    give_up = time.monotonic() + never_s
+    with rig:
+        killed = False
+        while rig.step():
+            assert time.monotonic() < give_up, f"the day did not end in {never_s} s"
+            if not killed and rig.session.pipelines["mwir"].status().frames.received >= 30:
+                # as the OOM killer would: the process ends, unreaped (a zombie) until asked
+                os.kill(rig.cameras["mwir"].producer.pid, signal.SIGKILL)
+                killed = True
+            time.sleep(0.05)  # the operator's pace, as HilRig.run
+        rig.finish()
+        result = rig.result()
+    assert killed and rig.flight_time() >= rig.plan.duration_s
+    assert [x["device"] for x in result["devices_lost"]] == ["mwir"], result["devices_lost"]
+    assert "died" in result["devices_lost"][0]["error"]
+    lwir = result["frames"]["lwir"]["received"]
+    assert lwir > result["frames"]["mwir"]["received"]  # it went on after mwir was gone
+    with pytest.raises(DeviceError, match=r"^mwir lost at \S+ \(disconnected: .*died\)$"):
+        rig.check_failures()

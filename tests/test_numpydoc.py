@@ -1,5 +1,5 @@
 """The public API's docstrings pass numpydoc's own validation (``numpydoc.validate``): every
-public function and every public method of :class:`snrmon.Session` has its summary, its
+public function and every public method of :class:`snrmon.RecordedSession` has its summary, its
 Parameters section naming every parameter with a type and a description, and its Returns
 section, as the numpydoc standard reads them."""
 
@@ -16,8 +16,8 @@ from snrmon import api
 # section (the functions have them, and they run: test_api.py's doctest).
 NOT_REQUIRED = {"ES01", "SA01", "EX01"}
 PUBLIC = [f"snrmon.api.{name}" for name in api.__all__] + [
-    f"snrmon.api.Session.{name}"
-    for name, member in inspect.getmembers(api.Session)
+    f"snrmon.api.RecordedSession.{name}"
+    for name, member in inspect.getmembers(api.RecordedSession)
     if not name.startswith("_") and callable(member)
 ]
 
@@ -29,7 +29,7 @@ def test_the_public_api_passes_numpydoc_validation(name):
 
 
 def test_the_check_covers_the_session_methods_and_can_fail():
-    assert {f"snrmon.api.Session.{m}" for m in ("frames", "stops", "close")} <= set(PUBLIC)
+    assert {f"snrmon.api.RecordedSession.{m}" for m in ("frames", "stops", "close")} <= set(PUBLIC)
 
     def undocumented(camera: str) -> int:
         """Frames of a camera."""

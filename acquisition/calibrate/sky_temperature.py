@@ -85,6 +85,12 @@ class SkyTemperature:
             dy, dx = rim_offsets(2 * half + 1)
         return dy, dx, result.peak_y, result.peak_x
 
+    def box(self, result: PeakSnr | None = None) -> tuple[int, int, int, int]:
+        """Rows y0:y1 and columns x0:x1 (half-open) that hold the pixels :meth:`add` reads of a
+        frame measured as ``result``."""
+        dy, dx, y, x = self._region(result)
+        return y + int(dy.min()), y + int(dy.max()) + 1, x + int(dx.min()), x + int(dx.max()) + 1
+
     def add(self, t_host_ns: int, frame: np.ndarray, result: PeakSnr | None = None):
         """The frame's :class:`SkySample` (also kept), or None when the region is unusable
         (it leaves the image: the measurement flags that too; fewer than two good pixels).

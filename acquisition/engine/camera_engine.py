@@ -52,7 +52,6 @@ from snrmon.acquisition.engine.inputs import (
     ClearRoi,
     Command,
     Cue,
-    FrameContext,
     FrameOutput,
     Measurement,
     ReferenceDone,
@@ -60,6 +59,7 @@ from snrmon.acquisition.engine.inputs import (
     SetRoi,
     StartReference,
 )
+from snrmon.acquisition.engine.lazy_frame import LazyFrame, plain
 from snrmon.acquisition.engine.status import AnalysisFigures, CameraStatus, FrameAccounting
 from snrmon.acquisition.measure.model_agreement import model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
@@ -67,6 +67,7 @@ from snrmon.acquisition.measure.track_noise import TrackNoise
 from snrmon.acquisition.stage_clock import CORRECTION, HANDOVER, STATISTICS, TRACKING, enter
 from snrmon.acquisition.stops.detector import mean_error
 from snrmon.acquisition.stops.table import StopProgress, expected_eq4_rule
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.acquisition.track.config import TrackState
 from snrmon.acquisition.track.tracker import TrackerConfig
 
@@ -117,8 +118,7 @@ class CameraEngine:
         self.raw_measurer = FrameMeasurer(
             config, window=window, track=track, tracker_config=tracker_config
         )
-        cfg = self.measurer.meter.config
-        self.config = cfg
+        cfg = self.config
         half = crop_half_px(cfg, self.measurer.tracker_config)  # lazy: frame_correction.py
         self.corrector = FrameCorrector(self.shape, half, lazy=cfg.background is None)
         self.noise = self._track_noise(cfg)
@@ -127,14 +127,9 @@ class CameraEngine:
         self.predictor: Predictor | None = None
         # The latest stop's progress for this camera, for the status (the session's stop table).
         self.stop_progress: Callable[[], StopProgress | None] | None = None
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # the inbox's
         self._inbox: list[Command] = []
-        self._gps_xy: tuple[float, float] | None = None
-        self._last: Measurement | None = None
-        self._window: np.ndarray | None = None  # the running window's values after _last
-        self._state = TrackState.IDLE
-        self._roi: tuple[int, int] | None = None
-        self._measured = 0
+        self._shown = Published(series_length)  # what readers on other threads see
         self._last_counter: int | None = None  # of the last frame process() was given
         # Tell the tracker about frames dropped before measurement (off to replay a session
         # recorded before it was told: format 2.0).
@@ -143,11 +138,6 @@ class CameraEngine:
         # corrected one (the console, the HIL's FPN check; half a frame's work), the noise, the
         # running window's values the status takes the error of the mean from.
         self.display_figures = True
-        # The strip chart's rows in a ring of preallocated rows: a row written per frame here,
-        # two slices copied when the console asks (a list of tuples made into an array cost
-        # the GUI thread ~0.5 ms at each status refresh).
-        self._series = np.empty((series_length, 5))
-        self._series_rows = 0  # rows ever written
 
     def _track_noise(self, cfg: PeakSnrConfig) -> TrackNoise:
         try:
@@ -179,14 +169,14 @@ class CameraEngine:
             if isinstance(command, Cue):
                 # Only the newest position matters: one cue per frame at most.
                 self._inbox = [c for c in self._inbox if not isinstance(c, Cue)]
-                self._gps_xy = (command.x, command.y)
             self._inbox.append(command)
+        if isinstance(command, Cue):
+            self._shown.show_gps(command.x, command.y)
 
     def show_gps(self, x: float, y: float) -> None:
         """Where the drone's GPS position falls in this camera, for the display only (a replay
         that applies the recorded cues still shows every fix)."""
-        with self._lock:
-            self._gps_xy = (float(x), float(y))
+        self._shown.show_gps(float(x), float(y))
 
     def set_calibration(self, calibration) -> None:
         """Correct the measured window with a radiometric calibration and follow the apparent
@@ -211,89 +201,72 @@ class CameraEngine:
         return float(calibration.pixels_temperature_k([dn], [y], [x])[0])
 
     # ------------------------------------------------------------------ per frame (owner)
-    def process(
-        self,
-        pixels: np.ndarray,
-        *,
-        seq: int,
-        counter: int,
-        t_host_ns: int,
-        range_at: RangeLookup | None = None,
-    ) -> FrameOutput:
-        """Apply the pending commands, then analyse one raw frame (rows, columns)."""
+    def process(self, frame: RingFrame, range_at: RangeLookup | None = None) -> FrameOutput:
+        """Apply the pending commands, then analyse one raw frame of this camera as the ring
+        gave it (``range_at``: the range at its time; None: no range)."""
+        if frame.camera != self.name:
+            raise ValueError(f"a frame of camera {frame.camera!r} given to {self.name!r}'s engine")
         enter(TRACKING)  # the stages of a live frame (snrmon.acquisition.stage_clock)
+        pixels, counter, t_host_ns = frame.pixels, frame.counter, frame.t_host_ns
         applied = self._apply_commands()  # a Restore sets _last_counter as it was live
         last, self._last_counter = self._last_counter, int(counter)
         if self.tell_gaps and last is not None and counter > last + 1:  # frames dropped between
             self.measurer.skip(counter - last - 1)
             if self._raw_track:  # the raw track runs only while a correction is on
                 self.raw_measurer.skip(counter - last - 1)
-        cue = None
-        for c in applied:
-            if isinstance(c, Cue):
-                cue = c
-                break
-        corrector = self.corrector
-        done = None
-        if corrector.capturing:
-            enter(CORRECTION)
-            summary = corrector.feed(pixels, counter)
-            if summary is not None and corrector.reference_offset is not None:
-                done = ReferenceDone(corrector.reference_offset, summary)
-                self._raw_track_from_here()
-        measuring = self.measurer.roi is not None
+        cue = next((c for c in applied if isinstance(c, Cue)), None)
+        done = self._feed_reference(pixels, counter)
         range_m, source = (None, "")
-        if measuring and range_at is not None:
+        if self.measurer.roi_centre is not None and range_at is not None:
             range_m, source = range_at(t_host_ns)
-        frame = FrameContext(
-            self.name,
-            seq,
-            counter,
-            t_host_ns,
-            range_m,
-            source,
-            None if cue is None else (cue.x, cue.y),
-        )
         enter(TRACKING)
         raw = self.raw_measurer.running_figures(pixels) if self._raw_track else None
         enter(CORRECTION)
-        corrected = corrector.apply(pixels, self.measurer.read_xy)
+        corrected = self.corrector.apply(pixels, self.measurer.read_xy)
         enter(TRACKING)
-        m = self.measurer.measure(corrected, frame, raw=raw)
+        m = self.measurer.measure(
+            corrected,
+            frame,
+            range_m=range_m,
+            range_source=source,
+            cue_xy=None if cue is None else (cue.x, cue.y),
+            raw=raw,
+        )
         enter(STATISTICS)
         peak_xy = None if m is None else (m.result.peak_x, m.result.peak_y)
-        if self.display_figures:
-            self.noise.update(pixels, t_host_ns, peak_xy)  # raw pixels: the camera's own FPN
+        if self.display_figures:  # raw pixels (the camera's own FPN), a band of the frame
+            self.noise.update(plain(pixels), t_host_ns, peak_xy)
         if m is not None and self.sky is not None:
+            if type(pixels) is LazyFrame:  # compiled code reads the region: made first
+                pixels = plain(pixels, self.sky.box(m.result))
             self.sky.add(t_host_ns, pixels, m.result)
         enter(HANDOVER)
         if m is None:
-            with self._lock:
-                self._measured += 1
-                self._roi, self._state = None, TrackState.IDLE
-            return FrameOutput(None, applied, done)
+            self._shown.unmeasured()
+            return FrameOutput(frame, None, applied, done)
         window = self.measurer.meter.running.values() if self.display_figures else None
-        self._publish(m, window)
-        return FrameOutput(m, applied, done)
+        self._shown.publish(m, window)
+        return FrameOutput(frame, m, applied, done)
+
+    def _feed_reference(self, pixels: np.ndarray, counter: int) -> ReferenceDone | None:
+        """A background reference capture in progress takes the frame; the reference when it
+        completes on it (the raw track starts there), else None."""
+        corrector = self.corrector
+        if not corrector.capturing:
+            return None
+        enter(CORRECTION)
+        summary = corrector.feed(pixels, counter)
+        if summary is None or corrector.reference_offset is None:
+            return None
+        self._raw_track_from_here()
+        return ReferenceDone(corrector.reference_offset, summary)
 
     def publish_recorded(self, m: Measurement) -> None:
         """A frame measured live but missing from the recording: its recorded measurement is
         shown (status, series) as it was; nothing is re-measured. The last counter stays that
         of the last frame this engine's trackers saw: an exact replay restores the live one (the
         state recorded before the next recorded frame holds it)."""
-        self._publish(m, None)  # its running window's values are not recorded
-
-    def _publish(self, m: Measurement, window: np.ndarray | None) -> None:
-        rng = NAN if m.range_m is None else m.range_m
-        with self._lock:
-            self._measured += 1
-            self._last = m
-            self._window = window
-            self._state = m.track_state
-            self._roi = m.window_xy
-            row = self._series[self._series_rows % len(self._series)]
-            row[:] = (m.t_host_ns, m.result.snr, m.snr_mean, m.snr_std, rng)
-            self._series_rows += 1
+        self._shown.publish(m, None)  # its running window's values are not recorded
 
     def _apply_commands(self) -> tuple[Command, ...]:
         with self._lock:
@@ -326,8 +299,8 @@ class CameraEngine:
 
     def _raw_track_from_here(self) -> None:
         # The raw track starts where the corrected track is when the correction begins.
-        if self.measurer.roi is not None:
-            self.raw_measurer.set_roi(*self.measurer.roi)
+        if self.measurer.roi_centre is not None:
+            self.raw_measurer.set_roi(*self.measurer.roi_centre)
 
     # ------------------------------------------------------------------ state (owner)
     @property
@@ -356,25 +329,23 @@ class CameraEngine:
 
     # ------------------------------------------------------------------ reading (any thread)
     @property
-    def roi(self) -> tuple[int, int] | None:
+    def config(self) -> PeakSnrConfig:
+        """The Eq. (4) settings (the measurer's)."""
+        return self.measurer.meter.config
+
+    @property
+    def roi_centre(self) -> tuple[int, int] | None:
         """The search window's centre after the last frame (None: not measuring)."""
-        with self._lock:
-            return self._roi
+        return self._shown.roi_centre
 
     @property
     def track_state(self) -> TrackState:
-        with self._lock:
-            return self._state
+        return self._shown.track_state
 
     def series(self) -> np.ndarray:
         """The recent per-frame record for charts: rows of (t_host_ns, snr, running mean,
         running std, range_m or NaN)."""
-        with self._lock:
-            n, ring = self._series_rows, self._series
-            if n <= len(ring):
-                return ring[:n].copy()
-            k = n % len(ring)  # the oldest row kept
-            return np.concatenate([ring[k:], ring[:k]])
+        return self._shown.series()
 
     def figures(self) -> AnalysisFigures:
         total, temporal, spatial = self.noise.figures()
@@ -390,29 +361,15 @@ class CameraEngine:
             self.noise.cube.latest,
         )
 
-    def status(
-        self,
-        *,
-        device: DeviceStatus | None = None,
-        frames: FrameAccounting | None = None,
-        fps: float = 0.0,
-        latency_ms: tuple[float, float] = (NAN, NAN),
-    ) -> CameraStatus:
-        """The camera's status as the console shows it; the caller adds what only it knows (the
-        device's health, the frame accounting, the frame rate, the latency)."""
-        with self._lock:
-            last, roi, state, gps_xy, measured, window = (
-                self._last,
-                self._roi,
-                self._state,
-                self._gps_xy,
-                self._measured,
-                self._window,
-            )
-        if device is None:
-            device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)
-        if frames is None:
-            frames = FrameAccounting(received=measured, measured=measured)
+    def status(self) -> CameraStatus:
+        """The camera's status as the engine knows it: the track, its last measured frame, the
+        model there and the figures. What only the frames' mover knows (the device's health,
+        the frame accounting, the frame rate, the latency) it puts in
+        (:meth:`CameraStatus.with_frames`); until then the device is streaming and every frame
+        measured is one received while not recording."""
+        last, roi, state, gps_xy, measured, window = self._shown.now()
+        device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)
+        frames = FrameAccounting(received=measured, before_recording=measured)
         model = self._model_at(last)
         predictor = self.predictor
         psf_source = (
@@ -431,15 +388,12 @@ class CameraEngine:
             name=self.name,
             device=device,
             frames=frames,
-            fps=float(fps),
             roi_xy=roi,
             gps_xy=gps_xy,
             track_state=state,
             last=last,
             model=model,
             figures=self.figures(),
-            latency_ms_p50=float(latency_ms[0]),
-            latency_ms_p99=float(latency_ms[1]),
             snr_sem=sem,
             agreement=agreement,
             model_psf_source=psf_source,
@@ -451,3 +405,85 @@ class CameraEngine:
         if predictor is None or last is None or last.range_m is None:
             return {}
         return predictor(self.name, last.range_m)
+
+
+class Published:
+    """What a camera's engine publishes after each frame, for readers on any thread (the
+    status, the charts): the last measurement and its running window's values, the track's
+    state and window centre, the GPS position shown, the frames processed, and the strip
+    chart's rows in a ring of preallocated rows (a row written per frame, two slices copied when
+    the console asks: a list of tuples made into an array cost the GUI thread ~0.5 ms at each
+    status refresh). Written by the engine's owner, read whole under one lock."""
+
+    def __init__(self, series_length: int) -> None:
+        self._lock = threading.Lock()
+        self._last: Measurement | None = None
+        self._window: np.ndarray | None = None  # the running window's values after _last
+        self._state = TrackState.IDLE
+        self._roi_centre: tuple[int, int] | None = None
+        self._gps_xy: tuple[float, float] | None = None
+        self._measured = 0  # frames processed (measured or not)
+        self._series = np.empty((series_length, 5))
+        self._series_rows = 0  # rows ever written
+
+    def show_gps(self, x: float, y: float) -> None:
+        with self._lock:
+            self._gps_xy = (x, y)
+
+    def unmeasured(self) -> None:
+        """A frame processed without an ROI: not measuring."""
+        with self._lock:
+            self._measured += 1
+            self._roi_centre, self._state = None, TrackState.IDLE
+
+    def publish(self, m: Measurement, window: np.ndarray | None) -> None:
+        rng = NAN if m.range_m is None else m.range_m
+        with self._lock:
+            self._measured += 1
+            self._last = m
+            self._window = window
+            self._state = m.track_state
+            self._roi_centre = m.window_xy
+            row = self._series[self._series_rows % len(self._series)]
+            row[:] = (m.t_host_ns, m.result.snr, m.snr_mean, m.snr_std, rng)
+            self._series_rows += 1
+
+    def now(
+        self,
+    ) -> tuple[
+        Measurement | None,
+        tuple[int, int] | None,
+        TrackState,
+        tuple[float, float] | None,
+        int,
+        np.ndarray | None,
+    ]:
+        """(last measurement, window centre, track state, GPS position, frames processed, the
+        running window's values), as one."""
+        with self._lock:
+            return (
+                self._last,
+                self._roi_centre,
+                self._state,
+                self._gps_xy,
+                self._measured,
+                self._window,
+            )
+
+    @property
+    def roi_centre(self) -> tuple[int, int] | None:
+        with self._lock:
+            return self._roi_centre
+
+    @property
+    def track_state(self) -> TrackState:
+        with self._lock:
+            return self._state
+
+    def series(self) -> np.ndarray:
+        with self._lock:
+            n, ring = self._series_rows, self._series
+            if n <= len(ring):
+                return ring[:n].copy()
+            k = n % len(ring)  # the oldest row kept
+            return np.concatenate([ring[k:], ring[:k]])

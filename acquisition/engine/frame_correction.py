@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from snrmon.acquisition.calibrate.kernels import any_set, correct_box, lazy_correct
-from snrmon.acquisition.engine.lazy_frame import LazyFrame, Region
+from snrmon.acquisition.engine.lazy_frame import LazyFrame, PixelMaker, Region, plain
 from snrmon.acquisition.stage_clock import CORRECTION, enter
 
 TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
@@ -60,6 +60,7 @@ class FrameCorrector:
         self._buffer = np.zeros(self.shape, np.float32)
         self._lazy_frame = LazyFrame.of(self._buffer, self)
         self._pixels: np.ndarray | None = None  # the frame being read (lazy)
+        self._raw: PixelMaker | None = None  # its owner, when the raw frame is read lazily too
         self._square: Region = (0, 0, 0, 0)  # what apply() corrects this frame
         self._done: list[Region] = []  # regions corrected this frame
         self._covered: list[Region] = []  # ... by the compiled path, as Python tuples
@@ -113,6 +114,7 @@ class FrameCorrector:
         (first/last counter, frames, the reference's spatial std = fixed-pattern noise, DN)."""
         if self._sum is None:
             return None
+        pixels = plain(pixels)  # a reference is of every pixel
         frame = self.calibration.correct(pixels) if self.calibration is not None else pixels
         self._sum += frame
         self._counters.append(int(counter))
@@ -165,6 +167,10 @@ class FrameCorrector:
         y0, y1 = max(y - h, 0), min(y + h + 1, self.shape[0])
         x0, x1 = max(x - h, 0), min(x + h + 1, self.shape[1])
         self._square = (y0, y1, x0, x1)
+        # A raw frame read as it is read (replay --fast's row strips): its rows are made before
+        # each correction reads them (_correct, ensure), the kernels get the plain buffer.
+        self._raw = pixels.owner if type(pixels) is LazyFrame else None
+        pixels = pixels.view(np.ndarray) if self._raw is not None else pixels
         if not self.lazy:
             self._correct(pixels, self._square, bad=self._has_bad(self._square))
             return self._buffer
@@ -234,6 +240,10 @@ class FrameCorrector:
                 if b[0] <= y0 and y1 <= b[1] and b[2] <= x0 and x1 <= b[3]:
                     return
             running = enter(CORRECTION)  # a read of the tracker or Eq. (4) corrects first
+            if self._raw is not None:  # the rows of the tiles lazy_correct reads (its rounding)
+                sy0, sy1 = self._square[0], self._square[1]
+                t = TILE_PX
+                self._raw.ensure((max(y0 // t * t, sy0), min(-(-y1 // t) * t, sy1), x0, x1))
             done = lazy_correct(pixels, y0, y1, x0, x1, self._state, self._boxes, *fast)
             if done == 2:
                 self._covered.append(tuple(self._boxes[int(self._state[5]) - 1].tolist()))
@@ -297,6 +307,8 @@ class FrameCorrector:
         without bad pixels (``bad`` False: :meth:`_has_bad` said so) is corrected by compiled
         code, bit for bit the same (:func:`snrmon.acquisition.calibrate.kernels.correct_box`)."""
         y0, y1, x0, x1 = box
+        if self._raw is not None:
+            self._raw.ensure(box)
         fast = None if bad else self._compiled(pixels)  # the maps lazy_correct uses
         if fast is not None:
             offset, resp, ref, _, mo, mr, calibrate, subtract, out = fast

@@ -10,14 +10,14 @@ import math
 
 import numpy as np
 
-from snrmon.acquisition.engine.inputs import FrameContext, Measurement, RunningFigures
+from snrmon.acquisition.engine.inputs import Measurement, RunningFigures
 from snrmon.acquisition.measure.peak_snr import (
-    RUNNING_EXCLUDED,
     PeakSnr,
     PeakSnrConfig,
     PeakSnrMeter,
 )
 from snrmon.acquisition.stage_clock import EQ4, enter
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.acquisition.track.config import TrackState
 from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, reach_px
 
@@ -43,32 +43,44 @@ class FrameMeasurer:
         self.meter = PeakSnrMeter(config, window=window)
         self.track = track
         self.tracker_config = tracker_config or TrackerConfig()
-        self.roi: tuple[int, int] | None = None
+        # the search window's centre: the click, then where the track has it (None: no ROI)
+        self.roi_centre: tuple[int, int] | None = None
         self.tracker: Tracker | None = None
 
     @property
     def state(self) -> TrackState:
-        if self.roi is None:
+        if self.roi_centre is None:
             return TrackState.IDLE
         return self.tracker.track_state if self.tracker is not None else TrackState.FIXED
 
     def set_roi(self, x: int, y: int) -> None:
         """The operator's click: a fresh track (and fresh statistics) from this point."""
         self.meter.reset()
-        self.roi = (int(x), int(y))
+        self.roi_centre = (int(x), int(y))
         self.tracker = None
         if self.track:
-            self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
+            self.tracker = self._tracker(self.roi_centre)
 
     @property
     def read_xy(self) -> tuple[int, int] | None:
         """Centre of the square (:func:`crop_half_px`) the next :meth:`measure` reads in."""
         if self.tracker is not None:
             return self.tracker.read_centre
-        return self.roi
+        return self.roi_centre
+
+    def _tracker(self, at: tuple[int, int]) -> Tracker:
+        """A track from ``at`` that feeds this measurer's own noise reference and running
+        statistics (one memory, whoever measures: the track or Eq. 4 alone)."""
+        meter = self.meter
+        return Tracker(
+            at,
+            self.tracker_config,
+            measurement=meter.config,
+            memory=(meter.reference, meter.running),
+        )
 
     def clear_roi(self) -> None:
-        self.roi = None
+        self.roi_centre = None
         self.tracker = None
 
     def snapshot(self) -> dict:
@@ -76,7 +88,7 @@ class FrameMeasurer:
         noise reference), exactly and JSON-able: :meth:`restore` on a measurer of the same
         settings continues bit-identically."""
         return {
-            "roi": None if self.roi is None else list(self.roi),
+            "roi": None if self.roi_centre is None else list(self.roi_centre),
             "meter": self.meter.snapshot(),
             "tracker": None if self.tracker is None else self.tracker.snapshot(),
         }
@@ -85,14 +97,14 @@ class FrameMeasurer:
         roi = state["roi"]
         self.meter.restore(state["meter"])
         if roi is None:
-            self.roi, self.tracker = None, None
+            self.roi_centre, self.tracker = None, None
             return
-        self.roi = (int(roi[0]), int(roi[1]))
+        self.roi_centre = (int(roi[0]), int(roi[1]))
         self.tracker = None
         if state["tracker"] is not None:
             if not self.track:
                 raise ValueError("a tracked state restored into a measurer with tracking off")
-            self.tracker = Tracker(self.roi, self.tracker_config, measurement=self.meter.config)
+            self.tracker = self._tracker(self.roi_centre)
             self.tracker.restore(state["tracker"])
 
     def skip(self, frames: int) -> None:
@@ -110,13 +122,18 @@ class FrameMeasurer:
     def measure(
         self,
         pixels: np.ndarray,
-        frame: FrameContext,
+        frame: RingFrame,
         *,
+        range_m: float | None = None,
+        range_source: str = "",
+        cue_xy: tuple[float, float] | None = None,
         raw: RunningFigures | None = None,
     ) -> Measurement | None:
-        """Eq. (4) on ``pixels`` (with the track), and the running statistics after it, as the
-        one :class:`Measurement` of this frame; None while no ROI is set. ``raw``: the running
-        statistics of the same track on the raw frame, while a correction is on."""
+        """Eq. (4) on ``pixels`` (``frame``'s, corrected), with the track, and the running
+        statistics after it, as the one :class:`Measurement` of ``frame``; None while no ROI is
+        set. ``range_m`` (from ``range_source``) is the range at the frame's time, ``cue_xy`` the
+        GPS cue applied just before it (None: none); ``raw``: the running statistics of the same
+        track on the raw frame, while a correction is on."""
         step = self._step(pixels)
         if step is None:
             return None
@@ -133,9 +150,9 @@ class FrameMeasurer:
             snr_mean=r.mean,
             snr_std=r.std,
             snr_n=r.count,
-            range_m=frame.range_m,
-            range_source=frame.range_source,
-            cue_xy=frame.cue_xy,
+            range_m=range_m,
+            range_source=range_source,
+            cue_xy=cue_xy,
             snr_mean_raw=raw.mean if raw is not None else math.nan,
             snr_std_raw=raw.std if raw is not None else math.nan,
             track_reason=reason,
@@ -152,19 +169,18 @@ class FrameMeasurer:
     def _step(self, pixels: np.ndarray) -> tuple[PeakSnr, TrackState, tuple[int, int], str] | None:
         """One frame: (Eq. 4 result, track state, the window's centre after it, why the drone
         was not found or "")."""
-        if self.roi is None:
+        if self.roi_centre is None:
             return None
         reason = ""
         if self.tracker is not None:
             step = self.tracker.update(pixels)
             result, state, reason = step.peak_snr, step.state, step.reason
-            centre = (step.window_x, step.window_y)
-            if not (result.flags & RUNNING_EXCLUDED):
-                self.meter.running.push(result.snr)
+            centre = (step.window_x, step.window_y)  # the track fed the running statistics
         else:
             running = enter(EQ4)  # the stages of a live frame (snrmon.acquisition.stage_clock)
-            result, state, centre = self.meter.measure(pixels, self.roi), TrackState.FIXED, self.roi
+            centre = self.roi_centre
+            result, state = self.meter.measure(pixels, centre), TrackState.FIXED
             enter(running)
         window = (int(centre[0]), int(centre[1]))
-        self.roi = window
+        self.roi_centre = window
         return result, state, window, reason

@@ -5,19 +5,25 @@ engine's owner at the next frame
 (:meth:`snrmon.acquisition.engine.camera_engine.CameraEngine.post`), so a measurement never mixes
 two ROIs. The frame they took effect on is part of the record: a replay applies the same commands at
 the same frames (``roi_set`` events, the measurement row's cue, the recorded background reference,
-state snapshots at recording gaps).
+state snapshots at recording gaps). A command an operator gives names the event it is recorded as
+(``EVENT``, with its :meth:`SetRoi.payload`); the others are recorded otherwise (a cue in the
+measurement row, a reference as its image) or not at all (a replay's own).
 
-:class:`Measurement` is one measured frame as every listener receives it (recorder, stop table,
-charts, the HIL rig), live and in replay alike.
+A frame's way through the engine: the ring's :class:`~snrmon.acquisition.streams.ring.RingFrame`
+goes in as it is, and :class:`FrameOutput` comes out: that frame, the commands applied before it,
+its one :class:`Measurement` (what every listener receives: recorder, stop table, charts, the
+HIL rig, live and in replay alike) and a background reference completed on it.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 
 from snrmon.acquisition.measure.peak_snr import PeakSnr
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.acquisition.track.config import TrackState
 
 
@@ -25,13 +31,23 @@ from snrmon.acquisition.track.config import TrackState
 class SetRoi:
     """The operator's click: measure (and track) around column ``x``, row ``y``."""
 
+    EVENT: ClassVar[str] = "roi_set"
     x: int
     y: int
+
+    def payload(self) -> dict[str, Any]:
+        """The recorded event's payload (the recording adds the frame's counter)."""
+        return {"x": self.x, "y": self.y}
 
 
 @dataclass(frozen=True, slots=True)
 class ClearRoi:
     """Stop measuring."""
+
+    EVENT: ClassVar[str] = "roi_cleared"
+
+    def payload(self) -> dict[str, Any]:
+        return {}
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,12 +62,21 @@ class Cue:
 class StartReference:
     """Average the next ``n_frames`` frames (clear sky) into the background reference."""
 
+    EVENT: ClassVar[str] = "reference_started"
     n_frames: int
+
+    def payload(self) -> dict[str, Any]:
+        return {}
 
 
 @dataclass(frozen=True, slots=True)
 class ClearReference:
     """Drop the background reference."""
+
+    EVENT: ClassVar[str] = "reference_cleared"
+
+    def payload(self) -> dict[str, Any]:
+        return {}
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,20 +96,15 @@ class Restore:
 
 
 Command = SetRoi | ClearRoi | Cue | StartReference | ClearReference | ApplyReference | Restore
+RecordedCommand = SetRoi | ClearRoi | StartReference | ClearReference
+"""The commands recorded as an event of their own at the frame they took effect on."""
 
 
-@dataclass(frozen=True, slots=True)
-class FrameContext:
-    """What the engine knows of a frame before measuring it: which frame, when, the range at
-    that time and the GPS cue applied just before it (None: none)."""
-
-    camera: str
-    seq: int
-    counter: int
-    t_host_ns: int
-    range_m: float | None = None
-    range_source: str = ""
-    cue_xy: tuple[float, float] | None = None
+def recorded_commands(commands: tuple[Command, ...]) -> tuple[RecordedCommand, ...]:
+    """Those of ``commands`` a recording keeps as events (:data:`RecordedCommand`)."""
+    return tuple(
+        c for c in commands if isinstance(c, SetRoi | ClearRoi | StartReference | ClearReference)
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,9 +154,11 @@ class ReferenceDone:
 
 @dataclass(frozen=True, slots=True)
 class FrameOutput:
-    """What one frame did: its measurement (None without an ROI), the commands applied before it
-    (for the record), and a background reference completed on it."""
+    """What one frame did: the frame itself (as the ring gave it), its measurement (None without
+    an ROI), the commands applied before it (for the record), and a background reference
+    completed on it."""
 
+    frame: RingFrame
     measurement: Measurement | None
     applied: tuple[Command, ...] = ()
     reference_done: ReferenceDone | None = None

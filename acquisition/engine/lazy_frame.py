@@ -1,17 +1,23 @@
-"""A corrected frame whose pixels are corrected as the measurement reads them.
+"""A frame whose pixels are made as the measurement reads them.
 
-:class:`LazyFrame` is the corrector's full-frame float32 buffer seen as an array whose
-indexing (``frame[y0:y1, x0:x1]``, ``frame[y, x]``, ``frame[None]`` and the index arrays
-Eq. (4) gathers its box with) first asks its owner to correct the rows and columns it is about
-to return (:meth:`snrmon.acquisition.engine.frame_correction.FrameCorrector.ensure`). The tracker
-and Eq. (4) read only such rectangles near the track, so a frame costs the few thousand pixels
-they touch instead of the whole square the next frame may read. Everything else (shape, dtype)
-is the buffer's own; a whole-array operation that does not index first would see pixels not
-yet corrected this frame, so the measurement code indexes before it reads (it always has: it
-reads windows, never the frame).
+:class:`LazyFrame` is a full-frame buffer seen as an array whose indexing (``frame[y0:y1,
+x0:x1]``, ``frame[y, x]``, ``frame[None]`` and the index arrays Eq. (4) gathers its box with)
+first asks its owner to make the rows and columns it is about to return. Two owners:
+
+- the corrector (:meth:`snrmon.acquisition.engine.frame_correction.FrameCorrector.ensure`): the
+  corrected frame, corrected where it is read;
+- a recording's row strips (:class:`snrmon.acquisition.record.frame_access.FrameCrops`): the raw
+  frame of ``replay --fast``, each strip decompressed the first time a read falls in it.
+
+The tracker and Eq. (4) read only such rectangles near the track, so a frame costs the few
+thousand pixels they touch instead of the whole square the next frame may read. Everything else
+(shape, dtype) is the buffer's own; a whole-array operation that does not index first would see
+pixels not yet made this frame, so the measurement code indexes before it reads (it always has:
+it reads windows, never the frame), and code that reads the memory itself (compiled kernels,
+whole-frame NumPy) takes :func:`plain` of the region it reads.
 
 :func:`read_box` turns an index into the rectangle it reads (rows, columns; half-open), or
-None when it cannot tell (the owner then corrects everything it would have).
+None when it cannot tell (the owner then makes everything it would have).
 """
 
 from __future__ import annotations
@@ -23,11 +29,11 @@ import numpy as np
 Region = tuple[int, int, int, int]  # rows y0:y1, columns x0:x1, half-open
 
 
-class Corrects(Protocol):
+class PixelMaker(Protocol):
     """What a :class:`LazyFrame` asks of its owner."""
 
     def ensure(self, region: Region | None) -> None:
-        """Correct ``region`` (None: all it would correct) in the buffer, if not done yet."""
+        """Make ``region`` (None: all it would make) in the buffer, if not done yet."""
 
 
 def _span(index: Any, n: int) -> tuple[int, int] | None:
@@ -78,7 +84,7 @@ def _box2(rows: Any, cols: Any, shape: tuple[int, ...]) -> Region | None:
 class LazyFrame(np.ndarray):
     """The corrector's buffer, corrected where it is read (module docstring)."""
 
-    owner: Corrects | None = None
+    owner: PixelMaker | None = None
     _plain: np.ndarray | None = None  # the buffer itself (plain ndarray), on the frame of of()
 
     def __array_finalize__(self, obj: Any) -> None:
@@ -101,8 +107,18 @@ class LazyFrame(np.ndarray):
         return out.view(np.ndarray) if isinstance(out, LazyFrame) else out
 
     @classmethod
-    def of(cls, buffer: np.ndarray, owner: Corrects) -> LazyFrame:
+    def of(cls, buffer: np.ndarray, owner: PixelMaker) -> LazyFrame:
         frame = buffer.view(cls)
         frame.owner = owner
         frame._plain = buffer.view(np.ndarray)
         return frame
+
+
+def plain(frame: np.ndarray, region: Region | None = None) -> np.ndarray:
+    """``frame`` as a plain ndarray for code that reads its memory directly (a compiled kernel,
+    a whole-frame NumPy operation): a :class:`LazyFrame`'s ``region`` (rows, columns; None: all
+    its owner makes) made first; any other array as it is."""
+    if type(frame) is not LazyFrame or frame.owner is None:
+        return frame
+    frame.owner.ensure(region)
+    return frame._plain if frame._plain is not None else frame.view(np.ndarray)

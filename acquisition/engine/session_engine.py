@@ -10,7 +10,8 @@ Inputs (any thread; each camera's frames from one thread, in order):
   reading is fresh, else the GPS slant range from the site; docs/architecture.md, "Time"), and into
   the stop detector; a fix is projected into every pointed camera and cues its tracker (paper
   section 4);
-- :meth:`on_frame`: one frame of one camera through its engine, then into the stop table;
+- :meth:`on_frame`: one frame of one camera (the ring's record as it is) through its engine,
+  then into the stop table;
 - :meth:`on_recorded`: a frame measured live but missing from a recording (replay only);
 - :meth:`mark_stop`: the operator's stop mark.
 
@@ -22,7 +23,6 @@ from __future__ import annotations
 
 import functools
 import logging
-import math
 import threading
 from collections import deque
 from collections.abc import Callable, Mapping
@@ -33,6 +33,8 @@ import numpy as np
 from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import Cue, FrameOutput, Measurement
+from snrmon.acquisition.engine.lazy_frame import plain
+from snrmon.acquisition.engine.sky_following import SkyFollower
 from snrmon.acquisition.geo.gps_cue import GpsProjector
 from snrmon.acquisition.geo.projection import gps_slant_range_m
 from snrmon.acquisition.prediction import Predictor
@@ -40,13 +42,12 @@ from snrmon.acquisition.stage_clock import HANDOVER, STATISTICS, enter
 from snrmon.acquisition.stops.detector import Stop, StopConfig, StopDetector
 from snrmon.acquisition.stops.table import StopRow, StopSource, StopTable
 from snrmon.acquisition.streams.history import ScalarHistory
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
 
 log = logging.getLogger(__name__)
 
-SKY_CHECK_NS = 2_000_000_000  # the model's background is re-evaluated at most every 2 s
-SKY_CHANGE_K = 0.5  # ... and follows the sky only on a change larger than this
 HISTORY_FRAMES = 4000  # measurements kept per camera to seed a backdated stop (live and replay)
 
 
@@ -138,7 +139,7 @@ class SessionEngine:
         for name, camera in self.cameras.items():
             camera.predictor = predictor
             camera.stop_progress = functools.partial(self.stop_table.progress, name)
-        self._sky_checked: dict[str, int] = {}
+        self.sky_follower = SkyFollower()  # the one owner of the sky the model's background follows
         # per camera, the host time of the last frame the stop table has seen (model_input_ns)
         self._table_frame_ns: dict[str, int] = {}
         self._listeners: list[Callable[[Measurement, np.ndarray | None], None]] = []
@@ -150,6 +151,8 @@ class SessionEngine:
 
     @predictor.setter
     def predictor(self, predictor: Predictor | None) -> None:
+        """A new model (the console's options): it takes over the sky followed so far."""
+        self.sky_follower.apply_to(predictor)
         self.stop_table.predictor = predictor
         for camera in self.cameras.values():
             camera.predictor = predictor
@@ -157,8 +160,12 @@ class SessionEngine:
     def set_background(self, camera: str, temp_k: float | None) -> None:
         """The model's background temperature for ``camera`` (the measured sky; None: the
         model's own): the paper's path-radiance correction (sections 8-9)."""
-        if self.predictor is not None:
-            self.predictor.set_background(camera, temp_k)
+        self.sky_follower.set(camera, temp_k, self.predictor)
+
+    def model_sky_temp_k(self, camera: str) -> float | None:
+        """The measured sky temperature ``camera``'s model background follows (None: the
+        model's own); a display reads it, only the engine sets it."""
+        return self.sky_follower.temp_k(camera)
 
     def adopt_psf(self, camera: str, estimate: dict, t_host_ns: int) -> None:
         """The corrected curves and the expected Eq. (4) use the PSF measured from the flight
@@ -304,14 +311,11 @@ class SessionEngine:
         return (g, "gps") if g is not None else (None, "")
 
     # ------------------------------------------------------------------ frames
-    def on_frame(
-        self, camera: str, pixels: np.ndarray, *, seq: int, counter: int, t_host_ns: int
-    ) -> FrameOutput:
-        """One frame of ``camera`` through its engine, then the stop table and the listeners."""
-        out = self.cameras[camera].process(
-            pixels, seq=seq, counter=counter, t_host_ns=t_host_ns, range_at=self.range_at
-        )
-        self._after_frame(camera, t_host_ns, out.measurement, pixels)
+    def on_frame(self, frame: RingFrame) -> FrameOutput:
+        """One frame of camera ``frame.camera``, as the ring gave it, through that camera's
+        engine, then the stop table and the listeners."""
+        out = self.cameras[frame.camera].process(frame, self.range_at)
+        self._after_frame(frame.camera, frame.t_host_ns, out.measurement, frame.pixels)
         return out
 
     def on_recorded(self, m: Measurement) -> None:
@@ -334,6 +338,8 @@ class SessionEngine:
         enter(HANDOVER)
         with self._lock:
             listeners = list(self._listeners)
+        if listeners and pixels is not None:
+            pixels = plain(pixels)  # a listener may read any pixel (a recording keeps them all)
         for cb in listeners:
             try:
                 cb(m, pixels)
@@ -342,22 +348,15 @@ class SessionEngine:
 
     def _follow_sky(self, camera: str, t_ns: int) -> None:
         """With a calibration, the model's background input follows the measured sky
-        temperature (paper sections 8-9), re-evaluated at most every 2 s, on a 0.5 K change."""
+        temperature (:class:`~snrmon.acquisition.engine.sky_following.SkyFollower`); a change is
+        recorded at this frame."""
         sky = self.cameras[camera].sky
         predictor = self.predictor
         if sky is None or predictor is None:
             return
-        if t_ns - self._sky_checked.get(camera, 0) < SKY_CHECK_NS:
-            return
-        temp = sky.mean_temp_k(last=100)
-        if not math.isfinite(temp):
-            return  # not measured yet: look again next frame, not in 2 s
-        self._sky_checked[camera] = t_ns
-        current = predictor.background_temp_k.get(camera)
-        if current is None or abs(temp - current) > SKY_CHANGE_K:
-            predictor.set_background(camera, temp)
-            if self.sink is not None:
-                self.sink.model_changed(camera, "model_background", {"temp_k": temp}, t_ns)
+        temp = self.sky_follower.follow(camera, t_ns, sky, predictor)
+        if temp is not None and self.sink is not None:
+            self.sink.model_changed(camera, "model_background", {"temp_k": temp}, t_ns)
 
     # ------------------------------------------------------------------ the table
     def stops(self) -> list[StopRow]:

@@ -6,6 +6,7 @@ viewer never computes a statistic itself (the lesson of PyMoDAQ #79) and never h
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -22,27 +23,75 @@ from snrmon.drivers.gps.fix import GpsFix
 
 @dataclass(frozen=True, slots=True)
 class FrameAccounting:
-    """Every frame of one camera is received, measured and recorded, or dropped with a reason.
+    """What became of every frame one camera delivered, for one recording: the one set of names
+    the console's status, the recording's ``summary_json`` and a replay's report use.
 
-    ``dropped_by_camera``: gaps in the camera's own frame counter (camera or link lost them).
-    ``dropped_by_ring``: the measurement thread fell a whole ring behind (console lost them).
-    ``dropped_by_recorder``: the recorder's backlog overflowed while recording.
-    ``before_recording``: received and measured while no recording was on (before it began, or
-    after it ended), so not in the file.
+    ``received``: frames the camera delivered to the console (of any shape). Each of them is in
+    exactly one of: ``written`` (in the file), ``dropped`` (lost while recording, by reason:
+    ``ring_overrun``, the measurement fell a whole ring behind; ``recorder_backlog`` and
+    ``recording_stopped``, the recorder's), ``before_recording`` (received and done with
+    before the recording began: measured, or lost to the ring), ``after_recording`` (measured
+    after it ended, a session that went on), ``queued`` (still waiting for the measurement) or
+    ``wrong_shape`` (not of the camera's frame size: never measured nor recorded)::
 
-    While recording, every frame received is in the file, dropped with a reason, or received
-    while no recording was on: ``received = recorded + dropped_by_ring + dropped_by_recorder +
-    before_recording`` (+ the frames still queued for the measurement), the identity the
-    session's ``accounting`` checks and the recording's ``summary_json`` keeps.
+        received = written + sum(dropped) + before_recording + after_recording + queued
+                   + wrong_shape
+
+    With no recording, every frame measured is ``before_recording`` and ``dropped`` holds the
+    ring's overruns. ``camera_gap``: frames the camera never delivered (gaps in its own frame
+    counter), so not received and outside the identity. ``wrong_shape`` is None in the
+    accounting of a file recorded before such frames were counted (they were not received then
+    either).
     """
 
     received: int = 0
-    measured: int = 0
-    recorded: int = 0
-    dropped_by_camera: int = 0
-    dropped_by_ring: int = 0
-    dropped_by_recorder: int = 0
+    written: int = 0
+    dropped: Mapping[str, int] = field(default_factory=dict)
     before_recording: int = 0
+    after_recording: int = 0
+    queued: int = 0
+    wrong_shape: int | None = 0
+    camera_gap: int = 0
+
+    @property
+    def unaccounted(self) -> int:
+        """Frames received that the identity does not place (0 when it holds)."""
+        placed = self.written + sum(self.dropped.values()) + self.before_recording
+        others = self.after_recording + self.queued + (self.wrong_shape or 0)
+        return self.received - placed - others
+
+    @property
+    def lost(self) -> int:
+        """Frames lost, whatever the reason: dropped, of the wrong shape, or never delivered."""
+        return sum(self.dropped.values()) + (self.wrong_shape or 0) + self.camera_gap
+
+    def as_record(self) -> dict[str, Any]:
+        """As the recording's ``summary_json`` keeps it (JSON-able)."""
+        return {
+            "received": self.received,
+            "written": self.written,
+            "dropped": dict(self.dropped),
+            "before_recording": self.before_recording,
+            "after_recording": self.after_recording,
+            "queued": self.queued,
+            "wrong_shape": self.wrong_shape,
+            "camera_gap": self.camera_gap,
+        }
+
+    @classmethod
+    def from_record(cls, record: Mapping[str, Any]) -> FrameAccounting:
+        """From :meth:`as_record` (a file written before ``wrong_shape`` was kept: None)."""
+        wrong = record.get("wrong_shape")
+        return cls(
+            received=int(record["received"]),
+            written=int(record["written"]),
+            dropped={str(k): int(v) for k, v in dict(record.get("dropped") or {}).items()},
+            before_recording=int(record.get("before_recording", 0)),
+            after_recording=int(record.get("after_recording", 0)),
+            queued=int(record.get("queued", 0)),
+            wrong_shape=None if wrong is None else int(wrong),
+            camera_gap=int(record.get("camera_gap", 0)),
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,6 +183,25 @@ class CameraStatus:
     # The devices this camera's numbers depend on that are lost now (itself, the LRF, the
     # GPS): the header says which and for how long, and shows none of their values as live.
     lost: tuple[LostDevice, ...] = ()
+
+    def with_frames(
+        self,
+        device: DeviceStatus,
+        frames: FrameAccounting,
+        fps: float,
+        latency_ms: tuple[float, float] = (math.nan, math.nan),
+    ) -> CameraStatus:
+        """This status with what the frames' mover knows and the engine does not: the
+        device's health, the frame accounting, the frame rate (fps) and the receipt-to-SNR
+        latency's median and 99th percentile (ms)."""
+        return dataclasses.replace(
+            self,
+            device=device,
+            frames=frames,
+            fps=float(fps),
+            latency_ms_p50=float(latency_ms[0]),
+            latency_ms_p99=float(latency_ms[1]),
+        )
 
     def lost_kind(self, kind: str) -> LostDevice | None:
         """The loss of ``kind`` ("camera", "LRF", "GPS") now, or None."""

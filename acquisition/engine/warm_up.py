@@ -21,6 +21,7 @@ import numpy as np
 
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import SetRoi
+from snrmon.acquisition.streams.ring import RingFrame
 
 WARM_UP_FRAMES = 3  # the click's frame, then frames that follow the track
 
@@ -61,5 +62,5 @@ def warm_up(engine: CameraEngine) -> float:
         for pixels in (frame, read_only):
             twin.post(SetRoi(x0, y0))
             for i in range(WARM_UP_FRAMES):
-                twin.process(pixels, seq=i, counter=i, t_host_ns=i)
+                twin.process(RingFrame(pixels, i, i, i, None, twin.name))
     return time.perf_counter() - t0

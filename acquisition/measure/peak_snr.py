@@ -354,13 +354,28 @@ def _sequential_step(
     ref = fixed_reference if reference is None else reference.value
     if not bits & _UNDEFINED_BIT and is_contaminated(std, gradient, ref, cfg):
         bits |= _CONTAMINATED_BIT
+    remember(bits, std, snr, reference, running)
+    return bits
+
+
+def remember(
+    bits: int,
+    bg_std: float,
+    snr: float,
+    reference: NoiseReference | None,
+    running: RunningSnr | None,
+) -> None:
+    """The one rule of what a measured frame (its flag ``bits``, background std and SNR) leaves
+    behind for the next ones: a frame carrying none of :data:`RUNNING_EXCLUDED` feeds the
+    recent-noise ``reference`` of the ``rim_contaminated`` test and the ``running`` SNR
+    statistics (paper section 7); a contaminated one counts against the reference (its
+    ``rejected``). Eq. (4) alone and the tracker both keep their memory by it."""
     if reference is not None:
         reference.update(
-            std, accepted=not bits & _EXCLUDED_BITS, rejected=bool(bits & _CONTAMINATED_BIT)
+            bg_std, accepted=not bits & _EXCLUDED_BITS, rejected=bool(bits & _CONTAMINATED_BIT)
         )
     if running is not None and not bits & _EXCLUDED_BITS:
         running.push(snr)
-    return bits
 
 
 def background_of(cfg: PeakSnrConfig) -> str:

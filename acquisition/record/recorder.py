@@ -34,8 +34,10 @@ from typing import Any
 import h5py
 import numpy as np
 
+from snrmon.acquisition.columns import values_of
 from snrmon.acquisition.compression import frame_filter
 from snrmon.acquisition.engine.inputs import Measurement
+from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.record import schema as S  # noqa: N812
 from snrmon.acquisition.record.recorder_status import (
     RecorderStatus,
@@ -173,23 +175,34 @@ class SessionRecorder:
             )
         return index
 
-    def add_measurement(self, camera: str, index: int | None, **values: Any) -> None:
-        """Queue one frame's Eq. (4) result from its values (:func:`snrmon.acquisition.record.
-        stream_rows.values_row`: counter, t_host_ns and the fields of :class:`PeakSnr` by name,
-        as :func:`snrmon.acquisition.columns.values_of` gives them). ``index``: the frame's
-        index from ``add_frame``, or ``None`` to look it up by
-        ``t_host_ns`` (-1 in the file when the frame is not recorded)."""
+    def add_measurement(
+        self,
+        camera: str,
+        index: int | None,
+        m: Measurement | PeakSnr,
+        *,
+        counter: int = -1,
+        t_host_ns: int | None = None,
+    ) -> None:
+        """Queue one frame's measurement (the one entry point): the engine's
+        :class:`Measurement`, or an Eq. (4) result alone (:class:`PeakSnr`: a frame measured
+        without the engine's context, such as the stop table's kept rows; the track fields are
+        then "not given") with its frame's ``counter`` and ``t_host_ns``. ``index``: the frame's
+        index from ``add_frame``, or None to look it up by the frame's ``t_host_ns`` (-1 in the
+        file when the frame is not recorded: a dropped frame's measurement is kept all the
+        same)."""
         self._check_camera(camera)
+        t = m.t_host_ns if isinstance(m, Measurement) else t_host_ns
+        if t is None:
+            raise ValueError(f"{camera}: an Eq. (4) result alone needs its frame's t_host_ns")
         if index is None:
             with self._lock:
-                index = self._index_of[camera].get(int(values["t_host_ns"]), -1)
-        self._put(("meas", camera, values_row(index, **values)))
-
-    def add_measured(self, camera: str, index: int | None, m: Measurement) -> None:
-        """Queue one frame's :class:`Measurement` (``index``: the frame's index from
-        ``add_frame``, None when it was dropped: the measurement is kept all the same)."""
-        self._check_camera(camera)
-        self._put(("meas", camera, measurement_row(index, m)))
+                index = self._index_of[camera].get(int(t), -1)
+        if isinstance(m, Measurement):
+            row = measurement_row(index, m)
+        else:
+            row = values_row(index, counter=counter, t_host_ns=int(t), **values_of(m))
+        self._put(("meas", camera, row))
 
     def add_state(self, camera: str, counter: int, t_host_ns: int, state: Mapping) -> None:
         """Queue the engine's state before frame ``counter``: the first recorded frame after

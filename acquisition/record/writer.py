@@ -1,11 +1,12 @@
 """The HDF5 side of the session recorder: creates the SWMR file and appends to it (one thread).
 
 Every dataset is created before ``swmr_mode`` is switched on (SWMR cannot create objects later).
-Frames go to disk as they come, one chunk per frame (``write_direct_chunk`` when uncompressed,
-which skips the filter and type-conversion path); the per-frame columns and the small streams are
-held in memory and appended at each ``flush``, which then flushes HDF5 and ``fsync``s the file so
-that what was flushed survives a kill or a power loss. A reader takes, per camera, the shortest of
-the per-frame datasets (frames reach the file before their columns).
+Frames go to disk as they come, one chunk per frame when uncompressed (``write_direct_chunk``,
+which skips the filter and type-conversion path), row strips through a filter
+(:func:`snrmon.acquisition.compression.frame_chunks`); the per-frame columns and the small
+streams are held in memory and appended at each ``flush``, which then flushes HDF5 and
+``fsync``s the file so that what was flushed survives a kill or a power loss. A reader takes,
+per camera, the shortest of the per-frame datasets (frames reach the file before their columns).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from snrmon.acquisition.compression import frame_chunks
 from snrmon.acquisition.record import schema
 from snrmon.acquisition.streams.timebase import ClockMap, rows_array, utc_of_rows
 
@@ -175,7 +177,7 @@ class SessionWriter:
                     schema.FRAMES,
                     (0, h, w),
                     np.uint16,
-                    chunks=(1, h, w),
+                    chunks=frame_chunks((h, w), compression if filters else None),
                     maxshape=(None, h, w),
                     **filters,
                 )

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from snrmon.acquisition.engine.session_engine import SessionEngine
+from snrmon.acquisition.engine.status import FrameAccounting
 from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
 from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.record.reader import SessionFile, open_session
@@ -43,9 +44,9 @@ class CameraReplay:
     n_frames: int  # frames in the file
     tally: CameraTally
     dropped: dict[str, int] = field(default_factory=dict)  # the recorder's drops, by reason
-    # What became of every frame the console received, as the recording's summary keeps it
-    # (received = written + dropped + before_recording ...); None for a file without it.
-    accounting: dict | None = None
+    # What became of every frame the console received, as the recording's summary keeps it;
+    # None for a file without it.
+    accounting: FrameAccounting | None = None
 
     @property
     def results(self) -> list[PeakSnr]:
@@ -224,13 +225,14 @@ def replay_session(
         rows = sorted((r for p in played for r in p[1]), key=lambda r: (r.stop, order[r.camera]))
         tallies = {n: t for p in played for n, t in p[0].items()}
         drops = recording_drops(f)
+        kept = ((f.summary or {}).get("extra") or {}).get("accounting") or {}
         out = {
             n: CameraReplay(
                 n,
                 f.cameras[n].n_frames,
                 tallies[n],
                 drops.get(n, {}),
-                ((f.summary or {}).get("extra") or {}).get("accounting", {}).get(n),
+                FrameAccounting.from_record(kept[n]) if n in kept else None,
             )
             for n in names
         }

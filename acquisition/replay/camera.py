@@ -70,6 +70,7 @@ class ReplayCamera:
     def status(self) -> CameraStatus:
         with self._lock:
             engine, shown = self.engine, self._shown
-        return engine.status(
-            frames=FrameAccounting(received=shown, measured=shown), fps=self.delivered.per_s()
-        )
+        # every frame shown is one of the file's, measured again
+        frames = FrameAccounting(received=shown, written=shown)
+        base = engine.status()
+        return base.with_frames(base.device, frames, self.delivered.per_s())

@@ -51,6 +51,7 @@ from snrmon.acquisition.replay.recorded import (
     frames_between,
 )
 from snrmon.acquisition.stops.detector import Stop
+from snrmon.acquisition.streams.ring import RingFrame
 
 log = logging.getLogger(__name__)
 
@@ -255,7 +256,7 @@ class Feeder:
         counter = counters[i]
         self._post_commands(name, counter, t, row)
         pixels = self._pixels(name, i)
-        out = self.engine.on_frame(name, pixels, seq=i, counter=counter, t_host_ns=t)
+        out = self.engine.on_frame(RingFrame(pixels, i, counter, t, None, name))
         measured = out.measurement
         if measured is not None:
             m = measured

@@ -215,6 +215,11 @@ class ReplayPlayer:
     def predictor(self, predictor: Predictor | None) -> None:
         self.set_predictor(predictor)
 
+    def model_sky_temp_k(self, camera: str) -> float | None:
+        """The sky temperature (K) ``camera``'s model background follows in the replay (the
+        recorded changes applied so far; None: the model's own)."""
+        return self._engine.model_sky_temp_k(camera)
+
     def set_predictor(self, predictor: Predictor | None) -> None:
         """The model for the stop table's model column (from the next row computed)."""
         self._predictor = predictor
@@ -364,9 +369,7 @@ class ReplayPlayer:
         engine.cameras[name].post(ClearRoi() if x is None or y is None else SetRoi(x, y))
         frame = self.pipelines[name].latest_frame()
         if frame is not None:
-            engine.on_frame(
-                name, frame.pixels, seq=frame.seq, counter=frame.counter, t_host_ns=frame.t_host_ns
-            )
+            engine.on_frame(frame)
 
     def _next_job(self) -> tuple[str, Any] | None:
         """Wait for something to do; returns the job (under the condition's lock)."""

@@ -3,9 +3,10 @@
 Sources (chosen by the file name's suffix):
 
 * ``.npy``: an array (N, H, W) or one frame (H, W) -> (1, H, W); loaded memory-mapped.
-* ``.tif``/``.tiff``: a multi-page TIFF, every page a frame, 16-bit kept (tifffile: an
-  uncompressed contiguous stack is memory-mapped, any other read one page at a time, each page
-  once); colour pages keep their first channel.
+* ``.tif``/``.tiff``: every plane of every page a frame (a page per frame, or pages of several
+  planes), 16-bit kept (:mod:`snrmon.acquisition.replay.tiff`: an uncompressed contiguous stack
+  is memory-mapped, any other read one page at a time, each page once; a file cut short is read
+  to its last whole frame with a warning); colour pages keep their first channel.
 * ``.png``: one frame (H, W); colour keeps the first channel.
 * a raw binary file ``FILE`` with a JSON descriptor ``FILE.json`` beside it (``FILE.json`` may be
   given instead of ``FILE``)::
@@ -46,6 +47,7 @@ import numpy as np
 from snrmon.acquisition.config import utf8_text
 from snrmon.acquisition.replay.flir import FLIR_SUFFIXES, load_flir
 from snrmon.acquisition.replay.ptw import load_ptw
+from snrmon.acquisition.replay.tiff import iter_tiff, load_tiff
 
 VIDEO_SUFFIXES = frozenset({".mp4", ".avi", ".mkv", ".mov", ".mpg", ".mpeg", ".wmv", ".m4v"})
 RAW_DTYPES = frozenset({"uint8", "uint16", "int16", "uint32", "int32", "float32", "float64"})
@@ -130,100 +132,6 @@ def _open_video(path: Path) -> cv2.VideoCapture:
     return cap
 
 
-def _open_tiff(path: Path):
-    import tifffile
-
-    try:
-        tif = tifffile.TiffFile(path)
-    except (tifffile.TiffFileError, ValueError, EOFError) as exc:
-        raise ValueError(f"{path}: not a readable TIFF ({exc})") from None
-    if not len(tif.pages):
-        tif.close()
-        raise ValueError(f"{path}: the TIFF holds no pages")
-    return tif
-
-
-def _page_size(page) -> tuple[int, int]:
-    return int(page.imagelength), int(page.imagewidth)
-
-
-# Bytes of pages per OpenCV call in the fallback: each call walks (and decodes) from page 0, so
-# fewer, larger calls; bounded so that a long MWIR stack is not read into memory whole.
-_CV_CHUNK_BYTES = 256 * 2**20
-
-
-def _page_pixels(page) -> np.ndarray:
-    image = page.asarray()
-    if image.ndim == 3 and image.shape[-1] not in (3, 4) and image.shape[0] in (3, 4):
-        image = image[0]  # planar (separate) colour: the first plane
-    return _grey(image)
-
-
-def _cv_pages(path: Path, start: int, n_pages: int, page_bytes: int) -> Iterator[np.ndarray]:
-    """Pages ``start..n_pages-1`` through OpenCV, for compressions tifffile decodes only with
-    the optional imagecodecs package (``pip install snrmon[tiff]``; LZW, as OpenCV itself
-    writes); chunked, so the cost of OpenCV's walk from page 0 is paid once per chunk, not once
-    per page."""
-    chunk = max(1, _CV_CHUNK_BYTES // max(page_bytes, 1))
-    for first in range(start, n_pages, chunk):
-        count = min(chunk, n_pages - first)
-        ok, mats = cv2.imreadmulti(str(path), first, count, flags=cv2.IMREAD_UNCHANGED)
-        if not ok or len(mats) != count:
-            raise ValueError(f"{path}: cannot read TIFF pages {first}-{first + count - 1}")
-        for m in mats:
-            yield _grey(m)
-
-
-def _mappable(tif, n_pages: int, size: tuple[int, int]) -> bool:
-    """One uncompressed series of single-channel pages stored contiguously."""
-    if len(tif.series) != 1:
-        return False
-    series = tif.series[0]
-    pixels = n_pages * size[0] * size[1]
-    return series.dataoffset is not None and int(np.prod(series.shape)) == pixels
-
-
-def _tiff_pages(path: Path) -> Iterator[np.ndarray]:
-    """Pages one at a time, each read once: from a memory map where the file allows, else page
-    by page (OpenCV's ``imreadmulti(path, i, 1)`` walked the file from page 0 for every page:
-    quadratic in the page count)."""
-    import tifffile
-
-    with _open_tiff(path) as tif:
-        n_pages = len(tif.pages)
-        sizes = sorted({_page_size(p) for p in tif.pages})
-        if len(sizes) != 1:
-            raise ValueError(f"{path}: TIFF pages differ in size: {sizes}")
-        if _mappable(tif, n_pages, sizes[0]):
-            yield from tifffile.memmap(path, mode="r").reshape(n_pages, *sizes[0])
-            return
-        tif.pages.cache = False  # a long stack is not kept in memory page by page
-        for i, page in enumerate(tif.pages):
-            try:
-                pixels = _page_pixels(page)
-            except ValueError as exc:
-                if "imagecodecs" not in str(exc):
-                    raise ValueError(f"{path}: cannot read TIFF page {i} ({exc})") from None
-                page_bytes = sizes[0][0] * sizes[0][1] * page.dtype.itemsize
-                yield from _cv_pages(path, i, n_pages, page_bytes)
-                return
-            yield pixels
-
-
-def _load_tiff(path: Path) -> np.ndarray:
-    """The whole stack: memory-mapped when the file stores it uncompressed and contiguous (as
-    cameras and ImageJ write it), else read page by page into one array."""
-    import tifffile
-
-    with _open_tiff(path) as tif:
-        n_pages = len(tif.pages)
-        sizes = sorted({_page_size(p) for p in tif.pages})
-        mappable = len(sizes) == 1 and _mappable(tif, n_pages, sizes[0])
-    if mappable:
-        return tifffile.memmap(path, mode="r").reshape(n_pages, *sizes[0])
-    return np.stack(list(_tiff_pages(path)))
-
-
 def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
     """Frames (H, W) of a stack file one by one, without loading the whole file where the
     format allows (npy, raw, PTW and FLIR raw frames are memory-mapped, TIFF read page by page,
@@ -245,7 +153,7 @@ def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
     elif suffix in (".tif", ".tiff"):
         if not path.is_file():
             raise FileNotFoundError(f"{path}: no such file")
-        yield from _tiff_pages(path)
+        yield from iter_tiff(path)
     else:
         yield from load_stack(path)
 
@@ -330,7 +238,7 @@ def read_stack(path: str | Path) -> StackFile:
             raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
         return StackFile(_as_stack(array, path))
     if suffix in (".tif", ".tiff"):
-        return StackFile(_as_stack(_load_tiff(path), path))
+        return StackFile(_as_stack(load_tiff(path), path))
     if suffix == ".ptw":
         return _ptw_file(path)
     if suffix in FLIR_SUFFIXES:

@@ -4,24 +4,26 @@ Threads (one producer, a bounded ring, consumers that never block it; docs/archi
 
 - the camera device's own reader thread copies each frame into a preallocated
   :class:`snrmon.acquisition.streams.ring.FrameRing` and returns at once (the producer never waits);
-- this pipeline's measurement thread pops EVERY frame from its ring reader in order and hands it
-  to the session's engine (:meth:`snrmon.acquisition.engine.session_engine.SessionEngine.on_frame`:
-  the same per-frame engine a replay runs), then records the frame, the commands the engine applied
-  before it, and its measurement; the recorder's queue never blocks (a backlog is counted as
-  frames dropped by the recorder, and the measurement of a dropped frame is kept all the same);
+- this pipeline's measurement thread pops EVERY frame from its ring reader in order and hands it,
+  as the ring gave it, to the session's engine
+  (:meth:`snrmon.acquisition.engine.session_engine.SessionEngine.on_frame`: the same per-frame
+  engine a replay runs), which returns the frame's
+  :class:`~snrmon.acquisition.engine.inputs.FrameOutput`; the pipeline hands that to its
+  subscribers: the recording (:class:`snrmon.acquisition.runtime.recording_tap.RecordingTap`,
+  whose queue never blocks: a backlog is counted as frames dropped by the recorder, and the
+  measurement of a dropped frame is kept all the same) and the click's news; the stop table and
+  the measurement listeners are the engine's own;
 - a display takes only the newest frame with :meth:`CameraPipeline.latest_frame` on its own
   timer, and numbers only from :meth:`CameraPipeline.status` and :meth:`CameraPipeline.series`.
 
-Recording gaps: before the first recorded frame after frames the file does not hold (the first
-frame of a recording, or the first after a recorder drop) the engine's state is recorded, so a
-replay continues there exactly as live did.
-
 Every frame accounted for: :meth:`CameraPipeline.accounting` says what became of each frame
-received (recorded, dropped and why, received while no recording was on); the recording keeps it
-in its ``summary_json``. A drop is never silent: any frame lost (a gap in the camera's counter,
-a ring overrun, a recorder drop) is a warning in the log (stderr and the session's log) at most
-once a second per camera with the frames lost since the last one, a ``frames_dropped`` event
-in the recording, and the session's status carries it as an alarm.
+received (:class:`~snrmon.acquisition.engine.status.FrameAccounting`: recorded, dropped and why,
+received while no recording was on, of the wrong shape); the status carries it and the
+recording keeps it in its ``summary_json``. A drop is never silent: any frame lost (a gap in the
+camera's counter, a ring overrun, a frame of the wrong shape, a recorder drop) is a warning in
+the log (stderr and the session's log) at most once a second per camera with the frames lost
+since the last one, a ``frames_dropped`` event in the recording, and the session's status
+carries it as an alarm.
 
 ``lossless``: a source that can wait (a simulated camera, a file) is paced by its consumers: the
 device thread waits for the ring (``OverflowPolicy.WAIT``) and the measurement thread for the
@@ -32,26 +34,24 @@ from __future__ import annotations
 
 import logging
 import threading
-import time
-from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from snrmon.acquisition.columns import values_of
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import (
     ClearReference,
     ClearRoi,
     Cue,
-    FrameOutput,
     SetRoi,
     StartReference,
 )
 from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
 from snrmon.acquisition.engine.warm_up import warm_up
 from snrmon.acquisition.runtime.click_news import ClickNews
+from snrmon.acquisition.runtime.frame_tally import DropWarnings, FrameTally
+from snrmon.acquisition.runtime.recording_tap import RecordingTap
 from snrmon.acquisition.stage_clock import HANDOVER, RECORDING, UNKNOWN, StageClock
 from snrmon.acquisition.streams.delivered_rate import DeliveredRate
 from snrmon.acquisition.streams.ring import RING_OVERRUN, FrameRing, OverflowPolicy, RingFrame
@@ -66,7 +66,8 @@ log = logging.getLogger(__name__)
 
 CAMERA_GAP = "camera_gap"
 """Reason for frames missing from the camera's own counter (the camera, link or grabber)."""
-DROP_REPORT_S = 1.0  # a drop warning at most this often per camera
+WRONG_SHAPE = "wrong_shape"
+"""Reason for frames the camera delivered at another size than its configured one."""
 
 
 class CameraPipeline:
@@ -93,28 +94,14 @@ class CameraPipeline:
         self.name = name
         self.device = device
         self.session_engine = engine
-        self.engine: CameraEngine = engine.cameras[name]
-        self.shape = self.engine.shape
         policy = OverflowPolicy.WAIT if lossless else OverflowPolicy.OVERWRITE_OLDEST
         self.ring = FrameRing(ring_capacity, *self.shape, name=name, policy=policy)
         self._reader = self.ring.reader("measurement")
-        self._lock = threading.Lock()
-        self._recorder: RecordingWriter | None = None
-        self._gap = False  # the last frame is not in the recording: record the state next
-        self._history_due = False  # the stop table's history is not in the recording yet
-        self._wrong_shape = 0
-        self._measured = 0
-        self._unrecorded = 0  # frames measured while no recorder was attached
-        self._handled = 0  # frames taken from the ring for measurement
-        self._given = 0  # of them, while the current recording was attached
-        self._before = 0  # frames received and done with before the recording began
-        self._overrun_base = 0  # ring overruns before the recording began
-        self._in_flight: RecordingWriter | None = None  # the recorder the frame in hand goes to
-        self._idle = threading.Condition(self._lock)
-        self._reported: dict[str, int] = {}  # drops by reason already warned about
-        self._last_report = 0.0
-        self._report_lock = threading.Lock()  # the measurement thread and a detach both report
-        self._latency_ns: deque[int] = deque(maxlen=1000)
+        self.tally = FrameTally()
+        self.recording = RecordingTap(
+            name, self.engine, lambda: engine.stop_table.history(name), self.tally
+        )
+        self._warnings = DropWarnings()
         # Where each frame's time goes (snrmon.acquisition.stage_clock); the grab time of the
         # frame in each ring slot, written by the device thread before it pushes the frame.
         self.stages = StageClock()
@@ -127,6 +114,16 @@ class CameraPipeline:
         self._thread: threading.Thread | None = None
         self._unsubscribe: Callable[[], None] | None = None
         self._warm_s: float | None = None
+
+    @property
+    def engine(self) -> CameraEngine:
+        """This camera's engine (the session engine's)."""
+        return self.session_engine.cameras[self.name]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, columns) of this camera's frames."""
+        return self.engine.shape
 
     # ------------------------------------------------------------------ control
     def warm_up(self) -> float:
@@ -188,103 +185,60 @@ class CameraPipeline:
     def attach_recorder(self, recorder: RecordingWriter) -> None:
         """Record every frame from now on (and its measurement) into ``recorder``; the
         measurements the stop table keeps to seed a backdated stop go in first (on the
-        measurement thread, before the first frame it records: every frame measured before that
-        one is in them, none after)."""
-        overruns = self._reader.overruns
-        with self._lock:
-            self._recorder = recorder
-            self._gap = True
-            self._history_due = True
-            self._given = 0
-            self._before = self._handled + overruns
-            self._overrun_base = overruns
-        with self._report_lock:  # a new recorder counts its drops from 0
-            self._reported = {
-                k: v for k, v in self._reported.items() if k in (CAMERA_GAP, RING_OVERRUN)
-            }
+        measurement thread, before the first frame it records)."""
+        self.recording.attach(recorder, self._reader.overruns)
+        # a new recorder counts its drops from 0
+        self._warnings.recorder_changed(keep=(CAMERA_GAP, RING_OVERRUN, WRONG_SHAPE))
 
-    def detach_recorder(self) -> dict:
+    def detach_recorder(self) -> FrameAccounting:
         """Stop recording this camera; its :meth:`accounting` at that moment (for the
         recording's summary)."""
-        with self._lock:
-            rec, due = self._recorder, self._history_due
-            self._recorder, self._history_due = None, False
-            # The frame in hand still goes to this recorder: wait for it, so the accounting
-            # below holds every frame given to the recorder.
-            deadline = time.monotonic() + 10.0
-            while rec is not None and self._in_flight is rec and time.monotonic() < deadline:
-                self._idle.wait(0.1)
-        if rec is not None and due:  # no frame came while recording: the history all the same
-            self._record_history(rec)
+        rec = self.recording.detach()
         if rec is not None:
             self.report_drops(rec, final=True)
         return self.accounting(rec)
 
     def drops(self, rec: RecordingWriter | None = None) -> dict[str, int]:
         """Frames lost so far by reason: ``camera_gap`` (the camera's counter), ``ring_overrun``
-        (the measurement fell a whole ring behind) and the recorder's (``recorder_backlog``,
-        ``recording_stopped``) where it is recording (or ``rec``, the recorder it recorded to)."""
+        (the measurement fell a whole ring behind), ``wrong_shape`` and the recorder's
+        (``recorder_backlog``, ``recording_stopped``) where it is recording (or ``rec``, the
+        recorder it recorded to)."""
         out = {CAMERA_GAP: int(self.device.status().dropped)}
         out[RING_OVERRUN] = int(self._reader.overruns)
-        rec = rec or self._recorder
+        out[WRONG_SHAPE] = self.tally.wrong_shape
+        rec = rec or self.recording.recorder
         if rec is not None:
             out.update(rec.frames_of(self.name)[2])
         return out
 
-    def accounting(self, rec: RecordingWriter | None = None) -> dict:
+    def accounting(self, rec: RecordingWriter | None = None) -> FrameAccounting:
         """What became of every frame received since the pipeline started, for the recording
-        ``rec`` (default: the one attached now): ``received = written + sum(dropped) +
-        before_recording + after_recording + queued``. ``dropped`` by reason: ``ring_overrun``
-        while recording, and the recorder's own; ``before_recording`` counts every frame received
-        and done with before the recording began (measured, or lost to the ring), ``queued`` those
-        still waiting for the measurement. ``camera_gap``: frames the camera never delivered
-        (missing from its counter), so not received."""
-        rec = rec or self._recorder
+        ``rec`` (default: the one attached now; none: no recording)
+        (:class:`~snrmon.acquisition.engine.status.FrameAccounting`)."""
+        rec = rec or self.recording.recorder
         overruns = self._reader.overruns
-        received, queued = self.ring.pushed, self._reader.lag
-        with self._lock:
-            handled, given, before, base = (
-                self._handled,
-                self._given,
-                self._before,
-                self._overrun_base,
-            )
-        if rec is None:  # no recording: every frame received was received while not recording
-            return {
-                "received": int(received),
-                "written": 0,
-                "dropped": {RING_OVERRUN: int(overruns)},
-                "before_recording": int(handled),
-                "after_recording": 0,
-                "queued": int(queued),
-                "camera_gap": int(self.device.status().dropped),
-            }
-        _, written, rec_drops = rec.frames_of(self.name)
-        return {
-            "received": int(received),
-            "written": int(written),
-            "dropped": {RING_OVERRUN: int(overruns - base), **rec_drops},
-            "before_recording": int(before),
-            # measured after this recording was detached (a session that goes on)
-            "after_recording": int(handled + overruns - before - given - (overruns - base)),
-            "queued": int(queued),
-            "camera_gap": int(self.device.status().dropped),
-        }
+        pushed, lag = self.ring.pushed, self._reader.lag
+        recorded = None
+        if rec is not None:
+            _, written, rec_drops = rec.frames_of(self.name)
+            recorded = (written, rec_drops)
+        return self.tally.accounting(
+            pushed=pushed,
+            overruns=overruns,
+            lag=lag,
+            camera_gap=int(self.device.status().dropped),
+            recorded=recorded,
+        )
 
     def report_drops(self, rec: RecordingWriter | None = None, *, final: bool = False) -> None:
         """Warn (once a second at most, or now when ``final``) about frames lost since the last
         warning, and record a ``frames_dropped`` event while recording."""
-        now = time.monotonic()
-        if not final and now - self._last_report < DROP_REPORT_S:
+        if not self._warnings.due(final=final):
             return
-        with self._report_lock:
-            self._last_report = now
-            totals = self.drops(rec)
-            new = {k: v - self._reported.get(k, 0) for k, v in totals.items()}
-            new = {k: v for k, v in new.items() if v > 0}
-            if not new:
-                return
-            self._reported = totals
+        totals = self.drops(rec)
+        new = self._warnings.new(totals)
+        if new is None:
+            return
         log.warning(
             "%s: %d frames dropped (%s); %d in all since the start",
             self.name,
@@ -292,7 +246,7 @@ class CameraPipeline:
             ", ".join(f"{k} {v}" for k, v in sorted(new.items())),
             sum(totals.values()),
         )
-        rec = rec or self._recorder
+        rec = rec or self.recording.recorder
         if rec is not None:
             rec.add_event("frames_dropped", camera=self.name, payload={"new": new, "total": totals})
 
@@ -332,43 +286,21 @@ class CameraPipeline:
         return self.stages.summary()
 
     def status(self) -> CameraStatus:
-        dev = self.device.status()
-        ring = self.ring.stats()
-        reader = self._reader.stats()
-        with self._lock:
-            lat = np.array(self._latency_ns, dtype=float)
-            rec = self._recorder
-            measured = self._measured
-        recorded = dropped_rec = 0
-        if rec is not None:
-            st = rec.status()
-            recorded = int(st.frames_written.get(self.name, 0))
-            dropped_rec = int(sum(st.dropped.get(self.name, {}).values()))
-        with self._lock:
-            unrecorded = self._unrecorded
-        frames = FrameAccounting(
-            received=ring.pushed,
-            measured=measured,
-            recorded=recorded,
-            dropped_by_camera=dev.dropped,
-            dropped_by_ring=reader.overruns,
-            dropped_by_recorder=dropped_rec,
-            before_recording=unrecorded,
-        )
-        p50, p99 = (np.percentile(lat, [50, 99]) / 1e6) if lat.size else (np.nan, np.nan)
-        return self.engine.status(
-            device=dev,
-            frames=frames,
-            fps=self.delivered.per_s(),
-            latency_ms=(float(p50), float(p99)),
+        """The engine's status with the device's health, the frame accounting, the frames
+        delivered per second (:attr:`delivered`) and the latency
+        (:meth:`CameraStatus.with_frames`)."""
+        return self.engine.status().with_frames(
+            self.device.status(),
+            self.accounting(),
+            self.delivered.per_s(),
+            self.stages.latency_ms(),
         )
 
     # ------------------------------------------------------------------ threads
     def _on_frame(self, frame: Frame) -> None:
         # Device thread: one copy into the ring, nothing else.
         if frame.pixels.shape != self.shape:
-            with self._lock:
-                self._wrong_shape += 1
+            self.tally.wrong_shape_frame()
             log.warning(
                 "%s: frame of shape %s dropped, expected %s",
                 self.name,
@@ -400,93 +332,20 @@ class CameraPipeline:
             except Exception:  # a measurement bug must not stop acquisition
                 log.exception("%s: measurement failed on frame %d", self.name, item.counter)
             finally:
-                with self._lock:
-                    self._in_flight = None
-                    self._idle.notify_all()
+                self.recording.frame_done()
 
-    def _process(self, item: RingFrame) -> None:
+    def _process(self, frame: RingFrame) -> None:
         clock = self.stages
-        grab = int(self._grab_ns[item.seq % len(self._grab_ns)])
-        clock.begin(item.t_host_ns, item.t_ring_ns, grab)
-        self.delivered.frame(item.seq)
+        grab = int(self._grab_ns[frame.seq % len(self._grab_ns)])
+        clock.begin(frame.t_host_ns, frame.t_ring_ns, grab)
+        self.delivered.frame(frame.seq)
         clock.enter(RECORDING)
-        with self._lock:
-            rec, history, self._history_due = self._recorder, self._history_due, False
-            self._handled += 1
-            if rec is None:
-                self._unrecorded += 1
-            else:
-                self._given += 1
-                self._in_flight = rec
-        if rec is not None and history:
-            self._record_history(rec)
-        index = None
-        if rec is not None:
-            index = rec.add_frame(self.name, item)
-            with self._lock:
-                resume, self._gap = (self._gap and index is not None), index is None
-            if resume:
-                self._record_resume(rec, item)
-        out = self.session_engine.on_frame(
-            self.name, item.pixels, seq=item.seq, counter=item.counter, t_host_ns=item.t_host_ns
-        )
+        rec, index = self.recording.frame_taken(frame)
+        out = self.session_engine.on_frame(frame)
         clock.enter(HANDOVER)
-        self.click_news.frame(out.applied, out.measurement)
+        self.click_news.frame(out)
         if rec is not None:
             clock.enter(RECORDING)
-            self._record(rec, index, item, out)
-        latency = clock.end()
-        with self._lock:
-            self._latency_ns.append(latency)
-            self._measured += 1
+            self.recording.frame_measured(rec, index, out)
+        clock.end()
         self.report_drops(rec)
-
-    def _record_history(self, rec: RecordingWriter) -> None:
-        """The measurements a stop begun before the recording would be summarised from: rows
-        without frames, so a replay builds the same stop table. Taken on the measurement thread
-        (or once it has stopped), so exactly the frames measured before the first recorded one."""
-        for t, r in self.session_engine.stop_table.history(self.name):
-            rec.add_measurement(self.name, -1, counter=-1, t_host_ns=t, **values_of(r))
-
-    def _record_resume(self, rec: RecordingWriter, item: RingFrame) -> None:
-        """The first recorded frame after frames the file does not hold: the engine's state and
-        the background reference in force, so a replay continues from here exactly."""
-        corrector = self.engine.corrector
-        if corrector.reference_offset is not None and corrector.reference_summary is not None:
-            summary = {**corrector.reference_summary, "in_force": True}
-            rec.add_reference(
-                self.name, corrector.reference_offset, summary, t_host_ns=item.t_host_ns
-            )
-        rec.add_state(self.name, item.counter, item.t_host_ns, self.engine.snapshot())
-
-    def _record(
-        self, rec: RecordingWriter, index: int | None, item: RingFrame, out: FrameOutput
-    ) -> None:
-        for c in out.applied:
-            # At the frame they took effect on, so a replay applies them there too.
-            if isinstance(c, SetRoi):
-                payload = {"x": c.x, "y": c.y, "counter": item.counter}
-                rec.add_event(
-                    "roi_set", camera=self.name, payload=payload, t_host_ns=item.t_host_ns
-                )
-            elif isinstance(c, ClearRoi | ClearReference | StartReference):
-                kind = {
-                    ClearRoi: "roi_cleared",
-                    ClearReference: "reference_cleared",
-                    StartReference: "reference_started",
-                }[type(c)]
-                rec.add_event(
-                    kind,
-                    camera=self.name,
-                    payload={"counter": item.counter},
-                    t_host_ns=item.t_host_ns,
-                )
-        if out.reference_done is not None:
-            rec.add_reference(
-                self.name,
-                out.reference_done.offset,
-                out.reference_done.summary,
-                t_host_ns=item.t_host_ns,
-            )
-        if out.measurement is not None:
-            rec.add_measured(self.name, index, out.measurement)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import threading
 
-from snrmon.acquisition.engine.inputs import Measurement, SetRoi
+from snrmon.acquisition.engine.inputs import FrameOutput, SetRoi
 from snrmon.acquisition.measure.peak_snr import FLAG_LOST
 from snrmon.acquisition.track.config import TrackState
 
@@ -33,8 +33,10 @@ class ClickNews:
         self._searching: tuple[int, int] | None = None  # a click with no object, not found yet
         self._news: list[str] = []
 
-    def frame(self, applied: tuple, m: Measurement | None) -> None:
-        clicks = [c for c in applied if isinstance(c, SetRoi)]
+    def frame(self, out: FrameOutput) -> None:
+        """What the engine made of a frame (its commands applied before it, its measurement)."""
+        m = out.measurement
+        clicks = [c for c in out.applied if isinstance(c, SetRoi)]
         with self._lock:
             if clicks:
                 self._searching = None

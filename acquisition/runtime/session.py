@@ -47,11 +47,11 @@ from snrmon.acquisition.protocols import RecordingWriter
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.acquisition.record.recorder_status import WriteRate, disk_time_left_s
 from snrmon.acquisition.record.session_log import RecordingLog
-from snrmon.acquisition.runtime.camera_pipeline import CameraPipeline
+from snrmon.acquisition.runtime.camera_pipeline import CAMERA_GAP, WRONG_SHAPE, CameraPipeline
 from snrmon.acquisition.runtime.interpreter import LiveInterpreter
 from snrmon.acquisition.stops.detector import Stop, StopConfig
 from snrmon.acquisition.stops.table import StopRow
-from snrmon.acquisition.streams.ring import RingFrame
+from snrmon.acquisition.streams.ring import RING_OVERRUN, RingFrame
 from snrmon.acquisition.streams.timebase import ClockMap
 from snrmon.drivers.device import LOST_STATES, Device, DeviceState, DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
@@ -253,6 +253,11 @@ class Session:
     @property
     def stop_table(self):
         return self.engine.stop_table
+
+    def model_sky_temp_k(self, camera: str) -> float | None:
+        """The measured sky temperature (K) ``camera``'s model background follows (None: the
+        model's own), as the engine follows it."""
+        return self.engine.model_sky_temp_k(camera)
 
     @property
     def stop_detector(self):
@@ -540,7 +545,9 @@ class Session:
         try:
             # Every frame received accounted for in the file: once everything is written.
             self.last_recording = rec.stop(
-                accounting=lambda: {n: p.accounting(rec) for n, p in self.pipelines.items()},
+                accounting=lambda: {
+                    n: p.accounting(rec).as_record() for n, p in self.pipelines.items()
+                },
                 devices_lost=lambda: [x.as_dict() for x in self.devices_lost()],
             )
         finally:
@@ -642,9 +649,10 @@ class Session:
                 f"up; backlog {rec_status.backlog_bytes / 2**20:.0f} MiB)"
             )
         now_s = time.monotonic()
-        for name, cs in cams.items():  # frames lost before the recorder: never silent
-            f = cs.frames
-            lost = f.dropped_by_camera + f.dropped_by_ring
+        for name, pipe in self.pipelines.items():  # frames lost before the recorder: never silent
+            drops = pipe.drops()
+            gap, ring, wrong = (drops[k] for k in (CAMERA_GAP, RING_OVERRUN, WRONG_SHAPE))
+            lost = gap + ring + wrong
             seen, since = self._drops_seen.get(name, (0, -math.inf))
             if lost > seen:
                 self._drops_seen[name] = (lost, now_s)
@@ -652,9 +660,9 @@ class Session:
             # an alarm while frames are being lost (and DROP_ALARM_S after); the count stays
             # in the status panel, the log and the recording
             if lost and now_s - since <= DROP_ALARM_S:
+                shape = f", wrong shape {wrong}" if wrong else ""
                 alarms.append(
-                    f"{name} frames: {lost} dropped (camera "
-                    f"{f.dropped_by_camera}, ring overrun {f.dropped_by_ring})"
+                    f"{name} frames: {lost} dropped (camera {gap}, ring overrun {ring}{shape})"
                 )
         lrf_st = self.lrf.status() if self.lrf else None
         gps_st = self.gps.status() if self.gps else None

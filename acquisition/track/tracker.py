@@ -56,13 +56,14 @@ from snrmon.acquisition.measure.contamination import NoiseReference
 from snrmon.acquisition.measure.peak_snr import (
     FLAG_GPS_CUED,
     FLAG_LOST,
-    FLAG_RIM_CONTAMINATED,
-    RUNNING_EXCLUDED,
     PeakSnr,
     PeakSnrConfig,
+    flags_to_bits,
     pixel_of,
+    remember,
     result_with,
 )
+from snrmon.acquisition.measure.running_stats import RunningSnr
 from snrmon.acquisition.measure.target_snr import TargetMeter
 from snrmon.acquisition.track.candidate import Candidate, ObjectHistory, box_at, consistent, judge
 from snrmon.acquisition.track.config import (
@@ -98,8 +99,12 @@ class Tracker:
         *,
         measurement: PeakSnrConfig | None = None,
         reference_noise: float | str | None = "recent",
+        memory: tuple[NoiseReference, RunningSnr] | None = None,
         **settings,
     ) -> None:
+        """``memory``: the noise reference and running statistics the track feeds
+        (:func:`snrmon.acquisition.measure.peak_snr.remember`), a measurer's own; None: a
+        reference of the track's own and no running statistics."""
         if config is not None and settings:
             raise ValueError("give either config or settings, not both")
         self.config = config if config is not None else TrackerConfig(**settings)
@@ -116,7 +121,11 @@ class Tracker:
             )
         self._fixed_reference = reference_noise
         m = self.measurement
-        self._reference = NoiseReference(m.reference_frames, m.reference_min_frames)
+        if memory is None:
+            self._reference = NoiseReference(m.reference_frames, m.reference_min_frames)
+            self._running: RunningSnr | None = None
+        else:
+            self._reference, self._running = memory
         self._history = ObjectHistory(c.brightness_frames, c.brightness_min_frames)
         self.motion = MotionModel(c.motion)
         self._cue: tuple[float, float] | None = None
@@ -220,11 +229,7 @@ class Tracker:
         else:
             step = self._follow(pixels, ref)
         m = step.peak_snr
-        self._reference.update(
-            m.bg_std,
-            accepted=not m.flags & RUNNING_EXCLUDED,
-            rejected=FLAG_RIM_CONTAMINATED in m.flags,
-        )
+        remember(flags_to_bits(m.flags), m.bg_std, m.snr, self._reference, self._running)
         self._gap = 1
         return step
 

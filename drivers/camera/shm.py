@@ -20,6 +20,7 @@ import threading
 import time
 from collections.abc import Iterable
 from multiprocessing import resource_tracker, shared_memory
+from pathlib import Path
 
 import numpy as np
 
@@ -50,7 +51,18 @@ def _pid_alive(pid: int) -> bool:
         return False
     except PermissionError:  # alive, another user's process
         return True
-    return True
+    return not _ended(pid)
+
+
+def _ended(pid: int) -> bool:
+    """Whether ``pid`` ended but was not reaped yet (a zombie): it still answers ``kill(pid,
+    0)``. A camera process started by this very process (``snrmon hil``'s, ``demo``'s) and
+    killed stays one until multiprocessing is next asked about its children."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:  # no /proc (not Linux), or it ended meanwhile: kill(pid, 0) said alive
+        return False
+    return stat.rsplit(")", 1)[-1].split()[:1] in (["Z"], ["X"])
 
 
 def _attach_untracked(name: str) -> shared_memory.SharedMemory:

@@ -63,6 +63,25 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("characterize", help="drone size and temperature from a close stop")
+    _add_stop_options(p)
+    _add_temperature_options(p)
+    _add_segmentation_options(p)
+    p.add_argument(
+        "--target-out", metavar="FILE.toml", help="write a target TOML (needs a calibration)"
+    )
+    p.add_argument(
+        "--target-name",
+        default="characterized",
+        metavar="NAME",
+        help="the name written into --target-out (default: %(default)s)",
+    )
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    add_result_options(p, "target_characterized")
+    p.set_defaults(func=run)
+
+
+def _add_stop_options(p: argparse.ArgumentParser) -> None:
+    """Which recording, camera and stop, and the camera's calibration."""
     p.add_argument("session", metavar="SESSION.h5", help="a snrmon session file")
     p.add_argument(
         "--camera", required=True, metavar="NAME", help="camera of the session to characterize"
@@ -75,6 +94,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="CAL.npz",
         help="calibration of this camera (default: the session's recorded one)",
     )
+
+
+def _add_temperature_options(p: argparse.ArgumentParser) -> None:
+    """How the drone's temperature is read: through the air or as seen, the sensor, the PSF."""
     p.add_argument(
         "--air-temp-c",
         type=float,
@@ -105,6 +128,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="read the core as seen, without correcting for the PSF's mixing",
     )
+
+
+def _add_segmentation_options(p: argparse.ArgumentParser) -> None:
+    """Which frames are used and how the drone is cut from the sky in each."""
     p.add_argument(
         "--n-frames",
         type=int,
@@ -142,18 +169,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="PX",
         help="half size of the region around the drone, pixels (default: %(default)s)",
     )
-    p.add_argument(
-        "--target-out", metavar="FILE.toml", help="write a target TOML (needs a calibration)"
-    )
-    p.add_argument(
-        "--target-name",
-        default="characterized",
-        metavar="NAME",
-        help="the name written into --target-out (default: %(default)s)",
-    )
-    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    add_result_options(p, "target_characterized")
-    p.set_defaults(func=run)
 
 
 def _weather(args):
@@ -218,29 +233,8 @@ def _sensor_name(path: str, camera: str) -> str:
         return str((cams.get(camera) or {}).get("sensor", camera))
 
 
-def run(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from snrmon.acquisition.calibrate.characterize import (
-        CharacterizeConfig,
-        at_rest_frames,
-        characterize_frame,
-        median_outline,
-        summarise_frames,
-        target_toml,
-        unmeasurable,
-    )
-    from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
-    from snrmon.acquisition.record.reader import open_session
-    from snrmon.acquisition.replay.batch import replay_session
-    from snrmon.acquisition.replay.recorded import recorded_calibration
-    from snrmon.acquisition.stops.detector import StopConfig
-    from snrmon.model.constants import ZERO_C_K
-    from snrmon.model.presets import load_sensor
-
-    # A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
-    # stop; only a frame without a trustworthy position is skipped.
-    no_position = frozenset({FLAG_LOST, FLAG_EDGE})
+def _check_inputs(args: argparse.Namespace) -> None:
+    """Every option and file before the replay starts (exit 2 naming the one that is wrong)."""
     if args.n_frames < 1:
         raise UsageError(f"--n-frames must be >= 1, got {args.n_frames}")
     if args.roi_px < 1:
@@ -254,11 +248,10 @@ def run(args: argparse.Namespace) -> int:
         input_file(args.calibration, "--calibration")
     if args.target_out:  # (a calibration comes from the session, or from --calibration)
         output_file(args.target_out, "--target-out", suffixes=(".toml",))
-    sensor = load_sensor(args.sensor or _sensor_name(args.session, args.camera))
-    # As recorded: the live track (it follows a resolved drone) gives each frame's
-    # position. A fixed window at the click would sit where the operator clicked, which at a
-    # close stop can be tens of pixels off the drone (a click on its GPS position).
-    replay = replay_session(args.session, fast=True)
+
+
+def _stop_row(args: argparse.Namespace, replay) -> tuple[object, float]:
+    """The stop's row of the replayed stop table and its range (rangefinder, else GPS)."""
     if args.camera not in replay.cameras:
         raise UsageError(
             f"camera {args.camera!r} not in {args.session} ({', '.join(replay.cameras)})"
@@ -273,20 +266,49 @@ def run(args: argparse.Namespace) -> int:
     range_m = row.lrf_range_m if row.lrf_range_m is not None else row.gps_range_m
     if range_m is None:
         raise UsageError(f"stop {args.stop} has no range (no rangefinder or GPS readings)")
-    rep = replay.cameras[args.camera]
-    psf, blur, psf_source = _measured_psf(args, sensor)
-    # one convention for every temperature: through the air (as a camera at the drone would
-    # read them), or, with --apparent, all as seen
-    path = None if args.apparent else air_path(sensor, float(range_m), _weather(args))
+    return row, float(range_m)
+
+
+def _tracked_frames(args: argparse.Namespace, replay, row) -> list[tuple]:
+    """(t_host_ns, peak (x, y), range_m) of every tracked frame of the stop (those where the
+    drone is at rest are chosen later)."""
+    import numpy as np
+
+    from snrmon.acquisition.measure.peak_snr import FLAG_EDGE, FLAG_LOST
+
+    # A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
+    # stop; only a frame without a trustworthy position is skipped.
+    no_position = frozenset({FLAG_LOST, FLAG_EDGE})
     end = row.t_end_ns if row.t_end_ns is not None else np.iinfo(np.int64).max
-    # every tracked frame of the stop: those where the drone is at rest are chosen below
     picks = [
         (m.t_host_ns, (m.result.peak_x, m.result.peak_y), m.range_m)
-        for m in rep.tally.measurements
+        for m in replay.cameras[args.camera].tally.measurements
         if row.t_start_ns <= m.t_host_ns < end and not (m.result.flags & no_position)
     ]
     if not picks:
         raise UsageError(f"stop {args.stop} holds no tracked frames of {args.camera}")
+    return picks
+
+
+@dataclasses.dataclass
+class _Segmented:
+    """The stop's frames the file holds, each segmented (None where no drone was found)."""
+
+    targets: list  # TargetFrame | None, one per held frame
+    held: list[tuple]  # (frame index in the file, t_host_ns, peak (x, y), range_m)
+    calibration: object | None
+    calibration_source: str | None
+    config: object  # CharacterizeConfig
+
+
+def _segmented(args, sensor, range_m: float, picks, psf, path) -> _Segmented:
+    """Each tracked frame the file holds read by its exact receipt time and segmented."""
+    import numpy as np
+
+    from snrmon.acquisition.calibrate.characterize import CharacterizeConfig, characterize_frame
+    from snrmon.acquisition.record.reader import open_session
+    from snrmon.acquisition.replay.recorded import recorded_calibration
+
     with open_session(args.session) as f:
         cam = f.cameras[args.camera]
         found = recorded_calibration(f, args.camera, args.calibration, sensor)
@@ -314,7 +336,7 @@ def run(args: argparse.Namespace) -> int:
             characterize_frame(
                 cam.frames[i],
                 at,
-                range_m=float(range_m),
+                range_m=range_m,
                 ifov_rad=sensor.ifov_rad,
                 calibration=cal,
                 config=config,
@@ -324,44 +346,79 @@ def run(args: argparse.Namespace) -> int:
             )
             for i, _, at, _ in held
         ]
+    return _Segmented(targets, held, cal, cal_source, config)
+
+
+def _summary_at_rest(args, sensor, row, range_m: float, seg: _Segmented, convention: str):
+    """(the summary of the frames where the drone is at rest, their indexes in ``seg.held``,
+    those frames segmented); a stop that cannot be measured is refused (exit 2, nothing kept)."""
+    import numpy as np
+
+    from snrmon.acquisition.calibrate.characterize import (
+        at_rest_frames,
+        summarise_frames,
+        unmeasurable,
+    )
+    from snrmon.acquisition.stops.detector import StopConfig
+
     source = "lrf" if row.lrf_range_m is not None else "gps"
     rest = at_rest_frames(
-        [None if f is None else float(np.sqrt(f.area_px)) for f in targets],
-        [rng for _, _, _, rng in held],
+        [None if f is None else float(np.sqrt(f.area_px)) for f in seg.targets],
+        [rng for _, _, _, rng in seg.held],
         args.n_frames,
-        stop_range_m=float(range_m),
+        stop_range_m=range_m,
         range_tolerance_m=StopConfig().tolerance_m(source),
     )
-    used = [targets[k] for k in rest if targets[k] is not None]
-    convention = "path_corrected" if path is not None and cal is not None else "apparent"
+    used = [seg.targets[k] for k in rest if seg.targets[k] is not None]
     try:
         result = summarise_frames(
-            used,
-            camera=args.camera,
-            range_m=float(range_m),
-            method=args.method,
-            convention=convention,
+            used, camera=args.camera, range_m=range_m, method=args.method, convention=convention
         )
     except ValueError as exc:
         raise UsageError(f"stop {args.stop}: {exc}") from None
     why = unmeasurable(
         result,
-        pixel_m=float(range_m) * sensor.ifov_rad,
+        pixel_m=range_m * sensor.ifov_rad,
         min_frames=args.min_frames,
         min_size_px=args.min_size_px,
-        config=config,
+        config=seg.config,
     )
     if why is not None:  # nothing is kept: a figure that is not measured is not a result
         raise UsageError(f"stop {args.stop}: {why}")
-    out = {"stop": args.stop, **result.as_dict(), "calibration": cal_source}
-    out["at_rest_s"] = [(held[k][1] - row.t_start_ns) / 1e9 for k in (rest[0], rest[-1])]
+    return result, rest, used
+
+
+def run(args: argparse.Namespace) -> int:
+    from snrmon.acquisition.calibrate.characterize import median_outline, target_toml
+    from snrmon.acquisition.replay.batch import replay_session
+    from snrmon.model.constants import ZERO_C_K
+    from snrmon.model.presets import load_sensor
+
+    _check_inputs(args)
+    sensor = load_sensor(args.sensor or _sensor_name(args.session, args.camera))
+    # As recorded: the live track (it follows a resolved drone) gives each frame's
+    # position. A fixed window at the click would sit where the operator clicked, which at a
+    # close stop can be tens of pixels off the drone (a click on its GPS position).
+    replay = replay_session(args.session, fast=True)
+    row, range_m = _stop_row(args, replay)
+    psf, blur, psf_source = _measured_psf(args, sensor)
+    # one convention for every temperature: through the air (as a camera at the drone would
+    # read them), or, with --apparent, all as seen
+    path = None if args.apparent else air_path(sensor, range_m, _weather(args))
+    picks = _tracked_frames(args, replay, row)
+    seg = _segmented(args, sensor, range_m, picks, psf, path)
+    cal = seg.calibration
+    convention = "path_corrected" if path is not None and cal is not None else "apparent"
+    result, rest, used = _summary_at_rest(args, sensor, row, range_m, seg, convention)
+    out = {"stop": args.stop, **result.as_dict(), "calibration": seg.calibration_source}
+    out["at_rest_s"] = [(seg.held[k][1] - row.t_start_ns) / 1e9 for k in (rest[0], rest[-1])]
     corrected = cal is not None and psf is not None  # a PSF corrects a temperature
     out["psf_blur_px"], out["psf_source"] = (blur, psf_source) if corrected else (None, None)
     if path is not None and cal is not None:
         out["transmission"], out["air_temp_c"] = path.transmission, path.air_temp_k - ZERO_C_K
     if args.target_out:
         # the drone's segmented outline at this stop, for the model's "outline" footprint
-        outline = median_outline(used, float(range_m) * sensor.ifov_rad)
+        outline = median_outline(used, range_m * sensor.ifov_rad)
         Path(args.target_out).write_text(target_toml(result, args.target_name, outline=outline))
         out["target_file"] = args.target_out
     # The characterization belongs to the session it was measured from: beside it, or in it

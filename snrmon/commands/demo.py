@@ -98,19 +98,17 @@ def _operate(rig, done: threading.Event, printed: set, verbose: bool) -> None:
         done.set()  # a failed step ends the day too, never leaves the window open forever
 
 
-def run(args: argparse.Namespace) -> int:
-    require("gui", "the console demo")
-    from snrmon.gui.app import run_console
-    from snrmon.rig.rig import HilOptions, HilRig
-    from snrmon.rig.table import TABLE_HEADER, format_result
-
+def _outputs(args: argparse.Namespace) -> tuple[dict, bool, Path | None, Path | None]:
+    """(the view options, headless, screenshot, report): the files the demo will write and
+    the console's look, checked before the flight (a bad one is exit 2 at once), the files'
+    folders made."""
     if args.out is not None:
         output_file(args.out, "--out", suffixes=(".h5",), new=True)
     if not args.speed > 0:
         raise UsageError(f"--speed must be positive, got {args.speed}")
     if args.status_file is not None:
         output_file(args.status_file, "--status-file", suffixes=(".json",))
-    view = view_options(args)  # before the flight: a bad option is exit 2 at once
+    view = view_options(args)
     headless = args.headless or not _has_display()
     screenshot = args.screenshot
     if screenshot is None and headless:
@@ -123,6 +121,57 @@ def run(args: argparse.Namespace) -> int:
     for out in (screenshot, report):
         if out is not None:
             out.parent.mkdir(parents=True, exist_ok=True)
+    return view, headless, screenshot, report
+
+
+def _fly(rig, args, *, headless: bool, screenshot, view: dict, verbose: bool) -> None:
+    """The day in the console: the simulated operator on its thread, the window until the
+    flight is over (or ``--duration``), then the session stopped (:meth:`HilRig.finish`)."""
+    from snrmon.gui.app import run_console
+
+    done = threading.Event()
+    printed: set = set()
+    operator = threading.Thread(
+        target=_operate, args=(rig, done, printed, verbose), name="operator", daemon=True
+    )
+    operator.start()
+    try:
+        run_console(
+            rig.session,
+            curves=rig.predictor.curve,
+            headless=headless,
+            duration_s=args.duration,  # the flight's end closes it (until=done)
+            until=done,
+            screenshot=screenshot,
+            status_file=args.status_file,
+            **view,
+        )
+    finally:
+        done.set()
+        operator.join(5.0)
+    rig.finish()
+
+
+def _live_report(rig, opts):
+    """The report's data from the console's own stop table (no recording to replay)."""
+    from snrmon.acquisition.report.data import live_report_data
+
+    return live_report_data(
+        rig.session.stop_table,
+        {c: c for c in rig.cameras},
+        opts.target,
+        name=f"snrmon demo, seed {opts.seed} (live)",
+        seconds=time.monotonic() - rig.t0,
+        weather=opts.weather,
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    require("gui", "the console demo")
+    from snrmon.rig.rig import HilOptions, HilRig
+    from snrmon.rig.table import TABLE_HEADER, format_result
+
+    view, headless, screenshot, report = _outputs(args)
     opts = HilOptions(
         seed=args.seed,
         speed=args.speed,
@@ -142,41 +191,10 @@ def run(args: argparse.Namespace) -> int:
             flush=True,
         )
         print(TABLE_HEADER, flush=True)
-    done = threading.Event()
-    printed: set = set()
     with rig:
-        operator = threading.Thread(
-            target=_operate, args=(rig, done, printed, verbose), name="operator", daemon=True
-        )
-        operator.start()
-        try:
-            run_console(
-                rig.session,
-                curves=rig.predictor.curve,
-                headless=headless,
-                duration_s=args.duration,  # the flight's end closes it (until=done)
-                until=done,
-                screenshot=screenshot,
-                status_file=args.status_file,
-                **view,
-            )
-        finally:
-            done.set()
-            operator.join(5.0)
-        rig.finish()
+        _fly(rig, args, headless=headless, screenshot=screenshot, view=view, verbose=verbose)
         result = rig.result()
-        live = None
-        if report is not None and args.out is None:
-            from snrmon.acquisition.report.data import live_report_data
-
-            live = live_report_data(
-                rig.session.stop_table,
-                {c: c for c in rig.cameras},
-                opts.target,
-                name=f"snrmon demo, seed {opts.seed} (live)",
-                seconds=time.monotonic() - rig.t0,
-                weather=opts.weather,
-            )
+        live = _live_report(rig, opts) if report is not None and args.out is None else None
     if args.json:
         emit_json(result)
     else:
@@ -190,4 +208,7 @@ def run(args: argparse.Namespace) -> int:
         data = live if live is not None else report_data(args.out, target=opts.target)
         render_report(data, report)
         say(f"report: {report}")
+    # A device lost during the day ends the console as it ends hil: exit 1, one line naming it,
+    # after the result (its devices_lost) and the report are out.
+    rig.check_failures()
     return 0

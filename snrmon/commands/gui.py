@@ -1,4 +1,8 @@
-"""``snrmon gui``: the operator console on the devices of a session TOML file."""
+"""``snrmon gui``: the operator console on the devices of a session TOML file.
+
+Exit 0 when the window closes; 1 when a device was lost while it ran (a camera's process gone,
+a port closed, a receiver silent), with one line naming each device and the time it was lost.
+"""
 
 from __future__ import annotations
 

@@ -70,6 +70,19 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--headless", action="store_true", help="no window (always: `snrmon demo` has the console)"
     )
     add_flight_options(p)
+    _add_day_options(p)
+    _add_weather_options(p)
+    _add_camera_options(p)
+    p.add_argument(
+        "-o", "--out", metavar="PATH", help="record the run into this new session file (.h5)"
+    )
+    add_compression_option(p)
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.set_defaults(func=run)
+
+
+def _add_day_options(p: argparse.ArgumentParser) -> None:
+    """The day's pace, cameras, target and flight."""
     p.add_argument(
         "--speed",
         default="1",
@@ -106,6 +119,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="M_S",
         help="transit speed between stops, m/s (default: %(default)s)",
     )
+
+
+def _add_weather_options(p: argparse.ArgumentParser) -> None:
+    """The scenario's sky and air (what the twin renders and the model is told)."""
     p.add_argument(
         "--sky-temp-c",
         type=float,
@@ -148,6 +165,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="|".join(AEROSOL_CHOICES),
         help="the scenario's LOWTRAN7 aerosol model, none: no aerosol (default: %(default)s)",
     )
+
+
+def _add_camera_options(p: argparse.ArgumentParser) -> None:
+    """What the simulated cameras read and how the console follows the drone."""
     p.add_argument(
         "--size",
         type=Size(64),
@@ -165,12 +186,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="keep the search window where clicked (re-clicked at every stop)",
     )
-    p.add_argument(
-        "-o", "--out", metavar="PATH", help="record the run into this new session file (.h5)"
-    )
-    add_compression_option(p)
-    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -230,7 +245,6 @@ def run(args: argparse.Namespace) -> int:
         )
     if rig.recording is not None:
         result["recording"] = rig.recording
-    result["devices_lost"] = [x.as_dict() for x in rig.session.devices_lost()]
     if not opts.track:
         result["note"] = "tracking off: the simulator re-clicked the drone at every stop"
     if args.json:
@@ -251,10 +265,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _failed(rig) -> int:
-    """0, or the day's failure raised as an OSError (exit 1, one line): a device lost, the
-    recording stopped by its disk."""
-    rig.session.check_devices()
-    error = (rig.recording or {}).get("error")
-    if error:
-        raise OSError(error)
+    """0, or the day's failure raised (exit 1, one line): :meth:`HilRig.check_failures`."""
+    rig.check_failures()
     return 0

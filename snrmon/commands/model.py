@@ -222,6 +222,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     msub = p.add_subparsers(dest="model_command", metavar="SUBCOMMAND", required=True)
 
+    _register_snr(msub)
+    _register_pvf(msub)
+    _register_radiance(msub)
+    _register_netd(msub)
+    _register_plot(msub)
+
+
+def _register_snr(msub: argparse._SubParsersAction) -> None:
+    """``model snr``."""
     s = msub.add_parser("snr", help="the four SNR curves at given ranges (Eqs. 1-3)")
     _add_common(s)
     s.add_argument(
@@ -233,6 +242,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     s.set_defaults(func=run_snr)
 
+
+def _register_pvf(msub: argparse._SubParsersAction) -> None:
+    """``model pvf``."""
     v = msub.add_parser("pvf", help="average PVF and ensquared energy of a PSF")
     v.add_argument(
         "--psf",
@@ -282,6 +294,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     v.add_argument("--json", action="store_true", help="JSON on stdout")
     v.set_defaults(func=run_pvf)
 
+
+def _register_radiance(msub: argparse._SubParsersAction) -> None:
+    """``model radiance``."""
     r = msub.add_parser("radiance", help="blackbody band radiance and its derivative")
     r.add_argument("--band", required=True, metavar="L1,L2", help="band in um")
     r.add_argument(
@@ -290,10 +305,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--json", action="store_true", help="JSON on stdout")
     r.set_defaults(func=run_radiance)
 
+
+def _register_netd(msub: argparse._SubParsersAction) -> None:
+    """``model netd``."""
     n = msub.add_parser("netd", help="the model's NETD and temporal noise of a sensor")
     _add_common(n, target=False)
     n.set_defaults(func=run_netd)
 
+
+def _register_plot(msub: argparse._SubParsersAction) -> None:
+    """``model plot``."""
     pl = msub.add_parser("plot", help="SNR vs range figure like Figs. 7-10")
     _add_common(pl)
     pl.add_argument(

@@ -60,16 +60,45 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
+def _stop_crops(args, rows: dict, rep, cam, cal, sensor, target, n: int):
+    """Stop ``n``'s crops around the measured peak of each of its valid frames (flags none,
+    SNR finite), as the PSF fit takes them, and its row."""
     import numpy as np
 
     from snrmon.acquisition.calibrate.psf_estimate import (
         PsfEstimateError,
         StopCrops,
         crop_frames,
-        estimate_psf,
         target_px,
     )
+
+    row = rows.get(n)
+    if row is None:
+        known = ", ".join(str(k) for k in sorted(rows)) or "none"
+        raise UsageError(f"no stop {n} for {args.camera} in {args.session} (stops: {known})")
+    label = f"stop {n} of {args.camera}"
+    try:
+        d = target_px(target, row.range_m, sensor.ifov_rad)
+    except PsfEstimateError as exc:
+        raise UsageError(f"{label}: {exc}") from None
+    lo = np.searchsorted(rep.t_host_ns, row.t_start_ns)
+    hi = (
+        len(rep.t_host_ns) if row.t_end_ns is None else np.searchsorted(rep.t_host_ns, row.t_end_ns)
+    )
+    picks = [
+        (t, r)
+        for t, r in zip(rep.t_host_ns[lo:hi], rep.results[lo:hi], strict=True)
+        if not r.flags and np.isfinite(r.snr)
+    ]
+    index = np.searchsorted(cam.t_host_ns, [t for t, _ in picks])
+    crops = crop_frames(
+        (cam.frames[int(i)] for i in index), [(r.peak_x, r.peak_y) for _, r in picks], cal
+    )
+    return StopCrops(f"{label} at {row.range_m:.1f} m", crops, d), row
+
+
+def run(args: argparse.Namespace) -> int:
+    from snrmon.acquisition.calibrate.psf_estimate import PsfEstimateError, estimate_psf
     from snrmon.acquisition.record.reader import open_session
     from snrmon.acquisition.replay.batch import replay_session
     from snrmon.acquisition.replay.recorded import recorded_calibration
@@ -95,33 +124,8 @@ def run(args: argparse.Namespace) -> int:
         found = recorded_calibration(f, args.camera, args.calibration, sensor)
         cal = found[0] if found is not None else None
         for n in args.stop:
-            row = rows.get(n)
-            if row is None:
-                known = ", ".join(str(k) for k in sorted(rows)) or "none"
-                raise UsageError(
-                    f"no stop {n} for {args.camera} in {args.session} (stops: {known})"
-                )
-            label = f"stop {n} of {args.camera}"
-            try:
-                d = target_px(target, row.range_m, sensor.ifov_rad)
-            except PsfEstimateError as exc:
-                raise UsageError(f"{label}: {exc}") from None
-            lo = np.searchsorted(rep.t_host_ns, row.t_start_ns)
-            hi = (
-                len(rep.t_host_ns)
-                if row.t_end_ns is None
-                else np.searchsorted(rep.t_host_ns, row.t_end_ns)
-            )
-            picks = [
-                (t, r)
-                for t, r in zip(rep.t_host_ns[lo:hi], rep.results[lo:hi], strict=True)
-                if not r.flags and np.isfinite(r.snr)
-            ]
-            index = np.searchsorted(cam.t_host_ns, [t for t, _ in picks])
-            crops = crop_frames(
-                (cam.frames[int(i)] for i in index), [(r.peak_x, r.peak_y) for _, r in picks], cal
-            )
-            stops.append(StopCrops(f"{label} at {row.range_m:.1f} m", crops, d))
+            crops, row = _stop_crops(args, rows, rep, cam, cal, sensor, target, n)
+            stops.append(crops)
             ranges.append(row.range_m)
     try:
         est = estimate_psf(stops, sensor, min_frames=args.min_frames)

@@ -56,8 +56,7 @@ def progress_line(session, t0: float) -> str:
     parts = [f"{time.monotonic() - t0:6.1f} s"]
     for name, cam in st.cameras.items():
         f = cam.frames
-        drops = f.dropped_by_camera + f.dropped_by_ring + f.dropped_by_recorder
-        parts.append(f"{name} {f.recorded} frames {drops} dropped")
+        parts.append(f"{name} {f.written} frames {f.lost} dropped")
     rec = st.recording
     free = f"{rec.free_bytes / 2**30:.1f} GB free" if rec.free_bytes is not None else ""
     parts.append(f"{rec.bytes_written / 2**20:.0f} MB written {free}".strip())

@@ -117,8 +117,8 @@ def result_json(result) -> dict:
             "states_restored": t.states_restored,
             # The live accounting the file keeps: received = written + dropped (by reason) +
             # before_recording (+ after_recording + queued); null for a file without it.
-            "received_live": None if c.accounting is None else c.accounting.get("received"),
-            "accounting": c.accounting,
+            "received_live": None if c.accounting is None else c.accounting.received,
+            "accounting": None if c.accounting is None else c.accounting.as_record(),
         }
     return {
         "format_version": result.format_version,

@@ -142,17 +142,7 @@ def check_qt_display(
     missing = unloadable_libraries(plugin, env)
     display = env.get("DISPLAY", "")
     if not display:
-        detail = "no X display here (DISPLAY unset): the console can run only --headless"
-        if missing:
-            return Check(
-                name,
-                FAIL,
-                f"{detail}; and Qt's xcb platform could not load {', '.join(missing)}",
-                _install_fix(missing),
-                needed=False,
-                data={"missing": missing},
-            )
-        return Check(name, SKIP, detail, needed=False, data={"missing": []})
+        return _without_display(name, missing)
     env["QT_QPA_PLATFORM"] = "xcb"
     env["QT_DEBUG_PLUGINS"] = "1"  # the loader's own reason when the plugin does not load
     try:
@@ -172,6 +162,34 @@ def check_qt_display(
             "check the X server (xdpyinfo) and XAUTHORITY",
             needed,
         )
+    return _probe_verdict(name, proc, display, missing, needed)
+
+
+def _without_display(name: str, missing: list[str]) -> Check:
+    """No display to open: a skip, or a failure when the plugin's libraries are missing too
+    (a display added later would not help)."""
+    detail = "no X display here (DISPLAY unset): the console can run only --headless"
+    if missing:
+        return Check(
+            name,
+            FAIL,
+            f"{detail}; and Qt's xcb platform could not load {', '.join(missing)}",
+            _install_fix(missing),
+            needed=False,
+            data={"missing": missing},
+        )
+    return Check(name, SKIP, detail, needed=False, data={"missing": []})
+
+
+def _probe_verdict(
+    name: str,
+    proc: subprocess.CompletedProcess,
+    display: str,
+    missing: list[str],
+    needed: bool,
+) -> Check:
+    """What the probe's run says: the screen it opened, or why it could not (the libraries it
+    could not load, the display that refused it, else its last line)."""
     screen = re.search(r"SCREEN (\d+) (\d+)", proc.stdout)
     if proc.returncode == 0 and screen:
         w, h = int(screen[1]), int(screen[2])

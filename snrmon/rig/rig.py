@@ -26,8 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from snrmon.acquisition.config import session_config_from_dict
+from snrmon.acquisition.runtime.camera_pipeline import CAMERA_GAP
 from snrmon.acquisition.runtime.session import Session
 from snrmon.acquisition.stops.detector import StopConfig
+from snrmon.acquisition.streams.ring import RING_OVERRUN
 from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.lifetime import die_with_parent
 from snrmon.model.constants import ZERO_C_K
@@ -135,151 +137,51 @@ class CameraRig:
     log: deque  # (t_host_ns, counter, raw running mean, raw running std), LOG_S long
 
 
-class HilRig:
-    """Builds and runs the simulated collection against a Session (context manager)."""
+class SerialSimulators:
+    """The day's GPS receiver (NMEA) and rangefinder (LDM) on pseudo-terminals: they report the
+    flight at the day's clock, and speak only when it moves (while the console holds the clock
+    the drone is frozen in time: a device that kept reading would show a hover where there is
+    none)."""
 
-    def __init__(self, opts: HilOptions, *, predictor=None) -> None:
+    def __init__(self, clock: FlightClock, plan, preroll_s: float) -> None:
         from snrmon.sim.devices.ldm_sim import LdmSimulator
         from snrmon.sim.devices.nmea_sim import NmeaSimulator
-        from snrmon.sim.devices.shm_camera import ShmProducer
-        from snrmon.sim.flight import FlightPlan
 
-        if opts.speed <= 0:
-            raise ValueError(f"speed must be positive, got {opts.speed}")
-        self.opts = opts
-        if predictor is None:
-            from snrmon.acquisition.prediction import ModelPredictor
-
-            # The model knows what a field team would: the met readings (air, humidity,
-            # pressure, visibility); the sky it measures (calibrated before the flight).
-            # Asynchronous: a measurement thread asks for it.
-            predictor = ModelPredictor(
-                {c: c for c in opts.cameras},
-                opts.target,
-                atmosphere=opts.weather,
-                asynchronous=True,
-                **({} if opts.footprint == "square" else {"footprint": opts.footprint}),
-            )
-        self.predictor = predictor
-        self.flight_config = opts.flight_config()
-        self.plan = FlightPlan(self.flight_config)
-        # With fixed-pattern noise the console needs a sky reference before launch.
-        self.preroll_s = opts.preroll_s if opts.fpn else 0.0
-        self.t0 = time.monotonic()
-        self.clock = FlightClock(opts.speed)
-        self._clock_k = 0  # table points already recorded as hil_clock events
-        self._speed_warned = False
-        self._adapt_at: tuple[float, float] | None = None  # (host s, clock s) of the last check
-        self.speed_changes: list[tuple[float, float]] = []  # (flight s, speed) as it followed
-        tag = f"{os.getpid()}-{opts.seed}"
-        self.cameras: dict[str, CameraRig] = {}
-        feeds = camera_feeds(opts, self.flight_config, self.preroll_s)
-        self._tmp = None
-        self._finished = False
-        calibrations: dict[str, str] = {}
-        if opts.calibrate:
-            # The calibration files are the session's inputs, not its output: the recording
-            # keeps the calibration it was measured with, so the output folder holds only the
-            # recording and its log.
-            self._tmp = tempfile.TemporaryDirectory(prefix="snrmon-hil-")
-            where, stem = Path(self._tmp.name), "hil"
-            seeds = {c: opts.seed + i for i, c in enumerate(opts.cameras)}
-            calibrations = calibrate_cameras(feeds, seeds, where, stem)
-        for cam, (sensor, feed) in feeds.items():
-            producer = ShmProducer(
-                f"snrmon-{cam}-{tag}",
-                feed.scene.width_px,
-                feed.scene.height_px,
-                feed,
-                fps=sensor.fps,
-                # The day's clock paces the camera; it runs at most LEAD_S ahead of the
-                # console's newest frame, far fewer frames than the ring holds.
-                slots=max(16, math.ceil(sensor.fps * opts.speed / 2)),
-                clock=self.clock.shared,
-                # the camera process ends with this one, however it ends
-                initializer=functools.partial(die_with_parent, os.getpid()),
-            )
-            self.cameras[cam] = CameraRig(
-                cam,
-                sensor,
-                feed,
-                producer,
-                float(sensor.fps),
-                deque(maxlen=math.ceil(LOG_S * sensor.fps * opts.speed)),
-            )
-        window = {}
-        if opts.window_px is not None:
-            window = {"width_px": int(opts.window_px[0]), "height_px": int(opts.window_px[1])}
-        self.gps_sim = NmeaSimulator(self._gps_position, rate_hz=10.0, baud=38400)
-        self.lrf_sim = LdmSimulator(self._lrf_range, rate_hz=10.0, tracking=True)
-        # While the console holds the day's clock the drone is frozen in time: a device that
-        # kept reading would show a hover where there is none; they speak when the clock moves.
+        self.clock = clock
+        self.plan = plan
+        self.preroll_s = preroll_s
+        self.gps = NmeaSimulator(self._gps_position, rate_hz=10.0, baud=38400)
+        self.lrf = LdmSimulator(self._lrf_range, rate_hz=10.0, tracking=True)
         self._gate_tau: dict[str, float] = {}
-        self.gps_sim.gate = lambda: self._clock_moved("gps")
-        self.lrf_sim.gate = lambda: self._clock_moved("lrf")
-        site = self.flight_config.site
-        config = session_config_from_dict(
-            {
-                "target": opts.target,
-                "site": {"lat_deg": site.lat_deg, "lon_deg": site.lon_deg, "alt_m": site.alt_m},
-                "cameras": {
-                    c: {
-                        "source": "shm",
-                        "address": r.producer.name,
-                        "sensor": c,
-                        # The cameras look along the flight's line of sight (boresight offset 0).
-                        "pointing_deg": [
-                            self.flight_config.azimuth_deg,
-                            self.flight_config.elevation_deg,
-                            0.0,
-                        ],
-                        **window,
-                        **({"calibration": calibrations[c]} if c in calibrations else {}),
-                    }
-                    for c, r in self.cameras.items()
-                },
-                "weather": {k: v for k, v in opts.weather.as_dict().items() if v is not None},
-                "simulation": {**opts.scenario.record(tuple(opts.cameras)), "seed": opts.seed},
-                "gps": {"protocol": "nmea", "port": self.gps_sim.path, "baud": 38400},
-                "lrf": {"protocol": "ldm", "port": self.lrf_sim.path, "baud": 9600},
-                **({} if opts.compression is None else {"compression": opts.compression}),
-                "model_psf": "fitted" if opts.adopt_psf else "preset",
-                "footprint": opts.footprint,
-            }
-        )
-        self.session = Session(
-            config,
-            track=opts.track,
-            predictor=predictor,
-            stop_config=StopConfig().at_speed(opts.speed),
-            lossless=True,
-        )
-        for dev in self.session.devices().values():
-            # The simulated devices fall silent while the console holds the day's clock (a busy
-            # machine): that pause is the day slowing down, not a device lost; a dead camera
-            # process or a closed port still is, at once.
-            dev.stale_after_s = HELD_SILENCE_S
-        for c, r in self.cameras.items():
-            ring = self.session.pipelines[c].ring
-            self.clock.watch(c, r.fps, lambda ring=ring: ring.newest_counter)
-        self.session.add_measurement_listener(self._on_measurement)
-        self._clicked: set[tuple[str, int]] = set()
-        self._final: dict[tuple[str, int], dict] = {}  # (camera, stop) -> its result entry
-        self.recording: dict | None = None  # the recording's own accounting, once closed
-        self._psf_recorded = False
+        self.gps.gate = lambda: self._clock_moved("gps")
+        self.lrf.gate = lambda: self._clock_moved("lrf")
 
-    # ------------------------------------------------------------------ clock and truth
-    def flight_time(self) -> float:
-        """Seconds since launch on the flight's clock (negative during the pre-roll)."""
-        return self.clock.now() - self.preroll_s
+    def session_tables(self) -> dict:
+        """The session config's ``gps`` and ``lrf`` tables that open them."""
+        return {
+            "gps": {"protocol": "nmea", "port": self.gps.path, "baud": 38400},
+            "lrf": {"protocol": "ldm", "port": self.lrf.path, "baud": 9600},
+        }
+
+    def start(self) -> None:
+        self.gps.start()
+        self.lrf.start()
+
+    def stop(self) -> None:
+        self.gps.stop()
+        self.lrf.stop()
 
     def _gps_position(self, t_s: float):
         # A receiver reports where the drone was at the epoch its sentence is labelled with
         # (``t_s`` on the simulator's clock), not where it is when the simulator's thread gets
         # to run: on a loaded machine that is milliseconds later (0.1 m at 4x in a transit).
-        due_ns = round((self.gps_sim.started_monotonic_s + t_s) * 1e9)
+        due_ns = round((self.gps.started_monotonic_s + t_s) * 1e9)
         t = self.clock.at(due_ns) - self.preroll_s
         return None if t < 0 else self.plan.position(t)  # no fix before launch
+
+    def _lrf_range(self, _t_s: float) -> float | None:
+        t = self.clock.now() - self.preroll_s
+        return None if t < 0 else self.plan.range_m(t)  # no target before launch
 
     def _clock_moved(self, device: str, tick_s: float = 0.1) -> bool:
         """True when the day's clock moved enough since ``device`` last spoke
@@ -290,6 +192,166 @@ class HilRig:
             return False
         self._gate_tau[device] = tau
         return True
+
+
+def day_predictor(opts: HilOptions):
+    """The model as a field team would run it: it knows the met readings (air, humidity,
+    pressure, visibility) and the sky it measures (calibrated before the flight); asynchronous,
+    since a measurement thread asks for it."""
+    from snrmon.acquisition.prediction import ModelPredictor
+
+    return ModelPredictor(
+        {c: c for c in opts.cameras},
+        opts.target,
+        atmosphere=opts.weather,
+        asynchronous=True,
+        **({} if opts.footprint == "square" else {"footprint": opts.footprint}),
+    )
+
+
+def _calibrations(opts: HilOptions, feeds: dict):
+    """(the temporary folder holding them or None, {camera: calibration file}): the blackbody
+    calibration of each camera before the flight, when asked. The files are the session's
+    inputs, not its output: the recording keeps the calibration it was measured with, so the
+    output folder holds only the recording and its log."""
+    if not opts.calibrate:
+        return None, {}
+    tmp = tempfile.TemporaryDirectory(prefix="snrmon-hil-")
+    seeds = {c: opts.seed + i for i, c in enumerate(opts.cameras)}
+    return tmp, calibrate_cameras(feeds, seeds, Path(tmp.name), "hil")
+
+
+def _camera_rigs(opts: HilOptions, feeds: dict, clock: FlightClock) -> dict[str, CameraRig]:
+    """A camera process per simulated camera, writing its frame ring at the day's clock."""
+    from snrmon.sim.devices.shm_camera import ShmProducer
+
+    tag = f"{os.getpid()}-{opts.seed}"
+    cameras = {}
+    for cam, (sensor, feed) in feeds.items():
+        producer = ShmProducer(
+            f"snrmon-{cam}-{tag}",
+            feed.scene.width_px,
+            feed.scene.height_px,
+            feed,
+            fps=sensor.fps,
+            # The day's clock paces the camera; it runs at most LEAD_S ahead of the
+            # console's newest frame, far fewer frames than the ring holds.
+            slots=max(16, math.ceil(sensor.fps * opts.speed / 2)),
+            clock=clock.shared,
+            # the camera process ends with this one, however it ends
+            initializer=functools.partial(die_with_parent, os.getpid()),
+        )
+        log_len = math.ceil(LOG_S * sensor.fps * opts.speed)
+        cameras[cam] = CameraRig(
+            cam, sensor, feed, producer, float(sensor.fps), deque(maxlen=log_len)
+        )
+    return cameras
+
+
+def _session_config(opts: HilOptions, flight, cameras: dict, calibrations: dict, serial):
+    """The session config that opens the simulated devices by name and path, as a config file
+    would name real ones. Written as the tables a TOML file gives and checked by the one
+    validator: the recording keeps the config as those tables (``[simulation]`` among them,
+    which the twin's truth is rebuilt from), the same as a field day's."""
+    site = flight.site
+    window = {}
+    if opts.window_px is not None:
+        window = {"width_px": int(opts.window_px[0]), "height_px": int(opts.window_px[1])}
+    camera_tables = {
+        c: {
+            "source": "shm",
+            "address": r.producer.name,
+            "sensor": c,
+            # The cameras look along the flight's line of sight (boresight offset 0).
+            "pointing_deg": [flight.azimuth_deg, flight.elevation_deg, 0.0],
+            **window,
+            **({"calibration": calibrations[c]} if c in calibrations else {}),
+        }
+        for c, r in cameras.items()
+    }
+    return session_config_from_dict(
+        {
+            "target": opts.target,
+            "site": {"lat_deg": site.lat_deg, "lon_deg": site.lon_deg, "alt_m": site.alt_m},
+            "cameras": camera_tables,
+            "weather": {k: v for k, v in opts.weather.as_dict().items() if v is not None},
+            "simulation": {**opts.scenario.record(tuple(opts.cameras)), "seed": opts.seed},
+            **serial.session_tables(),
+            **({} if opts.compression is None else {"compression": opts.compression}),
+            "model_psf": "fitted" if opts.adopt_psf else "preset",
+            "footprint": opts.footprint,
+        }
+    )
+
+
+def _day_session(opts: HilOptions, predictor, config) -> Session:
+    """The ordinary console session on the simulated devices, lossless (its pipelines and
+    recorder wait rather than drop: the day slows down instead)."""
+    session = Session(
+        config,
+        track=opts.track,
+        predictor=predictor,
+        stop_config=StopConfig().at_speed(opts.speed),
+        lossless=True,
+    )
+    for dev in session.devices().values():
+        # The simulated devices fall silent while the console holds the day's clock (a busy
+        # machine): that pause is the day slowing down, not a device lost; a dead camera
+        # process or a closed port still is, at once.
+        dev.stale_after_s = HELD_SILENCE_S
+    return session
+
+
+class HilRig:
+    """Builds and runs the simulated collection against a Session (context manager): the
+    camera processes, the serial simulators and the day's clock it drives, composed."""
+
+    def __init__(self, opts: HilOptions, *, predictor=None) -> None:
+        from snrmon.sim.flight import FlightPlan
+
+        if opts.speed <= 0:
+            raise ValueError(f"speed must be positive, got {opts.speed}")
+        self.opts = opts
+        self.predictor = predictor if predictor is not None else day_predictor(opts)
+        self.flight_config = opts.flight_config()
+        self.plan = FlightPlan(self.flight_config)
+        # With fixed-pattern noise the console needs a sky reference before launch.
+        self.preroll_s = opts.preroll_s if opts.fpn else 0.0
+        self.t0 = time.monotonic()
+        self.clock = FlightClock(opts.speed)
+        self._clock_k = 0  # table points already recorded as hil_clock events
+        self._speed_warned = False
+        self._adapt_at: tuple[float, float] | None = None  # (host s, clock s) of the last check
+        self.speed_changes: list[tuple[float, float]] = []  # (flight s, speed) as it followed
+        self._finished = False
+        feeds = camera_feeds(opts, self.flight_config, self.preroll_s)
+        self._tmp, calibrations = _calibrations(opts, feeds)
+        self.cameras = _camera_rigs(opts, feeds, self.clock)
+        self.serial = SerialSimulators(self.clock, self.plan, self.preroll_s)
+        config = _session_config(opts, self.flight_config, self.cameras, calibrations, self.serial)
+        self.session = _day_session(opts, self.predictor, config)
+        for c, r in self.cameras.items():
+            self.clock.watch(c, r.fps, functools.partial(self._newest_delivered, c))
+        self.session.add_measurement_listener(self._on_measurement)
+        self._clicked: set[tuple[str, int]] = set()
+        self._final: dict[tuple[str, int], dict] = {}  # (camera, stop) -> its result entry
+        self.recording: dict | None = None  # the recording's own accounting, once closed
+        self._psf_recorded = False
+
+    # ------------------------------------------------------------------ clock and truth
+    def _newest_delivered(self, camera: str) -> int | None:
+        """The newest frame counter the console has of ``camera``, which holds the day's clock;
+        None once the camera is lost (its process dead): it holds the day no more, and the
+        other devices fly on instead of falling silent with it."""
+        if any(
+            x.device == camera and x.back_t_host_ns is None for x in self.session.devices_lost()
+        ):
+            return None
+        return self.session.pipelines[camera].ring.newest_counter
+
+    def flight_time(self) -> float:
+        """Seconds since launch on the flight's clock (negative during the pre-roll)."""
+        return self.clock.now() - self.preroll_s
 
     def _follow_console(self) -> None:
         """The day's free speed follows what the console held (:data:`ADAPT_S`)."""
@@ -318,10 +380,6 @@ class HilRig:
         log.info("the simulated day follows the console: speed %g (it held %.2f)", new, held)
         self.session.add_event("hil_speed_changed", payload={"speed": new, "held": held})
 
-    def _lrf_range(self, _t_s: float) -> float | None:
-        t = self.flight_time()
-        return None if t < 0 else self.plan.range_m(t)  # no target before launch
-
     def truth_pixel(self, camera: str) -> tuple[float, float] | None:
         """Where the drone is now in ``camera`` (what the operator would click on)."""
         target = self.cameras[camera].feed.target_at(self.flight_time())
@@ -337,8 +395,7 @@ class HilRig:
             pipe.warm_up()  # a first run on a machine compiles: before the flight's clock
         for rig in self.cameras.values():
             rig.producer.start()
-        self.gps_sim.start()
-        self.lrf_sim.start()
+        self.serial.start()
         self.t0 = time.monotonic()
         if self.opts.out:
             # The file is created (exclusively) before any device opens.
@@ -373,9 +430,9 @@ class HilRig:
             "clock": "hil_clock",
             "speed": self.opts.speed,
             "preroll_s": self.preroll_s,
-            "gps_epoch0_host_ns": round(self.gps_sim.started_monotonic_s * 1e9),
-            "gps_epoch0_utc_ns": round(self.gps_sim.start_utc.timestamp() * 1e9),
-            "gps_rate_hz": 1.0 / self.gps_sim.tick_period_s,
+            "gps_epoch0_host_ns": round(self.serial.gps.started_monotonic_s * 1e9),
+            "gps_epoch0_utc_ns": round(self.serial.gps.start_utc.timestamp() * 1e9),
+            "gps_rate_hz": 1.0 / self.serial.gps.tick_period_s,
             "flight": {
                 "stops_m": list(fc.stops_m),
                 "hover_s": fc.hover_s,
@@ -399,6 +456,15 @@ class HilRig:
         if summary is not None:
             self.recording = summary.frames_report()
 
+    def check_failures(self) -> None:
+        """Raise the day's failure as an OSError (exit 1, one line) once it is over: a device
+        lost (the session's :class:`~snrmon.acquisition.runtime.session.DeviceError`, naming
+        each), the recording stopped by its disk."""
+        self.session.check_devices()
+        error = (self.recording or {}).get("error")
+        if error:
+            raise OSError(error)
+
     def __exit__(self, *exc: object) -> None:
         try:
             self.finish()
@@ -406,8 +472,7 @@ class HilRig:
             self.clock.stop()
             for rig in self.cameras.values():
                 rig.producer.stop()
-            self.gps_sim.stop()
-            self.lrf_sim.stop()
+            self.serial.stop()
             if self._tmp is not None:
                 self._tmp.cleanup()
 
@@ -657,12 +722,12 @@ class HilRig:
         frames = defaultdict(dict)
         accounting = (self.recording or {}).get("accounting") or {}
         for name, pipe in self.session.pipelines.items():
-            acc = pipe.status().frames
+            drops = pipe.drops()  # since the start, by reason
             frames[name] = {
-                "received": acc.received,
-                "dropped": acc.dropped_by_camera + acc.dropped_by_ring,
-                "dropped_by_camera": acc.dropped_by_camera,
-                "dropped_by_ring": acc.dropped_by_ring,
+                "received": pipe.accounting().received,
+                "dropped": drops[CAMERA_GAP] + drops[RING_OVERRUN],
+                "dropped_by_camera": drops[CAMERA_GAP],
+                "dropped_by_ring": drops[RING_OVERRUN],
                 # With a recording: every frame received in the file, dropped with a reason, or
                 # received before it began (received = written + dropped + before_recording).
                 **({"recording": accounting[name]} if name in accounting else {}),
@@ -683,6 +748,7 @@ class HilRig:
                 "changes": [{"flight_s": t, "speed": v} for t, v in self.speed_changes],
             },
             "operator_clicks": clicks,
+            "devices_lost": [x.as_dict() for x in self.session.devices_lost()],
         }
 
 

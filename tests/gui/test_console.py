@@ -122,7 +122,7 @@ def test_recording_from_the_console_creates_a_session_file(qtbot, window, tmp_pa
     assert window.start_recording(path)
     assert not window.actions_by_key["record_start"].isEnabled()
     qtbot.waitUntil(
-        lambda: window.session.status().cameras["mwir"].frames.recorded >= 30, timeout=10_000
+        lambda: window.session.status().cameras["mwir"].frames.written >= 30, timeout=10_000
     )
     window.add_note("drone hovering at the first stop")
     window.actions_by_key["record_stop"].trigger()
@@ -143,7 +143,7 @@ def test_release_event_and_reselect_keys_go_into_the_record(qtbot, window, tmp_p
     path = tmp_path / "keys.h5"
     window.set_roi("mwir", SPOT_X, SPOT_Y)
     assert window.start_recording(path)
-    qtbot.waitUntil(lambda: window.session.status().cameras["mwir"].frames.recorded >= 5)
+    qtbot.waitUntil(lambda: window.session.status().cameras["mwir"].frames.written >= 5)
     window.refresh_status()
     window.actions_by_key["release"].trigger()
     qtbot.waitUntil(

@@ -105,19 +105,13 @@ def test_the_dialog_refuses_a_bad_temperature_with_a_message(qtbot, window):
     np.testing.assert_allclose(_drawn(window, "small")[1], want)
 
 
-def test_a_measured_sky_adds_the_curves_at_that_background(window, monkeypatch):
+def test_a_measured_sky_adds_the_curves_at_that_background(window):
+    """The session's engine follows the measured sky (as it does for a calibrated camera, or as
+    a replay applies the recorded change); the console draws the curves at it and never sets
+    the sky itself: a model rebuilt from the options takes the followed sky over."""
     session = window.session
-    real_status = session.status
-
-    def with_sky():
-        st = real_status()
-        cams = {
-            n: dataclasses.replace(c, figures=dataclasses.replace(c.figures, sky_temp_k=255.0))
-            for n, c in st.cameras.items()
-        }
-        return dataclasses.replace(st, cameras=cams)
-
-    monkeypatch.setattr(session, "status", with_sky)  # as a calibrated camera would report
+    session.engine.set_background("mwir", 255.0)
+    assert session.model_sky_temp_k("mwir") == 255.0
     window.refresh_status()
     plot = window.range_plots["mwir"]
     sky = ModelPredictor({"mwir": "mwir"}, "uav1", background_temp_k=255.0).curve("mwir")
@@ -128,6 +122,11 @@ def test_a_measured_sky_adds_the_curves_at_that_background(window, monkeypatch):
     np.testing.assert_allclose(_drawn(window, "small_corrected")[1], own["small_corrected"][1])
     assert not np.allclose(sky["small_corrected"][1], own["small_corrected"][1])
     assert "large @ sky 255.0 K" in plot.curve_items
+
+    assert window.apply_model_options(ModelOptions(target="uav2")) is None
+    assert session.predictor is window.model.sky
+    assert window.model.sky.background_temp_k["mwir"] == 255.0  # carried over by the engine
+    assert window.model.own.background_temp_k["mwir"] is None  # the model's own background
 
 
 def test_noise_panel_shows_the_rendered_noise_split_and_3d(qtbot, window):

@@ -104,7 +104,7 @@ def test_each_row_s_ratio_is_against_its_own_rule_s_expected_reading(table):
     rules = set()
     for cells in st["stops"]:
         row = dict(zip(keys, cells, strict=True))
-        where = f"{row['camera']} stop {row['stop']} ({row['lrf']} m, {row['background']})"
+        where = f"{row['camera']} stop {row['stop']} ({row['lrf_range_m']} m, {row['background']})"
         rule = rule_of(row["background"])
         assert rule is not None, where
         rules.add(rule)

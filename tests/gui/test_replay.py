@@ -11,8 +11,8 @@ import pytest
 from PySide6.QtCore import QSettings
 
 from snrmon.acquisition.engine.frame_measurer import FrameMeasurer
-from snrmon.acquisition.engine.inputs import FrameContext
 from snrmon.acquisition.replay.player import ReplayPlayer
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.gui.app import console_application
 from snrmon.gui.main_window import ConsoleWindow
 from tests.acquisition.session_factory import NOISE_DN, SPOT_XY, write_session
@@ -98,7 +98,8 @@ def test_click_remeasures_the_shown_frame_and_recording_is_refused(
     # the same frame measured by the same class at that click, outside the console
     expected = FrameMeasurer(player.config.measurement, window=player.config.window_frames)
     expected.set_roi(48, 34)
-    want = expected.measure(recording.frames["mwir"][4], FrameContext("mwir", 4, 4, 0)).result
+    pixels = recording.frames["mwir"][4]
+    want = expected.measure(pixels, RingFrame(pixels, 4, 4, 0, None, "mwir")).result
     assert player.status().cameras["mwir"].last.result == want
     assert not window.start_recording(window.settings.fileName() + ".h5")
     assert "not available in replay" in window.messages[-1]

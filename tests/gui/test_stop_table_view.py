@@ -12,6 +12,7 @@ from PySide6.QtWidgets import QApplication
 
 from snrmon.acquisition.report.stop_csv import CSV_COLUMNS
 from snrmon.acquisition.stops.table import StopRow
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.gui.stop_table_view import StopTableView, columns, row_texts
 
 
@@ -237,7 +238,7 @@ def test_rows_and_the_header_say_which_psf_the_model_used(qtbot):
             t = 10**12 + i * frame_ns
             if i % 6 == 0:  # the rangefinder at 10 Hz
                 engine.on_range(RangeReading(t, range_m, raw=f"{range_m:.1f}"))
-            engine.on_frame("mwir", frame(i), seq=i, counter=i, t_host_ns=t)
+            engine.on_frame(RingFrame(frame(i), i, i, t, None, "mwir"))
         return first + 130
 
     header = CameraHeader("mwir")

@@ -19,6 +19,7 @@ from snrmon.acquisition.engine.inputs import SetRoi
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.measure.model_agreement import model_agreement, verdict
 from snrmon.acquisition.prediction import EXPECTED_EXTENT, EXPECTED_RIM, ModelPredictor
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.drivers.rangefinder.reading import RangeReading
 
 H, W = 48, 64
@@ -60,7 +61,7 @@ def hover():
         t = T0 + i * FRAME_NS
         if i % 6 == 0:  # the rangefinder at 10 Hz
             engine.on_range(RangeReading(t, 336.0, raw="336.0"))
-        engine.on_frame("mwir", _frame(i), seq=i, counter=i, t_host_ns=t)
+        engine.on_frame(RingFrame(_frame(i), i, i, t, None, "mwir"))
     return engine, predictor
 
 
@@ -108,7 +109,7 @@ def test_without_a_model_there_is_no_expected_reading():
     engine = SessionEngine(config, {"mwir": (H, W)})
     engine.camera("mwir").post(SetRoi(X, Y))
     engine.on_range(RangeReading(T0, 336.0, raw="336.0"))
-    engine.on_frame("mwir", _frame(0), seq=0, counter=0, t_host_ns=T0)
+    engine.on_frame(RingFrame(_frame(0), 0, 0, T0, None, "mwir"))
     st = engine.cameras["mwir"].status()
     assert st.agreement is None and st.stop is None and math.isnan(st.snr_sem)
 
@@ -148,7 +149,7 @@ def test_the_strip_chart_series_keeps_the_newest_rows_in_order_when_its_ring_wra
         engine = SessionEngine(config, {"mwir": (H, W)}, series_length=length)
         engine.camera("mwir").post(SetRoi(X, Y))
         for i in range(130):
-            engine.on_frame("mwir", _frame(i), seq=i, counter=i, t_host_ns=T0 + i * FRAME_NS)
+            engine.on_frame(RingFrame(_frame(i), i, i, T0 + i * FRAME_NS, None, "mwir"))
         rows[length] = engine.cameras["mwir"].series()
     assert rows[200].shape == (130, 5)
     assert np.array_equal(rows[200][:, 0], T0 + np.arange(130.0) * FRAME_NS)

@@ -14,6 +14,7 @@ import pytest
 
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import Cue, SetRoi
+from snrmon.acquisition.streams.ring import RingFrame
 
 H, W = 64, 96
 
@@ -29,7 +30,7 @@ def test_a_cue_posted_with_a_click_reaches_the_clicked_track(cue_first):
     commands = [Cue(70.5, 20.25), SetRoi(30, 40)]
     for c in commands if cue_first else commands[::-1]:
         engine.post(c)
-    out = engine.process(_frame(1), seq=0, counter=0, t_host_ns=10**12)
+    out = engine.process(RingFrame(_frame(1), 0, 0, 10**12, None, engine.name))
     tracker = engine.measurer.tracker
     assert tracker is not None
     assert tracker.last_cue == (70.5, 20.25)
@@ -41,8 +42,8 @@ def test_a_cue_posted_with_a_click_reaches_the_clicked_track(cue_first):
 def test_a_cue_without_a_track_is_not_kept_for_a_later_click():
     engine = CameraEngine("cam", (H, W))
     engine.post(Cue(70.5, 20.25))
-    assert engine.process(_frame(1), seq=0, counter=0, t_host_ns=10**12).measurement is None
+    assert engine.process(RingFrame(_frame(1), 0, 0, 10**12, None, engine.name)).measurement is None
     engine.post(SetRoi(30, 40))
-    engine.process(_frame(2), seq=1, counter=1, t_host_ns=10**12 + 16_666_667)
+    engine.process(RingFrame(_frame(2), 1, 1, 10**12 + 16_666_667, None, engine.name))
     assert engine.measurer.tracker is not None
     assert engine.measurer.tracker.last_cue is None

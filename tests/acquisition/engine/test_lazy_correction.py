@@ -12,6 +12,7 @@ from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.frame_correction import FrameCorrector
 from snrmon.acquisition.engine.inputs import ApplyReference, SetRoi
 from snrmon.acquisition.engine.lazy_frame import LazyFrame, read_box
+from snrmon.acquisition.streams.ring import RingFrame
 
 SHAPE = (200, 260)
 
@@ -141,7 +142,9 @@ def test_the_engine_measures_the_same_corrected_lazily(bad_pixels):
                 engine.post(ApplyReference(offset, summary))
             if lazy:  # whatever was not corrected this frame must never be read
                 engine.corrector._buffer.fill(np.nan)
-            m = engine.process(frame, seq=i, counter=i, t_host_ns=i * 16_666_667).measurement
+            m = engine.process(
+                RingFrame(frame, i, i, i * 16_666_667, None, engine.name)
+            ).measurement
             assert m is not None
             rows.append((repr(m.result), m.track_state, m.window_xy, m.snr_mean, m.snr_std))
         outputs.append(rows)

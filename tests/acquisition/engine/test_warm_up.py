@@ -18,6 +18,7 @@ from snrmon.acquisition.calibrate.calibration import BlackbodyCapture, calibrate
 from snrmon.acquisition.engine.camera_engine import CameraEngine
 from snrmon.acquisition.engine.inputs import SetRoi
 from snrmon.acquisition.engine.warm_up import warm_up
+from snrmon.acquisition.streams.ring import RingFrame
 from tests.acquisition.calibration_scene import camera
 
 KERNEL_MODULES = (
@@ -68,14 +69,15 @@ def _first_frames_load(calibrated: bool, warm: bool, resolved: bool) -> dict[str
         engine.set_calibration(calibrate_sensor(caps, cam.sensor))
     if warm:
         warm_up(engine)
-        assert engine.roi is None and engine.measurer.tracker is None  # the live engine untouched
+        # the live engine untouched
+        assert engine.roi_centre is None and engine.measurer.tracker is None
     before = _signatures()
     engine.post(SetRoi(64, 48))
     frames = _frames(cam.shape, 8, seed=8, resolved=resolved)
     for f in frames[4:]:
         f.flags.writeable = False
     for i, f in enumerate(frames):
-        assert engine.process(f, seq=i, counter=i, t_host_ns=i).measurement is not None
+        assert engine.process(RingFrame(f, i, i, i, None, engine.name)).measurement is not None
     after = _signatures()
     return {k: after[k] - before[k] for k in after if after[k] != before[k]}
 

@@ -70,10 +70,12 @@ def test_round_trip_is_exact_and_readable_with_plain_h5py(tmp_path: Path) -> Non
         snr = float("nan") if i == 4 else 5.0 + i / 8
         row = dict(counter=fr.counter, t_host_ns=fr.t_host_ns, peak_x=3 + i, peak_y=40 - i)
         row |= dict(peak=1234.5 + i, bg_mean=1000.25, bg_std=12.125 + i, snr=snr)
-        flags = {"edge", "gps_cued"} if i == 4 else set()
+        flags = frozenset({"edge", "gps_cued"} if i == 4 else ())
         # The background a frame was measured against, and the target's extent.
         bg = dict(background="extent_rim", extent_w_px=12, extent_h_px=9) if i == 5 else {}
-        rec.add_measurement("mwir", i, flags=flags, **row, **bg)
+        values = {k: v for k, v in row.items() if k not in ("counter", "t_host_ns")}
+        result = PeakSnr(**values, flags=flags, **bg)
+        rec.add_measurement("mwir", i, result, counter=fr.counter, t_host_ns=fr.t_host_ns)
         extra = (b"extent_rim", 12, 9) if i == 5 else (b"rim", 0, 0)
         rows.append((i, *row.values(), 0b100010 if i == 4 else 0, *extra))
     for fr in lw:
@@ -149,19 +151,8 @@ def test_measurement_index_lookup_peak_snr_and_clock_update(tmp_path: Path) -> N
     for fr in frames:
         rec.add_frame("mwir", fr)
     r = PeakSnr(5, 6, 900.0, 100.0, 10.0, 80.0, frozenset({"saturated", "lost"}))
-    kw = dict(
-        peak_x=r.peak_x,
-        peak_y=r.peak_y,
-        peak=r.peak,
-        bg_mean=r.bg_mean,
-        bg_std=r.bg_std,
-        snr=r.snr,
-        flags=r.flags,
-    )
-    rec.add_measurement(
-        "mwir", None, counter=frames[2].counter, t_host_ns=frames[2].t_host_ns, **kw
-    )
-    rec.add_measurement("mwir", None, counter=1, t_host_ns=123, **kw)  # no such frame recorded
+    rec.add_measurement("mwir", None, r, counter=frames[2].counter, t_host_ns=frames[2].t_host_ns)
+    rec.add_measurement("mwir", None, r, counter=1, t_host_ns=123)  # no such frame recorded
     clock.update_from_gps(frames[1].t_host_ns, datetime(2020, 1, 1, tzinfo=UTC))
     rec.stop()
     with open_session(tmp_path / "s.h5") as s:
@@ -369,17 +360,7 @@ def test_bad_input_is_one_clear_error(tmp_path: Path) -> None:
         rec.add_event("note", payload={"text": "x" * 5000})
     with pytest.raises(ValueError, match="unknown flag 'hot'"):
         rec.add_measurement(
-            "mwir",
-            0,
-            counter=0,
-            t_host_ns=0,
-            peak_x=0,
-            peak_y=0,
-            peak=0,
-            bg_mean=0,
-            bg_std=1,
-            snr=0,
-            flags={"hot"},
+            "mwir", 0, PeakSnr(0, 0, 0.0, 0.0, 1.0, 0.0, frozenset({"hot"})), t_host_ns=0
         )
     rec.stop()
     with pytest.raises(FileExistsError):

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.acquisition.streams.timebase import ClockMap
 from snrmon.drivers.gps.fix import GpsFix
@@ -28,18 +29,8 @@ def recording(module_tmp) -> Path:
     for camera, n, seed in (("mwir", 12, 3), ("lwir", 5, 4)):
         for i, fr in enumerate(make_frames(camera, n, seed)):
             rec.add_frame(camera, fr)
-            rec.add_measurement(
-                camera,
-                i,
-                counter=fr.counter,
-                t_host_ns=fr.t_host_ns,
-                peak_x=3,
-                peak_y=4,
-                peak=1200.0 + i,
-                bg_mean=1000.0,
-                bg_std=10.0,
-                snr=20.0 + i,
-            )
+            result = PeakSnr(3, 4, 1200.0 + i, 1000.0, 10.0, 20.0 + i, frozenset())
+            rec.add_measurement(camera, i, result, counter=fr.counter, t_host_ns=fr.t_host_ns)
     rec.add_reference("mwir", np.full(CAMS["mwir"], 1.5, np.float32), {}, t_host_ns=1_000_000)
     rec.add_range(RangeReading(1_000_100, 199.0, RangeStatus.OK, raw="199.0"))
     rec.add_gps(GpsFix(1_000_200, None, 34.5, -117.2, raw="$GPGGA"))

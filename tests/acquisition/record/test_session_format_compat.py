@@ -16,6 +16,7 @@ import h5py
 import numpy as np
 import pytest
 
+from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.acquisition.record.writer import LIBVER
 from snrmon.drivers.camera.frame import Frame
@@ -62,18 +63,8 @@ def test_a_session_file_reads_in_hdf5_1_10(tmp_path):
     for i, px in enumerate(frames):
         rec.add_frame("cam", Frame(px, "cam", i, 10**9 + i * 16_666_667))
         t = 10**9 + i * 16_666_667
-        rec.add_measurement(
-            "cam",
-            i,
-            counter=i,
-            t_host_ns=t,
-            peak_x=3,
-            peak_y=2,
-            peak=1200.0,
-            bg_mean=1000.0,
-            bg_std=10.0,
-            snr=20.0,
-        )
+        result = PeakSnr(3, 2, 1200.0, 1000.0, 10.0, 20.0, frozenset())
+        rec.add_measurement("cam", i, result, counter=i, t_host_ns=t)
     rec.add_state("cam", 0, 10**9, {"version": 1, "note": "state"})
     rec.add_reference("cam", np.zeros(SHAPE, np.float32), {"n_frames": 2}, t_host_ns=10**9)
     rec.add_event("note", payload={"text": "bird"})

@@ -83,9 +83,9 @@ def test_replay_after_forced_recorder_drops_reproduces_every_recorded_frame(live
     # A backlog of three frames: every stall of the disk costs frames.
     session.start_recording(path, max_backlog_bytes=3 * H * W * 2)
     wait_until(lambda: any(r.complete for r in session.stops()), 20.0, "a complete stop")
-    measured = session.status().cameras["cam"].frames.measured
+    measured = session.pipelines["cam"].stages.frames
     wait_until(
-        lambda: session.status().cameras["cam"].frames.measured >= measured + 120,
+        lambda: session.pipelines["cam"].stages.frames >= measured + 120,
         10.0,
         "two more seconds",
     )
@@ -145,9 +145,9 @@ def test_replay_json_reports_the_files_drops(live, capsys):
     session.set_roi("cam", 66, 39)
     path = tmp_path / "gappy.h5"
     session.start_recording(path, max_backlog_bytes=3 * H * W * 2)
-    measured = session.status().cameras["cam"].frames.measured
+    measured = session.pipelines["cam"].stages.frames
     wait_until(
-        lambda: session.status().cameras["cam"].frames.measured >= measured + 90,
+        lambda: session.pipelines["cam"].stages.frames >= measured + 90,
         10.0,
         "1.5 s recorded",
     )
@@ -200,9 +200,9 @@ def test_disk_full_stops_the_recording_not_the_session_and_the_file_replays(tmp_
         st = session.status()
         (alarm,) = [a for a in st.alarms if a.startswith("recording:")]
         assert "disk full" in alarm and str(path) in alarm
-        measured = st.cameras["cam"].frames.measured
+        measured = session.pipelines["cam"].stages.frames
         wait_until(
-            lambda: session.status().cameras["cam"].frames.measured >= measured + 60,
+            lambda: session.pipelines["cam"].stages.frames >= measured + 60,
             10.0,
             "measurement to go on",
         )

@@ -126,7 +126,7 @@ def test_back_to_the_model_s_noise_and_noise_set_before_the_recording(live):
     session.set_measured_noise("mwir", NOISE)
     session.start()
     session.start_recording(path)
-    wait_until(lambda: session.status().cameras["mwir"].frames.recorded >= 3, 10.0, "frames")
+    wait_until(lambda: session.status().cameras["mwir"].frames.written >= 3, 10.0, "frames")
     session.set_measured_noise("mwir", None)
     assert session.measured_noise == {}
     assert session.predictor is not None and session.predictor.measured_noise == {}

@@ -22,6 +22,7 @@ from snrmon.acquisition.geo.projection import CameraIntrinsics, Pointing, Site, 
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.acquisition.record.recorder import SessionRecorder
 from snrmon.acquisition.replay.player import ReplayPlayer
+from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.drivers.camera.frame import Frame
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.model.presets import load_sensor
@@ -105,7 +106,7 @@ def _live(frames: np.ndarray, t: list[int]) -> tuple[CameraEngine, FrameOutput]:
     for i in range(N):
         if i == DRONE_FROM:
             a.post(SetRoi(SPOT[0] + 1, SPOT[1]))
-        out = a.process(frames[i], seq=i, counter=i, t_host_ns=t[i])
+        out = a.process(RingFrame(frames[i], i, i, t[i], None, a.name))
     return a, out
 
 

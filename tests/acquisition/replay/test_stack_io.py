@@ -75,6 +75,31 @@ def test_compressed_tiff_is_read_page_by_page_once_each(tmp_path, stack, monkeyp
     np.testing.assert_array_equal(load_stack(path), stack)
 
 
+def test_a_cut_tiff_without_metadata_reads_to_its_break(tmp_path, stack, caplog):
+    # No ImageJ or tifffile metadata declares the count: the break is the page chain's last link
+    # pointing past the end, or a page whose data the file does not hold whole.
+    pages = np.concatenate([stack, stack[::-1]])
+    one_ifd_per_page = tmp_path / "pages.tif"
+    with tifffile.TiffWriter(one_ifd_per_page) as w:
+        for frame in pages:
+            w.write(frame, photometric="minisblack", metadata=None, contiguous=False)
+    contiguous = tmp_path / "contiguous.tif"
+    tifffile.imwrite(contiguous, pages, photometric="minisblack", metadata=None)
+    for whole, frames, why in [
+        (one_ifd_per_page, 3, "page 3: ValueError: failed to read 198 bytes, got"),
+        (contiguous, 1, "its page chain breaks after page 0"),
+    ]:
+        cut = tmp_path / f"cut-{whole.name}"
+        data = whole.read_bytes()
+        cut.write_bytes(data[: len(data) // 2])
+        caplog.clear()
+        np.testing.assert_array_equal(load_stack(cut), pages[:frames])
+        said = [r.getMessage() for r in caplog.records if r.name.startswith("snrmon")]
+        assert len(said) == 1, said
+        assert said[0].startswith(f"{cut}: the file is cut short in frame {frames} ({why}")
+        assert said[0].endswith(f"read its {frames} whole frame" + "s" * (frames > 1)), said
+
+
 def test_tiff_bad_input(tmp_path, stack):
     (tmp_path / "junk.tif").write_bytes(b"not a tiff at all")
     with pytest.raises(ValueError, match=r"junk\.tif: not a readable TIFF"):

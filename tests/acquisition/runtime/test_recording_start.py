@@ -82,9 +82,9 @@ def test_a_frame_measured_across_the_recording_start_is_in_the_replayed_row(
     path = tmp_path / "start.h5"
     session.start_recording(path)  # while that frame is being measured
     held.release.set()
-    measured = session.status().cameras["cam"].frames.measured
+    measured = session.pipelines["cam"].stages.frames
     wait_until(
-        lambda: session.status().cameras["cam"].frames.measured >= measured + 120,
+        lambda: session.pipelines["cam"].stages.frames >= measured + 120,
         10.0,
         "two more seconds",
     )

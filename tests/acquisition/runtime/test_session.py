@@ -62,10 +62,8 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     # Replay rebuilds the stop from the recorded range stream alone, which starts when the
     # recording does, a little after the live detector's first reading: record one more second
     # so that the replayed stop also has its 100 frames.
-    measured = session.status().cameras["cam"].frames.measured
-    wait_until(
-        lambda: session.status().cameras["cam"].frames.measured >= measured + 60, 10.0, "1 s more"
-    )
+    measured = session.pipelines["cam"].stages.frames  # frames the measurement is done with
+    wait_until(lambda: session.pipelines["cam"].stages.frames >= measured + 60, 10.0, "1 s more")
     summary = session.stop_recording()
     st = session.status()
     cam = st.cameras["cam"]
@@ -81,11 +79,12 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     assert st.gps_range_m == pytest.approx(math.hypot(50.0, 147.8), rel=0.02)
 
     # Every frame is accounted for: after the stop the measurement thread has drained the ring,
-    # so received = measured + dropped by the ring; the recorder wrote what it was given.
+    # so every frame received was measured (with no recording now: before_recording) or lost to
+    # the ring; the recorder wrote what it was given.
     session.stop()
     acc = session.status().cameras["cam"].frames
-    assert acc.dropped_by_camera == 0 and acc.dropped_by_ring == 0
-    assert acc.received == acc.measured + acc.dropped_by_ring
+    assert acc.camera_gap == 0 and acc.dropped == {"ring_overrun": 0} and acc.queued == 0
+    assert acc.received == acc.before_recording > 0 and acc.unaccounted == 0
     assert summary.frames_received["cam"] == summary.frames_written["cam"] + sum(
         summary.dropped["cam"].values()
     )

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from snrmon.acquisition.measure.peak_snr import RUNNING_EXCLUDED
 from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackState, track_stack
 from snrmon.benchmarks.real_clips import inseparable
 
@@ -137,14 +138,15 @@ def test_bad_input_is_one_clear_message_and_the_state_says_why():
 
 def test_the_console_status_says_why_the_track_is_not_tracking():
     from snrmon.acquisition.engine.frame_measurer import FrameMeasurer
-    from snrmon.acquisition.engine.inputs import FrameContext
+    from snrmon.acquisition.streams.ring import RingFrame
     from snrmon.acquisition.track.config import TrackState
 
     sat = _sky(1, 16)[0]
     sat[40:, :] = 65535.0
     measurer = FrameMeasurer()
     measurer.set_roi(60, 70)
-    m = measurer.measure(_u16(sat), FrameContext("cam", 0, 0, 0))
+    pixels = _u16(sat)
+    m = measurer.measure(pixels, RingFrame(pixels, 0, 0, 0, None, "cam"))
     assert (m.track_state, m.track_reason) == (TrackState.LOST, "no_object")
 
 
@@ -183,3 +185,32 @@ def test_reads_stay_within_reach_of_the_read_centre_through_a_gps_cue():
     assert steps[39].state is TrackState.LOST  # too far for the capped search
     assert steps[40].state is TrackState.GPS_CUED
     assert (steps[-1].peak_snr.peak_x, steps[-1].peak_snr.peak_y) == (330, 240)
+
+
+def test_the_track_keeps_the_measurers_one_noise_reference_and_running_statistics():
+    """Eq. (4) alone and the track keep their memory by one rule in one place: while tracking,
+    the measurer's noise reference (the one its state records) is the one the track judges
+    contamination against, and its running statistics hold every valid frame's SNR."""
+    from snrmon.acquisition.engine.frame_measurer import FrameMeasurer
+    from snrmon.acquisition.streams.ring import RingFrame
+
+    stack = _sky(30, 11)
+    for frame in stack:
+        _spot(frame, 60, 50, 150.0)
+    frames = _u16(stack)
+    measurer = FrameMeasurer()
+    measurer.set_roi(60, 50)
+    valid = []
+    for i, pixels in enumerate(frames):
+        m = measurer.measure(pixels, RingFrame(pixels, i, i, i, None, "cam"))
+        if not m.result.flags & RUNNING_EXCLUDED:
+            valid.append(m.result.snr)
+    meter, tracker = measurer.meter, measurer.tracker
+    assert meter.reference_noise is not None
+    assert meter.reference_noise == tracker.reference_noise
+    assert meter.running.count == len(valid) > 20
+    assert meter.running.mean == pytest.approx(np.mean(valid), rel=1e-12)
+    # the state a recording keeps holds the reference the track used
+    state = measurer.snapshot()
+    assert state["meter"]["reference"] == state["tracker"]["reference"]
+    assert len(state["meter"]["reference"]["recent"]) > 0
