@@ -74,6 +74,25 @@ def console_env(display: str, tmp_path: Path) -> dict[str, str]:
     }
 
 
+def console_process(
+    config: Path, display: str, folder: Path, *extra: str, theme: str = "dark"
+) -> tuple[subprocess.Popen, Path]:
+    """``snrmon gui --config config`` in a real window on ``display`` (a first start, its
+    settings under ``folder``), writing its status file ``folder/status.json``: the process and
+    that file. It closes by itself after 600 s; the tests end it sooner."""
+    status = folder / "status.json"
+    cmd = [sys.executable, "-m", "snrmon", "gui", "--config", str(config), *extra]
+    cmd += ["--status-file", str(status), "--duration", "600", "--theme", theme]
+    proc = subprocess.Popen(
+        cmd,
+        env=console_env(display, folder),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    return proc, status
+
+
 def click(display: str, x: int, y: int) -> None:
     env = {**os.environ, "DISPLAY": display}
     subprocess.run(

@@ -15,7 +15,6 @@ import re
 import shutil
 import signal
 import subprocess
-import sys
 
 import pymap3d
 import pytest
@@ -27,7 +26,7 @@ from snrmon.sim.devices.nmea_sim import NmeaSimulator
 from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.gui.device_process import FIX
 from tests.gui.screen_grab import ScreenGrabber
-from tests.gui.test_real_window import click, console_env, poll, screen_point
+from tests.gui.test_real_window import click, console_process, poll, screen_point
 from tests.gui.test_real_window_layout import press
 from tests.helpers import SpotOnSky
 
@@ -76,16 +75,7 @@ def console(xvfb_screens, module_tmp):
         f"pointing_deg = [{pointing.az_deg!r}, {pointing.el_deg!r}, 0.0]\n\n"
         f'[gps]\nprotocol = "nmea"\nport = "{gps.path}"\nbaud = 38400\n'
     )
-    status = folder / "status.json"
-    cmd = [sys.executable, "-m", "snrmon", "gui", "--config", str(config)]
-    cmd += ["--status-file", str(status), "--duration", "600", "--theme", "dark"]
-    proc = subprocess.Popen(
-        cmd,
-        env=console_env(display, folder),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc, status = console_process(config, display, folder, theme="dark")
     screen = ScreenGrabber(display, folder)
     try:
         c = Console(display, status, proc, screen, drone)

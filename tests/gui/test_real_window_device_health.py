@@ -20,7 +20,7 @@ from snrmon.gui import theme as th
 from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.gui.device_process import RANGE_M
 from tests.gui.screen_grab import ScreenGrabber, colours_in
-from tests.gui.test_real_window import click, console_env, poll, screen_point
+from tests.gui.test_real_window import click, console_process, poll, screen_point
 from tests.helpers import SPOT_X, SPOT_Y, H, SpotOnNoise, W, field_config, sensor_toml
 
 pytestmark = pytest.mark.desktop
@@ -80,16 +80,7 @@ def kit(xvfb_screens, module_tmp):
     config = field_config(
         folder / "session.toml", ring, str(folder / "gps"), str(folder / "lrf"), lines
     )
-    status = folder / "status.json"
-    cmd = [sys.executable, "-m", "snrmon", "gui", "--config", str(config)]
-    cmd += ["--status-file", str(status), "--duration", "600", "--theme", "dark"]
-    console = subprocess.Popen(
-        cmd,
-        env=console_env(display, folder),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    console, status = console_process(config, display, folder, theme="dark")
     screen = ScreenGrabber(display, folder)
     try:
         yield Kit(display, status, console, camera, lrf, gps, screen)

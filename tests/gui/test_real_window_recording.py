@@ -14,7 +14,6 @@ import re
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -25,7 +24,7 @@ from snrmon.gui import theme as th
 from snrmon.gui.recording_indicator import MARK
 from snrmon.sim.devices.shm_camera import RandomPattern, ShmProducer
 from tests.gui.screen_grab import ScreenGrabber, colours_in
-from tests.gui.test_real_window import console_env, poll
+from tests.gui.test_real_window import console_process, poll
 from tests.gui.test_real_window_layout import press
 from tests.helpers import sensor_toml
 
@@ -101,16 +100,7 @@ def console(xvfb_screens, module_tmp):
     # the operator's last recording folder: the small disk (the dialog opens there)
     (folder / "config" / "snrmon").mkdir(parents=True)
     (folder / "config" / "snrmon" / "console.conf").write_text(f"[recording]\ndir={disk}\n")
-    status = folder / "status.json"
-    cmd = [sys.executable, "-m", "snrmon", "gui", "--config", str(config), "--compression"]
-    cmd += ["none", "--status-file", str(status), "--duration", "600", "--theme", THEME]
-    proc = subprocess.Popen(
-        cmd,
-        env=console_env(display, folder),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc, status = console_process(config, display, folder, "--compression", "none", theme=THEME)
     screen = ScreenGrabber(display, folder)
     try:
         yield Console(display, status, proc, disk, screen)
