@@ -98,46 +98,34 @@ def hil_sessions(tmp_path_factory) -> list[Path]:
 
 class XvfbScreens:
     """Real X displays (Xvfb, 24 bit), one per screen size asked for, started on first use
-    and stopped at the end of the test session."""
+    (:func:`snrmon.benchmarks.xvfb.start_xvfb`, as the real-window benchmark starts them) and
+    stopped at the end of the test session."""
 
     def __init__(self) -> None:
-        self._procs: list = []
+        self._servers: list = []
         self._displays: dict[str, str] = {}
 
     def __call__(self, size: str = "1600x1000") -> str:
         """The display (":N") of an Xvfb screen ``size`` ("WxH") pixels large."""
-        import select
         import shutil
-        import subprocess
+
+        from snrmon.benchmarks.xvfb import XvfbError, start_xvfb
 
         if size in self._displays:
             return self._displays[size]
         if shutil.which("Xvfb") is None:
             pytest.skip("Xvfb not installed (apt-get install xvfb; .ci/run does)")
-        read_fd, write_fd = os.pipe()
-        proc = subprocess.Popen(
-            ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", f"{size}x24", "-nolisten", "tcp"],
-            pass_fds=(write_fd,),
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
-        os.close(write_fd)
-        # The pipe stays open while the server runs: Xvfb writes to it again when it resets
-        # (its last client gone) and would die of SIGPIPE on a closed pipe.
-        self._procs.append((proc, read_fd))
-        # Xvfb writes the display number it chose once it accepts connections.
-        ready, _, _ = select.select([read_fd], [], [], 30)
-        number = os.read(read_fd, 64).decode().strip() if ready else ""
-        if not number:
-            pytest.fail(f"Xvfb ({size}) did not report a display within 30 s")
-        self._displays[size] = f":{number}"
-        return self._displays[size]
+        try:
+            server = start_xvfb(size)
+        except XvfbError as exc:
+            pytest.fail(str(exc))
+        self._servers.append(server)
+        self._displays[size] = server.display
+        return server.display
 
     def close(self) -> None:
-        for proc, read_fd in self._procs:
-            proc.terminate()
-            proc.wait(10)
-            os.close(read_fd)
+        for server in self._servers:
+            server.stop()
 
 
 @pytest.fixture(scope="session")
