@@ -3,13 +3,13 @@ stops, both cameras, the console offscreen) ``RUNS`` times in a row, each with a
 spinning on one core beside it (a process pinned to CPU 0 that never sleeps: what another
 program on the field laptop would take).
 
-Per run, from the demo's own result (``--json``): frames each camera received and dropped (by
-the camera or at the console's frame ring), and the frames of every stop's row (the paper's 100
-consecutive frames). Targets: 0 frames dropped and 100 frames at every stop, in every run.
-``dropped_by_camera`` are frames the simulated camera itself lost: its process (a stand-in for
-the camera's hardware, which has a core of its own) fell more than 250 ms behind its clock,
-which happens when other processes take the cores; ``load_at_start`` says how busy the machine
-was.
+Per run, from the demo's own result (``--json``, its frame accounting): frames each camera
+received and dropped (by the camera, ``camera_gap``, or at the console, by reason), and the
+frames of every stop's row (the paper's 100 consecutive frames). Targets: 0 frames dropped
+and 100 frames at every stop, in every run. ``camera_gap`` are frames the simulated camera
+itself lost: its process (a stand-in for the camera's hardware, which has a core of its own)
+fell more than 250 ms behind its clock, which happens when other processes take the cores;
+``load_at_start`` says how busy the machine was.
 
 A run takes the flight's length (about 100 s) plus the post-flight report; ``--duration`` does not
 change it (the flight is the demo's).
@@ -94,9 +94,12 @@ def run(duration_s: float) -> dict:
                     # the busy loop's start included)
                     "load_at_start": None if load is None else round(load, 2),
                     "received": {c: f["received"] for c, f in frames.items()},
-                    "dropped": {c: f["dropped"] for c, f in frames.items()},
-                    "dropped_by_camera": {c: f["dropped_by_camera"] for c, f in frames.items()},
-                    "dropped_by_ring": {c: f["dropped_by_ring"] for c, f in frames.items()},
+                    # the frame accounting's: lost by reason, and what the camera never sent
+                    "dropped": {
+                        c: sum(f["dropped"].values()) + f["camera_gap"] for c, f in frames.items()
+                    },
+                    "dropped_by_reason": {c: f["dropped"] for c, f in frames.items()},
+                    "camera_gap": {c: f["camera_gap"] for c, f in frames.items()},
                     "stops": len(stops),
                     "stops_short": sum(1 for s in stops if s["n_frames"] < FRAMES_PER_STOP),
                     "min_frames_per_stop": min((s["n_frames"] for s in stops), default=None),

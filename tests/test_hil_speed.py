@@ -79,12 +79,9 @@ def test_speed_max_on_a_busy_machine_keeps_and_accounts_for_every_frame(
     assert stop["planned_range_m"] == 393.0 and stop["n_frames"] == 100
     assert stop["measured_snr_mean"] == pytest.approx(stop["truth_snr"], rel=0.10)
     assert result["speed"]["asked"] == "max" and 0 < result["speed"]["achieved"] <= 8.0
-    live = result["frames"]["lwir"]
-    assert live["dropped"] == 0 and live["dropped_by_camera"] == 0
     # Every frame received is in the file or was received before the recording began.
-    acc = live["recording"]
+    acc = result["frames"]["lwir"]
     assert acc == result["recording"]["accounting"]["lwir"]
-    assert acc["received"] == live["received"]
     assert set(acc["dropped"].values()) <= {0} and acc["camera_gap"] == 0
     assert acc["received"] == acc["written"] + acc["before_recording"]
     assert acc["after_recording"] == acc["queued"] == 0
@@ -101,9 +98,9 @@ def test_speed_max_on_a_busy_machine_keeps_and_accounts_for_every_frame(
     assert main(["replay", str(path), "--fast", "--json"]) == 0
     replay = strict_json(capsys.readouterr().out)
     frames = replay["frames"]["lwir"]
-    assert frames["dropped"] == 0 and frames["in_file"] == acc["written"]
+    assert frames["in_file"] == acc["written"]
     assert frames["identical"] == frames["compared"] > 0
-    assert frames["accounting"] == acc and frames["received_live"] == live["received"]
+    assert {k: frames[k] for k in acc} == acc  # the file's accounting, by the same names
     assert replay["stops_identical"] == replay["stops_recorded"] == 1
     (again,) = replay["stops"]
     assert again["measured_snr_mean"] == stop["measured_snr_mean"]
@@ -141,7 +138,6 @@ def test_a_speed_the_console_cannot_hold_slows_the_day_and_says_so(tmp_path, cap
     with open_session(out) as f:
         (event,) = [e for e in f.event_list() if e["kind"] == "hil_speed"]
         assert event["payload"]["asked"] == 8.0
-    live = result["frames"]["lwir"]
-    assert live["dropped"] == 0
-    acc = live["recording"]
+    acc = result["frames"]["lwir"]
+    assert not any(acc["dropped"].values())
     assert acc["received"] == acc["written"] + acc["before_recording"]

@@ -66,17 +66,17 @@ class FrameAccounting:
         return sum(self.dropped.values()) + (self.wrong_shape or 0) + self.camera_gap
 
     def as_record(self) -> dict[str, Any]:
-        """As the recording's ``summary_json`` keeps it (JSON-able)."""
-        return {
-            "received": self.received,
-            "written": self.written,
-            "dropped": dict(self.dropped),
-            "before_recording": self.before_recording,
-            "after_recording": self.after_recording,
-            "queued": self.queued,
-            "wrong_shape": self.wrong_shape,
-            "camera_gap": self.camera_gap,
-        }
+        """As the recording's ``summary_json`` keeps it and every JSON shows it (JSON-able;
+        the keys are :data:`ACCOUNTING_FIELDS`)."""
+        record = dataclasses.asdict(self)
+        record["dropped"] = dict(self.dropped)
+        return record
+
+    @staticmethod
+    def not_kept(written: int, dropped: Mapping[str, int]) -> dict[str, Any]:
+        """The record of a file written before the accounting was kept: its frames and the
+        recorder's drops; every count nobody kept null."""
+        return {**dict.fromkeys(ACCOUNTING_FIELDS), "written": written, "dropped": dict(dropped)}
 
     @classmethod
     def from_record(cls, record: Mapping[str, Any]) -> FrameAccounting:
@@ -92,6 +92,10 @@ class FrameAccounting:
             wrong_shape=None if wrong is None else int(wrong),
             camera_gap=int(record.get("camera_gap", 0)),
         )
+
+
+ACCOUNTING_FIELDS = tuple(f.name for f in dataclasses.fields(FrameAccounting))
+"""The frame accounting's names, in every JSON that holds one (live, in the file, in replay)."""
 
 
 @dataclass(frozen=True, slots=True)

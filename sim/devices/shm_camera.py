@@ -386,7 +386,14 @@ class ShmProducer:
         self._paused.clear()
 
     def stop(self, timeout_s: float = 10.0) -> None:
-        """Clean shutdown: the ring is marked closed and unlinked."""
+        """Clean shutdown: the ring is marked closed and unlinked. A producer already dead
+        (killed from outside: the OOM killer, a test) is only reaped: killed inside
+        ``Event.wait`` it left that event's sleeper count for good, and setting the event would
+        wait for a sleeper that never wakes."""
+        if self._proc is not None and not self._proc.is_alive():  # is_alive reaps a zombie
+            self._proc = None
+            self._new_sync()
+            return
         self._stop.set()
         if self._proc is not None:
             self._proc.join(timeout_s)

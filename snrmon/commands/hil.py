@@ -252,14 +252,11 @@ def run(args: argparse.Namespace) -> int:
         return _failed(rig)
     print(format_result(result))
     if rig.recording is not None:
-        r = rig.recording
-        for cam, written in r["frames_written"].items():
-            acc = (r.get("accounting") or {}).get(cam, {})
-            dropped = {k: v for k, v in acc.get("dropped", r["dropped"].get(cam, {})).items() if v}
-            lost = ", ".join(f"{k} {v}" for k, v in dropped.items()) or "none"
+        for cam, acc in result["frames"].items():
+            lost = ", ".join(f"{k} {v}" for k, v in acc["dropped"].items() if v) or "none"
             print(
-                f"recording {cam}: {acc.get('received', '?')} frames received: {written} written, "
-                f"dropped {lost}, {acc.get('before_recording', 0)} before the recording"
+                f"recording {cam}: {acc['received']} frames received: {acc['written']} written, "
+                f"dropped {lost}, {acc['before_recording']} before the recording"
             )
     return _failed(rig)
 

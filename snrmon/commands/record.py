@@ -1,6 +1,7 @@
 """``snrmon record``: a headless recording of the devices in a session config.
 
 With ``--json`` the result is one object on stdout: ``{"file", "frames_written": {camera: n},
+"frames": {camera: the frame accounting},
 "error" (why the recording stopped early, or null), "devices_lost" (each device lost with its
 times), "free_bytes" (the disk's after)}``; a lost device or an early stop still ends with
 exit 1 and its one error line.
@@ -102,6 +103,8 @@ def run(args: argparse.Namespace) -> int:
             {
                 "file": str(out),
                 "frames_written": dict(summary.frames_written),
+                # the frame accounting by camera, as the file keeps it (FrameAccounting)
+                "frames": summary.extra.get("accounting", {}),
                 "error": summary.error or None,
                 "devices_lost": [x.as_dict() for x in session.devices_lost()],
                 "free_bytes": free,

@@ -79,8 +79,9 @@ def _finite(v):
 
 def result_json(result) -> dict:
     """The replay as one strict-JSON object: the stop table, per camera the file's own frame
-    accounting (frames in the file, dropped by the recorder with the reasons, frames measured
-    again, frames taken from their recorded measurement), the comparison with the recording."""
+    accounting (:data:`~snrmon.acquisition.engine.status.ACCOUNTING_FIELDS`) and beside it what
+    the replay did (frames in the file, measured again, taken from their recorded measurement,
+    rows from before the recording's first frame), the comparison with the recording."""
     stops = [
         {
             "camera": r.camera,
@@ -101,24 +102,30 @@ def result_json(result) -> dict:
         }
         for r in result.stops
     ]
+    from snrmon.acquisition.engine.status import FrameAccounting
+
     frames = {}
     for n, c in result.cameras.items():
         t = c.tally
+        # The live frame accounting the file keeps, by its names (FrameAccounting: received =
+        # written + sum(dropped) + before_recording + after_recording + queued + wrong_shape);
+        # a file without it: its frames and the recorder's drops, the rest null. Beside it,
+        # what the replay did, by names of its own.
+        kept = (
+            FrameAccounting.not_kept(c.n_frames, c.dropped)
+            if c.accounting is None
+            else c.accounting.as_record()
+        )
         frames[n] = {
+            **kept,
             "in_file": c.n_frames,
-            "dropped": sum(c.dropped.values()),
-            "dropped_reasons": c.dropped,
             "measured": t.measured,
             "from_recorded_rows": t.not_in_file,
-            "before_recording": t.before_recording,
+            "rows_before_recording": t.before_recording,
             "compared": t.compared,
             "identical": t.identical,
             "first_difference_counter": t.first_difference,
             "states_restored": t.states_restored,
-            # The live accounting the file keeps: received = written + dropped (by reason) +
-            # before_recording (+ after_recording + queued); null for a file without it.
-            "received_live": None if c.accounting is None else c.accounting.received,
-            "accounting": None if c.accounting is None else c.accounting.as_record(),
         }
     return {
         "format_version": result.format_version,
@@ -155,7 +162,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         return emit_json(out)
     for n, c in out["frames"].items():
-        dropped = ", ".join(f"{k} {v}" for k, v in c["dropped_reasons"].items()) or "none"
+        dropped = ", ".join(f"{k} {v}" for k, v in c["dropped"].items() if v) or "none"
         print(
             f"{n}: {c['in_file']} frames in the file (dropped while recording: {dropped}); "
             f"{c['identical']}/{c['compared']} per-frame SNRs identical to the recorded ones"

@@ -19,17 +19,15 @@ import math
 import os
 import tempfile
 import time
-from collections import defaultdict, deque
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from snrmon.acquisition.config import session_config_from_dict
-from snrmon.acquisition.runtime.camera_pipeline import CAMERA_GAP
 from snrmon.acquisition.runtime.session import Session
 from snrmon.acquisition.stops.detector import StopConfig
-from snrmon.acquisition.streams.ring import RING_OVERRUN
 from snrmon.acquisition.track.config import TrackState
 from snrmon.drivers.lifetime import die_with_parent
 from snrmon.model.constants import ZERO_C_K
@@ -719,19 +717,13 @@ class HilRig:
         psf = self.measured_psf(entries)  # the PSF from the flight's own frames
         self._record_psf(psf)
         stops = [{k: v for k, v in e.items() if k != "_crops"} for e in entries.values()]
-        frames = defaultdict(dict)
-        accounting = (self.recording or {}).get("accounting") or {}
-        for name, pipe in self.session.pipelines.items():
-            drops = pipe.drops()  # since the start, by reason
-            frames[name] = {
-                "received": pipe.accounting().received,
-                "dropped": drops[CAMERA_GAP] + drops[RING_OVERRUN],
-                "dropped_by_camera": drops[CAMERA_GAP],
-                "dropped_by_ring": drops[RING_OVERRUN],
-                # With a recording: every frame received in the file, dropped with a reason, or
-                # received before it began (received = written + dropped + before_recording).
-                **({"recording": accounting[name]} if name in accounting else {}),
-            }
+        # The frame accounting (FrameAccounting, by its names): the recording's, as its file
+        # keeps it, or without one the session's (nothing written).
+        recorded = (self.recording or {}).get("accounting") or {}
+        frames = {
+            name: recorded.get(name) or pipe.accounting().as_record()
+            for name, pipe in self.session.pipelines.items()
+        }
         clicks = {c: sum(1 for k in self._clicked if k[0] == c) for c in self.cameras}
         return {
             "seed": self.opts.seed,

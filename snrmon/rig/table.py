@@ -78,7 +78,8 @@ def format_result(result: dict) -> str:
     """The per-stop table of a HIL run: measured 100-frame SNR beside truth and model."""
     lines = [TABLE_HEADER, *(format_row(s) for s in result["stops"]), TABLE_FOOTNOTE]
     lines += [
-        f"{cam}: {f['received']} frames received, {f['dropped']} dropped"
+        f"{cam}: {f['received']} frames received, {sum(f['dropped'].values())} dropped"
+        + (f", {f['camera_gap']} never delivered by the camera" if f["camera_gap"] else "")
         for cam, f in result["frames"].items()
     ]
     return "\n".join(lines)
