@@ -62,14 +62,20 @@ def test_table_explains_the_marks_and_counts_drops():
     text = format_result(
         {
             "stops": [_stop(resolved=True, measured_snr_mean_raw=None, model_snr={"small": 9.0})],
-            "frames": {"mwir": {"received": 600, "dropped": 0}},
+            "frames": {
+                "mwir": {"received": 600, "dropped": {"ring_overrun": 0}, "camera_gap": 0},
+                "lwir": {"received": 300, "dropped": {"ring_overrun": 2}, "camera_gap": 5},
+            },
         }
     )
     lines = text.splitlines()
     assert lines[0] == TABLE_HEADER
     assert lines[1].endswith("resolved")
     assert "'extent_rim': outside the segmented drone" in text
-    assert lines[-1] == "mwir: 600 frames received, 0 dropped"
+    assert lines[-2:] == [
+        "mwir: 600 frames received, 0 dropped",
+        "lwir: 300 frames received, 2 dropped, 5 never delivered by the camera",
+    ]
     assert lines[1].split()[7] == "-"  # no raw (uncorrected) SNR without --fpn: not "nan"
     assert lines[1].split()[11:13] == ["-", "-"]  # no expected Eq. (4) in this row's model
     assert "nan" not in text
