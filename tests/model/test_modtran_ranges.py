@@ -26,10 +26,11 @@ RANGES_M = (10.0, 200.0, 500.0, 1500.0)
 WINDOWS = {MW: (1665.0, 3335.0), LW: (800.0, 1335.0)}
 # The air of the runs: US Standard 1976 sea level, RH 46 %, no aerosol (LOWTRAN7 IHAZE 0)
 AIR = Weather(aerosol="none")
-# The stated error of a move (docs/model.md): with the spectrum's own air, 0.2 % of the band
-# transmission to 300 x its path; with the air 10 K and 34 % RH off (25 C, 80 %), up to 2 %
-# (LWIR; MWIR 0.4 %) within 10 x and 5.2 % (LWIR) beyond; a shorter path, 0.5 %.
-OWN_AIR = 0.002
+# The stated error of a move (docs/model.md): with the spectrum's own air, 0.1 % of the band
+# transmission to 300 x its path (measured 0.088 % MWIR, 0.012 % LWIR); with the air 10 K and
+# 34 % RH off (25 C, 80 %), up to 2 % (LWIR; MWIR 0.4 %) within 10 x and 5.2 % (LWIR) beyond;
+# a shorter path, 0.5 %.
+OWN_AIR = 0.001
 OTHER_AIR = {MW: (0.005, 0.01), LW: (0.02, 0.055)}  # (within 10 x, beyond)
 
 
@@ -62,8 +63,7 @@ def runs(lowtran, tmp_path_factory):  # noqa: F811 (the fixture imported above)
 def moved_band(runs, band, from_m: float, to_m: float, air) -> float:
     nu, _, file = runs[band, from_m]
     sp = read_tape7(file, from_m)
-    if air is not None:
-        sp = SpectralPath(sp.wavelength_um, sp.transmission, from_m, growth=air)
+    sp = SpectralPath(sp.wavelength_um, sp.transmission, from_m, growth=air)
     tau = sp.transmission_at_ranges([to_m])[0]
     return band_mean(nu, tau[::-1], band)  # the file's samples in wavenumber order
 
@@ -71,7 +71,8 @@ def moved_band(runs, band, from_m: float, to_m: float, air) -> float:
 @pytest.mark.slow
 @pytest.mark.parametrize("band", [MW, LW])
 def test_moving_a_spectrum_between_ranges_stays_within_its_stated_error(runs, band):
-    humid = Weather(air_temp_c=25.0, rh_percent=80.0)
+    # the air 10 K and 34 % RH off, of no aerosol as the runs' (the default air has a haze)
+    humid = Weather(air_temp_c=25.0, rh_percent=80.0, aerosol="none")
     worst_beer = 0.0
     for a in RANGES_M:
         for b in RANGES_M:
@@ -79,7 +80,7 @@ def test_moving_a_spectrum_between_ranges_stays_within_its_stated_error(runs, ba
                 continue
             nu, tau_b, _ = runs[band, b]
             truth = band_mean(nu, tau_b, band)
-            own = moved_band(runs, band, a, b, None) / truth - 1.0
+            own = moved_band(runs, band, a, b, AIR) / truth - 1.0
             assert abs(own) < OWN_AIR, (a, b, own)
             other = moved_band(runs, band, a, b, humid) / truth - 1.0
             limit = 0.005 if b < a else OTHER_AIR[band][0 if b / a <= 10 else 1]
