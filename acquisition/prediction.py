@@ -304,6 +304,9 @@ class ModelPredictor:
             raise
 
         def done(job: Future) -> None:  # on the worker pool's thread
+            if job.cancelled():  # dropped at exit: nobody will read it
+                self._finished(camera)
+                return
             try:
                 curves, used_k = job.result()
             except Exception:  # a failed recomputation keeps the curves in force

@@ -34,6 +34,7 @@ NICE = 10
 
 _lock = threading.Lock()
 _pool: ProcessPoolExecutor | None = None
+_closing = threading.Event()  # set at exit: no new job is begun
 
 
 def _lower_priority(parent_pid: int) -> None:
@@ -69,8 +70,16 @@ def start() -> None:
 
 
 def submit(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
-    """``fn(*args, **kwargs)`` in the worker process."""
+    """``fn(*args, **kwargs)`` in the worker process. At exit (once the pool is closing) the job
+    is not begun: its future comes back cancelled, as the jobs the closing pool drops, so that a
+    callback of a job that finished during the exit (a PSF fit adopting its estimate, which asks
+    for a recomputation) ends quietly instead of failing on a pool that takes no more work.
+    Callbacks check ``job.cancelled()``."""
     global _pool
+    if _closing.is_set():
+        dropped: Future = Future()
+        dropped.cancel()
+        return dropped
     pool = _executor()
     try:
         return pool.submit(fn, *args, **kwargs)
@@ -84,6 +93,7 @@ def submit(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
 @atexit.register
 def _shutdown() -> None:
     """At exit, jobs not begun are dropped (a recomputation nobody will read)."""
+    _closing.set()
     with _lock:
         pool = _pool
     if pool is not None:

@@ -160,6 +160,8 @@ class FlightPsf:
         n = len(stops)
 
         def done(job: Future) -> None:  # on the worker pool's thread
+            if job.cancelled():  # dropped at exit: nobody will read it
+                return
             try:
                 est = job.result()
             except PsfEstimateError as exc:
