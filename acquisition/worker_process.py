@@ -70,16 +70,15 @@ def start() -> None:
 
 
 def submit(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
-    """``fn(*args, **kwargs)`` in the worker process. At exit (once the pool is closing) the job
-    is not begun: its future comes back cancelled, as the jobs the closing pool drops, so that a
-    callback of a job that finished during the exit (a PSF fit adopting its estimate, which asks
-    for a recomputation) ends quietly instead of failing on a pool that takes no more work.
-    Callbacks check ``job.cancelled()``."""
+    """``fn(*args, **kwargs)`` in the worker process. Once the pool is closing (the exit: the
+    interpreter's own hook closes it before :mod:`atexit` runs) the job is not begun: its future
+    comes back cancelled, as the jobs the closing pool drops, so that a callback of a job that
+    finished during the exit (a PSF fit adopting its estimate, which asks for a recomputation)
+    ends quietly instead of failing on a pool that takes no more work. Callbacks check
+    ``job.cancelled()``."""
     global _pool
     if _closing.is_set():
-        dropped: Future = Future()
-        dropped.cancel()
-        return dropped
+        return _dropped()
     pool = _executor()
     try:
         return pool.submit(fn, *args, **kwargs)
@@ -88,6 +87,15 @@ def submit(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
             if _pool is pool:
                 _pool = None
         return _executor().submit(fn, *args, **kwargs)
+    except RuntimeError:  # "cannot schedule new futures after (interpreter) shutdown"
+        _closing.set()
+        return _dropped()
+
+
+def _dropped() -> Future:
+    job: Future = Future()
+    job.cancel()
+    return job
 
 
 @atexit.register
