@@ -4,7 +4,9 @@ Threads (one producer, a bounded ring, consumers that never block it; docs/archi
 
 - the camera device's own reader thread copies each frame into a preallocated
   :class:`snrmon.acquisition.streams.ring.FrameRing` and returns at once (the producer never waits);
-- this pipeline's measurement thread pops EVERY frame from its ring reader in order and hands it,
+- this pipeline's measurement thread
+  (:class:`~snrmon.acquisition.runtime.measurement_thread.MeasurementThread`) pops EVERY frame
+  from its ring reader in order and hands it,
   as the ring gave it, to the session's engine
   (:meth:`snrmon.acquisition.engine.session_engine.SessionEngine.on_frame`: the same per-frame
   engine a replay runs), which returns the frame's

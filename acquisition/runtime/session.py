@@ -9,6 +9,11 @@ everything raw, plus what the engine decided that a replay must apply again (sto
 rows, the model background following the sky). Commands: start/stop, set the ROI per camera,
 start/stop recording, mark a stop, add a note. Reading: status snapshots and the latest frame per
 camera.
+
+Its parts, one job each: the pipelines and the engine, the GPS and rangefinder
+(:class:`~snrmon.acquisition.runtime.range_devices.RangeDevices`), every device's health
+(:class:`~snrmon.acquisition.runtime.device_watch.DeviceWatch`) and the recording in progress
+(:class:`~snrmon.acquisition.runtime.current_recording.CurrentRecording`).
 """
 
 from __future__ import annotations
