@@ -103,11 +103,11 @@ def run(duration_s: float) -> dict:
                 - d[CAMERA_GAP]
                 - d[RING_OVERRUN]
                 - d[WRONG_SHAPE],
-                "latency_ms_p50": st.latency_ms_p50,
-                "latency_ms_p99": st.latency_ms_p99,
+                "latency_ms_p50": st.latency.p50_ms,
+                "latency_ms_p99": st.latency.p99_ms,
             }
-            p50.append(st.latency_ms_p50)
-            p99.append(st.latency_ms_p99)
+            p50.append(st.latency.p50_ms)
+            p99.append(st.latency.p99_ms)
         acquisition.update(
             stages=stages,
             latency_ms_p50=max(p50),

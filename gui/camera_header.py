@@ -10,7 +10,7 @@ expected, filled green inside the band, amber near it, red outside; the stop's p
 
 Every number is a field of the session's status
 (:class:`snrmon.acquisition.engine.status.CameraStatus`: ``last``, ``snr_sem``, ``agreement``,
-``stop``, ``model_psf_source``; :class:`~snrmon.acquisition.engine.status.SessionStatus` for the
+``stop``, ``model.psf_source``; :class:`~snrmon.acquisition.engine.status.SessionStatus` for the
 rangefinder and GPS); the header only formats them.
 """
 
@@ -144,7 +144,7 @@ def header_fields(name: str, cs: CameraStatus, st: SessionStatus | None) -> dict
         snr, note = "--", "no frames measured"
     fields["snr"] = ("SNR(100) ± error", snr, note, "")
     a = cs.agreement
-    psf = psf_label(cs.model_psf_source)  # which PSF the expected reading was computed with
+    psf = psf_label(cs.model.psf_source)  # which PSF the expected reading was computed with
     if a is not None:
         note = rule_words(a.rule) + (f", {psf}" if psf else "")
         fields["expected"] = ("expected Eq. (4)", f"{a.expected:.1f}", note, "")
@@ -156,7 +156,7 @@ def header_fields(name: str, cs: CameraStatus, st: SessionStatus | None) -> dict
             a.verdict if last is None else "",  # a dead camera's agreement is not lit as live
         )
     else:
-        why = "no model" if not cs.model else "no measurement"
+        why = "no model" if not cs.model.curves else "no measurement"
         fields["expected"] = ("expected Eq. (4)", "--", why + (f", {psf}" if psf else ""), "")
         fields["ratio"] = ("measured / expected", "--", why, "")
     p = cs.stop
@@ -289,7 +289,7 @@ class CameraHeader(QFrame):
         self.fields = header_fields(self.name, cs, st)
         for key, (caption, value, note, verdict) in self.fields.items():
             self.tiles[key].set_texts(caption, value, note, verdict)
-        psf = f"\nThe model's PSF: {cs.model_psf_source}" if cs.model_psf_source else ""
+        psf = f"\nThe model's PSF: {cs.model.psf_source}" if cs.model.psf_source else ""
         tip = TIPS["expected"] + psf  # the PSF in full where the note names it short
         if self.tiles["expected"].toolTip() != tip:
             self.tiles["expected"].setToolTip(tip)

@@ -60,7 +60,12 @@ from snrmon.acquisition.engine.inputs import (
     StartReference,
 )
 from snrmon.acquisition.engine.lazy_frame import LazyFrame, plain
-from snrmon.acquisition.engine.status import AnalysisFigures, CameraStatus, FrameAccounting
+from snrmon.acquisition.engine.status import (
+    AnalysisFigures,
+    CameraStatus,
+    FrameAccounting,
+    ModelAtRange,
+)
 from snrmon.acquisition.measure.model_agreement import model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.acquisition.measure.track_noise import TrackNoise
@@ -392,11 +397,9 @@ class CameraEngine:
             gps_xy=gps_xy,
             track_state=state,
             last=last,
-            model=model,
+            model=ModelAtRange(model, psf_source, agreement),
             figures=self.figures(),
             snr_sem=sem,
-            agreement=agreement,
-            model_psf_source=psf_source,
             stop=self.stop_progress() if self.stop_progress is not None else None,
         )
 

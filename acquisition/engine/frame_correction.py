@@ -27,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from snrmon.acquisition.calibrate.kernels import any_set, correct_box, lazy_correct
-from snrmon.acquisition.engine.lazy_frame import LazyFrame, PixelMaker, Region, plain
+from snrmon.acquisition.engine.background_reference import BackgroundReference
+from snrmon.acquisition.engine.lazy_frame import LazyFrame, PixelMaker, Region
 from snrmon.acquisition.stage_clock import CORRECTION, enter
 
 TILE_PX = 8  # a read corrects the 8 px tiles it falls in (within the square)
@@ -35,14 +36,97 @@ AROUND_PX = 10  # corrected around the centre before the first read (FrameCorrec
 _NONE = np.zeros((1, 1), np.float32)  # an absent map, for the compiled correction
 
 
-def _float32_maps(cal, corrector: FrameCorrector) -> bool:
+def _float32_maps(cal, shape: tuple[int, int]) -> bool:
     """The calibration's maps are float32 of the frame's shape (what the compiled correction
     computes with; any other is NumPy's to promote)."""
     return (
-        cal.shape == corrector.shape
+        cal.shape == shape
         and cal.offset_dn.dtype == np.float32
         and cal.safe_responsivity.dtype == np.float32
     )
+
+
+class CompiledMaps:
+    """The maps :func:`snrmon.acquisition.calibrate.kernels.lazy_correct` corrects with into
+    ``buffer``, or None where NumPy must (maps of another type or shape: NumPy's promotions);
+    the same tuple for as long as the calibration, the reference and the frames' shape are."""
+
+    def __init__(self, shape: tuple[int, int], buffer: np.ndarray) -> None:
+        self.shape = shape
+        self.buffer = buffer
+        self._cached: tuple | None = None  # (calibration, reference, shape, their maps)
+
+    def of(self, pixels: np.ndarray, cal, ref: np.ndarray | None) -> tuple | None:
+        cached = self._cached
+        if (
+            cached is not None
+            and cached[0] is cal
+            and cached[1] is ref
+            and cached[2] == pixels.shape
+        ):
+            return cached[3]
+        fast = self._maps(pixels, cal, ref)
+        self._cached = (cal, ref, pixels.shape, fast)
+        return fast
+
+    def _maps(self, pixels: np.ndarray, cal, ref: np.ndarray | None) -> tuple | None:
+        if pixels.shape != self.shape or not (cal is None or _float32_maps(cal, self.shape)):
+            return None
+        if cal is None:
+            return (
+                _NONE,
+                _NONE,
+                _NONE if ref is None else ref,
+                _NONE,
+                0.0,
+                0.0,
+                False,
+                ref is not None,
+                self.buffer,
+            )
+        return (
+            cal.offset_dn,
+            cal.safe_responsivity,
+            _NONE if ref is None else ref,
+            cal.bad,
+            cal.mean_offset_dn,
+            cal.mean_responsivity,
+            True,
+            ref is not None,
+            self.buffer,
+        )
+
+
+class CorrectedRegions:
+    """What this frame has corrected so far, within the square :meth:`FrameCorrector.apply`
+    corrects: the boxes as Python tuples, and the same for the compiled path as arrays
+    (``state``: square y0, y1, x0, x1, tile, boxes; ``boxes``)."""
+
+    def __init__(self) -> None:
+        self.square: Region = (0, 0, 0, 0)
+        self.done: list[Region] = []  # regions corrected this frame
+        self.covered: list[Region] = []  # ... by the compiled path, as Python tuples
+        self.state = np.zeros(6, np.int64)
+        self.boxes = np.zeros((64, 4), np.int64)
+
+    def new_frame(self, square: Region) -> None:
+        """A new frame of ``square``: nothing corrected yet."""
+        self.square = square
+        self.done = []
+        self.covered = []
+        self.state[:] = (*square, TILE_PX, 0)
+
+    def add_done(self, box: Region) -> None:
+        """``box`` is corrected this frame (for both paths of :meth:`FrameCorrector.ensure`)."""
+        self.done.append(box)
+        n = int(self.state[5])
+        if n < len(self.boxes):
+            self.boxes[n] = box
+            self.state[5] = n + 1
+
+    def last_compiled_box(self) -> Region:
+        """The box the compiled path added last (as a Python tuple)."""
+        return tuple(self.boxes[int(self.state[5]) - 1].tolist())
 
 
 class FrameCorrector:
@@ -52,26 +136,15 @@ class FrameCorrector:
         self.shape = (int(shape[0]), int(shape[1]))
         self.half_px = int(half_px)
         self.lazy = lazy
-        self.calibration = None
-        self.reference_offset: np.ndarray | None = None
-        self.reference_frames = 0
-        self.fixed_pattern_dn = float("nan")  # spatial std of the reference offsets
-        self.reference_summary: dict | None = None  # the summary of the reference in force
+        self._calibration = None
+        self.reference = BackgroundReference(self.shape)
         self._buffer = np.zeros(self.shape, np.float32)
         self._lazy_frame = LazyFrame.of(self._buffer, self)
+        self._maps = CompiledMaps(self.shape, self._buffer)
         self._pixels: np.ndarray | None = None  # the frame being read (lazy)
         self._raw: PixelMaker | None = None  # its owner, when the raw frame is read lazily too
-        self._square: Region = (0, 0, 0, 0)  # what apply() corrects this frame
-        self._done: list[Region] = []  # regions corrected this frame
-        self._covered: list[Region] = []  # ... by the compiled path, as Python tuples
-        # The same for the compiled path: (square y0, y1, x0, x1, tile, boxes), the boxes.
-        self._state = np.zeros(6, np.int64)
-        self._boxes = np.zeros((64, 4), np.int64)
-        self._fast: tuple | None = None
-        self._fast_for: tuple | None = None  # (calibration, reference, shape, their maps)
-        self._sum: np.ndarray | None = None
-        self._wanted = 0
-        self._counters: list[int] = []
+        self._fast: tuple | None = None  # this frame's compiled maps (None: NumPy's path)
+        self.regions = CorrectedRegions()
 
     @property
     def calibration(self):
@@ -87,51 +160,43 @@ class FrameCorrector:
             _ = calibration.safe_responsivity, calibration.mean_offset_dn
 
     @property
+    def reference_offset(self) -> np.ndarray | None:
+        """The background reference's offset image subtracted (None: no reference)."""
+        return self.reference.offset
+
+    @property
+    def reference_frames(self) -> int:
+        return self.reference.frames
+
+    @property
+    def fixed_pattern_dn(self) -> float:
+        """The spatial std of the reference offsets (NaN: no reference)."""
+        return self.reference.fixed_pattern_dn
+
+    @property
+    def reference_summary(self) -> dict | None:
+        """The summary of the reference in force."""
+        return self.reference.summary
+
+    @property
     def active(self) -> bool:
-        return self.calibration is not None or self.reference_offset is not None
+        return self.calibration is not None or self.reference.offset is not None
 
     @property
     def capturing(self) -> bool:
-        return self._sum is not None
+        return self.reference.capturing
 
     def start_reference(self, n_frames: int) -> None:
         """Average the next ``n_frames`` frames into a new background reference."""
-        if int(n_frames) < 2:
-            raise ValueError(f"a background reference needs at least 2 frames, got {n_frames}")
-        self._sum = np.zeros(self.shape, np.float64)
-        self._wanted = int(n_frames)
-        self._counters = []
+        self.reference.start(n_frames)
 
     def clear_reference(self) -> None:
-        self.reference_offset = None
-        self.reference_frames = 0
-        self.fixed_pattern_dn = float("nan")
-        self.reference_summary = None
-        self._sum = None
+        self.reference.clear()
 
     def feed(self, pixels: np.ndarray, counter: int) -> dict | None:
         """Offer a frame to a capture in progress; returns the capture's summary when it ends
         (first/last counter, frames, the reference's spatial std = fixed-pattern noise, DN)."""
-        if self._sum is None:
-            return None
-        pixels = plain(pixels)  # a reference is of every pixel
-        frame = self.calibration.correct(pixels) if self.calibration is not None else pixels
-        self._sum += frame
-        self._counters.append(int(counter))
-        if len(self._counters) < self._wanted:
-            return None
-        mean = self._sum / len(self._counters)
-        self.reference_offset = (mean - mean.mean()).astype(np.float32)
-        self.reference_frames = len(self._counters)
-        self.fixed_pattern_dn = float(self.reference_offset.std())
-        self._sum = None
-        self.reference_summary = {
-            "n_frames": self.reference_frames,
-            "first_counter": self._counters[0],
-            "last_counter": self._counters[-1],
-            "spatial_std_dn": self.fixed_pattern_dn,
-        }
-        return dict(self.reference_summary)
+        return self.reference.feed(pixels, counter, self.calibration)
 
     def set_reference(self, frames: np.ndarray, counters) -> dict:
         """A reference from recorded frames (replay of a format 1 ``background_reference``
@@ -147,14 +212,7 @@ class FrameCorrector:
     def set_reference_offset(self, offset: np.ndarray, summary: dict) -> None:
         """A reference captured before (the recorded offset image and its summary): applied
         exactly as it was live, whatever frames the recording kept."""
-        offset = np.asarray(offset, np.float32)
-        if offset.shape != self.shape:
-            raise ValueError(f"reference of shape {offset.shape}, frames are {self.shape}")
-        self.reference_offset = offset
-        self.reference_frames = int(summary["n_frames"])
-        self.fixed_pattern_dn = float(summary["spatial_std_dn"])
-        self.reference_summary = dict(summary)
-        self._sum = None
+        self.reference.set_offset(offset, summary)
 
     def apply(self, pixels: np.ndarray, roi: tuple[int, int] | None) -> np.ndarray:
         """The corrected frame in the window around ``roi`` (float32); the raw frame when
@@ -166,18 +224,17 @@ class FrameCorrector:
         h = self.half_px
         y0, y1 = max(y - h, 0), min(y + h + 1, self.shape[0])
         x0, x1 = max(x - h, 0), min(x + h + 1, self.shape[1])
-        self._square = (y0, y1, x0, x1)
+        square = (y0, y1, x0, x1)
         # A raw frame read as it is read (replay --fast's row strips): its rows are made before
         # each correction reads them (_correct, ensure), the kernels get the plain buffer.
         self._raw = pixels.owner if type(pixels) is LazyFrame else None
         pixels = pixels.view(np.ndarray) if self._raw is not None else pixels
         if not self.lazy:
-            self._correct(pixels, self._square, bad=self._has_bad(self._square))
+            self.regions.square = square
+            self._correct(pixels, square, bad=self._has_bad(square))
             return self._buffer
         self._pixels = pixels
-        self._done = []
-        self._covered = []
-        self._state[:] = (y0, y1, x0, x1, TILE_PX, 0)
+        self.regions.new_frame(square)
         self._fast = self._compiled(pixels)
         # The reads of a tracked unresolved drone (the brightest pixel near the prediction, the
         # object's analysis window, Eq. 4's rims) lie within AROUND_PX of the centre: one
@@ -187,48 +244,8 @@ class FrameCorrector:
         return self._lazy_frame
 
     def _compiled(self, pixels: np.ndarray) -> tuple | None:
-        """The maps :func:`snrmon.acquisition.calibrate.kernels.lazy_correct` corrects with, or None
-        where NumPy must (maps of another type or shape: NumPy's promotions); the same tuple
-        for as long as the calibration, the reference and the frames' shape are."""
-        cal, ref = self.calibration, self.reference_offset
-        cached = self._fast_for
-        if (
-            cached is not None
-            and cached[0] is cal
-            and cached[1] is ref
-            and cached[2] == pixels.shape
-        ):
-            return cached[3]
-        fast = self._maps(pixels, cal, ref)
-        self._fast_for = (cal, ref, pixels.shape, fast)
-        return fast
-
-    def _maps(self, pixels: np.ndarray, cal, ref) -> tuple | None:
-        if pixels.shape != self.shape or not (cal is None or _float32_maps(cal, self)):
-            return None
-        if cal is None:
-            return (
-                _NONE,
-                _NONE,
-                _NONE if ref is None else ref,
-                _NONE,
-                0.0,
-                0.0,
-                False,
-                ref is not None,
-                self._buffer,
-            )
-        return (
-            cal.offset_dn,
-            cal.safe_responsivity,
-            _NONE if ref is None else ref,
-            cal.bad,
-            cal.mean_offset_dn,
-            cal.mean_responsivity,
-            True,
-            ref is not None,
-            self._buffer,
-        )
+        """The maps the compiled correction uses for ``pixels`` (:class:`CompiledMaps`)."""
+        return self._maps.of(pixels, self.calibration, self.reference.offset)
 
     def ensure(self, region: Region | None) -> None:
         """Correct ``region`` of the frame given to :meth:`apply` (within its square; None: the
@@ -236,22 +253,23 @@ class FrameCorrector:
         fast, pixels = self._fast, self._pixels
         if fast is not None and region is not None and pixels is not None:
             y0, y1, x0, x1 = region
-            for b in self._covered:  # most reads fall in a box an earlier read corrected
+            regions = self.regions
+            for b in regions.covered:  # most reads fall in a box an earlier read corrected
                 if b[0] <= y0 and y1 <= b[1] and b[2] <= x0 and x1 <= b[3]:
                     return
             running = enter(CORRECTION)  # a read of the tracker or Eq. (4) corrects first
             if self._raw is not None:  # the rows of the tiles lazy_correct reads (its rounding)
-                sy0, sy1 = self._square[0], self._square[1]
+                sy0, sy1 = regions.square[0], regions.square[1]
                 t = TILE_PX
                 self._raw.ensure((max(y0 // t * t, sy0), min(-(-y1 // t) * t, sy1), x0, x1))
-            done = lazy_correct(pixels, y0, y1, x0, x1, self._state, self._boxes, *fast)
+            done = lazy_correct(pixels, y0, y1, x0, x1, regions.state, regions.boxes, *fast)
             if done == 2:
-                self._covered.append(tuple(self._boxes[int(self._state[5]) - 1].tolist()))
+                regions.covered.append(regions.last_compiled_box())
             elif done == 1:
                 # A bad pixel: its replacement depends on the whole square (NumPy).
-                self._correct(pixels, self._square)
-                self._done_box(self._square)
-                self._covered.append(self._square)
+                self._correct(pixels, regions.square)
+                regions.add_done(regions.square)
+                regions.covered.append(regions.square)
             enter(running)
             return
         running = enter(CORRECTION)
@@ -261,7 +279,8 @@ class FrameCorrector:
             enter(running)
 
     def _ensure(self, region: Region | None) -> None:
-        sy0, sy1, sx0, sx1 = self._square
+        regions = self.regions
+        sy0, sy1, sx0, sx1 = regions.square
         if region is None:
             y0, y1, x0, x1 = sy0, sy1, sx0, sx1
         else:
@@ -269,7 +288,7 @@ class FrameCorrector:
             x0, x1 = max(region[2], sx0), min(region[3], sx1)
             if y0 >= y1 or x0 >= x1:
                 return  # outside the square: never read (reach_px), left as it stands
-        for d in self._done:
+        for d in regions.done:
             if d[0] <= y0 and y1 <= d[1] and d[2] <= x0 and x1 <= d[3]:
                 return
         if self._pixels is None:
@@ -280,17 +299,9 @@ class FrameCorrector:
         box = (y0, y1, x0, x1)
         bad = self._has_bad(box)
         if bad:  # its replacement depends on the whole square: correct it all
-            box = self._square
+            box = regions.square
         self._correct(self._pixels, box, bad=bad)
-        self._done_box(box)
-
-    def _done_box(self, box: Region) -> None:
-        """``box`` is corrected this frame (for both paths of :meth:`ensure`)."""
-        self._done.append(box)
-        n = int(self._state[5])
-        if n < len(self._boxes):
-            self._boxes[n] = box
-            self._state[5] = n + 1
+        regions.add_done(box)
 
     def _has_bad(self, box: Region) -> bool:
         """True when the calibration marks a bad pixel in ``box`` (looked at directly: a box
@@ -318,6 +329,7 @@ class FrameCorrector:
             win = self.calibration.correct(pixels, (y0, y1, x0, x1))
         else:
             win = pixels[y0:y1, x0:x1].astype(np.float32)
-        if self.reference_offset is not None:
-            win = win - self.reference_offset[y0:y1, x0:x1]
+        ref = self.reference.offset
+        if ref is not None:
+            win = win - ref[y0:y1, x0:x1]
         self._buffer[y0:y1, x0:x1] = win

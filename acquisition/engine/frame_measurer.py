@@ -6,8 +6,6 @@ replay driven by the recorded ROI events reproduces the recorded per-frame SNR e
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from snrmon.acquisition.engine.inputs import Measurement, RunningFigures
@@ -153,8 +151,7 @@ class FrameMeasurer:
             range_m=range_m,
             range_source=range_source,
             cue_xy=cue_xy,
-            snr_mean_raw=raw.mean if raw is not None else math.nan,
-            snr_std_raw=raw.std if raw is not None else math.nan,
+            raw=raw,
             track_reason=reason,
         )
 

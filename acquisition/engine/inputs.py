@@ -139,8 +139,9 @@ class Measurement:
     range_m: float | None
     range_source: str
     cue_xy: tuple[float, float] | None = None
-    snr_mean_raw: float = float("nan")  # the same track on raw frames, while a correction is on
-    snr_std_raw: float = float("nan")
+    # the running statistics of the same track on the raw frames, while a correction is on
+    # (None: no correction, or a replay that does not track the raw frames)
+    raw: RunningFigures | None = None
     track_reason: str = ""  # why the tracker did not find the drone in this frame ("": it did)
 
 

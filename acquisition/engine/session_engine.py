@@ -24,7 +24,6 @@ from __future__ import annotations
 import functools
 import logging
 import threading
-from collections import deque
 from collections.abc import Callable, Mapping
 from typing import Protocol
 
@@ -32,11 +31,11 @@ import numpy as np
 
 from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.camera_engine import CameraEngine
-from snrmon.acquisition.engine.inputs import Cue, FrameOutput, Measurement
+from snrmon.acquisition.engine.fix_cues import FixCues
+from snrmon.acquisition.engine.inputs import FrameOutput, Measurement
 from snrmon.acquisition.engine.lazy_frame import plain
+from snrmon.acquisition.engine.range_history import RangeHistory
 from snrmon.acquisition.engine.sky_following import SkyFollower
-from snrmon.acquisition.geo.gps_cue import GpsProjector
-from snrmon.acquisition.geo.projection import gps_slant_range_m
 from snrmon.acquisition.prediction import Predictor
 from snrmon.acquisition.stage_clock import HANDOVER, STATISTICS, enter
 from snrmon.acquisition.stops.detector import Stop, StopConfig, StopDetector
@@ -44,7 +43,7 @@ from snrmon.acquisition.stops.table import StopRow, StopSource, StopTable
 from snrmon.acquisition.streams.history import ScalarHistory
 from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.drivers.gps.fix import GpsFix
-from snrmon.drivers.rangefinder.reading import RangeReading, RangeStatus
+from snrmon.drivers.rangefinder.reading import RangeReading
 
 log = logging.getLogger(__name__)
 
@@ -101,10 +100,7 @@ class SessionEngine:
     ) -> None:
         self.config = config
         self.track = track
-        self.cue_from_gps = cue_from_gps
         self.follow_sky = follow_sky
-        # A batch replay that applies the recorded cues has no display to draw the fix in.
-        self.project_gps = project_gps or cue_from_gps
         self.sink: EngineSink | None = None
         self._lock = threading.RLock()
         self.cameras: dict[str, CameraEngine] = {
@@ -118,14 +114,8 @@ class SessionEngine:
             )
             for name, shape in shapes.items()
         }
-        self.lrf_range = ScalarHistory(max_gap_ns=int(config.lrf_fresh_s * 1e9))
-        self._gps_range = ScalarHistory()
-        # Fixes whose slant range nobody has needed yet (gps_range): with the stops a replay
-        # recorded there is no detector to feed, and a frame reads the GPS range only when the
-        # rangefinder's is stale, so most fixes never need one (pymap3d: 20 us a fix).
-        self._fixes: deque[GpsFix] = deque()
-        self._fixes_lock = threading.Lock()
-        self.projector = GpsProjector(config)
+        self.ranges = RangeHistory(config.site, config.lrf_fresh_s)
+        self.fix_cues = FixCues(config, cue=cue_from_gps, show=project_gps)
         self.stop_detector = StopDetector(stop_config)
         self.stop_source: StopSource = stops if stops is not None else self.stop_detector
         self.stop_table = StopTable(
@@ -237,53 +227,29 @@ class SessionEngine:
 
     # ------------------------------------------------------------------ readings
     def on_range(self, reading: RangeReading) -> None:
-        if reading.status is not RangeStatus.OK or reading.range_m is None:
-            return
-        try:
-            self.lrf_range.append(reading.t_host_ns, reading.range_m)
-        except ValueError:
-            log.warning("rangefinder reading out of order dropped from the history")
-        self._feed_stops(lambda d: d.add_reading(reading))
+        if self.ranges.add_range(reading):
+            self._feed_stops(lambda d: d.add_reading(reading))
 
     def on_fix(self, fix: GpsFix) -> None:
-        site = self.config.site
-        if site is None:
+        if self.config.site is None:
             return
         if self.stop_source is self.stop_detector:
-            self._add_gps_range(fix)  # the stop detector takes it now
+            r = self.ranges.add_fix(fix)  # the stop detector takes it now
+            if r is not None:
+                self._feed_stops(lambda d: d.add_gps_range(fix.t_host_ns, r))
         else:
-            self._fixes.append(fix)  # its slant range when it is read (gps_range), in order
-        if not self.project_gps:
-            return
-        for name, (x, y) in self.projector.pixels(fix).items():
-            camera = self.cameras.get(name)  # a replay of some of the cameras only
-            if camera is None:
-                continue
-            if self.cue_from_gps:
-                camera.post(Cue(x, y))
-            else:
-                camera.show_gps(x, y)
+            self.ranges.defer_fix(fix)  # its slant range when it is read (gps_range), in order
+        self.fix_cues.apply(fix, self.cameras)
+
+    @property
+    def lrf_range(self) -> ScalarHistory:
+        """The rangefinder's ranges, reading by reading (fresh for ``lrf_fresh_s``)."""
+        return self.ranges.lrf
 
     @property
     def gps_range(self) -> ScalarHistory:
-        """The GPS slant ranges from the site, fix by fix (those of fixes not read yet are
-        computed now, in the order the fixes came: the same history either way)."""
-        if self._fixes:
-            with self._fixes_lock:
-                while self._fixes:
-                    self._add_gps_range(self._fixes.popleft())
-        return self._gps_range
-
-    def _add_gps_range(self, fix: GpsFix) -> None:
-        site = self.config.site
-        r = None if site is None else gps_slant_range_m(fix, site)
-        if r is None:
-            return
-        try:
-            self._gps_range.append(fix.t_host_ns, r)
-        except ValueError:
-            log.warning("GPS fix out of order dropped from the history")
-        self._feed_stops(lambda d: d.add_gps_range(fix.t_host_ns, r))
+        """The GPS slant ranges from the site, fix by fix (:attr:`RangeHistory.gps`)."""
+        return self.ranges.gps
 
     def _feed_stops(self, feed: Callable[[StopDetector], Stop | None]) -> None:
         if self.stop_source is not self.stop_detector:
@@ -304,11 +270,7 @@ class SessionEngine:
     def range_at(self, t_host_ns: int) -> tuple[float | None, str]:
         """The range for a frame received at ``t_host_ns``: the rangefinder if its reading is
         fresh (within ``lrf_fresh_s``), else the GPS slant range, else None."""
-        r = self.lrf_range.value_at(t_host_ns)
-        if r is not None:
-            return r, "lrf"
-        g = self.gps_range.value_at(t_host_ns)
-        return (g, "gps") if g is not None else (None, "")
+        return self.ranges.range_at(t_host_ns)
 
     # ------------------------------------------------------------------ frames
     def on_frame(self, frame: RingFrame) -> FrameOutput:

@@ -151,6 +151,32 @@ def lost_device(kind: str, status: DeviceStatus | None) -> LostDevice | None:
 
 
 @dataclass(frozen=True, slots=True)
+class Latency:
+    """The receipt-to-SNR latency of the recent frames (ms): its median and 99th percentile
+    (:meth:`snrmon.acquisition.stage_clock.StageClock.latency_ms`); NaN: none measured yet."""
+
+    p50_ms: float = math.nan
+    p99_ms: float = math.nan
+
+
+@dataclass(frozen=True, slots=True)
+class ModelAtRange:
+    """The model at the last measured frame's range, as the console shows it beside the
+    measurement (empty without a model or a range)."""
+
+    # :class:`snrmon.acquisition.prediction.Predictor`'s values: the four curves, the expected
+    # Eq. (4) readings
+    curves: Mapping[str, float] = field(default_factory=dict)
+    # Which PSF the corrected curves and expected readings were computed with, in words (the
+    # predictor's ``curves_psf_source``: "preset: PVF 0.082 (sensor mwir)", "fitted: sigma
+    # 0.57 px from this flight's stops"); None without a model.
+    psf_source: str | None = None
+    # The frame's running mean against the expected Eq. (4) reading (the rule the predictor
+    # names, its band, the ratio and the verdict); None without a measurement or a model.
+    agreement: ModelAgreement | None = None
+
+
+@dataclass(frozen=True, slots=True)
 class CameraStatus:
     """One camera's live state: device health, frame accounting, the track and its last
     measured frame (the engine's own :class:`Measurement`, not a copy of its numbers), the
@@ -166,22 +192,13 @@ class CameraStatus:
     gps_xy: tuple[float, float] | None = None  # the drone's GPS position projected (px)
     track_state: TrackState = TrackState.IDLE
     last: Measurement | None = None
-    # The model at ``last.range_m`` (:class:`snrmon.acquisition.prediction.Predictor`: the four
-    # curves, the expected Eq. 4 reading); empty without a model or a range.
-    model: Mapping[str, float] = field(default_factory=dict)
+    # The model at ``last.range_m``, and ``last``'s running mean against it.
+    model: ModelAtRange = field(default_factory=ModelAtRange)
     figures: AnalysisFigures = field(default_factory=AnalysisFigures)
-    latency_ms_p50: float = math.nan
-    latency_ms_p99: float = math.nan
+    latency: Latency = field(default_factory=Latency)
     # The error of the mean of ``last``'s running window (its frames' autocorrelation counted,
     # :func:`snrmon.acquisition.stops.detector.mean_error`); NaN when not known.
     snr_sem: float = math.nan
-    # ``last``'s running mean against the model's expected Eq. (4) reading at its range (the
-    # rule the predictor names, its band, the ratio and the verdict); None without either.
-    agreement: ModelAgreement | None = None
-    # Which PSF ``model``'s corrected curves and expected readings were computed with, in words
-    # (the predictor's ``curves_psf_source``: "preset: PVF 0.082 (sensor mwir)", "fitted: sigma
-    # 0.57 px from this flight's stops"); None without a model.
-    model_psf_source: str | None = None
     # The latest stop's progress for this camera (n of 100 frames); None before the first stop.
     stop: StopProgress | None = None
     # The devices this camera's numbers depend on that are lost now (itself, the LRF, the
@@ -203,13 +220,17 @@ class CameraStatus:
             device=device,
             frames=frames,
             fps=float(fps),
-            latency_ms_p50=float(latency_ms[0]),
-            latency_ms_p99=float(latency_ms[1]),
+            latency=Latency(float(latency_ms[0]), float(latency_ms[1])),
         )
 
     def lost_kind(self, kind: str) -> LostDevice | None:
         """The loss of ``kind`` ("camera", "LRF", "GPS") now, or None."""
         return next((d for d in self.lost if d.kind == kind), None)
+
+    @property
+    def agreement(self) -> ModelAgreement | None:
+        """``last``'s running mean against the model's expected Eq. (4) reading at its range."""
+        return self.model.agreement
 
     @property
     def track_reason(self) -> str:

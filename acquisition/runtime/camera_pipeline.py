@@ -4,7 +4,9 @@ Threads (one producer, a bounded ring, consumers that never block it; docs/archi
 
 - the camera device's own reader thread copies each frame into a preallocated
   :class:`snrmon.acquisition.streams.ring.FrameRing` and returns at once (the producer never waits);
-- this pipeline's measurement thread pops EVERY frame from its ring reader in order and hands it,
+- this pipeline's measurement thread
+  (:class:`~snrmon.acquisition.runtime.measurement_thread.MeasurementThread`) pops EVERY frame
+  from its ring reader in order and hands it,
   as the ring gave it, to the session's engine
   (:meth:`snrmon.acquisition.engine.session_engine.SessionEngine.on_frame`: the same per-frame
   engine a replay runs), which returns the frame's
@@ -33,7 +35,6 @@ recorder's backlog (the recorder's ``backlog_wait_s``), instead of either droppi
 from __future__ import annotations
 
 import logging
-import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -51,6 +52,7 @@ from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
 from snrmon.acquisition.engine.warm_up import warm_up
 from snrmon.acquisition.runtime.click_news import ClickNews
 from snrmon.acquisition.runtime.frame_tally import DropWarnings, FrameTally
+from snrmon.acquisition.runtime.measurement_thread import MeasurementThread
 from snrmon.acquisition.runtime.recording_tap import RecordingTap
 from snrmon.acquisition.stage_clock import HANDOVER, RECORDING, UNKNOWN, StageClock
 from snrmon.acquisition.streams.delivered_rate import DeliveredRate
@@ -110,8 +112,9 @@ class CameraPipeline:
         # The frames the camera delivered per second, as this pipeline takes them (the status's
         # fps: not the rate the driver was asked for).
         self.delivered = DeliveredRate()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self.measuring = MeasurementThread(
+            name, self._reader, self._process, self.recording.frame_done, self.stages
+        )
         self._unsubscribe: Callable[[], None] | None = None
         self._warm_s: float | None = None
 
@@ -139,10 +142,8 @@ class CameraPipeline:
     def start(self) -> None:
         """Warm up (:meth:`warm_up`), open the device and start the measurement thread."""
         self.warm_up()
-        self._stop.clear()
         self._unsubscribe = self.device.subscribe(self._on_frame)
-        self._thread = threading.Thread(target=self._run, name=f"measure-{self.name}", daemon=True)
-        self._thread.start()
+        self.measuring.start()
         self.device.open()
 
     def stop(self) -> None:
@@ -150,9 +151,7 @@ class CameraPipeline:
         self.device.close()
         if self._unsubscribe is not None:
             self._unsubscribe()
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(10.0)
+        self.measuring.stop()
         self._reader.close()
 
     def set_roi(self, x: int, y: int) -> None:
@@ -312,27 +311,6 @@ class CameraPipeline:
         grab = frame.t_host_ns - t_write if isinstance(t_write, int) else UNKNOWN
         self._grab_ns[self.ring.pushed % len(self._grab_ns)] = grab  # the slot it goes to
         self.ring.push(frame)
-
-    def _run(self) -> None:
-        self.stages.attach()
-        try:
-            self._measure_all()
-        finally:
-            self.stages.detach()
-
-    def _measure_all(self) -> None:
-        while True:
-            item = self._reader.pop_next(timeout=0.1)
-            if item is None:
-                if self._stop.is_set() and self._reader.lag == 0:
-                    return
-                continue
-            try:
-                self._process(item)
-            except Exception:  # a measurement bug must not stop acquisition
-                log.exception("%s: measurement failed on frame %d", self.name, item.counter)
-            finally:
-                self.recording.frame_done()
 
     def _process(self, frame: RingFrame) -> None:
         clock = self.stages

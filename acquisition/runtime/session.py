@@ -9,6 +9,11 @@ everything raw, plus what the engine decided that a replay must apply again (sto
 rows, the model background following the sky). Commands: start/stop, set the ROI per camera,
 start/stop recording, mark a stop, add a note. Reading: status snapshots and the latest frame per
 camera.
+
+Its parts, one job each: the pipelines and the engine, the GPS and rangefinder
+(:class:`~snrmon.acquisition.runtime.range_devices.RangeDevices`), every device's health
+(:class:`~snrmon.acquisition.runtime.device_watch.DeviceWatch`) and the recording in progress
+(:class:`~snrmon.acquisition.runtime.current_recording.CurrentRecording`).
 """
 
 from __future__ import annotations
@@ -17,10 +22,8 @@ import dataclasses
 import logging
 import math
 import shutil
-import threading
 import time
 from collections.abc import Callable
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -45,66 +48,35 @@ from snrmon.acquisition.prediction import (
 )
 from snrmon.acquisition.protocols import RecordingWriter
 from snrmon.acquisition.record.recorder import SessionRecorder
-from snrmon.acquisition.record.recorder_status import WriteRate, disk_time_left_s
-from snrmon.acquisition.record.session_log import RecordingLog
+from snrmon.acquisition.record.recorder_status import disk_time_left_s
 from snrmon.acquisition.runtime.camera_pipeline import CAMERA_GAP, WRONG_SHAPE, CameraPipeline
+from snrmon.acquisition.runtime.current_recording import CurrentRecording
+from snrmon.acquisition.runtime.device_watch import DeviceError, DeviceLoss, DeviceWatch
 from snrmon.acquisition.runtime.interpreter import LiveInterpreter
+from snrmon.acquisition.runtime.range_devices import (
+    DEFAULT_START_TIMEOUT_S,
+    RangeDevices,
+    SerialDeviceSettings,
+)
 from snrmon.acquisition.stops.detector import Stop, StopConfig
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import RING_OVERRUN, RingFrame
 from snrmon.acquisition.streams.timebase import ClockMap
-from snrmon.drivers.device import LOST_STATES, Device, DeviceState, DeviceStatus
+from snrmon.drivers.device import Device, DeviceStatus
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading
 
 log = logging.getLogger(__name__)
-DEFAULT_START_TIMEOUT_S = 10.0
-"""How long (s) each device the config names has, from :meth:`Session.start`, to deliver its
-first reading (a frame, a sentence, a range); ``start_timeout_s`` in its table overrides it."""
-"""A streaming device that goes to one of these while the session runs is lost (the device
-retries by itself; it is lost until it streams again)."""
 DROP_ALARM_S = 5.0
 """How long (s) the banner keeps a camera's drop alarm after its last lost frame."""
-
-
-class DeviceError(OSError):
-    """A device the session needs did not deliver at the start or was lost while it ran: a
-    runtime failure (exit 1 on the command line), never a quiet end."""
-
-
-@dataclasses.dataclass(frozen=True, slots=True)
-class DeviceLoss:
-    """A device that stopped delivering while the session ran: when (host clock and UTC), the
-    state it went to and its last error, and when it streamed again (None: it did not)."""
-
-    device: str
-    t_host_ns: int
-    utc_ns: int
-    state: str
-    error: str
-    back_t_host_ns: int | None = None
-    back_utc_ns: int | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        """For a JSON summary: the times as ISO 8601 UTC (null: not back)."""
-        return {
-            "device": self.device,
-            "lost_utc": _iso_utc(self.utc_ns),
-            "lost_t_host_ns": self.t_host_ns,
-            "state": self.state,
-            "error": self.error,
-            "back_utc": None if self.back_utc_ns is None else _iso_utc(self.back_utc_ns),
-        }
-
-    def describe(self) -> str:
-        """One line: the device, the time it was lost and why, and whether it came back."""
-        back = "" if self.back_utc_ns is None else f", back at {_iso_utc(self.back_utc_ns)}"
-        why = f": {self.error}" if self.error else ""
-        return f"{self.device} lost at {_iso_utc(self.utc_ns)} ({self.state}{why}{back})"
-
-
-def _iso_utc(utc_ns: int) -> str:
-    return datetime.fromtimestamp(utc_ns / 1e9, tz=UTC).isoformat(timespec="milliseconds")
+__all__ = [
+    "DEFAULT_START_TIMEOUT_S",
+    "DeviceError",
+    "DeviceLoss",
+    "Session",
+    "row_payload",
+    "stop_payload",
+]
 
 
 def stop_payload(stop: Stop) -> dict:
@@ -161,12 +133,7 @@ class Session:
         self.lossless = lossless
         self.track = track
         self.clock = clock or ClockMap()
-        self._lock = threading.Lock()
-        self._last_lrf: RangeReading | None = None
-        self._last_fix: GpsFix | None = None
-        self._recorder: RecordingWriter | None = None
-        self._recording_log: RecordingLog | None = None
-        self.last_recording = None  # the summary of the last recording closed
+        self.recording = CurrentRecording()
         all_shapes = {
             cam.name: (shapes or {}).get(cam.name) or self._shape_of(cam) for cam in config.cameras
         }
@@ -190,29 +157,27 @@ class Session:
             adopt=config.model_psf == "fitted",
         )
         self.engine.add_listener(self.flight_psf.on_measurement)
-        self.gps = gps if gps is not None else self._serial_device(config.gps, "gps")
-        self.lrf = lrf if lrf is not None else self._serial_device(config.lrf, "lrf")
-        if self.gps is not None:
-            self.gps.subscribe(self._on_fix)
-        if self.lrf is not None:
-            self.lrf.subscribe(self._on_range)
+        self.ranges = RangeDevices(
+            SerialDeviceSettings.of(config.gps, "gps"),
+            SerialDeviceSettings.of(config.lrf, "lrf"),
+            gps=gps,
+            lrf=lrf,
+        )
+        if self.ranges.gps is not None:
+            self.ranges.gps.subscribe(self._on_fix)
+        if self.ranges.lrf is not None:
+            self.ranges.lrf.subscribe(self._on_range)
         self._started = False
         # camera -> (frames lost, when that count last grew)
         self._drops_seen: dict[str, tuple[int, float]] = {}
-        self._lost_lock = threading.Lock()  # the write-rate meter's
-        self._rate: tuple[Any, WriteRate] | None = None  # (recorder, its meter)
         self.met_readings: Weather | None = config.weather  # the day's met readings the model uses
         # per camera, the measured 3D noise the model uses in place of its own (none: its own)
         self.measured_noise: dict[str, MeasuredNoise] = {}
         self._interpreter = LiveInterpreter()  # switch interval and BLAS threads, while we run
         # Every device's health, watched from start() to stop(): a lost one is never silent.
-        self._watching = False
-        self._delivered = threading.Condition(self._lock)
-        self._started_ns = 0
-        self._device_states: dict[str, DeviceState] = {}
-        self._losses: list[DeviceLoss] = []
+        self.watch = DeviceWatch(self.clock, self.recording.event)
         for dev in self.devices().values():
-            dev.subscribe_status(self._on_device_status)
+            dev.subscribe_status(self.watch.on_status)
 
     # ------------------------------------------------------------------ construction helpers
     @staticmethod
@@ -233,13 +198,20 @@ class Session:
         # a calibration of another camera or band is refused, nothing applied.
         return load_calibration(cam.calibration, load_sensor(cam.sensor), frame_shape=shape)
 
-    @staticmethod
-    def _serial_device(table: dict | None, name: str) -> Device | None:
-        if not table:
-            return None
-        from snrmon.drivers.config import device_from_config
+    @property
+    def gps(self) -> Device | None:
+        """The GPS receiver (None: the session has none)."""
+        return self.ranges.gps
 
-        return device_from_config(dict(table), name)
+    @property
+    def lrf(self) -> Device | None:
+        """The laser rangefinder (None: the session has none)."""
+        return self.ranges.lrf
+
+    @property
+    def last_recording(self):
+        """The summary of the last recording closed (None: none yet)."""
+        return self.recording.last_summary
 
     # ------------------------------------------------------------------ the engine's parts
     @property
@@ -266,9 +238,7 @@ class Session:
     def devices(self) -> dict[str, Device]:
         """Every device of the session by its name: the cameras, then the GPS and rangefinder."""
         out: dict[str, Device] = {n: p.device for n, p in self.pipelines.items()}
-        for dev in (self.gps, self.lrf):
-            if dev is not None:
-                out[dev.name] = dev
+        out.update((dev.name, dev) for dev in self.ranges.present())
         return out
 
     def start_timeouts_s(self) -> dict[str, float]:
@@ -277,10 +247,7 @@ class Session:
         out = {
             c.name: float(c.start_timeout_s or DEFAULT_START_TIMEOUT_S) for c in self.config.cameras
         }
-        for dev, table in ((self.gps, self.config.gps), (self.lrf, self.config.lrf)):
-            if dev is not None:
-                out[dev.name] = float((table or {}).get("start_timeout_s", DEFAULT_START_TIMEOUT_S))
-        return out
+        return {**out, **self.ranges.start_timeouts_s()}
 
     # ------------------------------------------------------------------ control
     def start(self) -> None:
@@ -291,11 +258,8 @@ class Session:
         self._interpreter.apply()
         for pipe in self.pipelines.values():
             pipe.warm_up()  # a first run compiles (seconds): before any device's timeout runs
-        self._started_ns = time.monotonic_ns()
-        self._watching = True
-        for dev in (self.gps, self.lrf):
-            if dev is not None:
-                dev.open()
+        self.watch.start()
+        self.ranges.open()
         for pipe in self.pipelines.values():
             pipe.start()
         self._started = True
@@ -305,28 +269,11 @@ class Session:
         naming each device that gave none within its start-up timeout (from its opening in
         :meth:`start`, after the pipelines' warm-up),
         with its last error (a ring or port that does not exist, a link that gives nothing)."""
-        timeouts = self.start_timeouts_s()
-        pending = self.devices()
-        with self._delivered:  # notified when a device starts streaming (its first reading)
-            while True:
-                pending = {n: d for n, d in pending.items() if d.status().readings == 0}
-                if not pending:
-                    return
-                waited_s = (time.monotonic_ns() - self._started_ns) / 1e9
-                late = [n for n in pending if waited_s > timeouts[n]]
-                if late:
-                    raise DeviceError("; ".join(self._silent(n, timeouts[n]) for n in late))
-                self._delivered.wait(min(timeouts[n] for n in pending) - waited_s + 0.001)
-
-    def _silent(self, name: str, timeout_s: float) -> str:
-        st = self.devices()[name].status()
-        why = f" ({st.last_error})" if st.last_error else f" (state {st.state})"
-        return f"{name}: no reading within {timeout_s:g} s of the start{why}"
+        self.watch.wait_delivering(self.devices(), self.start_timeouts_s())
 
     def devices_lost(self) -> list[DeviceLoss]:
         """The devices lost since :meth:`start`, in the order they were lost."""
-        with self._lock:
-            return list(self._losses)
+        return self.watch.losses()
 
     def check_devices(self) -> None:
         """Raise :class:`DeviceError` naming every device lost since :meth:`start` (a
@@ -335,52 +282,12 @@ class Session:
         if lost:
             raise DeviceError("; ".join(loss.describe() for loss in lost))
 
-    def _on_device_status(self, status: DeviceStatus) -> None:
-        """A device's state changed (on its thread): a streaming device that stops is lost,
-        logged with its time and recorded as a ``device_lost`` event; back: ``device_back``."""
-        now = time.monotonic_ns()
-        with self._lock:
-            prev = self._device_states.get(status.name)
-            self._device_states[status.name] = status.state
-            if status.state is DeviceState.STREAMING:
-                self._delivered.notify_all()
-            if not self._watching:
-                return
-            open_loss = next(
-                (
-                    i
-                    for i, x in enumerate(self._losses)
-                    if x.device == status.name and x.back_t_host_ns is None
-                ),
-                None,
-            )
-            if prev is DeviceState.STREAMING and status.state in LOST_STATES:
-                if open_loss is not None:
-                    return
-                loss = DeviceLoss(
-                    status.name, now, self.clock.utc_ns(now), str(status.state), status.last_error
-                )
-                self._losses.append(loss)
-                kind = "device_lost"
-            elif status.state is DeviceState.STREAMING and open_loss is not None:
-                loss = dataclasses.replace(
-                    self._losses[open_loss], back_t_host_ns=now, back_utc_ns=self.clock.utc_ns(now)
-                )
-                self._losses[open_loss] = loss
-                kind = "device_back"
-            else:
-                return
-        log.warning("%s%s", loss.describe(), "; retrying" if kind == "device_lost" else "")
-        self._event(kind, payload=loss.as_dict(), t_host_ns=now)
-
     def stop(self) -> None:
         """Stop recording (if on), the pipelines and the devices."""
-        self._watching = False  # closing a device is not losing it
+        self.watch.stop()  # closing a device is not losing it
         for pipe in self.pipelines.values():
             pipe.stop()
-        for dev in (self.gps, self.lrf):
-            if dev is not None:
-                dev.close()
+        self.ranges.close()
         self._started = False
         self.stop_recording()
         self._interpreter.restore()
@@ -475,9 +382,9 @@ class Session:
         """Record everything from now on into one HDF5 session file (a new file);
         ``recorder_options`` go to :class:`SessionRecorder` (backlog limit; compression, else the
         config's ``compression``)."""
-        with self._lock:
-            if self._recorder is not None and self._recorder.status().state == "recording":
-                raise ValueError(f"already recording to {self._recorder.path}")
+        current = self.recording.recorder()
+        if current is not None and current.status().state == "recording":
+            raise ValueError(f"already recording to {current.path}")
         shapes = {n: p.shape for n, p in self.pipelines.items()}
         recorder_options.setdefault("compression", stored_compression(self.config.compression))
         if self.lossless:
@@ -497,7 +404,7 @@ class Session:
             calibrations=calibrations,
             **recorder_options,
         )
-        self._recording_log = RecordingLog(path).start()  # FILE.log beside FILE.h5
+        self.recording.log_beside(path)
         for pipe in self.pipelines.values():
             if pipe.name in calibrations:
                 meta = dict(calibrations[pipe.name][0])
@@ -514,10 +421,7 @@ class Session:
         def attach() -> None:
             # With the detector held: the stops so far are part of the record, and every change
             # after them reaches the recorder (none falls between the two).
-            with self._lock:
-                self._recorder = rec
-            with self._lost_lock:
-                self._rate = (rec, WriteRate(time.monotonic()))  # the recording's clock
+            self.recording.attach(rec)
             for stop in self.engine.stop_detector.stops:
                 self.stop_changed("stop_known", stop, rec)
 
@@ -528,8 +432,7 @@ class Session:
 
     def stop_recording(self):
         """Finish the file; returns the recorder's summary (None when not recording)."""
-        with self._lock:
-            rec = self._recorder
+        rec = self.recording.recorder()
         if rec is None:
             return None
         if not self._started:  # the session ended: its open rows are final as they stand
@@ -538,23 +441,20 @@ class Session:
             for row in self.engine.stops():
                 if not row.final and row.n_frames:
                     rec.add_event("stop_summary", camera=row.camera, payload=row_payload(row))
-        with self._lock:
-            self._recorder = None
+        self.recording.detach()
         for pipe in self.pipelines.values():
             pipe.detach_recorder()
         try:
             # Every frame received accounted for in the file: once everything is written.
-            self.last_recording = rec.stop(
+            self.recording.last_summary = rec.stop(
                 accounting=lambda: {
                     n: p.accounting(rec).as_record() for n, p in self.pipelines.items()
                 },
                 devices_lost=lambda: [x.as_dict() for x in self.devices_lost()],
             )
         finally:
-            recording_log, self._recording_log = self._recording_log, None
-            if recording_log is not None:
-                recording_log.stop()
-        return self.last_recording
+            self.recording.close_log()
+        return self.recording.last_summary
 
     # ------------------------------------------------------------------ the engine's sink
     def stop_changed(self, kind: str, stop: Stop, rec: RecordingWriter | None = None) -> None:
@@ -575,8 +475,7 @@ class Session:
             rec.add_event(kind, camera=camera, payload=payload, t_host_ns=t_host_ns)
 
     def _current_recorder(self) -> RecordingWriter | None:
-        with self._lock:
-            return self._recorder
+        return self.recording.recorder()
 
     # ------------------------------------------------------------------ devices
     def range_at(self, t_host_ns: int) -> tuple[float | None, str]:
@@ -584,17 +483,15 @@ class Session:
         return self.engine.range_at(t_host_ns)
 
     def _on_range(self, reading: RangeReading) -> None:
-        with self._lock:
-            self._last_lrf = reading
-            rec = self._recorder
+        self.ranges.range_taken(reading)
+        rec = self.recording.recorder()
         self.engine.on_range(reading)
         if rec is not None:
             rec.add_range(reading)
 
     def _on_fix(self, fix: GpsFix) -> None:
-        with self._lock:
-            self._last_fix = fix
-            rec = self._recorder
+        self.ranges.fix_taken(fix)
+        rec = self.recording.recorder()
         if fix.utc is not None and fix.has_fix:
             self.clock.update_from_gps(fix.t_host_ns, fix.utc)
         self.engine.on_fix(fix)
@@ -607,15 +504,15 @@ class Session:
 
     def status(self) -> SessionStatus:
         cams = {n: p.status() for n, p in self.pipelines.items()}
-        with self._lock:
-            lrf_last, fix, rec = self._last_lrf, self._last_fix, self._recorder
+        lrf_last, fix = self.ranges.latest()
+        rec = self.recording.recorder()
         now = time.monotonic_ns()
         lrf_age = None if lrf_last is None else (now - lrf_last.t_host_ns) / 1e9
         gps_latest = self.engine.gps_range.latest()
         rec_status = RecordingStatus()
         if rec is not None:
             st = rec.status()
-            meter = self._write_rate(rec)
+            meter = self.recording.write_rate(rec)
             rate = meter.add(time.monotonic(), st.bytes_written)
             rec_status = RecordingStatus(
                 st.state,
@@ -680,13 +577,6 @@ class Session:
             alarms=tuple(alarms),
         )
 
-    def _write_rate(self, rec) -> WriteRate:
-        """The write-rate meter of recording ``rec`` (a new one for each recording)."""
-        with self._lost_lock:
-            if self._rate is None or self._rate[0] is not rec:
-                self._rate = (rec, WriteRate(time.monotonic()))
-            return self._rate[1]
-
     def _with_losses(
         self,
         cams: dict[str, CameraStatus],
@@ -709,9 +599,7 @@ class Session:
     def _event(
         self, kind: str, *, camera: str = "", payload: dict | None = None, t_host_ns=None
     ) -> None:
-        rec = self._current_recorder()
-        if rec is not None:
-            rec.add_event(kind, camera=camera, payload=payload or {}, t_host_ns=t_host_ns)
+        self.recording.event(kind, camera=camera, payload=payload, t_host_ns=t_host_ns)
 
     def _config_record(self) -> dict[str, Any]:
         return {

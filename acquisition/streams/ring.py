@@ -93,6 +93,32 @@ class RingStats:
     readers: list[ReaderStats] = field(default_factory=list)
 
 
+class RingSlots:
+    """The ring's preallocated storage: each slot's pixels and the metadata published with them
+    (camera counter, host time, device time, when it was published). Indexed by slot; the ring
+    says which slot holds which frame and guards them with its lock."""
+
+    def __init__(self, capacity: int, shape: tuple[int, int], dtype: np.dtype) -> None:
+        self.shape = shape
+        self.pixels = np.empty((capacity, *shape), dtype)
+        # Write every page now: the OS commits untouched memory lazily, so without this the
+        # ring's first pass takes a page fault per 4 kB inside acquisition (MWIR: 27,000 a
+        # second for the first two seconds) and a machine short of memory fails mid-session
+        # instead of at start-up.
+        self.pixels.fill(0)
+        self.counter = np.zeros(capacity, np.int64)
+        self.t_host = np.zeros(capacity, np.int64)
+        self.t_device = np.full(capacity, NO_DEVICE_TIME, np.int64)
+        self.t_ring = np.zeros(capacity, np.int64)
+
+    def publish(self, i: int, counter: int, t_host_ns: int, t_device_ns: int | None) -> None:
+        """Slot ``i``'s metadata, stamped with the time it is published (monotonic)."""
+        self.counter[i] = counter
+        self.t_host[i] = t_host_ns
+        self.t_device[i] = NO_DEVICE_TIME if t_device_ns is None else t_device_ns
+        self.t_ring[i] = time.monotonic_ns()
+
+
 class FrameRing:
     """A preallocated ring of ``capacity`` frames of ``height`` x ``width`` pixels."""
 
@@ -112,21 +138,10 @@ class FrameRing:
         if int(height) < 1 or int(width) < 1:
             raise ValueError(f"ring frame shape must be positive, got {height} x {width}")
         self.capacity = int(capacity)
-        self.shape = (int(height), int(width))
-        self.dtype = np.dtype(dtype)
         self.policy = OverflowPolicy(policy)
         self.wait_s = float(wait_s)
         self.name = name
-        self._pixels = np.empty((self.capacity, *self.shape), self.dtype)
-        # Write every page now: the OS commits untouched memory lazily, so without this the
-        # ring's first pass takes a page fault per 4 kB inside acquisition (MWIR: 27,000 a
-        # second for the first two seconds) and a machine short of memory fails mid-session
-        # instead of at start-up.
-        self._pixels.fill(0)
-        self._counter = np.zeros(self.capacity, np.int64)
-        self._t_host = np.zeros(self.capacity, np.int64)
-        self._t_device = np.full(self.capacity, NO_DEVICE_TIME, np.int64)
-        self._t_ring = np.zeros(self.capacity, np.int64)
+        self.slots = RingSlots(self.capacity, (int(height), int(width)), np.dtype(dtype))
         self._cond = threading.Condition(threading.Lock())
         self._next_seq = 0  # sequence number of the next frame to be finalized
         self._writing = False  # a slot is acquired and being filled
@@ -134,6 +149,15 @@ class FrameRing:
         self._dropped_full = 0
         self._overflow = False
         self._readers: list[Reader] = []
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, columns) of every frame the ring holds."""
+        return self.slots.shape
+
+    @property
+    def dtype(self) -> np.dtype:
+        return self.slots.pixels.dtype
 
     # -- producer -------------------------------------------------------------------------------
 
@@ -163,7 +187,7 @@ class FrameRing:
                         return None
             self._writing = True
             self._floor = max(self._floor, seq + 1 - self.capacity)
-            return self._pixels[seq % self.capacity]
+            return self.slots.pixels[seq % self.capacity]
 
     def finalize_slot(self, counter: int, t_host_ns: int, t_device_ns: int | None = None) -> int:
         """Publish the acquired slot with its metadata; returns its sequence number."""
@@ -171,11 +195,7 @@ class FrameRing:
             if not self._writing:
                 raise RuntimeError("finalize_slot called without acquire_slot")
             seq = self._next_seq
-            i = seq % self.capacity
-            self._counter[i] = counter
-            self._t_host[i] = t_host_ns
-            self._t_device[i] = NO_DEVICE_TIME if t_device_ns is None else t_device_ns
-            self._t_ring[i] = time.monotonic_ns()
+            self.slots.publish(seq % self.capacity, counter, t_host_ns, t_device_ns)
             self._next_seq = seq + 1
             self._writing = False
             self._cond.notify_all()
@@ -253,7 +273,7 @@ class FrameRing:
         with self._cond:
             if self._next_seq == 0:
                 return None
-            return int(self._counter[(self._next_seq - 1) % self.capacity])
+            return int(self.slots.counter[(self._next_seq - 1) % self.capacity])
 
     def stats(self) -> RingStats:
         """A snapshot of the ring's counters and of every open reader's."""
@@ -271,14 +291,15 @@ class FrameRing:
 
     def _copy_out(self, seq: int, out: np.ndarray | None) -> RingFrame | None:
         i = seq % self.capacity
-        pixels = self._pixels[i].copy() if out is None else out
+        slots = self.slots
+        pixels = slots.pixels[i].copy() if out is None else out
         if out is not None:
-            np.copyto(out, self._pixels[i])
+            np.copyto(out, slots.pixels[i])
         with self._cond:
-            counter = int(self._counter[i])
-            t_host = int(self._t_host[i])
-            t_dev = int(self._t_device[i])
-            t_ring = int(self._t_ring[i])
+            counter = int(slots.counter[i])
+            t_host = int(slots.t_host[i])
+            t_dev = int(slots.t_device[i])
+            t_ring = int(slots.t_ring[i])
             intact = seq >= self._low_seq()
         if not intact:
             return None

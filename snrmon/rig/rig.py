@@ -385,7 +385,9 @@ class HilRig:
 
     def _on_measurement(self, m, pixels) -> None:
         rig = self.cameras[m.camera]
-        rig.log.append((m.t_host_ns, m.counter, m.snr_mean_raw, m.snr_std_raw))
+        raw = m.raw  # the raw frames' track (None: no correction on)
+        mean, std = (raw.mean, raw.std) if raw is not None else (math.nan, math.nan)
+        rig.log.append((m.t_host_ns, m.counter, mean, std))
 
     # ------------------------------------------------------------------ run
     def __enter__(self) -> HilRig:

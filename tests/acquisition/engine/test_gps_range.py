@@ -10,7 +10,7 @@ import pymap3d
 import pytest
 
 from snrmon.acquisition.config import session_config_from_dict
-from snrmon.acquisition.engine import session_engine
+from snrmon.acquisition.engine import range_history
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.replay.feeder import RecordedStops
 from snrmon.drivers.gps.fix import GpsFix
@@ -45,13 +45,13 @@ def _engine(recorded_stops: bool) -> SessionEngine:
 
 def test_deferred_gps_ranges_equal_the_ones_computed_on_arrival(monkeypatch):
     calls = {"n": 0}
-    real = session_engine.gps_slant_range_m
+    real = range_history.gps_slant_range_m
 
     def counted(fix, site):
         calls["n"] += 1
         return real(fix, site)
 
-    monkeypatch.setattr(session_engine, "gps_slant_range_m", counted)
+    monkeypatch.setattr(range_history, "gps_slant_range_m", counted)
     eager, deferred = _engine(recorded_stops=False), _engine(recorded_stops=True)
     fixes = _fixes()
     for fix in fixes:

@@ -122,9 +122,10 @@ def test_replay_status_is_the_live_analysis(recording):
     assert cs.last.snr_n == m.snr_n == N - DRONE_FROM
     assert cs.last.result == m.result
     assert (cs.last.snr_mean, cs.last.snr_std) == (m.snr_mean, m.snr_std)
-    assert (cs.last.snr_mean_raw, cs.last.snr_std_raw) == (m.snr_mean_raw, m.snr_std_raw)
+    assert cs.last.raw is not None and m.raw is not None
+    assert (cs.last.raw.mean, cs.last.raw.std) == (m.raw.mean, m.raw.std)
     # The reference removes the fixed pattern: the raw track reads lower, as live.
-    assert cs.last.snr_mean_raw < 0.7 * cs.last.snr_mean
+    assert cs.last.raw.mean < 0.7 * cs.last.snr_mean
     fig = live.figures()
     assert cs.figures.reference_frames == REF_FRAMES
     assert cs.figures.fixed_pattern_dn == fig.fixed_pattern_dn == pytest.approx(FPN_DN, rel=0.1)

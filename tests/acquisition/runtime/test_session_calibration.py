@@ -93,7 +93,7 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
     assert again.identical == again.compared == replay.compared
     # A batch replay reports no raw-SNR figure, so it does not track the raw frames (half of
     # a frame's work); the console's player below does, as live.
-    assert all(math.isnan(m.snr_mean_raw) for m in replay.tally.measurements)
+    assert all(m.raw is None for m in replay.tally.measurements)
     # The console's replay follows the sky from the recorded frames through the recorded
     # calibration, and measures the raw frames beside the corrected ones, as live.
     with ReplayPlayer(path) as player:
@@ -101,7 +101,7 @@ def test_calibrated_session_follows_the_sky_temperature_and_replays_exactly(
         assert player.wait_idle(30.0)
         cs = player.status().cameras["mwir"]
     assert cs.figures.sky_temp_k == pytest.approx(SKY_K, abs=0.3)
-    assert math.isfinite(cs.last.snr_mean_raw) and cs.last.snr_n >= 50
+    assert cs.last.raw is not None and math.isfinite(cs.last.raw.mean) and cs.last.snr_n >= 50
     # snrmon noise on the recording: NETD from sigma_tvh through the recorded calibration
     from snrmon.cli import main
 

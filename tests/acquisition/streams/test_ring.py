@@ -232,7 +232,7 @@ def test_the_ring_is_resident_from_the_start():
         "proc = psutil.Process()\n"
         "before = proc.memory_info().rss\n"
         "ring = FrameRing(32, 1024, 1024)  # 64 MiB by mmap: fresh, untouched pages\n"
-        "print(proc.memory_info().rss - before, ring._pixels.nbytes)\n"
+        "print(proc.memory_info().rss - before, ring.slots.pixels.nbytes)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     grown, nbytes = (int(v) for v in out.stdout.split())
