@@ -196,13 +196,16 @@ class ClockStamps:
         return utc_of_rows(rows_array(self._map), np.asarray(t_host_ns, np.int64))
 
     def unwritten_rows(self) -> np.ndarray | None:
-        """The map's rows ``/clock`` does not hold yet (counted as written), None if none."""
+        """The map's rows ``/clock`` does not hold yet (None: none), to be appended and then
+        counted (:meth:`written`)."""
         rows = self._map[self.rows_written :]
         if not rows:
             return None
         fields = ("monotonic_ns", "utc_ns", "source", "rate", "slew_until_ns", "residual_ns")
-        self.rows_written += len(rows)
         return np.array([tuple(getattr(r, k) for k in fields) for r in rows], schema.CLOCK_DTYPE)
+
+    def written(self, n: int) -> None:
+        self.rows_written += n
 
 
 class SessionWriter:
@@ -242,8 +245,8 @@ class SessionWriter:
         flush_interval_s: float,
         calibrations: dict[str, tuple[dict, dict[str, np.ndarray]]],
     ) -> h5py.File:
-        """The new file with every dataset of the layout, its first ``/clock`` rows, in SWMR
-        mode; on any error nothing is left at the path."""
+        """The new file with every dataset of the layout and its first ``/clock`` rows, in
+        SWMR mode; a file that fails on the way is closed and removed."""
         f = _new_file(self.path, filters)
         try:
             _write_header(f, config, clock.reference, compression, flush_interval_s)
@@ -420,6 +423,7 @@ class SessionWriter:
         if arr is None:
             return
         self._append(f[schema.CLOCK], arr)
+        self._stamps.written(len(arr))
         self.counts.stream_rows[schema.CLOCK] = self._stamps.rows_written
 
     def _relabel(self, f: h5py.File, delta: int) -> None:
