@@ -390,11 +390,13 @@ class SessionWriter:
         if self._fd is not None:
             os.fsync(self._fd)
         counts = self.counts
-        counts.frames_flushed = dict(counts.frames_written)
+        flushed = dict(counts.frames_written)
         for camera, ds in self._frames.items():  # the filter's ratio so far, for the status
             frame_bytes = ds.dtype.itemsize * ds.shape[1] * ds.shape[2]
-            counts.frame_bytes_flushed[camera] = counts.frames_flushed[camera] * frame_bytes
+            counts.frame_bytes_flushed[camera] = flushed[camera] * frame_bytes
             counts.frame_bytes_stored[camera] = self.frames_bytes_stored(camera)
+        # published after their bytes: a status that sees these frames flushed sees their ratio
+        counts.frames_flushed = flushed
 
     def frames_bytes_stored(self, camera: str) -> int:
         """Bytes the file gives ``camera``'s frames (after the filter; chunk index aside)."""
