@@ -41,16 +41,78 @@ def _filters(frames: h5py.Dataset) -> list[tuple[int, tuple[int, ...]]]:
     return [(int(c[0]), tuple(int(v) for v in c[2])) for c in found]
 
 
+class ChunkIndex:
+    """Where each frame's chunks are in the file, from HDF5's chunk index (``H5Dchunk_iter``,
+    walked once: about 2 us a chunk), and the file's memory map to read them from: per frame
+    and strip, the chunk's byte offset (-1: not reported), stored size and filter mask.
+    ``whole_frames``: only chunks of a whole raw frame count (one chunk per frame)."""
+
+    def __init__(self, frames: h5py.Dataset, strip: int, *, whole_frames: bool) -> None:
+        n, h, w = (int(v) for v in frames.shape)
+        offset = self.offset = np.full((n, -(-h // strip)), -1, np.int64)
+        size, mask = self.size, self.mask = np.zeros_like(offset), np.zeros_like(offset)
+        self.bytes: np.ndarray | None = None  # the file's bytes (None: not mapped)
+        self.mapped = 0  # frames every chunk of which is in the index
+        if not hasattr(frames.id, "chunk_iter"):
+            return
+        raw_size = strip * w * frames.dtype.itemsize
+
+        def visit(info) -> None:
+            i, s = info.chunk_offset[0], info.chunk_offset[1] // strip
+            if i < n and (not whole_frames or info.size == raw_size):
+                offset[i, s], size[i, s], mask[i, s] = info.byte_offset, info.size, info.filter_mask
+
+        try:
+            frames.id.chunk_iter(visit)
+        except (RuntimeError, ValueError, OSError):  # an HDF5 built without it
+            return
+        # A plain mmap, and plain ndarrays over it (np.frombuffer): numpy.memmap wraps every
+        # slice in a memmap object, which cost more than the measurement per frame.
+        with open(frames.file.filename, "rb") as fh:
+            self.bytes = np.frombuffer(mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ), np.uint8)
+        self.mapped = int(np.count_nonzero((offset >= 0).all(axis=1)))
+
+    def stored(self, i: int, s: int) -> np.ndarray | None:
+        """The stored bytes of frame ``i``'s strip ``s`` from the memory map (None: not
+        there)."""
+        offset = int(self.offset[i, s])
+        if offset < 0 or self.bytes is None:
+            return None
+        return self.bytes[offset : offset + int(self.size[i, s])]
+
+
+class Hdf5Strips:
+    """Row strips of one frame dataset read through HDF5 (its selections made once)."""
+
+    def __init__(self, frames: h5py.Dataset, strip: int) -> None:
+        self._frames = frames
+        self._strip = strip
+        self._file_space: h5py.h5s.SpaceID | None = None
+        self._memory_space: dict[tuple[int, ...], h5py.h5s.SpaceID] = {}
+
+    def read(self, i: int, s: int, out: np.ndarray) -> None:
+        """Strip ``s`` of frame ``i`` into ``out`` (its rows)."""
+        space = self._file_space
+        if space is None:
+            space = self._file_space = self._frames.id.get_space()
+        space.select_hyperslab((i, s * self._strip, 0), (1, *out.shape))
+        memory = self._memory_space.get(out.shape)
+        if memory is None:
+            memory = self._memory_space[out.shape] = h5py.h5s.create_simple(out.shape)
+        self._frames.id.read(memory, space, out)
+
+
 class FrameCrops:
     """The frames of one ``(N, H, W)`` dataset as ``replay --fast`` reads them (above).
 
     A frame handed out (:meth:`frame_view`) is valid until the next one: row strips are read
-    into one buffer per dataset (a new zeroed frame each time cost more than its reads)."""
+    into one buffer per dataset (a new zeroed frame each time cost more than its reads). Where
+    the chunks are is a :class:`ChunkIndex`; strips it does not hold are read by
+    :class:`Hdf5Strips`."""
 
     def __init__(self, frames: h5py.Dataset) -> None:
         self._frames = frames
-        n, h, w = frames.shape
-        self._n = int(n)
+        _, h, w = frames.shape
         self._shape = (int(h), int(w))
         self._dtype = frames.dtype
         chunks = frames.chunks
@@ -60,20 +122,14 @@ class FrameCrops:
         self._decode = bitshuffle_lz4_decoder() if self._kind == BITSHUFFLE_STRIPS else None
         if self._kind == BITSHUFFLE_STRIPS and self._decode is None:
             self._kind = HDF5_STRIPS
-        # per frame and strip: the chunk's byte offset (-1: not reported), stored size, mask;
-        # filled from HDF5's chunk index when the frames are to be read without HDF5
-        self._offset: np.ndarray | None = None
-        self._size = self._mask = np.zeros((0, 0), np.int64)
-        self._map: mmap.mmap | None = None
-        self._bytes: np.ndarray | None = None
-        self._address = 0
-        self._mapped = 0
+        # filled when the frames are to be read without HDF5 (raw frames: now; strips: when
+        # frames_mapped is first asked)
+        self._chunks: ChunkIndex | None = None
+        self._through_hdf5 = Hdf5Strips(frames, strip)
         self._buffer: np.ndarray | None = None  # the strips' frame (one at a time)
         self._current: _FrameStrips | None = None
-        self._file_space: h5py.h5s.SpaceID | None = None
-        self._memory_space: dict[tuple[int, ...], h5py.h5s.SpaceID] = {}
         if self._kind == VIEW:
-            self._map_chunks()
+            self._chunks = ChunkIndex(frames, strip, whole_frames=True)
 
     def _kind_of(self, frames: h5py.Dataset, strip: int) -> str | None:
         if not strip:
@@ -90,7 +146,7 @@ class FrameCrops:
     @property
     def direct(self) -> bool:
         """True when frames come from the memory map rather than through h5py."""
-        return self._map is not None
+        return self._chunks is not None and self._chunks.bytes is not None
 
     @property
     def frames_mapped(self) -> int:
@@ -98,37 +154,9 @@ class FrameCrops:
         theirs in HDF5's index; the others are read through h5py). Row strips are mapped on
         this first call: HDF5's chunk index is walked once (about 2 us a chunk), which a read
         through HDF5 does not need (it looks each chunk up)."""
-        if self._kind in (RAW_STRIPS, BITSHUFFLE_STRIPS) and self._offset is None:
-            self._map_chunks()
-        return self._mapped if self._map is not None else 0
-
-    def _map_chunks(self) -> None:
-        """The chunks' byte offsets from HDF5's chunk index, and the file's memory map."""
-        ds, strip = self._frames, self._strip
-        n_strips = -(-self._shape[0] // strip)
-        offset = self._offset = np.full((self._n, n_strips), -1, np.int64)
-        size, mask = self._size, self._mask = np.zeros_like(offset), np.zeros_like(offset)
-        if not hasattr(ds.id, "chunk_iter"):
-            return
-        raw_size = strip * self._shape[1] * self._dtype.itemsize
-        view = self._kind == VIEW
-
-        def visit(info) -> None:
-            i, s = info.chunk_offset[0], info.chunk_offset[1] // strip
-            if i < self._n and (not view or info.size == raw_size):
-                offset[i, s], size[i, s], mask[i, s] = info.byte_offset, info.size, info.filter_mask
-
-        try:
-            ds.id.chunk_iter(visit)
-        except (RuntimeError, ValueError, OSError):  # an HDF5 built without it
-            return
-        # A plain mmap, and plain ndarrays over it (np.frombuffer): numpy.memmap wraps every
-        # slice in a memmap object, which cost more than the measurement per frame.
-        with open(ds.file.filename, "rb") as fh:
-            self._map = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
-        self._bytes = np.frombuffer(self._map, np.uint8)
-        self._address = int(self._bytes.ctypes.data)
-        self._mapped = int(np.count_nonzero((offset >= 0).all(axis=1)))
+        if self._kind in (RAW_STRIPS, BITSHUFFLE_STRIPS) and self._chunks is None:
+            self._chunks = ChunkIndex(self._frames, self._strip, whole_frames=False)
+        return self._chunks.mapped if self.direct and self._chunks is not None else 0
 
     def frame_view(self, i: int) -> np.ndarray | None:
         """Frame ``i`` whose pixels are read when touched: a read-only view into the memory map
@@ -137,12 +165,11 @@ class FrameCrops:
         if self._kind is None:
             return None
         if self._kind == VIEW:
-            offset = int(self._offset[i, 0]) if self._offset is not None else -1
-            if offset < 0 or self._bytes is None:
+            stored = self._chunks.stored(i, 0) if self._chunks is not None else None
+            if stored is None:
                 return None
             nbytes = self._shape[0] * self._shape[1] * self._dtype.itemsize
-            view = self._bytes[offset : offset + nbytes].view(self._dtype)
-            return view.reshape(self._shape)
+            return stored[:nbytes].view(self._dtype).reshape(self._shape)
         if self._buffer is None:
             self._buffer = np.zeros(self._shape, self._dtype)
         strips = self._current = _FrameStrips(self, i, self._buffer)
@@ -165,10 +192,10 @@ class FrameCrops:
         if strips is not self._current:
             raise RuntimeError(f"{self._frames.name}: frame {strips.i} read after the next one")
         i = strips.i
-        offset = int(self._offset[i, s]) if self._offset is not None else -1
-        if offset >= 0 and self._bytes is not None:  # from the memory map
-            chunk = self._bytes[offset : offset + int(self._size[i, s])]
-            self._decode_chunk(chunk, int(self._mask[i, s]), out, i, s)
+        chunk = self._chunks.stored(i, s) if self._chunks is not None else None
+        if chunk is not None:  # from the memory map
+            assert self._chunks is not None
+            self._decode_chunk(chunk, int(self._chunks.mask[i, s]), out, i, s)
             return
         if self._kind == BITSHUFFLE_STRIPS:  # HDF5 finds the chunk, bitshuffle decodes it
             try:
@@ -178,7 +205,7 @@ class FrameCrops:
             else:
                 self._decode_chunk(np.frombuffer(data, np.uint8), int(mask), out, i, s)
                 return
-        self._read_through_hdf5(i, s, out)
+        self._through_hdf5.read(i, s, out)
 
     def _decode_chunk(self, chunk: np.ndarray, mask: int, out: np.ndarray, i: int, s: int):
         """One stored chunk (its bytes) into ``out``: copied when unfiltered (the raw layout, or
@@ -201,16 +228,6 @@ class FrameCrops:
             )
         if target is not out:
             out[...] = target[: out.size].reshape(out.shape)
-
-    def _read_through_hdf5(self, i: int, s: int, out: np.ndarray) -> None:
-        space = self._file_space
-        if space is None:
-            space = self._file_space = self._frames.id.get_space()
-        space.select_hyperslab((i, s * self._strip, 0), (1, *out.shape))
-        memory = self._memory_space.get(out.shape)
-        if memory is None:
-            memory = self._memory_space[out.shape] = h5py.h5s.create_simple(out.shape)
-        self._frames.id.read(memory, space, out)
 
 
 class _FrameStrips:

@@ -55,32 +55,68 @@ UTC_OFFSETS_S = range(-12 * 3600, 14 * 3600 + 1, UTC_OFFSET_STEP_S)
 
 
 @dataclass(frozen=True)
-class GpsImport:
-    """What an import did (also the ``import_json`` attribute and the event's payload)."""
+class LogRead:
+    """The flight log an import read: the file, its format and digest, and what its reader
+    found besides the fixes."""
 
-    session: str
-    log: str
+    path: str
     kind: str
-    log_sha256: str
-    utc_source: str
-    fixes_in_log: int
-    fixes_written: int
-    fixes_outside: int  # more than ``margin_s`` outside the session's span: not written
-    first_utc_ns: int
-    last_utc_ns: int
-    offset: OffsetSearch
-    live_rows_kept: int  # live rows moved to /gps_live (0: there were none)
-    flags_cleared: bool
+    sha256: str
     clock: dict | None = None  # the log's own clock: segments, gaps, jumps, outliers left out
     dropped_no_fix: int = 0  # positions in the log without a fix: never written
-    utc_offset_s: float | None = None  # local time - UTC applied (a DJI SRT), else None
     details: dict | None = None  # what the reader measured (lines moved, clock offset, ...)
     notes: tuple[str, ...] = ()  # the same, one line each for the operator
 
+
+@dataclass(frozen=True)
+class FixesPlaced:
+    """The log's fixes as placed on the session's host clock: how many there were and were
+    written, their UTC span, the offset applied and how their UTC was obtained."""
+
+    in_log: int
+    written: int
+    outside: int  # more than ``margin_s`` outside the session's span: not written
+    first_utc_ns: int
+    last_utc_ns: int
+    offset: OffsetSearch
+    utc_source: str
+    utc_offset_s: float | None = None  # local time - UTC applied (a DJI SRT), else None
+
+
+@dataclass(frozen=True)
+class GpsImport:
+    """What an import did (also the ``import_json`` attribute and the event's payload): the
+    log read, its fixes placed on the session, what became of the session's live rows."""
+
+    session: str
+    flight_log: LogRead
+    placed: FixesPlaced
+    live_rows_kept: int  # live rows moved to /gps_live (0: there were none)
+    flags_cleared: bool
+
     def as_dict(self) -> dict:
-        d = {k: v for k, v in self.__dict__.items() if k != "offset"}
-        d["offset"] = self.offset.as_dict()
-        return d
+        """The summary as ``import_json`` holds it (docs/session-format.md): one flat object."""
+        log, placed = self.flight_log, self.placed
+        return {
+            "session": self.session,
+            "log": log.path,
+            "kind": log.kind,
+            "log_sha256": log.sha256,
+            "utc_source": placed.utc_source,
+            "fixes_in_log": placed.in_log,
+            "fixes_written": placed.written,
+            "fixes_outside": placed.outside,
+            "first_utc_ns": placed.first_utc_ns,
+            "last_utc_ns": placed.last_utc_ns,
+            "live_rows_kept": self.live_rows_kept,
+            "flags_cleared": self.flags_cleared,
+            "clock": log.clock,
+            "dropped_no_fix": log.dropped_no_fix,
+            "utc_offset_s": placed.utc_offset_s,
+            "details": log.details,
+            "notes": log.notes,
+            "offset": placed.offset.as_dict(),
+        }
 
 
 def _sha256(path: Path) -> str:
@@ -167,29 +203,24 @@ def import_gps_log(
     f, flags_cleared = _open_rw(session)
     try:
         gps, live = _gps_to_write(f, session, replace)
-        placed = _placed_on_session(
+        rows, placed = _placed_on_session(
             f, log, flight, fixes, offset_s, max_offset_s, margin_s, utc_offset_s
         )
-        kept = _write_rows(f, gps, live, placed.rows)
+        kept = _write_rows(f, gps, live, rows)
         result = GpsImport(
             session=str(session),
-            log=str(log),
-            kind=kind,
-            log_sha256=_sha256(log),
-            utc_source=placed.utc_source,
-            fixes_in_log=placed.in_log,
-            fixes_written=len(placed.rows),
-            fixes_outside=placed.outside,
-            first_utc_ns=placed.first_utc_ns,
-            last_utc_ns=placed.last_utc_ns,
-            offset=placed.search,
+            flight_log=LogRead(
+                path=str(log),
+                kind=kind,
+                sha256=_sha256(log),
+                clock=None if flight.clock is None else flight.clock.as_dict(),
+                dropped_no_fix=flight.dropped,
+                details=flight.details,
+                notes=tuple(flight.notes),
+            ),
+            placed=placed,
             live_rows_kept=kept,
             flags_cleared=flags_cleared,
-            clock=None if flight.clock is None else flight.clock.as_dict(),
-            dropped_no_fix=flight.dropped,
-            utc_offset_s=placed.local_offset_s,
-            details=flight.details,
-            notes=tuple(flight.notes),
         )
         gps.attrs[SOURCE_ATTR] = IMPORTED
         gps.attrs["import_json"] = json.dumps(result.as_dict())
@@ -213,20 +244,6 @@ def _gps_to_write(f: h5py.File, session: Path, replace: bool) -> tuple[h5py.Data
     return gps, live
 
 
-@dataclass(frozen=True)
-class _Placed:
-    """A log's fixes placed on a session's host clock: the ``/gps`` rows to write and how."""
-
-    rows: list[tuple]
-    in_log: int
-    outside: int
-    first_utc_ns: int
-    last_utc_ns: int
-    search: OffsetSearch
-    utc_source: str
-    local_offset_s: float | None
-
-
 def _placed_on_session(
     f: h5py.File,
     log: Path,
@@ -236,10 +253,11 @@ def _placed_on_session(
     max_offset_s: float,
     margin_s: float,
     utc_offset_s: float | None,
-) -> _Placed:
-    """The fixes on the session's clock (local time resolved, the offset searched), those more
-    than ``margin_s`` outside the session's span left out; refused (ValueError) when fewer than
-    ``MIN_WRITTEN`` of the log's fixes would be written."""
+) -> tuple[list[tuple], FixesPlaced]:
+    """(the ``/gps`` rows to write, how they were placed): the fixes on the session's clock
+    (local time resolved, the offset searched), those more than ``margin_s`` outside the
+    session's span left out; refused (ValueError) when fewer than ``MIN_WRITTEN`` of the log's
+    fixes would be written."""
     utc_source = flight.utc_source
     in_log = len(fixes) + flight.off_clock
     span = _span_ns(f)
@@ -272,15 +290,15 @@ def _placed_on_session(
             row = list(gps_row(fix))
             row[0], row[1] = int(t + shift), int(u + shift)
             rows.append(tuple(row))
-    return _Placed(
-        rows=rows,
+    return rows, FixesPlaced(
         in_log=in_log,
+        written=len(rows),
         outside=int((~keep).sum()),
         first_utc_ns=int(utc[0]),
         last_utc_ns=int(utc[-1]),
-        search=search,
+        offset=search,
         utc_source=utc_source,
-        local_offset_s=local_offset,
+        utc_offset_s=local_offset,
     )
 
 

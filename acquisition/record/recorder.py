@@ -25,7 +25,7 @@ import queue
 import shutil
 import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import asdict
 from datetime import UTC, datetime
 from pathlib import Path
@@ -55,13 +55,178 @@ BACKLOG = "recorder_backlog"
 STOPPED = "recording_stopped"
 
 
+class FrameTally:
+    """What became of the frames each camera gave the recorder: received, accepted (each one's
+    index in the file, kept by host time for its measurement to find), dropped by reason; and
+    how many background references were queued. Read and changed under the recorder's lock."""
+
+    INDEX_KEPT = 4096  # the latest accepted frames whose index a measurement may look up
+
+    def __init__(self, cameras: Iterable[str]) -> None:
+        cameras = list(cameras)
+        self.received = dict.fromkeys(cameras, 0)
+        self.accepted = dict.fromkeys(cameras, 0)
+        self.dropped: dict[str, dict[str, int]] = {n: {} for n in cameras}
+        self.references = dict.fromkeys(cameras, 0)
+        self._index_of: dict[str, dict[int, int]] = {n: {} for n in cameras}
+
+    def drop(self, camera: str, reason: str, n: int = 1) -> None:
+        d = self.dropped[camera]
+        d[reason] = d.get(reason, 0) + n
+
+    def accept(self, camera: str, t_host_ns: int) -> int:
+        """The index in the file of ``camera``'s next frame (host time ``t_host_ns``)."""
+        index = self.accepted[camera]
+        self.accepted[camera] = index + 1
+        index_of = self._index_of[camera]
+        index_of[t_host_ns] = index
+        if len(index_of) > self.INDEX_KEPT:
+            index_of.pop(next(iter(index_of)))
+        return index
+
+    def index_at(self, camera: str, t_host_ns: int) -> int:
+        """The file index of ``camera``'s recent frame at ``t_host_ns``; -1: not recorded."""
+        return self._index_of[camera].get(t_host_ns, -1)
+
+    def next_reference(self, camera: str) -> int:
+        k = self.references[camera]
+        self.references[camera] = k + 1
+        return k
+
+    def counts(self) -> dict:
+        """Frames received and dropped so far (the ``recording_stopped`` event's payload)."""
+        return {"frames_received": dict(self.received), "dropped": dict(self.dropped)}
+
+    def dropped_copy(self) -> dict[str, dict[str, int]]:
+        return {k: dict(v) for k, v in self.dropped.items()}
+
+
+class Backlog:
+    """The frames queued for the writer thread and not yet written, against the limit of
+    ``max_bytes``: a producer beyond it waits up to ``wait_s`` for room (back-pressure), then
+    its frame is dropped. Used under the recorder's lock (``room`` waits on it)."""
+
+    def __init__(self, lock: threading.Lock, max_bytes: int, wait_s: float) -> None:
+        self.max_bytes = int(max_bytes)
+        self.wait_s = float(wait_s)
+        self.frames = 0
+        self.bytes = 0
+        self.room = threading.Condition(lock)  # the writer freed backlog, or the recording ended
+
+    def full_for(self, nbytes: int) -> bool:
+        return self.bytes + nbytes > self.max_bytes
+
+    def wait_for_room(self, nbytes: int, accepting: Callable[[], bool]) -> None:
+        """Wait (at most ``wait_s``) while a frame of ``nbytes`` does not fit behind queued
+        ones and frames are still ``accepting``."""
+        if self.wait_s <= 0:
+            return
+        deadline = time.monotonic() + self.wait_s
+        while (
+            accepting()
+            and self.full_for(nbytes)
+            and self.frames > 0
+            and (remaining := deadline - time.monotonic()) > 0
+        ):
+            self.room.wait(min(remaining, 0.1))
+
+    def queued(self, nbytes: int) -> None:
+        self.frames += 1
+        self.bytes += nbytes
+
+    def written(self, nbytes: int) -> None:
+        self.frames -= 1
+        self.bytes -= nbytes
+        self.room.notify_all()
+
+
+class WriterThread:
+    """The recorder's writer thread: takes the queued items in order into the
+    :class:`SessionWriter`, flushes at most every ``flush_interval_s``, and on the first write
+    error closes the file and tells ``failed`` (the file stays readable up to its last flush).
+    ``frame_done(camera, nbytes, written)`` follows every queued frame, ``ended()`` the close
+    after the ``stop`` item."""
+
+    def __init__(
+        self,
+        writer: SessionWriter,
+        flush_interval_s: float,
+        *,
+        frame_done: Callable[[str, int, bool], None],
+        failed: Callable[[BaseException], None],
+        ended: Callable[[], None],
+    ) -> None:
+        self.counts = writer.counts  # kept after the file is closed
+        self.queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._writer: SessionWriter | None = writer  # None once closed
+        self._flush_interval_s = flush_interval_s
+        self._frame_done, self._failed, self._ended = frame_done, failed, ended
+        self._thread = threading.Thread(target=self._run, name="session-recorder", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def join(self, timeout: float) -> bool:
+        """Wait for the thread to end; True if it has."""
+        self._thread.join(timeout)
+        return not self._thread.is_alive()
+
+    def _run(self) -> None:
+        next_flush = time.monotonic() + self._flush_interval_s
+        while True:
+            try:
+                item = self.queue.get(timeout=max(0.0, next_flush - time.monotonic()))
+            except queue.Empty:
+                item = None
+            if item is not None and item[0] == "stop":
+                self._guarded("flush")
+                self._close()
+                self._ended()
+                return
+            if item is not None and item[0] == "frame":
+                _, cam, pixels, counter, t_host, t_dev = item
+                ok = self._guarded("write_frame", cam, pixels, counter, t_host, t_dev)
+                self._frame_done(cam, pixels.nbytes, ok)
+            elif item is not None and item[0] == "reference":
+                self._guarded("write_reference", item[1], item[2])
+            elif item is not None and self._writer is not None:
+                self._writer.add_row(*item)
+            if time.monotonic() >= next_flush:
+                self._guarded("flush")
+                next_flush = time.monotonic() + self._flush_interval_s
+
+    def _guarded(self, method: str, *args) -> bool:
+        """Run one writer call; on any error end the recording with one message. True if done."""
+        if self._writer is None:
+            return False
+        try:
+            getattr(self._writer, method)(*args)
+            return True
+        except Exception as exc:  # disk full or any write error: stop recording, keep acquisition
+            self._failed(exc)
+            self._close()
+            return False
+
+    def _close(self) -> None:
+        writer, self._writer = self._writer, None
+        if writer is None:
+            return
+        try:
+            writer.close()
+        except Exception as exc:  # the file keeps what was flushed; report, don't raise
+            self._failed(exc)
+
+
 class SessionRecorder:
     """Records one session into ``path`` (created; an existing file is an error).
 
     ``calibrations``: per camera, the ``(metadata, maps)`` of the radiometric calibration its
     frames are measured with
     (:func:`snrmon.acquisition.calibrate.calibration_file.calibration_record`), kept in the file
-    from its start (``/cameras/<name>/calibration``)."""
+    from its start (``/cameras/<name>/calibration``).
+
+    Its parts: the per-camera :class:`FrameTally`, the :class:`Backlog` of frames not yet
+    written, and the :class:`WriterThread` that owns the :class:`SessionWriter`."""
 
     def __init__(
         self,
@@ -89,41 +254,44 @@ class SessionRecorder:
                 raise ValueError(f"camera {name!r} frame shape {shape} is not (rows, columns)")
         self.flush_interval_s = float(flush_interval_s)
         self.compression = compression
-        self.max_backlog_bytes = int(max_backlog_bytes)
-        self.backlog_wait_s = float(backlog_wait_s)
         self.clock = clock or ClockMap()
         self._shapes = {n: (int(s[0]), int(s[1])) for n, s in cameras.items()}
-        self._filters = frame_filter(compression)
         self._lock = threading.Lock()
-        self._room = threading.Condition(self._lock)  # the writer freed backlog
-        self._queue: queue.SimpleQueue = queue.SimpleQueue()
-        self._backlog_frames = 0
-        self._backlog_bytes = 0
-        self._received = dict.fromkeys(self._shapes, 0)
-        self._accepted = dict.fromkeys(self._shapes, 0)
-        self._dropped: dict[str, dict[str, int]] = {n: {} for n in self._shapes}
-        self._index_of: dict[str, dict[int, int]] = {n: {} for n in self._shapes}
-        self._references = dict.fromkeys(self._shapes, 0)
+        self._backlog = Backlog(self._lock, max_backlog_bytes, backlog_wait_s)
+        self._tally = FrameTally(self._shapes)
         self._state = "recording"
         self._error: str | None = None
         self._t0 = time.monotonic()
         self._final: RecorderSummary | None = None
         self._pumps: list[tuple[threading.Thread, Reader]] = []
-        self._w = SessionWriter(
+        writer = SessionWriter(
             self.path,
             config=dict(config),
             shapes=self._shapes,
-            filters=self._filters,
+            filters=frame_filter(compression),
             compression=compression,
             clock=self.clock,
             flush_interval_s=self.flush_interval_s,
             fsync=fsync,
             calibrations=dict(calibrations or {}),
         )
-        self._writer: SessionWriter | None = self._w  # None once closed; _w keeps the counts
-        self._thread = threading.Thread(target=self._run, name="session-recorder", daemon=True)
-        self._thread.start()
+        self._writes = WriterThread(
+            writer,
+            self.flush_interval_s,
+            frame_done=self._frame_done,
+            failed=self._fail,
+            ended=self._ended,
+        )
+        self._writes.start()
         self.add_event("recording_started", payload={"path": str(self.path)})
+
+    @property
+    def max_backlog_bytes(self) -> int:
+        return self._backlog.max_bytes
+
+    @property
+    def backlog_wait_s(self) -> float:
+        return self._backlog.wait_s
 
     # -- producers' API (never blocks, never raises on write trouble) -----------------------------
 
@@ -141,36 +309,22 @@ class SessionRecorder:
             raise ValueError(
                 f"frame shape {pixels.shape} from {camera!r} is not the recorded {shape}"
             )
+        backlog, tally = self._backlog, self._tally
         with self._lock:
-            self._received[camera] += 1
-            if self.backlog_wait_s > 0:
-                deadline = time.monotonic() + self.backlog_wait_s
-                while (
-                    self._state in ("recording", "stopping")
-                    and self._backlog_bytes + pixels.nbytes > self.max_backlog_bytes
-                    and self._backlog_frames > 0
-                    and (remaining := deadline - time.monotonic()) > 0
-                ):
-                    self._room.wait(min(remaining, 0.1))
+            tally.received[camera] += 1
+            backlog.wait_for_room(pixels.nbytes, lambda: self.accepting)
             reason = None
-            if self._state not in ("recording", "stopping"):
+            if not self.accepting:
                 reason = STOPPED
-            elif self._backlog_bytes + pixels.nbytes > self.max_backlog_bytes:
+            elif backlog.full_for(pixels.nbytes):
                 reason = BACKLOG
             if reason is not None:
-                d = self._dropped[camera]
-                d[reason] = d.get(reason, 0) + 1
+                tally.drop(camera, reason)
                 return None
-            index = self._accepted[camera]
-            self._accepted[camera] = index + 1
-            index_of = self._index_of[camera]
-            index_of[int(frame.t_host_ns)] = index
-            if len(index_of) > 4096:
-                index_of.pop(next(iter(index_of)))
-            self._backlog_frames += 1
-            self._backlog_bytes += pixels.nbytes
+            index = tally.accept(camera, int(frame.t_host_ns))
+            backlog.queued(pixels.nbytes)
             t_dev = -1 if frame.t_device_ns is None else int(frame.t_device_ns)
-            self._queue.put(
+            self._writes.queue.put(
                 ("frame", camera, pixels, int(frame.counter), int(frame.t_host_ns), t_dev)
             )
         return index
@@ -197,7 +351,7 @@ class SessionRecorder:
             raise ValueError(f"{camera}: an Eq. (4) result alone needs its frame's t_host_ns")
         if index is None:
             with self._lock:
-                index = self._index_of[camera].get(int(t), -1)
+                index = self._tally.index_at(camera, int(t))
         if isinstance(m, Measurement):
             row = measurement_row(index, m)
         else:
@@ -223,11 +377,10 @@ class SessionRecorder:
         image's index in /cameras/<camera>/references); the index, None when not recording."""
         self._check_camera(camera)
         with self._lock:
-            if self._state not in ("recording", "stopping"):
+            if not self.accepting:
                 return None
-            k = self._references[camera]
-            self._references[camera] = k + 1
-            self._queue.put(("reference", camera, np.asarray(offset, np.float32).copy()))
+            k = self._tally.next_reference(camera)
+            self._writes.queue.put(("reference", camera, np.asarray(offset, np.float32).copy()))
         self.add_event(
             "background_reference",
             camera=camera,
@@ -272,8 +425,8 @@ class SessionRecorder:
 
     def _put(self, item: tuple) -> None:
         with self._lock:  # under the lock so nothing lands behind stop()'s sentinel
-            if self._state in ("recording", "stopping"):
-                self._queue.put(item)
+            if self.accepting:
+                self._writes.queue.put(item)
 
     def attach_reader(self, camera: str, reader: Reader) -> None:
         """Feed ``camera`` from a ring reader on a pump thread
@@ -287,9 +440,9 @@ class SessionRecorder:
         for a per-frame check (:meth:`status` also asks the disk)."""
         with self._lock:
             return (
-                self._received.get(camera, 0),
-                self._w.frames_written.get(camera, 0),
-                dict(self._dropped.get(camera, {})),
+                self._tally.received.get(camera, 0),
+                self._writes.counts.frames_written.get(camera, 0),
+                dict(self._tally.dropped.get(camera, {})),
             )
 
     @property
@@ -310,18 +463,19 @@ class SessionRecorder:
         except OSError:
             free = None
         on_disk = self._bytes_on_disk()
-        raw = sum(self._w.frame_bytes_flushed.values())
-        stored = sum(self._w.frame_bytes_stored.values())
+        counts = self._writes.counts
+        raw = sum(counts.frame_bytes_flushed.values())
+        stored = sum(counts.frame_bytes_stored.values())
         with self._lock:
             return RecorderStatus(
                 self._state,
                 str(self.path),
-                dict(self._w.frames_written),
-                dict(self._w.frames_flushed),
+                dict(counts.frames_written),
+                dict(counts.frames_flushed),
                 on_disk,
-                self._backlog_frames,
-                self._backlog_bytes,
-                {k: dict(v) for k, v in self._dropped.items()},
+                self._backlog.frames,
+                self._backlog.bytes,
+                self._tally.dropped_copy(),
                 free,
                 self._error,
                 compression_ratio=raw / stored if raw and stored else None,
@@ -346,13 +500,15 @@ class SessionRecorder:
                 self._state = "stopping"
         for t, _ in self._pumps:
             t.join(timeout)
-        self.add_event("recording_stopped", payload=self._counts())
+        with self._lock:
+            counts = self._tally.counts()
+        self.add_event("recording_stopped", payload=counts)
         with self._lock:
             if self._state == "stopping":
                 self._state = "closing"
-            self._room.notify_all()
-            self._queue.put(("stop",))
-        self._thread.join(timeout)
+            self._backlog.room.notify_all()
+            self._writes.queue.put(("stop",))
+        ended = self._writes.join(timeout)
         summary = self._summary()
         if accounting is not None:
             summary.extra["accounting"] = {k: dict(v) for k, v in accounting().items()}
@@ -365,80 +521,35 @@ class SessionRecorder:
                     f.attrs["stopped_utc"] = datetime.now(UTC).isoformat()
             except OSError as exc:
                 summary.extra["summary_attr_error"] = str(exc)
-        if not self._thread.is_alive():
+        if ended:
             self._final = summary
         return summary
 
-    # -- writer thread -----------------------------------------------------------------------------
+    # -- the writer thread's reports -----------------------------------------------------------
 
-    def _counts(self) -> dict:
+    def _frame_done(self, camera: str, nbytes: int, written: bool) -> None:
         with self._lock:
-            return {"frames_received": dict(self._received), "dropped": dict(self._dropped)}
+            self._backlog.written(nbytes)
+            if not written:
+                self._tally.drop(camera, STOPPED)
 
-    def _run(self) -> None:
-        next_flush = time.monotonic() + self.flush_interval_s
-        while True:
-            try:
-                item = self._queue.get(timeout=max(0.0, next_flush - time.monotonic()))
-            except queue.Empty:
-                item = None
-            if item is not None and item[0] == "stop":
-                self._guarded("flush")
-                self._close()
-                with self._lock:
-                    if self._state != "failed":
-                        self._state = "stopped"
-                return
-            if item is not None and item[0] == "frame":
-                _, cam, pixels, counter, t_host, t_dev = item
-                ok = self._guarded("write_frame", cam, pixels, counter, t_host, t_dev)
-                with self._lock:
-                    self._backlog_frames -= 1
-                    self._backlog_bytes -= pixels.nbytes
-                    self._room.notify_all()
-                    if not ok:
-                        self._dropped[cam][STOPPED] = self._dropped[cam].get(STOPPED, 0) + 1
-            elif item is not None and item[0] == "reference":
-                self._guarded("write_reference", item[1], item[2])
-            elif item is not None and self._writer is not None:
-                self._writer.add_row(*item)
-            if time.monotonic() >= next_flush:
-                self._guarded("flush")
-                next_flush = time.monotonic() + self.flush_interval_s
-
-    def _guarded(self, method: str, *args) -> bool:
-        """Run one writer call; on any error end the recording with one message. True if done."""
-        if self._writer is None:
-            return False
-        try:
-            getattr(self._writer, method)(*args)
-            return True
-        except Exception as exc:  # disk full or any write error: stop recording, keep acquisition
-            self._fail(exc)
-            self._close()
-            return False
+    def _ended(self) -> None:
+        with self._lock:
+            if self._state != "failed":
+                self._state = "stopped"
 
     def _fail(self, exc: BaseException) -> None:
-        w = self._w
+        counts = self._writes.counts
         with self._lock:
             if self._state == "failed":
                 return
-            self._error = describe_failure(exc, self.path, sum(w.frames_flushed.values()))
+            self._error = describe_failure(exc, self.path, sum(counts.frames_flushed.values()))
             self._state = "failed"
-            self._room.notify_all()
-            for cam, n in w.frames_written.items():  # written but never flushed: not in the file
-                lost = n - w.frames_flushed[cam]
+            self._backlog.room.notify_all()
+            for cam, n in counts.frames_written.items():  # written, never flushed: not in the file
+                lost = n - counts.frames_flushed[cam]
                 if lost:
-                    self._dropped[cam][STOPPED] = self._dropped[cam].get(STOPPED, 0) + lost
-
-    def _close(self) -> None:
-        writer, self._writer = self._writer, None
-        if writer is None:
-            return
-        try:
-            writer.close()
-        except Exception as exc:  # the file keeps what was flushed; report, don't raise
-            self._fail(exc)
+                    self._tally.drop(cam, STOPPED, lost)
 
     def _bytes_on_disk(self) -> int:
         try:
@@ -447,17 +558,18 @@ class SessionRecorder:
             return 0
 
     def _summary(self) -> RecorderSummary:
+        counts = self._writes.counts
         with self._lock:
             return RecorderSummary(
                 str(self.path),
                 self._state,
-                dict(self._received),
-                dict(self._w.frames_flushed),
-                {k: dict(v) for k, v in self._dropped.items()},
-                dict(self._w.measurements),
-                self._w.stream_rows[S.RANGEFINDER],
-                self._w.stream_rows[S.GPS],
-                self._w.stream_rows[S.EVENTS],
+                dict(self._tally.received),
+                dict(counts.frames_flushed),
+                self._tally.dropped_copy(),
+                dict(counts.measurements),
+                counts.stream_rows[S.RANGEFINDER],
+                counts.stream_rows[S.GPS],
+                counts.stream_rows[S.EVENTS],
                 self._bytes_on_disk(),
                 time.monotonic() - self._t0,
                 self._error,

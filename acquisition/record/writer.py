@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterable
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -21,7 +23,12 @@ import numpy as np
 
 from snrmon.acquisition.compression import frame_chunks
 from snrmon.acquisition.record import schema
-from snrmon.acquisition.streams.timebase import ClockMap, rows_array, utc_of_rows
+from snrmon.acquisition.streams.timebase import (
+    ClockMap,
+    ClockReference,
+    rows_array,
+    utc_of_rows,
+)
 
 # The NAME netCDF-4 gives a dimension scale that is only a dimension (netCDF's own convention).
 NETCDF_PURE_DIMENSION = "This is a netCDF dimension but not a netCDF variable."
@@ -91,6 +98,116 @@ def _describe_all(f: h5py.File) -> None:
     f.visititems(visit)
 
 
+def _new_file(path: Path, filters: dict) -> h5py.File:
+    """The session file, created exclusively ("w-": of two writers racing for one path one is
+    refused) with the layout's file-level settings."""
+    # chunks of 64 KiB and more start on a page boundary, so a frame is whole pages
+    # libver bounded at v110: SWMR needs the 1.10 file format, and nothing newer is used,
+    # so readers built on HDF5 1.10 (MATLAB, h5dump 1.10) open the file (docs/session-format).
+    # With a filter, no chunk cache: a frame goes through the filter and to the file when
+    # written, as a raw one does (write_direct_chunk). Cached, a frame that a full disk
+    # refused stayed in the cache of a file that cannot close, and HDF5 ran the filter on
+    # it again when the process let go of the file: a segmentation fault in the plugin.
+    try:
+        return h5py.File(
+            path,
+            "w-",
+            libver=LIBVER,
+            alignment_threshold=65536,
+            alignment_interval=4096,
+            **({"rdcc_nbytes": 0} if filters else {}),
+        )
+    except FileExistsError:
+        raise FileExistsError(f"session file {path} already exists") from None
+
+
+def _write_header(
+    f: h5py.File,
+    config: dict,
+    ref: ClockReference,
+    compression: str | None,
+    flush_interval_s: float,
+) -> None:
+    """The root's attributes (format, creation, clock start, the configuration as JSON) and
+    ``/config``: one attribute per configuration key (JSON where not a plain value)."""
+    f.attrs.update(
+        format=schema.FORMAT,
+        format_version=schema.FORMAT_VERSION,
+        created_utc=datetime.now(UTC).isoformat(),
+        flush_interval_s=flush_interval_s,
+        frames_compression=compression or "none",
+        clock_start_monotonic_ns=ref.monotonic_ns,
+        clock_start_utc_ns=ref.utc_ns,
+        clock_start_source=ref.source,
+        config_json=json.dumps(config, sort_keys=True, default=str),
+    )
+    cfg = f.create_group(schema.CONFIG)
+    for key, value in config.items():
+        simple = isinstance(value, (str, int, float, bool))
+        cfg.attrs[str(key)] = value if simple else json.dumps(value, sort_keys=True, default=str)
+
+
+@dataclass
+class FileCounts:
+    """What the writer has put into the file so far, per camera or stream (the recorder's
+    status and summary read them; only the writer thread changes them)."""
+
+    frames_written: dict[str, int]
+    frames_flushed: dict[str, int]  # the frames in the file as of the last flush
+    frame_bytes_flushed: dict[str, int]  # raw pixel bytes, at the last flush
+    frame_bytes_stored: dict[str, int]  # what the filter made of them
+    measurements: dict[str, int]
+    stream_rows: dict[str, int]
+
+    @classmethod
+    def empty(cls, cameras: Iterable[str]) -> FileCounts:
+        cameras = list(cameras)
+        return cls(
+            frames_written=dict.fromkeys(cameras, 0),
+            frames_flushed=dict.fromkeys(cameras, 0),
+            frame_bytes_flushed=dict.fromkeys(cameras, 0),
+            frame_bytes_stored=dict.fromkeys(cameras, 0),
+            measurements=dict.fromkeys(cameras, 0),
+            stream_rows=dict.fromkeys(schema.STREAMS, 0),
+        )
+
+
+class ClockStamps:
+    """The state of the clock map a flush stamps the held rows' UTC with, and how much of the
+    map ``/clock`` holds: the file keeps the map every UTC in it was stamped with, row for
+    row."""
+
+    def __init__(self, clock: ClockMap) -> None:
+        self._clock = clock
+        self._relabelled_ns, self._map = clock.snapshot()
+        self.rows_written = 0
+
+    def advance(self) -> int:
+        """Take the clock map's present state for this flush; the offset (ns) the receiver's
+        first time moved the whole map by since the last one (0: not moved)."""
+        # One state of the map per flush: what it moved the file by, and the rows the held rows
+        # are stamped with (a fix between the two would stamp them twice).
+        relabelled_ns, self._map = self._clock.snapshot()
+        delta = relabelled_ns - self._relabelled_ns
+        self._relabelled_ns += delta
+        return delta
+
+    def utc_ns(self, t_host_ns: np.ndarray) -> np.ndarray:
+        return utc_of_rows(rows_array(self._map), np.asarray(t_host_ns, np.int64))
+
+    def unwritten_rows(self) -> np.ndarray | None:
+        """The map's rows ``/clock`` does not hold yet (None: none), to be appended and then
+        counted (:meth:`written`)."""
+        rows = self._map[self.rows_written :]
+        if not rows:
+            return None
+        fields = ("monotonic_ns", "utc_ns", "source", "rate", "slew_until_ns", "residual_ns")
+        return np.array([tuple(getattr(r, k) for k in fields) for r in rows], schema.CLOCK_DTYPE)
+
+    def written(self, n: int) -> None:
+        self.rows_written += n
+
+
 class SessionWriter:
     """Owns the open session file; not thread-safe (the recorder's writer thread only)."""
 
@@ -108,19 +225,13 @@ class SessionWriter:
         calibrations: dict[str, tuple[dict, dict[str, np.ndarray]]] | None = None,
     ) -> None:
         self.path = path
-        self.clock = clock
+        self.counts = FileCounts.empty(shapes)
         self._raw_frames = not filters
-        self.frames_written = dict.fromkeys(shapes, 0)
-        self.frames_flushed = dict.fromkeys(shapes, 0)
-        self.frame_bytes_flushed = dict.fromkeys(shapes, 0)  # raw pixel bytes, at the last flush
-        self.frame_bytes_stored = dict.fromkeys(shapes, 0)  # what the filter made of them
-        self.measurements = dict.fromkeys(shapes, 0)
-        self.stream_rows = dict.fromkeys(schema.STREAMS, 0)
         self._pending: dict[tuple[str, str], list] = {}
         self._frames: dict[str, h5py.Dataset] = {}  # per camera, looked up once (not per frame)
         self._dimensions: dict[str, h5py.Dataset] = {}  # dataset path -> its pure dimension
         self._file = self._create(
-            config, shapes, filters, compression, flush_interval_s, calibrations or {}
+            config, shapes, filters, compression, clock, flush_interval_s, calibrations or {}
         )
         self._fd = os.open(path, os.O_RDONLY) if fsync else None
 
@@ -130,86 +241,23 @@ class SessionWriter:
         shapes: dict[str, tuple[int, int]],
         filters: dict,
         compression: str | None,
+        clock: ClockMap,
         flush_interval_s: float,
         calibrations: dict[str, tuple[dict, dict[str, np.ndarray]]],
     ) -> h5py.File:
-        # chunks of 64 KiB and more start on a page boundary, so a frame is whole pages
-        # libver bounded at v110: SWMR needs the 1.10 file format, and nothing newer is used,
-        # so readers built on HDF5 1.10 (MATLAB, h5dump 1.10) open the file (docs/session-format).
-        # With a filter, no chunk cache: a frame goes through the filter and to the file when
-        # written, as a raw one does (write_direct_chunk). Cached, a frame that a full disk
-        # refused stayed in the cache of a file that cannot close, and HDF5 ran the filter on
-        # it again when the process let go of the file: a segmentation fault in the plugin.
-        try:  # "w-": created exclusively, so of two writers racing for one path one is refused
-            f = h5py.File(
-                self.path,
-                "w-",
-                libver=LIBVER,
-                alignment_threshold=65536,
-                alignment_interval=4096,
-                **({"rdcc_nbytes": 0} if filters else {}),
-            )
-        except FileExistsError:
-            raise FileExistsError(f"session file {self.path} already exists") from None
+        """The new file with every dataset of the layout and its first ``/clock`` rows, in
+        SWMR mode; a file that fails on the way is closed and removed."""
+        f = _new_file(self.path, filters)
         try:
-            ref = self.clock.reference
-            f.attrs.update(
-                format=schema.FORMAT,
-                format_version=schema.FORMAT_VERSION,
-                created_utc=datetime.now(UTC).isoformat(),
-                flush_interval_s=flush_interval_s,
-                frames_compression=compression or "none",
-                clock_start_monotonic_ns=ref.monotonic_ns,
-                clock_start_utc_ns=ref.utc_ns,
-                clock_start_source=ref.source,
-                config_json=json.dumps(config, sort_keys=True, default=str),
-            )
-            cfg = f.create_group(schema.CONFIG)
-            for key, value in config.items():
-                simple = isinstance(value, (str, int, float, bool))
-                cfg.attrs[str(key)] = (
-                    value if simple else json.dumps(value, sort_keys=True, default=str)
-                )
+            _write_header(f, config, clock.reference, compression, flush_interval_s)
             for name, (h, w) in shapes.items():
-                g = f.create_group(f"{schema.CAMERAS}/{name}")
-                g.attrs.update(height=h, width=w, pixel_dtype="uint16")
-                frames = g.create_dataset(
-                    schema.FRAMES,
-                    (0, h, w),
-                    np.uint16,
-                    chunks=frame_chunks((h, w), compression if filters else None),
-                    maxshape=(None, h, w),
-                    **filters,
-                )
-                self._frames[name] = frames
-                time, row, col = self._frame_axes(g, h, w)
-                _attach(frames, time, row, col)
-                for column in schema.FRAME_COLUMNS:
-                    ds = g.create_dataset(column, (0,), np.int64, chunks=(4096,), maxshape=(None,))
-                    _attach(ds, time)
-                self._measurement_columns(g)
-                st = g.create_dataset(
-                    schema.STATES, (0,), schema.STATE_DTYPE, chunks=(1,), maxshape=(None,)
-                )
-                st.attrs["units_json"] = json.dumps(schema.STATE_UNITS)
-                _attach(st, self._dimension(g, schema.STATES, 64))
-                images = g.create_dataset(
-                    schema.REFERENCES,
-                    (0, h, w),
-                    np.float32,
-                    chunks=(1, h, w),
-                    maxshape=(None, h, w),
-                )
-                _attach(images, self._dimension(g, schema.REFERENCES, 64), row, col)
-                if name in calibrations:
-                    self._write_calibration(g, row, col, *calibrations[name])
+                self._camera_group(f, name, h, w, filters, compression, calibrations.get(name))
             for name, (dtype, units) in schema.STREAMS.items():
                 d = f.create_dataset(name, (0,), dtype, chunks=(64,), maxshape=(None,))
                 d.attrs["units_json"] = json.dumps(units)
                 _attach(d, self._dimension(f, name, 64))
             _describe_all(f)
-            self._relabelled_ns, self._map = self.clock.snapshot()
-            self._clock_rows = 0
+            self._stamps = ClockStamps(clock)
             self._append_clock_rows(f)
             f.swmr_mode = True
         except BaseException:
@@ -217,6 +265,48 @@ class SessionWriter:
             self.path.unlink(missing_ok=True)
             raise
         return f
+
+    def _camera_group(
+        self,
+        f: h5py.File,
+        name: str,
+        h: int,
+        w: int,
+        filters: dict,
+        compression: str | None,
+        calibration: tuple[dict, dict[str, np.ndarray]] | None,
+    ) -> h5py.Group:
+        """``/cameras/<name>``: the frame cube and its axes, the per-frame columns, the
+        measurements, the engine states, the background references and the calibration."""
+        g = f.create_group(f"{schema.CAMERAS}/{name}")
+        g.attrs.update(height=h, width=w, pixel_dtype="uint16")
+        frames = g.create_dataset(
+            schema.FRAMES,
+            (0, h, w),
+            np.uint16,
+            chunks=frame_chunks((h, w), compression if filters else None),
+            maxshape=(None, h, w),
+            **filters,
+        )
+        self._frames[name] = frames
+        time, row, col = self._frame_axes(g, h, w)
+        _attach(frames, time, row, col)
+        for column in schema.FRAME_COLUMNS:
+            ds = g.create_dataset(column, (0,), np.int64, chunks=(4096,), maxshape=(None,))
+            _attach(ds, time)
+        self._measurement_columns(g)
+        st = g.create_dataset(
+            schema.STATES, (0,), schema.STATE_DTYPE, chunks=(1,), maxshape=(None,)
+        )
+        st.attrs["units_json"] = json.dumps(schema.STATE_UNITS)
+        _attach(st, self._dimension(g, schema.STATES, 64))
+        images = g.create_dataset(
+            schema.REFERENCES, (0, h, w), np.float32, chunks=(1, h, w), maxshape=(None, h, w)
+        )
+        _attach(images, self._dimension(g, schema.REFERENCES, 64), row, col)
+        if calibration is not None:
+            self._write_calibration(g, row, col, *calibration)
+        return g
 
     @staticmethod
     def _write_calibration(
@@ -245,7 +335,7 @@ class SessionWriter:
     def write_frame(self, camera: str, pixels: np.ndarray, counter: int, t_host: int, t_dev: int):
         """Append one frame's pixels now; its counter and times at the next flush."""
         ds = self._frames[camera]
-        n = self.frames_written[camera]
+        n = self.counts.frames_written[camera]
         # The low-level calls: h5py's path lookup and Dataset.resize cost ~100 us a frame
         # together, a quarter of writing the frame's 1.8 MB (MWIR) to the page cache.
         ds.id.set_extent((n + 1, *pixels.shape))
@@ -254,7 +344,7 @@ class SessionWriter:
         else:
             ds[n] = pixels
         self._pending.setdefault(("frame", camera), []).append((counter, t_host, t_dev))
-        self.frames_written[camera] = n + 1
+        self.counts.frames_written[camera] = n + 1
 
     def write_reference(self, camera: str, offset: np.ndarray) -> int:
         """Append a background reference image now; its index in /cameras/<camera>/references."""
@@ -272,14 +362,11 @@ class SessionWriter:
     def flush(self) -> None:
         """Append the held rows, record a changed clock reference, flush HDF5 and fsync."""
         f = self._file
-        # One state of the clock map for this flush: what it moved the file by, and the rows
-        # the held rows are stamped with (a fix between the two would stamp them twice).
-        relabelled_ns, self._map = self.clock.snapshot()
-        self._relabel(f, relabelled_ns)
+        self._relabel(f, self._stamps.advance())
         for (kind, key), rows in list(self._pending.items()):
             if kind == "frame":
                 cols = np.array(rows, np.int64).reshape(-1, 3)
-                utc = self._utc_ns(cols[:, 1])
+                utc = self._stamps.utc_ns(cols[:, 1])
                 for name, values in zip(schema.FRAME_COLUMNS, (*cols.T, utc), strict=True):
                     self._append(f[f"{schema.CAMERAS}/{key}/{name}"], values)
                 self._append(f[f"{schema.CAMERAS}/{key}/{schema.TIME}"], utc)
@@ -288,25 +375,28 @@ class SessionWriter:
                 group = f"{schema.CAMERAS}/{key}/{schema.MEASUREMENTS}"
                 for name in schema.MEASUREMENT_DTYPE.names or ():
                     self._append(f[f"{group}/{name}"], arr[name])
-                self.measurements[key] += len(rows)
+                self.counts.measurements[key] += len(rows)
             elif kind == "state":
                 arr = np.array(rows, schema.STATE_DTYPE)
                 self._append(f[f"{schema.CAMERAS}/{key}/{schema.STATES}"], arr)
             else:
                 arr = np.array(rows, schema.STREAMS[key][0])
-                arr["utc_ns"] = self._utc_ns(arr["t_host_ns"])
+                arr["utc_ns"] = self._stamps.utc_ns(arr["t_host_ns"])
                 self._append(f[key], arr)
-                self.stream_rows[key] += len(rows)
+                self.counts.stream_rows[key] += len(rows)
             del self._pending[(kind, key)]
         self._append_clock_rows(f)
         f.flush()
         if self._fd is not None:
             os.fsync(self._fd)
-        self.frames_flushed = dict(self.frames_written)
+        counts = self.counts
+        flushed = dict(counts.frames_written)
         for camera, ds in self._frames.items():  # the filter's ratio so far, for the status
             frame_bytes = ds.dtype.itemsize * ds.shape[1] * ds.shape[2]
-            self.frame_bytes_flushed[camera] = self.frames_flushed[camera] * frame_bytes
-            self.frame_bytes_stored[camera] = self.frames_bytes_stored(camera)
+            counts.frame_bytes_flushed[camera] = flushed[camera] * frame_bytes
+            counts.frame_bytes_stored[camera] = self.frames_bytes_stored(camera)
+        # published after their bytes: a status that sees these frames flushed sees their ratio
+        counts.frames_flushed = flushed
 
     def frames_bytes_stored(self, camera: str) -> int:
         """Bytes the file gives ``camera``'s frames (after the filter; chunk index aside)."""
@@ -328,29 +418,23 @@ class SessionWriter:
         if fd is not None:
             os.close(fd)
 
-    def _utc_ns(self, t_host_ns: np.ndarray) -> np.ndarray:
-        return utc_of_rows(rows_array(self._map), np.asarray(t_host_ns, np.int64))
-
     def _append_clock_rows(self, f: h5py.File) -> None:
         """The clock map's rows since the last flush into ``/clock``: the map every UTC in the
         file was stamped with, row for row."""
-        rows = self._map[self._clock_rows :]
-        if not rows:
+        arr = self._stamps.unwritten_rows()
+        if arr is None:
             return
-        fields = ("monotonic_ns", "utc_ns", "source", "rate", "slew_until_ns", "residual_ns")
-        arr = np.array([tuple(getattr(r, k) for k in fields) for r in rows], schema.CLOCK_DTYPE)
         self._append(f[schema.CLOCK], arr)
-        self._clock_rows += len(rows)
-        self.stream_rows[schema.CLOCK] = self._clock_rows
+        self._stamps.written(len(arr))
+        self.counts.stream_rows[schema.CLOCK] = self._stamps.rows_written
 
-    def _relabel(self, f: h5py.File, relabelled_ns: int) -> None:
-        """The receiver's first time moved the whole clock map (timebase): every UTC already
-        written moves by the same offset, so the file keeps one monotone map."""
-        delta = relabelled_ns - self._relabelled_ns
+    def _relabel(self, f: h5py.File, delta: int) -> None:
+        """The receiver's first time moved the whole clock map by ``delta`` ns (timebase):
+        every UTC already written moves by the same offset, so the file keeps one monotone
+        map."""
         if not delta:
             return
-        self._relabelled_ns += delta
-        cams = list(self.frames_written)
+        cams = list(self.counts.frames_written)
         paths = [f"{schema.CAMERAS}/{cam}/{col}" for cam in cams for col in ("utc_ns", schema.TIME)]
         for ds in (f[p] for p in paths):
             if ds.shape[0]:

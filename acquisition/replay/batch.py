@@ -201,57 +201,89 @@ def replay_session(
             redetect_stops=redetect_stops,
             fast=fast,
         )
-        groups = [names]
-        apart = parallel and speed is None and predictor is None and len(names) > 1
-        if apart and can_fork() and idle_core():
-            groups = [[n] for n in names]
-        plays = [_Play(f, inputs, group, settings) for group in groups]
-        # The camera with the most frames plays here, the others each in a forked child.
-        plays.sort(key=lambda p: -sum(f.cameras[n].n_frames for n in p.names))
-        if not _may_fork(plays[1:]):
-            plays = [_Play(f, inputs, names, settings)]
+        plays = _plays(f, inputs, names, settings, apart=parallel and speed is None)
         t_start = time.monotonic()
-        children: list[Forked] = []
-        try:
-            for p in plays[1:]:
-                children.append(Forked(functools.partial(p.run, None, t_start, None)))
-            played = [plays[0].run(speed, t_start, progress)]
-            played += [child.result() for child in children]
-        finally:
-            for child in children:
-                child.cancel()
+        played = _played(plays, speed, t_start, progress)
         seconds = time.monotonic() - t_start
         order = {n: i for i, n in enumerate(names)}
         rows = sorted((r for p in played for r in p[1]), key=lambda r: (r.stop, order[r.camera]))
         tallies = {n: t for p in played for n, t in p[0].items()}
-        drops = recording_drops(f)
-        kept = ((f.summary or {}).get("extra") or {}).get("accounting") or {}
-        out = {
-            n: CameraReplay(
-                n,
-                f.cameras[n].n_frames,
-                tallies[n],
-                drops.get(n, {}),
-                FrameAccounting.from_record(kept[n]) if n in kept else None,
-            )
-            for n in names
-        }
-        span = 0
-        for n in names:
-            t = f.cameras[n].t_host_ns
-            if len(t) > 1:
-                span = max(span, int(t[-1] - t[0]))
         recorded = {k: v for k, v in inputs.final_rows.items() if k[1] in names}
         return ReplayResult(
-            out,
+            _camera_replays(f, names, tallies),
             rows,
             seconds,
-            span / 1e9,
+            _span_s(f, names),
             recorded,
             _count_identical(rows, recorded) if recorded else None,
             f.format_version,
             len(plays),
         )
+
+
+def _plays(
+    f: SessionFile, inputs: RecordedInputs, names: list[str], settings: dict, *, apart: bool
+) -> list[_Play]:
+    """The replays to run, the one of this process first: one per camera when they may play
+    ``apart`` (unpaced), without a model, a core is idle and every camera is held in memory
+    (:func:`_may_fork`), else one of every camera."""
+    groups = [names]
+    if apart and settings["predictor"] is None and len(names) > 1 and can_fork() and idle_core():
+        groups = [[n] for n in names]
+    plays = [_Play(f, inputs, group, settings) for group in groups]
+    # The camera with the most frames plays here, the others each in a forked child.
+    plays.sort(key=lambda p: -sum(f.cameras[n].n_frames for n in p.names))
+    if not _may_fork(plays[1:]):
+        plays = [_Play(f, inputs, names, settings)]
+    return plays
+
+
+def _played(
+    plays: list[_Play],
+    speed: float | None,
+    t_start: float,
+    progress: Callable[[int, int], None] | None,
+) -> list[tuple[dict[str, CameraTally], list[StopRow]]]:
+    """What each play gave (:meth:`_Play.run`): the first here, the others in forked children."""
+    children: list[Forked] = []
+    try:
+        for p in plays[1:]:
+            children.append(Forked(functools.partial(p.run, None, t_start, None)))
+        played = [plays[0].run(speed, t_start, progress)]
+        played += [child.result() for child in children]
+    finally:
+        for child in children:
+            child.cancel()
+    return played
+
+
+def _camera_replays(
+    f: SessionFile, names: list[str], tallies: dict[str, CameraTally]
+) -> dict[str, CameraReplay]:
+    """Each camera's replay with the file's own frame accounting (the recorder's drops, and
+    what became of every frame the console received where the summary keeps it)."""
+    drops = recording_drops(f)
+    kept = ((f.summary or {}).get("extra") or {}).get("accounting") or {}
+    return {
+        n: CameraReplay(
+            n,
+            f.cameras[n].n_frames,
+            tallies[n],
+            drops.get(n, {}),
+            FrameAccounting.from_record(kept[n]) if n in kept else None,
+        )
+        for n in names
+    }
+
+
+def _span_s(f: SessionFile, names: list[str]) -> float:
+    """The longest first-to-last frame span (s) of these cameras' recorded frames."""
+    span = 0
+    for n in names:
+        t = f.cameras[n].t_host_ns
+        if len(t) > 1:
+            span = max(span, int(t[-1] - t[0]))
+    return span / 1e9
 
 
 class _Play:

@@ -124,23 +124,43 @@ class BudgetAtRange:
 
 
 @dataclass(frozen=True)
+class FlightResults:
+    """What the flight measured: the stop rows, each row's Fig. 6 series, each camera's Figs.
+    7-10 points, and the 3D noise of each stop's background (from a file)."""
+
+    rows: list[StopRow]
+    series: list[StopSeries]
+    points: dict[str, MeasuredPoints]
+    noise_3d: list[StopNoise] = field(default_factory=list)  # per stop and camera
+
+
+@dataclass(frozen=True)
+class ModelResults:
+    """What the model gives for the session's sensors and target: each camera's curves (Figs.
+    7-10), its uncertainty budget at its stops' ranges (Fig. 12), the table of the paper's
+    reference values and each camera's detection summary."""
+
+    curves: dict[str, ModelCurves]
+    budgets: dict[str, list[BudgetAtRange]]
+    references: list = field(default_factory=list)  # comparison.Reference
+    detections: dict = field(default_factory=dict)  # camera -> comparison.DetectionSummary
+
+
+@dataclass(frozen=True)
 class ReportData:
+    """The report (module docstring): the session and the model's inputs it was made with, what
+    the flight measured, what the model gives, and the two compared (fits, CSV rows)."""
+
     path: Path
     target: str
     sensors: dict[str, str]
-    rows: list[StopRow]
-    series: list[StopSeries]
-    measured: dict[str, MeasuredPoints]
-    models: dict[str, ModelCurves]
-    budgets: dict[str, list[BudgetAtRange]]
+    flight: FlightResults
+    model: ModelResults
     csv_rows: list[dict[str, object]]
     replay_seconds: float | None  # None: measured live, not replayed
     recording_seconds: float
     fits: list = field(default_factory=list)  # comparison.FitStatistic per camera and curve
-    references: list = field(default_factory=list)  # comparison.Reference
-    detections: dict = field(default_factory=dict)  # camera -> comparison.DetectionSummary
     weather: Weather | None = None  # the met readings the model's curves used
-    noise_3d: list[StopNoise] = field(default_factory=list)  # per stop and camera (from a file)
     # camera -> model.noise.MeasuredNoise the model's values used; empty: the model's own noise
     measured_noise: dict = field(default_factory=dict)
 
@@ -544,23 +564,27 @@ def assemble_report(
         path=path,
         target=target,
         sensors=sensors,
-        rows=rows,
-        series=series,
-        measured={c: measured_points(rows, c) for c in cameras},
-        models=models,
-        budgets=budgets,
+        flight=FlightResults(
+            rows=rows,
+            series=series,
+            points={c: measured_points(rows, c) for c in cameras},
+            noise_3d=list(noise_3d or []),
+        ),
+        model=ModelResults(
+            curves=models,
+            budgets=budgets,
+            references=reference_table(sensors, target),
+            detections={
+                c: detection_summary(
+                    c, sensors[c], target, **({} if weather is None else {"atmosphere": weather})
+                )
+                for c in cameras
+            },
+        ),
         csv_rows=csv_rows(rows, None if clock is None else utc_text(clock)),
         replay_seconds=replay_seconds,
         recording_seconds=seconds,
         fits=fit_statistics(rows, models),
-        references=reference_table(sensors, target),
-        detections={
-            c: detection_summary(
-                c, sensors[c], target, **({} if weather is None else {"atmosphere": weather})
-            )
-            for c in cameras
-        },
         weather=weather,
-        noise_3d=list(noise_3d or []),
         measured_noise=measured,
     )

@@ -79,7 +79,7 @@ def summary_page(data: ReportData):
             if data.replay_seconds is not None
             else f"live session of {data.recording_seconds:.1f} s, as measured (not replayed)"
         )
-        + f"; {len({r.stop for r in data.rows})} stops",
+        + f"; {len({r.stop for r in data.flight.rows})} stops",
         "SNR = (peak - mean(BG)) / std(BG) per frame (Eq. 4), mean and sample std over the "
         "first 100 consecutive valid frames of each stop.",
         "BG (column bg): rim = the 7x7 box's rim; ext = outside the segmented drone and a 2 px",
@@ -164,7 +164,7 @@ def noise_page(data: ReportData):
         fig.text(0.06, 0.925 - 0.022 * i, line, fontsize=8)
     head = ["stop", "camera", "range m", "frames", "region", *NOISE_3D, "tvh 95 %", "pix"]
     cells = []
-    for s in data.noise_3d:
+    for s in data.flight.noise_3d:
         n = s.noise
         lo, hi = n.ci95["tvh"]
         cells.append(
@@ -179,9 +179,9 @@ def noise_page(data: ReportData):
                 _fmt(n.peak_pixel_noise, ".3f"),
             ]
         )
-    for cam, figures in camera_noise(data.noise_3d).items():
+    for cam, figures in camera_noise(data.flight.noise_3d).items():
         pix = math.hypot(figures["tvh"], figures["vh"])
-        stops = sum(1 for s in data.noise_3d if s.camera == cam)
+        stops = sum(1 for s in data.flight.noise_3d if s.camera == cam)
         cells.append(
             ["all", cam, "-", f"{stops} stops", "-"]
             + [_fmt(figures[k], ".3f") for k in NOISE_3D]
@@ -221,7 +221,7 @@ def draw_table(fig, rect, head, cells, *, max_rows: int, fontsize: float, more: 
 
 
 def _snr_axes(ax, data: ReportData, camera: str, paper_curves: bool = True) -> None:
-    m = data.models[camera]
+    m = data.model.curves[camera]
     for curve, (color, ls, label) in _STYLE.items():
         if curve not in m.snr:
             continue
@@ -245,7 +245,7 @@ def _snr_axes(ax, data: ReportData, camera: str, paper_curves: bool = True) -> N
                 color="grey",
                 transform=ax.get_xaxis_transform(),
             )
-    p = data.measured[camera]
+    p = data.flight.points[camera]
     if len(p.range_m):
         ax.errorbar(
             p.range_m,
@@ -301,7 +301,7 @@ def reference_page(data: ReportData):
     fig.suptitle("The paper's numbers beside ours; probability of detection", fontsize=11)
     ax = fig.add_axes((0.04, 0.55, 0.92, 0.38))
     ax.axis("off")
-    cells = [[r.quantity, r.paper, r.ours, r.reason] for r in data.references]
+    cells = [[r.quantity, r.paper, r.ours, r.reason] for r in data.model.references]
     if cells:
         table = ax.table(
             cellText=cells,
@@ -317,7 +317,7 @@ def reference_page(data: ReportData):
             if col == 3 and row > 0:
                 cell.get_text().set_wrap(True)
     ax2 = fig.add_axes((0.1, 0.07, 0.85, 0.38))
-    for cam, d in data.detections.items():
+    for cam, d in data.model.detections.items():
         line = ax2.plot(d.ranges_m, d.pd, label=cam)[0]
         ax2.fill_between(d.ranges_m, d.pd_lower, d.pd_upper, color=line.get_color(), alpha=0.15)
         if d.range_m is not None:
@@ -329,8 +329,8 @@ def reference_page(data: ReportData):
     ax2.set_xlabel("range (m)")
     ax2.set_ylabel("probability of detection")
     ax2.grid(True, which="both", alpha=0.3)
-    if data.detections:
-        k = next(iter(data.detections.values()))
+    if data.model.detections:
+        k = next(iter(data.model.detections.values()))
         ax2.set_title(
             f"one false alarm per {1 / k.false_alarms_per_hour:g} h over the frame: "
             f"threshold {k.threshold_sigma:.2f} sigma; band: the model's inputs",
@@ -341,7 +341,7 @@ def reference_page(data: ReportData):
 
 
 def snr_range_pages(data: ReportData, paper_curves: bool = True) -> Iterator:
-    cams = list(data.models)
+    cams = list(data.model.curves)
     for i in range(0, len(cams), 2):
         fig = _figure()
         fig.suptitle("Measured peak SNR vs model (paper Figs. 7-10)", fontsize=11)
@@ -357,11 +357,11 @@ def snr_range_pages(data: ReportData, paper_curves: bool = True) -> Iterator:
 def budget_page(data: ReportData):
     fig = _figure()
     fig.suptitle("Uncertainty budget, small dimension (paper Fig. 12)", fontsize=11)
-    cams = list(data.budgets) or ["-"]
+    cams = list(data.model.budgets) or ["-"]
     axes = np.atleast_1d(fig.subplots(len(cams), 1))
     labels = [*BUDGET_TERMS, "total"]
     for ax, cam in zip(axes, cams, strict=True):
-        budgets = data.budgets.get(cam, [])
+        budgets = data.model.budgets.get(cam, [])
         if not budgets:
             ax.axis("off")
             ax.text(0.5, 0.5, f"{cam}: no stop with a range", ha="center")
@@ -410,7 +410,7 @@ def _series_column(axes, s: StopSeries) -> None:
 
 def series_pages(data: ReportData) -> Iterator:
     by_stop: dict[int, list[StopSeries]] = {}
-    for s in data.series:
+    for s in data.flight.series:
         by_stop.setdefault(s.stop, []).append(s)
     for stop, series in by_stop.items():
         fig = _figure()

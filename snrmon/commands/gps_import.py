@@ -146,13 +146,14 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.json:
         return emit_json(result.as_dict())
-    o = result.offset
+    placed, read = result.placed, result.flight_log
+    o = placed.offset
     print(
-        f"{result.session}: {result.fixes_written} of {result.fixes_in_log} fixes from "
-        f"{result.log} ({kind}, UTC from {result.utc_source}) written as /gps, source imported"
+        f"{result.session}: {placed.written} of {placed.in_log} fixes from "
+        f"{read.path} ({kind}, UTC from {placed.utc_source}) written as /gps, source imported"
     )
-    if result.clock is not None:
-        c = result.clock
+    if read.clock is not None:
+        c = read.clock
         fate = (
             "left out of the anchor's estimate, their fixes on the anchor's time"
             if c["anchors"]
@@ -163,12 +164,12 @@ def run(args: argparse.Namespace) -> int:
             f"jumps), {c['outliers']} rows whose time disagrees ({fate})"
             + (f"; first: {c['examples'][0]}" if c["examples"] else "")
         )
-    if result.dropped_no_fix:
-        print(f"  {result.dropped_no_fix} positions without a fix (before the lock) left out")
-    for note in result.notes:
+    if read.dropped_no_fix:
+        print(f"  {read.dropped_no_fix} positions without a fix (before the lock) left out")
+    for note in read.notes:
         print(f"  {note}")
-    if result.fixes_outside:
-        print(f"  {result.fixes_outside} fixes lie outside the session's span and were left out")
+    if placed.outside:
+        print(f"  {placed.outside} fixes lie outside the session's span and were left out")
     if result.live_rows_kept:
         print(f"  the {result.live_rows_kept} live GPS rows are kept in /gps_live")
     rms = lambda v: "-" if v is None else f"{v:.2f} m"  # noqa: E731

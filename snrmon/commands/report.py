@@ -62,8 +62,8 @@ def run(args: argparse.Namespace) -> int:
     if args.csv:
         write_csv(data.csv_rows, args.csv)
     if args.json:
-        return emit_json({"report": str(out), "stop_rows": len(data.rows), "csv": args.csv})
-    say(f"report: {out} ({len(data.rows)} stop rows)")
+        return emit_json({"report": str(out), "stop_rows": len(data.flight.rows), "csv": args.csv})
+    say(f"report: {out} ({len(data.flight.rows)} stop rows)")
     if args.csv:
         say(f"table: {args.csv}")
     return 0

@@ -203,15 +203,15 @@ def test_offset_search_corrects_a_wrong_session_clock(session_copy, tmp_path):
     shutil.copyfile(session, aligned)
     (tmp_path / "aligned").mkdir()
     log = flight_logs(aligned, tmp_path / "aligned", shift_s=0.0)["logs"]["tlog"]
-    baseline = import_gps_log(aligned, log, "tlog", replace=True).offset.best_s
+    baseline = import_gps_log(aligned, log, "tlog", replace=True).placed.offset.best_s
     assert baseline is not None and abs(baseline) < 0.1
     copy = tmp_path / "clock-off.h5"
     shutil.copyfile(session, copy)
     # The log's UTC runs 2.4 s ahead of the session's clock (a host clock set by hand).
     made = flight_logs(copy, tmp_path, shift_s=2.4)
     result = import_gps_log(copy, made["logs"]["tlog"], "tlog", replace=True)
-    assert result.offset.applied
-    assert result.offset.offset_s == pytest.approx(baseline - 2.4, abs=0.015)  # a 10 ms grid
+    assert result.placed.offset.applied
+    assert result.placed.offset.offset_s == pytest.approx(baseline - 2.4, abs=0.015)  # a 10 ms grid
     with h5py.File(copy, "r") as f:
         live, imported = gga_rows(f["gps_live"][()]), f["gps"][()]
     shifted = round(2.4e9)

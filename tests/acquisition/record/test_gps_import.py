@@ -84,9 +84,9 @@ def test_a_receivers_date_before_lock_is_left_out(shared_data, tmp_path):
     bare_session(session, fixes[0].utc, (fixes[-1].utc - fixes[0].utc).total_seconds())
     result = import_gps_log(session, log, "nmea")
     # The one 2008 epoch before the lock (quality 0) is a position without a fix: not written.
-    assert result.fixes_written == sum(f.has_fix for f in fixes) == len(fixes) - 1
-    assert result.dropped_no_fix == 1 and result.fixes_outside == 0
-    assert result.clock["outliers"] == 8 and result.clock["jumps"] == 3
+    assert result.placed.written == sum(f.has_fix for f in fixes) == len(fixes) - 1
+    assert result.flight_log.dropped_no_fix == 1 and result.placed.outside == 0
+    assert result.flight_log.clock["outliers"] == 8 and result.flight_log.clock["jumps"] == 3
 
 
 def test_clock_mapping_round_trips_through_re_anchored_rows():

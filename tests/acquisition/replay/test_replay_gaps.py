@@ -36,9 +36,8 @@ class DroppingRecorder(SessionRecorder):
     def add_frame(self, camera, frame):
         if frame.counter in DROPS:
             with self._lock:
-                self._received[camera] += 1
-                d = self._dropped[camera]
-                d[BACKLOG] = d.get(BACKLOG, 0) + 1
+                self._tally.received[camera] += 1
+                self._tally.drop(camera, BACKLOG)
             return None
         return super().add_frame(camera, frame)
 
@@ -152,9 +151,8 @@ class RecorderDropping(DroppingRecorder):
     def add_frame(self, camera, frame):
         if frame.counter in self.drops:
             with self._lock:
-                self._received[camera] += 1
-                d = self._dropped[camera]
-                d[BACKLOG] = d.get(BACKLOG, 0) + 1
+                self._tally.received[camera] += 1
+                self._tally.drop(camera, BACKLOG)
             return None
         return SessionRecorder.add_frame(self, camera, frame)
 

@@ -95,7 +95,7 @@ def test_a_replay_applies_the_recorded_readings_and_the_report_uses_them(tmp_pat
     first, last = session_weather(sim.path)
     assert first is None and last == HUMID
     data = assemble_report(sim.path, {"mwir": "mwir"}, "uav1", rows, [], seconds=1.0, weather=last)
-    assert data.weather == HUMID and "RH 95 %" in data.models["mwir"].atmosphere
-    humid_budget = data.budgets["mwir"][0].terms["transmission"]
+    assert data.weather == HUMID and "RH 95 %" in data.model.curves["mwir"].atmosphere
+    humid_budget = data.model.budgets["mwir"][0].terms["transmission"]
     plain_budget = uncertainty_budget("mwir", "mwir", "uav1", [rows[0].range_m])[0]
     assert humid_budget > plain_budget.terms["transmission"]  # more optical depth

@@ -107,7 +107,7 @@ def test_csv_values_match_an_independent_computation(session, data, outputs):
     _, _, rows = outputs
     header = rows[0]
     predictor = ModelPredictor({"mwir": "mwir", "lwir": "lwir"}, "uav1")
-    t_start = {(r.camera, r.stop): r.t_start_ns for r in data.rows}
+    t_start = {(r.camera, r.stop): r.t_start_ns for r in data.flight.rows}
     for values in rows[1:]:
         row = dict(zip(header, values, strict=True))
         cam, stop = row["camera"], int(row["stop"])
@@ -140,11 +140,11 @@ def test_3d_noise_of_each_stops_background(session, data):
     20 px, and its 3D noise is that of those pixels of the file."""
     from snrmon.acquisition.measure.noise3d import noise_3d
 
-    assert sorted((s.stop, s.camera) for s in data.noise_3d) == sorted(
-        (r.stop, r.camera) for r in data.rows
+    assert sorted((s.stop, s.camera) for s in data.flight.noise_3d) == sorted(
+        (r.stop, r.camera) for r in data.flight.rows
     )
-    start = {(r.camera, r.stop): r.t_start_ns for r in data.rows}
-    for s in data.noise_3d:
+    start = {(r.camera, r.stop): r.t_start_ns for r in data.flight.rows}
+    for s in data.flight.noise_3d:
         first = int(np.searchsorted(session.frame_t_ns, start[(s.camera, s.stop)]))
         assert s.frames == (first, first + 99)
         x0, y0, x1, y1 = s.region
@@ -168,11 +168,11 @@ def test_measured_noise_replaces_the_models_noise(data, measured):
     from snrmon.model.presets import load_sensor
 
     for cam, m in measured.measured_noise.items():
-        mine = [s.noise.sigma_corrected for s in data.noise_3d if s.camera == cam]
+        mine = [s.noise.sigma_corrected for s in data.flight.noise_3d if s.camera == cam]
         assert m.temporal_dn == pytest.approx(math.sqrt(np.mean([x["tvh"] ** 2 for x in mine])))
         assert m.spatial_dn == pytest.approx(math.sqrt(np.mean([x["vh"] ** 2 for x in mine])))
-    own = {(r.camera, r.stop): r for r in data.rows}
-    for row in measured.rows:
+    own = {(r.camera, r.stop): r for r in data.flight.rows}
+    for row in measured.flight.rows:
         base = own[(row.camera, row.stop)]
         assert row.snr_mean == base.snr_mean  # the measurement is the same
         sensor = load_sensor(row.camera)
@@ -182,12 +182,12 @@ def test_measured_noise_replaces_the_models_noise(data, measured):
             assert row.model_snr[c] == pytest.approx(
                 base.model_snr[c] * model_e / measured_e, rel=1e-3
             )
-    for cam, curves in measured.models.items():
+    for cam, curves in measured.model.curves.items():
         sensor = load_sensor(cam)
         ratio = noise_breakdown(sensor, curves.background_temp_k).total / (
             measured.measured_noise[cam].total_dn * sensor.gain_e_per_dn
         )
-        np.testing.assert_allclose(curves.snr["small"], data.models[cam].snr["small"] * ratio)
+        np.testing.assert_allclose(curves.snr["small"], data.model.curves[cam].snr["small"] * ratio)
 
 
 def test_csv_gps_range_is_the_planned_range(outputs):
@@ -200,9 +200,9 @@ def test_csv_gps_range_is_the_planned_range(outputs):
 
 
 def test_fig6_series_are_the_stop_summary_frames(session, data):
-    assert len(data.series) == 4
-    by_key = {(r.camera, r.stop): r for r in data.rows}
-    for s in data.series:
+    assert len(data.flight.series) == 4
+    by_key = {(r.camera, r.stop): r for r in data.flight.rows}
+    for s in data.flight.series:
         row = by_key[(s.camera, s.stop)]
         assert len(s.snr) == len(s.peak) == len(s.bg_mean) == len(s.bg_std) == 100
         assert s.snr.mean() == pytest.approx(row.snr_mean, rel=1e-12)
@@ -218,16 +218,16 @@ def test_budget_and_curves_are_the_models(data):
     from snrmon.model.presets import load_sensor, load_target
     from snrmon.model.snr import predict
 
-    for cam, budgets in data.budgets.items():
+    for cam, budgets in data.model.budgets.items():
         assert [b.range_m for b in budgets] == sorted(
-            r.range_m for r in data.rows if r.camera == cam
+            r.range_m for r in data.flight.rows if r.camera == cam
         )
         # at the sky the rows' model values were computed for (the budget's path term)
         p = predict(
             load_sensor(cam),
             load_target("uav1"),
             [b.range_m for b in budgets],
-            background_temp_k=rows_sky_k(data.rows, cam),
+            background_temp_k=rows_sky_k(data.flight.rows, cam),
         )
         for i, b in enumerate(budgets):
             assert tuple(b.terms) == BUDGET_TERMS
@@ -236,11 +236,11 @@ def test_budget_and_curves_are_the_models(data):
                 math.sqrt(sum(v**2 for v in b.terms.values())), rel=1e-12
             )
             assert b.resolved == bool(p.resolved_small[i])
-        m = data.models[cam]
+        m = data.model.curves[cam]
         assert m.transition_small_m == pytest.approx(p.transition_range_small_m)
         assert m.ranges_m[0] <= min(RANGES_M) and m.ranges_m[-1] >= max(RANGES_M)
     # Points for the Figs. 7-10 markers: one per stop, error bar = the stop's std.
-    pts = data.measured["lwir"]
+    pts = data.flight.points["lwir"]
     assert pts.range_m.tolist() == pytest.approx(list(RANGES_M), abs=0.15)
     assert np.all(pts.snr_std > 0)
     assert np.all(pts.snr_sem > 0)
@@ -277,12 +277,12 @@ def test_missing_file_and_bad_output_are_one_line_errors(tmp_path, session, caps
 def test_report_compares_the_stops_and_the_paper(data):
     """chi2/dof per curve of the unresolved stops, the paper's reference numbers beside ours
     with a reason each, and Pd versus range with the detection range's confidence."""
-    refs = {r.quantity: r for r in data.references}
+    refs = {r.quantity: r for r in data.model.references}
     assert refs["MWIR average PVF, diffraction limited"].paper == "0.25"
     assert refs["MWIR average PVF, diffraction limited"].ours == "0.2414"
     assert refs["NETD MWIR / LWIR (mK)"].ours == "41.1 / 50.0"
-    assert all(r.reason for r in data.references) and len(data.references) == 6
-    for cam, d in data.detections.items():
+    assert all(r.reason for r in data.model.references) and len(data.model.references) == 6
+    for cam, d in data.model.detections.items():
         assert d.range_lower_m < d.range_m < d.range_upper_m, cam
     curves = {f.curve for f in data.fits}
     if curves:  # the fixture's stops are unresolved in the LWIR

@@ -59,15 +59,15 @@ def test_final_row_keeps_the_100_frames_it_summarised(table):
 
 def test_live_report_is_the_table_as_measured(table, tmp_path):
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.3)
-    (row,) = data.rows
-    (series,) = data.series
+    (row,) = data.flight.rows
+    (series,) = data.flight.series
     assert data.replay_seconds is None and data.path.name == "demo (live)"
     assert series.snr.mean() == pytest.approx(row.snr_mean, rel=1e-12)
     np.testing.assert_allclose(series.t_s, (np.arange(5, 105) * FRAME_NS) / 1e9)
     np.testing.assert_allclose((series.peak - series.bg_mean) / series.bg_std, series.snr)
     (csv_row,) = data.csv_rows
     assert csv_row["ratio_small"] == pytest.approx(row.snr_mean / row.model_snr["small"])
-    assert data.measured["mwir"].range_m.tolist() == [336.0]
+    assert data.flight.points["mwir"].range_m.tolist() == [336.0]
     out = render_report(data, tmp_path / "live.pdf")
     assert out.stat().st_size > 10_000
 
@@ -150,7 +150,7 @@ def test_the_reports_curves_are_drawn_at_the_sky_the_rows_were_compared_with():
     assert row.model_psf_source == "preset: PVF 0.082 (sensor mwir)"  # no PSF fitted yet
     assert row.model_psf_label == "preset PSF"
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
-    curves = data.models["mwir"]
+    curves = data.model.curves["mwir"]
     assert curves.background_temp_k == pytest.approx(280.0)
     at_stop = np.interp(np.log(336.0), np.log(curves.ranges_m), curves.snr["small"])
     assert at_stop == pytest.approx(row.model_snr["small"], rel=0.01)
@@ -179,7 +179,7 @@ def test_the_reports_corrected_curves_use_the_psf_the_rows_were_compared_with():
     assert not any("source" in k or "label" in k for k in row_payload(row))
     assert row.model_snr["small_corrected"] > 1.4 * preset
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
-    curves = data.models["mwir"]
+    curves = data.model.curves["mwir"]
     for name in ("small_corrected", "expected_eq4_rim", "expected_eq4_extent"):
         at_stop = np.interp(np.log(393.0), np.log(curves.ranges_m), curves.snr[name])
         assert at_stop == pytest.approx(row.model_snr[name], rel=0.01), name
