@@ -228,7 +228,7 @@ class Characterization:
         out: dict = {}
         for f in fields(self):
             value = getattr(self, f.name)
-            if is_dataclass(value):
+            if is_dataclass(value) and not isinstance(value, type):
                 out.update(asdict(value))
             else:
                 out[f.name] = value
