@@ -30,7 +30,9 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable
 from concurrent.futures import Future
+from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -115,12 +117,22 @@ class Predictor(Protocol):
     """Counts the curves swapped in: a display redraws when it changes."""
     background_temp_k: dict[str, float | None]
     """The background (sky) temperature asked for, per camera (None: the model's own)."""
-    curves_background_k: dict[str, float]
-    """The background temperature the current curves were computed for, per camera (K)."""
-    curves_psf: dict[str, Any]
-    """The corrected PSF the current curves were computed with, per camera (None: preset's)."""
-    curves_psf_source: dict[str, str]
-    """Which PSF that is, in words for the console (:func:`psf_source`), per camera."""
+
+    @property
+    def curves_background_k(self) -> dict[str, float]:
+        """The background temperature the current curves were computed for, per camera (K)."""
+        ...
+
+    @property
+    def curves_psf(self) -> dict[str, Any]:
+        """The corrected PSF the current curves were computed with, per camera (None: the
+        preset's)."""
+        ...
+
+    @property
+    def curves_psf_source(self) -> dict[str, str]:
+        """Which PSF that is, in words for the console (:func:`psf_source`), per camera."""
+        ...
 
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
         """The curves at ``range_m`` (``CURVES``, ``EXPECTED_CURVES``, ``resolved_small``, and
@@ -177,6 +189,55 @@ def psf_label(source: str | None) -> str | None:
     return f"{source.split(':', 1)[0]} PSF"
 
 
+@dataclass(frozen=True)
+class CurvesInForce:
+    """One camera's current curves and what they were computed for, swapped in together (a
+    reader never sees the curves of one request with the sky or PSF of another)."""
+
+    curves: dict[str, np.ndarray]
+    background_k: float  # the background temperature used (K; the model's own if none asked)
+    psf: object  # the corrected PSF used (None: the sensor preset's)
+    psf_source: str  # that PSF in words (:func:`psf_source`)
+
+
+class Recomputations:
+    """The bookkeeping of the curves' computations, per camera: each request's generation (a
+    result is swapped in only if no newer request superseded it) and how many run in the
+    background (:meth:`ModelPredictor.pending`). Thread-safe: results arrive on the worker
+    pool's thread."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._generation: dict[str, int] = {}
+        self._running: dict[str, int] = {}
+
+    def next_generation(self, camera: str) -> int:
+        """A new request for ``camera``'s curves: its generation."""
+        with self._lock:
+            gen = self._generation.get(camera, 0) + 1
+            self._generation[camera] = gen
+            return gen
+
+    def started(self, camera: str) -> None:
+        with self._lock:
+            self._running[camera] = self._running.get(camera, 0) + 1
+
+    def finished(self, camera: str) -> None:
+        with self._lock:
+            self._running[camera] -= 1
+
+    def pending(self, camera: str) -> bool:
+        """True while a background computation of ``camera``'s curves is under way."""
+        with self._lock:
+            return self._running.get(camera, 0) > 0
+
+    def if_latest(self, camera: str, gen: int, swap: Callable[[], None]) -> None:
+        """``swap()`` under the lock, unless a newer request than ``gen`` superseded it."""
+        with self._lock:
+            if self._generation[camera] == gen:
+                swap()
+
+
 class ModelPredictor:
     """``predictor(camera, range_m) -> {"small", "large", "small_corrected",
     "large_corrected", "expected_eq4_rim", "expected_eq4_extent", "resolved_small"}`` (and the
@@ -207,13 +268,6 @@ class ModelPredictor:
         self.asynchronous = asynchronous
         self.sensors = {}
         self.background_temp_k: dict[str, float | None] = {}
-        # The background temperature the current curves were computed for (K; the model's own
-        # when none was asked for), swapped in with them.
-        self.curves_background_k: dict[str, float] = {}
-        # The corrected PSF the current curves were computed with (None: the sensor preset's),
-        # swapped in with them, so a stop row names the curves its values came from.
-        self.curves_psf: dict[str, object] = {}
-        self.curves_psf_source: dict[str, str] = {}
         self.psf: dict[str, object] = {}
         # The met readings each camera's curves are (being) computed for (None: the options')
         default_weather = predict_options.get("atmosphere")
@@ -224,10 +278,9 @@ class ModelPredictor:
             np.geomspace(10.0, 5000.0, 600) if ranges_m is None else np.asarray(ranges_m, float)
         )
         self._log_r = np.log(self.ranges_m)
-        self.curves: dict[str, dict[str, np.ndarray]] = {}
-        self._lock = threading.Lock()
-        self._generation: dict[str, int] = {}
-        self._running: dict[str, int] = {}  # background computations under way, per camera
+        # swapped whole (no half reads), so a stop row names the curves its values came from
+        self._in_force: dict[str, CurvesInForce] = {}
+        self._recomputations = Recomputations()
         self.version = 0  # counts the curves swapped in: a display redraws when it changes
         for camera, sensor_name in sensors.items():
             self.sensors[camera] = load_sensor(sensor_name)
@@ -276,8 +329,29 @@ class ModelPredictor:
 
     def pending(self, camera: str) -> bool:
         """True while a computation of ``camera``'s curves is under way (in the background)."""
-        with self._lock:
-            return self._running.get(camera, 0) > 0
+        return self._recomputations.pending(camera)
+
+    @property
+    def curves(self) -> dict[str, dict[str, np.ndarray]]:
+        """Each camera's current curves (:func:`curves_of`)."""
+        return {c: f.curves for c, f in self._in_force.items()}
+
+    @property
+    def curves_background_k(self) -> dict[str, float]:
+        """The background temperature each camera's current curves were computed for (K; the
+        model's own when none was asked for)."""
+        return {c: f.background_k for c, f in self._in_force.items()}
+
+    @property
+    def curves_psf(self) -> dict[str, object]:
+        """The corrected PSF each camera's current curves were computed with (None: the sensor
+        preset's)."""
+        return {c: f.psf for c, f in self._in_force.items()}
+
+    @property
+    def curves_psf_source(self) -> dict[str, str]:
+        """Which PSF that is, in words (:func:`psf_source`), per camera."""
+        return {c: f.psf_source for c, f in self._in_force.items()}
 
     def _schedule(self, camera, temp_k, psf, wait) -> None:
         # the inputs are current at once (a second request for the same value does nothing)
@@ -288,9 +362,8 @@ class ModelPredictor:
             return
         from snrmon.acquisition import worker_process
 
-        gen = self._next_generation(camera)
-        with self._lock:
-            self._running[camera] = self._running.get(camera, 0) + 1
+        gen = self._recomputations.next_generation(camera)
+        self._recomputations.started(camera)
         try:
             job = worker_process.submit(
                 model_curves,
@@ -300,7 +373,7 @@ class ModelPredictor:
                 self._options_for(camera, temp_k, psf),
             )
         except BaseException:
-            self._finished(camera)
+            self._recomputations.finished(camera)
             raise
 
         def done(job: Future) -> None:  # on the worker pool's thread
@@ -313,20 +386,10 @@ class ModelPredictor:
                 log.exception("%s: the model's recomputation failed", camera)
                 return
             finally:
-                self._finished(camera)
+                self._recomputations.finished(camera)
             self._swap(camera, gen, temp_k, psf, curves, used_k)
 
         job.add_done_callback(done)
-
-    def _finished(self, camera: str) -> None:
-        with self._lock:
-            self._running[camera] -= 1
-
-    def _next_generation(self, camera: str) -> int:
-        with self._lock:
-            gen = self._generation.get(camera, 0) + 1
-            self._generation[camera] = gen
-            return gen
 
     def _options_for(self, camera: str, background_temp_k: float | None, psf) -> dict:
         options = {**self._options, "background_temp_k": background_temp_k}
@@ -340,27 +403,26 @@ class ModelPredictor:
         return options
 
     def _compute(self, camera: str, background_temp_k: float | None, psf) -> None:
-        gen = self._next_generation(camera)
+        gen = self._recomputations.next_generation(camera)
         options = self._options_for(camera, background_temp_k, psf)
         p = self._predict(self.sensors[camera], self.target, self.ranges_m, **options)
         self._swap(camera, gen, background_temp_k, psf, curves_of(p), p.background_temp_k)
 
     def _swap(self, camera, gen: int, background_temp_k, psf, curves: dict, used_k: float) -> None:
-        with self._lock:
-            if self._generation[camera] != gen:
-                return  # a newer request superseded this one
+        in_force = CurvesInForce(curves, used_k, psf, psf_source(self.sensors[camera], psf))
+
+        def swap() -> None:
             self.background_temp_k[camera] = used_k if background_temp_k else None
-            self.curves = {**self.curves, camera: curves}  # swapped whole: no half reads
-            self.curves_background_k = {**self.curves_background_k, camera: used_k}
-            self.curves_psf = {**self.curves_psf, camera: psf}
-            source = psf_source(self.sensors[camera], psf)
-            self.curves_psf_source = {**self.curves_psf_source, camera: source}
+            self._in_force = {**self._in_force, camera: in_force}  # swapped whole
             self.version += 1
 
+        self._recomputations.if_latest(camera, gen, swap)
+
     def __call__(self, camera: str, range_m: float) -> dict[str, float]:
-        curves = self.curves.get(camera)
-        if curves is None or range_m is None or not range_m > 0:
+        in_force = self._in_force.get(camera)
+        if in_force is None or range_m is None or not range_m > 0:
             return {}
+        curves = in_force.curves
         x = np.log(range_m)
         names = [*CURVES, *(n for n in EXPECTED_CURVES if n in curves)]
         out = {name: float(np.interp(x, self._log_r, curves[name])) for name in names}
@@ -379,7 +441,8 @@ class ModelPredictor:
         """The curves of ``camera`` as (ranges_m, snr) pairs, for plotting: the four, the
         expected Eq. (4) readings of both rules and the paper's four (``paper_<name>``); and the
         band of the corrected curves and the expected readings as (ranges_m, lower, upper)."""
-        c = self.curves.get(camera, {})
+        in_force = self._in_force.get(camera)
+        c = in_force.curves if in_force is not None else {}
         names = (*CURVES, *EXPECTED_CURVES, *PAPER_CURVES)
         out: dict[str, tuple] = {name: (self.ranges_m, c[name]) for name in names if name in c}
         for name in BANDED_CURVES:

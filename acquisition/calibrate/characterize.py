@@ -59,7 +59,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields, is_dataclass
+from typing import TypedDict
 
 import cv2
 import numpy as np
@@ -145,10 +146,10 @@ class FrameTarget:
     small_m: float
     large_m: float
     threshold: float
-    temp_k: float | None
-    sigma_target_k: float | None
-    background_k: float | None
-    rss_delta_t_k: float | None
+    temp_k: float | None = None
+    sigma_target_k: float | None = None
+    background_k: float | None = None
+    rss_delta_t_k: float | None = None
     outline_temp_k: float | None = None
     core_px: int | None = None  # pixels the temperature was read on
     core_seen_temp_k: float | None = None  # the core before the PSF correction
@@ -158,33 +159,80 @@ class FrameTarget:
     mask: np.ndarray | None = field(default=None, compare=False, repr=False)
 
 
-@dataclass(frozen=True)
-class Characterization:
-    """Mean and sample std over frames (``*_std``); temperatures in C as the target file."""
+class FrameTemperatures(TypedDict, total=False):
+    """A calibrated frame's temperature fields of its :class:`FrameTarget` (K)."""
 
-    camera: str
-    range_m: float
-    n_frames: int
+    temp_k: float
+    sigma_target_k: float
+    background_k: float
+    rss_delta_t_k: float
+    outline_temp_k: float
+    core_px: int
+    core_seen_temp_k: float
+    core_psf_share: float | None
+    apparent_temp_k: float
+
+
+@dataclass(frozen=True)
+class TargetSize:
+    """The target's two dimensions (paper section 3), mean and sample std over frames [m]."""
+
     small_m: float
     small_m_std: float
     large_m: float
     large_m_std: float
+
+
+@dataclass(frozen=True)
+class TargetTemperature:
+    """What a target file takes of the temperatures, mean and sample std over frames: the
+    drone's and the sky's (C) and the RSS delta-T (K); None without a calibration."""
+
     mean_temp_c: float | None
     mean_temp_c_std: float | None
     background_temp_c: float | None
     background_temp_c_std: float | None
     rss_delta_t_k: float | None
     rss_delta_t_k_std: float | None
-    method: str
+
+
+@dataclass(frozen=True)
+class CoreReading:
+    """How the drone's temperature was read, means over frames (module docstring, steps 5-7):
+    the eroded outline's own temperature, the core's pixel count, the core before the PSF
+    correction and the share of the contrast it keeps, the core seen through the air."""
+
     outline_temp_c: float | None = None
     core_pixels: float | None = None  # mean count of core pixels a frame's temperature read
     core_seen_temp_c: float | None = None  # the core's temperature before the PSF correction
     core_psf_share: float | None = None  # mean share of the contrast the core keeps (PSF)
     apparent_temp_c: float | None = None  # the drone's temperature as seen through the air
-    temperature_convention: str = "apparent"  # of every temperature above but apparent_temp_c
+
+
+@dataclass(frozen=True)
+class Characterization:
+    """A stop's characterization: mean and sample std over frames; temperatures in C as the
+    target file. :meth:`as_dict` is flat, each part's fields under their own names."""
+
+    camera: str
+    range_m: float
+    n_frames: int
+    size: TargetSize
+    temperature: TargetTemperature
+    method: str
+    core: CoreReading = field(default_factory=CoreReading)
+    temperature_convention: str = "apparent"  # of every temperature but apparent_temp_c
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        """``{name: value}``, the parts' fields in place of the parts (``characterize --json``)."""
+        out: dict = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if is_dataclass(value) and not isinstance(value, type):
+                out.update(asdict(value))
+            else:
+                out[f.name] = value
+        return out
 
 
 def _window(shape, x: int, y: int, half: int) -> tuple[int, int, int, int]:
@@ -284,8 +332,7 @@ def characterize_frame(
     x, y = int(at_xy[0]), int(at_xy[1])
     win = _window(frame.shape, x, y, cfg.roi_half_px)
     if calibration is not None:
-        lq = calibration.radiance(frame, win)
-        values = lq
+        values = calibration.radiance(frame, win)
     else:
         values = np.asarray(frame[win[0] : win[1], win[2] : win[3]], np.float32)
     mask, thr = segment_target(values, cfg, (y - win[0], x - win[2]))
@@ -294,62 +341,71 @@ def characterize_frame(
         return None
     px_m = range_m * ifov_rad
     box = _box_area(mask, cfg.box)
-    temp = sig = bgk = rss = outline = seen = share = apparent = None
-    n_core = None
-    if calibration is not None:
-        band, qe = calibration.band_um, calibration.qe_curve
-        # the sky as seen (the model's sky temperature); the drone's pixels before the air
-        sky_lq = lq
-        if path is not None:
-            lq = path.own_radiance(lq, band, qe)
-        inner = mask
-        if cfg.erode_px:
-            k = np.ones((2 * cfg.erode_px + 1,) * 2, np.uint8)
-            eroded = cv2.erode(mask, k)
-            inner = eroded if eroded.sum() >= 2 else mask
-        temps = temperature_of(band, lq[inner > 0], qe)
-        outline = float(np.mean(temps))
-        sig = float(np.std(temps, ddof=1)) if temps.size > 1 else 0.0
-        # distance of each outline pixel's centre to the nearest sky pixel's centre
-        depth = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-        core = depth >= min(cfg.core_px, float(depth.max()))
-        n_core = int(core.sum())
-        # the border ring, as for the threshold: blades and other parts removed from the
-        # outline must not count as sky
-        outside = _ring(mask.shape, cfg.ring_px) & (
-            cv2.dilate(mask, np.ones((7, 7), np.uint8)) == 0
-        )
-        l_sky = float(np.mean(sky_lq[outside]))
-        l_bg = l_sky if path is None else float(path.own_radiance(l_sky, band, qe))
-        l_core = float(np.mean(lq[core]))
-        seen = float(temperature_of(band, l_core, qe))
-        l_drone = l_core
-        if psf is not None:
-            if fill_factor is None:
-                raise ValueError("a PSF correction needs the camera's fill factor")
-            share = core_psf_share(mask, core, psf, fill_factor)
-            l_drone = l_bg + (l_core - l_bg) / share
-        temp = float(temperature_of(band, l_drone, qe))
-        l_app = l_drone if path is None else float(path.apparent_radiance(l_drone, band, qe))
-        apparent = float(temperature_of(band, l_app, qe))
-        bgk = float(temperature_of(band, l_sky, qe))
-        rss = math.hypot(temp - bgk, sig)
+    temperatures: FrameTemperatures = (
+        {}
+        if calibration is None
+        else _frame_temperatures(values, mask, calibration, cfg, psf, fill_factor, path)
+    )
     return FrameTarget(
         area,
         box,
         math.sqrt(area) * px_m,
         math.sqrt(box) * px_m,
         float(thr),
-        temp,
-        sig,
-        bgk,
-        rss,
-        outline,
-        n_core,
-        seen,
-        share,
-        apparent,
-        _cropped(mask),
+        mask=_cropped(mask),
+        **temperatures,
+    )
+
+
+def _frame_temperatures(
+    sky_lq: np.ndarray,
+    mask: np.ndarray,
+    calibration: Calibration,
+    cfg: CharacterizeConfig,
+    psf,
+    fill_factor: float | None,
+    path: AirPath | None,
+) -> FrameTemperatures:
+    """The temperature fields of a :class:`FrameTarget` (module docstring, steps 5-7) from the
+    ROI's radiance ``sky_lq`` (as seen: the model's sky temperature) and the outline ``mask``."""
+    band, qe = calibration.band_um, calibration.qe_curve
+    # the drone's pixels before the air
+    lq = sky_lq if path is None else path.own_radiance(sky_lq, band, qe)
+    inner = mask
+    if cfg.erode_px:
+        k = np.ones((2 * cfg.erode_px + 1,) * 2, np.uint8)
+        eroded = cv2.erode(mask, k)
+        inner = eroded if eroded.sum() >= 2 else mask
+    temps = temperature_of(band, lq[inner > 0], qe)
+    sig = float(np.std(temps, ddof=1)) if temps.size > 1 else 0.0
+    # distance of each outline pixel's centre to the nearest sky pixel's centre
+    depth = cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    core = depth >= min(cfg.core_px, float(depth.max()))
+    # the border ring, as for the threshold: blades and other parts removed from the
+    # outline must not count as sky
+    outside = _ring(mask.shape, cfg.ring_px) & (cv2.dilate(mask, np.ones((7, 7), np.uint8)) == 0)
+    l_sky = float(np.mean(sky_lq[outside]))
+    l_bg = l_sky if path is None else float(path.own_radiance(l_sky, band, qe))
+    l_core = float(np.mean(lq[core]))
+    l_drone, share = l_core, None
+    if psf is not None:
+        if fill_factor is None:
+            raise ValueError("a PSF correction needs the camera's fill factor")
+        share = core_psf_share(mask, core, psf, fill_factor)
+        l_drone = l_bg + (l_core - l_bg) / share
+    temp = float(temperature_of(band, l_drone, qe))
+    l_app = l_drone if path is None else float(path.apparent_radiance(l_drone, band, qe))
+    bgk = float(temperature_of(band, l_sky, qe))
+    return FrameTemperatures(
+        temp_k=temp,
+        sigma_target_k=sig,
+        background_k=bgk,
+        rss_delta_t_k=math.hypot(temp - bgk, sig),
+        outline_temp_k=float(np.mean(temps)),
+        core_px=int(core.sum()),
+        core_seen_temp_k=float(temperature_of(band, l_core, qe)),
+        core_psf_share=share,
+        apparent_temp_k=float(temperature_of(band, l_app, qe)),
     )
 
 
@@ -446,19 +502,10 @@ def summarise_frames(
         camera,
         float(range_m),
         len(rows),
-        small_m,
-        small_std or 0.0,
-        large_m,
-        large_std or 0.0,
-        *temp,
-        *bg,
-        *rss,
+        TargetSize(small_m, small_std or 0.0, large_m, large_std or 0.0),
+        TargetTemperature(*temp, *bg, *rss),
         method,
-        outline,
-        n_core,
-        seen,
-        share,
-        apparent,
+        CoreReading(outline, n_core, seen, share, apparent),
         convention,
     )
 
@@ -476,7 +523,7 @@ def unmeasurable(
     2 open_px + 1 of ``config``: module docstring)."""
     cfg = config or CharacterizeConfig()
     need_px = 2 * cfg.open_px + 1 if min_size_px is None else float(min_size_px)
-    small_px, large_px = result.small_m / pixel_m, result.large_m / pixel_m
+    small_px, large_px = result.size.small_m / pixel_m, result.size.large_m / pixel_m
     why = []
     if result.n_frames < min_frames:
         why.append(f"{result.n_frames} frames at rest (need >= {min_frames})")
@@ -534,7 +581,8 @@ def target_toml(
     """A ``[target]`` TOML for ``model.presets.load_target`` with this band's temperature and
     RSS delta-T (``band`` defaults to the camera name: "mwir"/"lwir") and, if given, the
     segmented ``outline`` (the model's "outline" footprint, :func:`median_outline`)."""
-    if result.mean_temp_c is None:
+    size, temperature = result.size, result.temperature
+    if temperature.mean_temp_c is None:
         raise ValueError("a target file needs a temperature: characterize with a calibration")
     key = band or result.camera
     desc = description or (
@@ -542,10 +590,10 @@ def target_toml(
         f"{result.range_m:.1f} m ({result.method})"
     )
     values = {
-        "small_m": result.small_m,
-        "large_m": max(result.large_m, result.small_m),
-        "temp_c": result.mean_temp_c,
-        "rss_delta_t_k": result.rss_delta_t_k,
+        "small_m": size.small_m,
+        "large_m": max(size.large_m, size.small_m),
+        "temp_c": temperature.mean_temp_c,
+        "rss_delta_t_k": temperature.rss_delta_t_k,
     }
     finite = {k: float(v) for k, v in values.items() if v is not None and math.isfinite(v)}
     if len(finite) < len(values):  # TOML has no null; a NaN would only fail later, in the model

@@ -36,7 +36,12 @@ from pathlib import Path
 
 import numpy as np
 
-from snrmon.acquisition.calibrate.flir_planck import FlirCalibration
+from snrmon.acquisition.calibrate.flir_planck import (
+    AtmosphericTransmission,
+    FlirCalibration,
+    MeasurementConditions,
+    PlanckConstants,
+)
 
 log = logging.getLogger(__name__)
 
@@ -267,24 +272,30 @@ def _calibration(buf, at: int, order: str) -> FlirCalibration:
 
     humidity = f32(0x3C)
     return FlirCalibration(
-        planck_r1=f32(0x58),
-        planck_r2=f32(0x30C),
-        planck_b=f32(0x5C),
-        planck_f=f32(0x60),
-        planck_o=float(struct.unpack_from(order + "i", buf, at + 0x308)[0]),
-        emissivity=f32(0x20),
-        object_distance_m=f32(0x24),
-        reflected_temp_k=f32(0x28),
-        atmospheric_temp_k=f32(0x2C),
-        ir_window_temp_k=f32(0x30),
-        ir_window_transmission=f32(0x34),
-        # a ratio; some files store it in percent (exiftool: above 2 it is a percentage)
-        relative_humidity=humidity / 100.0 if humidity > 2 else humidity,
-        atm_trans_alpha1=f32(0x70),
-        atm_trans_alpha2=f32(0x74),
-        atm_trans_beta1=f32(0x78),
-        atm_trans_beta2=f32(0x7C),
-        atm_trans_x=f32(0x80),
+        PlanckConstants(
+            r1=f32(0x58),
+            r2=f32(0x30C),
+            b=f32(0x5C),
+            f=f32(0x60),
+            o=float(struct.unpack_from(order + "i", buf, at + 0x308)[0]),
+        ),
+        MeasurementConditions(
+            emissivity=f32(0x20),
+            object_distance_m=f32(0x24),
+            reflected_temp_k=f32(0x28),
+            atmospheric_temp_k=f32(0x2C),
+            ir_window_temp_k=f32(0x30),
+            ir_window_transmission=f32(0x34),
+            # a ratio; some files store it in percent (exiftool: above 2 it is a percentage)
+            relative_humidity=humidity / 100.0 if humidity > 2 else humidity,
+        ),
+        AtmosphericTransmission(
+            alpha1=f32(0x70),
+            alpha2=f32(0x74),
+            beta1=f32(0x78),
+            beta2=f32(0x7C),
+            x=f32(0x80),
+        ),
     )
 
 

@@ -16,6 +16,7 @@ from collections import deque
 from dataclasses import asdict, dataclass
 
 from snrmon.acquisition.measure.blob import Blob, Box
+from snrmon.acquisition.track.config import AppearanceConfig, TrackerConfig
 from snrmon.acquisition.track.search import is_object
 
 
@@ -178,7 +179,7 @@ class Candidate:
         )
 
 
-def size_ok(area: float, history: ObjectHistory, config) -> bool:
+def size_ok(area: float, history: ObjectHistory, config: AppearanceConfig) -> bool:
     """A core area within ``size_factor`` of the recent median (areas under 4 px count as 4:
     a point target's core flickers between 1 and 4 pixels)."""
     typical = history.area
@@ -188,38 +189,40 @@ def size_ok(area: float, history: ObjectHistory, config) -> bool:
     return 1.0 / config.size_factor <= ratio <= config.size_factor
 
 
-def judge(blob: Blob | None, pred: tuple[float, float], history: ObjectHistory, config) -> str:
+def judge(
+    blob: Blob | None, pred: tuple[float, float], history: ObjectHistory, config: TrackerConfig
+) -> str:
     """Whether the object found near the prediction is the drone: "" or why not (the tracker's
     rule 2, docs/tracking.md)."""
-    c = config
+    c, look, strong_snr = config, config.appearance, config.reacquire.snr
     if blob is None:
         return "undefined"
     typical = history.prominence
     if not is_object(blob, c.lost_snr, c.min_isolation):
         # Bright where the drone should be, but not standing out of what it touches: merged
         # with clutter (occluded); else too faint to be seen.
-        bright = blob.contrast >= c.reacquire_snr * blob.sigma and (
-            typical is None or blob.contrast * c.brightness_factor >= typical
+        bright = blob.contrast >= strong_snr * blob.sigma and (
+            typical is None or blob.contrast * look.brightness_factor >= typical
         )
         return "occluded" if bright else "faint"
     if (
         typical is not None
-        and blob.prominence * c.brightness_factor < typical
-        and blob.significance < c.reacquire_snr
+        and blob.prominence * look.brightness_factor < typical
+        and blob.significance < strong_snr
     ):
         return "faint"
     w, h = blob.core_size
     gate = c.gate_px + max(w, h) / 4.0
     if max(abs(blob.centroid_x - pred[0]), abs(blob.centroid_y - pred[1])) > gate:
         return "gate"
-    if typical is not None and blob.prominence > c.brightness_factor * typical:
+    if typical is not None and blob.prominence > look.brightness_factor * typical:
         return "bright"
-    if not size_ok(blob.core_area, history, c):
+    if not size_ok(blob.core_area, history, look):
         return "size"
     return ""
 
 
-def consistent(blob: Blob, history: ObjectHistory, config) -> bool:
+def consistent(blob: Blob, history: ObjectHistory, config: AppearanceConfig) -> bool:
     """A reacquisition candidate looks like the drone: prominence within
     ``brightness_factor`` and core area within ``size_factor`` of its recent history."""
     c = config

@@ -16,23 +16,24 @@ Eq. (4), the background chosen by the target's extent
    held window, flagged ``lost`` when refused as occluded, gate, bright or size.
 4. **States**: tracking, occluded, lost (``lost_frames`` misses), reacquiring, gps_cued.
 5. **Reacquisition**: a square growing around the prediction (around a fresh GPS cue while
-   lost); a candidate is accepted after ``reacquire_frames`` consistent frames (a GPS-cued one
+   lost); a candidate is accepted after ``reacquire.frames`` consistent frames (a GPS-cued one
    at once).
 6. **Gaps**: frames dropped before the tracker (:meth:`Tracker.skip`, or ``update(frames=)``)
    move the motion model on without decay; a ``gate`` miss right after them is searched for at
-   once, in a square widened by ``max_speed_px`` per dropped frame.
+   once, in a square widened by ``reacquire.max_speed_px`` per dropped frame.
 
 Finding a lost drone again (rules 5 and 6 in detail): while misses last, a square around the
-predicted position grows by ``search_growth_px`` per missed frame from ``search_start_px`` to
-``search_max_px``; once LOST with a fresh GPS cue, the ``2 cue_radius_px + 1`` square around the cue
-is searched on the frame the cue arrives and then every other frame (one square a frame: the engine
-corrects only around :attr:`read_centre`). Objects in it with prominence >= ``reacquire_snr`` sigma
-that look like the drone (prominence and core area within ``brightness_factor`` / ``size_factor`` of
-its history) are candidates; the nearest is followed with its own motion and accepted after
-``reacquire_frames`` consecutive frames in which it is found again where that motion puts it (within
-``gate_px``), no faster than ``max_speed_px`` per frame and still looking like the drone. A bird
-crossing near the old position moves too fast or does not look like the drone, and is dropped. A
-candidate at a fresh GPS cue is accepted at once (state ``gps_cued``).
+predicted position grows by ``search.growth_px`` per missed frame from ``search.start_px`` to
+``search.max_px``; once LOST with a fresh GPS cue, the ``2 cue.radius_px + 1`` square around the
+cue is searched on the frame the cue arrives and then every other frame (one square a frame: the
+engine corrects only around :attr:`read_centre`). Objects in it with prominence >=
+``reacquire.snr`` sigma that look like the drone (prominence and core area within
+``appearance.brightness_factor`` / ``appearance.size_factor`` of its history) are candidates; the
+nearest is followed with its own motion and accepted after ``reacquire.frames`` consecutive frames
+in which it is found again where that motion puts it (within ``gate_px``), no faster than
+``reacquire.max_speed_px`` per frame and still looking like the drone. A bird crossing near the old
+position moves too fast or does not look like the drone, and is dropped. A candidate at a fresh GPS
+cue is accepted at once (state ``gps_cued``).
 
 The complete state is :meth:`Tracker.snapshot` (JSON-able; floats exact) and
 :meth:`Tracker.restore`: a tracker built with the same configuration and restored from the
@@ -58,24 +59,22 @@ from snrmon.acquisition.measure.peak_snr import (
     FLAG_LOST,
     PeakSnr,
     PeakSnrConfig,
-    flags_to_bits,
     pixel_of,
-    remember,
     result_with,
 )
 from snrmon.acquisition.measure.running_stats import RunningSnr
-from snrmon.acquisition.measure.target_snr import TargetMeter
 from snrmon.acquisition.track.candidate import Candidate, ObjectHistory, box_at, consistent, judge
 from snrmon.acquisition.track.config import (
     ON_TARGET,
     REFUSED,
-    WING_PX,
     TrackerConfig,
     TrackState,
     TrackStep,
     reach_px,
 )
+from snrmon.acquisition.track.measurement import TrackMeasurement
 from snrmon.acquisition.track.motion import MotionModel
+from snrmon.acquisition.track.reacquire import FrameGaps, GpsCue, LostSearch
 from snrmon.acquisition.track.search import box_distance, brightest_in, find_objects, is_object
 
 __all__ = [
@@ -90,7 +89,10 @@ __all__ = [
 
 
 class Tracker:
-    """Follows the drone from the operator's click (:meth:`click`) frame by frame."""
+    """Follows the drone from the operator's click (:meth:`click`) frame by frame: the track's
+    own state (the click, the window, misses, its state) and, owned by it, its measurement
+    (:class:`TrackMeasurement`), the drone's history, its motion model, the GPS cue, what
+    dropped frames did and the lost-track search (:mod:`snrmon.acquisition.track.reacquire`)."""
 
     def __init__(
         self,
@@ -103,37 +105,20 @@ class Tracker:
         **settings,
     ) -> None:
         """``memory``: the noise reference and running statistics the track feeds
-        (:func:`snrmon.acquisition.measure.peak_snr.remember`), a measurer's own; None: a
-        reference of the track's own and no running statistics."""
+        (:class:`TrackMeasurement`), a measurer's own; None: a reference of the track's own and
+        no running statistics."""
         if config is not None and settings:
             raise ValueError("give either config or settings, not both")
         self.config = config if config is not None else TrackerConfig(**settings)
         self.measurement = measurement if measurement is not None else PeakSnrConfig()
         c = self.config
-        self._meter = TargetMeter(
-            self.measurement, gate_px=c.gate_px, guard_px=c.guard_px, wing_px=WING_PX
-        )
-        if not (reference_noise is None or reference_noise == "recent") and (
-            isinstance(reference_noise, str) or not math.isfinite(reference_noise)
-        ):
-            raise ValueError(
-                f"reference_noise must be 'recent', a number (DN) or None, got {reference_noise!r}"
-            )
-        self._fixed_reference = reference_noise
-        m = self.measurement
-        if memory is None:
-            self._reference = NoiseReference(m.reference_frames, m.reference_min_frames)
-            self._running: RunningSnr | None = None
-        else:
-            self._reference, self._running = memory
-        self._history = ObjectHistory(c.brightness_frames, c.brightness_min_frames)
+        self._measure = TrackMeasurement(self.measurement, c, reference_noise, memory)
+        self._history = ObjectHistory(c.appearance.frames, c.appearance.min_frames)
         self.motion = MotionModel(c.motion)
-        self._cue: tuple[float, float] | None = None
-        self._cue_age = 0
+        self._cue = GpsCue()
         self._shape: tuple[int, int] | None = None
-        self._search_reason = "searching"
-        self.reacquisitions = 0
-        self._gap = 1  # camera frames from the last update to the next (> 1 after drops)
+        self._gaps = FrameGaps()
+        self._search = LostSearch()
         self.click(at_xy)
 
     # ----------------------------------------------------------------------------- commands
@@ -144,25 +129,26 @@ class Tracker:
         self._anchored = False  # no object yet: the next frame looks near the click
         self._misses = 0
         self._confirmed = 0
-        self._widen = 0  # px added to the search square after dropped frames
+        self._gaps.widen_px = 0
         self.track_state = TrackState.TRACKING
         self._history.clear()
-        self._reference.clear()
-        self._meter.wings.clear()
+        self._measure.clear()
         self.motion.reset(*self._click)
-        self._pending: Candidate | None = None
+        self._search.pending = None
 
     def cue(self, x: float, y: float) -> None:
         """The drone's GPS position projected into this camera (pixels). Used while LOST;
         remembered (for the GUI's marker) otherwise. A non-finite position is a ValueError."""
-        if not (math.isfinite(x) and math.isfinite(y)):
-            raise ValueError(f"GPS cue must be a finite pixel position, got ({x}, {y})")
-        self._cue = (float(x), float(y))
-        self._cue_age = 0
+        self._cue.give(x, y)
 
     @property
     def last_cue(self) -> tuple[float, float] | None:
-        return self._cue
+        return self._cue.xy
+
+    @property
+    def reacquisitions(self) -> int:
+        """How many times the drone was found again after a loss."""
+        return self._search.reacquisitions
 
     @property
     def window_xy(self) -> tuple[int, int]:
@@ -180,9 +166,7 @@ class Tracker:
     @property
     def reference_noise(self) -> float | None:
         """The contamination reference (DN) the next frame is measured against."""
-        if self._fixed_reference == "recent":
-            return self._reference.value
-        return self._fixed_reference  # type: ignore[return-value]
+        return self._measure.reference_noise
 
     # ----------------------------------------------------------------------------- per frame
     def skip(self, frames: int) -> None:
@@ -195,16 +179,15 @@ class Tracker:
         n = int(frames)
         if n <= 0:
             return
-        self._gap += n
-        if self._cue is not None:
-            self._cue_age += n
+        self._gaps.dropped(n)
+        self._cue.age(n)
         if not self._anchored:
             return  # no track yet: the next frame looks near the click (or searches) anyway
         bounds = None if self._shape is None else (self._shape[1], self._shape[0])
         self.motion.advance(n, bounds)
-        self._pending = None
+        self._search.pending = None
         c = self.config
-        self._widen = min(self._widen + math.ceil(c.max_speed_px * n), c.search_max_px)
+        self._gaps.widen(n, c.reacquire.max_speed_px, c.search.max_px)
 
     def update(self, pixels: np.ndarray, *, frames: int = 1) -> TrackStep:
         """Measure and track one frame (rows, columns), ``frames`` camera frames after the last
@@ -219,8 +202,7 @@ class Tracker:
                 f"frame of {pixels.shape[1]}x{pixels.shape[0]} px, but the track runs on "
                 f"{self._shape[1]}x{self._shape[0]} px frames"
             )
-        if self._cue is not None:
-            self._cue_age += 1
+        self._cue.age(1)
         ref = self.reference_noise
         if not self._anchored and self.track_state is TrackState.TRACKING:
             step = self._acquire(pixels, ref)
@@ -228,9 +210,8 @@ class Tracker:
             step = self._lost(pixels, ref)
         else:
             step = self._follow(pixels, ref)
-        m = step.peak_snr
-        remember(flags_to_bits(m.flags), m.bg_std, m.snr, self._reference, self._running)
-        self._gap = 1
+        self._measure.remember(step.peak_snr)
+        self._gaps.measured()
         return step
 
     def _analyse(self, pixels, seed, size_px: int, centre=None) -> Blob | None:
@@ -254,18 +235,19 @@ class Tracker:
             (cx, cy),
             c.click_radius_px + 2,
             config=c.blob,
-            min_significance=c.reacquire_snr,
-            min_isolation=c.reacquire_isolation,
+            min_significance=c.reacquire.snr,
+            min_isolation=c.reacquire.isolation,
             seeds=() if near is None else (near,),
         )
         objects = [b for b in objects if box_distance(b.core_box, (cx, cy)) <= c.click_radius_px]
         if not objects:
             self._misses = 1
             self.track_state = TrackState.LOST
-            m = self._meter.measure(pixels, self._click, self.measurement.search_px, ref)
-            return self._step(m, self._click, self.measurement.search_px, "no_object", {FLAG_LOST})
+            size = self.measurement.search_px
+            m = self._measure.measure(pixels, self._click, size, ref)
+            return self._step(m, self._click, size, "no_object", {FLAG_LOST})
         blob = objects[0]
-        m, at, size = self._meter.measure_object(pixels, blob, self._click, ref)
+        m, at, size = self._measure.measure_object(pixels, blob, self._click, ref)
         self.motion.reset(blob.centroid_x, blob.centroid_y)
         self._accept(blob)
         return self._step(m, at, size, "", set())
@@ -288,12 +270,12 @@ class Tracker:
                 if judge(blob2, pred, self._history, c) == "":
                     blob, reason = blob2, ""
         if reason == "" and blob is not None:  # judge() calls a missing object "undefined"
-            m, at, size = self._meter.measure_object(pixels, blob, self._window, ref)
+            m, at, size = self._measure.measure_object(pixels, blob, self._window, ref)
             self.motion.update(blob.centroid_x, blob.centroid_y)
             self._accept(blob)
             if self.track_state is TrackState.GPS_CUED:
                 self._confirmed += 1
-                if self._confirmed >= c.confirm_frames:
+                if self._confirmed >= c.cue.confirm_frames:
                     self.track_state = TrackState.TRACKING
             else:
                 self.track_state = TrackState.TRACKING
@@ -313,19 +295,19 @@ class Tracker:
         # A drone that vanished from its predicted place (a jump, a cut, a fast turn) is looked
         # for at once; one hidden by a confuser or merged with clutter is most likely still
         # where it was. Right after dropped frames, off the gate is a drone that moved on.
-        vanished = reason in ("faint", "undefined") or (reason == "gate" and self._gap > 1)
+        vanished = reason in ("faint", "undefined") or (reason == "gate" and self._gaps.frames > 1)
         if self.track_state is TrackState.LOST or (
-            vanished and self._misses >= c.search_after_misses
+            vanished and self._misses >= c.search.after_misses
         ):
             found = self._reacquire(pixels, ref, use_cue=False)[0]
             if found is not None:
                 return found
         at = self._window
         size = self.measurement.search_px
-        m = self._meter.measure(pixels, at, size, ref)
+        m = self._measure.measure(pixels, at, size, ref)
         if max(abs(m.peak_x - at[0]), abs(m.peak_y - at[1])) > c.gate_px:
             size = 2 * c.gate_px + 1
-            m = self._meter.measure(pixels, at, size, ref)
+            m = self._measure.measure(pixels, at, size, ref)
         lost = reason in REFUSED or self.track_state is TrackState.LOST
         extra = {FLAG_LOST} if lost else set()
         if self.track_state is TrackState.GPS_CUED:
@@ -336,8 +318,8 @@ class Tracker:
         self._window = (blob.peak_x, blob.peak_y)
         self._anchored = True
         self._misses = 0
-        self._widen = 0
-        self._pending = None
+        self._gaps.widen_px = 0
+        self._search.pending = None
         self._history.add(blob)
 
     def _step(self, m: PeakSnr, at, size: int, reason: str, extra: set[str]) -> TrackStep:
@@ -347,26 +329,14 @@ class Tracker:
 
     # ------------------------------------------------------------------ reacquisition
     def _fresh_cue(self, ahead: int = 0) -> tuple[float, float] | None:
-        """The GPS cue if it is no older than ``cue_max_age_frames`` (``ahead`` frames from
-        now) and in the image."""
-        if self._cue is None or self._cue_age + ahead > self.config.cue_max_age_frames:
-            return None
-        rows, cols = self._shape or (1 << 30, 1 << 30)
-        x, y = pixel_of(self._cue)
-        return self._cue if (0 <= x < cols and 0 <= y < rows) else None
+        """The GPS cue if it is fresh (``ahead`` frames from now) and in the image."""
+        return self._cue.fresh(self.config.cue, self._shape, ahead)
 
     def _plan(self, misses: int, use_cue: bool, ahead: int = 0) -> tuple[str, tuple[int, int]]:
-        """Where this frame's search runs: ("candidate", its predicted position) while one is
-        being confirmed; ("cue", the cue) while lost with a fresh cue, on the frame it arrives
-        and then every other frame; ("grow", the predicted position) otherwise. One place a
-        frame: the engine corrects only the square around it (:attr:`read_centre` asks the same
-        with ``ahead`` = 1)."""
-        if self._pending is not None:
-            return "candidate", pixel_of(self._pending.predict())
+        """Where this frame's search runs (:meth:`LostSearch.plan`), the cue looked for only
+        with ``use_cue`` (while lost)."""
         cue = self._fresh_cue(ahead) if use_cue else None
-        if cue is not None and (misses % 2 == 1 or self._cue_age + ahead <= 1):
-            return "cue", pixel_of(cue)
-        return "grow", pixel_of(self.motion.predict())
+        return self._search.plan(misses, cue, self._cue.age_frames, self.motion, ahead)
 
     def _lost(self, pixels, ref) -> TrackStep:
         self._misses += 1
@@ -381,77 +351,81 @@ class Tracker:
         if kind == "grow":  # the measurement holds at the last good position
             at, size = self._window, self.measurement.search_px
         else:  # measured where it was looked for
-            at, size = centre, 2 * self.config.cue_radius_px + 1
-        m = self._meter.measure(pixels, at, size, ref)
-        return self._step(m, at, size, self._search_reason, {FLAG_LOST})
+            at, size = centre, 2 * self.config.cue.radius_px + 1
+        m = self._measure.measure(pixels, at, size, ref)
+        return self._step(m, at, size, self._search.reason, {FLAG_LOST})
 
     def _reacquire(self, pixels, ref, *, use_cue: bool):
         """(step or None, plan kind, plan centre): confirm the pending candidate, or look for
         one at the cue or in the growing square (:meth:`_plan`)."""
         c = self.config
-        self._search_reason = "searching"
+        self._search.reason = "searching"
         kind, centre = self._plan(self._misses, use_cue)
         if kind == "candidate":
-            cand, self._pending = self._pending, None
-            assert cand is not None  # the plan says so
-            pred = cand.predict()
-            seed = brightest_in(pixels, box_at(cand.rel, pred[0], pred[1], grow=c.gate_px))
-            blob = self._analyse(pixels, seed, cand.size_px, pred)
-            if not (
-                is_object(blob, c.reacquire_snr, c.reacquire_isolation)
-                and max(abs(blob.centroid_x - pred[0]), abs(blob.centroid_y - pred[1])) <= c.gate_px
-                and math.hypot(blob.centroid_x - cand.x, blob.centroid_y - cand.y) <= c.max_speed_px
-                and consistent(blob, self._history, c)
-            ):  # dropped; the search goes on from the next frame
-                return None, kind, centre
-            cand.follow(blob)
-            if cand.count >= c.reacquire_frames:
-                return self._reacquired(pixels, blob, cand, ref), kind, centre
-            self._pending = cand
-            return self._confirming(pixels, blob, ref), kind, centre
-        if kind == "cue":
-            half = c.cue_radius_px
-        else:
-            grow = c.search_start_px + c.search_growth_px * (self._misses - 1) + self._widen
-            half = min(grow, c.search_max_px)
+            return self._confirm(pixels, ref), kind, centre
+        half = LostSearch.half_px(kind, self._misses, self._gaps.widen_px, c.search, c.cue)
         objects = find_objects(
             pixels,
             centre,
             half,
             config=c.blob,
-            min_significance=c.reacquire_snr,
-            min_isolation=c.reacquire_isolation,
+            min_significance=c.reacquire.snr,
+            min_isolation=c.reacquire.isolation,
             size_px=max(self._history.size_px, 1),
-            min_contrast=(self._history.prominence or 0.0) / c.brightness_factor,
+            min_contrast=(self._history.prominence or 0.0) / c.appearance.brightness_factor,
         )
-        objects = [b for b in objects if consistent(b, self._history, c)]
+        objects = [b for b in objects if consistent(b, self._history, c.appearance)]
         if not objects:
             if use_cue and self._fresh_cue() is not None:
-                self._search_reason = "faint"  # not where its GPS position says it is
+                self._search.reason = "faint"  # not where its GPS position says it is
             return None, kind, centre
         blob = objects[0]
         if kind == "cue":  # the GPS position is a strong prior: accepted at once
-            self._cue = None  # used: a later loss needs a fresh position
+            self._cue.use()
             self.motion.reset(blob.centroid_x, blob.centroid_y)
-            m, _, _ = self._meter.measure_object(pixels, blob, centre, ref)
+            m, _, _ = self._measure.measure_object(pixels, blob, centre, ref)
             self._accept(blob)
             self.track_state = TrackState.GPS_CUED
             self._confirmed = 1
             return self._step(m, centre, 2 * half + 1, "", {FLAG_GPS_CUED}), kind, centre
-        self._pending = Candidate.of(blob, cued=False)
+        self._search.pending = Candidate.of(blob, cued=False)
         return self._confirming(pixels, blob, ref), kind, centre
+
+    def _confirm(self, pixels, ref) -> TrackStep | None:
+        """The pending candidate found again where its motion puts it (a step), or dropped
+        (None: the search goes on from the next frame)."""
+        c, r = self.config, self.config.reacquire
+        cand, self._search.pending = self._search.pending, None
+        assert cand is not None  # the plan says so
+        pred = cand.predict()
+        seed = brightest_in(pixels, box_at(cand.rel, pred[0], pred[1], grow=c.gate_px))
+        blob = self._analyse(pixels, seed, cand.size_px, pred)
+        if not (
+            is_object(blob, r.snr, r.isolation)
+            and max(abs(blob.centroid_x - pred[0]), abs(blob.centroid_y - pred[1])) <= c.gate_px
+            and math.hypot(blob.centroid_x - cand.x, blob.centroid_y - cand.y) <= r.max_speed_px
+            and consistent(blob, self._history, c.appearance)
+        ):
+            return None
+        cand.follow(blob)
+        if cand.count >= r.frames:
+            return self._reacquired(pixels, blob, cand, ref)
+        self._search.pending = cand
+        return self._confirming(pixels, blob, ref)
 
     def _confirming(self, pixels, blob: Blob, ref) -> TrackStep:
         self.track_state = TrackState.REACQUIRING
-        m, at, size = self._meter.measure_object(pixels, blob, (blob.peak_x, blob.peak_y), ref)
+        at = (blob.peak_x, blob.peak_y)
+        m, at, size = self._measure.measure_object(pixels, blob, at, ref)
         return self._step(m, at, size, "confirming", {FLAG_LOST})
 
     def _reacquired(self, pixels, blob: Blob, cand: Candidate, ref) -> TrackStep:
         self.motion.reset(blob.centroid_x, blob.centroid_y, cand.vx, cand.vy)
-        m, at, size = self._meter.measure_object(pixels, blob, (blob.peak_x, blob.peak_y), ref)
+        at = (blob.peak_x, blob.peak_y)
+        m, at, size = self._measure.measure_object(pixels, blob, at, ref)
         self._accept(blob)
         self.track_state = TrackState.TRACKING
-        self.reacquisitions += 1
+        self._search.reacquisitions += 1
         return self._step(m, at, size, "", set())
 
     # ------------------------------------------------------------------ state
@@ -459,7 +433,7 @@ class Tracker:
         """Everything the tracker remembers, JSON-able (str/int/float/bool/None, lists and
         dicts; floats kept exactly): :meth:`restore` on a tracker with the same
         configuration continues bit for bit."""
-        pending = self._pending
+        pending, cue = self._search.pending, self._cue.xy
         return {
             "track_state": self.track_state.value,
             "click": list(self._click),
@@ -467,16 +441,16 @@ class Tracker:
             "anchored": self._anchored,
             "misses": self._misses,
             "confirmed": self._confirmed,
-            "widen": self._widen,
-            "cue": None if self._cue is None else list(self._cue),
-            "cue_age": self._cue_age,
+            "widen": self._gaps.widen_px,
+            "cue": None if cue is None else list(cue),
+            "cue_age": self._cue.age_frames,
             "shape": None if self._shape is None else list(self._shape),
-            "search_reason": self._search_reason,
-            "reacquisitions": self.reacquisitions,
+            "search_reason": self._search.reason,
+            "reacquisitions": self._search.reacquisitions,
             "motion": self.motion.snapshot(),
             "history": self._history.snapshot(),
-            "reference": self._reference.snapshot(),
-            "wings": self._meter.wings.snapshot(),
+            "reference": self._measure.reference_snapshot(),
+            "wings": self._measure.wings_snapshot(),
             "pending": None if pending is None else pending.snapshot(),
         }
 
@@ -488,18 +462,18 @@ class Tracker:
         self._anchored = bool(d["anchored"])
         self._misses = int(d["misses"])
         self._confirmed = int(d["confirmed"])
-        self._widen = int(d.get("widen", 0))  # states recorded before gaps were told: 0
-        self._gap = 1
-        self._cue = None if d["cue"] is None else (float(d["cue"][0]), float(d["cue"][1]))
-        self._cue_age = int(d["cue_age"])
+        self._gaps.widen_px = int(d.get("widen", 0))  # states recorded before gaps were told: 0
+        self._gaps.measured()
+        self._cue.xy = None if d["cue"] is None else (float(d["cue"][0]), float(d["cue"][1]))
+        self._cue.age_frames = int(d["cue_age"])
         self._shape = None if d["shape"] is None else (int(d["shape"][0]), int(d["shape"][1]))
-        self._search_reason = str(d["search_reason"])
-        self.reacquisitions = int(d["reacquisitions"])
+        self._search.reason = str(d["search_reason"])
+        self._search.reacquisitions = int(d["reacquisitions"])
         self.motion.restore(d["motion"])
         self._history.restore(d["history"])
-        self._reference.restore(d["reference"])
-        self._meter.wings.restore(d["wings"])
-        self._pending = None if d["pending"] is None else Candidate.from_snapshot(d["pending"])
+        self._measure.restore(d["reference"], d["wings"])
+        pending = d["pending"]
+        self._search.pending = None if pending is None else Candidate.from_snapshot(pending)
 
 
 def track_stack(

@@ -94,12 +94,12 @@ def test_recovers_dimensions_within_10pct_and_temperature_within_half_a_kelvin(c
         calibration=cal,
     )
     assert res.n_frames == 30
-    assert res.small_m == pytest.approx(small, rel=0.10)
-    assert res.large_m == pytest.approx(large, rel=0.10)
-    assert res.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
-    assert res.background_temp_c == pytest.approx(SKY_K - 273.15, abs=0.1)
-    assert res.rss_delta_t_k == pytest.approx(DRONE_K - SKY_K, abs=0.5)
-    assert 0 < res.small_m_std < 0.02 * res.small_m
+    assert res.size.small_m == pytest.approx(small, rel=0.10)
+    assert res.size.large_m == pytest.approx(large, rel=0.10)
+    assert res.temperature.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
+    assert res.temperature.background_temp_c == pytest.approx(SKY_K - 273.15, abs=0.1)
+    assert res.temperature.rss_delta_t_k == pytest.approx(DRONE_K - SKY_K, abs=0.5)
+    assert 0 < res.size.small_m_std < 0.02 * res.size.small_m
 
 
 def test_thin_arms_read_on_the_core_where_the_outline_mean_reads_low(cam, cal):
@@ -125,9 +125,9 @@ def test_thin_arms_read_on_the_core_where_the_outline_mean_reads_low(cam, cal):
         ifov_rad=cam.sensor.ifov_rad,
         calibration=cal,
     )
-    assert res.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
-    assert res.outline_temp_c < DRONE_K - 273.15 - 1.5  # the mean a thick drone would read
-    assert 1 <= res.core_pixels < 10
+    assert res.temperature.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
+    assert res.core.outline_temp_c < DRONE_K - 273.15 - 1.5  # the mean a thick drone would read
+    assert 1 <= res.core.core_pixels < 10
 
 
 def test_the_cameras_psf_restores_the_cores_contrast(cam, cal):
@@ -156,9 +156,35 @@ def test_the_cameras_psf_restores_the_cores_contrast(cam, cal):
     ]
     res = summarise_frames(rows, camera="mwir", range_m=RANGE_M, method="otsu")
     t_c = DRONE_K - 273.15
-    assert res.core_seen_temp_c < t_c - 1.0
-    assert 0.9 < res.core_psf_share < 0.96
-    assert res.mean_temp_c == pytest.approx(t_c, abs=0.5)
+    assert res.core.core_seen_temp_c < t_c - 1.0
+    assert 0.9 < res.core.core_psf_share < 0.96
+    assert res.temperature.mean_temp_c == pytest.approx(t_c, abs=0.5)
+    # characterize --json: one flat object, the same keys in the same order as ever
+    out = res.as_dict()
+    assert list(out) == [
+        "camera",
+        "range_m",
+        "n_frames",
+        "small_m",
+        "small_m_std",
+        "large_m",
+        "large_m_std",
+        "mean_temp_c",
+        "mean_temp_c_std",
+        "background_temp_c",
+        "background_temp_c_std",
+        "rss_delta_t_k",
+        "rss_delta_t_k_std",
+        "method",
+        "outline_temp_c",
+        "core_pixels",
+        "core_seen_temp_c",
+        "core_psf_share",
+        "apparent_temp_c",
+        "temperature_convention",
+    ]
+    assert out["core_psf_share"] == res.core.core_psf_share
+    assert out["small_m_std"] == res.size.small_m_std
 
 
 def test_blades_are_removed_by_the_opening_and_kept_without_it(cam, cal):
@@ -233,7 +259,7 @@ def test_what_it_cannot_measure_it_refuses_with_the_numbers(cam, cal):
     res, px = summary(cam, 80.0, 30)
     why = unmeasurable(res, pixel_m=px)
     assert why is not None and "(need >= 7 px each" in why and "frames" not in why
-    assert res.large_m / px < 7
+    assert res.size.large_m / px < 7
     lwir = camera("lwir", shape=(96, 128), seed=21)
     res, px = summary(lwir, RANGE_M, 30)
     why = unmeasurable(res, pixel_m=px)
@@ -269,12 +295,14 @@ def test_through_the_air_the_drone_is_corrected_and_the_sky_read_as_seen(cam, ca
     assert (
         own.temperature_convention == "path_corrected" and app.temperature_convention == "apparent"
     )
-    assert own.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
-    assert own.apparent_temp_c == pytest.approx(app.mean_temp_c, abs=1e-3)
-    assert own.background_temp_c == pytest.approx(app.background_temp_c, abs=1e-6)  # as seen
-    assert own.background_temp_c == pytest.approx(SKY_K - 273.15, abs=0.1)
-    assert own.rss_delta_t_k == pytest.approx(DRONE_K - SKY_K, rel=0.02)
-    assert app.rss_delta_t_k == pytest.approx(seen_k - SKY_K, rel=0.02)
+    assert own.temperature.mean_temp_c == pytest.approx(DRONE_K - 273.15, abs=0.5)
+    assert own.core.apparent_temp_c == pytest.approx(app.temperature.mean_temp_c, abs=1e-3)
+    assert own.temperature.background_temp_c == pytest.approx(
+        app.temperature.background_temp_c, abs=1e-6
+    )  # as seen
+    assert own.temperature.background_temp_c == pytest.approx(SKY_K - 273.15, abs=0.1)
+    assert own.temperature.rss_delta_t_k == pytest.approx(DRONE_K - SKY_K, rel=0.02)
+    assert app.temperature.rss_delta_t_k == pytest.approx(seen_k - SKY_K, rel=0.02)
     with pytest.raises(ValueError, match="convention"):
         summarise_frames([], camera="mwir", range_m=1.0, method="otsu", convention="own")
 
@@ -291,8 +319,8 @@ def test_target_toml_is_read_by_the_model(cam, cal, tmp_path):
     path = tmp_path / "uav_today.toml"
     path.write_text(target_toml(res, "uav_today"))
     t = load_target(str(path))
-    assert t.small_m == pytest.approx(res.small_m, abs=1e-4)
-    assert t.temp_k("mwir") == pytest.approx(res.mean_temp_c + 273.15, abs=1e-3)
+    assert t.small_m == pytest.approx(res.size.small_m, abs=1e-4)
+    assert t.temp_k("mwir") == pytest.approx(res.temperature.mean_temp_c + 273.15, abs=1e-3)
     with pytest.raises(ValueError, match="no temperature for band 'lwir'"):
         t.temp_k("lwir")
 
@@ -321,7 +349,8 @@ def test_target_toml_quotes_any_name(three_frames, tmp_path, name):
 
 
 def test_target_toml_refuses_values_toml_cannot_hold(three_frames):
-    bad = dataclasses.replace(three_frames, rss_delta_t_k=float("nan"))
+    nan = dataclasses.replace(three_frames.temperature, rss_delta_t_k=float("nan"))
+    bad = dataclasses.replace(three_frames, temperature=nan)
     with pytest.raises(ValueError, match="not measured: rss_delta_t_k"):
         target_toml(bad, "x")
 

@@ -265,7 +265,8 @@ def test_radiance_is_the_object_signal_the_temperature_inverts(flir):
 def test_object_signal_is_the_counts_for_a_blackbody_seen_through_nothing(flir):
     cal = load_flir(flir / FFF).calibration
     assert cal is not None
-    clear = dataclasses.replace(cal, emissivity=1.0, object_distance_m=0.0)
+    seen_bare = dataclasses.replace(cal.conditions, emissivity=1.0, object_distance_m=0.0)
+    clear = dataclasses.replace(cal, conditions=seen_bare)
     counts = np.array([2623.0, 2700.0, 2739.0])
     np.testing.assert_allclose(clear.object_signal(counts), counts, rtol=1e-12)
     # a blackbody's counts at 300 K read back 300 K

@@ -11,6 +11,7 @@ from snrmon.acquisition.measure.peak_snr import (
     PeakSnrMeter,
     measure_peak_snr,
 )
+from snrmon.acquisition.track.config import AppearanceConfig
 from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackState, track_stack
 
 ROWS, COLS = 100, 120
@@ -65,7 +66,11 @@ def test_without_gate_and_brightness_test_the_bird_captures_the_track():
     # The same stack with the protections switched off: the track leaves the drone. This is
     # what the previous test guards against.
     stack, _ = _bird_stack(dy=5, seed=1)
-    steps = track_stack(stack, (60, 50), TrackerConfig(gate_px=20, brightness_factor=1e9))
+    steps = track_stack(
+        stack,
+        (60, 50),
+        TrackerConfig(gate_px=20, appearance=AppearanceConfig(brightness_factor=1e9)),
+    )
     assert any(s.window_y != 50 or s.window_x != 60 for s in steps)
 
 
@@ -115,7 +120,7 @@ def test_fade_out_is_lost_then_reacquired_without_a_cue():
         assert s.state is TrackState.LOST and "lost" in s.peak_snr.flags
         assert (s.window_x, s.window_y) == (60, 50)
     # Back 8 px right and 4 up (outside the gate): found by the growing search, confirmed over
-    # reacquire_frames (3) frames, flagged lost while confirming, then tracked again.
+    # reacquire.frames (3) frames, flagged lost while confirming, then tracked again.
     assert [s.state for s in steps[60:62]] == [TrackState.REACQUIRING] * 2
     assert all("lost" in s.peak_snr.flags for s in steps[60:62])
     assert all((s.peak_snr.peak_x, s.peak_snr.peak_y) == (68, 46) for s in steps[60:])
@@ -135,7 +140,7 @@ def test_a_lost_drone_is_reacquired_at_the_gps_cue_at_once():
     assert (cued.peak_snr.peak_x, cued.peak_snr.peak_y) == (68, 46)
     assert "gps_cued" in cued.peak_snr.flags and "lost" not in cued.peak_snr.flags
     assert (cued.window_x, cued.window_y) == (66, 49)  # searched in the cue square
-    # Confirmed after confirm_frames (5) accepted frames, the cued one included, then tracking.
+    # Confirmed after cue.confirm_frames (5) accepted frames, the cued one included, then tracking.
     assert [s.state for s in steps[61:64]] == [TrackState.GPS_CUED] * 3
     assert all("gps_cued" in s.peak_snr.flags for s in steps[61:64])
     for s in steps[64:]:

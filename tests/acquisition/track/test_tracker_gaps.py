@@ -54,7 +54,7 @@ def test_a_drone_that_moved_during_a_gap_is_back_within_the_confirmation_frames(
     assert steps[first - GAP - 1].state is TrackState.TRACKING
     # Off the gate right after the gap: searched for at once, and confirmed.
     assert (steps[first].reason, steps[first].misses) == ("confirming", 1)
-    back = tracker.config.reacquire_frames - 1
+    back = tracker.config.reacquire.frames - 1
     for i in range(first + back, n):
         assert steps[i].state is TrackState.TRACKING and steps[i].reason == "", i
         assert _on(steps[i], _hover_then_shift(i)), (i, steps[i].peak_snr)
@@ -112,7 +112,7 @@ def test_skip_before_read_centre_and_no_gap_changes_nothing():
     before = a.read_centre
     a.skip(4)  # the read square moves with the prediction before the frame is read
     assert a.read_centre[0] > before[0] + 1
-    assert a.snapshot()["widen"] == 4 * int(TrackerConfig().max_speed_px)
+    assert a.snapshot()["widen"] == 4 * int(TrackerConfig().reacquire.max_speed_px)
 
 
 def test_motion_advance_keeps_the_velocity_and_the_image():

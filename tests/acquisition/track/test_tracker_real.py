@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from snrmon.acquisition.measure.blob import BlobConfig
+from snrmon.acquisition.track.config import SearchConfig
 from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackState, reach_px
 from snrmon.benchmarks.real_clips import clicks, inseparable, load_clip, score_run
 
@@ -64,7 +65,7 @@ def test_state_restores_bit_identically_at_every_kind_of_frame(clips):
     recording): a fresh tracker restored from ``state()`` after frame k gives the same steps.
     A slow search (growing 4 px per frame) makes the cut in 048 a real LOST episode."""
     frames, boxes = clips["IR_DRONE_048"]
-    config = TrackerConfig(lost_frames=3, search_growth_px=4)
+    config = TrackerConfig(lost_frames=3, search=SearchConfig(growth_px=4))
     at = clicks(frames[0], boxes[0])[0][1]
     original = Tracker(at, config)
     steps, states = [], []
@@ -94,7 +95,7 @@ def test_every_read_lies_within_reach_of_the_read_centre(clips, shared_data):
     a treeline)."""
     # A smaller search and object window than the defaults, so that the square is about half
     # of these 320 x 256 frames (the defaults reach 166 px).
-    config = TrackerConfig(search_max_px=40, blob=BlobConfig(max_half_px=24))
+    config = TrackerConfig(search=SearchConfig(max_px=40), blob=BlobConfig(max_half_px=24))
     cut = load_clip("IR_DRONE_043", shared_data / "ir_small_targets")
     for name, (frames, boxes), span in (
         ("IR_DRONE_043", cut, slice(140, 200)),

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from snrmon.acquisition.measure.peak_snr import RUNNING_EXCLUDED
+from snrmon.acquisition.track.config import SearchConfig
 from snrmon.acquisition.track.tracker import Tracker, TrackerConfig, TrackState, track_stack
 from snrmon.benchmarks.real_clips import inseparable
 
@@ -67,7 +68,7 @@ def test_the_drone_coming_back_after_a_bird_is_reacquired_within_a_second():
         stack[i] = _u16(frame)
     steps = track_stack(stack, (60, 50))
     back = next(i for i in range(55, len(stack)) if steps[i].state is TrackState.TRACKING)
-    assert back - 55 <= 30  # 1 s at 30 fps (here: reacquire_frames)
+    assert back - 55 <= 30  # 1 s at 30 fps (here: reacquire.frames)
     assert all((s.peak_snr.peak_x, s.peak_snr.peak_y) == (60, 50) for s in steps[back:])
 
 
@@ -132,8 +133,8 @@ def test_bad_input_is_one_clear_message_and_the_state_says_why():
         t.update(_u16(stack[1][:, :60]))
     with pytest.raises(ValueError, match="2-D"):
         t.update(_u16(stack))
-    with pytest.raises(ValueError, match="search_max_px"):
-        TrackerConfig(search_max_px=0)
+    with pytest.raises(ValueError, match=r"tracker search\.max_px must be an integer >= 1, got 0"):
+        SearchConfig(max_px=0)
 
 
 def test_the_console_status_says_why_the_track_is_not_tracking():
@@ -166,7 +167,7 @@ def test_reads_stay_within_reach_of_the_read_centre_through_a_gps_cue():
         if i < 20 or i >= 30:
             f += 150.0 * np.exp(-((xx - x) ** 2 + (yy - y) ** 2) / (2 * 0.8**2))
         frames.append(_u16(f))
-    config = TrackerConfig(search_max_px=24, blob=BlobConfig(max_half_px=16))
+    config = TrackerConfig(search=SearchConfig(max_px=24), blob=BlobConfig(max_half_px=16))
     full, cropped = Tracker((60, 50), config), Tracker((60, 50), config)
     half = reach_px(config, full.measurement)
     assert 2 * half + 1 < cols / 2
