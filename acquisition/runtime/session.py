@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from snrmon.acquisition.calibrate.flight_psf import FlightPsf
+from snrmon.acquisition.calibrate.stop_phases import StopPhaseReadings
 from snrmon.acquisition.compression import stored_compression
 from snrmon.acquisition.config import SessionConfig, camera_device
 from snrmon.acquisition.engine.inputs import Measurement
@@ -190,6 +191,9 @@ class Session:
             adopt=config.model_psf == "fitted",
         )
         self.engine.add_listener(self.flight_psf.on_measurement)
+        # A final unresolved row's expected reading over its own frames' sub-pixel phases.
+        readings = StopPhaseReadings(self.engine, self.flight_psf.crops_at)
+        self.engine.stop_table.stop_model = readings.stop_model
         self.gps = gps if gps is not None else self._serial_device(config.gps, "gps")
         self.lrf = lrf if lrf is not None else self._serial_device(config.lrf, "lrf")
         if self.gps is not None:
