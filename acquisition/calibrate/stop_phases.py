@@ -1,13 +1,14 @@
-"""The expected Eq. (4) reading of one stop over the sub-pixel phases its own frames sampled
-(paper Eqs. (1)-(4), sections 5 and 7).
+"""The expected Eq. (4) reading of one stop over the sub-pixel phases its own frames sampled (paper
+Eqs. (1)-(4), sections 5 and 7).
 
 The model's expected reading at a range (``model.eq4.expected_eq4``, the curves of
 :mod:`snrmon.acquisition.prediction`) is a mean over sub-pixel phases uniform over the pixel:
-what many stops read on average. One stop's 100 frames of a hover (1.7 s of MWIR, 3.3 s of
-LWIR) sample only the few phases the drone drifted through, and a PSF near the diffraction limit
-(the LWIR's, section 8) puts a share of the light on the peak pixel that changes with the phase
-by tens of per cent. A stop row's measured mean is therefore held to the reading expected over
-its own frames k = 1..N:
+what many stops read on average. One stop's 100 frames of a hover (1.7 s of MWIR, 3.3 s of LWIR)
+sample only the few phases the drone drifted through, and a PSF near the diffraction limit (the
+LWIR's, section 8) puts a share of the light on the peak pixel that changes with the phase
+(``model.footprint.pixel_patterns`` with the PSF fitted on the simulated day, at 451 m: 0.59
+with the drone on the pixel's centre, 0.19 on its corner; the MWIR's 0.146 and 0.105). A stop
+row's measured mean is therefore held to the reading expected over its own frames k = 1..N:
 
     E_stop = (1/N) sum_k R(A, phi_k),
     R(A, phi) = (E[max_i (a_i(phi) + z_i)] - mean_rim a(phi)) x E[sigma / s_rim]
@@ -21,22 +22,23 @@ folded into the half cell and binned to 1/24 px). The phases are measured from t
 ``psf_estimate.observed_phases`` matches each frame's 7 x 7 pixels around its peak with the
 patterns of the PSF the row's curves use on a grid of offsets 1/12 px apart (a per-frame
 least-squares position). Against the twin's true centroids on the simulated days
-(``tools/stop_phase_truth.py``, seeds 5 and 6) the folded offsets are off by a median 0.022-0.032
-px, and the LWIR's lie 0.005-0.022 px nearer the pixel's centre on average (the fitted PSF is
-a little wider than the twin's): the reading over them is 1.5-2.5 % above the one over the true
-phases there, the MWIR's within 0.5 %. (The tracker's core centroid is not kept with a
-measurement; the fit's offsets are of the frames' own pixels.)
+(``tools/stop_phase_truth.py``, seeds 5 and 6) the folded offsets are off by a median
+0.022-0.032 px, and the LWIR's lie up to 0.022 px nearer the pixel's centre on average (per
+axis; its fitted blur is 0.16 px, the twin's 0.10): the reading over them is 1.5-2.5 % above the
+one over the true phases there, the MWIR's within 0.5 %. (The tracker's core centroid is not
+kept with a measurement; the fit's offsets are of the frames' own pixels.)
 
-Made for an unresolved stop (small dimension under 1 px, as the PSF fit: the crops show the
-PSF) whose curves use a PSF fitted from the flight, with at least :data:`MIN_FRAMES` logged
-frames; a row of a preset PSF keeps the cell average alone (the preset's PSF is not the
-camera's: the phases its patterns gave would not be the frames'). The band of the stop's reading
-is the cell's, scaled by the stop's reading over the cell's (the model's input uncertainties,
-paper section 9, do not depend on the phase).
+Made for an unresolved stop (small dimension under 1 px, as the PSF fit: the crops show the PSF)
+whose curves use a PSF fitted from the flight, with at least :data:`MIN_FRAMES` logged frames; a
+row of a preset PSF keeps the cell average alone (the preset's PSF is not the camera's: the
+phases its patterns gave would not be the frames'). The band of the stop's reading is the
+cell's, scaled by the stop's reading over the cell's (the model's input uncertainties, paper
+section 9, do not depend on the phase).
 
-The readings are computed in the worker process (about a second of NumPy with a new set of
-phases) while the stop table holds the row (:class:`snrmon.acquisition.stops.table.StopTable`'s
-``stop_model``); with a synchronous predictor (a replay, a test) at once.
+The readings are computed in the worker process (NumPy that would hold the interpreter lock the
+measurement threads need) while the stop table holds the row
+(:class:`snrmon.acquisition.stops.table.StopTable`'s ``stop_model``); with a synchronous
+predictor (a test) at once.
 """
 
 from __future__ import annotations
