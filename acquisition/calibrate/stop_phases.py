@@ -135,6 +135,8 @@ class StopPhaseReadings:
         job = held[1]
         if not (wait or job.done()):
             return None
+        if job.cancelled():  # dropped by the worker at exit: the row keeps the cell's reading
+            return {}
         try:
             values = job.result()
         except Exception:  # the row keeps the cell's reading alone

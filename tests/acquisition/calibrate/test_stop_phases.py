@@ -160,3 +160,26 @@ def test_a_stops_reading_is_made_once_for_a_fitted_psf_at_an_unresolved_stop():
     predictor.set_psf("lwir", GaussianPsf(0.4))
     readings.stop_model(3, "lwir", 451.0, run)
     assert len(jobs) == 2 and jobs[1][5]["corrected_psf"] == GaussianPsf(0.4)
+
+
+def test_a_job_the_worker_dropped_leaves_the_cells_reading():
+    """A computation cancelled (the worker's pool closing at exit) gives {} quietly: the row is
+    final with the cell's reading, not held."""
+    from concurrent.futures import Future
+
+    from snrmon.acquisition.prediction import ModelPredictor
+
+    predictor = ModelPredictor({"lwir": "lwir"}, "uav1", band=False)
+    predictor.set_psf("lwir", GaussianPsf(SIGMA_PX))
+
+    def submit(fn, *args):
+        job: Future = Future()
+        job.cancel()
+        return job
+
+    readings = StopPhaseReadings(
+        _Engine(predictor), lambda camera, times: np.zeros((len(times), 13, 13)), submit=submit
+    )
+    run = [(t, None) for t in range(100)]
+    assert readings.stop_model(3, "lwir", 451.0, run) == {}
+    assert readings.stop_model(3, "lwir", 451.0, run, wait=True) == {}
