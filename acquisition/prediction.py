@@ -61,12 +61,19 @@ EXPECTED_CURVES = (EXPECTED_RIM, EXPECTED_EXTENT)
 PAPER_CURVES = tuple(f"paper_{c}" for c in CURVES)
 BANDED_CURVES = ("small_corrected", "large_corrected", *EXPECTED_CURVES)
 """The curves the model gives a band of (paper section 9: the corrected ones and the readings)."""
+AT_STOP = "_stop"
+"""The suffix of an expected reading over the sub-pixel phases of one stop's own frames
+(``expected_eq4_rim_stop``, its band ``expected_eq4_rim_stop_lower``...;
+``acquisition.calibrate.stop_phases``), beside the same reading over the whole cell."""
+STOP_EXPECTED_CURVES = tuple(f"{name}{AT_STOP}" for name in EXPECTED_CURVES)
 STOP_MODEL_KEYS: tuple[str, ...] = (
     *CURVES,
     *EXPECTED_CURVES,
     *(f"{name}_{edge}" for name in BANDED_CURVES for edge in ("lower", "upper")),
+    *(f"{name}{suffix}" for name in STOP_EXPECTED_CURVES for suffix in ("", "_lower", "_upper")),
 )
-"""The model's values a stop row can carry (:meth:`ModelPredictor.__call__`), in table order."""
+"""The model's values a stop row can carry (:meth:`ModelPredictor.__call__`, and the expected
+readings over the stop's own phases, :data:`AT_STOP`), in table order."""
 NOISE_SOURCES = ("model", "measured")
 """The model's noise: its own (Eq. 1 and the spatial term), or the camera's measured 3D noise."""
 
@@ -390,6 +397,12 @@ class ModelPredictor:
             self._swap(camera, gen, temp_k, psf, curves, used_k)
 
         job.add_done_callback(done)
+
+    def options_in_force(self, camera: str) -> dict:
+        """The :func:`snrmon.model.snr.predict` options of ``camera``'s latest inputs (those of
+        its current curves once :meth:`pending` is False): to compute more of the model with
+        exactly the inputs its curves had (``acquisition.calibrate.stop_phases``)."""
+        return self._options_for(camera, self.background_temp_k.get(camera), self.psf.get(camera))
 
     def _options_for(self, camera: str, background_temp_k: float | None, psf) -> dict:
         options = {**self._options, "background_temp_k": background_temp_k}

@@ -74,6 +74,8 @@ def test_unresolved_stops_read_the_expected_eq4_of_the_measured_psf(seed):
     ]
     for s in stops:
         _check_truth(s)
+        # a fitted-PSF row also has the readings over its own frames' phases, with their band
+        at_stop = {f"{c}_stop{e}" for c in BANDED[2:] for e in ("", "_lower", "_upper")}
         assert set(s["model_snr"]) == {
             "small",
             "large",
@@ -82,6 +84,7 @@ def test_unresolved_stops_read_the_expected_eq4_of_the_measured_psf(seed):
             "expected_eq4_rim",
             "expected_eq4_extent",
             *(f"{c}_{e}" for c in BANDED for e in ("lower", "upper")),
+            *(at_stop if s["model_psf"] == "fitted PSF" else ()),
         }
         where = f"{s['camera']} at {s['planned_range_m']:.0f} m, seed {seed}"
         # what Eq. (4) should read on this stop's frames by the rule its background makes

@@ -120,11 +120,14 @@ class FlightPsf:
 
     def crops_of(self, row) -> np.ndarray:
         """The logged crops of a stop row's frames (its run in the stop table), in order."""
-        log_ = self.logs.get(row.camera)
-        if log_ is None:
-            return np.zeros((0, 13, 13))
         run = self.engine.stop_table.run_of(row.stop, row.camera)
-        return log_.between([t for t, _ in run])
+        return self.crops_at(row.camera, [t for t, _ in run])
+
+    def crops_at(self, camera: str, times_ns) -> np.ndarray:
+        """The logged crops of ``camera``'s frames at ``times_ns`` (a stop row's run), in
+        order; none for a camera without a log."""
+        log_ = self.logs.get(camera)
+        return np.zeros((0, 13, 13)) if log_ is None else log_.between(times_ns)
 
     def stops(self, camera: str) -> list[StopCrops]:
         """The unresolved stops of ``camera`` final so far, with their crops, in stop order."""

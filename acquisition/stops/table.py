@@ -21,7 +21,10 @@ the same frames and readings builds the same table as the live console:
   While the model is still computing new curves for that camera (a measured sky, a PSF from the
   flight: :meth:`Predictor.pending`), the row waits for them, a frame at a time: its model values
   are then those of the inputs in force when the stop ended, not of the inputs before (a live
-  recompute takes a second; a replay's is immediate, so it freezes the same row).
+  recompute takes a second; a replay's is immediate, so it freezes the same row). It waits the
+  same way for ``stop_model``'s values (the expected readings over the sub-pixel phases of the
+  stop's own frames, :mod:`snrmon.acquisition.calibrate.stop_phases`), which the row's
+  measured / expected is then of.
 
 Until then :meth:`StopTable.rows` shows the row as it stands (provisional).
 """
@@ -38,10 +41,14 @@ from typing import ClassVar, Protocol
 from snrmon.acquisition.columns import MEAN, column, columns_of
 from snrmon.acquisition.measure.model_agreement import ModelAgreement, model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnr
-from snrmon.acquisition.prediction import Predictor, psf_label
+from snrmon.acquisition.prediction import AT_STOP, Predictor, psf_label
 from snrmon.acquisition.stops.detector import Stop, is_valid, summarise_stop
 
 Entry = tuple[int, PeakSnr]
+StopModel = Callable[..., "dict[str, float] | None"]
+"""``stop_model(stop, camera, range_m, run, wait=False)``: more model values for a final row
+(the expected readings over its stop's phases, ``acquisition.calibrate.stop_phases``), {} for
+none, None while they are being computed."""
 
 
 class StopSource(Protocol):
@@ -154,13 +161,12 @@ class StopRow:
         # where the row is built (the processing thread), so a viewer only formats it. Not a
         # field: the row's payload (its fields) stays what the recording and the CSV hold.
         rule = self.expected_eq4_rule
-        agreement = (
-            None
-            if rule is None
-            else model_agreement(
-                self.snr_mean, self.snr_sem, self.model_snr, f"expected_eq4_{rule}"
+        agreement = None
+        if rule is not None:
+            name = f"expected_eq4_{rule}"
+            agreement = model_agreement(
+                self.snr_mean, self.snr_sem, _at_stop(self.model_snr, name), name
             )
-        )
         object.__setattr__(self, "_agreement", agreement)  # frozen: set once, at construction
 
     @property
@@ -195,10 +201,24 @@ class StopRow:
     @property
     def expected_eq4(self) -> float | None:
         """The model's expected Eq. (4) reading by the rule this row was measured with
-        (``model_snr["expected_eq4_rim"]`` or ``["expected_eq4_extent"]``); None without a
-        model or a rule."""
+        (``model_snr["expected_eq4_rim"]`` or ``["expected_eq4_extent"]``; over the stop's own
+        phases, ``..._stop``, where the row has it); None without a model or a rule."""
         rule = self.expected_eq4_rule
-        return None if rule is None else self.model_snr.get(f"expected_eq4_{rule}")
+        name = f"expected_eq4_{rule}"
+        return None if rule is None else _at_stop(self.model_snr, name).get(name)
+
+
+def _at_stop(model: dict[str, float], name: str) -> dict[str, float]:
+    """``model`` with the expected reading ``name`` and its band over the stop's own phases
+    (``name + AT_STOP``) in place of the cell's, where it has them: what the row's measurement
+    is held to (``acquisition.calibrate.stop_phases``)."""
+    if f"{name}{AT_STOP}" not in model:
+        return model
+    out = {k: v for k, v in model.items() if k not in (f"{name}_lower", f"{name}_upper")}
+    for e in ("", "_lower", "_upper"):  # the cell's band does not go with the stop's reading
+        if f"{name}{AT_STOP}{e}" in model:
+            out[f"{name}{e}"] = model[f"{name}{AT_STOP}{e}"]
+    return out
 
 
 def expected_eq4_rule(background: str) -> str | None:
@@ -298,8 +318,10 @@ class StopTable:
         history_frames: int = 4000,
         predictor: Predictor | None = None,
         on_final: Callable[[StopRow], None] | None = None,
+        stop_model: StopModel | None = None,
     ) -> None:
         self.on_final = on_final
+        self.stop_model = stop_model
         self.detector = detector
         self.cameras = list(cameras)
         self.n = frames_per_stop
@@ -346,7 +368,7 @@ class StopTable:
             for stop in self.detector.stops:
                 for cam in self.cameras:
                     if (stop.index, cam) not in self._final:
-                        out.append(self._freeze(stop, cam))
+                        out.append(self._freeze(stop, cam, self._stop_model(stop, cam, wait=True)))
             return out
 
     # ------------------------------------------------------------------ output
@@ -371,17 +393,20 @@ class StopTable:
 
     def _open_row(self, stop: Stop, camera: str, entries: list[Entry]) -> StopRow:
         predictor = self.predictor
+        extra = self._open_stop_model(stop, camera, entries)
         made_of = (
             stop,
             len(entries),
             entries[-1][0] if entries else None,
             id(predictor),
             getattr(predictor, "version", None),
+            tuple(extra.items()),
         )
         shown = self._shown.get((stop.index, camera))
         if shown is not None and shown[0] == made_of:
             return shown[1]
-        row = self._row_of(stop, camera, run_before(entries, stop.t_end_ns, self.n), final=False)
+        run = run_before(entries, stop.t_end_ns, self.n)
+        row = self._row_of(stop, camera, run, final=False, extra=extra)
         self._shown[(stop.index, camera)] = (made_of, row)
         return row
 
@@ -454,11 +479,37 @@ class StopTable:
                 continue
             if self.predictor is not None and self.predictor.pending(camera):
                 continue  # the model's curves for the inputs now in force: the next frame
-            out.append(self._freeze(stop, camera))
+            extra = self._stop_model(stop, camera, wait=False)
+            if extra is None:
+                continue  # the stop's own expected readings are being computed: the next frame
+            out.append(self._freeze(stop, camera, extra))
         return out
 
-    def _freeze(self, stop: Stop, camera: str) -> StopRow:
-        row, run = self._row(stop, camera, final=True)
+    def _open_stop_model(self, stop: Stop, camera: str, entries: list[Entry]) -> dict[str, float]:
+        """``stop_model``'s values for an open row whose run is complete (its frames will not
+        change: the row shows them while the drone still hovers); {} until they are ready."""
+        if self.stop_model is None or self.predictor is None or len(entries) < self.n:
+            return {}
+        if self.predictor.pending(camera):
+            return {}  # the curves' new inputs are not theirs yet
+        run = run_before(entries, stop.t_end_ns, self.n)
+        if len(run) < self.n:
+            return {}
+        rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
+        return self.stop_model(stop.index, camera, rng, run, wait=False) or {}
+
+    def _stop_model(self, stop: Stop, camera: str, *, wait: bool) -> dict[str, float] | None:
+        """``stop_model``'s values for the row about to be final ({} without one)."""
+        if self.stop_model is None or self.predictor is None:
+            return {}
+        builder = self._builders.get((stop.index, camera))
+        run = builder.run(stop.t_end_ns) if builder is not None else []
+        rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
+        got = self.stop_model(stop.index, camera, rng, run, wait=wait)
+        return got if got is not None or not wait else {}
+
+    def _freeze(self, stop: Stop, camera: str, extra: dict[str, float] | None = None) -> StopRow:
+        row, run = self._row(stop, camera, final=True, extra=extra or {})
         key = (stop.index, camera)
         self._final[key] = row
         self._runs[key] = run
@@ -467,15 +518,21 @@ class StopTable:
             self.on_final(row)
         return row
 
-    def _row(self, stop: Stop, camera: str, *, final: bool) -> tuple[StopRow, list[Entry]]:
+    def _row(
+        self, stop: Stop, camera: str, *, final: bool, extra: dict[str, float]
+    ) -> tuple[StopRow, list[Entry]]:
         builder = self._builders.get((stop.index, camera))
         run = builder.run(stop.t_end_ns) if builder is not None else []
-        return self._row_of(stop, camera, run, final=final), run
+        return self._row_of(stop, camera, run, final=final, extra=extra), run
 
-    def _row_of(self, stop: Stop, camera: str, run: list[Entry], *, final: bool) -> StopRow:
+    def _row_of(
+        self, stop: Stop, camera: str, run: list[Entry], *, final: bool, extra=None
+    ) -> StopRow:
         summary = summarise_stop([r for _, r in run], self.n)
         rng = stop.lrf_range_m if stop.lrf_range_m is not None else stop.gps_range_m
         model = dict(self.predictor(camera, rng)) if (self.predictor and rng) else {}
+        if model and extra:
+            model.update(extra)  # the stop's own expected readings (stop_model)
         resolved = model.pop("resolved_small", None)
         sky = self.predictor.curves_background_k.get(camera) if self.predictor and model else None
         psf = self.predictor.curves_psf.get(camera) if self.predictor and model else None

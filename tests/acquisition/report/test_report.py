@@ -11,7 +11,12 @@ import cv2
 import numpy as np
 import pytest
 
-from snrmon.acquisition.prediction import BANDED_CURVES, CURVES, ModelPredictor
+from snrmon.acquisition.prediction import (
+    BANDED_CURVES,
+    CURVES,
+    STOP_EXPECTED_CURVES,
+    ModelPredictor,
+)
 from snrmon.acquisition.report.data import BUDGET_TERMS, report_data, rows_sky_k
 from snrmon.acquisition.report.plot import PAGE_IN, PNG_DPI
 from snrmon.acquisition.report.stop_csv import CSV_COLUMNS
@@ -87,6 +92,8 @@ def test_csv_has_exactly_the_columns(outputs):
         "model_expected_eq4_rim",
         "model_expected_eq4_extent",
         *bands,
+        # over the stop's own sub-pixel phases, where a row has them (a fitted PSF, unresolved)
+        *(f"model_{c}{s}" for c in STOP_EXPECTED_CURVES for s in ("", "_lower", "_upper")),
     ]
     assert [c for c in CSV_COLUMNS if c.startswith("ratio_")] == [
         *(f"ratio_{c}" for c in CURVES),

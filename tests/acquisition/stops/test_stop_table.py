@@ -184,3 +184,41 @@ def test_the_reports_corrected_curves_use_the_psf_the_rows_were_compared_with():
         at_stop = np.interp(np.log(393.0), np.log(curves.ranges_m), curves.snr[name])
         assert at_stop == pytest.approx(row.model_snr[name], rel=0.01), name
     assert "Airy x Gaussian blur 0.57 px" in curves.psf_label
+
+
+def test_a_row_waits_for_its_stops_own_expected_reading_and_is_held_to_it():
+    """``stop_model`` still computing (None): an open row with its 100 frames shows the cell's
+    reading until the stop's is ready, then the stop's; past the stop's end the row stays open
+    on a frame while it is computed, and is final on the next with it. Its measured / expected
+    and band are of that reading; the cell's curve is still in the row beside it."""
+    rng = np.random.default_rng(13)
+    detector = StopDetector()
+    predictor = ModelPredictor({"mwir": "mwir"}, "uav1")
+    answers = [None, {"expected_eq4_rim_stop": 40.0}, None, {"expected_eq4_rim_stop": 40.0}]
+    asked = []
+
+    def stop_model(stop, camera, range_m, run, *, wait=False):
+        asked.append((stop, camera, range_m, len(run), wait))
+        return answers.pop(0)
+
+    table = StopTable(detector, ["mwir"], predictor=predictor, stop_model=stop_model)
+    t0 = 10**12
+    detector.mark_stop(t0)
+    for _ in range(20):
+        detector.add_range(t0, 451.0, "gps")
+    for i in range(110):
+        table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 44.0))
+    (shown,) = table.rows()
+    cell = shown.model_snr["expected_eq4_rim"]
+    assert not shown.final and shown.expected_eq4 == cell != 40.0
+    (shown,) = table.rows()
+    assert not shown.final and shown.expected_eq4 == 40.0
+    detector.end_stop(t0 + 110 * FRAME_NS)
+    assert table.tick("mwir", t0 + 110 * FRAME_NS) == []  # being computed: not final yet
+    (row,) = table.tick("mwir", t0 + 111 * FRAME_NS)
+    assert asked == [(0, "mwir", 451.0, 100, False)] * 4
+    assert row.final and row.expected_eq4_rule == "rim"
+    assert row.model_snr["expected_eq4_rim"] == cell and row.expected_eq4 == 40.0
+    assert row.agreement.expected == 40.0
+    assert row.agreement.ratio == pytest.approx(row.snr_mean / 40.0, rel=1e-12)
+    assert row.agreement.lower == row.agreement.upper == 40.0  # no band given: the reading
