@@ -385,7 +385,7 @@ class ModelPredictor:
 
         def done(job: Future) -> None:  # on the worker pool's thread
             if job.cancelled():  # dropped at exit: nobody will read it
-                self._finished(camera)
+                self._recomputations.finished(camera)
                 return
             try:
                 curves, used_k = job.result()
