@@ -17,21 +17,45 @@ NOISE_DN = 6.0
 
 
 class SpotOnNoise:
-    """Picklable render callable: a Gaussian spot (sigma 0.7 px) on 1000 DN of white noise,
-    optionally over a fixed pattern of ``fpn_dn`` and appearing only from frame ``spot_from``."""
+    """Picklable render callable: a Gaussian spot (``sigma_px``, peak ``amplitude_dn``) at
+    (``spot_x``, ``spot_y``) on ``sky_dn`` of white noise (``noise_dn``), ``height`` x ``width``,
+    optionally over a fixed pattern of ``fpn_dn`` and appearing only from frame ``spot_from``.
 
-    def __init__(self, seed: int, *, fpn_dn: float = 0.0, spot_from: int = 0) -> None:
+    It lives here, in a module that imports only NumPy, because a camera process (spawned)
+    unpickles it by importing its module: a render defined in a GUI test module made every
+    camera process import Qt and the console first."""
+
+    def __init__(
+        self,
+        seed: int,
+        *,
+        fpn_dn: float = 0.0,
+        spot_from: int = 0,
+        width: int = W,
+        height: int = H,
+        spot_x: float = SPOT_X,
+        spot_y: float = SPOT_Y,
+        amplitude_dn: float = AMPLITUDE_DN,
+        sigma_px: float = 0.7,
+        sky_dn: float = 1000.0,
+        noise_dn: float = NOISE_DN,
+    ) -> None:
         self.seed = seed
         self.spot_from = spot_from
-        yy, xx = np.mgrid[0:H, 0:W]
-        self.spot = AMPLITUDE_DN * np.exp(-((xx - SPOT_X) ** 2 + (yy - SPOT_Y) ** 2) / (2 * 0.7**2))
+        self.sky_dn, self.noise_dn = sky_dn, noise_dn
+        yy, xx = np.mgrid[0:height, 0:width]
+        r2 = (xx - spot_x) ** 2 + (yy - spot_y) ** 2
+        self.spot = amplitude_dn * np.exp(-r2 / (2 * sigma_px**2))
         # A fixed per-pixel offset pattern (fixed-pattern noise), the same in every frame.
-        self.fpn = np.random.default_rng([seed, 999]).normal(0.0, fpn_dn, (H, W)) if fpn_dn else 0
+        self.fpn = (
+            np.random.default_rng([seed, 999]).normal(0.0, fpn_dn, (height, width)) if fpn_dn else 0
+        )
 
     def __call__(self, counter: int) -> np.ndarray:
         rng = np.random.default_rng([self.seed, counter])
         spot = self.spot if counter >= self.spot_from else 0.0
-        frame = 1000.0 + self.fpn + spot + rng.normal(0.0, NOISE_DN, (H, W))
+        noise = rng.normal(0.0, self.noise_dn, self.spot.shape)
+        frame = self.sky_dn + self.fpn + spot + noise
         return np.clip(np.rint(frame), 0, 65535).astype(np.uint16)
 
 

@@ -22,24 +22,28 @@ from snrmon.drivers.camera.shm import ShmCamera
 from snrmon.gui.app import console_application, run_console
 from snrmon.gui.main_window import ConsoleWindow
 from snrmon.sim.devices.shm_camera import ShmProducer
+from tests import helpers
 
 W, H = 160, 128
 SPOT_X, SPOT_Y = 100, 60
 SKY_DN, NOISE_DN, SPOT_DN = 1000.0, 8.0, 400.0
 
 
-class SpotOnNoise:
-    """Picklable render: a Gaussian spot (sigma 0.8 px) at (SPOT_X, SPOT_Y) on seeded noise."""
-
-    def __init__(self, seed: int = 7) -> None:
-        self.seed = seed
-        yy, xx = np.mgrid[0:H, 0:W]
-        self.spot = SPOT_DN * np.exp(-((xx - SPOT_X) ** 2 + (yy - SPOT_Y) ** 2) / (2 * 0.8**2))
-
-    def __call__(self, counter: int) -> np.ndarray:
-        rng = np.random.default_rng([self.seed, counter])
-        frame = SKY_DN + self.spot + rng.normal(0.0, NOISE_DN, (H, W))
-        return np.clip(np.rint(frame), 0, 65535).astype(np.uint16)
+def console_render(seed: int = 7) -> helpers.SpotOnNoise:
+    """The console tests' render: a Gaussian spot (sigma 0.8 px) at (SPOT_X, SPOT_Y) on seeded
+    noise, a picklable instance of the helpers' render (whose module the camera process
+    imports without Qt)."""
+    return helpers.SpotOnNoise(
+        seed,
+        width=W,
+        height=H,
+        spot_x=SPOT_X,
+        spot_y=SPOT_Y,
+        amplitude_dn=SPOT_DN,
+        sigma_px=0.8,
+        sky_dn=SKY_DN,
+        noise_dn=NOISE_DN,
+    )
 
 
 def curves(camera: str) -> dict:
@@ -51,7 +55,7 @@ def curves(camera: str) -> dict:
 @pytest.fixture
 def rig():
     name = f"snrmon-guitest-{uuid.uuid4().hex[:10]}"
-    producer = ShmProducer(name, W, H, SpotOnNoise(), fps=60.0)
+    producer = ShmProducer(name, W, H, console_render(), fps=60.0)
     producer.start()
     config = session_config_from_dict(
         {"cameras": {"mwir": {"source": "shm", "address": name, "width_px": W, "height_px": H}}}

@@ -19,7 +19,7 @@ import psutil
 import pytest
 
 from snrmon.sim.devices.shm_camera import ShmProducer
-from tests.gui.test_console import H, SpotOnNoise, W
+from tests.gui.test_console import H, W, console_render
 
 ROOT = Path(__file__).resolve().parents[2]
 LOST = r"{cmd}: warning: {device} lost at \d{{4}}-\d\d-\d\dT[\d:.]+\+00:00 \(disconnected: .*died"
@@ -76,7 +76,7 @@ def test_the_console_that_lost_its_camera_ends_with_exit_1_naming_it(tmp_path):
         f"width_px = {W}\nheight_px = {H}\n"
     )
     status, log_file = tmp_path / "status.json", tmp_path / "gui.log"
-    producer = ShmProducer(ring, W, H, SpotOnNoise(4), fps=30.0, slots=16)
+    producer = ShmProducer(ring, W, H, console_render(4), fps=30.0, slots=16)
     producer.start()
     argv = ["gui", "--config", str(toml), "--headless", "--status-file", str(status)]
     proc = _snrmon([*argv, "--log-file", str(log_file)], tmp_path)

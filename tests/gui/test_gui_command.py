@@ -16,7 +16,7 @@ from PySide6.QtGui import QImage
 from snrmon.cli import main
 from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.acquisition.session_factory import write_session
-from tests.gui.test_console import H, SpotOnNoise, W
+from tests.gui.test_console import H, W, console_render
 
 
 def test_gui_command_headless_runs_the_config_and_saves_a_screenshot(qtbot, tmp_path):
@@ -26,7 +26,7 @@ def test_gui_command_headless_runs_the_config_and_saves_a_screenshot(qtbot, tmp_
         f'[cameras.mwir]\nsource = "shm"\naddress = "{ring}"\nwidth_px = {W}\nheight_px = {H}\n'
     )
     png = tmp_path / "gui.png"
-    with ShmProducer(ring, W, H, SpotOnNoise(), fps=30.0):
+    with ShmProducer(ring, W, H, console_render(), fps=30.0):
         rc = main(
             [
                 "gui",

@@ -23,13 +23,13 @@ from snrmon.gui.app import console_application
 from snrmon.gui.main_window import ConsoleWindow
 from snrmon.gui.model_curves import ModelOptions
 from snrmon.sim.devices.shm_camera import ShmProducer
-from tests.gui.test_console import NOISE_DN, SPOT_X, SPOT_Y, H, SpotOnNoise, W
+from tests.gui.test_console import NOISE_DN, SPOT_X, SPOT_Y, H, W, console_render
 
 
 @pytest.fixture
 def window(qtbot, tmp_path):
     name = f"snrmon-modeltest-{uuid.uuid4().hex[:10]}"
-    producer = ShmProducer(name, W, H, SpotOnNoise(), fps=60.0)
+    producer = ShmProducer(name, W, H, console_render(), fps=60.0)
     producer.start()
     config = session_config_from_dict(
         {"cameras": {"mwir": {"source": "shm", "address": name, "width_px": W, "height_px": H}}}
