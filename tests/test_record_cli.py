@@ -203,11 +203,14 @@ def test_a_dropped_frame_is_never_silent(tmp_path, capsys):
     assert "cam: 5 frames dropped (camera_gap 5)" in out.with_suffix(".log").read_text()
     assert "ALARM cam frames: 5 dropped (camera 5, ring overrun 0)" in err  # the status line
     with open_session(out) as f:
-        (event,) = [e for e in f.event_list() if e["kind"] == "frames_dropped"]
-        assert event["camera"] == "cam" and event["payload"]["new"] == {"camera_gap": 5}
+        # The five this camera lost come first; a busy machine may make the simulated camera
+        # lose more of its own later (each its own event), and every one is counted.
+        events = [e for e in f.event_list() if e["kind"] == "frames_dropped"]
         acc = f.summary["extra"]["accounting"]["cam"]
         n = f.cameras["cam"].n_frames
-    assert acc["camera_gap"] == 5 and acc["written"] == n
+    assert events[0]["camera"] == "cam" and events[0]["payload"]["new"] == {"camera_gap": 5}
+    gaps = [e["payload"]["new"].get("camera_gap", 0) for e in events]
+    assert acc["camera_gap"] == sum(gaps) and acc["written"] == n
     assert acc["received"] == (
         acc["written"]
         + sum(acc["dropped"].values())
