@@ -18,6 +18,21 @@ REPO = Path(__file__).resolve().parent.parent
 TEST_DATA = Path(os.environ.get("SNRMON_TEST_DATA", REPO / "tests" / "data"))
 
 
+def pytest_collection_modifyitems(config, items) -> None:
+    """The files with the most slow tests first, each file whole and in its own order.
+
+    ``make test`` hands whole files to two workers (pytest-xdist ``--dist loadfile``), taking
+    them in the order collected (``--no-loadscope-reorder``); by default xdist orders files by
+    their number of tests, which put the few-test, minute-long flights (``tests/test_hil*.py``,
+    ``test_characterize_twin.py``) last, one worker finishing them while the other stood idle.
+    Longest first is the classic remedy for that tail; the count of ``slow`` tests (each
+    "more than a few seconds") is the estimate of a file's length."""
+    slow: dict[Path, int] = {}
+    for item in items:
+        slow[item.path] = slow.get(item.path, 0) + bool(item.get_closest_marker("slow"))
+    items.sort(key=lambda item: -slow[item.path])  # a stable sort: files stay whole
+
+
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
     """``tests/data``: real data with provenance (never edited; a test that damages a file

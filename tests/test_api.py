@@ -86,6 +86,7 @@ def test_every_curve_of_the_prediction_is_named_with_its_units():
     assert bool((ds["small_corrected_lower"] <= ds["small_corrected_upper"]).all())
 
 
+@pytest.mark.slow
 def test_a_live_recording_reads_as_labelled_tables(hil_sessions):
     path = hil_sessions[0]
     with snrmon.open_session(path) as s:

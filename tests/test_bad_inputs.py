@@ -169,6 +169,7 @@ def _guide_config(folder: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_doctor_without_pygobject_fails_the_backend_row_and_goes_on(
     tmp_path, capsys, monkeypatch
 ) -> None:

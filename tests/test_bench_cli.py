@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import pytest
+
 from snrmon.cli import main
 from tests.helpers import strict_json
 
 
+@pytest.mark.slow
 def test_bench_json_has_the_sections_asked_for(capsys):
     assert main(["bench", "--only", "measurement,model", "--duration", "0.2", "--json"]) == 0
     out = strict_json(capsys.readouterr().out)
@@ -26,6 +29,7 @@ def test_bench_duration_must_be_positive(capsys):
     assert "--duration must be positive" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_acquisition_soak_rolls_its_recording_and_samples_memory(monkeypatch):
     """A run longer than a segment records in segments (an hour raw would fill the disk) and
     samples the resident memory along the way; the last segment replays."""

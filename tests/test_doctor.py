@@ -167,6 +167,7 @@ def test_unreadable_port_names_the_group_to_join(tmp_path):
     assert check_port("gps", {"protocol": "gpsd", "port": "localhost:2947"}).status == "skip"
 
 
+@pytest.mark.slow
 def test_devices_that_do_not_answer_or_disagree(rig, tmp_path):
     """No camera writer; a camera at the wrong rate; a GPS without a fix; a GPS whose clock is
     years off; a receiver that sends week-rollover dates (positions kept, time unknown)."""

@@ -38,6 +38,7 @@ def _until(predicate, timeout_s: float, what: str):
         time.sleep(0.1)  # polling other processes' state: nothing to wait on
 
 
+@pytest.mark.slow
 def test_no_child_of_hil_outlives_a_sigkill():
     """SIGKILL runs no handler: the camera processes and the model's worker end with the
     console all the same (the parent-death signal), and the resource tracker after them."""
@@ -74,6 +75,7 @@ def _hil(out: Path, *, seed: int, speed: str, extra: tuple[str, ...] = ()) -> in
     return main([*argv, "--cameras", "mwir", "--no-calibration", "--out", str(out), *extra])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("speed", ["1", "max"])
 @pytest.mark.parametrize("seed", [0, 1])
 def test_no_stream_of_a_hil_day_steps_back_in_time(tmp_path, capsys, seed, speed):
@@ -156,6 +158,7 @@ def test_hil_on_a_full_disk_ends_like_record(tmp_path, capsys):
         subprocess.run(["umount", "-l", str(disk)])
 
 
+@pytest.mark.slow
 def test_a_camera_lost_mid_day_holds_the_day_no_more_and_fails_it(capsys):
     """The MWIR camera's process is killed after its first frames: the loss is seen at once
     (the ended process, though its parent has not reaped it yet), the day's clock stops waiting

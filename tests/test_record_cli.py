@@ -98,6 +98,7 @@ def test_record_duration_must_be_positive(tmp_path, capsys, duration):
     )
 
 
+@pytest.mark.slow
 def test_sigterm_closes_the_recording_whole(devices, tmp_path):
     """``kill`` (SIGTERM) stops ``snrmon record`` like Ctrl-C: the file is closed cleanly (no
     recovery needed) with every frame the progress line had counted."""
@@ -125,6 +126,7 @@ def test_sigterm_closes_the_recording_whole(devices, tmp_path):
         assert f.cameras["cam"].n_frames >= counted
 
 
+@pytest.mark.slow
 def test_kill_9_loses_at_most_a_second_and_the_file_replays(devices, tmp_path):
     """SIGKILL (power loss, OOM killer): no handler runs. The file opens without repair, holds
     every frame up to the last flush (at most ~1 s lost at 60 fps), and replays: every frame it
@@ -168,6 +170,7 @@ def test_kill_9_loses_at_most_a_second_and_the_file_replays(devices, tmp_path):
     assert t.compared > 0 and t.identical == t.compared
 
 
+@pytest.mark.slow
 def test_a_dropped_frame_is_never_silent(tmp_path, capsys):
     """A camera that loses five frames (a gap in its counter) while recording: a warning line on
     stderr and in the session's log, an alarm in the console's status, a ``frames_dropped``
@@ -257,6 +260,7 @@ def test_a_device_that_does_not_exist_stops_record(tmp_path, capsys, missing):
     assert n == 0 if missing == "camera" else n > 0  # what the others gave while it waited
 
 
+@pytest.mark.slow
 def test_a_camera_killed_mid_recording_ends_record_with_exit_1(tmp_path):
     """The camera's process is killed (SIGKILL) while ``record`` runs: the loss is logged with
     its time, the file's summary lists it, the command ends with exit 1 and one error line,

@@ -6,6 +6,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 # A job still queued when the script ends; its callback asks for a recomputation during the
 # interpreter's exit, as a PSF fit that finishes then does (its adoption recomputes the curves).
 EXIT_DURING_A_JOB = textwrap.dedent(
@@ -24,6 +26,7 @@ EXIT_DURING_A_JOB = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_a_recomputation_asked_for_during_the_exit_is_dropped_without_a_traceback():
     done = subprocess.run(
         [sys.executable, "-c", EXIT_DURING_A_JOB], capture_output=True, text=True, timeout=120

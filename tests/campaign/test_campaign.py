@@ -73,6 +73,7 @@ def reference(hil_sessions) -> dict[str, list[dict]]:
     return out
 
 
+@pytest.mark.slow
 def test_local_cluster_table_equals_serial_replay(hil_sessions, reference, tmp_path, capsys):
     out = tmp_path / "out"
     code, result = campaign(
@@ -131,6 +132,7 @@ def test_bad_sessions_refuse_the_campaign_before_it_starts(hil_sessions, tmp_pat
         assert not out.exists()
 
 
+@pytest.mark.slow
 def test_a_session_that_fails_in_its_replay_fails_its_own_task(hil_sessions, tmp_path, capsys):
     """A session that passes the input checks but cannot be replayed (its camera's sensor file
     is gone) fails its own task; the others go into the table."""
@@ -148,6 +150,7 @@ def test_a_session_that_fails_in_its_replay_fails_its_own_task(hil_sessions, tmp
     assert len(json.loads((out / "campaign.json").read_text())["failures"]) == 1
 
 
+@pytest.mark.slow
 def test_existing_scheduler_and_worker_processes(hil_sessions, reference, tmp_path, capsys):
     from distributed import Client
 

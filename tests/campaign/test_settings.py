@@ -58,6 +58,7 @@ def _run(argv, capsys) -> tuple[int, dict]:
     return code, json.loads(capsys.readouterr().out)
 
 
+@pytest.mark.slow
 def test_settings_change_the_measurement_and_are_recorded(small_sessions, tmp_path, capsys):
     sessions = list(map(str, small_sessions))
     code, base = _run([*sessions, "--out", str(tmp_path / "a"), "--workers", "0"], capsys)

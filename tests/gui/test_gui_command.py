@@ -10,6 +10,7 @@ import signal
 import time
 import uuid
 
+import pytest
 from PySide6.QtCore import QTimer
 from PySide6.QtGui import QImage
 
@@ -19,6 +20,7 @@ from tests.acquisition.session_factory import write_session
 from tests.gui.test_console import H, W, console_render
 
 
+@pytest.mark.slow
 def test_gui_command_headless_runs_the_config_and_saves_a_screenshot(qtbot, tmp_path):
     ring = f"snrmon-guicli-{uuid.uuid4().hex[:10]}"
     toml = tmp_path / "session.toml"
@@ -141,6 +143,7 @@ def test_gui_replay_opens_at_the_size_and_theme_asked(tmp_path):
     assert img.pixelColor(img.width() // 2, img.height() - 4).name() == "#eeeeee"
 
 
+@pytest.mark.slow
 def test_a_flir_sequence_replays_in_the_console_as_a_session(flir_files, tmp_path, capsys):
     """``snrmon gui --replay FILE.seq``: the real FLIR Duo Pro R sequence (7 frames 640x512)
     written as a session (every frame, bit for bit, at the file's own times) and played in the

@@ -174,6 +174,7 @@ def test_operator_keys_switch_camera_release_and_reselect_the_track(qtbot, fligh
     assert win.messages[-1] == "note not added: not available in replay"
 
 
+@pytest.mark.slow
 def test_daylight_theme_and_font_scale_keys_restyle_and_are_remembered(qtbot, flight, tmp_path):
     win = open_console(qtbot, flight, tmp_path, (1920, 1080), "dark")
     plot = win.range_plots[win.active_camera].plot

@@ -103,6 +103,7 @@ def click(display: str, x: int, y: int) -> None:
     )
 
 
+@pytest.mark.slow
 def test_clicking_the_drone_in_the_real_window(xvfb_display, tmp_path):
     if shutil.which("xdotool") is None:
         pytest.skip("xdotool not installed (apt-get install xdotool; .ci/run does)")

@@ -116,6 +116,7 @@ def pixels_of(image, colour: str, centre: list[int], half: int) -> list[tuple[in
     ]
 
 
+@pytest.mark.slow
 def test_the_frame_is_drawn_small_and_the_gps_cue_is_a_ring_beside_the_drone(console, artifacts):
     st = console.poll(lambda s: cam(s)["gps_xy"] is not None, "the fix projected")
     c = cam(st)

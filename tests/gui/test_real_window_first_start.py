@@ -31,6 +31,7 @@ def inside(rect: list[int], screen: list[int]) -> bool:
     return sx <= x and sy <= y and x + w <= sx + sw and y + h <= sy + sh
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("size", ["1366x768", "1920x1080", "2560x1440"])
 def test_first_start_fills_the_screen_legibly(xvfb_screens, flight, tmp_path, size):
     if shutil.which("xdotool") is None:

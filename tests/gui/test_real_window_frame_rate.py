@@ -30,6 +30,7 @@ def header_fps(header: str, camera: str) -> float | None:
     return float(found[1]) if found else None
 
 
+@pytest.mark.slow
 def test_a_camera_losing_every_other_frame_reads_half_its_nominal_rate(xvfb_screens, tmp_path):
     display = xvfb_screens("1366x768")
     ring = f"snrmon-rate-{os.getpid()}"
@@ -74,6 +75,7 @@ def flight(tmp_path_factory) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_a_replay_at_a_quarter_speed_reads_a_quarter_of_the_recorded_rate(
     xvfb_screens, flight, tmp_path
 ):

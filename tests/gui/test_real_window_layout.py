@@ -68,6 +68,7 @@ def settled(s: dict) -> bool:
     ("size", "theme", "all_rows"),
     [("1366x768", "dark", False), ("1920x1080", "daylight", True)],
 )
+@pytest.mark.slow
 def test_the_console_on_a_real_screen_is_legible(
     xvfb_screens, flight, tmp_path, artifacts, size, theme, all_rows
 ):

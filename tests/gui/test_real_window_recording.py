@@ -151,6 +151,7 @@ def check_time_left(st: dict, disk: Path) -> None:
     assert 0.85 * fastest - 5 <= hi and lo <= 1.15 * slowest + 5, (text, fastest, slowest)
 
 
+@pytest.mark.slow
 def test_recording_shows_the_red_mark_elapsed_time_rate_and_time_left(console):
     console.poll(
         lambda s: s["window"]["visible"] and s["cameras"]["cam"]["frames_shown"] > 5,

@@ -128,6 +128,7 @@ def test_the_issue_s_sequence_back_after_two_stops_each(display, flight, tmp_pat
     assert "ErrorBarItem" not in err and "broadcast" not in err, err
 
 
+@pytest.mark.slow
 def test_fifty_random_replay_commands_leave_the_console_running(display, flight, tmp_path):
     rng = random.Random(35)
     proc, status = console(display, flight, tmp_path, "16")

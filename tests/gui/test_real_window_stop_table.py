@@ -98,6 +98,7 @@ def verdicts(mean: float, sem: float, band: str) -> set[str]:
     return out
 
 
+@pytest.mark.slow
 def test_each_row_s_ratio_is_against_its_own_rule_s_expected_reading(table):
     st, _, _ = table
     keys = st["stop_table"]["columns"]

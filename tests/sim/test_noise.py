@@ -58,6 +58,7 @@ def test_noise_bank_windows_differ_between_frames_and_keep_sigma():
     assert all(not np.array_equal(stacked[i], stacked[i + 1]) for i in range(19))
 
 
+@pytest.mark.slow
 def test_fresh_noise_around_the_drone_never_repeats_the_bank():
     config = mwir_example_scene(**SMALL, fpn_enabled=False, fresh_half_px=10)
     r = SceneRenderer(config, seed=2)

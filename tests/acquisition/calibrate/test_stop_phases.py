@@ -72,6 +72,7 @@ def _hover_phases(n: int, seed: int) -> np.ndarray:
     return drift + 0.01 * rng.standard_normal((n, 2))
 
 
+@pytest.mark.slow
 def test_a_stops_reading_follows_the_estimator_at_the_phases_its_frames_had():
     sensor = load_sensor("lwir")
     target = load_target("uav1")

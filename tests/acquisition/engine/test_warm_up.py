@@ -82,6 +82,7 @@ def _first_frames_load(calibrated: bool, warm: bool, resolved: bool) -> dict[str
     return {k: after[k] - before[k] for k in after if after[k] != before[k]}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("calibrated", "resolved"), [(False, False), (True, True)])
 def test_the_first_real_frame_loads_no_kernel(calibrated, resolved):
     # Each case in a fresh interpreter: kernels loaded by other tests would hide a cold start.

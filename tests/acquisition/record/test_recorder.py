@@ -312,6 +312,7 @@ while True:
 """
 
 
+@pytest.mark.slow
 def test_sigkill_mid_run_loses_at_most_the_last_second(tmp_path: Path) -> None:
     path = tmp_path / "killed.h5"
     env = dict(os.environ, PYTHONPATH=str(REPO))

@@ -66,6 +66,7 @@ def _eq4(frame: np.ndarray) -> tuple[float, float, float, float]:
     )
 
 
+@pytest.mark.slow
 def test_csv_has_exactly_the_columns(outputs):
     _, _, rows = outputs
     assert tuple(rows[0]) == CSV_COLUMNS

@@ -30,6 +30,7 @@ def clips(shared_data):
     return {name: load_clip(name, root) for name in SUBSET}
 
 
+@pytest.mark.slow
 def test_floors_on_the_ci_subset(clips):
     scores = []
     for name, (frames, boxes) in clips.items():

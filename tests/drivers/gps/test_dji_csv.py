@@ -104,6 +104,7 @@ def air2s(shared_data, module_tmp):
     return csv_path, _csv_rows(folder / "air-2s.csv.gz"), _gpx_points(folder / "air-2s.gpx.gz")
 
 
+@pytest.mark.slow
 def test_real_export_every_gpx_point_is_a_fix_with_its_position_and_altitude(air2s) -> None:
     from snrmon.drivers.gps.dji_csv import read_dji_log
 
@@ -157,6 +158,7 @@ def _rewritten(rows, path, datetime_of=None, position_from_ms=None):
     return path
 
 
+@pytest.mark.slow
 def test_the_time_base_is_the_files_own_first_fix_not_a_constant(air2s, tmp_path) -> None:
     """AirData's time base puts the first row with a position on the second written in it:
     the real export with its positions blanked for its first 20 s more (its first fix 8.4 s
