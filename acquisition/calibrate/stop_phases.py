@@ -38,7 +38,10 @@ section 9, do not depend on the phase).
 The readings are computed in the worker process (NumPy that would hold the interpreter lock the
 measurement threads need) while the stop table holds the row
 (:class:`snrmon.acquisition.stops.table.StopTable`'s ``stop_model``); with a synchronous
-predictor (a test) at once.
+predictor (a test, a report) at once. Live and replay alike (:func:`stop_phase_readings`): the
+live session takes the crops from its frames as they arrive, a replay (the batch replay, the
+console's player) from the recorded frames as it plays them, through the same crop log; a
+simulated day's recording holds every frame, so a replay's fitted rows read the live ones.
 """
 
 from __future__ import annotations
@@ -51,7 +54,7 @@ from concurrent.futures import Future
 
 import numpy as np
 
-from snrmon.acquisition.calibrate.flight_psf import MIN_FRAMES
+from snrmon.acquisition.calibrate.flight_psf import MIN_FRAMES, FlightPsf
 from snrmon.acquisition.calibrate.psf_estimate import StopCrops, observed_phases, target_px
 from snrmon.acquisition.prediction import AT_STOP, EXPECTED_CURVES
 
@@ -116,16 +119,27 @@ class StopPhaseReadings:
         """The row ``(stop, camera)``'s readings over its frames' phases (``run``: the table's
         (t_host_ns, PeakSnr) of the row) with their band: {} where none is made (module
         docstring), None while they are being computed (unless ``wait``). Made once per run
-        and curves: asked again (an open row shown, then final) it gives the same."""
+        and curves while the stop is open (asked again, an open row shown while the drone
+        hovers, it gives the same), and again once the stop has ended, or the row is made final
+        at the session's end (``wait``: the stop table's ``finalize``), if its range is no
+        longer the one they were made at: the open stop's range is the median of its readings
+        so far, so the final row's reading is made at the final row's range (as a replay, which
+        applies the ended stop or the stop open at the end, makes it)."""
         predictor = self.engine.predictor
         if predictor is None or range_m is None:
             return {}
-        # made for these curves and these frames (a stop's end known late can shorten a run)
-        made_for = (getattr(predictor, "curves", {}).get(camera), _run_key(run))
+        # made for these curves, these frames (a stop's end known late can shorten a run) and,
+        # once the stop has ended, its range
+        made_for = (getattr(predictor, "curves", {}).get(camera), _run_key(run), float(range_m))
         key = (stop, camera)
         with self._lock:
             held = self._jobs.get(key)
-        if held is None or held[0][0] is not made_for[0] or held[0][1] != made_for[1]:
+        if (
+            held is None
+            or held[0][0] is not made_for[0]
+            or held[0][1] != made_for[1]
+            or (held[0][2] != made_for[2] and (wait or self._ended(stop)))
+        ):
             args = self._inputs(predictor, camera, float(range_m), run)
             if args is None:
                 return {}
@@ -143,6 +157,11 @@ class StopPhaseReadings:
             log.exception("stop %d (%s): the expected reading at its phases failed", stop, camera)
             return {}
         return with_band(values, predictor(camera, float(range_m)))
+
+    def _ended(self, stop: int) -> bool:
+        """Whether stop ``stop`` of the engine's stop source has ended (its range is final)."""
+        stops = self.engine.stop_source.stops
+        return 0 <= stop < len(stops) and stops[stop].t_end_ns is not None
 
     def _inputs(self, predictor, camera: str, range_m: float, run) -> tuple | None:
         """The arguments of :func:`stop_expected_readings` for the row, None where no reading
@@ -173,3 +192,13 @@ class StopPhaseReadings:
 
             submit = worker_process.submit
         return submit(stop_expected_readings, *args)
+
+
+def stop_phase_readings(engine, flight_psf: FlightPsf) -> StopPhaseReadings:
+    """The readings over each final row's phases (:class:`StopPhaseReadings`) made the stop
+    table's ``stop_model`` of ``engine`` (a session's, live or replayed), from the crops that
+    ``flight_psf`` logs of the engine's measured frames (it is made the engine's listener)."""
+    engine.add_listener(flight_psf.on_measurement)
+    readings = StopPhaseReadings(engine, flight_psf.crops_at)
+    engine.stop_table.stop_model = readings.stop_model
+    return readings
