@@ -11,13 +11,15 @@ over the twin's true phases of the same frames (``true_phases``); the measured p
 (median |folded error| and mean folded error per axis, px: negative is toward the pixel's
 centre); and the twin's noise-free truth over the model's noise-free peak SNR at the true
 phases (``truth_over_peak_true_phases``: the fitted PSF's peak share against the twin's optics,
-the noise and the radiometry, with no phase and no estimator in it).
+the noise and the radiometry, with no phase and no estimator in it); and the row's fitted blur
+(``fitted_blur_px``, the Gaussian of its Airy-plus-Gaussian PSF).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 
 import numpy as np
 
@@ -64,6 +66,7 @@ def _row_figures(rig: HilRig, row) -> dict | None:
         "camera": row.camera,
         "range_m": round(float(range_m), 1),
         "frames": len(times),
+        "fitted_blur_px": float(getattr(psf, "sigma_px", math.nan)),  # the Airy's Gaussian blur
         "cell": row.snr_mean / row.model_snr[rule],
         "stop_phases": row.agreement.ratio,
         "true_phases": row.snr_mean / float(at_true.snr(rule)[0]),
