@@ -1,23 +1,27 @@
 """How well a stop row's expected Eq. (4) reading follows the sub-pixel phases its frames had,
 against the digital twin's truth: one simulated day, then per unresolved fitted-PSF row.
 
-    python tools/stop_phase_truth.py SEED [--stops M,M,...] [--size WxH]
+    python tools/stop_phase_truth.py SEED [--stops M,M,...] [--size WxH] [--speed S] [flight]
 
-runs ``snrmon hil --seed SEED --speed max`` in-process (the paper's stops unless given) and
-prints one JSON object per fitted-PSF row of an unresolved stop: the row's measured mean over
-the expected reading of its rule over the whole cell (``cell``), over the phases measured from
-its frames (``stop_phases``, what the row is held to: ``acquisition.calibrate.stop_phases``) and
-over the twin's true phases of the same frames (``true_phases``); the measured phases' error
-(median |folded error| and mean folded error per axis, px: negative is toward the pixel's
-centre); and the twin's noise-free truth over the model's noise-free peak SNR at the true
-phases (``truth_over_peak_true_phases``: the fitted PSF's peak share against the twin's optics,
-the noise and the radiometry, with no phase and no estimator in it).
+runs ``snrmon hil --seed SEED --speed max`` (or ``--speed S``; ``--transit-mps``, ``--start-m``
+and ``--hover-s``: the flight's transit speed, first range and hover time) in-process (the
+paper's stops unless given) and prints one JSON object per fitted-PSF row of an unresolved
+stop: the row's measured mean over the expected reading of its rule over the whole cell
+(``cell``), over the phases measured from its frames (``stop_phases``, what the row is held to:
+``acquisition.calibrate.stop_phases``) and over the twin's true phases of the same frames
+(``true_phases``); the measured phases' error (median |folded error| and mean folded error per
+axis, px: negative is toward the pixel's centre); the twin's noise-free truth over the model's
+noise-free peak SNR at the true phases (``truth_over_peak_true_phases``: the fitted PSF's peak
+share against the twin's optics, the noise and the radiometry, with no phase and no estimator
+in it); and the row's fitted blur (``fitted_blur_px``, the Gaussian of its Airy-plus-Gaussian
+PSF).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 
 import numpy as np
 
@@ -64,6 +68,7 @@ def _row_figures(rig: HilRig, row) -> dict | None:
         "camera": row.camera,
         "range_m": round(float(range_m), 1),
         "frames": len(times),
+        "fitted_blur_px": float(getattr(psf, "sigma_px", math.nan)),  # the Airy's Gaussian blur
         "cell": row.snr_mean / row.model_snr[rule],
         "stop_phases": row.agreement.ratio,
         "true_phases": row.snr_mean / float(at_true.snr(rule)[0]),
@@ -79,10 +84,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("seed", type=int)
     parser.add_argument("--stops", default=None, help="hover ranges in metres, M,M,...")
     parser.add_argument("--size", default=None, help="a sub-array WxH")
+    parser.add_argument("--speed", default="max", help="x real time, or max (the default)")
+    parser.add_argument("--transit-mps", type=float, default=None, help="transit speed, m/s")
+    parser.add_argument("--start-m", type=float, default=None, help="the flight's first range, m")
+    parser.add_argument("--hover-s", type=float, default=None, help="hover at each stop, s")
     args = parser.parse_args(argv)
     kw: dict = {"seed": args.seed, "speed": 8.0, "speed_max": True}
+    if args.speed != "max":
+        kw.update(speed=float(args.speed), speed_max=False)
     if args.stops:
         kw["stops_m"] = tuple(float(v) for v in args.stops.split(","))
+    for name, option in (
+        ("transit_mps", args.transit_mps),
+        ("start_range_m", args.start_m),
+        ("hover_s", args.hover_s),
+    ):
+        if option is not None:
+            kw[name] = option
     if args.size:
         kw["window_px"] = tuple(int(v) for v in args.size.lower().split("x"))
     with HilRig(HilOptions(**kw)) as rig:

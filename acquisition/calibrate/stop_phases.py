@@ -28,17 +28,28 @@ axis; its fitted blur is 0.16 px, the twin's 0.10): the reading over them is 1.5
 one over the true phases there, the MWIR's within 0.5 %. (The tracker's core centroid is not
 kept with a measurement; the fit's offsets are of the frames' own pixels.)
 
-Made for an unresolved stop (small dimension under 1 px, as the PSF fit: the crops show the PSF)
-whose curves use a PSF fitted from the flight, with at least :data:`MIN_FRAMES` logged frames; a
-row of a preset PSF keeps the cell average alone (the preset's PSF is not the camera's: the
-phases its patterns gave would not be the frames'). The band of the stop's reading is the
-cell's, scaled by the stop's reading over the cell's (the model's input uncertainties, paper
-section 9, do not depend on the phase).
-
-The readings are computed in the worker process (NumPy that would hold the interpreter lock the
-measurement threads need) while the stop table holds the row
-(:class:`snrmon.acquisition.stops.table.StopTable`'s ``stop_model``); with a synchronous
-predictor (a test) at once.
+Where these come from (``tools/psf_fit_footprint.py``: the twin's own drone through its own
+optics at known uniform phases, unit noise, fitted and measured as the console does; drone
+light 100 x the noise). The median error is mostly the offsets' 1/12-px grid: a uniform error
+over +-1/24 px has a median of 1/48 = 0.021 px, and the twin's crops give 0.025-0.031. The
+LWIR's wide blur is the fit's target, a square of the small dimension: the twin's quadcopter
+silhouette of the same area spreads its light wider, which matters where the drone is not
+small against the LWIR's near-diffraction-limited PSF. The day's first unresolved LWIR stop
+(199 m, 0.78 px) alone fits a blur of 0.170 px (``--sizes 0.78``), the four beyond it (0.46-0.30
+px) 0.091, all five pooled 0.117 (the MWIR's four, 0.93-0.62 px, 0.588 against the twin's
+0.57: its PSF is wide against the drone). Phases measured with a blur too wide lean toward the
+pixel's centre: at 0.34-0.46 px the mean folded error per axis is -0.001 to +0.007 px with the
+twin's 0.10, -0.009 to +0.001 with 0.13 and -0.006 to -0.015 with 0.16 (``--sizes
+0.46,0.39,0.34 --blur B``): the LWIR's lean on the days is the lean of its wide fitted blur.
+The 199-m stop is not the only source of that blur: the same three stops flown two ways at
+1.5 x (``tools/stop_phase_truth.py 5 --stops 336,393,451 --size 256x192 --speed 1.5``, the
+default flight from 10 m at 8 m/s with 7-s hovers; and with ``--transit-mps 30 --start-m 300
+--hover-s 6``, the flight of ``tests/test_hil_psf.py``) fit an LWIR blur of 0.14-0.15 px and
+0.100-0.105 px, their offsets lean -0.007 to -0.014 px and -0.004 to +0.008 px, and the reading
+over them is 1.9-2.0 % above the one over the true phases and within 0.2 % of it (MWIR, blur
+0.59-0.60, within 0.5 % both ways). What in the first flight's frames widens the fitted blur
+was not found (the twin's rendered crops at uniform phases do not: the sizes of those stops
+alone fit 0.09; the phases a stop's drift samples are not uniform).
 """
 
 from __future__ import annotations
@@ -51,7 +62,7 @@ from concurrent.futures import Future
 
 import numpy as np
 
-from snrmon.acquisition.calibrate.flight_psf import MIN_FRAMES
+from snrmon.acquisition.calibrate.flight_psf import MIN_FRAMES, FlightPsf
 from snrmon.acquisition.calibrate.psf_estimate import StopCrops, observed_phases, target_px
 from snrmon.acquisition.prediction import AT_STOP, EXPECTED_CURVES
 
@@ -116,16 +127,27 @@ class StopPhaseReadings:
         """The row ``(stop, camera)``'s readings over its frames' phases (``run``: the table's
         (t_host_ns, PeakSnr) of the row) with their band: {} where none is made (module
         docstring), None while they are being computed (unless ``wait``). Made once per run
-        and curves: asked again (an open row shown, then final) it gives the same."""
+        and curves while the stop is open (asked again, an open row shown while the drone
+        hovers, it gives the same), and again once the stop has ended, or the row is made final
+        at the session's end (``wait``: the stop table's ``finalize``), if its range is no
+        longer the one they were made at: the open stop's range is the median of its readings
+        so far, so the final row's reading is made at the final row's range (as a replay, which
+        applies the ended stop or the stop open at the end, makes it)."""
         predictor = self.engine.predictor
         if predictor is None or range_m is None:
             return {}
-        # made for these curves and these frames (a stop's end known late can shorten a run)
-        made_for = (getattr(predictor, "curves", {}).get(camera), _run_key(run))
+        # made for these curves, these frames (a stop's end known late can shorten a run) and,
+        # once the stop has ended, its range
+        made_for = (getattr(predictor, "curves", {}).get(camera), _run_key(run), float(range_m))
         key = (stop, camera)
         with self._lock:
             held = self._jobs.get(key)
-        if held is None or held[0][0] is not made_for[0] or held[0][1] != made_for[1]:
+        if (
+            held is None
+            or held[0][0] is not made_for[0]
+            or held[0][1] != made_for[1]
+            or (held[0][2] != made_for[2] and (wait or self._ended(stop)))
+        ):
             args = self._inputs(predictor, camera, float(range_m), run)
             if args is None:
                 return {}
@@ -143,6 +165,11 @@ class StopPhaseReadings:
             log.exception("stop %d (%s): the expected reading at its phases failed", stop, camera)
             return {}
         return with_band(values, predictor(camera, float(range_m)))
+
+    def _ended(self, stop: int) -> bool:
+        """Whether stop ``stop`` of the engine's stop source has ended (its range is final)."""
+        stops = self.engine.stop_source.stops
+        return 0 <= stop < len(stops) and stops[stop].t_end_ns is not None
 
     def _inputs(self, predictor, camera: str, range_m: float, run) -> tuple | None:
         """The arguments of :func:`stop_expected_readings` for the row, None where no reading
@@ -173,3 +200,13 @@ class StopPhaseReadings:
 
             submit = worker_process.submit
         return submit(stop_expected_readings, *args)
+
+
+def stop_phase_readings(engine, flight_psf: FlightPsf) -> StopPhaseReadings:
+    """The readings over each final row's phases (:class:`StopPhaseReadings`) made the stop
+    table's ``stop_model`` of ``engine`` (a session's, live or replayed), from the crops that
+    ``flight_psf`` logs of the engine's measured frames (it is made the engine's listener)."""
+    engine.add_listener(flight_psf.on_measurement)
+    readings = StopPhaseReadings(engine, flight_psf.crops_at)
+    engine.stop_table.stop_model = readings.stop_model
+    return readings

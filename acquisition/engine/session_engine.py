@@ -132,6 +132,7 @@ class SessionEngine:
         self.sky_follower = SkyFollower()  # the one owner of the sky the model's background follows
         # per camera, the host time of the last frame the stop table has seen (model_input_ns)
         self._table_frame_ns: dict[str, int] = {}
+        self._finalized = False  # finalize() has made every row final
         self._listeners: list[Callable[[Measurement, np.ndarray | None], None]] = []
 
     # ------------------------------------------------------------------ the model
@@ -168,7 +169,11 @@ class SessionEngine:
     def model_input_ns(self, camera: str) -> int | None:
         """The time to record a change of ``camera``'s model inputs made now at: the host time
         of the last frame the stop table has seen (the frames after it see the new model, as a
-        replay applying the change after that frame does); None before the first frame."""
+        replay applying the change after that frame does); None before the first frame and
+        after :meth:`finalize` (no frame sees it then, and the rows made final there did not: a
+        replay, which applies it after its recorded frame, must not apply it before them)."""
+        if self._finalized:
+            return None
         return self._table_frame_ns.get(camera)
 
     def apply_model_input(self, camera: str, kind: str, payload: dict) -> None:
@@ -329,6 +334,7 @@ class SessionEngine:
         """The session ends: every row final as it stands (an open stop with its ranges as
         they stand, which the sink records first so a replay finalizes with the same)."""
         with self._lock:
+            self._finalized = True
             current = self.stop_detector.current if self.stop_source is self.stop_detector else None
         if current is not None and self.sink is not None:
             self.sink.stop_changed("stop_open_at_end", current)

@@ -19,6 +19,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from snrmon.acquisition.calibrate.flight_psf import FlightPsf
+from snrmon.acquisition.calibrate.stop_phases import stop_phase_readings
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import FrameAccounting
 from snrmon.acquisition.measure.peak_snr import PeakSnr, PeakSnrConfig
@@ -116,7 +118,8 @@ def engine_for(
     fast: bool = False,
     display: bool = False,
 ) -> tuple[SessionEngine, Feeder]:
-    """The session's engine as the live console built it, and the feeder that replays into it
+    """The session's engine as the live console built it (its stop rows held to their frames'
+    sub-pixel phases as live: :func:`stop_phase_readings`), and the feeder that replays into it
     (shared by the batch replay and the console's player)."""
     config = inputs.config
     if measurement is not None:
@@ -145,6 +148,15 @@ def engine_for(
             engine.cameras[name].set_calibration(cal[0])
             if exact and not display:  # the model's sky is the recorded one: nobody reads it
                 engine.cameras[name].sky = None
+    # The rows the live session held to their frames' sub-pixel phases, held so again: the
+    # crops logged from the recorded frames as they play (the live log made them of the same).
+    crop_log = FlightPsf(
+        engine,
+        cameras,
+        calibration_of=lambda name: engine.cameras[name].corrector.calibration,
+        adopt=False,
+    )
+    stop_phase_readings(engine, crop_log)
     feeder = Feeder(f, inputs, engine, fast=fast, recorded_stops=stops)
     feeder.exact_inputs = exact
     return engine, feeder

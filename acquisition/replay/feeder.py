@@ -1,7 +1,8 @@
 """Plays a recording's timeline into a session engine: the same engine the live console runs.
 
 :class:`Feeder` applies one timeline entry at a time (:meth:`Feeder.apply`): a rangefinder
-reading or GPS fix as it arrived, a recorded stop event, or one camera frame with the commands
+reading or GPS fix as it arrived, a recorded stop event (the stop open at the session's end makes
+every row final, as the live session's end did), or one camera frame with the commands
 recorded at it (an engine state after a recording gap first, then the clicks, the background
 reference, the GPS cue), then the frame itself through the engine. A frame the live engine measured
 but the recorder dropped is not re-measured: its recorded measurement goes into the table and the
@@ -226,7 +227,12 @@ class Feeder:
             self.engine.on_fix(fix_from_row(self.f.gps[row]))
         elif kind == STOP:
             if self.recorded_stops is not None:
-                self.recorded_stops.apply(self.inputs.stops[row][1])
+                stop_kind, stop = self.inputs.stops[row]
+                self.recorded_stops.apply(stop)
+                if stop_kind == "stop_open_at_end":
+                    # the live session ended here: its rows were made final as they stood (a
+                    # player reaching the end shows them so, as a batch replay's finalize does)
+                    self.engine.finalize()
         elif kind == FRAME:
             name = self.inputs.cameras[camera]
             return name, self._frame(name, frame, row, t_ns)

@@ -226,6 +226,7 @@ class ReplayMeasurement:
             fps = (cam.n_frames - 1) / span if span > 0 else 0.0
             self.views[name] = ReplayCamera(name, self.engine.cameras[name], fps)
         self._next_k = 0  # the next timeline entry to apply
+        self._last_shown_k = int(ShownFrames(inputs.timeline).entries[-1])  # the last frame's
         self.last_fix: GpsFix | None = None
 
     def _build(self, predictor: Predictor | None) -> tuple[SessionEngine, Feeder]:
@@ -261,8 +262,11 @@ class ReplayMeasurement:
         return fix_from_row(self._file.gps[int(tl["row"][fixes[-1]])]) if fixes.size else None
 
     def show_through(self, k: int) -> None:
-        """Apply the timeline up to and including entry ``k`` (a shown frame)."""
+        """Apply the timeline up to and including entry ``k`` (a shown frame); at the last
+        shown frame, the entries after it too (the session's end: its open rows made final)."""
         tl = self._inputs.timeline
+        if k >= self._last_shown_k:
+            k = len(tl) - 1
         while self._next_k <= k:
             j = self._next_k
             self._next_k += 1

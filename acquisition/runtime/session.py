@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from snrmon.acquisition.calibrate.flight_psf import FlightPsf
-from snrmon.acquisition.calibrate.stop_phases import StopPhaseReadings
+from snrmon.acquisition.calibrate.stop_phases import stop_phase_readings
 from snrmon.acquisition.compression import stored_compression
 from snrmon.acquisition.config import SessionConfig, camera_device
 from snrmon.acquisition.engine.inputs import Measurement
@@ -157,10 +157,8 @@ class Session:
             calibration_of=lambda name: self.pipelines[name].corrector.calibration,
             adopt=config.model_psf == "fitted",
         )
-        self.engine.add_listener(self.flight_psf.on_measurement)
         # A final unresolved row's expected reading over its own frames' sub-pixel phases.
-        readings = StopPhaseReadings(self.engine, self.flight_psf.crops_at)
-        self.engine.stop_table.stop_model = readings.stop_model
+        stop_phase_readings(self.engine, self.flight_psf)
         self.ranges = RangeDevices(
             SerialDeviceSettings.of(config.gps, "gps"),
             SerialDeviceSettings.of(config.lrf, "lrf"),

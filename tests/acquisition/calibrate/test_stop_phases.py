@@ -16,6 +16,7 @@ from snrmon.acquisition.calibrate.stop_phases import (
     stop_expected_readings,
     with_band,
 )
+from snrmon.acquisition.stops.detector import Stop
 from snrmon.model.presets import load_sensor, load_target
 from snrmon.model.psf import GaussianPsf
 from snrmon.model.snr import predict
@@ -123,9 +124,17 @@ def test_the_stops_band_is_the_cells_scaled_to_its_reading():
     assert "expected_eq4_extent_stop_lower" not in got
 
 
+class _Stops:
+    """A stop source: the stops as the stop table reads them."""
+
+    def __init__(self) -> None:
+        self.stops: list[Stop] = []
+
+
 class _Engine:
     def __init__(self, predictor) -> None:
         self.predictor = predictor
+        self.stop_source = _Stops()
 
 
 def test_a_stops_reading_is_made_once_for_a_fitted_psf_at_an_unresolved_stop():
@@ -184,3 +193,40 @@ def test_a_job_the_worker_dropped_leaves_the_cells_reading():
     run = [(t, None) for t in range(100)]
     assert readings.stop_model(3, "lwir", 451.0, run) == {}
     assert readings.stop_model(3, "lwir", 451.0, run, wait=True) == {}
+
+
+def test_an_ended_stops_reading_is_made_again_at_its_final_range():
+    """While the stop is open its range moves with each reading: the open row keeps the reading
+    made when its run was complete; made final (the stop ended, or open at the session's end)
+    at another range, one more at the final range (the one a replay, which applies the recorded
+    stop, makes), and no other after it."""
+    from concurrent.futures import Future
+
+    from snrmon.acquisition.prediction import ModelPredictor
+
+    predictor = ModelPredictor({"lwir": "lwir"}, "uav1", band=False)
+    predictor.set_psf("lwir", GaussianPsf(SIGMA_PX))
+    jobs = []
+
+    def submit(fn, *args):
+        jobs.append(args)
+        job: Future = Future()
+        job.set_result({"expected_eq4_rim_stop": args[4] / 10, "expected_eq4_extent_stop": 1.0})
+        return job
+
+    engine = _Engine(predictor)
+    readings = StopPhaseReadings(
+        engine, lambda camera, times: np.zeros((len(times), 13, 13)), submit=submit
+    )
+    run = [(t, None) for t in range(100)]
+    engine.stop_source.stops = [Stop(0, 0, None, 450.0, None, False)]
+    assert readings.stop_model(0, "lwir", 450.0, run)["expected_eq4_rim_stop"] == 45.0
+    assert readings.stop_model(0, "lwir", 450.2, run)["expected_eq4_rim_stop"] == 45.0
+    assert len(jobs) == 1  # open: the first reading
+    # the session ends with the stop open (the stop table's finalize waits): its range as it stands
+    assert readings.stop_model(0, "lwir", 450.4, run, wait=True)["expected_eq4_rim_stop"] == 45.04
+    assert len(jobs) == 2
+    engine.stop_source.stops = [Stop(0, 0, 10, 451.0, None, False)]
+    assert readings.stop_model(0, "lwir", 451.0, run)["expected_eq4_rim_stop"] == 45.1
+    assert readings.stop_model(0, "lwir", 451.0, run, wait=True)["expected_eq4_rim_stop"] == 45.1
+    assert [j[4] for j in jobs] == [450.0, 450.4, 451.0]
