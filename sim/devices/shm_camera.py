@@ -213,6 +213,7 @@ def _produce(
     paused: mp.Event,  # type: ignore[valid-type]
     done: mp.Event,  # type: ignore[valid-type]
     written: mp.Value,  # type: ignore[valid-type]
+    skipped: mp.Value,  # type: ignore[valid-type]
     clock: mp.Value | None = None,  # type: ignore[valid-type]
     initializer: Callable[[], object] | None = None,
 ) -> None:
@@ -265,6 +266,7 @@ def _produce(
                     behind = -wait_ns // period_ns
                     k += behind
                     counter += behind
+                    skipped.value += behind
                 k += 1
             if counter not in drop_counters:
                 pixels = render(counter)
@@ -341,13 +343,21 @@ class ShmProducer:
         self.done = self._ctx.Event()
         self._stop = self._ctx.Event()
         self._paused = self._ctx.Event()
-        # Lock-free: only the producer writes it.
+        # Lock-free: only the producer writes them.
         self._written = self._ctx.Value("q", 0, lock=False)
+        self._skipped = self._ctx.Value("q", 0, lock=False)
 
     @property
     def frames_written(self) -> int:
         """Frames published since the last start."""
         return int(self._written.value)
+
+    @property
+    def frames_skipped(self) -> int:
+        """Counters the camera skipped since the last start because the host fell more than
+        ``LAG_LIMIT`` behind its frame clock (a real camera's lost frames; ``drop_counters``
+        not included): what a reader must count as the camera's gaps."""
+        return int(self._skipped.value)
 
     @property
     def pid(self) -> int | None:
@@ -367,6 +377,7 @@ class ShmProducer:
                 self._paused,
                 self.done,
                 self._written,
+                self._skipped,
                 self._clock,
                 self._initializer,
             ),

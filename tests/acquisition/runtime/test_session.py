@@ -48,7 +48,7 @@ def rig(tmp_path):
 
 
 def test_session_measures_every_frame_detects_the_stop_and_records(rig):
-    session, _, tmp_path = rig
+    session, producer, tmp_path = rig
     session.start()
     # the live settings (acquisition/runtime/interpreter.py): BLAS on one thread while it runs
     assert {p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"} == {1}
@@ -80,10 +80,13 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
 
     # Every frame is accounted for: after the stop the measurement thread has drained the ring,
     # so every frame received was measured (with no recording now: before_recording) or lost to
-    # the ring; the recorder wrote what it was given.
+    # the ring; the recorder wrote what it was given. The camera's own gaps are none unless the
+    # machine held the simulated camera back past its buffer, and never more than it skipped
+    # (it goes on after the session stops: a last gap may be one the session never saw).
     session.stop()
     acc = session.status().cameras["cam"].frames
-    assert acc.camera_gap == 0 and acc.dropped == {"ring_overrun": 0} and acc.queued == 0
+    assert acc.camera_gap <= producer.frames_skipped
+    assert acc.dropped == {"ring_overrun": 0} and acc.queued == 0
     assert acc.received == acc.before_recording > 0 and acc.unaccounted == 0
     assert summary.frames_received["cam"] == summary.frames_written["cam"] + sum(
         summary.dropped["cam"].values()

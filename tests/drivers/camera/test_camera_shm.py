@@ -120,6 +120,42 @@ def test_skipped_counters_are_counted_as_drops(ring_name):
     assert not set(got) & drops
 
 
+class HeldBackOnce:
+    """Picklable render whose frame ``at`` takes ``hold_s`` (a host that held the camera's
+    process back for that long, past the camera's buffer)."""
+
+    def __init__(self, at: int, hold_s: float) -> None:
+        self.at, self.hold_s = at, hold_s
+        self.stamps = StampPattern(W, H)
+
+    def __call__(self, counter: int) -> np.ndarray:
+        if counter == self.at:
+            time.sleep(self.hold_s)  # the simulated fault, not a synchronisation
+        return self.stamps(counter)
+
+
+def test_a_camera_held_back_past_its_buffer_loses_the_frames_it_skipped(ring_name):
+    """Held back 0.5 s at 100 frames/s (twice the camera's 0.25 s buffer), the camera skips
+    the counters it could not deliver in time; the producer counts them, and the reader sees
+    exactly those as the camera's gap."""
+    prod = ShmProducer(ring_name, W, H, HeldBackOnce(30, 0.5), fps=100.0, slots=64)
+    with prod:
+        cam = ShmCamera("lwir", ring_name)
+        watch = Watch(cam)
+        with cam:
+            watch.until("a frame after the hold", lambda: prod.frames_skipped > 0)
+            skipped = prod.frames_skipped
+            watch.until("frames after the gap", lambda: watch.frames[-1].counter > 30 + skipped + 5)
+            dropped = cam.status().dropped - cam.frames_lost_to_overrun
+    got = [f.counter for f in watch.frames]
+    assert got[0] < 30, "reader attached after the hold; the test proves nothing"
+    assert 0.5 / 0.01 - 5 <= skipped + 1 <= 0.5 / 0.01 + 5  # ~49 frame times behind
+    assert dropped == skipped
+    if cam.frames_lost_to_overrun == 0:
+        gaps = [b - a - 1 for a, b in itertools.pairwise(got) if b - a > 1]
+        assert gaps == [skipped]
+
+
 def test_overrun_when_reader_is_slow_jumps_to_newest(ring_name):
     writer = ShmFrameWriter(ring_name, W, H, slots=4, fps=None)
     entered, release = threading.Event(), threading.Event()
