@@ -121,7 +121,9 @@ def _acquire_for(rig, path: Path, duration_s: float, proc: psutil.Process) -> _R
         now = time.monotonic()
         if now >= next_rss:
             recording.rss_samples.append((round(now - t0, 1), round(_rss_mb(proc), 1)))
-            next_rss += RSS_EVERY_S
+            # the next one RSS_EVERY_S after this one: a step the machine held up (a segment's
+            # roll on a busy disk) delays the curve, it does not add samples of one moment
+            next_rss = now + RSS_EVERY_S
         if now >= next_segment and deadline - now > SEGMENT_S / 10:
             recording.rolls_s.append(round(now - t0, 2))
             rig.session.stop_recording()
