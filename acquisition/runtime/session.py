@@ -60,7 +60,7 @@ from snrmon.acquisition.runtime.range_devices import (
     SerialDeviceSettings,
 )
 from snrmon.acquisition.stops.detector import Stop, StopConfig
-from snrmon.acquisition.stops.table import StopRow
+from snrmon.acquisition.stops.table import StopRow, row_fields
 from snrmon.acquisition.streams.ring import RING_OVERRUN, RingFrame
 from snrmon.acquisition.streams.timebase import ClockMap
 from snrmon.drivers.device import Device, DeviceStatus
@@ -95,14 +95,16 @@ def stop_payload(stop: Stop) -> dict:
 
 def row_payload(row: StopRow) -> dict:
     """A stop-table row as a JSON object (non-finite numbers as null)."""
-    payload = dataclasses.asdict(row)
+    payload = row_fields(row)
     for k, v in payload.items():
         if isinstance(v, float) and not math.isfinite(v):
             payload[k] = None
-    payload["model_snr"] = {k: (v if math.isfinite(v) else None) for k, v in row.model_snr.items()}
-    if row.frame_means:  # the declared per-frame means (none declared: the payload as before)
+    payload["model_snr"] = {
+        k: (v if math.isfinite(v) else None) for k, v in row.model.model_snr.items()
+    }
+    if row.reading.frame_means:  # the declared per-frame means (none: the payload as before)
         payload["frame_means"] = {
-            k: (v if math.isfinite(v) else None) for k, v in row.frame_means.items()
+            k: (v if math.isfinite(v) else None) for k, v in row.reading.frame_means.items()
         }
     else:
         del payload["frame_means"]
@@ -443,7 +445,7 @@ class Session:
             self.engine.finalize()
         else:  # the session goes on: the rows as they stand now are part of the record too
             for row in self.engine.stops():
-                if not row.final and row.n_frames:
+                if not row.final and row.reading.n_frames:
                     rec.add_event("stop_summary", camera=row.camera, payload=row_payload(row))
         self.recording.detach()
         for pipe in self.pipelines.values():
