@@ -43,8 +43,10 @@ from snrmon.acquisition.engine.status import (
 )
 from snrmon.acquisition.prediction import (
     MeasuredNoise,
+    ModelRequest,
     Predictor,
     Weather,
+    config_predictor,
     measured_noise_record,
 )
 from snrmon.acquisition.protocols import RecordingWriter
@@ -130,9 +132,14 @@ class Session:
         clock: ClockMap | None = None,
         stop_config: StopConfig | None = None,
         predictor: Predictor | None = None,
+        model_from_config: bool = False,
         lossless: bool = False,
     ) -> None:
         self.config = config
+        if predictor is None and model_from_config:
+            # Asynchronous: the measured sky's new curves are computed beside the cameras'
+            # measurement threads (0.3 s of model each time), not on them.
+            predictor = config_predictor(config, asynchronous=True)
         self.lossless = lossless
         self.track = track
         self.clock = clock or ClockMap()
@@ -227,6 +234,16 @@ class Session:
     @predictor.setter
     def predictor(self, predictor: Predictor | None) -> None:
         self.engine.predictor = predictor
+
+    @property
+    def reference_predictor(self) -> Predictor | None:
+        """The model at its own background beside :attr:`predictor` (the engine's)."""
+        return self.engine.reference_predictor
+
+    def set_model(self, request: ModelRequest, *, reference_only: bool = False) -> None:
+        """The model the operator asked for, built by the engine
+        (:meth:`SessionEngine.set_model`); a ValueError changes nothing."""
+        self.engine.set_model(request, reference_only=reference_only)
 
     @property
     def stop_table(self):
