@@ -329,6 +329,7 @@ class ReplayPlayer:
         self._met_readings: Weather | None = None
         self._measured_noise: dict[str, MeasuredNoise] = {}
         self._predictor = predictor
+        self._reference_predictor: Predictor | None = None  # set_model's, kept across a seek
         self._frames = ShownFrames(inputs.timeline)
         self._measurement = ReplayMeasurement(f, inputs, predictor)
         self.pipelines: dict[str, ReplayCamera] = self._measurement.views

@@ -244,7 +244,8 @@ class StopRow:
     @classmethod
     def from_fields(cls, values: Mapping[str, Any], psf_source: str | None = None) -> StopRow:
         """A row from its fields by name, its parts' among them (:func:`row_fields`: a recorded
-        payload); a part's field that ``values`` lacks takes its default."""
+        payload); a part's field that ``values`` lacks takes its default. ``psf_source``: the
+        model's PSF in words (:attr:`ModelAtStop.psf_source`, which no payload holds)."""
         parts = {}
         for f in dataclasses.fields(cls):
             inner = f.metadata.get(PART)
