@@ -13,10 +13,15 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
+from operator import attrgetter
 from typing import Any
 
 COLUMN = "snrmon.column"
 """The key of a field's :class:`Column` in its ``dataclasses.field`` metadata."""
+
+PART = "snrmon.part"
+"""The key of a part's class in the ``dataclasses.field`` metadata of a record's field that holds
+one (:func:`part`)."""
 
 MEAN = "mean"
 """A per-frame field the stop table carries as its mean over the stop's run (``<name>_mean``)."""
@@ -44,6 +49,8 @@ class Column:
         keyed: a dict field: one column per key, named ``keyed`` + the key (``model_`` +
             the curve); None: one column.
         field: the dataclass field it is declared on (set by :func:`columns_of`).
+        part: where that field is, in a record made of parts (:func:`part`): the record's
+            field holding it (dotted for a part of a part); ``""``: the record's own field.
     """
 
     meaning: str
@@ -56,6 +63,12 @@ class Column:
     decode: Callable[[Any], Any] | None = None
     keyed: str | None = None
     field: str = ""
+    part: str = ""
+
+    def value_of(self, record: Any) -> Any:
+        """The column's value in ``record`` (read from its part, where it is in one)."""
+        holder = attrgetter(self.part)(record) if self.part else record
+        return getattr(holder, self.field)
 
     def file_value(self, value: Any) -> Any:
         """``value`` as the session file's column holds it."""
@@ -96,19 +109,31 @@ def column(
     )
 
 
+def part(cls: type, **kw: Any) -> Any:
+    """A dataclass field holding a part of a record: a dataclass ``cls`` whose declared columns
+    are the record's, as if declared on the record (``dataclasses.field``'s keywords)."""
+    return dataclasses.field(metadata={PART: cls}, **kw)
+
+
 _DECLARED: dict[type, tuple[Column, ...]] = {}
 
 
 def columns_of(cls: type) -> tuple[Column, ...]:
-    """The columns a dataclass declares, in its field order (fields without a column left out)."""
+    """The columns a dataclass declares, in its field order (fields without a column left out),
+    a part's in the place of the field holding it (:func:`part`)."""
     declared = _DECLARED.get(cls)
     if declared is None:
-        declared = tuple(
-            dataclasses.replace(c, field=f.name, name=c.name or f.name)
-            for f in dataclasses.fields(cls)
-            if (c := f.metadata.get(COLUMN)) is not None
-        )
-        _DECLARED[cls] = declared
+        out: list[Column] = []
+        for f in dataclasses.fields(cls):
+            inner = f.metadata.get(PART)
+            if inner is not None:
+                out.extend(
+                    dataclasses.replace(c, part=f"{f.name}.{c.part}" if c.part else f.name)
+                    for c in columns_of(inner)
+                )
+            elif (c := f.metadata.get(COLUMN)) is not None:
+                out.append(dataclasses.replace(c, field=f.name, name=c.name or f.name))
+        declared = _DECLARED[cls] = tuple(out)
     return declared
 
 
@@ -116,9 +141,11 @@ def defaults_of(cls: type) -> dict[str, Any]:
     """``{column name: default}`` of the columns a dataclass gives a default (what a file
     written before a column existed reads as)."""
     defaults = {}
-    fields = {f.name: f for f in dataclasses.fields(cls)}
     for c in columns_of(cls):
-        f = fields[c.field]
+        holder = cls
+        for name in c.part.split(".") if c.part else ():
+            holder = {f.name: f for f in dataclasses.fields(holder)}[name].metadata[PART]
+        f = {f.name: f for f in dataclasses.fields(holder)}[c.field]
         if f.default is not dataclasses.MISSING:
             defaults[c.name] = f.default
         elif f.default_factory is not dataclasses.MISSING:
@@ -128,7 +155,7 @@ def defaults_of(cls: type) -> dict[str, Any]:
 
 def values_of(record: Any) -> dict[str, Any]:
     """``{field: value}`` of a record's declared columns."""
-    return {c.field: getattr(record, c.field) for c in columns_of(type(record))}
+    return {c.field: c.value_of(record) for c in columns_of(type(record))}
 
 
 def units_of(columns: tuple[Column, ...] | list[Column]) -> dict[str, str]:

@@ -83,7 +83,7 @@ from snrmon.config_schema import (
     odd_int,
     one_of,
 )
-from snrmon.drivers.config import check_device_table, device_template
+from snrmon.drivers.config import DeviceSettings, device_template
 from snrmon.drivers.errors import ConfigError, toml_repr
 from snrmon.limits import (
     COMPRESSION_CHOICES,
@@ -128,8 +128,8 @@ class SessionConfig:
     cameras: tuple[CameraConfig, ...]
     target: str = "uav1"
     site: Site | None = None
-    gps: dict[str, Any] | None = None
-    lrf: dict[str, Any] | None = None
+    gps: DeviceSettings | None = None  # [gps], checked
+    lrf: DeviceSettings | None = None  # [lrf], checked
     measurement: PeakSnrConfig = field(default_factory=PeakSnrConfig)
     window_frames: int = 100  # the running SNR's window (paper Eq. 4's 100-frame average)
     lrf_fresh_s: float = 2.0
@@ -361,14 +361,8 @@ def session_config_from_dict(
         mcfg = PeakSnrConfig(**meas)
     except ValueError as exc:  # the combination (e.g. a rectangle too small for ddof)
         raise ConfigError(f"[measurement]: {exc}") from None
-    for kind in ("gps", "lrf"):
-        if kind in top:
-            check_device_table(top[kind], kind)
-    given = {
-        k: top[k]
-        for k in ("target", "compression", "model_psf", "footprint", "gps", "lrf")
-        if k in top
-    }
+    gps, lrf = (DeviceSettings.from_table(top[k], k) if k in top else None for k in ("gps", "lrf"))
+    given = {k: top[k] for k in ("target", "compression", "model_psf", "footprint") if k in top}
     return SessionConfig(
         cameras=tuple(_camera(n, t) for n, t in cams.items()),
         site=site,
@@ -376,6 +370,8 @@ def session_config_from_dict(
         air_temp_k=air_temp_k,
         weather=met if weather else None,
         raw=data,
+        gps=gps,
+        lrf=lrf,
         **given,
         **settings,
     )

@@ -47,7 +47,9 @@ __all__ = [
     "SEASONS",
     "MeasuredNoise",
     "ModelPredictor",
+    "ModelRequest",
     "Weather",
+    "config_predictor",
     "session_model_options",
 ]
 
@@ -88,6 +90,46 @@ def session_model_options(config) -> dict:
     if footprint != "square":
         out["footprint"] = footprint
     return out
+
+
+@dataclass(frozen=True)
+class ModelRequest:
+    """The model an operator asks a session for (the console's model options): the target, the
+    background temperature (None: the model's own), the day's met readings (None: the default
+    atmosphere) and, per camera, a measured 3D noise in place of the model's. A command: the
+    session's engine builds the predictors from it (:meth:`predictors`, applied by
+    ``SessionEngine.set_model``); a display only reads them."""
+
+    target: str
+    background_temp_k: float | None = None
+    weather: Weather | None = None
+    measured_noise: tuple[tuple[str, MeasuredNoise], ...] = ()
+
+    def predictor(self, sensors: dict[str, str]) -> ModelPredictor:
+        """The predictor of the request for ``sensors`` ({camera: sensor preset}); a ValueError
+        for a request the model refuses (an unknown target)."""
+        return ModelPredictor(
+            sensors,
+            self.target,
+            background_temp_k=self.background_temp_k,
+            measured_noise=dict(self.measured_noise),
+            **session_model_options(self.weather),
+        )
+
+
+def config_predictor(config, *, asynchronous: bool = False) -> ModelPredictor | None:
+    """The model a session's config names (a :class:`SessionConfig`, live or recorded): its
+    cameras' sensor presets, its target, its ``[weather]`` and footprint
+    (:func:`session_model_options`); None when it names no camera. ``asynchronous``: a new
+    sky's curves are computed in the worker process, beside the measurement threads."""
+    if not config.cameras:
+        return None
+    return ModelPredictor(
+        {c.name: c.sensor for c in config.cameras},
+        config.target,
+        asynchronous=asynchronous,
+        **session_model_options(config),
+    )
 
 
 def weather_from_record(payload: dict) -> Weather:

@@ -19,7 +19,7 @@ from snrmon.acquisition.config import SessionConfig
 from snrmon.acquisition.engine.inputs import Measurement
 from snrmon.acquisition.engine.status import CameraStatus, SessionStatus
 from snrmon.acquisition.measure.peak_snr import PeakSnr
-from snrmon.acquisition.prediction import MeasuredNoise, Predictor, Weather
+from snrmon.acquisition.prediction import MeasuredNoise, ModelRequest, Predictor, Weather
 from snrmon.acquisition.record.recorder_status import RecorderStatus, RecorderSummary
 from snrmon.acquisition.stops.table import StopRow
 from snrmon.acquisition.streams.ring import Reader, RingFrame
@@ -67,6 +67,17 @@ class ConsoleSession(Protocol):
 
     @predictor.setter
     def predictor(self, predictor: Predictor | None) -> None: ...
+
+    @property
+    def reference_predictor(self) -> Predictor | None:
+        """The model at its own background beside :attr:`predictor` (None: not asked for)."""
+        ...
+
+    def set_model(self, request: ModelRequest, *, reference_only: bool = False) -> None:
+        """Build the model the operator asked for (the session's engine does; a ValueError
+        changes nothing): :attr:`predictor` and :attr:`reference_predictor`, or with
+        ``reference_only`` the reference alone."""
+        ...
 
     def status(self) -> SessionStatus: ...
 

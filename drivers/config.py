@@ -22,8 +22,9 @@ Every key is checked: an unknown key, a wrong type or a bad value raises one
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -85,6 +86,54 @@ EXAMPLES: dict[str, dict[str, Any]] = {
     "lrf": {"protocol": "trupulse", "port": "/dev/ttyUSB1", "baud": 4800},
 }
 """The template's device tables (:func:`device_template`)."""
+
+
+@dataclass(frozen=True)
+class DeviceSettings:
+    """A ``[gps]`` or ``[lrf]`` table, checked (:func:`check_device_table`): one field per key
+    of the schema (``_COMMON`` and each protocol's ``_EXTRA``; a test holds them to it), None
+    where the table leaves the key out (the device's own default)."""
+
+    protocol: str
+    port: str | None = None
+    name: str | None = None
+    stale_after_s: float | None = None
+    reopen_after_s: float | None = None
+    start_timeout_s: float | None = None
+    baud: int | None = None
+    allow_no_checksum: bool | tuple[str, ...] | None = None  # nmea: true, or the addresses
+    max_line_bytes: int | None = None
+    device_path: str | None = None
+    remote: bool | None = None
+    output_format: str | None = None
+    averaging: int | None = None
+    track: bool | None = None
+
+    @classmethod
+    def from_table(cls, table: Any, name: str = "device") -> DeviceSettings:
+        """The settings of a config table, every key checked (one ConfigError naming the table,
+        the key, the value and what was expected)."""
+        check_device_table(table, name)
+        values = dict(table)
+        if isinstance(values.get("allow_no_checksum"), list):
+            values["allow_no_checksum"] = tuple(values["allow_no_checksum"])
+        return cls(**values)
+
+    def table(self) -> dict[str, Any]:
+        """The settings as the TOML table they came from (the keys given, and only those)."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        if isinstance(self.allow_no_checksum, tuple):
+            out["allow_no_checksum"] = list(self.allow_no_checksum)
+        return {k: v for k, v in out.items() if v is not None}
+
+    def device(self, name: str = "device") -> Device:
+        """The device the settings describe (:func:`device_from_config`)."""
+        return device_from_config(self.table(), name)
+
+
+def schema_keys() -> set[str]:
+    """Every key a device table may have, of any protocol."""
+    return {k for protocol in PROTOCOLS for k in device_fields(protocol)}
 
 
 def split_host_port(text: str, default_port: int, what: str) -> tuple[str, int]:

@@ -59,7 +59,6 @@ def run_console(
     session: Session,
     *,
     curves: CurveSource | None = None,
-    predictor=None,
     headless: bool = False,
     duration_s: float | None = None,
     screenshot: str | Path | None = None,
@@ -74,9 +73,8 @@ def run_console(
 
     Args:
         curves: ``curves(camera) -> {name: (ranges_m, snr)}`` (or ``(ranges_m, low, high)``
-            for a band) from the model; None draws no model. Only used without a predictor.
-        predictor: the :class:`snrmon.acquisition.prediction.ModelPredictor` the model options
-            rebuild (default: ``session.predictor``).
+            for a band) from the model; None draws no model. Only used when the session has
+            no predictor (the console asks the session for the model, it builds none).
         headless: run offscreen (no display needed); only effective before the first
             QApplication of the process exists.
         duration_s: close the window after this many seconds (None: until the operator quits).
@@ -98,7 +96,6 @@ def run_console(
     window = ConsoleWindow(
         session,
         curves=curves,
-        predictor=predictor,
         settings=settings,
         theme=theme,
         font_scale=font_scale,

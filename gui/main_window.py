@@ -97,8 +97,6 @@ class ConsoleWindow(QMainWindow):
         session: the session to display and command; the caller starts and stops it.
         curves: ``curves(camera) -> {name: (ranges_m, snr)}`` from the model, or None; used
             only when there is no predictor (a stand-in, or until the model options apply).
-        predictor: the :class:`snrmon.acquisition.prediction.ModelPredictor` (default: the
-            session's); the model options dialog rebuilds it and hands it to the session.
         settings: where geometry and last choices are kept (default: the user's snrmon settings).
         theme: "dark" or "daylight" (default: the saved choice, else dark).
         font_scale: every text's size over the console's normal (default: the saved one, else 1).
@@ -112,7 +110,6 @@ class ConsoleWindow(QMainWindow):
         session: ConsoleSession,
         *,
         curves: CurveSource | None = None,
-        predictor=None,
         settings: QSettings | None = None,
         theme: str | None = None,
         font_scale: float | None = None,
@@ -121,7 +118,7 @@ class ConsoleWindow(QMainWindow):
         super().__init__()
         self.session = session
         self.curves_source = curves
-        self.model: mc.ModelCurves | None = mc.model_for_session(session, predictor)
+        self.model: mc.ModelCurves | None = mc.model_for_session(session)
         self._model_version: tuple[int, int] | None = None  # of the curves drawn
         self.model_dialog: ModelOptionsDialog | None = None
         self.settings = settings or QSettings("snrmon", "console")
@@ -599,7 +596,7 @@ class ConsoleWindow(QMainWindow):
         return self.model_dialog
 
     def apply_model_options(self, options: mc.ModelOptions) -> str | None:
-        """Rebuild the model, hand it to the session, redraw; the refusal's message or None.
+        """Ask the session for the model of ``options``, redraw; the refusal's message or None.
         With the measured noise, each camera's latest 3D noise goes into the model (a camera
         without one keeps the model's noise: the message names it)."""
         noise, kept = mc.measured_noise_now(self.session, options)

@@ -1,14 +1,16 @@
 """Which model curves the console draws, and from which predictors (no Qt; no number made here).
 
-Two :class:`snrmon.acquisition.prediction.ModelPredictor` on the same sensors, target and options:
+The console asks; the session's engine builds and owns the model
+(:class:`snrmon.acquisition.prediction.ModelRequest`, ``ConsoleSession.set_model``): two
+predictors on the same sensors, target and options, which the console only reads:
 
-* ``own``: the model's own background temperature (or the operator's, from the model options);
-  the session never touches it;
-* ``sky``: handed to the session (its stop table's model values), whose engine alone makes its
-  background follow each camera's measured sky temperature (with a calibration): the paper's
-  path-radiance correction (sections 8-9). The console reads the temperature followed
-  (``ConsoleSession.model_sky_temp_k``) to label the curves; it never sets one, and a new
-  ``sky`` it hands over takes the followed sky over from the engine.
+* ``own`` (the session's ``reference_predictor``): the model's own background temperature (or
+  the operator's, from the model options); nothing moves it;
+* ``sky`` (the session's ``predictor``: its stop table's model values), whose engine alone
+  makes its background follow each camera's measured sky temperature (with a calibration): the
+  paper's path-radiance correction (sections 8-9). The console reads the temperature followed
+  (``ConsoleSession.model_sky_temp_k``) to label the curves; it never sets one, and a new model
+  it asks for takes the followed sky over in the engine.
 
 :meth:`ModelCurves.curves` returns what :class:`snrmon.gui.range_plot.RangePlot` draws: the chosen
 curves of ``own`` under their model names, and, where the sky is known, the same curves of
@@ -35,10 +37,9 @@ from snrmon.acquisition.prediction import (
     NOISE_SOURCES,
     PAPER_CURVES,
     MeasuredNoise,
-    ModelPredictor,
+    ModelRequest,
     Predictor,
     Weather,
-    session_model_options,
 )
 from snrmon.acquisition.protocols import ConsoleSession
 
@@ -147,50 +148,47 @@ def is_expected(name: str) -> bool:
 
 
 class ModelCurves:
-    """The console's model: build, swap and read the predictors for ``sensors`` ({camera:
-    sensor preset}). ``session_predictor``, if given, becomes the ``sky`` predictor (the one
-    the session already holds), so the first build costs one predictor, not two.
-    ``measured_noise``: {camera: MeasuredNoise} in place of the model's noise (both
-    predictors; a camera not in it keeps the model's)."""
+    """The console's model: the operator's options and the curves drawn from the session's two
+    predictors, which the session's engine builds from the request the console makes
+    (:meth:`apply`; :class:`snrmon.acquisition.prediction.ModelRequest`): the console asks, it
+    never builds or holds a predictor. ``measured_noise``: {camera: MeasuredNoise} the model
+    was asked to use in place of its noise (a camera not in it keeps the model's)."""
 
     def __init__(
         self,
-        sensors: dict[str, str],
+        session: ConsoleSession,
         options: ModelOptions,
         *,
-        session_predictor: Predictor | None = None,
         measured_noise: Mapping[str, MeasuredNoise] | None = None,
     ) -> None:
-        self.sensors = dict(sensors)
+        self.session = session
+        self.sensors = session_sensors(session)
         self.options = options
         self.measured_noise = dict(measured_noise or {})
-        self.own = self._build(options, self.measured_noise)  # the paper's curves come with it
-        self.sky = (
-            session_predictor
-            if session_predictor is not None
-            else self._build(options, self.measured_noise)
-        )
         self.sky_temp_k: dict[str, float] = {}
 
-    def _build(
-        self, options: ModelOptions, measured_noise: Mapping[str, MeasuredNoise]
-    ) -> ModelPredictor:
-        return ModelPredictor(
-            self.sensors,
-            options.target,
-            background_temp_k=options.background_temp_k,
-            measured_noise=dict(measured_noise),
-            **session_model_options(options.weather),
-        )
+    @property
+    def own(self) -> Predictor:
+        """The model at its own background (or the operator's): the session never moves it."""
+        predictor = self.session.reference_predictor
+        assert predictor is not None, "the session's model was asked for"
+        return predictor
+
+    @property
+    def sky(self) -> Predictor:
+        """The session's predictor: its engine alone makes its background follow the sky."""
+        predictor = self.session.predictor
+        assert predictor is not None, "the session's model was asked for"
+        return predictor
 
     def apply(
         self, options: ModelOptions, measured_noise: Mapping[str, MeasuredNoise] | None = None
     ) -> None:
-        """Rebuild both predictors for ``options`` and ``measured_noise`` (a ValueError from
-        the model leaves the current ones in place)."""
+        """Ask the session for the model of ``options`` and ``measured_noise`` (a ValueError
+        from the model leaves the current one in place)."""
         noise = dict(measured_noise or {})
-        own, sky = self._build(options, noise), self._build(options, noise)
-        self.own, self.sky, self.options, self.measured_noise = own, sky, options, noise
+        self.session.set_model(model_request(options, noise))
+        self.options, self.measured_noise = options, noise
 
     @property
     def version(self) -> tuple[int, int]:
@@ -230,29 +228,30 @@ def session_sensors(session: ConsoleSession) -> dict[str, str]:
     return {c.name: c.sensor for c in session.config.cameras}
 
 
-def model_for_session(
-    session: ConsoleSession, predictor: Predictor | None = None
-) -> ModelCurves | None:
-    """The console's model on ``session``'s sensors and target, reusing ``predictor`` (or the
-    session's own) as the sky/session predictor; None when there is no predictor to follow."""
-    predictor = predictor if predictor is not None else session.predictor
-    if predictor is None:
+def model_request(
+    options: ModelOptions, measured_noise: Mapping[str, MeasuredNoise] | None = None
+) -> ModelRequest:
+    """What the console asks the session's engine to build for ``options`` and
+    ``measured_noise`` (the curves shown are the console's own choice, not the model's)."""
+    return ModelRequest(
+        options.target,
+        background_temp_k=options.background_temp_k,
+        weather=options.weather,
+        measured_noise=tuple(sorted((measured_noise or {}).items())),
+    )
+
+
+def model_for_session(session: ConsoleSession) -> ModelCurves | None:
+    """The console's model on ``session``'s predictor (the one the session started with, from
+    its config), the session asked for the reference at the model's own background beside it;
+    None when the session has no predictor to follow."""
+    if session.predictor is None:
         return None
     options = default_options(session)
-    model = ModelCurves(
-        session_sensors(session),
-        options,
-        session_predictor=predictor,
-        measured_noise=session.measured_noise,
-    )
-    hand_to_session(session, model.sky)
+    model = ModelCurves(session, options, measured_noise=session.measured_noise)
+    if session.reference_predictor is None:
+        session.set_model(model_request(options, session.measured_noise), reference_only=True)
     return model
-
-
-def hand_to_session(session: ConsoleSession, predictor: Predictor) -> None:
-    """Make ``predictor`` the session's (its stop table's model values; the session's engine
-    carries the sky it follows over to it)."""
-    session.predictor = predictor
 
 
 def default_options(session: ConsoleSession) -> ModelOptions:
@@ -295,19 +294,16 @@ def applied_model(
     options: ModelOptions,
     measured_noise: Mapping[str, MeasuredNoise] | None = None,
 ) -> ModelCurves:
-    """``model`` rebuilt for ``options`` and ``measured_noise`` ({camera: MeasuredNoise}, from
-    :func:`measured_noise_now`; a camera not in it keeps the model's noise) (a new model when
-    None) and handed to ``session``; a ValueError (nothing changed) for options the model
-    refuses."""
+    """``model`` (a new one when None) for ``options`` and ``measured_noise`` ({camera:
+    MeasuredNoise}, from :func:`measured_noise_now`; a camera not in it keeps the model's
+    noise), the session asked to build it; a ValueError (nothing changed) for options the
+    model refuses."""
     noise = dict(measured_noise or {})
     if model is None:
-        sensors = session_sensors(session)
-        if not sensors:
+        if not session_sensors(session):
             raise ValueError("the session names no camera sensor presets: no model to build")
-        model = ModelCurves(sensors, options, measured_noise=noise)
-    else:
-        model.apply(options, noise)
-    hand_to_session(session, model.sky)
+        model = ModelCurves(session, options, measured_noise=noise)
+    model.apply(options, noise)
     if options.weather is not None and options.weather != session.met_readings:
         session.set_met_readings(options.weather)  # a live session records them
     for camera in model.sensors:

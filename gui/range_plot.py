@@ -351,10 +351,16 @@ class RangePlot(QWidget):
         mine = [
             r
             for r in rows
-            if r.camera == self.camera and r.range_m is not None and math.isfinite(r.snr_mean)
+            if r.camera == self.camera
+            and r.range_m is not None
+            and math.isfinite(r.reading.snr_mean)
         ]
         pts = [
-            (r.range_m, r.snr_mean, r.snr_sem if math.isfinite(r.snr_sem) else r.snr_std)
+            (
+                r.range_m,
+                r.reading.snr_mean,
+                r.reading.snr_sem if math.isfinite(r.reading.snr_sem) else r.reading.snr_std,
+            )
             for r in mine
         ]
         if pts == self._stops_shown:

@@ -72,13 +72,13 @@ def _key(v: float | None) -> float:
 
 
 def state_text(r: StopRow) -> str:
-    if r.complete:
+    if r.reading.complete:
         state = "complete"
-    elif r.t_end_ns is not None:
+    elif r.place.t_end_ns is not None:
         state = "ended short"
     else:
         state = "collecting"
-    return state + (", resolved" if r.resolved else "")
+    return state + (", resolved" if r.model.resolved else "")
 
 
 def model_keys(rows: list[StopRow]) -> list[str]:
@@ -86,7 +86,7 @@ def model_keys(rows: list[StopRow]) -> list[str]:
     (any rule), then any other; not the bands' edges."""
     seen: list[str] = []
     for r in rows:
-        for k in r.model_snr:
+        for k in r.model.model_snr:
             if k not in seen and not k.endswith(("_lower", "_upper")):
                 seen.append(k)
     return sorted(
@@ -103,7 +103,7 @@ def columns(rows: list[StopRow]) -> list[Column]:
     cols = measurement_columns() + [model_column(k) for k in keys]
     if any(is_expected(k) for k in keys):
         cols += agreement_columns()
-    if any(r.model_psf_source for r in rows):
+    if any(r.model.psf_source for r in rows):
         cols.append(PSF_COLUMN)
     return cols + closing_columns()
 
@@ -124,37 +124,37 @@ def measurement_columns() -> list[Column]:
             "lrf_range_m",
             "LRF\n(m)",
             "Rangefinder range at the stop (m)",
-            lambda r: _num(r.lrf_range_m, ".1f"),
-            lambda r: _key(r.lrf_range_m),
+            lambda r: _num(r.place.lrf_range_m, ".1f"),
+            lambda r: _key(r.place.lrf_range_m),
         ),
         Column(
             "gps_range_m",
             "GPS\n(m)",
             "GPS slant range at the stop (m)",
-            lambda r: _num(r.gps_range_m, ".1f"),
-            lambda r: _key(r.gps_range_m),
+            lambda r: _num(r.place.gps_range_m, ".1f"),
+            lambda r: _key(r.place.gps_range_m),
         ),
         Column(
             "n_frames",
             "frames",
             "Valid consecutive frames summarised (the paper uses the first 100)",
-            lambda r: str(r.n_frames),
-            lambda r: r.n_frames,
+            lambda r: str(r.reading.n_frames),
+            lambda r: r.reading.n_frames,
         ),
         Column(
             "snr_mean",
             "SNR\n± error",
             "Mean peak SNR over the stop's frames (Eq. 4) +/- its error of the mean (the frames' "
             "autocorrelation counted): the stop's error bar",
-            lambda r: f"{_num(r.snr_mean, '.2f')} ± {_num(r.snr_sem, '.2f')}",
-            lambda r: _key(r.snr_mean),
+            lambda r: f"{_num(r.reading.snr_mean, '.2f')} ± {_num(r.reading.snr_sem, '.2f')}",
+            lambda r: _key(r.reading.snr_mean),
         ),
         Column(
             "snr_std",
             "SNR\nstd",
             "Sample std of the peak SNR over the stop's frames",
-            lambda r: _num(r.snr_std, ".2f"),
-            lambda r: _key(r.snr_std),
+            lambda r: _num(r.reading.snr_std, ".2f"),
+            lambda r: _key(r.reading.snr_std),
         ),
         *frame_mean_columns(),
         Column(
@@ -163,8 +163,8 @@ def measurement_columns() -> list[Column]:
             "The background the stop's frames were measured against: rim (Eq. 4's 7x7 rim), "
             "extent_rim (outside the segmented drone and a guard band: a drone wider than the "
             "box) or rect (the operator's clear-sky rectangle); most used first",
-            lambda r: r.background or "--",
-            lambda r: r.background,
+            lambda r: r.reading.background or "--",
+            lambda r: r.reading.background,
             False,
         ),
     ]
@@ -176,8 +176,8 @@ def model_column(key: str) -> Column:
         f"model_{key}",
         SHORT.get(key) or _model_title(key),
         f"The model's SNR at the stop's range: {curve_label(key)} (dimensionless)",
-        lambda r: _num(r.model_snr.get(key), ".1f"),
-        lambda r: _key(r.model_snr.get(key)),
+        lambda r: _num(r.model.model_snr.get(key), ".1f"),
+        lambda r: _key(r.model.model_snr.get(key)),
     )
 
 
@@ -225,8 +225,8 @@ def closing_columns() -> list[Column]:
             "model_sky_temp_k",
             "sky\n(K)",
             "The background (sky) temperature the model values were computed at (K)",
-            lambda r: _num(r.model_sky_temp_k, ".1f"),
-            lambda r: _key(r.model_sky_temp_k),
+            lambda r: _num(r.model.model_sky_temp_k, ".1f"),
+            lambda r: _key(r.model.model_sky_temp_k),
         ),
         Column(
             "state",
@@ -252,8 +252,8 @@ def frame_mean_columns() -> list[Column]:
                 c.name,
                 c.name.replace("_", " ") + unit,
                 c.meaning,
-                lambda r, k=c.name: _num(r.frame_means.get(k), ".2f"),
-                lambda r, k=c.name: _key(r.frame_means.get(k)),
+                lambda r, k=c.name: _num(r.reading.frame_means.get(k), ".2f"),
+                lambda r, k=c.name: _key(r.reading.frame_means.get(k)),
             )
         )
     return out
@@ -302,10 +302,10 @@ def _ratio_tip(r: StopRow) -> str:
         return (
             "No expected reading for this row's background (no model, or the clear-sky rectangle)"
         )
-    psf = f"; the model's PSF: {r.model_psf_source}" if r.model_psf_source else ""
+    psf = f"; the model's PSF: {r.model.psf_source}" if r.model.psf_source else ""
     return (
         f"SNR mean {a.measured:.2f} / {curve_label(a.rule)} {a.expected:.2f} (the rule of this "
-        f"row's background, {r.background}): {a.verdict or 'not decided'}{psf}"
+        f"row's background, {r.reading.background}): {a.verdict or 'not decided'}{psf}"
     )
 
 

@@ -413,15 +413,14 @@ class RecordedSession:
                 last[(int(e["payload"]["stop"]), e["camera"])] = e["payload"]
         if not last or (model and not all(p.get("model_snr") for p in last.values())):
             return None
-        fields = {f.name for f in dataclasses.fields(StopRow)} - {"model_psf"}
         rows = []
         for p in last.values():
-            values = {k: p[k] for k in fields if k in p}
+            values = {k: v for k, v in p.items() if k != "model_psf"}
             for k in ("snr_mean", "snr_std", "snr_sem"):  # recorded null: not finite
                 values[k] = math.nan if values.get(k) is None else values[k]
             for k in ("model_snr", "frame_means"):  # recorded null: not finite
                 values[k] = {n: (math.nan if v is None else v) for n, v in (p.get(k) or {}).items()}
-            rows.append(StopRow(**values))
+            rows.append(StopRow.from_fields(values))
         return rows
 
     def replay(self, *, model: bool = True) -> Any:

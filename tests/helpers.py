@@ -220,7 +220,17 @@ def replay_frames_text(replay, camera: str) -> list[str]:
 def replay_rows_text(replay) -> list[str]:
     """A replay's stop rows (their times, frame counts and statistics) as text."""
     return [
-        repr((r.stop, r.camera, r.t_start_ns, r.t_end_ns, r.n_frames, r.snr_mean, r.snr_std))
+        repr(
+            (
+                r.stop,
+                r.camera,
+                r.place.t_start_ns,
+                r.place.t_end_ns,
+                r.reading.n_frames,
+                r.reading.snr_mean,
+                r.reading.snr_std,
+            )
+        )
         for r in replay.stops
     ]
 

@@ -97,11 +97,11 @@ SCRIPT = textwrap.dedent(
         "frame_max_error": float(np.nanmax(np.abs(contrast - (peak - bg)))),
         "stop_values": table.column("contrast_dn_mean").to_pylist(),
     }
-    rows = [r for r in replayed if r.n_frames]
+    rows = [r for r in replayed if r.reading.n_frames]
     cells = [dict(zip([c.key for c in columns([r])], row_texts(r))) for r in rows]
     out["console"] = {
         "cells": [c["contrast_dn_mean"] for c in cells],
-        "means": [r.frame_means["contrast_dn_mean"] for r in rows],
+        "means": [r.reading.frame_means["contrast_dn_mean"] for r in rows],
         "title": [c.title for c in columns(rows) if c.key == "contrast_dn_mean"],
     }
     print(json.dumps(out))

@@ -21,6 +21,7 @@ from snrmon.doctor.devices import check_devices
 from snrmon.doctor.disk import BLOCK_BYTES, check_disk_speed, check_free_space
 from snrmon.doctor.ports import check_port
 from snrmon.doctor.qt import check_qt_display
+from snrmon.drivers.config import DeviceSettings
 from snrmon.sim.devices.nmea_sim import NmeaReplaySimulator, NmeaSimulator, gga_rmc
 from snrmon.sim.devices.shm_camera import ShmProducer
 from tests.helpers import (
@@ -149,7 +150,7 @@ def test_unreadable_port_names_the_group_to_join(tmp_path):
     try:
         path = os.ttyname(slave)
         os.chmod(path, 0o660)
-        table = {"protocol": "nmea", "port": path}
+        table = DeviceSettings("nmea", path)
         gid = os.stat(path).st_gid
         # Another user, outside the port's group (as root, this process may open anything).
         c = check_port("gps", table, uid=54321, gids={54321})
@@ -162,9 +163,9 @@ def test_unreadable_port_names_the_group_to_join(tmp_path):
         os.close(master)
         os.close(slave)
     (tmp_path / "plain").write_text("")
-    c = check_port("gps", {"protocol": "nmea", "port": str(tmp_path / "plain")})
+    c = check_port("gps", DeviceSettings("nmea", str(tmp_path / "plain")))
     assert c.status == FAIL and "not a character device" in c.detail
-    assert check_port("gps", {"protocol": "gpsd", "port": "localhost:2947"}).status == "skip"
+    assert check_port("gps", DeviceSettings("gpsd", "localhost:2947")).status == "skip"
 
 
 @pytest.mark.slow

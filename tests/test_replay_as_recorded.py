@@ -53,7 +53,7 @@ def test_fast_full_and_explicit_settings_replay_every_frame_of_a_37m_stop(record
     for name in inputs.cameras:
         task = analyse_camera(str(recording), name, AnalysisSettings(), frames=True)
         want = [
-            (r.stop, r.n_frames, _none(r.snr_mean), _none(r.snr_std))
+            (r.stop, r.reading.n_frames, _none(r.reading.snr_mean), _none(r.reading.snr_std))
             for r in full.stops
             if r.camera == name
         ]

@@ -38,7 +38,7 @@ def _folded(p: np.ndarray) -> np.ndarray:
 def _row_figures(rig: HilRig, row) -> dict | None:
     """The figures of one row (module docstring); None for a row that has none."""
     cam = rig.cameras[row.camera]
-    sensor, psf, range_m = cam.sensor, row.model_psf, row.range_m
+    sensor, psf, range_m = cam.sensor, row.model.model_psf, row.range_m
     if psf is None or range_m is None or row.agreement is None:
         return None
     d_px = target_px(rig.predictor.target, range_m, sensor.ifov_rad)
@@ -69,9 +69,9 @@ def _row_figures(rig: HilRig, row) -> dict | None:
         "range_m": round(float(range_m), 1),
         "frames": len(times),
         "fitted_blur_px": float(getattr(psf, "sigma_px", math.nan)),  # the Airy's Gaussian blur
-        "cell": row.snr_mean / row.model_snr[rule],
+        "cell": row.reading.snr_mean / row.model.model_snr[rule],
         "stop_phases": row.agreement.ratio,
-        "true_phases": row.snr_mean / float(at_true.snr(rule)[0]),
+        "true_phases": row.reading.snr_mean / float(at_true.snr(rule)[0]),
         "phase_error_median_abs_px": float(np.median(np.abs(err))),
         "phase_error_mean_px": [float(v) for v in err.mean(axis=0)],
         "truth_over_peak_true_phases": truth_snr

@@ -36,7 +36,7 @@ from snrmon.acquisition.engine.inputs import FrameOutput, Measurement
 from snrmon.acquisition.engine.lazy_frame import plain
 from snrmon.acquisition.engine.range_history import RangeHistory
 from snrmon.acquisition.engine.sky_following import SkyFollower
-from snrmon.acquisition.prediction import Predictor
+from snrmon.acquisition.prediction import ModelRequest, Predictor
 from snrmon.acquisition.stage_clock import HANDOVER, STATISTICS, enter
 from snrmon.acquisition.stops.detector import Stop, StopConfig, StopDetector
 from snrmon.acquisition.stops.table import StopRow, StopSource, StopTable
@@ -117,9 +117,8 @@ class SessionEngine:
         self.ranges = RangeHistory(config.site, config.lrf_fresh_s)
         self.fix_cues = FixCues(config, cue=cue_from_gps, show=project_gps)
         self.stop_detector = StopDetector(stop_config)
-        self.stop_source: StopSource = stops if stops is not None else self.stop_detector
         self.stop_table = StopTable(
-            self.stop_source,
+            stops if stops is not None else self.stop_detector,
             list(self.cameras),
             frames_per_stop=100,
             history_frames=HISTORY_FRAMES,
@@ -130,10 +129,19 @@ class SessionEngine:
             camera.predictor = predictor
             camera.stop_progress = functools.partial(self.stop_table.progress, name)
         self.sky_follower = SkyFollower()  # the one owner of the sky the model's background follows
+        # The model at its own background, beside ``predictor`` (a display draws both): built
+        # with it from the operator's request (set_model), never following the sky.
+        self.reference_predictor: Predictor | None = None
         # per camera, the host time of the last frame the stop table has seen (model_input_ns)
         self._table_frame_ns: dict[str, int] = {}
         self._finalized = False  # finalize() has made every row final
         self._listeners: list[Callable[[Measurement, np.ndarray | None], None]] = []
+
+    @property
+    def stop_source(self) -> StopSource:
+        """Where the stop table takes its stops from: the live detector, or a replay's
+        recorded stops."""
+        return self.stop_table.detector
 
     # ------------------------------------------------------------------ the model
     @property
@@ -147,6 +155,19 @@ class SessionEngine:
         self.stop_table.predictor = predictor
         for camera in self.cameras.values():
             camera.predictor = predictor
+
+    def set_model(self, request: ModelRequest, *, reference_only: bool = False) -> None:
+        """The model the operator asked for, built here on the session's sensors: the stop
+        table's and the cameras' predictor (it takes over the sky followed so far) and the
+        reference at the request's own background, which never follows the sky. With
+        ``reference_only`` the reference alone (a display's first model beside the predictor
+        the session started with). A ValueError from the model (an unknown target) leaves the
+        current ones in place."""
+        sensors = {c.name: c.sensor for c in self.config.cameras}
+        reference = request.predictor(sensors)
+        if not reference_only:
+            self.predictor = request.predictor(sensors)
+        self.reference_predictor = reference
 
     def set_background(self, camera: str, temp_k: float | None) -> None:
         """The model's background temperature for ``camera`` (the measured sky; None: the

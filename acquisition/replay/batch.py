@@ -352,10 +352,10 @@ def _count_identical(rows: list[StopRow], recorded: dict[tuple[int, str], dict])
         rec = recorded.get((row.stop, row.camera))
         if rec is None:
             continue
-        fields: dict[str, Any] = {k: rec.get(k) for k in StopRow.__dataclass_fields__ if k in rec}
+        fields: dict[str, Any] = {k: v for k, v in rec.items() if k != "model_psf"}
         nan = float("nan")
         for k in ("snr_mean", "snr_std"):
             fields[k] = nan if fields.get(k) is None else fields[k]
         fields["model_snr"] = {}
-        n += row_values_equal(row, StopRow(**fields))
+        n += row_values_equal(row, StopRow.from_fields(fields))
     return n

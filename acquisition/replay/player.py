@@ -31,7 +31,13 @@ import numpy as np
 from snrmon.acquisition.engine.inputs import ClearRoi, SetRoi
 from snrmon.acquisition.engine.session_engine import SessionEngine
 from snrmon.acquisition.engine.status import RecordingStatus, SessionStatus
-from snrmon.acquisition.prediction import MeasuredNoise, Predictor, Weather
+from snrmon.acquisition.prediction import (
+    MeasuredNoise,
+    ModelRequest,
+    Predictor,
+    Weather,
+    config_predictor,
+)
 from snrmon.acquisition.record.reader import SessionFile, open_session
 from snrmon.acquisition.record.stream_rows import fix_from_row
 from snrmon.acquisition.replay.batch import engine_for
@@ -300,6 +306,8 @@ class ReplayPlayer:
     Args:
         path: the session file.
         predictor: the model's ``predictor(camera, range_m)`` for the stop table, or None.
+        model_from_config: without ``predictor``, the model the recording's config names
+            (its sensors and target: :func:`snrmon.acquisition.prediction.config_predictor`).
         speed: initial speed (x real time).
     """
 
@@ -308,6 +316,7 @@ class ReplayPlayer:
         path: str | Path,
         *,
         predictor: Predictor | None = None,
+        model_from_config: bool = False,
         speed: float = 1.0,
     ) -> None:
         self.path = Path(path)
@@ -318,10 +327,13 @@ class ReplayPlayer:
             raise ValueError(f"replay: {self.path} holds no camera frames")
         inputs = recorded_inputs(f)
         self.config = inputs.config
+        if predictor is None and model_from_config:
+            predictor = config_predictor(self.config)  # the recorded sensors and target
         self.track = inputs.track
         self._met_readings: Weather | None = None
         self._measured_noise: dict[str, MeasuredNoise] = {}
         self._predictor = predictor
+        self._reference_predictor: Predictor | None = None  # set_model's, kept across a seek
         self._frames = ShownFrames(inputs.timeline)
         self._measurement = ReplayMeasurement(f, inputs, predictor)
         self.pipelines: dict[str, ReplayCamera] = self._measurement.views
@@ -394,6 +406,19 @@ class ReplayPlayer:
         """The model for the stop table's model column (from the next row computed)."""
         self._predictor = predictor
         self._measurement.engine.predictor = predictor
+
+    @property
+    def reference_predictor(self) -> Predictor | None:
+        """The model at its own background beside :attr:`predictor` (set with it by
+        :meth:`set_model`; kept across a seek, which builds a new engine)."""
+        return self._reference_predictor
+
+    def set_model(self, request: ModelRequest, *, reference_only: bool = False) -> None:
+        """The model the analyst asked for, built by the replay's engine
+        (:meth:`SessionEngine.set_model`); a ValueError changes nothing."""
+        engine = self._measurement.engine
+        engine.set_model(request, reference_only=reference_only)
+        self._predictor, self._reference_predictor = engine.predictor, engine.reference_predictor
 
     @property
     def stop_table(self):

@@ -43,7 +43,7 @@ class FitStatistic:
 
 def _error_of_mean(row) -> float:
     """The stop's error of the mean (its std where that is undefined); NaN when neither is."""
-    return row.snr_sem if math.isfinite(row.snr_sem) else row.snr_std
+    return row.reading.snr_sem if math.isfinite(row.reading.snr_sem) else row.reading.snr_std
 
 
 def _fitted_rows(rows, camera: str) -> list:
@@ -54,9 +54,9 @@ def _fitted_rows(rows, camera: str) -> list:
         for r in rows
         if r.camera == camera
         and r.range_m is not None
-        and r.n_frames >= 2
-        and math.isfinite(r.snr_mean)
-        and r.resolved is False
+        and r.reading.n_frames >= 2
+        and math.isfinite(r.reading.snr_mean)
+        and r.model.resolved is False
         and _error_of_mean(r) > 0
     ]
 
@@ -66,14 +66,20 @@ def stop_rows_fit(rows, camera: str, curve: str) -> FitStatistic | None:
     model's value at the stop's range, with the sky and PSF the row was computed with, and the
     band the row carries as ``<curve>_lower`` / ``<curve>_upper``); the same statistic as
     :func:`fit_statistics`. None when no stop has that curve."""
-    keep = [r for r in _fitted_rows(rows, camera) if math.isfinite(r.model_snr.get(curve, NAN))]
+    keep = [
+        r for r in _fitted_rows(rows, camera) if math.isfinite(r.model.model_snr.get(curve, NAN))
+    ]
     if not keep:
         return None
-    meas = np.array([r.snr_mean for r in keep])
+    meas = np.array([r.reading.snr_mean for r in keep])
     sem = np.array([_error_of_mean(r) for r in keep])
-    model = np.array([r.model_snr[curve] for r in keep])
-    lo = np.array([r.model_snr.get(f"{curve}_lower", m) for r, m in zip(keep, model, strict=True)])
-    hi = np.array([r.model_snr.get(f"{curve}_upper", m) for r, m in zip(keep, model, strict=True)])
+    model = np.array([r.model.model_snr[curve] for r in keep])
+    lo = np.array(
+        [r.model.model_snr.get(f"{curve}_lower", m) for r, m in zip(keep, model, strict=True)]
+    )
+    hi = np.array(
+        [r.model.model_snr.get(f"{curve}_upper", m) for r, m in zip(keep, model, strict=True)]
+    )
     half = np.nan_to_num(0.5 * (hi - lo))
     r2 = (meas - model) ** 2
     return FitStatistic(
@@ -94,7 +100,7 @@ def fit_statistics(rows, models) -> list[FitStatistic]:
         if not keep:
             continue
         x = np.log([r.range_m for r in keep])
-        meas = np.array([r.snr_mean for r in keep])
+        meas = np.array([r.reading.snr_mean for r in keep])
         sem = np.array([_error_of_mean(r) for r in keep])
         lr = np.log(m.ranges_m)
         for curve in FIT_CURVES:

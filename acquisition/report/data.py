@@ -196,11 +196,11 @@ def session_models(path: str | Path, target: str | None = None) -> tuple[dict[st
 def stop_series(replay: ReplayResult, row: StopRow, n: int = 100) -> StopSeries:
     """Fig. 6 data of one stop row: the summary run of the row's camera during the stop."""
     cam = replay.cameras[row.camera]
-    lo = bisect.bisect_left(cam.t_host_ns, row.t_start_ns)
+    lo = bisect.bisect_left(cam.t_host_ns, row.place.t_start_ns)
     hi = (
         len(cam.t_host_ns)
-        if row.t_end_ns is None
-        else bisect.bisect_left(cam.t_host_ns, row.t_end_ns)
+        if row.place.t_end_ns is None
+        else bisect.bisect_left(cam.t_host_ns, row.place.t_end_ns)
     )
     stream = cam.results[lo:hi]
     run = summarise_stop(stream, n).frames
@@ -218,8 +218,8 @@ def run_series(row: StopRow, t_host_ns, frames) -> StopSeries:
         camera=row.camera,
         stop=row.stop,
         range_m=row.range_m,
-        complete=row.complete,
-        t_s=(times - row.t_start_ns) / 1e9,
+        complete=row.reading.complete,
+        t_s=(times - row.place.t_start_ns) / 1e9,
         peak=arr("peak"),
         bg_mean=arr("bg_mean"),
         bg_std=arr("bg_std"),
@@ -228,16 +228,18 @@ def run_series(row: StopRow, t_host_ns, frames) -> StopSeries:
 
 
 def measured_points(rows: list[StopRow], camera: str) -> MeasuredPoints:
-    keep = [r for r in rows if r.camera == camera and r.range_m is not None and r.n_frames > 0]
+    keep = [
+        r for r in rows if r.camera == camera and r.range_m is not None and r.reading.n_frames > 0
+    ]
     return MeasuredPoints(
         camera=camera,
         stop=np.array([r.stop for r in keep], dtype=int),
         range_m=np.array([r.range_m for r in keep], dtype=float),
-        snr_mean=np.array([r.snr_mean for r in keep], dtype=float),
-        snr_std=np.array([r.snr_std for r in keep], dtype=float),
-        snr_sem=np.array([r.snr_sem for r in keep], dtype=float),
-        n_frames=np.array([r.n_frames for r in keep], dtype=int),
-        complete=np.array([r.complete for r in keep], dtype=bool),
+        snr_mean=np.array([r.reading.snr_mean for r in keep], dtype=float),
+        snr_std=np.array([r.reading.snr_std for r in keep], dtype=float),
+        snr_sem=np.array([r.reading.snr_sem for r in keep], dtype=float),
+        n_frames=np.array([r.reading.n_frames for r in keep], dtype=int),
+        complete=np.array([r.reading.complete for r in keep], dtype=bool),
     )
 
 
@@ -297,7 +299,9 @@ def rows_sky_k(rows: list[StopRow], camera: str) -> float | None:
     its stop rows' model values were computed for (the measured sky where the session's model
     followed it, paper sections 8-9), so the curves are those the stops are compared with; None
     (the model's own) without such rows."""
-    temps = [r.model_sky_temp_k for r in rows if r.camera == camera and r.model_sky_temp_k]
+    temps = [
+        r.model.model_sky_temp_k for r in rows if r.camera == camera and r.model.model_sky_temp_k
+    ]
     return float(np.median(temps)) if temps else None
 
 
@@ -305,7 +309,7 @@ def rows_psf(rows: list[StopRow], camera: str):
     """The corrected PSF to draw ``camera``'s curves with: the one its last stop row's model
     values were computed with (a PSF measured from the flight, once the console adopted one),
     so the curves are those the rows are compared with; None (the sensor preset's) without."""
-    psfs = [r.model_psf for r in rows if r.camera == camera and r.model_psf is not None]
+    psfs = [r.model.model_psf for r in rows if r.camera == camera and r.model.model_psf is not None]
     return psfs[-1] if psfs else None
 
 
@@ -398,8 +402,8 @@ def stops_noise(path: str | Path, replay: ReplayResult, n: int = 100) -> list[St
             if cam is None or rec is None:
                 continue
             t = times[row.camera]
-            lo = bisect.bisect_left(t, row.t_start_ns)
-            hi = len(t) if row.t_end_ns is None else bisect.bisect_left(t, row.t_end_ns)
+            lo = bisect.bisect_left(t, row.place.t_start_ns)
+            hi = len(t) if row.place.t_end_ns is None else bisect.bisect_left(t, row.place.t_end_ns)
             ms = cam.tally.measurements[lo:hi]
             got = stop_noise(rec, row.stop, row.range_m, [m.result for m in ms], t[lo:hi], n=n)
             if got is not None:

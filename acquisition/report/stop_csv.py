@@ -46,11 +46,11 @@ def csv_rows(
     out = []
     for r in rows:
         row: dict[str, object] = stop_record(r, utc=utc, keys=keys)
-        row["background"] = r.background or None
+        row["background"] = r.reading.background or None
         for c in CURVES:
-            row[f"ratio_{c}"] = ratio(r.snr_mean, r.model_snr.get(c))
+            row[f"ratio_{c}"] = ratio(r.reading.snr_mean, r.model.model_snr.get(c))
         row["expected_eq4_rule"] = r.expected_eq4_rule
-        row["ratio_expected_eq4"] = ratio(r.snr_mean, r.expected_eq4)
+        row["ratio_expected_eq4"] = ratio(r.reading.snr_mean, r.expected_eq4)
         out.append(row)
     return out
 

@@ -6,10 +6,10 @@ absent), opened from the ``[gps]`` and ``[lrf]`` tables of the session config
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Iterator
+from dataclasses import dataclass
 
+from snrmon.drivers.config import DeviceSettings
 from snrmon.drivers.device import Device
 from snrmon.drivers.gps.fix import GpsFix
 from snrmon.drivers.rangefinder.reading import RangeReading
@@ -22,26 +22,24 @@ first reading (a frame, a sentence, a range); ``start_timeout_s`` in its table o
 @dataclass(frozen=True, slots=True)
 class SerialDeviceSettings:
     """A ``[gps]`` or ``[lrf]`` table of the session config, as the session uses it: which
-    table it is, how long its device has to give a first reading, and the table itself, every
-    key as :func:`snrmon.drivers.config.device_from_config` checks and builds it."""
+    table it is, how long its device has to give a first reading, and the table's checked
+    settings (:class:`snrmon.drivers.config.DeviceSettings`)."""
 
     table_name: str  # "gps" or "lrf": the device's name unless the table names it
     start_timeout_s: float
-    table: Mapping[str, Any] = field(default_factory=dict)
+    settings: DeviceSettings
 
     @classmethod
-    def of(cls, table: Mapping[str, Any] | None, table_name: str) -> SerialDeviceSettings | None:
-        """The settings of a config table (None: the config has none)."""
-        if not table:
+    def of(cls, settings: DeviceSettings | None, table_name: str) -> SerialDeviceSettings | None:
+        """The session's settings of a config table (None: the config has none)."""
+        if settings is None:
             return None
-        timeout = float(table.get("start_timeout_s", DEFAULT_START_TIMEOUT_S))
-        return cls(table_name, timeout, dict(table))
+        timeout = settings.start_timeout_s
+        return cls(table_name, DEFAULT_START_TIMEOUT_S if timeout is None else timeout, settings)
 
     def device(self) -> Device:
         """The device the table describes (a ConfigError naming the key and value if not)."""
-        from snrmon.drivers.config import device_from_config
-
-        return device_from_config(dict(self.table), self.table_name)
+        return self.settings.device(self.table_name)
 
 
 class RangeDevices:

@@ -43,8 +43,10 @@ from snrmon.acquisition.engine.status import (
 )
 from snrmon.acquisition.prediction import (
     MeasuredNoise,
+    ModelRequest,
     Predictor,
     Weather,
+    config_predictor,
     measured_noise_record,
 )
 from snrmon.acquisition.protocols import RecordingWriter
@@ -60,7 +62,7 @@ from snrmon.acquisition.runtime.range_devices import (
     SerialDeviceSettings,
 )
 from snrmon.acquisition.stops.detector import Stop, StopConfig
-from snrmon.acquisition.stops.table import StopRow
+from snrmon.acquisition.stops.table import StopRow, row_fields
 from snrmon.acquisition.streams.ring import RING_OVERRUN, RingFrame
 from snrmon.acquisition.streams.timebase import ClockMap
 from snrmon.drivers.device import Device, DeviceStatus
@@ -95,14 +97,16 @@ def stop_payload(stop: Stop) -> dict:
 
 def row_payload(row: StopRow) -> dict:
     """A stop-table row as a JSON object (non-finite numbers as null)."""
-    payload = dataclasses.asdict(row)
+    payload = row_fields(row)
     for k, v in payload.items():
         if isinstance(v, float) and not math.isfinite(v):
             payload[k] = None
-    payload["model_snr"] = {k: (v if math.isfinite(v) else None) for k, v in row.model_snr.items()}
-    if row.frame_means:  # the declared per-frame means (none declared: the payload as before)
+    payload["model_snr"] = {
+        k: (v if math.isfinite(v) else None) for k, v in row.model.model_snr.items()
+    }
+    if row.reading.frame_means:  # the declared per-frame means (none: the payload as before)
         payload["frame_means"] = {
-            k: (v if math.isfinite(v) else None) for k, v in row.frame_means.items()
+            k: (v if math.isfinite(v) else None) for k, v in row.reading.frame_means.items()
         }
     else:
         del payload["frame_means"]
@@ -128,9 +132,14 @@ class Session:
         clock: ClockMap | None = None,
         stop_config: StopConfig | None = None,
         predictor: Predictor | None = None,
+        model_from_config: bool = False,
         lossless: bool = False,
     ) -> None:
         self.config = config
+        if predictor is None and model_from_config:
+            # Asynchronous: the measured sky's new curves are computed beside the cameras'
+            # measurement threads (0.3 s of model each time), not on them.
+            predictor = config_predictor(config, asynchronous=True)
         self.lossless = lossless
         self.track = track
         self.clock = clock or ClockMap()
@@ -223,6 +232,16 @@ class Session:
     @predictor.setter
     def predictor(self, predictor: Predictor | None) -> None:
         self.engine.predictor = predictor
+
+    @property
+    def reference_predictor(self) -> Predictor | None:
+        """The model at its own background beside :attr:`predictor` (the engine's)."""
+        return self.engine.reference_predictor
+
+    def set_model(self, request: ModelRequest, *, reference_only: bool = False) -> None:
+        """The model the operator asked for, built by the engine
+        (:meth:`SessionEngine.set_model`); a ValueError changes nothing."""
+        self.engine.set_model(request, reference_only=reference_only)
 
     @property
     def stop_table(self):
@@ -441,7 +460,7 @@ class Session:
             self.engine.finalize()
         else:  # the session goes on: the rows as they stand now are part of the record too
             for row in self.engine.stops():
-                if not row.final and row.n_frames:
+                if not row.final and row.reading.n_frames:
                     rec.add_event("stop_summary", camera=row.camera, payload=row_payload(row))
         self.recording.detach()
         for pipe in self.pipelines.values():

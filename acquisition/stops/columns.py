@@ -1,11 +1,11 @@
 """The stop table's columns, one set of names for every table of it: ``Session.stops()``, the
 report's CSV, the campaign's Parquet and the console's stop table.
 
-They come from what :class:`snrmon.acquisition.stops.table.StopRow` declares of its fields
-(:func:`snrmon.acquisition.columns.column`): a dict field is one column per key (``model_`` + the
-model's curve; a per-frame value's mean, ``<column>_mean``) after the single ones, the stop's
-times are UTC where the table has the session's clock, and ``range_m`` (the rangefinder's range,
-else the GPS range) comes before the two it is taken from.
+They come from what :class:`snrmon.acquisition.stops.table.StopRow` declares of its fields and
+of its parts' (:func:`snrmon.acquisition.columns.column`), one flat table: a dict field is one
+column per key (``model_`` + the model's curve; a per-frame value's mean, ``<column>_mean``)
+after the single ones, the stop's times are UTC where the table has the session's clock, and
+``range_m`` (the rangefinder's range, else the GPS range) comes before the two it is taken from.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Any
 from snrmon.acquisition.columns import MEAN, Column, columns_of
 from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.prediction import STOP_MODEL_KEYS
-from snrmon.acquisition.stops.table import StopRow
+from snrmon.acquisition.stops.table import StopRow, recorded_order
 
 RANGE = Column(
     "m, the rangefinder's range, else the GPS range", units="m", dtype="<f8", name="range_m"
@@ -55,8 +55,11 @@ def stop_columns(keys: Mapping[str, Sequence[str]] | None = None) -> tuple[Colum
 
 
 def _in_table_order() -> tuple[Column, ...]:
-    """:class:`StopRow`'s declared columns, those of its dict fields (a column per key) last."""
-    declared = columns_of(StopRow)
+    """:class:`StopRow`'s declared columns, its parts' among them, in
+    :data:`~snrmon.acquisition.stops.table.RECORDED_ORDER`, those of its dict fields (a column
+    per key) last."""
+    by_field = {c.field: c for c in columns_of(StopRow)}
+    declared = [by_field[k] for k in recorded_order(by_field)]
     return (
         *(c for c in declared if c.keyed is None),
         *(c for c in declared if c.keyed is not None),
@@ -83,7 +86,7 @@ def stop_record(
     (None: the row's own, the model's in :data:`STOP_MODEL_KEYS` order)."""
     out: dict[str, Any] = {}
     for c in _in_table_order():
-        value = getattr(row, c.field)
+        value = c.value_of(row)
         if c.name == "lrf_range_m":
             out[RANGE.name] = row.range_m
         if c.keyed is not None:

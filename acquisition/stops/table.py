@@ -31,14 +31,16 @@ Until then :meth:`StopTable.rows` shows the row as it stands (provisional).
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 import threading
 from collections import Counter, deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import InitVar, dataclass, field
-from typing import ClassVar, Protocol
+from typing import Any, ClassVar, Protocol
 
-from snrmon.acquisition.columns import MEAN, column, columns_of
+from snrmon.acquisition.columns import MEAN, PART, column, columns_of, part
 from snrmon.acquisition.measure.model_agreement import ModelAgreement, model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnr
 from snrmon.acquisition.prediction import AT_STOP, Predictor, psf_label
@@ -60,16 +62,9 @@ class StopSource(Protocol):
 
 
 @dataclass(frozen=True)
-class StopRow:
-    """One stop and one camera of the SNR-versus-range table. Each field declares the column it
-    is in every stop table (``Session.stops()``, the report's CSV, the campaign's Parquet, the
-    console): :mod:`snrmon.acquisition.stops.columns` builds them from these declarations."""
+class StopPlace:
+    """When and how far a stop was: its times and its ranges (a part of :class:`StopRow`)."""
 
-    camera: str = column("camera name in the session", dtype="U")
-    stop: int = column("stop index in the session (range-stop detector order)", dtype="<i4")
-    manual: bool = column(
-        "marked by the operator (the M key), not found by the detector", dtype="?"
-    )
     # Host monotonic clock here; a table with the session's clock gives the UTC.
     t_start_ns: int = column("stop start, UTC (session clock)", dtype="M8[ns]", name="t_start_utc")
     t_end_ns: int | None = column(
@@ -81,6 +76,18 @@ class StopRow:
     gps_range_m: float | None = column(
         "m, median GPS slant range during the stop", units="m", dtype="<f8"
     )
+
+    @property
+    def range_m(self) -> float | None:
+        """The stop's range: the rangefinder's when it has one, else the GPS slant range."""
+        return self.lrf_range_m if self.lrf_range_m is not None else self.gps_range_m
+
+
+@dataclass(frozen=True)
+class StopReading:
+    """What one camera measured during a stop: the peak SNR (Eq. 4) over the stop's summary
+    run (:func:`snrmon.acquisition.stops.detector.summarise_stop`; a part of :class:`StopRow`)."""
+
     n_frames: int = column(
         "frames in the stop's summary run (first 100 consecutive valid)",
         units="frames",
@@ -92,26 +99,6 @@ class StopRow:
     )
     snr_std: float = column(
         "sample std (ddof=1) of the per-frame SNR over the run", units="1", dtype="<f8"
-    )
-    model_snr: dict[str, float] = column(
-        "model SNR at range_m (paper Figs. 7-10), one column per curve and band edge",
-        default_factory=dict,
-        units="1",
-        dtype="<f8",
-        keyed="model_",
-    )
-    # The model's verdict for the small dimension at this range (None: no model).
-    resolved: bool | None = column(
-        "the model's verdict for the small dimension at range_m: it spans a pixel or more",
-        default=None,
-        dtype="?",
-        name="model_resolved_small",
-    )
-    # The stop ended and the camera passed its end: the row will not change.
-    final: bool = column(
-        "the stop ended and the camera passed its end: the row will not change",
-        default=False,
-        dtype="?",
     )
     snr_sem: float = column(
         "snr_std / sqrt(N_eff): error of the mean, N_eff from the frames' autocorrelation "
@@ -128,6 +115,35 @@ class StopRow:
         default="",
         dtype="U",
     )
+    # The mean over the run of each per-frame value declared for the stop table
+    # (:data:`snrmon.acquisition.columns.MEAN`), as ``<column>_mean``.
+    frame_means: dict[str, float] = column(
+        "the mean over the stop's run of a per-frame value (<column>_mean)",
+        default_factory=dict,
+        dtype="<f8",
+        keyed="",
+    )
+
+
+@dataclass(frozen=True)
+class ModelAtStop:
+    """The model's values at a stop's range for one camera (paper Figs. 7-10), and the inputs
+    they were computed for (a part of :class:`StopRow`; empty without a model)."""
+
+    model_snr: dict[str, float] = column(
+        "model SNR at range_m (paper Figs. 7-10), one column per curve and band edge",
+        default_factory=dict,
+        units="1",
+        dtype="<f8",
+        keyed="model_",
+    )
+    # The model's verdict for the small dimension at this range (None: no model).
+    resolved: bool | None = column(
+        "the model's verdict for the small dimension at range_m: it spans a pixel or more",
+        default=None,
+        dtype="?",
+        name="model_resolved_small",
+    )
     # The background (sky) temperature the model values were computed for (None: no model).
     model_sky_temp_k: float | None = column(
         "K, background (sky) temperature of the row's model curves",
@@ -138,25 +154,78 @@ class StopRow:
     # The corrected PSF the model values were computed with (a ``model.psf`` PSF, e.g. measured
     # from the flight); None: the sensor preset's (or no model).
     model_psf: object | None = field(default=None, compare=False)
-    # The mean over the run of each per-frame value declared for the stop table
-    # (:data:`snrmon.acquisition.columns.MEAN`), as ``<column>_mean``.
-    frame_means: dict[str, float] = column(
-        "the mean over the stop's run of a per-frame value (<column>_mean)",
-        default_factory=dict,
-        dtype="<f8",
-        keyed="",
-    )
     # Which PSF that is, in words (the predictor's ``curves_psf_source``: "preset: PVF 0.082
     # (sensor mwir)", "fitted: sigma 0.57 px from this flight's stops"); None: no model. Not a
-    # field (read as :attr:`model_psf_source`): the recorded payload, the CSV and the campaign's
+    # field (read as :attr:`psf_source`): the recorded payload, the CSV and the campaign's
     # Parquet, all made of the fields, stay as they were.
-    psf_source: InitVar[str | None] = None
+    psf_source_text: InitVar[str | None] = None
+
+    _psf_source: ClassVar[str | None] = None  # each part's own: set in __post_init__
+
+    def __post_init__(self, psf_source_text: str | None) -> None:
+        object.__setattr__(self, "_psf_source", psf_source_text)  # frozen: set once
+
+    @property
+    def psf_source(self) -> str | None:
+        """Which PSF the values were computed with, in words
+        (:func:`snrmon.acquisition.prediction.psf_source`); None without a model."""
+        return self._psf_source
+
+
+RECORDED_ORDER = (
+    "camera",
+    "stop",
+    "manual",
+    "t_start_ns",
+    "t_end_ns",
+    "lrf_range_m",
+    "gps_range_m",
+    "n_frames",
+    "complete",
+    "snr_mean",
+    "snr_std",
+    "model_snr",
+    "resolved",
+    "final",
+    "snr_sem",
+    "background",
+    "model_sky_temp_k",
+    "model_psf",
+    "frame_means",
+)
+"""The order of a row's fields, its parts' among them, in every stop table and in the recorded
+payload: that of the files recorded before the row was made of parts, so that their tables and
+today's have their columns in one order. A field not named here follows them, in the order it is
+declared."""
+
+
+@dataclass(frozen=True)
+class StopRow:
+    """One stop and one camera of the SNR-versus-range table: which row it is, and its parts,
+    the stop's times and ranges (:class:`StopPlace`), what the camera measured
+    (:class:`StopReading`) and the model's values at that range (:class:`ModelAtStop`). Each of
+    their fields declares the column it is in every stop table (``Session.stops()``, the
+    report's CSV, the campaign's Parquet, the console), one flat table of them:
+    :mod:`snrmon.acquisition.stops.columns` builds them from these declarations."""
+
+    camera: str = column("camera name in the session", dtype="U")
+    stop: int = column("stop index in the session (range-stop detector order)", dtype="<i4")
+    manual: bool = column(
+        "marked by the operator (the M key), not found by the detector", dtype="?"
+    )
+    place: StopPlace = part(StopPlace)
+    reading: StopReading = part(StopReading)
+    model: ModelAtStop = part(ModelAtStop, default_factory=ModelAtStop)
+    # The stop ended and the camera passed its end: the row will not change.
+    final: bool = column(
+        "the stop ended and the camera passed its end: the row will not change",
+        default=False,
+        dtype="?",
+    )
 
     _agreement: ClassVar[ModelAgreement | None] = None  # each row's own: set in __post_init__
-    _psf_source: ClassVar[str | None] = None  # each row's own: set in __post_init__
 
-    def __post_init__(self, psf_source: str | None) -> None:
-        object.__setattr__(self, "_psf_source", psf_source)
+    def __post_init__(self) -> None:
         # The mean against the model's expected reading of the row's own rule, computed here,
         # where the row is built (the processing thread), so a viewer only formats it. Not a
         # field: the row's payload (its fields) stays what the recording and the CSV hold.
@@ -165,9 +234,29 @@ class StopRow:
         if rule is not None:
             name = f"expected_eq4_{rule}"
             agreement = model_agreement(
-                self.snr_mean, self.snr_sem, _at_stop(self.model_snr, name), name
+                self.reading.snr_mean,
+                self.reading.snr_sem,
+                _at_stop(self.model.model_snr, name),
+                name,
             )
         object.__setattr__(self, "_agreement", agreement)  # frozen: set once, at construction
+
+    @classmethod
+    def from_fields(cls, values: Mapping[str, Any], psf_source: str | None = None) -> StopRow:
+        """A row from its fields by name, its parts' among them (:func:`row_fields`: a recorded
+        payload); a part's field that ``values`` lacks takes its default. ``psf_source``: the
+        model's PSF in words (:attr:`ModelAtStop.psf_source`, which no payload holds)."""
+        parts = {}
+        for f in dataclasses.fields(cls):
+            inner = f.metadata.get(PART)
+            if inner is not None:
+                names = {g.name for g in dataclasses.fields(inner)}
+                given = {k: v for k, v in values.items() if k in names}
+                if inner is ModelAtStop:
+                    given["psf_source_text"] = psf_source
+                parts[f.name] = inner(**given)
+        own = {k: v for k, v in values.items() if k in cls.__dataclass_fields__}
+        return cls(**{**own, **parts})
 
     @property
     def agreement(self) -> ModelAgreement | None:
@@ -177,26 +266,20 @@ class StopRow:
         return self._agreement
 
     @property
-    def model_psf_source(self) -> str | None:
-        """Which PSF the row's model values were computed with, in words
-        (:func:`snrmon.acquisition.prediction.psf_source`); None without a model."""
-        return self._psf_source
-
-    @property
     def model_psf_label(self) -> str | None:
-        """:attr:`model_psf_source` as a short mark: "preset PSF" or "fitted PSF"."""
-        return psf_label(self._psf_source)
+        """:attr:`ModelAtStop.psf_source` as a short mark: "preset PSF" or "fitted PSF"."""
+        return psf_label(self.model.psf_source)
 
     @property
     def range_m(self) -> float | None:
         """The stop's range: the rangefinder's when it has one, else the GPS slant range."""
-        return self.lrf_range_m if self.lrf_range_m is not None else self.gps_range_m
+        return self.place.range_m
 
     @property
     def expected_eq4_rule(self) -> str | None:
         """The background rule of the expected Eq. (4) reading this row's measurement is to be
         held to (:func:`expected_eq4_rule`)."""
-        return expected_eq4_rule(self.background)
+        return expected_eq4_rule(self.reading.background)
 
     @property
     def expected_eq4(self) -> float | None:
@@ -205,7 +288,28 @@ class StopRow:
         phases, ``..._stop``, where the row has it); None without a model or a rule."""
         rule = self.expected_eq4_rule
         name = f"expected_eq4_{rule}"
-        return None if rule is None else _at_stop(self.model_snr, name).get(name)
+        return None if rule is None else _at_stop(self.model.model_snr, name).get(name)
+
+
+def row_fields(row: StopRow) -> dict[str, Any]:
+    """A row's fields by name, its parts' among them, in :data:`RECORDED_ORDER` (values as
+    ``dataclasses.asdict`` gives them): the flat record a recording holds of it
+    (:meth:`StopRow.from_fields` reads it back)."""
+    out: dict[str, Any] = {}
+    for f in dataclasses.fields(row):
+        value = getattr(row, f.name)
+        if f.metadata.get(PART) is not None:
+            out.update(dataclasses.asdict(value))
+        else:
+            out[f.name] = copy.deepcopy(value)
+    return {k: out[k] for k in recorded_order(out)}
+
+
+def recorded_order(names: Iterable[str]) -> list[str]:
+    """``names`` in :data:`RECORDED_ORDER`, any other after them in the order given."""
+    names = list(names)
+    rank = {k: i for i, k in enumerate(RECORDED_ORDER)}
+    return sorted(names, key=lambda k: (rank.get(k, len(rank)), names.index(k)))
 
 
 def _at_stop(model: dict[str, float], name: str) -> dict[str, float]:
@@ -422,7 +526,7 @@ class StopTable:
             key = (stop.index, camera)
             final = self._final.get(key)
             if final is not None:
-                n, complete = final.n_frames, final.complete
+                n, complete = final.reading.n_frames, final.reading.complete
             else:
                 builder = self._builders.get(key)
                 n = len(builder.run(stop.t_end_ns)) if builder is not None else 0
@@ -541,23 +645,24 @@ class StopTable:
             camera=camera,
             stop=stop.index,
             manual=stop.manual,
-            t_start_ns=stop.t_start_ns,
-            t_end_ns=stop.t_end_ns,
-            lrf_range_m=stop.lrf_range_m,
-            gps_range_m=stop.gps_range_m,
-            n_frames=summary.n_frames,
-            complete=summary.complete,
-            snr_mean=summary.snr_mean,
-            snr_std=summary.snr_std,
-            snr_sem=summary.snr_sem,
-            model_snr=model,
-            resolved=None if resolved is None else bool(resolved),
+            place=StopPlace(stop.t_start_ns, stop.t_end_ns, stop.lrf_range_m, stop.gps_range_m),
+            reading=StopReading(
+                n_frames=summary.n_frames,
+                complete=summary.complete,
+                snr_mean=summary.snr_mean,
+                snr_std=summary.snr_std,
+                snr_sem=summary.snr_sem,
+                background=backgrounds_of(r for _, r in run),
+                frame_means=frame_means(run),
+            ),
+            model=ModelAtStop(
+                model_snr=model,
+                resolved=None if resolved is None else bool(resolved),
+                model_sky_temp_k=sky,
+                model_psf=psf,
+                psf_source_text=source,
+            ),
             final=final,
-            background=backgrounds_of(r for _, r in run),
-            model_sky_temp_k=sky,
-            model_psf=psf,
-            frame_means=frame_means(run),
-            psf_source=source,
         )
 
 
@@ -569,17 +674,13 @@ def row_values_equal(a: StopRow, b: StopRow) -> bool:
             return True
         return x == y
 
-    keys = (
-        "camera",
-        "stop",
-        "manual",
-        "t_start_ns",
-        "t_end_ns",
-        "lrf_range_m",
-        "gps_range_m",
-        "n_frames",
-        "complete",
-        "snr_mean",
-        "snr_std",
+    compared = (
+        ("", ("camera", "stop", "manual")),
+        ("place", ("t_start_ns", "t_end_ns", "lrf_range_m", "gps_range_m")),
+        ("reading", ("n_frames", "complete", "snr_mean", "snr_std")),
     )
-    return all(same(getattr(a, k), getattr(b, k)) for k in keys)
+    return all(
+        same(getattr(getattr(a, p) if p else a, k), getattr(getattr(b, p) if p else b, k))
+        for p, keys in compared
+        for k in keys
+    )

@@ -184,14 +184,14 @@ def stop_rows(
 
     rows = []
     for r in stops:
-        end = np.iinfo(np.int64).max if r.t_end_ns is None else r.t_end_ns
-        inside = (times >= r.t_start_ns) & (times < end)
+        end = np.iinfo(np.int64).max if r.place.t_end_ns is None else r.place.t_end_ns
+        inside = (times >= r.place.t_start_ns) & (times < end)
         stop_of[inside] = r.stop
         row = {**given, **stop_record(r, utc=utc, keys=keys)}
         for k, v in row.items():  # missing or not finite: null
             if isinstance(v, float):
                 row[k] = _none(v)
-        row["background"] = r.background or None
+        row["background"] = r.reading.background or None
         if row["model_sky_temp_k"] is None:
             row["model_sky_temp_k"] = sky_temp_k
         row["day"] = datetime.fromtimestamp(row["t_start_utc"] / 1e9, tz=UTC).date()
@@ -207,9 +207,9 @@ def stop_flags(r, gps_source: str | None) -> list[str]:
     return [
         name
         for name, on in (
-            ("incomplete", not r.complete),
+            ("incomplete", not r.reading.complete),
             ("manual", r.manual),
-            ("stop_open_at_end", r.t_end_ns is None),
+            ("stop_open_at_end", r.place.t_end_ns is None),
             ("no_range", r.range_m is None),
             ("gps_imported", gps_source == "imported"),
         )

@@ -263,7 +263,7 @@ def _stop_row(args: argparse.Namespace, replay) -> tuple[object, float]:
         raise UsageError(
             f"no stop {args.stop} for {args.camera} in {args.session} (stops: {known})"
         )
-    range_m = row.lrf_range_m if row.lrf_range_m is not None else row.gps_range_m
+    range_m = row.range_m
     if range_m is None:
         raise UsageError(f"stop {args.stop} has no range (no rangefinder or GPS readings)")
     return row, float(range_m)
@@ -279,11 +279,11 @@ def _tracked_frames(args: argparse.Namespace, replay, row) -> list[tuple]:
     # A resolved drone fills the 7x7 rim, so rim_contaminated/undefined are expected at a close
     # stop; only a frame without a trustworthy position is skipped.
     no_position = frozenset({FLAG_LOST, FLAG_EDGE})
-    end = row.t_end_ns if row.t_end_ns is not None else np.iinfo(np.int64).max
+    end = row.place.t_end_ns if row.place.t_end_ns is not None else np.iinfo(np.int64).max
     picks = [
         (m.t_host_ns, (m.result.peak_x, m.result.peak_y), m.range_m)
         for m in replay.cameras[args.camera].tally.measurements
-        if row.t_start_ns <= m.t_host_ns < end and not (m.result.flags & no_position)
+        if row.place.t_start_ns <= m.t_host_ns < end and not (m.result.flags & no_position)
     ]
     if not picks:
         raise UsageError(f"stop {args.stop} holds no tracked frames of {args.camera}")
@@ -361,7 +361,7 @@ def _summary_at_rest(args, sensor, row, range_m: float, seg: _Segmented, convent
     )
     from snrmon.acquisition.stops.detector import StopConfig
 
-    source = "lrf" if row.lrf_range_m is not None else "gps"
+    source = "lrf" if row.place.lrf_range_m is not None else "gps"
     rest = at_rest_frames(
         [None if f is None else float(np.sqrt(f.area_px)) for f in seg.targets],
         [rng for _, _, _, rng in seg.held],
@@ -411,7 +411,7 @@ def run(args: argparse.Namespace) -> int:
     convention = "path_corrected" if path is not None and cal is not None else "apparent"
     result, rest, used = _summary_at_rest(args, sensor, row, range_m, seg, convention)
     out = {"stop": args.stop, **result.as_dict(), "calibration": seg.calibration_source}
-    out["at_rest_s"] = [(seg.held[k][1] - row.t_start_ns) / 1e9 for k in (rest[0], rest[-1])]
+    out["at_rest_s"] = [(seg.held[k][1] - row.place.t_start_ns) / 1e9 for k in (rest[0], rest[-1])]
     corrected = cal is not None and psf is not None  # a PSF corrects a temperature
     out["psf_blur_px"], out["psf_source"] = (blur, psf_source) if corrected else (None, None)
     if path is not None and cal is not None:

@@ -145,24 +145,16 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("needs --config FILE.toml (or --replay FILE.h5)")
     input_file(args.config, "--config")
     from snrmon.acquisition.config import load_session_config
-    from snrmon.acquisition.prediction import ModelPredictor, session_model_options
     from snrmon.acquisition.runtime.session import Session
     from snrmon.gui.app import run_console
 
     config = load_session_config(args.config)
     config = with_compression(config, args.compression)
-    # Asynchronous: the measured sky's new curves are computed beside the cameras' measurement
-    # threads (0.3 s of model each time), not on them.
-    predictor = ModelPredictor(
-        {c.name: c.sensor for c in config.cameras},
-        config.target,
-        asynchronous=True,
-        **session_model_options(config),  # the day's [weather]
-    )
-    with Session(config, predictor=predictor) as session:
+    with Session(config, model_from_config=True) as session:  # the model its config names
+        predictor = session.predictor
         code = run_console(
             session,
-            curves=predictor.curve,
+            curves=predictor.curve if predictor is not None else None,
             headless=args.headless,
             duration_s=args.duration,
             screenshot=args.screenshot,
@@ -202,18 +194,12 @@ def _replay_camera_file(args: argparse.Namespace) -> int:
 
 
 def _run_replay(args: argparse.Namespace, path: Path) -> int:
-    from snrmon.acquisition.prediction import ModelPredictor, session_model_options
     from snrmon.acquisition.replay.player import ReplayPlayer
     from snrmon.gui.app import run_console
 
-    player = ReplayPlayer(path, speed=args.speed)
-    cfg = player.config
-    predictor = None
-    if cfg.cameras:  # the recording names its sensors and target: the model can run
-        predictor = ModelPredictor(
-            {c.name: c.sensor for c in cfg.cameras}, cfg.target, **session_model_options(cfg)
-        )
-        player.set_predictor(predictor)
+    # the model the recording's config names (none without a camera's sensor)
+    player = ReplayPlayer(path, speed=args.speed, model_from_config=True)
+    predictor = player.predictor
     with player:
         player.play()  # the analyst sees it run at once; Space pauses
         return run_console(

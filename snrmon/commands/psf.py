@@ -81,9 +81,11 @@ def _stop_crops(args, rows: dict, rep, cam, cal, sensor, target, n: int):
         d = target_px(target, row.range_m, sensor.ifov_rad)
     except PsfEstimateError as exc:
         raise UsageError(f"{label}: {exc}") from None
-    lo = np.searchsorted(rep.t_host_ns, row.t_start_ns)
+    lo = np.searchsorted(rep.t_host_ns, row.place.t_start_ns)
     hi = (
-        len(rep.t_host_ns) if row.t_end_ns is None else np.searchsorted(rep.t_host_ns, row.t_end_ns)
+        len(rep.t_host_ns)
+        if row.place.t_end_ns is None
+        else np.searchsorted(rep.t_host_ns, row.place.t_end_ns)
     )
     picks = [
         (t, r)

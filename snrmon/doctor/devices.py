@@ -20,9 +20,12 @@ import statistics
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from snrmon.doctor import FAIL, PASS, Check
+
+if TYPE_CHECKING:
+    from snrmon.drivers.config import DeviceSettings
 
 SAMPLE_FRAMES = 4  # each camera's first frames, kept to measure how they compress
 MIN_FPS_FRACTION = 0.95  # a camera below 95 % of its rate is dropping frames somewhere
@@ -51,15 +54,14 @@ class _Watch:
 
 def _open(config) -> list[_Watch]:
     from snrmon.acquisition.config import camera_device
-    from snrmon.drivers.config import device_from_config
 
     watches = []
     for cam in config.cameras:
         watches.append(_made("camera", cam.name, lambda cam=cam: camera_device(cam)))
     for kind in ("lrf", "gps"):
-        table = getattr(config, kind)
-        if table is not None:
-            watches.append(_made(kind, kind, lambda t=table, k=kind: device_from_config(t, k)))
+        settings = getattr(config, kind)
+        if settings is not None:
+            watches.append(_made(kind, kind, lambda s=settings, k=kind: s.device(k)))
     for w in watches:
         if w.device is not None:
             w.device.subscribe(w.take)
@@ -218,10 +220,10 @@ def _sensor_format(cam) -> tuple[tuple[int, int] | None, float | None]:
     return ((w, h) if w and h else None), (s.fps if s else None)
 
 
-def _lrf(w: _Watch, table: dict, wait_s: float) -> Check:
-    port = table.get("port")
+def _lrf(w: _Watch, settings: DeviceSettings, wait_s: float) -> Check:
+    port = settings.port
     if not w.readings:
-        fired = table.get("protocol") == "trupulse"
+        fired = settings.protocol == "trupulse"
         fix = (
             "fire the TruPulse at a target while snrmon doctor waits (it speaks only when fired); "
             if fired

@@ -12,20 +12,23 @@ import grp
 import os
 import pwd
 import stat
-from typing import Any
+from typing import TYPE_CHECKING
 
 from snrmon.doctor import FAIL, PASS, SKIP, Check
+
+if TYPE_CHECKING:
+    from snrmon.drivers.config import DeviceSettings
 
 SERIAL_PROTOCOLS = ("nmea", "trupulse", "ldm", "mavlink")
 
 
-def port_path(table: dict[str, Any]) -> str | None:
+def port_path(settings: DeviceSettings) -> str | None:
     """The filesystem path of a device table's serial port; None for network links (pyserial
     URLs such as ``socket://``, gpsd's host:port, MAVLink's ``udpin:``)."""
-    port = str(table.get("port", ""))
-    if table.get("protocol") not in SERIAL_PROTOCOLS or "://" in port or not port:
+    port = settings.port or ""
+    if settings.protocol not in SERIAL_PROTOCOLS or "://" in port or not port:
         return None
-    if table.get("protocol") == "mavlink" and not port.startswith("/"):
+    if settings.protocol == "mavlink" and not port.startswith("/"):
         return None  # udpin:..., tcp:...
     return port
 
@@ -59,20 +62,19 @@ def may_read_write(st: os.stat_result, uid: int, gids: set[int]) -> bool:
 
 def check_port(
     kind: str,
-    table: dict[str, Any],
+    settings: DeviceSettings,
     *,
     uid: int | None = None,
     gids: set[int] | None = None,
 ) -> Check:
     """The port of the ``[kind]`` table, for this user (or ``uid``/``gids``)."""
     name = f"port:{kind}"
-    path = port_path(table)
+    path = port_path(settings)
     if path is None:
         return Check(
             name,
             SKIP,
-            f"[{kind}] port {table.get('port')!r} is a network link "
-            "(checked when the device answers)",
+            f"[{kind}] port {settings.port!r} is a network link (checked when the device answers)",
             needed=False,
         )
     if not os.path.exists(path):

@@ -97,9 +97,9 @@ def run_doctor(config, opts: DoctorOptions) -> list[Check]:
     if config is not None:
         checks += check_model(config)
         for kind in ("gps", "lrf"):
-            table = getattr(config, kind)
-            if table is not None:
-                checks.append(check_port(kind, table))
+            settings = getattr(config, kind)
+            if settings is not None:
+                checks.append(check_port(kind, settings))
         device_checks, formats = check_devices(
             config, wait_s=opts.wait_s, window_s=opts.window_s, samples=samples
         )

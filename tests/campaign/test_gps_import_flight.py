@@ -109,7 +109,7 @@ def session_copy(hil_sessions, module_tmp):
 def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
     session, folder = session_copy
     made = flight_logs(session, folder)
-    live_stops = [(s.camera, s.stop, s.gps_range_m) for s in redetected(session)]
+    live_stops = [(s.camera, s.stop, s.place.gps_range_m) for s in redetected(session)]
     assert live_stops and all(g is not None for _, _, g in live_stops)
     for i, (kind, log) in enumerate(made["logs"].items()):
         # The first import replaces the live stream (kept in /gps_live); the next ones
@@ -156,7 +156,7 @@ def test_three_logs_give_the_live_gps_ranges(session_copy, capsys):
         p90 = float(np.percentile(lags, 90))
         assert np.median(lags) < lag_ms[0] * 1e6 and p90 < lag_ms[1] * 1e6, (kind, lags)
         assert max(lags) < 2 * lag_ms[1] * 1e6, (kind, max(lags))
-        stops = [(s.camera, s.stop, s.gps_range_m) for s in redetected(session)]
+        stops = [(s.camera, s.stop, s.place.gps_range_m) for s in redetected(session)]
         assert [s[:2] for s in stops] == [s[:2] for s in live_stops], kind
         # The same stop means to within the hover's along-range drift (0.15 m, sim/flight.py):
         # the live receiver speaks only while the simulated day's clock moves (a receiver of a

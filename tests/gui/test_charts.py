@@ -112,9 +112,11 @@ def _x_range(plot: RangePlot) -> list[float]:
 
 
 def _row(rng_m: float, snr: float):
-    from snrmon.acquisition.stops.table import StopRow
+    from snrmon.acquisition.stops.table import StopPlace, StopReading, StopRow
 
-    return StopRow("mwir", 0, False, 0, 1, rng_m, rng_m, 100, True, snr, 1.0)
+    return StopRow(
+        "mwir", 0, False, StopPlace(0, 1, rng_m, rng_m), StopReading(100, True, snr, 1.0)
+    )
 
 
 def test_range_plot_shows_the_stops_not_the_model_s_kilometres(qtbot):
@@ -153,7 +155,7 @@ def test_strip_chart_legend_and_model_line_lie_off_and_inside_the_data(qtbot):
 def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(qtbot):
     """The stops' bars are the error of the mean, not the per-frame std, and the title states
     chi2/dof of the unresolved stops against the expected Eq. (4) reading the rows carry."""
-    from snrmon.acquisition.stops.table import StopRow
+    from snrmon.acquisition.stops.table import ModelAtStop, StopPlace, StopReading, StopRow
     from snrmon.gui.range_plot import RangePlot, fit_title
 
     def row(stop, r, mean, sem, resolved=False):
@@ -161,17 +163,9 @@ def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(q
             "mwir",
             stop,
             False,
-            0,
-            1,
-            r,
-            r,
-            100,
-            True,
-            mean,
-            10.0,
-            {"expected_eq4_extent": 64.0},
-            resolved,
-            snr_sem=sem,
+            StopPlace(0, 1, r, r),
+            StopReading(100, True, mean, 10.0, snr_sem=sem),
+            ModelAtStop({"expected_eq4_extent": 64.0}, resolved),
         )
 
     rows = [row(0, 199.0, 90.0, 2.0, True), row(1, 393.0, 60.0, 2.0), row(2, 508.0, 33.0, 1.0)]
@@ -192,11 +186,14 @@ def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(q
     banded = [
         dataclasses.replace(
             x,
-            model_snr={
-                "expected_eq4_extent": 64.0,
-                "expected_eq4_extent_lower": 61.0,
-                "expected_eq4_extent_upper": 67.0,
-            },
+            model=dataclasses.replace(
+                x.model,
+                model_snr={
+                    "expected_eq4_extent": 64.0,
+                    "expected_eq4_extent_lower": 61.0,
+                    "expected_eq4_extent_upper": 67.0,
+                },
+            ),
         )
         for x in rows
     ]
@@ -266,12 +263,14 @@ def test_range_plot_draws_the_curves_once_named_in_words_with_the_legend_off_the
 def test_range_plot_log_axes_keep_the_stops_and_their_error_bars(qtbot):
     """On log axes the stops' bars are drawn in decades (pyqtgraph's error bars do not follow a
     log axis by themselves): mean +/- error of the mean, back in linear units, is the stop's."""
-    from snrmon.acquisition.stops.table import StopRow
+    from snrmon.acquisition.stops.table import StopPlace, StopReading, StopRow
 
     plot = RangePlot("lwir")
     qtbot.addWidget(plot)
     plot.set_curves(_curves())
-    row = StopRow("lwir", 0, False, 0, 1, 200.0, 200.0, 100, True, 50.0, 9.0, snr_sem=4.0)
+    row = StopRow(
+        "lwir", 0, False, StopPlace(0, 1, 200.0, 200.0), StopReading(100, True, 50.0, 9.0, 4.0)
+    )
     plot.show_stops([row])
     plot.log_x.click()
     plot.log_y.click()

@@ -77,10 +77,14 @@ def test_applying_model_options_redraws_the_predictors_curves(window):
     assert not np.allclose(y, uav1["small_corrected"][1])  # another target, another curve
     _, lo = _drawn(window, "small_corrected band low")
     np.testing.assert_allclose(lo, want["small_corrected band"][1])
-    # the session's stop table now asks the same model
-    assert window.session.predictor is window.model.sky
+    # the session's engine built the model the dialog asked for; its stop table asks it, and
+    # the console holds no predictor of its own (it reads the engine's two)
+    engine = window.session.engine
+    assert engine.predictor is window.model.sky and engine.reference_predictor is window.model.own
     assert window.session.stop_table.predictor is window.model.sky
-    assert window.model.sky.background_temp_k["mwir"] == 280.0
+    assert engine.predictor.background_temp_k["mwir"] == 280.0
+    assert engine.predictor.target.name == engine.reference_predictor.target.name == "uav2"
+    assert not [v for v in vars(window.model).values() if isinstance(v, ModelPredictor)]
 
 
 def test_the_dialog_refuses_a_bad_temperature_with_a_message(qtbot, window):

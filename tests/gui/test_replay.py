@@ -82,8 +82,10 @@ def test_play_fills_the_chart_and_the_stop_table(qtbot, window, player):
     window.refresh_stops()
     rows = player.stops()
     assert [round(r.range_m) for r in rows] == [120, 240]
-    assert all(r.n_frames > 50 for r in rows)
-    assert rows[0].snr_mean > 2 * rows[1].snr_mean  # (240/120)^2 fainter at the second stop
+    assert all(r.reading.n_frames > 50 for r in rows)
+    assert (
+        rows[0].reading.snr_mean > 2 * rows[1].reading.snr_mean
+    )  # (240/120)^2 fainter at the second stop
     assert len(window.stop_table.cells()) >= 2
 
 

@@ -11,7 +11,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QApplication
 
 from snrmon.acquisition.report.stop_csv import CSV_COLUMNS
-from snrmon.acquisition.stops.table import StopRow
+from snrmon.acquisition.stops.table import ModelAtStop, StopPlace, StopReading, StopRow
 from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.gui.stop_table_view import StopTableView, columns, row_texts
 
@@ -20,24 +20,11 @@ def _cells(row: StopRow) -> dict[str, str]:
     return {c.key: t for c, t in zip(columns([row]), row_texts(row), strict=True)}
 
 
-def _row(camera, stop, range_m, mean, sem, model, **kw) -> StopRow:
-    return StopRow(
-        camera,
-        stop,
-        False,
-        0,
-        10,
-        range_m,
-        range_m,
-        100,
-        True,
-        mean,
-        3.0,
-        model,
-        False,
-        snr_sem=sem,
-        **kw,
-    )
+def _row(camera, stop, range_m, mean, sem, model, psf_source=None, **kw) -> StopRow:
+    fields = {"camera": camera, "stop": stop, "manual": False, "t_start_ns": 0, "t_end_ns": 10}
+    fields |= {"lrf_range_m": range_m, "gps_range_m": range_m, "n_frames": 100, "complete": True}
+    fields |= {"snr_mean": mean, "snr_std": 3.0, "model_snr": model, "resolved": False}
+    return StopRow.from_fields({**fields, "snr_sem": sem, **kw}, psf_source)
 
 
 def test_console_stop_table_marks_a_resolved_short_stop():
@@ -45,17 +32,9 @@ def test_console_stop_table_marks_a_resolved_short_stop():
         "mwir",
         0,
         False,
-        0,
-        10,
-        37.0,
-        37.0,
-        20,
-        False,
-        2.47,
-        0.96,
-        {"small": 520.3},
-        resolved=True,
-        background="extent_rim+rim",
+        StopPlace(0, 10, 37.0, 37.0),
+        StopReading(20, False, 2.47, 0.96, background="extent_rim+rim"),
+        ModelAtStop({"small": 520.3}, resolved=True),
     )
     cells = _cells(row)
     assert cells["state"] == "ended short, resolved"
@@ -118,11 +97,11 @@ def test_the_table_sorts_by_a_column_s_number_not_its_text(table):
     snr = keys.index("snr_mean")
     view.sortByColumn(snr, Qt.SortOrder.DescendingOrder)
     # by the number: 380 > 150 > 57.3 > 21.5 (as text "57.3" would sort above "380")
-    assert [r.snr_mean for r in view.shown_rows()] == [380.0, 150.0, 57.3, 21.5]
+    assert [r.reading.snr_mean for r in view.shown_rows()] == [380.0, 150.0, 57.3, 21.5]
     view.sortByColumn(keys.index("ratio"), Qt.SortOrder.AscendingOrder)
-    assert [r.snr_mean / r.model_snr["expected_eq4_rim"] for r in view.shown_rows()] == sorted(
-        r.snr_mean / r.model_snr["expected_eq4_rim"] for r in rows
-    )
+    assert [
+        r.reading.snr_mean / r.model.model_snr["expected_eq4_rim"] for r in view.shown_rows()
+    ] == sorted(r.reading.snr_mean / r.model.model_snr["expected_eq4_rim"] for r in rows)
 
 
 def test_copy_puts_the_report_csv_of_the_rows_shown_on_the_clipboard(table):
@@ -137,9 +116,11 @@ def test_copy_puts_the_report_csv_of_the_rows_shown_on_the_clipboard(table):
     want = {(r.camera, r.stop): r for r in rows}
     for p in parsed:
         r = want[(p["camera"], int(p["stop"]))]
-        assert float(p["snr_mean"]) == r.snr_mean
-        assert float(p["model_small"]) == r.model_snr["small"]
-        assert float(p["ratio_small"]) == pytest.approx(r.snr_mean / r.model_snr["small"])
+        assert float(p["snr_mean"]) == r.reading.snr_mean
+        assert float(p["model_small"]) == r.model.model_snr["small"]
+        assert float(p["ratio_small"]) == pytest.approx(
+            r.reading.snr_mean / r.model.model_snr["small"]
+        )
     view.selectRow(0)  # a selection copies only what is selected
     assert view.copy_csv() == 1
     one = list(csv.DictReader(io.StringIO(QApplication.clipboard().text())))
@@ -184,13 +165,15 @@ def test_each_row_s_ratio_is_against_the_expected_reading_of_its_own_rule(qtbot)
     seen = set()
     for i, row in enumerate(view.shown_rows()):
         index = view.proxy.index(i, ratio)
-        if row.background == "rect":
+        if row.reading.background == "rect":
             assert index.data() == "--" and index.data(Qt.ItemDataRole.BackgroundRole) is None
             continue
-        rule = "extent" if "extent_rim" in row.background.split("+") else "rim"
-        expected = row.model_snr[f"expected_eq4_{rule}"]
-        assert index.data() == f"{row.snr_mean / expected:.2f} {rule}", row
-        verdict = _verdict(row.snr_mean, row.snr_sem, 0.9 * expected, 1.1 * expected)
+        rule = "extent" if "extent_rim" in row.reading.background.split("+") else "rim"
+        expected = row.model.model_snr[f"expected_eq4_{rule}"]
+        assert index.data() == f"{row.reading.snr_mean / expected:.2f} {rule}", row
+        verdict = _verdict(
+            row.reading.snr_mean, row.reading.snr_sem, 0.9 * expected, 1.1 * expected
+        )
         fill, ink = verdicts[verdict]
         assert index.data(Qt.ItemDataRole.BackgroundRole).color().name() == fill, row
         assert index.data(Qt.ItemDataRole.ForegroundRole).color().name() == ink, row

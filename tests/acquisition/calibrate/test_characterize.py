@@ -475,7 +475,7 @@ def _stops_json(session) -> str:
     from snrmon.acquisition.replay.batch import replay_session
 
     rows = replay_session(session).stops
-    return json.dumps([r.stop for r in rows if r.camera == "mwir" and r.lrf_range_m < 45])
+    return json.dumps([r.stop for r in rows if r.camera == "mwir" and r.place.lrf_range_m < 45])
 
 
 def test_at_rest_frames_are_where_range_and_size_are_steady():

@@ -101,7 +101,7 @@ def test_the_open_stop_s_progress_is_its_row_s_frame_count(hover):
     p = engine.cameras["mwir"].status().stop
     (row,) = engine.stops()
     assert p is not None and p.open and p.manual and p.stop == row.stop == 0
-    assert p.n_frames == row.n_frames == 100 and p.n_wanted == 100 and p.complete
+    assert p.n_frames == row.reading.n_frames == 100 and p.n_wanted == 100 and p.complete
 
 
 def test_without_a_model_there_is_no_expected_reading():

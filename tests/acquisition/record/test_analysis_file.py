@@ -33,7 +33,9 @@ def _psf(path, capsys, *extra) -> dict:
 
 def _replayed_psf(path) -> set:
     rows = replay_session(path, fast=True, predictor=ModelPredictor({"mwir": "mwir"}, "uav1")).stops
-    return {None if r.model_psf is None else round(r.model_psf.sigma_px, 9) for r in rows}
+    return {
+        None if r.model.model_psf is None else round(r.model.model_psf.sigma_px, 9) for r in rows
+    }
 
 
 def test_psf_keeps_the_recording_raw_and_its_fit_beside_it(far_stops, tmp_path, capsys):

@@ -82,7 +82,7 @@ def test_replay_after_forced_recorder_drops_reproduces_every_recorded_frame(live
     path = tmp_path / "gappy.h5"
     # A backlog of three frames: every stall of the disk costs frames.
     session.start_recording(path, max_backlog_bytes=3 * H * W * 2)
-    wait_until(lambda: any(r.complete for r in session.stops()), 20.0, "a complete stop")
+    wait_until(lambda: any(r.reading.complete for r in session.stops()), 20.0, "a complete stop")
     measured = session.pipelines["cam"].stages.frames
     wait_until(
         lambda: session.pipelines["cam"].stages.frames >= measured + 120,
@@ -113,13 +113,13 @@ def test_replay_after_forced_recorder_drops_reproduces_every_recorded_frame(live
     # The same through the command: strict JSON, the drops with their reason, nothing made up.
     slow = replay_session(path)  # whole frames through h5py: the same numbers
     assert slow.cameras["cam"].tally.identical == t.identical
-    assert [r.snr_mean for r in slow.stops] == [r.snr_mean for r in replay.stops]
+    assert [r.reading.snr_mean for r in slow.stops] == [r.reading.snr_mean for r in replay.stops]
 
     # The stop's background 3D noise from the recorded measurements (snrmon noise --stop) is
     # the one the report takes from the replay's, and it is of the file's own frames there.
     row = replay.stops[0]
-    ms = [m for m in t.measurements if m.t_host_ns >= row.t_start_ns]
-    ms = [m for m in ms if row.t_end_ns is None or m.t_host_ns < row.t_end_ns]
+    ms = [m for m in t.measurements if m.t_host_ns >= row.place.t_start_ns]
+    ms = [m for m in ms if row.place.t_end_ns is None or m.t_host_ns < row.place.t_end_ns]
     with open_session(path) as f:
         rec = f.cameras["cam"]
         got = stop_noise(

@@ -89,8 +89,12 @@ def test_a_replay_applies_the_recorded_readings_and_the_report_uses_them(tmp_pat
     assert len(rows) == 2
     for row in rows:
         want = live("mwir", row.range_m)
-        assert row.model_snr["small_corrected"] == pytest.approx(want["small_corrected"], rel=1e-9)
-        assert row.model_snr["small_corrected"] < plain("mwir", row.range_m)["small_corrected"]
+        assert row.model.model_snr["small_corrected"] == pytest.approx(
+            want["small_corrected"], rel=1e-9
+        )
+        assert (
+            row.model.model_snr["small_corrected"] < plain("mwir", row.range_m)["small_corrected"]
+        )
     # the report: its curves, budget and detection ranges through the same air
     first, last = session_weather(sim.path)
     assert first is None and last == HUMID

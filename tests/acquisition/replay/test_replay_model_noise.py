@@ -58,7 +58,7 @@ def _row(session: Session, stop: int):
 
 def _filled(session: Session, stop: int) -> bool:
     row = _row(session, stop)
-    return row is not None and row.n_frames >= 10 and row.lrf_range_m is not None
+    return row is not None and row.reading.n_frames >= 10 and row.place.lrf_range_m is not None
 
 
 def _final(session: Session, stop: int) -> bool:
@@ -100,8 +100,8 @@ def test_a_replay_applies_the_recorded_noise_where_the_live_session_did(live):
 
     # Eq. 3: the stop after the change reads the model's SNR times (the model's noise) /
     # (the measured noise in electrons: sqrt(7.5^2 + 2^2) DN x the preset's gain)
-    before, after = (r.model_snr for r in live_rows)
-    assert all(r.lrf_range_m == pytest.approx(RANGE_M, abs=0.01) for r in live_rows)
+    before, after = (r.model.model_snr for r in live_rows)
+    assert all(r.place.lrf_range_m == pytest.approx(RANGE_M, abs=0.01) for r in live_rows)
     gain = load_sensor("mwir").gain_e_per_dn
     model_noise_e = predict(
         load_sensor("mwir"), load_target("uav1"), [RANGE_M], band=False, expected=False
@@ -113,9 +113,9 @@ def test_a_replay_applies_the_recorded_noise_where_the_live_session_did(live):
     replay = replay_session(path, fast=True, predictor=_predictor())
     replayed = {r.stop: r for r in replay.stops if r.camera == "mwir"}
     for live_row in live_rows:
-        got = replayed[live_row.stop].model_snr
-        assert set(got) == set(live_row.model_snr)
-        for name, value in live_row.model_snr.items():
+        got = replayed[live_row.stop].model.model_snr
+        assert set(got) == set(live_row.model.model_snr)
+        for name, value in live_row.model.model_snr.items():
             assert got[name] == pytest.approx(value, rel=1e-12), (live_row.stop, name)
 
 

@@ -78,10 +78,10 @@ def test_a_replay_applies_the_recorded_psf(tmp_path):
     rows = [r for r in replay.stops if r.camera == "mwir"]
     assert len(rows) == 2
     for row in rows:
-        assert row.model_psf is not None and row.model_psf.sigma_px == 0.57
+        assert row.model.model_psf is not None and row.model.model_psf.sigma_px == 0.57
         want = live("mwir", row.range_m)
         for name in ("small_corrected", "expected_eq4_rim", "expected_eq4_extent"):
-            assert row.model_snr[name] == pytest.approx(want[name], rel=1e-9), name
+            assert row.model.model_snr[name] == pytest.approx(want[name], rel=1e-9), name
 
 
 @pytest.mark.parametrize("written_by", ["snrmon hil before", "snrmon hil now", "snrmon psf"])
@@ -108,7 +108,7 @@ def test_the_console_s_replay_applies_the_flight_s_psf_fit(tmp_path, written_by)
         rows = [r for r in player.stop_table.rows() if r.camera == "mwir"]
     assert [round(r.range_m) for r in rows] == [393, 508]
     for row in rows:
-        assert row.model_psf is not None and row.model_psf.sigma_px == 0.57
+        assert row.model.model_psf is not None and row.model.model_psf.sigma_px == 0.57
         at = want("mwir", row.range_m)
         for name in ("small_corrected", "expected_eq4_rim", "expected_eq4_extent"):
-            assert row.model_snr[name] == pytest.approx(at[name], rel=1e-9), name
+            assert row.model.model_snr[name] == pytest.approx(at[name], rel=1e-9), name

@@ -161,3 +161,28 @@ def test_replay_shows_the_recorded_gps_fix_and_its_projection(recording):
     assert want.in_view
     assert st.cameras["mwir"].gps_xy == (want.x, want.y)
     assert st.gps_range_m == pytest.approx(math.hypot(155.0, 3.0), abs=0.05)
+
+
+def test_the_replay_builds_the_model_its_config_names_and_the_one_asked_for(recording):
+    """The player builds the recorded config's model (its sensors and target), and the model an
+    analyst asks for (ModelRequest): the stop table's predictor and the reference at the
+    request's own background, which a seek (a new engine) keeps."""
+    from snrmon.acquisition.prediction import ModelRequest
+
+    path = recording[0]
+    with ReplayPlayer(path, model_from_config=True) as player:
+        first = player.predictor
+        assert first is not None and first.target.name == "uav1"  # the recorded default target
+        assert player.reference_predictor is None  # nobody asked for one
+        player.set_model(ModelRequest("uav2", background_temp_k=280.0))
+        sky, reference = player.predictor, player.reference_predictor
+        assert sky is not first and reference is not None and reference is not sky
+        assert player.stop_table.predictor is sky
+        assert sky.target.name == reference.target.name == "uav2"
+        assert sky.background_temp_k["mwir"] == reference.background_temp_k["mwir"] == 280.0
+        with pytest.raises(ValueError, match="uav9"):
+            player.set_model(ModelRequest("uav9"))  # refused: the model stays
+        assert (player.predictor, player.reference_predictor) == (sky, reference)
+        player.seek(60)
+        assert player.wait_idle(30.0)
+        assert player.stop_table.predictor is sky and player.reference_predictor is reference

@@ -115,7 +115,7 @@ def test_csv_values_match_an_independent_computation(session, data, outputs):
     _, _, rows = outputs
     header = rows[0]
     predictor = ModelPredictor({"mwir": "mwir", "lwir": "lwir"}, "uav1")
-    t_start = {(r.camera, r.stop): r.t_start_ns for r in data.flight.rows}
+    t_start = {(r.camera, r.stop): r.place.t_start_ns for r in data.flight.rows}
     for values in rows[1:]:
         row = dict(zip(header, values, strict=True))
         cam, stop = row["camera"], int(row["stop"])
@@ -151,7 +151,7 @@ def test_3d_noise_of_each_stops_background(session, data):
     assert sorted((s.stop, s.camera) for s in data.flight.noise_3d) == sorted(
         (r.stop, r.camera) for r in data.flight.rows
     )
-    start = {(r.camera, r.stop): r.t_start_ns for r in data.flight.rows}
+    start = {(r.camera, r.stop): r.place.t_start_ns for r in data.flight.rows}
     for s in data.flight.noise_3d:
         first = int(np.searchsorted(session.frame_t_ns, start[(s.camera, s.stop)]))
         assert s.frames == (first, first + 99)
@@ -182,13 +182,13 @@ def test_measured_noise_replaces_the_models_noise(data, measured):
     own = {(r.camera, r.stop): r for r in data.flight.rows}
     for row in measured.flight.rows:
         base = own[(row.camera, row.stop)]
-        assert row.snr_mean == base.snr_mean  # the measurement is the same
+        assert row.reading.snr_mean == base.reading.snr_mean  # the measurement is the same
         sensor = load_sensor(row.camera)
-        model_e = noise_breakdown(sensor, row.model_sky_temp_k).total
+        model_e = noise_breakdown(sensor, row.model.model_sky_temp_k).total
         measured_e = measured.measured_noise[row.camera].total_dn * sensor.gain_e_per_dn
         for c in CURVES:
-            assert row.model_snr[c] == pytest.approx(
-                base.model_snr[c] * model_e / measured_e, rel=1e-3
+            assert row.model.model_snr[c] == pytest.approx(
+                base.model.model_snr[c] * model_e / measured_e, rel=1e-3
             )
     for cam, curves in measured.model.curves.items():
         sensor = load_sensor(cam)
@@ -213,9 +213,9 @@ def test_fig6_series_are_the_stop_summary_frames(session, data):
     for s in data.flight.series:
         row = by_key[(s.camera, s.stop)]
         assert len(s.snr) == len(s.peak) == len(s.bg_mean) == len(s.bg_std) == 100
-        assert s.snr.mean() == pytest.approx(row.snr_mean, rel=1e-12)
+        assert s.snr.mean() == pytest.approx(row.reading.snr_mean, rel=1e-12)
         assert np.all(np.diff(s.t_s) > 0) and s.t_s[0] >= 0
-        first = int(np.searchsorted(session.frame_t_ns, row.t_start_ns))
+        first = int(np.searchsorted(session.frame_t_ns, row.place.t_start_ns))
         expect = np.array([_eq4(f) for f in session.frames[s.camera][first : first + 100]])
         np.testing.assert_allclose(s.peak, expect[:, 0], rtol=0, atol=0)
         np.testing.assert_allclose(s.bg_mean, expect[:, 1], rtol=1e-12)

@@ -91,7 +91,7 @@ def test_a_frame_measured_across_the_recording_start_is_in_the_replayed_row(
     session.stop()
     live_rows = session.stops()
     (row,) = live_rows
-    assert row.complete and row.final
+    assert row.reading.complete and row.final
     # The held frame is among the row's frames (the stop began before it).
     replay = replay_session(path, fast=True)
     t = replay.cameras["cam"].tally

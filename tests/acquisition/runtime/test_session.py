@@ -58,7 +58,7 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     wait_until(lambda: session.status().cameras["cam"].roi_xy is not None, 10.0, "the click")
     path = tmp_path / "session.h5"
     session.start_recording(path)
-    wait_until(lambda: any(r.complete for r in session.stops()), 20.0, "a complete stop")
+    wait_until(lambda: any(r.reading.complete for r in session.stops()), 20.0, "a complete stop")
     # Replay rebuilds the stop from the recorded range stream alone, which starts when the
     # recording does, a little after the live detector's first reading: record one more second
     # so that the replayed stop also has its 100 frames.
@@ -70,11 +70,11 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
 
     # The peak is the spot's pixel and the SNR is the spot's amplitude over the noise.
     assert (cam.last.result.peak_x, cam.last.result.peak_y) == (64, 41)
-    row = next(r for r in session.stops() if r.complete)
-    assert row.n_frames == 100
-    assert row.lrf_range_m == pytest.approx(150.0, abs=0.01)
+    row = next(r for r in session.stops() if r.reading.complete)
+    assert row.reading.n_frames == 100
+    assert row.place.lrf_range_m == pytest.approx(150.0, abs=0.01)
     expected = (AMPLITUDE_DN * math.exp(-(0.3**2 + 0.4**2) / (2 * 0.7**2))) / NOISE_DN
-    assert row.snr_mean == pytest.approx(expected * 1.034, rel=0.08)
+    assert row.reading.snr_mean == pytest.approx(expected * 1.034, rel=0.08)
     # GPS slant range from the site: 1250-1200 m up, ~150 m horizontally.
     assert st.gps_range_m == pytest.approx(math.hypot(50.0, 147.8), rel=0.02)
 
@@ -109,7 +109,7 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     # The live stop table is part of the record: the completed row, as the console showed it.
     (summary_event,) = [e for e in f.event_list() if e["kind"] == "stop_summary"]
     assert summary_event["payload"]["n_frames"] == 100
-    assert summary_event["payload"]["snr_mean"] == row.snr_mean
+    assert summary_event["payload"]["snr_mean"] == row.reading.snr_mean
     f.close()
 
     # Replay through the same measurement reproduces every recorded per-frame SNR exactly,
@@ -118,7 +118,10 @@ def test_session_measures_every_frame_detects_the_stop_and_records(rig):
     cam_replay = replay.cameras["cam"]
     assert cam_replay.compared >= 100
     assert cam_replay.identical == cam_replay.compared
-    assert any(r.complete and r.lrf_range_m == pytest.approx(150.0, abs=0.01) for r in replay.stops)
+    assert any(
+        r.reading.complete and r.place.lrf_range_m == pytest.approx(150.0, abs=0.01)
+        for r in replay.stops
+    )
     # --fast reads only the square around the track: the same numbers, frame for frame.
     fast = replay_session(path, fast=True)
     assert fast.cameras["cam"].compared == cam_replay.compared

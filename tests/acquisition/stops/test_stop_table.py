@@ -46,15 +46,15 @@ def table():
 
 def test_final_row_keeps_the_100_frames_it_summarised(table):
     (row,) = table.rows()
-    assert row.complete and row.n_frames == 100
+    assert row.reading.complete and row.reading.n_frames == 100
     run = table.runs()[(0, "mwir")]
     times = [t for t, _ in run]
     assert times[0] == table.t0 + 5 * FRAME_NS  # the first valid frame after the lost ones
     assert np.diff(times).tolist() == [FRAME_NS] * 99
     values = np.array([m.snr for _, m in run])
     np.testing.assert_array_equal(values, table.snrs[5:105])
-    assert row.snr_mean == pytest.approx(values.mean(), rel=1e-12)
-    assert row.snr_std == pytest.approx(values.std(ddof=1), rel=1e-12)
+    assert row.reading.snr_mean == pytest.approx(values.mean(), rel=1e-12)
+    assert row.reading.snr_std == pytest.approx(values.std(ddof=1), rel=1e-12)
 
 
 def test_live_report_is_the_table_as_measured(table, tmp_path):
@@ -62,11 +62,13 @@ def test_live_report_is_the_table_as_measured(table, tmp_path):
     (row,) = data.flight.rows
     (series,) = data.flight.series
     assert data.replay_seconds is None and data.path.name == "demo (live)"
-    assert series.snr.mean() == pytest.approx(row.snr_mean, rel=1e-12)
+    assert series.snr.mean() == pytest.approx(row.reading.snr_mean, rel=1e-12)
     np.testing.assert_allclose(series.t_s, (np.arange(5, 105) * FRAME_NS) / 1e9)
     np.testing.assert_allclose((series.peak - series.bg_mean) / series.bg_std, series.snr)
     (csv_row,) = data.csv_rows
-    assert csv_row["ratio_small"] == pytest.approx(row.snr_mean / row.model_snr["small"])
+    assert csv_row["ratio_small"] == pytest.approx(
+        row.reading.snr_mean / row.model.model_snr["small"]
+    )
     assert data.flight.points["mwir"].range_m.tolist() == [336.0]
     out = render_report(data, tmp_path / "live.pdf")
     assert out.stat().st_size > 10_000
@@ -83,18 +85,18 @@ def test_run_of_a_row_before_and_after_it_is_final():
     for i in range(40):
         table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 50.0))
     (row,) = table.rows()
-    assert not row.complete and row.n_frames == 40
+    assert not row.reading.complete and row.reading.n_frames == 40
     open_run = table.run_of(0, "mwir")
     assert [t for t, _ in open_run] == [t0 + i * FRAME_NS for i in range(40)]
     for i in range(40, 150):
         table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 50.0))
     (row,) = table.rows()
-    assert row.complete and not row.final
+    assert row.reading.complete and not row.final
     assert len(table.run_of(0, "mwir")) == 100
     assert table.runs() == {}  # not final while the stop is open
     detector.end_stop(t0 + 150 * FRAME_NS)
     (final,) = table.tick("mwir", t0 + 150 * FRAME_NS)
-    assert final.final and final.snr_mean == row.snr_mean
+    assert final.final and final.reading.snr_mean == row.reading.snr_mean
     assert table.run_of(0, "mwir") == table.runs()[(0, "mwir")]
     assert len(table.run_of(0, "mwir")) == 100
     assert table.run_of(1, "mwir") == [] and table.run_of(0, "lwir") == []
@@ -113,14 +115,14 @@ def test_a_row_counts_only_frames_before_an_end_known_late():
     for i in range(130):  # 60 valid, 1 lost, 69 valid: the end will fall at frame 90
         flags = {"lost"} if i == 60 else set()
         table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 40.0 + i, flags))
-    assert not table.rows()[0].complete  # 69 consecutive after the loss: not 100
+    assert not table.rows()[0].reading.complete  # 69 consecutive after the loss: not 100
     detector.end_stop(t0 + 90 * FRAME_NS)
     assert finals == []  # the end is known, the camera has not been seen past it since
     (row,) = table.tick("mwir", t0 + 130 * FRAME_NS)
-    assert finals == [row] and row.final and not row.complete
+    assert finals == [row] and row.final and not row.reading.complete
     run = table.run_of(0, "mwir")
     assert [t for t, _ in run] == [t0 + i * FRAME_NS for i in range(60)]  # 60 > 29 before 90
-    assert row.snr_mean == pytest.approx(np.mean([40.0 + i for i in range(60)]), rel=1e-12)
+    assert row.reading.snr_mean == pytest.approx(np.mean([40.0 + i for i in range(60)]), rel=1e-12)
 
 
 def _one_stop(predictor, range_m: float, snr: float, *, seed: int):
@@ -146,14 +148,14 @@ def test_the_reports_curves_are_drawn_at_the_sky_the_rows_were_compared_with():
     own = predictor.curves_background_k["mwir"]
     predictor.set_background("mwir", 280.0, wait=True)
     table, row = _one_stop(predictor, 336.0, 40.0, seed=5)
-    assert own == pytest.approx(288.15) and row.model_sky_temp_k == pytest.approx(280.0)
-    assert row.model_psf_source == "preset: PVF 0.082 (sensor mwir)"  # no PSF fitted yet
+    assert own == pytest.approx(288.15) and row.model.model_sky_temp_k == pytest.approx(280.0)
+    assert row.model.psf_source == "preset: PVF 0.082 (sensor mwir)"  # no PSF fitted yet
     assert row.model_psf_label == "preset PSF"
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
     curves = data.model.curves["mwir"]
     assert curves.background_temp_k == pytest.approx(280.0)
     at_stop = np.interp(np.log(336.0), np.log(curves.ranges_m), curves.snr["small"])
-    assert at_stop == pytest.approx(row.model_snr["small"], rel=0.01)
+    assert at_stop == pytest.approx(row.model.model_snr["small"], rel=0.01)
 
 
 def test_the_reports_corrected_curves_use_the_psf_the_rows_were_compared_with():
@@ -171,18 +173,18 @@ def test_the_reports_corrected_curves_use_the_psf_the_rows_were_compared_with():
     preset = predictor("mwir", 393.0)["small_corrected"]
     predictor.set_psf("mwir", measured, wait=True)
     table, row = _one_stop(predictor, 393.0, 60.0, seed=6)
-    assert row.model_psf is measured
+    assert row.model.model_psf is measured
     # which PSF, in words, kept by the row but not recorded: the stop_summary payload (and so
     # the recording, the CSV and the campaign's Parquet) holds the fields it held before
-    assert row.model_psf_source == "fitted: sigma 0.57 px from this flight's stops"
+    assert row.model.psf_source == "fitted: sigma 0.57 px from this flight's stops"
     assert row.model_psf_label == "fitted PSF"
     assert not any("source" in k or "label" in k for k in row_payload(row))
-    assert row.model_snr["small_corrected"] > 1.4 * preset
+    assert row.model.model_snr["small_corrected"] > 1.4 * preset
     data = live_report_data(table, {"mwir": "mwir"}, "uav1", name="demo (live)", seconds=2.0)
     curves = data.model.curves["mwir"]
     for name in ("small_corrected", "expected_eq4_rim", "expected_eq4_extent"):
         at_stop = np.interp(np.log(393.0), np.log(curves.ranges_m), curves.snr[name])
-        assert at_stop == pytest.approx(row.model_snr[name], rel=0.01), name
+        assert at_stop == pytest.approx(row.model.model_snr[name], rel=0.01), name
     assert "Airy x Gaussian blur 0.57 px" in curves.psf_label
 
 
@@ -209,7 +211,7 @@ def test_a_row_waits_for_its_stops_own_expected_reading_and_is_held_to_it():
     for i in range(110):
         table.add("mwir", t0 + i * FRAME_NS, _measure(rng, 44.0))
     (shown,) = table.rows()
-    cell = shown.model_snr["expected_eq4_rim"]
+    cell = shown.model.model_snr["expected_eq4_rim"]
     assert not shown.final and shown.expected_eq4 == cell != 40.0
     (shown,) = table.rows()
     assert not shown.final and shown.expected_eq4 == 40.0
@@ -218,7 +220,7 @@ def test_a_row_waits_for_its_stops_own_expected_reading_and_is_held_to_it():
     (row,) = table.tick("mwir", t0 + 111 * FRAME_NS)
     assert asked == [(0, "mwir", 451.0, 100, False)] * 4
     assert row.final and row.expected_eq4_rule == "rim"
-    assert row.model_snr["expected_eq4_rim"] == cell and row.expected_eq4 == 40.0
+    assert row.model.model_snr["expected_eq4_rim"] == cell and row.expected_eq4 == 40.0
     assert row.agreement.expected == 40.0
-    assert row.agreement.ratio == pytest.approx(row.snr_mean / 40.0, rel=1e-12)
+    assert row.agreement.ratio == pytest.approx(row.reading.snr_mean / 40.0, rel=1e-12)
     assert row.agreement.lower == row.agreement.upper == 40.0  # no band given: the reading
