@@ -147,7 +147,7 @@ def _assert_rows_read_the_live_ones(rows, recorded: dict, live: list[dict]) -> N
     for key, (payload, at_stop) in fitted.items():
         row = by_key[key]
         assert row.final, key
-        assert {k: row.model_snr.get(k) for k in at_stop} == at_stop, key
+        assert {k: row.model.model_snr.get(k) for k in at_stop} == at_stop, key
         shown = next(
             s["live_over_model"]
             for s in live

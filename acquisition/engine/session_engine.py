@@ -99,7 +99,6 @@ class SessionEngine:
         series_length: int = 2000,
     ) -> None:
         self.config = config
-        self.track = track
         self.follow_sky = follow_sky
         self.sink: EngineSink | None = None
         self._lock = threading.RLock()
