@@ -105,15 +105,23 @@ class ModelRequest:
     weather: Weather | None = None
     measured_noise: tuple[tuple[str, MeasuredNoise], ...] = ()
 
-    def predictor(self, sensors: dict[str, str]) -> ModelPredictor:
-        """The predictor of the request for ``sensors`` ({camera: sensor preset}); a ValueError
-        for a request the model refuses (an unknown target)."""
+    def predictor(
+        self, sensors: dict[str, str], *, footprint: str = "square", asynchronous: bool = False
+    ) -> ModelPredictor:
+        """The predictor of the request for ``sensors`` ({camera: sensor preset}), with the
+        session's ``footprint`` (what the request does not change) and ``asynchronous`` as
+        :func:`config_predictor` takes it; a ValueError for a request the model refuses (an
+        unknown target)."""
+        options = session_model_options(self.weather)
+        if footprint != "square":
+            options["footprint"] = footprint
         return ModelPredictor(
             sensors,
             self.target,
             background_temp_k=self.background_temp_k,
             measured_noise=dict(self.measured_noise),
-            **session_model_options(self.weather),
+            asynchronous=asynchronous,
+            **options,
         )
 
 

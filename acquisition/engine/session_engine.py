@@ -163,9 +163,14 @@ class SessionEngine:
         the session started with). A ValueError from the model (an unknown target) leaves the
         current ones in place."""
         sensors = {c.name: c.sensor for c in self.config.cameras}
-        reference = request.predictor(sensors)
+        footprint = self.config.footprint  # the session's, which the request leaves as it is
+        reference = request.predictor(sensors, footprint=footprint)
         if not reference_only:
-            self.predictor = request.predictor(sensors)
+            # as the one it replaces computes a new sky's curves: in the worker process live
+            asynchronous = bool(getattr(self.predictor, "asynchronous", False))
+            self.predictor = request.predictor(
+                sensors, footprint=footprint, asynchronous=asynchronous
+            )
         self.reference_predictor = reference
 
     def set_background(self, camera: str, temp_k: float | None) -> None:

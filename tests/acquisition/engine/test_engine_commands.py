@@ -9,6 +9,8 @@ intermittent replay difference at a 37 m stop). The cue is applied after the cli
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -47,3 +49,37 @@ def test_a_cue_without_a_track_is_not_kept_for_a_later_click():
     engine.process(RingFrame(_frame(2), 1, 1, 10**12 + 16_666_667, None, engine.name))
     assert engine.measurer.tracker is not None
     assert engine.measurer.tracker.last_cue is None
+
+
+def test_the_operators_model_keeps_the_sessions_footprint_and_its_worker(tmp_path):
+    """The console's model options (a ModelRequest) change the target, background and met
+    readings (here the background); the session's footprint (its config's ``outline``) stays the model's, and a live
+    session's predictor, computing a new sky's curves in the worker process, is replaced by
+    one that does the same (the measurement threads never wait on the model)."""
+    from snrmon.acquisition.config import session_config_from_dict
+    from snrmon.acquisition.engine.session_engine import SessionEngine
+    from snrmon.acquisition.prediction import ModelRequest, config_predictor
+
+    # a target file with its outline, as ``snrmon characterize --target-out`` writes one
+    preset = (Path(__file__).parents[3] / "model" / "presets" / "uav1.toml").read_text()
+    target = tmp_path / "uav1-outlined.toml"
+    target.write_text(
+        preset.replace('name = "uav1"', 'name = "uav1-outlined"')
+        + 'outline = ["010", "111", "010"]\noutline_pixel_m = 0.06\n'
+    )
+    config = session_config_from_dict(
+        {
+            "target": str(target),
+            "footprint": "outline",
+            "cameras": {"mwir": {"source": "shm", "address": "x"}},
+        }
+    )
+    live = config_predictor(config, asynchronous=True)
+    engine = SessionEngine(config, {"mwir": (96, 128)}, predictor=live)
+    engine.set_model(ModelRequest(str(target), background_temp_k=280.0))
+    new, reference = engine.predictor, engine.reference_predictor
+    assert new is not live and new.target.name == "uav1-outlined"
+    assert new.options_in_force("mwir")["footprint"] == "outline"
+    assert reference.options_in_force("mwir")["footprint"] == "outline"
+    assert new.asynchronous and not reference.asynchronous
+    assert new.background_temp_k["mwir"] == 280.0
