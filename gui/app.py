@@ -13,6 +13,7 @@ import threading
 from pathlib import Path
 
 from PySide6.QtCore import QEventLoop, QSettings, QTimer, qInstallMessageHandler
+from PySide6.QtGui import QPixmapCache
 from PySide6.QtWidgets import QApplication
 
 from snrmon.acquisition.runtime.session import Session
@@ -35,6 +36,12 @@ HEADLESS_SIZE = (1920, 1080)
 """The window's size offscreen, where there is no screen to fill (``--size`` changes it)."""
 
 OFFSCREEN_FRAME_INTERVAL_MS = 250
+# Qt's pixmap cache holds every item drawn as a cached pixmap (the plots' axes with their grids,
+# each the size of its plot; the range plots' model curves): its default 10 MB is less than a
+# 1920x1080 console's, so those were evicted and drawn afresh at each repaint (a range plot's
+# repaint 26-30 ms of the GUI thread's CPU, its axes redrawn at every one of them; 7.9 ms and
+# none with room). Room for this many screens' worth of 32-bit pixels:
+PIXMAP_CACHE_SCREENS = 12
 """How often an offscreen (headless) console shows the newest frames: the screenshot at the end
 still has the last ones; the status, table and status file refresh as on a screen."""
 
@@ -52,7 +59,17 @@ def console_application(*, headless: bool = False) -> QApplication:
         app.setApplicationName("console")
     configure_pyqtgraph()
     apply_dark_theme(app)
+    QPixmapCache.setCacheLimit(pixmap_cache_kb(app))
     return app
+
+
+def pixmap_cache_kb(app: QApplication) -> int:
+    """The pixmap cache's size (kB) for the console on ``app``'s primary screen:
+    :data:`PIXMAP_CACHE_SCREENS` of its 32-bit pixels, never under Qt's default."""
+    screen = app.primaryScreen()
+    size = screen.size() if screen is not None else None
+    pixels = size.width() * size.height() if size is not None else 0
+    return max(QPixmapCache.cacheLimit(), PIXMAP_CACHE_SCREENS * pixels * 4 // 1024)
 
 
 def run_console(

@@ -18,7 +18,10 @@ unresolved stops against the expected Eq. (4) reading, as the stop rows carry it
 
 The console calls :meth:`RangePlot.show_live` once a second, with the stop table; an unchanged
 live point or stop list is not set again (each ``setData`` repaints the whole plot, ~7 ms with
-its axes), and the axes are cached as pixmaps (:func:`snrmon.gui.strip_chart.cache_axes`).
+its axes), and the axes are cached as pixmaps (:func:`snrmon.gui.strip_chart.cache_axes`), and
+so are the model's curves and bands (:func:`cache_curve`): they change only with the model, and
+replaying their paths (a few km of curve, the bands' fills) was most of the plot's repaint when a
+stop or the live point moved.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QColor, QFont
-from PySide6.QtWidgets import QCheckBox, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QCheckBox, QGraphicsItem, QVBoxLayout, QWidget
 
 from snrmon.acquisition.report.comparison import stop_rows_fit
 from snrmon.acquisition.stops.table import StopRow
@@ -55,6 +58,15 @@ BAND_WORDS = {
     EXPECTED_BANDS: "expected Eq. (4): model uncertainty",
     CURVE_BANDS: "corrected curves: model uncertainty",
 }
+
+
+def cache_curve(item: pg.GraphicsObject) -> None:
+    """Keep ``item``'s drawing as a pixmap of the screen's pixels: a repaint of the plot for
+    its stops or live point then blits it; a change of the view's range or of the item redraws
+    it once. A data item paints nothing itself: its curve and symbols are its children, each
+    cached (Qt caches an item's own drawing, not its children's)."""
+    for part in (item, *item.childItems()):
+        part.setCacheMode(QGraphicsItem.CacheMode.DeviceCoordinateCache)
 
 
 def x_span_m(ranges_m: Sequence[float]) -> float:
@@ -283,6 +295,7 @@ class RangePlot(QWidget):
                 fill = pg.FillBetweenItem(lo, hi, brush=pg.mkBrush(c))
                 for part in (fill, lo, hi):
                     self.plot.addItem(part)
+                    cache_curve(part)
                 self.curve_items[name + " low"] = lo
                 self.curve_items[name + " high"] = hi
                 self.curve_items[name] = fill
@@ -302,6 +315,7 @@ class RangePlot(QWidget):
                 if not main:
                     p = pg.mkPen(style.colour, width=1.0, style=Qt.PenStyle.DotLine)
                 item = self.plot.plot(arrays[0], arrays[1], pen=p)
+                cache_curve(item)
                 self.curve_items[name] = item
                 if main:
                     self.legend.add(

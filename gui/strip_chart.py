@@ -13,7 +13,11 @@ stroked as a circle: 0.7 of a chart's 3.7 ms paint); the band is one closed poly
 FillBetweenItem rebuilds two paths point by point, ~10 ms); the running mean and its band, smooth
 from frame to frame, have at most a vertex per pixel column of the plot (the 2-px mean line of
 1800 frames was 1.2 ms of the paint); and the axes, whose text and grid do not change when only
-the points move, are cached as pixmaps.
+the points move, are cached as pixmaps. The y range is the chart's own (:func:`held_y_range`), not
+pyqtgraph's auto-range: fitted afresh to every update, it moved at each one, and each move
+redrew the left axis's text and grid and ran the auto-range over every item (the chart's paint
+was up to 10 ms of the GUI thread's CPU at the 99th percentile, the console's longest but the
+range plot's); held while the data stay well inside it, the axis stays a cached pixmap.
 """
 
 from __future__ import annotations
@@ -32,6 +36,28 @@ from snrmon.gui.model_curves import curve_label
 from snrmon.gui.plot_legend import PlotLegend, sample_icon
 
 WINDOW_S = 30.0
+Y_PAD = 0.1  # of the data's span, above and below, when the y range is fitted again
+Y_FILL_MIN = 0.5  # the data's least share of the y range before it is fitted again
+
+
+def held_y_range(
+    shown: tuple[float, float] | None, lo: float, hi: float
+) -> tuple[float, float] | None:
+    """The y range to show data spanning ``lo`` to ``hi``: ``shown`` while it holds them with
+    a margin and they fill at least :data:`Y_FILL_MIN` of it, else the data padded by
+    :data:`Y_PAD` of their span each side, its ends rounded outwards to a tenth of the
+    span's decade (so that it changes seldom, and to round numbers); None to keep ``shown``."""
+    span = max(hi - lo, 1e-6 * max(abs(lo), abs(hi)), 1e-9)
+    if shown is not None:
+        r0, r1 = shown
+        margin = 0.5 * Y_PAD * span
+        if r0 <= lo - margin and hi + margin <= r1 and span >= Y_FILL_MIN * (r1 - r0):
+            return None
+    step = 10.0 ** math.floor(math.log10(span)) / 10.0
+    return (
+        math.floor((lo - Y_PAD * span) / step) * step,
+        math.ceil((hi + Y_PAD * span) / step) * step,
+    )
 
 
 def cache_axes(plot: pg.PlotWidget) -> None:
@@ -132,6 +158,8 @@ class StripChart(QWidget):
         self.mean_curve = self.plot.plot()
         cache_axes(self.plot)
         self._model_shown: tuple[str, float] | None = None
+        self._data_y: tuple[float, float] | None = None  # the points' and the band's extent
+        self._y_shown: tuple[float, float] | None = None
         # The model's reading as data across the window (not an InfiniteLine): the y range
         # always takes it in, so the line is never off the plot, and it needs no label on it.
         self.model_line = self.plot.plot([], [])
@@ -193,6 +221,8 @@ class StripChart(QWidget):
             self.mean_curve.setData([], [])
             self.band.setData([], [])
             self.points_drawn = 0
+            self._data_y = None
+            self._fit_y()
             return
         t_s = (series[:, 0] - now_ns) / 1e9
         keep = t_s >= -WINDOW_S
@@ -207,6 +237,25 @@ class StripChart(QWidget):
             np.concatenate([t_b, t_b[::-1]]), np.concatenate([m_b - s_b, (m_b + s_b)[::-1]])
         )
         self.points_drawn = int(ok.sum())
+        ys = [snr[ok], m_b - s_b, m_b + s_b]
+        ys = [y for y in ys if len(y)]
+        self._data_y = (
+            (float(min(y.min() for y in ys)), float(max(y.max() for y in ys))) if ys else None
+        )
+        self._fit_y()
+
+    def _fit_y(self) -> None:
+        """Show the points, the band and the model's line (:func:`held_y_range`)."""
+        lo_hi = [v for v in (self._data_y,) if v is not None]
+        if self._model_shown is not None:
+            lo_hi.append((self._model_shown[1], self._model_shown[1]))
+        if not lo_hi:
+            return
+        lo, hi = min(v[0] for v in lo_hi), max(v[1] for v in lo_hi)
+        fitted = held_y_range(self._y_shown, lo, hi)
+        if fitted is not None:
+            self._y_shown = fitted
+            self.plot.setYRange(*fitted, padding=0.0)
 
     def show_model(self, name: str, snr: float | None) -> None:
         """The model's SNR at the current range (None or NaN hides the line)."""
@@ -221,3 +270,4 @@ class StripChart(QWidget):
             self.legend.set_text("model", self._model_text())
         else:
             self.model_line.setData([], [])
+        self._fit_y()

@@ -146,10 +146,11 @@ def test_strip_chart_legend_and_model_line_lie_off_and_inside_the_data(qtbot):
     view = chart.plot.getPlotItem().getViewBox()
     for snr in (12.0, 40.0, 1.0):  # in the points, far above them, far below them
         chart.show_model("small", snr)
-        qtbot.waitUntil(lambda s=snr: view.viewRange()[1][0] < s < view.viewRange()[1][1])
+        assert view.viewRange()[1][0] < snr < view.viewRange()[1][1]  # set with the line
+        # the legend's new words are laid out by the event loop's next pass
+        qtbot.waitUntil(lambda: not text_cut(chart.legend.entries["model"]))
         assert not global_rect(chart.legend).intersects(data_rect(chart.plot))
         assert chart.legend.entries["model"].text() == f"model {snr:.1f}"
-        assert not text_cut(chart.legend.entries["model"])
 
 
 def test_range_plot_error_bars_are_the_error_of_the_mean_and_the_title_the_fit(qtbot):
@@ -281,3 +282,15 @@ def test_range_plot_log_axes_keep_the_stops_and_their_error_bars(qtbot):
     assert plot.plot.getPlotItem().getAxis("bottom").logMode
     plot.log_y.click()  # back to a linear SNR axis: plain +/- 4
     assert plot.errors.opts["top"][0] == pytest.approx(4.0)
+
+
+def test_strip_chart_y_range_is_held_while_the_data_stay_well_inside_it():
+    """The y range moves only when the data leave it or shrink to under half of it (each move
+    redraws the axis), and then takes them in with round ends."""
+    from snrmon.gui.strip_chart import held_y_range
+
+    first = held_y_range(None, 412.3, 687.9)
+    assert first == pytest.approx((380.0, 720.0))  # 10 % of the 275.6 span, to tens
+    assert held_y_range(first, 420.0, 690.0) is None  # inside, most of it: held
+    assert held_y_range(first, 420.0, 760.0) == pytest.approx((380.0, 800.0))  # above it
+    assert held_y_range(first, 500.0, 560.0) == pytest.approx((494.0, 566.0))  # a fifth of it

@@ -280,3 +280,17 @@ def test_the_status_refresh_is_spread_in_steps_and_says_when_it_is_whole(qtbot, 
     window.refresh_status()  # an action's immediate refresh is whole at once, and says so
     window.status_refreshed.disconnect(tell)
     assert len(told) == 1
+
+
+def test_the_console_s_pixmap_cache_holds_its_cached_plot_items():
+    """Qt's default 10 MB pixmap cache held less than a 1920x1080 console's cached axes and
+    curves (evicted, they were drawn afresh at each repaint): the console's application gives
+    it twelve screens of 32-bit pixels."""
+    from PySide6.QtGui import QPixmapCache
+
+    from snrmon.gui.app import PIXMAP_CACHE_SCREENS
+
+    app = console_application(headless=True)
+    size = app.primaryScreen().size()
+    screens_kb = PIXMAP_CACHE_SCREENS * size.width() * size.height() * 4 // 1024
+    assert QPixmapCache.cacheLimit() == max(screens_kb, 10240) > 10240
