@@ -53,9 +53,10 @@ def test_a_cue_without_a_track_is_not_kept_for_a_later_click():
 
 def test_the_operators_model_keeps_the_sessions_footprint_and_its_worker(tmp_path):
     """The console's model options (a ModelRequest) change the target, background and met
-    readings (here the background); the session's footprint (its config's ``outline``) stays the model's, and a live
-    session's predictor, computing a new sky's curves in the worker process, is replaced by
-    one that does the same (the measurement threads never wait on the model)."""
+    readings (here the background); the session's footprint (its config's ``outline``) stays
+    the model's, and a live session's predictor, computing a new sky's curves in the worker
+    process, is replaced by one that does the same (the measurement threads never wait on the
+    model)."""
     from snrmon.acquisition.config import session_config_from_dict
     from snrmon.acquisition.engine.session_engine import SessionEngine
     from snrmon.acquisition.prediction import ModelRequest, config_predictor
