@@ -46,13 +46,15 @@ demo: $(STAMP)
 
 # The tests run in two worker processes (pytest-xdist; each test file on one worker), the
 # cores CI has, the files with the most slow tests first (tests/conftest.py orders them;
-# --no-loadscope-reorder keeps that order). import-linter reads the checkout's snrmon/, whose links to the top folders make
-# it the whole namespace (setup.py).
+# --no-loadscope-reorder keeps that order); the 15 slowest are listed at the end, so a log shows
+# where the suite's time goes. import-linter reads the checkout's snrmon/, whose links to the top
+# folders make it the whole namespace (setup.py).
 test: $(STAMP)
 	$(BIN)/lint-imports
 	$(BIN)/mypy
 	$(BIN)/python .ci/freeze_constraints.py --check $(CONSTRAINTS)
-	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder \
+		--durations=15
 
 # The bad-input table (tests/test_bad_input_table.py) run as it is, then with two busy loops on
 # the machine (tools/under_load.py starts and stops them): the same answers both times (each

@@ -39,6 +39,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from snrmon.acquisition.replay.stack_io import open_video
 from snrmon.acquisition.track.tracker import Tracker, TrackState
 
 MARGIN_PX = 2
@@ -80,7 +81,7 @@ def clip_names(root: Path | None = None) -> list[str]:
 def load_clip(name: str, root: Path | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(frames (N, H, W) uint8, boxes (N, 4) float: x0, y0, x1, y1 zero-based, inclusive)."""
     root = root or data_root()
-    cap = cv2.VideoCapture(str(root / "videos" / f"{name}.mp4"))
+    cap = open_video(root / "videos" / f"{name}.mp4")
     frames = []
     try:
         while True:

@@ -120,11 +120,15 @@ def _is_raw(path: Path) -> bool:
     )
 
 
-def _open_video(path: Path) -> cv2.VideoCapture:
-    # FFmpeg prints its own reason ("moov atom not found") on stderr while OpenCV probes the
-    # container, and a file that is not a video must be the one line below. OpenCV reads this
-    # level once, when FFmpeg first starts (cv2.utils.logging does not reach FFmpeg): quiet
-    # ("-8") unless the user set one.
+def open_video(path: Path) -> cv2.VideoCapture:
+    """The opened video file, or a ValueError naming it; every video the product reads is
+    opened here.
+
+    FFmpeg prints its own reason ("moov atom not found") on stderr while OpenCV probes the
+    container, and a file that is not a video must be the one line below. OpenCV reads this
+    level once, when FFmpeg first starts (cv2.utils.logging does not reach FFmpeg): quiet ("-8")
+    unless the user set one. A video opened any other way first would start FFmpeg at its
+    default level, and its reasons would double every later error line of the process."""
     os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
@@ -141,7 +145,7 @@ def iter_stack(path: str | Path) -> Iterator[np.ndarray]:
     if suffix in VIDEO_SUFFIXES:
         if not path.is_file():
             raise FileNotFoundError(f"{path}: no such file")
-        cap = _open_video(path)
+        cap = open_video(path)
         try:
             while True:
                 ok, image = cap.read()
