@@ -149,11 +149,15 @@ class SessionEngine:
 
     @predictor.setter
     def predictor(self, predictor: Predictor | None) -> None:
-        """A new model (the console's options): it takes over the sky followed so far."""
-        self.sky_follower.apply_to(predictor)
-        self.stop_table.predictor = predictor
-        for camera in self.cameras.values():
-            camera.predictor = predictor
+        """A new model (the console's options): it takes over the sky followed so far. Set
+        from the console's thread while the measurement threads follow the sky: under the
+        engine's lock, as :meth:`_follow_sky`, so no sky they follow meanwhile goes to the old
+        model only."""
+        with self._lock:
+            self.sky_follower.apply_to(predictor)
+            self.stop_table.predictor = predictor
+            for camera in self.cameras.values():
+                camera.predictor = predictor
 
     def set_model(self, request: ModelRequest, *, reference_only: bool = False) -> None:
         """The model the operator asked for, built here on the session's sensors: the stop
@@ -343,10 +347,13 @@ class SessionEngine:
         temperature (:class:`~snrmon.acquisition.engine.sky_following.SkyFollower`); a change is
         recorded at this frame."""
         sky = self.cameras[camera].sky
-        predictor = self.predictor
-        if sky is None or predictor is None:
+        if sky is None:
             return
-        temp = self.sky_follower.follow(camera, t_ns, sky, predictor)
+        with self._lock:  # the model is not swapped between reading it and following on it
+            predictor = self.predictor
+            if predictor is None:
+                return
+            temp = self.sky_follower.follow(camera, t_ns, sky, predictor)
         if temp is not None and self.sink is not None:
             self.sink.model_changed(camera, "model_background", {"temp_k": temp}, t_ns)
 

@@ -307,9 +307,8 @@ def row_fields(row: StopRow) -> dict[str, Any]:
 
 def recorded_order(names: Iterable[str]) -> list[str]:
     """``names`` in :data:`RECORDED_ORDER`, any other after them in the order given."""
-    names = list(names)
     rank = {k: i for i, k in enumerate(RECORDED_ORDER)}
-    return sorted(names, key=lambda k: (rank.get(k, len(rank)), names.index(k)))
+    return sorted(names, key=lambda k: rank.get(k, len(rank)))  # stable: the others as given
 
 
 def _at_stop(model: dict[str, float], name: str) -> dict[str, float]:
