@@ -65,6 +65,7 @@ from snrmon.acquisition.engine.status import (
     CameraStatus,
     FrameAccounting,
     ModelAtRange,
+    RunningStatistics,
 )
 from snrmon.acquisition.measure.model_agreement import model_agreement
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
@@ -366,13 +367,28 @@ class CameraEngine:
             self.noise.cube.latest,
         )
 
-    def status(self) -> CameraStatus:
+    def statistics(self) -> RunningStatistics:
+        """The statistics of the status over the frames measured so far (the running window's
+        error of the mean, the figures, the stop's progress): the work of a status, for the
+        thread that measures the frames to take (:class:`RunningStatistics`). The latency is
+        the frames' mover's to add."""
+        window = self._shown.now()[5]
+        return RunningStatistics(
+            # the error of the mean of the window the running mean was taken over
+            mean_error(window) if window is not None else NAN,
+            self.figures(),
+            self.stop_progress() if self.stop_progress is not None else None,
+        )
+
+    def status(self, statistics: RunningStatistics | None = None) -> CameraStatus:
         """The camera's status as the engine knows it: the track, its last measured frame, the
-        model there and the figures. What only the frames' mover knows (the device's health,
-        the frame accounting, the frame rate, the latency) it puts in
-        (:meth:`CameraStatus.with_frames`); until then the device is streaming and every frame
-        measured is one received while not recording."""
-        last, roi, state, gps_xy, measured, window = self._shown.now()
+        model there and the figures; its statistics those given (taken on the measuring
+        thread a moment before, :meth:`statistics`), else taken now. What only the frames'
+        mover knows (the device's health, the frame accounting, the frame rate, the latency)
+        it puts in (:meth:`CameraStatus.with_frames`); until then the device is streaming and
+        every frame measured is one received while not recording."""
+        last, roi, state, gps_xy, measured, _window = self._shown.now()
+        stats = statistics if statistics is not None else self.statistics()
         device = DeviceStatus(self.name, DeviceState.STREAMING, readings=measured)
         frames = FrameAccounting(received=measured, before_recording=measured)
         model = self._model_at(last)
@@ -380,15 +396,12 @@ class CameraEngine:
         psf_source = (
             predictor.curves_psf_source.get(self.name) if predictor is not None and model else None
         )
-        # The error of the mean of the window the running mean was taken over (a few times a
-        # second, on the reader's thread: not per frame).
-        sem = mean_error(window) if window is not None else NAN
         agreement = None
         rule = expected_eq4_rule(last.result.background) if last is not None else None
         if last is not None and model and rule is not None:
             # the reading of the rule this frame's background makes applicable (the paper's
             # 7x7 rim, or the console's rim outside the drone's extent)
-            agreement = model_agreement(last.snr_mean, sem, model, f"expected_eq4_{rule}")
+            agreement = model_agreement(last.snr_mean, stats.snr_sem, model, f"expected_eq4_{rule}")
         return CameraStatus(
             name=self.name,
             device=device,
@@ -398,9 +411,10 @@ class CameraEngine:
             track_state=state,
             last=last,
             model=ModelAtRange(model, psf_source, agreement),
-            figures=self.figures(),
-            snr_sem=sem,
-            stop=self.stop_progress() if self.stop_progress is not None else None,
+            figures=stats.figures,
+            latency=stats.latency,
+            snr_sem=stats.snr_sem,
+            stop=stats.stop,
         )
 
     def _model_at(self, last: Measurement | None) -> dict[str, float]:

@@ -177,6 +177,21 @@ class ModelAtRange:
 
 
 @dataclass(frozen=True, slots=True)
+class RunningStatistics:
+    """The parts of a camera's status that are statistics over many frames: the error of the
+    running mean, the slowly changing figures, the latest stop's progress and the frames'
+    latency. Taken on the thread that measures the frames (a live camera's measurement thread,
+    :data:`snrmon.acquisition.runtime.measurement_thread.STATISTICS_EVERY_S` apart and when
+    its frames pause), so a console asking for a status five times a second computes none of
+    them on its own thread."""
+
+    snr_sem: float
+    figures: AnalysisFigures
+    stop: StopProgress | None
+    latency: Latency = field(default_factory=Latency)
+
+
+@dataclass(frozen=True, slots=True)
 class CameraStatus:
     """One camera's live state: device health, frame accounting, the track and its last
     measured frame (the engine's own :class:`Measurement`, not a copy of its numbers), the
@@ -206,22 +221,11 @@ class CameraStatus:
     lost: tuple[LostDevice, ...] = ()
 
     def with_frames(
-        self,
-        device: DeviceStatus,
-        frames: FrameAccounting,
-        fps: float,
-        latency_ms: tuple[float, float] = (math.nan, math.nan),
+        self, device: DeviceStatus, frames: FrameAccounting, fps: float
     ) -> CameraStatus:
         """This status with what the frames' mover knows and the engine does not: the
-        device's health, the frame accounting, the frame rate (fps) and the receipt-to-SNR
-        latency's median and 99th percentile (ms)."""
-        return dataclasses.replace(
-            self,
-            device=device,
-            frames=frames,
-            fps=float(fps),
-            latency=Latency(float(latency_ms[0]), float(latency_ms[1])),
-        )
+        device's health, the frame accounting and the frame rate (fps)."""
+        return dataclasses.replace(self, device=device, frames=frames, fps=float(fps))
 
     def lost_kind(self, kind: str) -> LostDevice | None:
         """The loss of ``kind`` ("camera", "LRF", "GPS") now, or None."""

@@ -34,6 +34,7 @@ recorder's backlog (the recorder's ``backlog_wait_s``), instead of either droppi
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -48,7 +49,12 @@ from snrmon.acquisition.engine.inputs import (
     SetRoi,
     StartReference,
 )
-from snrmon.acquisition.engine.status import CameraStatus, FrameAccounting
+from snrmon.acquisition.engine.status import (
+    CameraStatus,
+    FrameAccounting,
+    Latency,
+    RunningStatistics,
+)
 from snrmon.acquisition.engine.warm_up import warm_up
 from snrmon.acquisition.runtime.click_news import ClickNews
 from snrmon.acquisition.runtime.frame_tally import DropWarnings, FrameTally
@@ -113,7 +119,12 @@ class CameraPipeline:
         # fps: not the rate the driver was asked for).
         self.delivered = DeliveredRate()
         self.measuring = MeasurementThread(
-            name, self._reader, self._process, self.recording.frame_done, self.stages
+            name,
+            self._reader,
+            self._process,
+            self.recording.frame_done,
+            self.stages,
+            statistics=self._statistics,
         )
         self._unsubscribe: Callable[[], None] | None = None
         self._warm_s: float | None = None
@@ -285,15 +296,20 @@ class CameraPipeline:
         return self.stages.summary()
 
     def status(self) -> CameraStatus:
-        """The engine's status with the device's health, the frame accounting, the frames
-        delivered per second (:attr:`delivered`) and the latency
-        (:meth:`CameraStatus.with_frames`)."""
-        return self.engine.status().with_frames(
-            self.device.status(),
-            self.accounting(),
-            self.delivered.per_s(),
-            self.stages.latency_ms(),
+        """The engine's status with the device's health, the frame accounting and the frames
+        delivered per second (:attr:`delivered`); its statistics (the error of the running
+        mean, the figures, the stop's progress, the latency) those the measurement thread took
+        last (:attr:`MeasurementThread.statistics`), so a console's status costs its thread
+        no statistics."""
+        return self.engine.status(self.measuring.statistics).with_frames(
+            self.device.status(), self.accounting(), self.delivered.per_s()
         )
+
+    def _statistics(self) -> RunningStatistics:
+        """The status's statistics now, with the latency's median and 99th percentile (ms):
+        taken on the measurement thread (:class:`MeasurementThread`)."""
+        p50, p99 = self.stages.latency_ms()
+        return dataclasses.replace(self.engine.statistics(), latency=Latency(p50, p99))
 
     # ------------------------------------------------------------------ threads
     def _on_frame(self, frame: Frame) -> None:
