@@ -57,8 +57,20 @@ class Column:
 
 
 # Where the table is narrower than its columns, these give way first (in this order), so the
-# measurement and the model stay in view; they come back when the table is wide enough.
-YIELDING = ("model_sky_temp_k", "background", "snr_std", "gps_range_m", "psf")
+# measurement, the expected readings and each row's measured / expected stay in view (on a
+# 1366 x 768 screen the ratio was past the table's right edge with the paper's four curves
+# shown); they come back when the table is wide enough.
+YIELDING = (
+    "model_sky_temp_k",
+    "background",
+    "snr_std",
+    "gps_range_m",
+    "psf",
+    "model_small",
+    "model_large",
+    "model_small_corrected",
+    "model_large_corrected",
+)
 CELL_PAD_PX = 14
 SORT_ARROW_PX = 24  # the sorted column's header draws an arrow beside its words
 

@@ -268,3 +268,39 @@ def test_rows_and_the_header_say_which_psf_the_model_used(qtbot):
     assert "7x7 rim, fitted PSF" in after and "preset PSF" not in after
     tip = header.tiles["expected"].toolTip()
     assert tip.endswith("fitted: sigma 0.57 px from this flight's stops")
+
+
+def test_a_narrow_table_hides_the_curves_before_the_measured_over_expected(qtbot):
+    """At the stop table's width on a 1366 x 768 first start (816 px) the paper's curves give
+    way, the uncorrected first, so each row's measured / expected is in view without scrolling
+    sideways; at 1600 px they are back."""
+    model = {
+        "small": 506.4,
+        "large": 575.9,
+        "small_corrected": 299.6,
+        "large_corrected": 473.3,
+        "expected_eq4_extent": 300.5,
+        "expected_eq4_extent_lower": 282.5,
+        "expected_eq4_extent_upper": 322.8,
+        "expected_eq4_rim": 22.4,
+    }
+    rows = [
+        _row(cam, stop, r, snr, 3.3, model, model_sky_temp_k=280.0, background="extent_rim")
+        for stop, (r, snr) in enumerate(((37.0, 655.78), (126.0, 349.74)))
+        for cam in ("mwir", "lwir")
+    ]
+    view = StopTableView()
+    qtbot.addWidget(view)
+    view.resize(816, 160)
+    view.show()
+    view.show_rows(rows)
+    curves = ["model_small", "model_large", "model_small_corrected", "model_large_corrected"]
+    gone = [c for c in curves if c in view.hidden_columns]
+    assert gone and gone == curves[: len(gone)]  # in their order, the uncorrected first
+    ratio = [c.key for c in view.table.cols].index("ratio")
+    assert not view.isColumnHidden(ratio)
+    right = view.columnViewportPosition(ratio) + view.columnWidth(ratio)
+    assert 0 < right <= view.viewport().width()  # no scrolling to see it
+    assert view.proxy.index(2, ratio).data() == "1.16 extent"
+    view.resize(1600, 160)
+    assert not set(curves) & set(view.hidden_columns)
