@@ -252,12 +252,15 @@ class ReplayMeasurement:
         return engine, feeder
 
     def seek(self, k: int, predictor: Predictor | None) -> None:
-        """A fresh engine, readings and references up to timeline entry ``k`` (a shown frame),
-        then it."""
-        self.engine, self._feeder = self._build(predictor)
+        """A fresh engine, readings, stops and references up to timeline entry ``k`` (a shown
+        frame), then it. The fresh engine is prepared before the console sees it: swapped in
+        first, a status or stop table read meanwhile (the console's thread) held the stops and
+        ranges of a half-applied timeline, an empty table for a moment after a step back."""
+        engine, feeder = self._build(predictor)
+        feeder.skip_to(k)
+        self.engine, self._feeder = engine, feeder
         for name, view in self.views.items():
-            view.rebind(self.engine.cameras[name])
-        self._feeder.skip_to(k)
+            view.rebind(engine.cameras[name])
         self._next_k = k
         self.last_fix = self._fix_before(k)
         self.show_through(k)

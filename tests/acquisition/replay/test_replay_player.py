@@ -21,6 +21,7 @@ from snrmon.acquisition.engine.inputs import FrameOutput, SetRoi, StartReference
 from snrmon.acquisition.geo.projection import CameraIntrinsics, Pointing, Site, project_to_pixel
 from snrmon.acquisition.measure.peak_snr import PeakSnrConfig
 from snrmon.acquisition.record.recorder import SessionRecorder
+from snrmon.acquisition.replay.feeder import Feeder
 from snrmon.acquisition.replay.player import ReplayPlayer
 from snrmon.acquisition.streams.ring import RingFrame
 from snrmon.drivers.camera.frame import Frame
@@ -186,3 +187,27 @@ def test_the_replay_builds_the_model_its_config_names_and_the_one_asked_for(reco
         player.seek(60)
         assert player.wait_idle(30.0)
         assert player.stop_table.predictor is sky and player.reference_predictor is reference
+
+
+def test_a_seek_prepares_its_fresh_engine_before_the_console_reads_it(recording, monkeypatch):
+    """While a seek applies the recorded readings up to its frame (the replay worker's thread),
+    a status read on another thread is the one before the seek, never a half-prepared one."""
+    path = recording[0]
+    seen: list[float | None] = []
+    original = Feeder.skip_to
+    with ReplayPlayer(path) as player:
+        player.seek(60)
+        assert player.wait_idle(30.0)
+        before = player.status().gps_range_m
+        assert before is not None
+
+        def skip_to(feeder, k):
+            seen.append(player.status().gps_range_m)  # as the console's timer would read it
+            original(feeder, k)
+
+        monkeypatch.setattr(Feeder, "skip_to", skip_to)
+        player.seek(30)
+        assert player.wait_idle(30.0)
+        after = player.status().gps_range_m
+    assert seen == [before]
+    assert after is not None
